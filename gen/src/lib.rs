@@ -1,0 +1,1 @@
+//! Verilog generation, co-simulation and area estimates for the vtq hardware blocks.

@@ -1,0 +1,15 @@
+//! Hardware blocks of the treelet-queue RT unit (Chou & Aamodt, ASPLOS 2025), written as
+//! synthesizable-style Rust: each block is registers + port bundles + a pure next-state function
+//! ([`block::Block`]), with bit widths derived from [`config::HwConfig`]. This crate is the single
+//! source of truth for the hardware: the simulator steps these blocks and `vtq-gen` describes them
+//! in Verilog.
+
+pub mod bits;
+pub mod block;
+pub mod config;
+pub mod describe;
+
+pub use bits::{bits_for, clog2, UBits, WidthError};
+pub use block::{Block, Signal, Signals};
+pub use config::{ConfigError, HwConfig};
+pub use describe::{BlockDesc, Dir, FsmDesc, MemDesc, PortDesc, RegDesc};

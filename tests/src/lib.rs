@@ -1,0 +1,1 @@
+//! Shared helpers for the cross-crate tests (small in-code meshes, scene paths).
