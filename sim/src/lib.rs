@@ -1,8 +1,15 @@
 //! vtq's simulator crate: scenes, the hardware BVH layout and treelets, robust traversal, the
 //! path-traced workload, and the `vtq` command line.
 
+pub mod bvh;
+pub mod cmd;
 pub mod geometry;
+pub mod intersect;
+pub mod rays_csv;
 pub mod scene;
+pub mod traversal;
+pub mod treelet;
+pub mod workload;
 
 pub use geometry::{Hit, Ray};
 pub use scene::{Camera, Material, Scene, SceneError, Sphere};

@@ -139,3 +139,8 @@ impl Scene {
         &self.materials[idx as usize]
     }
 }
+
+pub mod builtin;
+pub mod load;
+pub mod manifest;
+pub mod obj;

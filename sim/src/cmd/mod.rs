@@ -1,0 +1,6 @@
+//! The `vtq` subcommands, one module each.
+
+pub mod bench;
+pub mod render;
+pub mod scenes;
+pub mod trace;
