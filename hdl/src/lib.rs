@@ -15,6 +15,7 @@ pub use config::{ConfigError, HwConfig};
 pub use describe::{BlockDesc, Dir, FsmDesc, MemDesc, PortDesc, RegDesc};
 pub mod controller;
 pub mod count_table;
+pub mod memory;
 pub mod mode;
 pub mod queue_table;
 pub mod rt_unit;
