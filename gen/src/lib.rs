@@ -1,1 +1,23 @@
 //! Verilog generation, co-simulation and area estimates for the vtq hardware blocks.
+//!
+//! - [`verilog`]: a readable Verilog-2005 module from a block's [`vtq_hdl::BlockDesc`]
+//!   (header, ports, storage, state encodings and a lint-clean skeleton body).
+//! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
+//! - [`area`]: the analytical storage and area model of the paper's section 6.5.
+//! - [`synth`]: Yosys synthesis statistics and Verilator lint as structured results.
+//! - [`emit`]: the Verilog text writer; [`tools`]: running the external tools;
+//!   [`error`]: the crate's error type.
+
+pub mod area;
+pub mod cosim;
+pub mod emit;
+pub mod error;
+pub mod synth;
+pub mod tools;
+pub mod verilog;
+
+pub use area::{area_report, AreaParams, AreaReport};
+pub use cosim::{cosim_block, record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
+pub use error::GenError;
+pub use synth::{lint, synthesize, LintReport, SynthReport};
+pub use verilog::{emit_module, validate_desc, write_module};

@@ -1,1 +1,914 @@
-//! (being written)
+//! The treelet count table (paper sections 4.2, 4.4 and 6.5): how many rays wait for each
+//! treelet, which treelet has the most rays, and eviction of the smallest entry when full.
+//!
+//! # Structure
+//! - `entries`: a flip-flop array of `count_table_entries` words `{valid, treelet, count_m1}`
+//!   (600 x (1 + 19 + 12) bits by default; a count `c` in 1..=max_rays is stored as `c - 1`).
+//!   It has two parallel search ports (a CAM match of the treelet tag and a priority encoder for
+//!   the first free entry), `scan_width + 1` combinational read ports and one write port.
+//! - Registered pointers to the largest (`max_*`) and smallest (`min_*`) entry, ordered by
+//!   count with ties broken towards the lower index (so the result is unique).
+//! - A scan engine (FSM `IDLE`/`SCAN`) that recomputes both pointers by reading `scan_width`
+//!   entries per cycle (8 by default: 75 cycles for 600 entries).
+//! - Counters `occupancy` and `above` (entries with count >= `underpopulation_threshold`).
+//!
+//! # Operations and timing
+//! One operation per cycle (`op_kind` 0 = Nop, 1 = Add, 2 = Remove), decided combinationally in
+//! the cycle it is presented; state changes at the clock edge.
+//! - **Add** `n` rays (1..=warp_size) to a treelet: a hit adds to the entry; a miss takes the
+//!   first free entry; a miss with the table full evicts the smallest entry and reports it on
+//!   `evict_*` — or, when the new treelet's `n` is not larger than the smallest count, reports the
+//!   new treelet itself as evicted and changes nothing. A full-table miss needs a valid minimum:
+//!   while it is stale, `ready` is low and the op must be held.
+//! - **Remove** `n` rays: subtracts; reaching 0 frees the entry. Removing from an unknown treelet
+//!   or more rays than held, `n` = 0 or `n` > warp_size, or an Add that would exceed `max_rays`,
+//!   raises `error` for that cycle and changes nothing.
+//!
+//! The pointers are updated incrementally: growth of any entry (or a new entry) can only raise
+//! the maximum, and shrinking can only lower the minimum, so those are folded in at once. An
+//! update that may invalidate a pointer (the max entry shrinks or is freed, the min entry grows
+//! or is freed or replaced) clears its valid bit and starts a scan. While a scan runs, ops keep
+//! being accepted; an op on an entry the scan has already passed is folded into the scan's
+//! running result by the same rules, and when it would invalidate the running result the scan
+//! restarts from entry 0. A scan that is not restarted publishes both pointers after
+//! `ceil(entries / scan_width)` cycles, and `max_valid` rises in the following cycle.
+
+use crate::bits::bits_for;
+use crate::block::{Block, Signal, Signals};
+use crate::config::{ConfigError, HwConfig};
+use crate::describe::{port, reg, BlockDesc, Dir, FsmDesc};
+use crate::memory::{MemPorts, Memory};
+
+/// Entries the scan engine reads per cycle unless configured otherwise.
+pub const DEFAULT_SCAN_WIDTH: u32 = 8;
+
+/// Operation presented to the count table in one cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CountOp {
+    /// No operation (`op_kind` 0).
+    Nop,
+    /// `n` more rays (1..=warp_size) wait for `treelet` (`op_kind` 1).
+    Add {
+        /// Treelet address (the bits above the treelet offset).
+        treelet: u64,
+        /// Number of rays.
+        n: u32,
+    },
+    /// `n` rays (1..=warp_size) of `treelet` left its queue (`op_kind` 2).
+    Remove {
+        /// Treelet address.
+        treelet: u64,
+        /// Number of rays.
+        n: u32,
+    },
+}
+
+impl CountOp {
+    /// The `op_kind` encoding: 0 Nop, 1 Add, 2 Remove.
+    pub fn kind_code(&self) -> u64 {
+        match self {
+            CountOp::Nop => 0,
+            CountOp::Add { .. } => 1,
+            CountOp::Remove { .. } => 2,
+        }
+    }
+}
+
+/// Bit widths of the count table's signals, derived from the configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CountTableWidths {
+    /// Treelet address bits (19 by default).
+    pub treelet: u32,
+    /// Bits of a per-op ray number 0..=warp_size.
+    pub n: u32,
+    /// Bits of a true count 0..=max_rays on the ports.
+    pub count: u32,
+    /// Bits of a stored count - 1 (12 by default).
+    pub count_m1: u32,
+    /// Bits of an entry index.
+    pub index: u32,
+    /// Bits of a number of entries 0..=count_table_entries.
+    pub entries: u32,
+}
+
+impl CountTableWidths {
+    /// Widths for a configuration.
+    pub fn new(cfg: &HwConfig) -> Self {
+        CountTableWidths {
+            treelet: cfg.treelet_addr_bits(),
+            n: bits_for(cfg.warp_size as u64),
+            count: bits_for(cfg.max_rays as u64),
+            count_m1: cfg.count_bits(),
+            index: cfg.count_index_bits(),
+            entries: bits_for(cfg.count_table_entries as u64),
+        }
+    }
+}
+
+/// Input ports of the count table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CountTableIn {
+    /// This cycle's operation (flattened as `op_kind`, `op_treelet`, `op_n`).
+    pub op: CountOp,
+    /// Signal widths (from [`CountTable::widths`]).
+    pub widths: CountTableWidths,
+}
+
+/// Output ports of the count table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CountTableOut {
+    /// The presented op is accepted this cycle (low only for a full-table Add while the minimum
+    /// is stale; hold the op until high).
+    pub ready: bool,
+    /// The accepted op was invalid and ignored.
+    pub error: bool,
+    /// An entry was evicted this cycle (its rays go to ray-stationary processing later).
+    pub evict_valid: bool,
+    /// Treelet of the evicted entry (0 when `evict_valid` is low).
+    pub evict_treelet: u64,
+    /// Ray count of the evicted entry (0 when `evict_valid` is low).
+    pub evict_count: u32,
+    /// The max pointer is current and the table is not empty.
+    pub max_valid: bool,
+    /// The treelet with the most rays (lowest index on ties); 0 when `max_valid` is low.
+    pub max_treelet: u64,
+    /// Its ray count; 0 when `max_valid` is low.
+    pub max_count: u32,
+    /// Valid entries.
+    pub occupancy: u32,
+    /// Entries whose count is at least the underpopulation threshold.
+    pub above_threshold: u32,
+    /// Signal widths.
+    pub widths: CountTableWidths,
+}
+
+/// One word of the entry array.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CountEntry {
+    /// The entry holds a treelet.
+    pub valid: bool,
+    /// Treelet address.
+    pub treelet: u64,
+    /// Ray count - 1.
+    pub count_m1: u32,
+}
+
+/// A registered pointer to an extreme (largest or smallest) entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Extreme {
+    /// The pointer names a valid entry and is current.
+    pub valid: bool,
+    /// Entry index.
+    pub idx: u32,
+    /// The entry's treelet.
+    pub treelet: u64,
+    /// The entry's count - 1.
+    pub count_m1: u32,
+}
+
+impl Extreme {
+    fn set(idx: u32, treelet: u64, count_m1: u32) -> Self {
+        Extreme {
+            valid: true,
+            idx,
+            treelet,
+            count_m1,
+        }
+    }
+
+    /// (count, index) orders before the pointer for a maximum: larger count, then lower index.
+    fn beaten_as_max(&self, idx: u32, count_m1: u32) -> bool {
+        !self.valid || count_m1 > self.count_m1 || (count_m1 == self.count_m1 && idx < self.idx)
+    }
+
+    /// (count, index) orders before the pointer for a minimum: smaller count, then lower index.
+    fn beaten_as_min(&self, idx: u32, count_m1: u32) -> bool {
+        !self.valid || count_m1 < self.count_m1 || (count_m1 == self.count_m1 && idx < self.idx)
+    }
+}
+
+/// Registers of the count table.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CountTableRegs {
+    /// The entry array.
+    pub entries: Memory<CountEntry>,
+    /// FSM state: false = IDLE, true = SCAN.
+    pub scanning: bool,
+    /// First entry the scan reads this cycle.
+    pub scan_pos: u32,
+    /// Published largest entry.
+    pub max: Extreme,
+    /// Published smallest entry.
+    pub min: Extreme,
+    /// Scan's largest entry so far.
+    pub run_max: Extreme,
+    /// Scan's smallest entry so far.
+    pub run_min: Extreme,
+    /// Valid entries.
+    pub occupancy: u32,
+    /// Entries with count >= the underpopulation threshold.
+    pub above: u32,
+    /// Signal widths.
+    pub widths: CountTableWidths,
+}
+
+/// The treelet count table block (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct CountTable {
+    cfg: HwConfig,
+    scan_width: u32,
+    widths: CountTableWidths,
+}
+
+/// How the op changed one entry this cycle (for the pointer update rules).
+#[derive(Debug, Clone, Copy)]
+enum Change {
+    None,
+    /// The entry grew, was newly allocated, or was replaced by a larger new treelet.
+    Grow {
+        idx: u32,
+        treelet: u64,
+        count_m1: u32,
+    },
+    /// The entry shrank but stays valid.
+    Shrink {
+        idx: u32,
+        treelet: u64,
+        count_m1: u32,
+    },
+    /// The entry was freed.
+    Free {
+        idx: u32,
+    },
+    /// A free entry was allocated.
+    Alloc {
+        idx: u32,
+        treelet: u64,
+        count_m1: u32,
+    },
+}
+
+impl Change {
+    fn idx(&self) -> Option<u32> {
+        match *self {
+            Change::None => None,
+            Change::Grow { idx, .. }
+            | Change::Shrink { idx, .. }
+            | Change::Free { idx }
+            | Change::Alloc { idx, .. } => Some(idx),
+        }
+    }
+
+    /// Applies the change to a max pointer; false when the pointer can no longer be trusted.
+    fn fold_max(&self, x: &mut Extreme) -> bool {
+        match *self {
+            Change::None => true,
+            Change::Grow {
+                idx,
+                treelet,
+                count_m1,
+            }
+            | Change::Alloc {
+                idx,
+                treelet,
+                count_m1,
+            } => {
+                if x.beaten_as_max(idx, count_m1) || x.idx == idx {
+                    *x = Extreme::set(idx, treelet, count_m1);
+                }
+                true
+            }
+            Change::Shrink { idx, .. } | Change::Free { idx } => !(x.valid && x.idx == idx),
+        }
+    }
+
+    /// Applies the change to a min pointer; false when the pointer can no longer be trusted.
+    fn fold_min(&self, x: &mut Extreme) -> bool {
+        match *self {
+            Change::None => true,
+            Change::Shrink {
+                idx,
+                treelet,
+                count_m1,
+            }
+            | Change::Alloc {
+                idx,
+                treelet,
+                count_m1,
+            } => {
+                if x.beaten_as_min(idx, count_m1) || (x.valid && x.idx == idx) {
+                    *x = Extreme::set(idx, treelet, count_m1);
+                }
+                true
+            }
+            Change::Grow { idx, .. } | Change::Free { idx } => !(x.valid && x.idx == idx),
+        }
+    }
+}
+
+impl CountTable {
+    /// A count table for `cfg` with the default scan width (at most the number of entries).
+    pub fn new(cfg: &HwConfig) -> Result<Self, ConfigError> {
+        Self::with_scan_width(cfg, DEFAULT_SCAN_WIDTH.min(cfg.count_table_entries))
+    }
+
+    /// A count table whose scan engine reads `scan_width` entries per cycle
+    /// (1..=count_table_entries).
+    pub fn with_scan_width(cfg: &HwConfig, scan_width: u32) -> Result<Self, ConfigError> {
+        cfg.validate()?;
+        if scan_width == 0 || scan_width > cfg.count_table_entries {
+            return Err(ConfigError {
+                key: "scan_width",
+                value: scan_width as u64,
+                reason: format!(
+                    "must be 1..=count_table_entries ({})",
+                    cfg.count_table_entries
+                ),
+            });
+        }
+        Ok(CountTable {
+            cfg: cfg.clone(),
+            scan_width,
+            widths: CountTableWidths::new(cfg),
+        })
+    }
+
+    /// Signal widths of this table.
+    pub fn widths(&self) -> CountTableWidths {
+        self.widths
+    }
+
+    /// An input bundle carrying `op`.
+    pub fn input(&self, op: CountOp) -> CountTableIn {
+        CountTableIn {
+            op,
+            widths: self.widths,
+        }
+    }
+
+    /// Cycles of one uninterrupted scan: ceil(entries / scan_width).
+    pub fn scan_cycles(&self) -> u32 {
+        self.cfg.count_table_entries.div_ceil(self.scan_width)
+    }
+
+    fn entries(&self) -> u32 {
+        self.cfg.count_table_entries
+    }
+
+    fn above(&self, count_m1: Option<u32>) -> u32 {
+        count_m1.map_or(0, |c| (c + 1 >= self.cfg.underpopulation_threshold) as u32)
+    }
+}
+
+impl Block for CountTable {
+    type Inputs = CountTableIn;
+    type Outputs = CountTableOut;
+    type Regs = CountTableRegs;
+
+    fn reset(&self) -> CountTableRegs {
+        let ports = MemPorts {
+            read: self.scan_width + 1,
+            write: 1,
+            search: 2,
+            read_latency: 0,
+        };
+        CountTableRegs {
+            entries: Memory::new(self.entries() as usize, CountEntry::default(), ports),
+            scanning: false,
+            scan_pos: 0,
+            max: Extreme::default(),
+            min: Extreme::default(),
+            run_max: Extreme::default(),
+            run_min: Extreme::default(),
+            occupancy: 0,
+            above: 0,
+            widths: self.widths,
+        }
+    }
+
+    fn eval(
+        &self,
+        regs: &CountTableRegs,
+        inputs: &CountTableIn,
+    ) -> (CountTableOut, CountTableRegs) {
+        let mut next = regs.clone();
+        let out = self.step(&mut next, inputs);
+        (out, next)
+    }
+
+    /// In-place next-state function; `eval` is this applied to a copy of the registers.
+    fn step(&self, r: &mut CountTableRegs, inputs: &CountTableIn) -> CountTableOut {
+        let w = self.widths;
+        let mut out = CountTableOut {
+            ready: true,
+            error: false,
+            evict_valid: false,
+            evict_treelet: 0,
+            evict_count: 0,
+            max_valid: r.max.valid,
+            max_treelet: if r.max.valid { r.max.treelet } else { 0 },
+            max_count: if r.max.valid { r.max.count_m1 + 1 } else { 0 },
+            occupancy: r.occupancy,
+            above_threshold: r.above,
+            widths: w,
+        };
+        let n_entries = self.entries();
+        let warp = self.cfg.warp_size;
+        let mut mem = r.entries.cycle();
+
+        // ---- The operation (combinational lookup, write at the edge). ----
+        let mut change = Change::None;
+        let mut occupancy = r.occupancy;
+        let mut above = r.above;
+        match inputs.op {
+            CountOp::Nop => {}
+            CountOp::Add { treelet, n } => {
+                let hit = mem.search(|e| e.valid && e.treelet == treelet);
+                if n == 0 || n > warp {
+                    out.error = true;
+                } else if let Some(i) = hit {
+                    let e = mem.read(i);
+                    let total = e.count_m1 + 1 + n;
+                    if total > self.cfg.max_rays {
+                        out.error = true;
+                    } else {
+                        mem.write(
+                            i,
+                            CountEntry {
+                                count_m1: total - 1,
+                                ..e
+                            },
+                        );
+                        above = above + self.above(Some(total - 1)) - self.above(Some(e.count_m1));
+                        change = Change::Grow {
+                            idx: i as u32,
+                            treelet,
+                            count_m1: total - 1,
+                        };
+                    }
+                } else if let Some(f) = mem.search(|e| !e.valid) {
+                    mem.write(
+                        f,
+                        CountEntry {
+                            valid: true,
+                            treelet,
+                            count_m1: n - 1,
+                        },
+                    );
+                    occupancy += 1;
+                    above += self.above(Some(n - 1));
+                    change = Change::Alloc {
+                        idx: f as u32,
+                        treelet,
+                        count_m1: n - 1,
+                    };
+                } else if !r.min.valid {
+                    out.ready = false;
+                } else if n - 1 <= r.min.count_m1 {
+                    out.evict_valid = true;
+                    out.evict_treelet = treelet;
+                    out.evict_count = n;
+                } else {
+                    out.evict_valid = true;
+                    out.evict_treelet = r.min.treelet;
+                    out.evict_count = r.min.count_m1 + 1;
+                    mem.write(
+                        r.min.idx as usize,
+                        CountEntry {
+                            valid: true,
+                            treelet,
+                            count_m1: n - 1,
+                        },
+                    );
+                    above = above + self.above(Some(n - 1)) - self.above(Some(r.min.count_m1));
+                    change = Change::Grow {
+                        idx: r.min.idx,
+                        treelet,
+                        count_m1: n - 1,
+                    };
+                }
+            }
+            CountOp::Remove { treelet, n } => {
+                let hit = mem.search(|e| e.valid && e.treelet == treelet);
+                match hit {
+                    Some(i) if n > 0 && n <= warp => {
+                        let e = mem.read(i);
+                        let c = e.count_m1 + 1;
+                        if n > c {
+                            out.error = true;
+                        } else if n == c {
+                            mem.write(i, CountEntry::default());
+                            occupancy -= 1;
+                            above -= self.above(Some(e.count_m1));
+                            change = Change::Free { idx: i as u32 };
+                        } else {
+                            mem.write(
+                                i,
+                                CountEntry {
+                                    count_m1: c - n - 1,
+                                    ..e
+                                },
+                            );
+                            above =
+                                above + self.above(Some(c - n - 1)) - self.above(Some(e.count_m1));
+                            change = Change::Shrink {
+                                idx: i as u32,
+                                treelet,
+                                count_m1: c - n - 1,
+                            };
+                        }
+                    }
+                    _ => out.error = true,
+                }
+            }
+        }
+
+        // ---- Published pointers: incremental rules. ----
+        let mut max = r.max;
+        let mut min = r.min;
+        if max.valid {
+            max.valid = change.fold_max(&mut max);
+        } else if !r.scanning {
+            // Not scanning and no max: the table was empty, so only an allocation applies.
+            change.fold_max(&mut max);
+        }
+        if min.valid {
+            min.valid = change.fold_min(&mut min);
+        } else if !r.scanning {
+            change.fold_min(&mut min);
+        }
+
+        // ---- Scan engine. ----
+        let mut scanning = r.scanning;
+        let mut scan_pos = r.scan_pos;
+        let mut run_max = r.run_max;
+        let mut run_min = r.run_min;
+        if r.scanning {
+            let end = (r.scan_pos + self.scan_width).min(n_entries);
+            for i in r.scan_pos..end {
+                let e = mem.read(i as usize);
+                if e.valid {
+                    if run_max.beaten_as_max(i, e.count_m1) {
+                        run_max = Extreme::set(i, e.treelet, e.count_m1);
+                    }
+                    if run_min.beaten_as_min(i, e.count_m1) {
+                        run_min = Extreme::set(i, e.treelet, e.count_m1);
+                    }
+                }
+            }
+            let seen = change.idx().is_some_and(|i| i < end);
+            let intact = !seen || (change.fold_max(&mut run_max) & change.fold_min(&mut run_min));
+            if !intact {
+                scan_pos = 0;
+                run_max = Extreme::default();
+                run_min = Extreme::default();
+            } else if end == n_entries {
+                max = run_max;
+                min = run_min;
+                scanning = false;
+                scan_pos = 0;
+                run_max = Extreme::default();
+                run_min = Extreme::default();
+            } else {
+                scan_pos = end;
+            }
+        } else if (!max.valid || !min.valid) && occupancy > 0 {
+            scanning = true;
+            scan_pos = 0;
+        }
+        drop(mem);
+
+        r.scanning = scanning;
+        r.scan_pos = scan_pos;
+        r.max = max;
+        r.min = min;
+        r.run_max = run_max;
+        r.run_min = run_min;
+        r.occupancy = occupancy;
+        r.above = above;
+        out
+    }
+
+    fn describe(&self) -> BlockDesc {
+        let w = self.widths;
+        let c = &self.cfg;
+        let regs = self.reset();
+        let ports = vec![
+            port("op_kind", Dir::In, 2, "operation: 0 Nop, 1 Add, 2 Remove"),
+            port(
+                "op_treelet",
+                Dir::In,
+                w.treelet,
+                "treelet address of the op",
+            ),
+            port(
+                "op_n",
+                Dir::In,
+                w.n,
+                "rays added or removed (1..=warp_size)",
+            ),
+            port(
+                "ready",
+                Dir::Out,
+                1,
+                "op accepted this cycle (low: full-table Add waits for the minimum)",
+            ),
+            port(
+                "error",
+                Dir::Out,
+                1,
+                "op invalid (unknown treelet, too many rays, n out of range) and ignored",
+            ),
+            port(
+                "evict_valid",
+                Dir::Out,
+                1,
+                "an entry was evicted: process its rays ray-stationary later",
+            ),
+            port("evict_treelet", Dir::Out, w.treelet, "evicted treelet"),
+            port(
+                "evict_count",
+                Dir::Out,
+                w.count,
+                "rays of the evicted treelet",
+            ),
+            port(
+                "max_valid",
+                Dir::Out,
+                1,
+                "max_treelet/max_count are current and the table is not empty",
+            ),
+            port(
+                "max_treelet",
+                Dir::Out,
+                w.treelet,
+                "treelet with the most rays (largest treelet queue)",
+            ),
+            port("max_count", Dir::Out, w.count, "its ray count"),
+            port("occupancy", Dir::Out, w.entries, "valid entries"),
+            port(
+                "above_threshold",
+                Dir::Out,
+                w.entries,
+                "entries with count >= underpopulation threshold",
+            ),
+        ];
+        let mut registers = vec![
+            reg("state", 1, 1, "FSM state (IDLE/SCAN)"),
+            reg(
+                "scan_pos",
+                w.index,
+                1,
+                "first entry the scan reads this cycle",
+            ),
+        ];
+        for p in ["max", "min", "run_max", "run_min"] {
+            registers.push(reg(
+                &format!("{p}_valid"),
+                1,
+                1,
+                &format!("{p} pointer valid"),
+            ));
+            registers.push(reg(
+                &format!("{p}_idx"),
+                w.index,
+                1,
+                &format!("{p} entry index"),
+            ));
+            registers.push(reg(
+                &format!("{p}_treelet"),
+                w.treelet,
+                1,
+                &format!("{p} entry treelet"),
+            ));
+            registers.push(reg(
+                &format!("{p}_count_m1"),
+                w.count_m1,
+                1,
+                &format!("{p} entry count - 1"),
+            ));
+        }
+        registers.push(reg("occupancy", w.entries, 1, "valid entries"));
+        registers.push(reg(
+            "above",
+            w.entries,
+            1,
+            "entries at or above the underpopulation threshold",
+        ));
+        BlockDesc {
+            name: "treelet_count_table".into(),
+            doc: "Treelet count table (sections 4.2, 4.4, 6.5): rays per treelet, the largest \
+                  treelet for treelet-stationary dispatch, and eviction of the smallest entry \
+                  when full (its rays are processed ray-stationary later)."
+                .into(),
+            params: vec![
+                ("count_table_entries".into(), c.count_table_entries as u64),
+                ("max_rays".into(), c.max_rays as u64),
+                ("warp_size".into(), c.warp_size as u64),
+                ("treelet_addr_bits".into(), w.treelet as u64),
+                ("underpopulation_threshold".into(), c.underpopulation_threshold as u64),
+                ("scan_width".into(), self.scan_width as u64),
+            ],
+            ports,
+            registers,
+            memories: vec![regs.entries.desc(
+                "entries",
+                vec![
+                    ("valid".into(), 1),
+                    ("treelet".into(), w.treelet),
+                    ("count_m1".into(), w.count_m1),
+                ],
+                "Treelet count entries; count stored as count - 1. Read ports: scan_width for the \
+                 scan engine plus one for the op's entry.",
+            )],
+            fsms: vec![FsmDesc {
+                name: "state".into(),
+                states: vec!["IDLE".into(), "SCAN".into()],
+                width: 1,
+            }],
+            timing: vec![
+                "One Add or Remove accepted per cycle, decided combinationally (CAM lookup of \
+                 the treelet, priority encoder for the first free entry); results (ready, \
+                 error, evict_*) in the same cycle, state at the clock edge."
+                    .into(),
+                "Growth or a new entry updates the registered max pointer at once; shrinking \
+                 updates the min pointer at once."
+                    .into(),
+                format!(
+                    "When the max entry shrinks or is freed, or the min entry grows, is freed or \
+                     is replaced, that pointer goes invalid and a scan reads {} entries per \
+                     cycle: {} cycles for {} entries, pointers valid the cycle after; an op that \
+                     invalidates the scan's running result on an already-scanned entry restarts it.",
+                    self.scan_width,
+                    self.scan_cycles(),
+                    c.count_table_entries
+                ),
+                "Ops run during a scan; only an Add of a new treelet into a full table needs the \
+                 min pointer and stalls (ready low) until the scan publishes it."
+                    .into(),
+            ],
+        }
+    }
+}
+
+impl Signals for CountTableIn {
+    fn signals(&self) -> Vec<Signal> {
+        let w = self.widths;
+        let (treelet, n) = match self.op {
+            CountOp::Nop => (0, 0),
+            CountOp::Add { treelet, n } | CountOp::Remove { treelet, n } => (treelet, n),
+        };
+        vec![
+            Signal::new("op_kind", 2, self.op.kind_code()),
+            Signal::new("op_treelet", w.treelet, treelet),
+            Signal::new("op_n", w.n, n as u64),
+        ]
+    }
+}
+
+impl Signals for CountTableOut {
+    fn signals(&self) -> Vec<Signal> {
+        let w = self.widths;
+        vec![
+            Signal::new("ready", 1, self.ready as u64),
+            Signal::new("error", 1, self.error as u64),
+            Signal::new("evict_valid", 1, self.evict_valid as u64),
+            Signal::new("evict_treelet", w.treelet, self.evict_treelet),
+            Signal::new("evict_count", w.count, self.evict_count as u64),
+            Signal::new("max_valid", 1, self.max_valid as u64),
+            Signal::new("max_treelet", w.treelet, self.max_treelet),
+            Signal::new("max_count", w.count, self.max_count as u64),
+            Signal::new("occupancy", w.entries, self.occupancy as u64),
+            Signal::new("above_threshold", w.entries, self.above_threshold as u64),
+        ]
+    }
+}
+
+impl Signals for CountTableRegs {
+    fn signals(&self) -> Vec<Signal> {
+        let w = self.widths;
+        let mut s = vec![
+            Signal::new("state", 1, self.scanning as u64),
+            Signal::new("scan_pos", w.index, self.scan_pos as u64),
+        ];
+        for (p, x) in [
+            ("max", &self.max),
+            ("min", &self.min),
+            ("run_max", &self.run_max),
+            ("run_min", &self.run_min),
+        ] {
+            s.push(Signal::new(format!("{p}_valid"), 1, x.valid as u64));
+            s.push(Signal::new(format!("{p}_idx"), w.index, x.idx as u64));
+            s.push(Signal::new(format!("{p}_treelet"), w.treelet, x.treelet));
+            s.push(Signal::new(
+                format!("{p}_count_m1"),
+                w.count_m1,
+                x.count_m1 as u64,
+            ));
+        }
+        s.push(Signal::new("occupancy", w.entries, self.occupancy as u64));
+        s.push(Signal::new("above", w.entries, self.above as u64));
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> HwConfig {
+        HwConfig {
+            count_table_entries: 4,
+            max_rays: 64,
+            warp_size: 4,
+            underpopulation_threshold: 5,
+            repack_threshold: 2,
+            divergence_threshold: 2,
+            ..HwConfig::default()
+        }
+    }
+
+    #[test]
+    fn add_tracks_max_and_evicts_smallest_when_full() {
+        let t = CountTable::with_scan_width(&small(), 1).unwrap();
+        let mut r = t.reset();
+        for (treelet, n) in [(10, 3), (11, 4), (12, 2), (13, 1)] {
+            let o = t.step(&mut r, &t.input(CountOp::Add { treelet, n }));
+            assert!(o.ready && !o.error && !o.evict_valid);
+        }
+        let o = t.step(&mut r, &t.input(CountOp::Nop));
+        assert_eq!((o.max_valid, o.max_treelet, o.max_count), (true, 11, 4));
+        assert_eq!((o.occupancy, o.above_threshold), (4, 0));
+        // Full: a new treelet with 1 ray is not larger than the smallest (13: 1) and is evicted.
+        let o = t.step(&mut r, &t.input(CountOp::Add { treelet: 14, n: 1 }));
+        assert_eq!(
+            (o.evict_valid, o.evict_treelet, o.evict_count),
+            (true, 14, 1)
+        );
+        // 3 rays beat the smallest: 13 is evicted and replaced.
+        let o = t.step(&mut r, &t.input(CountOp::Add { treelet: 14, n: 3 }));
+        assert_eq!(
+            (o.evict_valid, o.evict_treelet, o.evict_count),
+            (true, 13, 1)
+        );
+        // The min pointer is now stale: the next full-table Add stalls until the scan ends.
+        let add = t.input(CountOp::Add { treelet: 15, n: 4 });
+        let mut stalls = 0;
+        loop {
+            let o = t.step(&mut r, &add);
+            if o.ready {
+                assert_eq!((o.evict_treelet, o.evict_count), (12, 2));
+                break;
+            }
+            stalls += 1;
+        }
+        assert_eq!(stalls, t.scan_cycles());
+    }
+
+    #[test]
+    fn bad_ops_raise_error_and_change_nothing() {
+        let t = CountTable::new(&small()).unwrap();
+        let mut r = t.reset();
+        t.step(&mut r, &t.input(CountOp::Add { treelet: 1, n: 2 }));
+        let before = r.clone();
+        for op in [
+            CountOp::Remove { treelet: 1, n: 3 },
+            CountOp::Remove { treelet: 2, n: 1 },
+            CountOp::Add { treelet: 1, n: 0 },
+            CountOp::Add { treelet: 1, n: 5 },
+        ] {
+            let o = t.step(&mut r, &t.input(op));
+            assert!(o.error, "{op:?}");
+            assert_eq!(r, before, "{op:?} changed state");
+        }
+    }
+
+    #[test]
+    fn step_equals_eval() {
+        let t = CountTable::with_scan_width(&small(), 2).unwrap();
+        let mut r = t.reset();
+        let ops = [
+            CountOp::Add { treelet: 3, n: 4 },
+            CountOp::Add { treelet: 4, n: 2 },
+            CountOp::Remove { treelet: 3, n: 4 },
+            CountOp::Nop,
+            CountOp::Add { treelet: 5, n: 1 },
+            CountOp::Nop,
+        ];
+        for op in ops {
+            let i = t.input(op);
+            let (o, next) = t.eval(&r, &i);
+            assert_eq!(t.step(&mut r, &i), o);
+            assert_eq!(r, next);
+        }
+    }
+
+    #[test]
+    fn rejects_bad_scan_width() {
+        assert_eq!(
+            CountTable::with_scan_width(&small(), 0).unwrap_err().key,
+            "scan_width"
+        );
+        assert!(CountTable::with_scan_width(&small(), 5).is_err());
+    }
+}

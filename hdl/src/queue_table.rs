@@ -1,1 +1,1145 @@
-//! (being written)
+//! The hash-chained treelet queue table (paper section 4.2, Figure 9, section 6.5): which rays
+//! wait for which treelet, in entries of up to one warp of ray ids.
+//!
+//! # Structure
+//! - `heads`: a flip-flop array of `buckets` chain heads `{valid, idx}` (latency 0, 1R 1W).
+//! - `meta`: an SRAM of `queue_table_entries` words `{treelet, count_m1, next_valid, next}`
+//!   (latency 1, 1R 1W): the entry's treelet, fill count - 1 (1..=warp_size rays) and chain link.
+//! - `rays`: an SRAM of the same depth holding `warp_size` ray ids per entry (latency 1, 1R 1W
+//!   with a write enable per ray lane, so an insert writes one lane).
+//! - `valid`: one flip-flop per entry; its complement is the free list, and a priority encoder
+//!   picks the lowest free entry (allocation) or the lowest valid entry (PopAny).
+//! - An FSM (`IDLE`, `WALK`, `ANY_META`, `POP_RAYS`, `REFILL_WAIT`) plus walk registers.
+//!
+//! A treelet hashes to bucket [`bucket_hash`]: the XOR of the treelet address cut into
+//! `log2(buckets)`-bit groups from the least significant bit. New entries are linked at the head of
+//! their bucket's chain, so along a chain entries appear newest first; a treelet has at most one
+//! non-full entry (a new one is allocated only when all of its entries are full), and it is the
+//! first of that treelet's entries in its chain.
+//!
+//! # Operations (`op_kind`: 0 Nop, 1 Insert, 2 Pop, 3 PopAny, 4 Count, 5 Refill)
+//! An op is accepted when `ready` is high (only in `IDLE`); `done` pulses in the cycle its
+//! result is on the outputs, and `ready` returns the cycle after. One walk step reads one `meta`
+//! word per cycle. With `k` = position (1-based) of the first entry of the treelet in its chain
+//! and `L` = chain length:
+//! - **Insert** `{treelet, ray}`: 1 cycle into an empty bucket, else `1 + k` (or `1 + L` when the
+//!   treelet has no entry). Appends to the treelet's first entry when it is not full, else
+//!   allocates the lowest free entry at the chain head; with no free entry the ray **spills**:
+//!   `spill_valid/spill_treelet/spill_ray` pulse with `done` and `spilled` counts it. The
+//!   environment must store every spilled ray (a FIFO in memory).
+//! - **Pop** `{treelet}`: unlinks the treelet's first entry and returns its rays on `pop_ray_*`
+//!   with `pop_count`/`pop_treelet`: `2 + k` cycles; not found: `pop_count` = 0 after 1 cycle
+//!   (empty bucket) or `1 + L`.
+//! - **PopAny**: pops the lowest-index valid entry (to group underpopulated queues): `3 + k`
+//!   cycles (read its treelet, then walk its chain to unlink it); empty table: 1 cycle.
+//! - **Count** `{treelet}`: total rays of the treelet in the table on `count_result`: 1 cycle
+//!   (empty bucket) or `1 + L`.
+//! - **Refill**: brings one spilled ray back. With `spilled` = 0 it is done at once. Otherwise
+//!   `refill_req` pulses and the table waits in `REFILL_WAIT` (ignoring ops) until the
+//!   environment presents the oldest spilled ray on `refill_valid/refill_treelet/refill_ray`
+//!   (exactly one answer per request, any number of cycles later); `spilled` then decrements and
+//!   the ray is inserted as by Insert, starting in the answer cycle (it may spill again, so rays
+//!   are never lost or duplicated). `refill_valid` outside `REFILL_WAIT` raises `error` and is
+//!   ignored.
+
+use crate::bits::{bits_for, clog2};
+use crate::block::{Block, Signal, Signals};
+use crate::config::{ConfigError, HwConfig};
+use crate::describe::{port, reg, BlockDesc, Dir, FsmDesc};
+use crate::memory::{MemCycle, MemPorts, Memory};
+
+/// Operation presented to the queue table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum QueueOp {
+    /// No operation (`op_kind` 0).
+    Nop,
+    /// Queue `ray` for `treelet` (`op_kind` 1).
+    Insert {
+        /// Treelet address.
+        treelet: u64,
+        /// Ray id.
+        ray: u32,
+    },
+    /// Remove one entry (up to a warp of rays) of `treelet` (`op_kind` 2).
+    Pop {
+        /// Treelet address.
+        treelet: u64,
+    },
+    /// Remove the lowest-index valid entry, whatever its treelet (`op_kind` 3).
+    PopAny,
+    /// Total rays of `treelet` in the table (`op_kind` 4).
+    Count {
+        /// Treelet address.
+        treelet: u64,
+    },
+    /// Bring one spilled ray back from memory (`op_kind` 5).
+    Refill,
+}
+
+impl QueueOp {
+    /// The `op_kind` encoding: 0 Nop, 1 Insert, 2 Pop, 3 PopAny, 4 Count, 5 Refill.
+    pub fn kind_code(&self) -> u64 {
+        match self {
+            QueueOp::Nop => 0,
+            QueueOp::Insert { .. } => 1,
+            QueueOp::Pop { .. } => 2,
+            QueueOp::PopAny => 3,
+            QueueOp::Count { .. } => 4,
+            QueueOp::Refill => 5,
+        }
+    }
+}
+
+/// The bucket of a treelet: XOR of the treelet address's `bucket_bits`-wide groups, least
+/// significant group first (`ceil(treelet_bits / bucket_bits)` groups; the top group is
+/// zero-extended). With 19-bit addresses and 128 buckets: `t[6:0] ^ t[13:7] ^ t[18:14]`.
+pub fn bucket_hash(treelet: u64, treelet_bits: u32, bucket_bits: u32) -> u32 {
+    let mask = (1u64 << bucket_bits) - 1;
+    let mut h = 0;
+    let mut shift = 0;
+    while shift < treelet_bits {
+        h ^= (treelet >> shift) & mask;
+        shift += bucket_bits;
+    }
+    h as u32
+}
+
+/// Bit widths of the queue table's signals, derived from the configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct QueueTableWidths {
+    /// Treelet address bits (19 by default).
+    pub treelet: u32,
+    /// Ray id bits (12 by default).
+    pub ray: u32,
+    /// Rays per entry (warp size): the number of `pop_ray_*` ports and ray lanes.
+    pub lanes: u32,
+    /// Bits of an entry fill count - 1 (5 for 32 rays).
+    pub count_m1: u32,
+    /// Bits of `pop_count` (0..=warp_size).
+    pub pop_count: u32,
+    /// Bits of `count_result` (0..=entries x warp_size, the table's capacity).
+    pub total: u32,
+    /// Bits of `spilled` (0..=max_rays).
+    pub spilled: u32,
+    /// Bits of an entry index / chain link.
+    pub index: u32,
+    /// Bits of a number of entries 0..=queue_table_entries.
+    pub entries: u32,
+    /// Bits of a bucket index.
+    pub bucket: u32,
+}
+
+/// Input ports of the queue table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct QueueTableIn {
+    /// This cycle's operation (flattened as `op_kind`, `op_treelet`, `op_ray`).
+    pub op: QueueOp,
+    /// The environment answers a `refill_req` with a spilled ray.
+    pub refill_valid: bool,
+    /// Treelet of the refilled ray.
+    pub refill_treelet: u64,
+    /// Id of the refilled ray.
+    pub refill_ray: u32,
+    /// Signal widths (from [`QueueTable::widths`]).
+    pub widths: QueueTableWidths,
+}
+
+/// Output ports of the queue table.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct QueueTableOut {
+    /// An op presented this cycle is accepted.
+    pub ready: bool,
+    /// The current op finishes this cycle; its results are on the outputs.
+    pub done: bool,
+    /// Protocol violation or inconsistent table (unexpected `refill_valid`, PopAny entry not
+    /// found in its chain).
+    pub error: bool,
+    /// Rays popped (0: nothing found); nonzero only with `done` of Pop/PopAny.
+    pub pop_count: u32,
+    /// Treelet of the popped entry.
+    pub pop_treelet: u64,
+    /// Popped ray ids in insertion order; lanes at or beyond `pop_count` are 0.
+    pub pop_rays: Vec<u32>,
+    /// Rays of the treelet in the table (with `done` of Count; 0 otherwise).
+    pub count_result: u32,
+    /// A ray spills to memory this cycle; the environment must store it.
+    pub spill_valid: bool,
+    /// Treelet of the spilled ray.
+    pub spill_treelet: u64,
+    /// Id of the spilled ray.
+    pub spill_ray: u32,
+    /// Request for one spilled ray (answer on `refill_*`).
+    pub refill_req: bool,
+    /// Free entries.
+    pub free_entries: u32,
+    /// Rays handed to the spill store and not yet refilled.
+    pub spilled: u32,
+    /// Longest chain walk so far (entries read in one op), a statistic.
+    pub max_chain: u32,
+    /// Signal widths.
+    pub widths: QueueTableWidths,
+}
+
+/// A bucket's chain head.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct HeadWord {
+    /// The chain is not empty.
+    pub valid: bool,
+    /// First entry of the chain.
+    pub idx: u32,
+}
+
+/// An entry's metadata word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MetaWord {
+    /// Treelet address.
+    pub treelet: u64,
+    /// Rays held - 1.
+    pub count_m1: u32,
+    /// Another entry follows in the chain.
+    pub next_valid: bool,
+    /// The next entry.
+    pub next: u32,
+}
+
+/// FSM states of the queue table (encoding = discriminant).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum QueueState {
+    /// Waiting for an op.
+    #[default]
+    Idle = 0,
+    /// Walking a chain, one `meta` word per cycle.
+    Walk = 1,
+    /// PopAny: reading the chosen entry's treelet.
+    AnyMeta = 2,
+    /// Pop/PopAny: reading the popped entry's rays.
+    PopRays = 3,
+    /// Refill: waiting for the environment's answer.
+    RefillWait = 4,
+}
+
+/// Which op a chain walk serves (encoding = discriminant).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WalkOp {
+    /// Find an entry to append to.
+    #[default]
+    Insert = 0,
+    /// Find and unlink the treelet's first entry.
+    Pop = 1,
+    /// Sum the treelet's entries.
+    Count = 2,
+    /// Find and unlink entry `target`.
+    PopAny = 3,
+}
+
+/// The scalar registers of the queue table (all but the memories and valid bits).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct QueueCtl {
+    /// FSM state.
+    pub state: QueueState,
+    /// Op being walked for.
+    pub walk_op: WalkOp,
+    /// Treelet of the current op.
+    pub key_treelet: u64,
+    /// Ray of the current Insert/Refill.
+    pub key_ray: u32,
+    /// The bucket's head when the op started (a new entry links to it).
+    pub head: HeadWord,
+    /// Entry whose `meta` word arrives this cycle.
+    pub cur: u32,
+    /// An entry precedes `cur` in the chain.
+    pub prev_valid: bool,
+    /// That entry.
+    pub prev: u32,
+    /// Its treelet (to rewrite its word when unlinking `cur`).
+    pub prev_treelet: u64,
+    /// Its count - 1.
+    pub prev_count_m1: u32,
+    /// PopAny's entry.
+    pub target: u32,
+    /// Count's running sum.
+    pub acc: u32,
+    /// Entries read in this op's walk.
+    pub walked: u32,
+    /// Popped entry's count - 1.
+    pub pop_count_m1: u32,
+    /// Popped entry's treelet.
+    pub pop_treelet: u64,
+    /// Free entries.
+    pub free_count: u32,
+    /// Rays spilled and not refilled.
+    pub spilled: u32,
+    /// Longest walk so far.
+    pub max_chain: u32,
+}
+
+/// Registers of the queue table.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct QueueTableRegs {
+    /// Bucket chain heads.
+    pub heads: Memory<HeadWord>,
+    /// Entry metadata.
+    pub meta: Memory<MetaWord>,
+    /// Entry ray ids.
+    pub rays: Memory<Vec<u32>>,
+    /// Entry valid bits (the free list is their complement).
+    pub valid: Vec<bool>,
+    /// Scalar registers.
+    pub ctl: QueueCtl,
+    /// Signal widths.
+    pub widths: QueueTableWidths,
+}
+
+/// The treelet queue table block (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct QueueTable {
+    cfg: HwConfig,
+    buckets: u32,
+    widths: QueueTableWidths,
+}
+
+/// One cycle's memory guards and pending updates.
+struct Cycle<'a> {
+    heads: MemCycle<'a, HeadWord>,
+    meta: MemCycle<'a, MetaWord>,
+    rays: MemCycle<'a, Vec<u32>>,
+    /// Priority encoder: lowest free entry.
+    first_free: Option<usize>,
+    /// Priority encoder: lowest valid entry.
+    first_valid: Option<usize>,
+    nx: QueueCtl,
+    out: QueueTableOut,
+    set_valid: Option<usize>,
+    clear_valid: Option<usize>,
+}
+
+impl QueueTable {
+    /// A queue table for `cfg` with the largest power-of-two number of buckets not above the
+    /// number of entries.
+    pub fn new(cfg: &HwConfig) -> Result<Self, ConfigError> {
+        let buckets = 1u32 << (31 - cfg.queue_table_entries.max(2).leading_zeros());
+        Self::with_buckets(cfg, buckets)
+    }
+
+    /// A queue table for `cfg` with `buckets` hash buckets (a power of two, 2..=65536).
+    pub fn with_buckets(cfg: &HwConfig, buckets: u32) -> Result<Self, ConfigError> {
+        cfg.validate()?;
+        if !buckets.is_power_of_two() || !(2..=65536).contains(&buckets) {
+            return Err(ConfigError {
+                key: "buckets",
+                value: buckets as u64,
+                reason: "must be a power of two in 2..=65536".into(),
+            });
+        }
+        let e = cfg.queue_table_entries as u64;
+        let widths = QueueTableWidths {
+            treelet: cfg.treelet_addr_bits(),
+            ray: cfg.ray_id_bits(),
+            lanes: cfg.warp_size,
+            count_m1: cfg.entry_count_bits(),
+            pop_count: bits_for(cfg.warp_size as u64),
+            total: bits_for(e * cfg.warp_size as u64),
+            spilled: bits_for(cfg.max_rays as u64),
+            index: cfg.queue_index_bits(),
+            entries: bits_for(e),
+            bucket: clog2(buckets as u64),
+        };
+        Ok(QueueTable {
+            cfg: cfg.clone(),
+            buckets,
+            widths,
+        })
+    }
+
+    /// Signal widths of this table.
+    pub fn widths(&self) -> QueueTableWidths {
+        self.widths
+    }
+
+    /// Number of hash buckets.
+    pub fn buckets(&self) -> u32 {
+        self.buckets
+    }
+
+    /// The bucket of a treelet ([`bucket_hash`] with this table's widths).
+    pub fn bucket(&self, treelet: u64) -> usize {
+        bucket_hash(treelet, self.widths.treelet, self.widths.bucket) as usize
+    }
+
+    /// An input bundle carrying `op` and no refill answer.
+    pub fn input(&self, op: QueueOp) -> QueueTableIn {
+        QueueTableIn {
+            op,
+            refill_valid: false,
+            refill_treelet: 0,
+            refill_ray: 0,
+            widths: self.widths,
+        }
+    }
+
+    /// An input bundle answering a refill request with `(treelet, ray)`, and no op.
+    pub fn refill_answer(&self, treelet: u64, ray: u32) -> QueueTableIn {
+        QueueTableIn {
+            refill_valid: true,
+            refill_treelet: treelet,
+            refill_ray: ray,
+            ..self.input(QueueOp::Nop)
+        }
+    }
+
+    fn entries(&self) -> usize {
+        self.cfg.queue_table_entries as usize
+    }
+
+    /// Starts an Insert (or a refilled ray's insertion): read the bucket head, then allocate at
+    /// once (empty bucket) or walk.
+    fn start_insert(&self, cx: &mut Cycle, treelet: u64, ray: u32) {
+        let h = self.bucket(treelet);
+        let hw = cx.heads.read(h);
+        cx.nx.key_treelet = treelet;
+        cx.nx.key_ray = ray;
+        cx.nx.head = hw;
+        if hw.valid {
+            self.begin_walk(cx, WalkOp::Insert, hw.idx);
+        } else {
+            self.allocate(cx, treelet, ray, hw);
+        }
+    }
+
+    /// Starts a walk at entry `first` (its `meta` word arrives next cycle).
+    fn begin_walk(&self, cx: &mut Cycle, op: WalkOp, first: u32) {
+        cx.meta.issue_read(0, first as usize);
+        cx.nx.state = QueueState::Walk;
+        cx.nx.walk_op = op;
+        cx.nx.cur = first;
+        cx.nx.prev_valid = false;
+        cx.nx.walked = 0;
+        cx.nx.acc = 0;
+    }
+
+    /// Links a new entry holding `ray` at the head of the treelet's chain, or spills the ray
+    /// when no entry is free. Finishes the op.
+    fn allocate(&self, cx: &mut Cycle, treelet: u64, ray: u32, head: HeadWord) {
+        match cx.first_free {
+            Some(f) => {
+                cx.meta.write(
+                    f,
+                    MetaWord {
+                        treelet,
+                        count_m1: 0,
+                        next_valid: head.valid,
+                        next: head.idx,
+                    },
+                );
+                cx.rays.write_lane(f, 0, ray);
+                cx.heads.write(
+                    self.bucket(treelet),
+                    HeadWord {
+                        valid: true,
+                        idx: f as u32,
+                    },
+                );
+                cx.set_valid = Some(f);
+                cx.nx.free_count -= 1;
+            }
+            None => {
+                cx.out.spill_valid = true;
+                cx.out.spill_treelet = treelet;
+                cx.out.spill_ray = ray;
+                cx.nx.spilled += 1;
+            }
+        }
+        self.finish(cx);
+    }
+
+    fn finish(&self, cx: &mut Cycle) {
+        cx.out.done = true;
+        cx.nx.state = QueueState::Idle;
+    }
+
+    /// Moves the walk to the next entry of the chain.
+    fn advance(&self, cx: &mut Cycle, c: &QueueCtl, m: &MetaWord) {
+        cx.meta.issue_read(0, m.next as usize);
+        cx.nx.prev_valid = true;
+        cx.nx.prev = c.cur;
+        cx.nx.prev_treelet = m.treelet;
+        cx.nx.prev_count_m1 = m.count_m1;
+        cx.nx.cur = m.next;
+    }
+
+    /// One walk step: the `meta` word of `c.cur` is on the read port.
+    fn walk(&self, cx: &mut Cycle, c: &QueueCtl) {
+        let m = *cx.meta.rdata(0);
+        let walked = c.walked + 1;
+        cx.nx.walked = walked;
+        cx.nx.max_chain = c.max_chain.max(walked);
+        let matched = match c.walk_op {
+            WalkOp::PopAny => c.cur == c.target,
+            _ => m.treelet == c.key_treelet,
+        };
+        match c.walk_op {
+            WalkOp::Insert => {
+                if matched && m.count_m1 + 1 < self.cfg.warp_size {
+                    let cur = c.cur as usize;
+                    cx.rays
+                        .write_lane(cur, (m.count_m1 + 1) as usize, c.key_ray);
+                    cx.meta.write(
+                        cur,
+                        MetaWord {
+                            count_m1: m.count_m1 + 1,
+                            ..m
+                        },
+                    );
+                    self.finish(cx);
+                } else if matched || !m.next_valid {
+                    self.allocate(cx, c.key_treelet, c.key_ray, c.head);
+                } else {
+                    self.advance(cx, c, &m);
+                }
+            }
+            WalkOp::Pop | WalkOp::PopAny => {
+                if matched {
+                    let next = HeadWord {
+                        valid: m.next_valid,
+                        idx: m.next,
+                    };
+                    if c.prev_valid {
+                        cx.meta.write(
+                            c.prev as usize,
+                            MetaWord {
+                                treelet: c.prev_treelet,
+                                count_m1: c.prev_count_m1,
+                                next_valid: next.valid,
+                                next: next.idx,
+                            },
+                        );
+                    } else {
+                        cx.heads.write(self.bucket(c.key_treelet), next);
+                    }
+                    cx.clear_valid = Some(c.cur as usize);
+                    cx.nx.free_count += 1;
+                    cx.rays.issue_read(0, c.cur as usize);
+                    cx.nx.pop_count_m1 = m.count_m1;
+                    cx.nx.pop_treelet = m.treelet;
+                    cx.nx.state = QueueState::PopRays;
+                } else if m.next_valid {
+                    self.advance(cx, c, &m);
+                } else {
+                    cx.out.error = c.walk_op == WalkOp::PopAny;
+                    self.finish(cx);
+                }
+            }
+            WalkOp::Count => {
+                let acc = c.acc + if matched { m.count_m1 + 1 } else { 0 };
+                if m.next_valid {
+                    cx.nx.acc = acc;
+                    self.advance(cx, c, &m);
+                } else {
+                    cx.out.count_result = acc;
+                    self.finish(cx);
+                }
+            }
+        }
+    }
+
+    /// Starts a Pop or Count of `treelet` in `IDLE`.
+    fn start_lookup(&self, cx: &mut Cycle, op: WalkOp, treelet: u64) {
+        let hw = cx.heads.read(self.bucket(treelet));
+        cx.nx.key_treelet = treelet;
+        if hw.valid {
+            self.begin_walk(cx, op, hw.idx);
+        } else {
+            self.finish(cx);
+        }
+    }
+}
+
+impl Block for QueueTable {
+    type Inputs = QueueTableIn;
+    type Outputs = QueueTableOut;
+    type Regs = QueueTableRegs;
+
+    fn reset(&self) -> QueueTableRegs {
+        let e = self.entries();
+        let sram = MemPorts {
+            read: 1,
+            write: 1,
+            search: 0,
+            read_latency: 1,
+        };
+        let flops = MemPorts {
+            read: 1,
+            write: 1,
+            search: 0,
+            read_latency: 0,
+        };
+        QueueTableRegs {
+            heads: Memory::new(self.buckets as usize, HeadWord::default(), flops),
+            meta: Memory::new(e, MetaWord::default(), sram),
+            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize], sram),
+            valid: vec![false; e],
+            ctl: QueueCtl {
+                free_count: e as u32,
+                ..QueueCtl::default()
+            },
+            widths: self.widths,
+        }
+    }
+
+    fn eval(
+        &self,
+        regs: &QueueTableRegs,
+        inputs: &QueueTableIn,
+    ) -> (QueueTableOut, QueueTableRegs) {
+        let mut next = regs.clone();
+        let out = self.step(&mut next, inputs);
+        (out, next)
+    }
+
+    /// In-place next-state function; `eval` is this applied to a copy of the registers.
+    fn step(&self, r: &mut QueueTableRegs, inputs: &QueueTableIn) -> QueueTableOut {
+        let c = r.ctl;
+        let lanes = self.cfg.warp_size as usize;
+        let mut cx = Cycle {
+            heads: r.heads.cycle(),
+            meta: r.meta.cycle(),
+            rays: r.rays.cycle(),
+            first_free: r.valid.iter().position(|&v| !v),
+            first_valid: r.valid.iter().position(|&v| v),
+            nx: c,
+            out: QueueTableOut {
+                ready: c.state == QueueState::Idle,
+                done: false,
+                error: false,
+                pop_count: 0,
+                pop_treelet: 0,
+                pop_rays: vec![0; lanes],
+                count_result: 0,
+                spill_valid: false,
+                spill_treelet: 0,
+                spill_ray: 0,
+                refill_req: false,
+                free_entries: c.free_count,
+                spilled: c.spilled,
+                max_chain: c.max_chain,
+                widths: self.widths,
+            },
+            set_valid: None,
+            clear_valid: None,
+        };
+        if inputs.refill_valid && c.state != QueueState::RefillWait {
+            cx.out.error = true;
+        }
+        match c.state {
+            QueueState::Idle => match inputs.op {
+                QueueOp::Nop => {}
+                QueueOp::Insert { treelet, ray } => self.start_insert(&mut cx, treelet, ray),
+                QueueOp::Pop { treelet } => self.start_lookup(&mut cx, WalkOp::Pop, treelet),
+                QueueOp::Count { treelet } => self.start_lookup(&mut cx, WalkOp::Count, treelet),
+                QueueOp::PopAny => match cx.first_valid {
+                    Some(f) => {
+                        cx.meta.issue_read(0, f);
+                        cx.nx.target = f as u32;
+                        cx.nx.state = QueueState::AnyMeta;
+                    }
+                    None => self.finish(&mut cx),
+                },
+                QueueOp::Refill => {
+                    if c.spilled == 0 {
+                        self.finish(&mut cx);
+                    } else {
+                        cx.out.refill_req = true;
+                        cx.nx.state = QueueState::RefillWait;
+                    }
+                }
+            },
+            QueueState::Walk => self.walk(&mut cx, &c),
+            QueueState::AnyMeta => {
+                let treelet = cx.meta.rdata(0).treelet;
+                let hw = cx.heads.read(self.bucket(treelet));
+                cx.nx.key_treelet = treelet;
+                if hw.valid {
+                    self.begin_walk(&mut cx, WalkOp::PopAny, hw.idx);
+                } else {
+                    cx.out.error = true;
+                    self.finish(&mut cx);
+                }
+            }
+            QueueState::PopRays => {
+                let n = c.pop_count_m1 + 1;
+                cx.out.pop_count = n;
+                cx.out.pop_treelet = c.pop_treelet;
+                cx.out.pop_rays[..n as usize].copy_from_slice(&cx.rays.rdata(0)[..n as usize]);
+                self.finish(&mut cx);
+            }
+            QueueState::RefillWait => {
+                if inputs.refill_valid {
+                    cx.nx.spilled -= 1;
+                    self.start_insert(&mut cx, inputs.refill_treelet, inputs.refill_ray);
+                }
+            }
+        }
+        let Cycle {
+            heads,
+            meta,
+            rays,
+            nx,
+            out,
+            set_valid,
+            clear_valid,
+            ..
+        } = cx;
+        drop((heads, meta, rays));
+        if let Some(i) = set_valid {
+            r.valid[i] = true;
+        }
+        if let Some(i) = clear_valid {
+            r.valid[i] = false;
+        }
+        r.ctl = nx;
+        out
+    }
+
+    fn describe(&self) -> BlockDesc {
+        let w = self.widths;
+        let c = &self.cfg;
+        let regs = self.reset();
+        let mut ports = vec![
+            port(
+                "op_kind",
+                Dir::In,
+                3,
+                "operation: 0 Nop, 1 Insert, 2 Pop, 3 PopAny, 4 Count, 5 Refill",
+            ),
+            port(
+                "op_treelet",
+                Dir::In,
+                w.treelet,
+                "treelet address of Insert/Pop/Count",
+            ),
+            port("op_ray", Dir::In, w.ray, "ray id of Insert"),
+            port(
+                "refill_valid",
+                Dir::In,
+                1,
+                "the spill store answers a refill request",
+            ),
+            port(
+                "refill_treelet",
+                Dir::In,
+                w.treelet,
+                "treelet of the refilled ray",
+            ),
+            port("refill_ray", Dir::In, w.ray, "id of the refilled ray"),
+            port("ready", Dir::Out, 1, "an op is accepted this cycle (IDLE)"),
+            port(
+                "done",
+                Dir::Out,
+                1,
+                "the current op finishes; results are valid",
+            ),
+            port(
+                "error",
+                Dir::Out,
+                1,
+                "unexpected refill_valid or inconsistent chain",
+            ),
+            port(
+                "pop_count",
+                Dir::Out,
+                w.pop_count,
+                "rays popped (0 = none found)",
+            ),
+            port(
+                "pop_treelet",
+                Dir::Out,
+                w.treelet,
+                "treelet of the popped entry",
+            ),
+        ];
+        for i in 0..w.lanes {
+            ports.push(port(
+                &format!("pop_ray_{i}"),
+                Dir::Out,
+                w.ray,
+                "popped ray id (0 beyond pop_count)",
+            ));
+        }
+        ports.extend([
+            port(
+                "count_result",
+                Dir::Out,
+                w.total,
+                "rays of the treelet in the table (Count)",
+            ),
+            port(
+                "spill_valid",
+                Dir::Out,
+                1,
+                "a ray spills to memory: the environment stores it",
+            ),
+            port(
+                "spill_treelet",
+                Dir::Out,
+                w.treelet,
+                "treelet of the spilled ray",
+            ),
+            port("spill_ray", Dir::Out, w.ray, "id of the spilled ray"),
+            port(
+                "refill_req",
+                Dir::Out,
+                1,
+                "request one spilled ray (answer on refill_*)",
+            ),
+            port("free_entries", Dir::Out, w.entries, "free table entries"),
+            port(
+                "spilled",
+                Dir::Out,
+                w.spilled,
+                "rays spilled and not yet refilled",
+            ),
+            port(
+                "max_chain",
+                Dir::Out,
+                w.entries,
+                "longest chain walk so far (statistic)",
+            ),
+        ]);
+        let registers = vec![
+            reg("state", 3, 1, "FSM state"),
+            reg(
+                "walk_op",
+                2,
+                1,
+                "op the walk serves: 0 Insert, 1 Pop, 2 Count, 3 PopAny",
+            ),
+            reg("key_treelet", w.treelet, 1, "treelet of the current op"),
+            reg("key_ray", w.ray, 1, "ray of the current Insert/Refill"),
+            reg("head_valid", 1, 1, "bucket head at op start is valid"),
+            reg("head_idx", w.index, 1, "bucket head at op start"),
+            reg(
+                "cur",
+                w.index,
+                1,
+                "entry whose meta word arrives this cycle",
+            ),
+            reg("prev_valid", 1, 1, "an entry precedes cur"),
+            reg("prev", w.index, 1, "entry preceding cur"),
+            reg("prev_treelet", w.treelet, 1, "its treelet"),
+            reg("prev_count_m1", w.count_m1, 1, "its count - 1"),
+            reg("target", w.index, 1, "PopAny's entry"),
+            reg("acc", w.total, 1, "Count's running sum"),
+            reg("walked", w.entries, 1, "entries read in this walk"),
+            reg("pop_count_m1", w.count_m1, 1, "popped entry's count - 1"),
+            reg("pop_treelet", w.treelet, 1, "popped entry's treelet"),
+            reg("free_count", w.entries, 1, "free entries"),
+            reg("spilled", w.spilled, 1, "rays spilled and not refilled"),
+            reg("max_chain", w.entries, 1, "longest walk so far"),
+            reg(
+                "valid",
+                1,
+                c.queue_table_entries,
+                "entry valid bits (free list = complement)",
+            ),
+        ];
+        let ray_fields: Vec<(String, u32)> = (0..w.lanes)
+            .rev()
+            .map(|i| (format!("ray_{i}"), w.ray))
+            .collect();
+        BlockDesc {
+            name: "treelet_queue_table".into(),
+            doc: "Treelet queue table (section 4.2, Figure 9): a hash table with chaining of \
+                  entries holding a treelet address and up to one warp of ray ids; duplicate \
+                  entries per treelet; overflow spills rays to memory."
+                .into(),
+            params: vec![
+                ("queue_table_entries".into(), c.queue_table_entries as u64),
+                ("buckets".into(), self.buckets as u64),
+                ("warp_size".into(), c.warp_size as u64),
+                ("max_rays".into(), c.max_rays as u64),
+                ("treelet_addr_bits".into(), w.treelet as u64),
+                ("ray_id_bits".into(), w.ray as u64),
+            ],
+            ports,
+            registers,
+            memories: vec![
+                regs.heads.desc(
+                    "heads",
+                    vec![("valid".into(), 1), ("idx".into(), w.index)],
+                    "Chain head per hash bucket (flip-flops).",
+                ),
+                regs.meta.desc(
+                    "meta",
+                    vec![
+                        ("treelet".into(), w.treelet),
+                        ("count_m1".into(), w.count_m1),
+                        ("next_valid".into(), 1),
+                        ("next".into(), w.index),
+                    ],
+                    "Entry metadata: treelet, fill count - 1, chain link (SRAM).",
+                ),
+                regs.rays.desc(
+                    "rays",
+                    ray_fields,
+                    "Entry ray ids, one lane per warp slot, with a write enable per lane (SRAM).",
+                ),
+            ],
+            fsms: vec![FsmDesc {
+                name: "state".into(),
+                states: ["IDLE", "WALK", "ANY_META", "POP_RAYS", "REFILL_WAIT"]
+                    .map(String::from)
+                    .to_vec(),
+                width: 3,
+            }],
+            timing: vec![
+                "One op at a time: accepted in IDLE (ready), done pulses with the results, ready \
+                 again the next cycle. A chain walk reads one meta word per cycle (SRAM read \
+                 latency 1). k = position of the treelet's first entry in its chain, L = chain \
+                 length."
+                    .into(),
+                "Insert: 1 cycle (empty bucket), else 1 + k (1 + L if the treelet has no \
+                 entry); spills in its last cycle when no entry is free."
+                    .into(),
+                "Pop: 2 + k cycles; not found: 1 (empty bucket) or 1 + L.".into(),
+                "PopAny: 3 + k cycles (k in the popped entry's chain); empty table: 1.".into(),
+                "Count: 1 (empty bucket) or 1 + L.".into(),
+                "Refill: 1 if nothing is spilled; else 1 + wait for the answer, then the Insert \
+                 cost starting in the answer cycle."
+                    .into(),
+                format!(
+                    "Hash: XOR of the {}-bit treelet address in {}-bit groups from the LSB into {} buckets.",
+                    w.treelet, w.bucket, self.buckets
+                ),
+            ],
+        }
+    }
+}
+
+impl Signals for QueueTableIn {
+    fn signals(&self) -> Vec<Signal> {
+        let w = self.widths;
+        let (treelet, ray) = match self.op {
+            QueueOp::Insert { treelet, ray } => (treelet, ray),
+            QueueOp::Pop { treelet } | QueueOp::Count { treelet } => (treelet, 0),
+            QueueOp::Nop | QueueOp::PopAny | QueueOp::Refill => (0, 0),
+        };
+        vec![
+            Signal::new("op_kind", 3, self.op.kind_code()),
+            Signal::new("op_treelet", w.treelet, treelet),
+            Signal::new("op_ray", w.ray, ray as u64),
+            Signal::new("refill_valid", 1, self.refill_valid as u64),
+            Signal::new("refill_treelet", w.treelet, self.refill_treelet),
+            Signal::new("refill_ray", w.ray, self.refill_ray as u64),
+        ]
+    }
+}
+
+impl Signals for QueueTableOut {
+    fn signals(&self) -> Vec<Signal> {
+        let w = self.widths;
+        let mut s = vec![
+            Signal::new("ready", 1, self.ready as u64),
+            Signal::new("done", 1, self.done as u64),
+            Signal::new("error", 1, self.error as u64),
+            Signal::new("pop_count", w.pop_count, self.pop_count as u64),
+            Signal::new("pop_treelet", w.treelet, self.pop_treelet),
+        ];
+        for (i, &ray) in self.pop_rays.iter().enumerate() {
+            s.push(Signal::new(format!("pop_ray_{i}"), w.ray, ray as u64));
+        }
+        s.extend([
+            Signal::new("count_result", w.total, self.count_result as u64),
+            Signal::new("spill_valid", 1, self.spill_valid as u64),
+            Signal::new("spill_treelet", w.treelet, self.spill_treelet),
+            Signal::new("spill_ray", w.ray, self.spill_ray as u64),
+            Signal::new("refill_req", 1, self.refill_req as u64),
+            Signal::new("free_entries", w.entries, self.free_entries as u64),
+            Signal::new("spilled", w.spilled, self.spilled as u64),
+            Signal::new("max_chain", w.entries, self.max_chain as u64),
+        ]);
+        s
+    }
+}
+
+impl Signals for QueueTableRegs {
+    fn signals(&self) -> Vec<Signal> {
+        let w = self.widths;
+        let c = &self.ctl;
+        let mut s = vec![
+            Signal::new("state", 3, c.state as u64),
+            Signal::new("walk_op", 2, c.walk_op as u64),
+            Signal::new("key_treelet", w.treelet, c.key_treelet),
+            Signal::new("key_ray", w.ray, c.key_ray as u64),
+            Signal::new("head_valid", 1, c.head.valid as u64),
+            Signal::new("head_idx", w.index, c.head.idx as u64),
+            Signal::new("cur", w.index, c.cur as u64),
+            Signal::new("prev_valid", 1, c.prev_valid as u64),
+            Signal::new("prev", w.index, c.prev as u64),
+            Signal::new("prev_treelet", w.treelet, c.prev_treelet),
+            Signal::new("prev_count_m1", w.count_m1, c.prev_count_m1 as u64),
+            Signal::new("target", w.index, c.target as u64),
+            Signal::new("acc", w.total, c.acc as u64),
+            Signal::new("walked", w.entries, c.walked as u64),
+            Signal::new("pop_count_m1", w.count_m1, c.pop_count_m1 as u64),
+            Signal::new("pop_treelet", w.treelet, c.pop_treelet),
+            Signal::new("free_count", w.entries, c.free_count as u64),
+            Signal::new("spilled", w.spilled, c.spilled as u64),
+            Signal::new("max_chain", w.entries, c.max_chain as u64),
+        ];
+        // The valid bits as 64-bit words, entry 0 in bit 0 of `valid_0`.
+        for (k, chunk) in self.valid.chunks(64).enumerate() {
+            let word = chunk
+                .iter()
+                .enumerate()
+                .fold(0u64, |acc, (i, &v)| acc | ((v as u64) << i));
+            s.push(Signal::new(format!("valid_{k}"), chunk.len() as u32, word));
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> HwConfig {
+        HwConfig {
+            queue_table_entries: 4,
+            max_rays: 64,
+            warp_size: 4,
+            repack_threshold: 2,
+            divergence_threshold: 2,
+            underpopulation_threshold: 8,
+            ..HwConfig::default()
+        }
+    }
+
+    /// Presents `op` until accepted, then runs until `done`; returns the done cycle's outputs
+    /// and the cycles from acceptance to done (inclusive).
+    fn run(t: &QueueTable, r: &mut QueueTableRegs, op: QueueOp) -> (QueueTableOut, u32) {
+        let mut o = t.step(r, &t.input(op));
+        assert!(o.ready);
+        let mut cycles = 1;
+        while !o.done {
+            o = t.step(r, &t.input(QueueOp::Nop));
+            cycles += 1;
+            assert!(cycles < 100, "op never finished");
+        }
+        (o, cycles)
+    }
+
+    #[test]
+    fn hash_folds_groups() {
+        assert_eq!(
+            bucket_hash(0b101_0000011_0000001, 19, 7),
+            0b101 ^ 0b11 ^ 0b1
+        );
+        // All ones: two full groups cancel, the 5-bit top group remains.
+        assert_eq!(bucket_hash(0x7ffff, 19, 7), 0x1f);
+    }
+
+    #[test]
+    fn insert_pop_count_with_costs() {
+        let t = QueueTable::with_buckets(&small(), 2).unwrap();
+        let mut r = t.reset();
+        let (_, cyc) = run(&t, &mut r, QueueOp::Insert { treelet: 2, ray: 7 });
+        assert_eq!(cyc, 1, "insert into an empty bucket");
+        let (_, cyc) = run(&t, &mut r, QueueOp::Insert { treelet: 2, ray: 8 });
+        assert_eq!(cyc, 2, "append to the chain's first entry");
+        let (o, cyc) = run(&t, &mut r, QueueOp::Count { treelet: 2 });
+        assert_eq!((o.count_result, cyc), (2, 2));
+        let (o, cyc) = run(&t, &mut r, QueueOp::Pop { treelet: 2 });
+        assert_eq!((o.pop_count, o.pop_treelet, cyc), (2, 2, 3));
+        assert_eq!(o.pop_rays, vec![7, 8, 0, 0]);
+        assert_eq!(o.free_entries, 4);
+        let (o, _) = run(&t, &mut r, QueueOp::Pop { treelet: 2 });
+        assert_eq!(o.pop_count, 0);
+    }
+
+    #[test]
+    fn full_table_spills_and_refills() {
+        let t = QueueTable::with_buckets(&small(), 2).unwrap();
+        let mut r = t.reset();
+        for ray in 0..16 {
+            let (o, _) = run(
+                &t,
+                &mut r,
+                QueueOp::Insert {
+                    treelet: ray as u64 % 4,
+                    ray,
+                },
+            );
+            assert!(!o.spill_valid);
+        }
+        let (o, _) = run(
+            &t,
+            &mut r,
+            QueueOp::Insert {
+                treelet: 1,
+                ray: 16,
+            },
+        );
+        assert_eq!((o.spill_valid, o.spill_treelet, o.spill_ray), (true, 1, 16));
+        let (o, _) = run(&t, &mut r, QueueOp::PopAny);
+        assert_eq!((o.pop_count, o.pop_treelet), (4, 0));
+        assert_eq!(o.spilled, 1);
+        // Refill: request, answer two cycles later, reinsert.
+        let o = t.step(&mut r, &t.input(QueueOp::Refill));
+        assert!(o.refill_req);
+        let o = t.step(&mut r, &t.input(QueueOp::Nop));
+        assert!(!o.ready && !o.done);
+        let mut o = t.step(&mut r, &t.refill_answer(1, 16));
+        while !o.done {
+            o = t.step(&mut r, &t.input(QueueOp::Nop));
+        }
+        assert!(!o.spill_valid);
+        assert_eq!(r.ctl.spilled, 0);
+        let (o, _) = run(&t, &mut r, QueueOp::Count { treelet: 1 });
+        assert_eq!(o.count_result, 5);
+    }
+
+    #[test]
+    fn unexpected_refill_answer_is_an_error() {
+        let t = QueueTable::new(&small()).unwrap();
+        let mut r = t.reset();
+        let before = r.clone();
+        assert!(t.step(&mut r, &t.refill_answer(1, 2)).error);
+        assert_eq!(r, before);
+    }
+
+    #[test]
+    fn step_equals_eval() {
+        let t = QueueTable::with_buckets(&small(), 2).unwrap();
+        let mut r = t.reset();
+        let ops = (0..12u32)
+            .map(|i| QueueOp::Insert {
+                treelet: (i % 3) as u64,
+                ray: i,
+            })
+            .chain([
+                QueueOp::Pop { treelet: 1 },
+                QueueOp::PopAny,
+                QueueOp::Count { treelet: 2 },
+            ]);
+        for op in ops {
+            let mut i = t.input(op);
+            loop {
+                let (o, next) = t.eval(&r, &i);
+                assert_eq!(t.step(&mut r, &i), o);
+                assert_eq!(r, next);
+                if o.done {
+                    break;
+                }
+                i = t.input(QueueOp::Nop);
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_bad_buckets() {
+        assert_eq!(
+            QueueTable::with_buckets(&small(), 3).unwrap_err().key,
+            "buckets"
+        );
+    }
+}

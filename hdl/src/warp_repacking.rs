@@ -1,1 +1,88 @@
-//! (being written)
+//! Warp repacking (paper section 4.5): in the final ray-stationary phase, a warp whose active
+//! rays fall below the repack threshold is terminated as a unit and its idle lanes are refilled
+//! with rays from the underpopulated treelet queues; its remaining active rays keep their lanes.
+//! The paper's best threshold is 22 of 32 lanes (+95%), 16 gives +84%; 0 turns repacking off.
+
+use crate::mode::Mode;
+
+/// Whether repacking is enabled at all (a threshold of 0 disables it).
+pub fn repack_enabled(repack_threshold: u32) -> bool {
+    repack_threshold > 0
+}
+
+/// Whether a warp with `active_rays` active rays should be repacked: the controller is in the
+/// final ray-stationary phase, repacking is enabled, the warp still has at least one active
+/// ray (an empty warp simply completes), fewer than `repack_threshold` rays are active, and
+/// the queues (or the controller's spare buffer) hold rays to refill it with.
+pub fn should_repack(
+    mode: Mode,
+    active_rays: u32,
+    repack_threshold: u32,
+    rays_waiting: bool,
+) -> bool {
+    mode == Mode::FinalRayStationary
+        && repack_enabled(repack_threshold)
+        && active_rays > 0
+        && active_rays < repack_threshold
+        && rays_waiting
+}
+
+/// Idle lanes of a warp with `active_rays` active rays: how many rays a repack asks for.
+pub fn lanes_to_refill(active_rays: u32, warp_size: u32) -> u32 {
+    warp_size.saturating_sub(active_rays)
+}
+
+/// How `available` popped rays are split when `need` lanes remain to be filled:
+/// `(rays given to the warp now, rays left over for the spare buffer)`.
+pub fn split_refill(need: u32, available: u32) -> (u32, u32) {
+    let take = need.min(available);
+    (take, available - take)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FRS: Mode = Mode::FinalRayStationary;
+
+    #[test]
+    fn threshold_22_repacks_21_not_22() {
+        assert!(should_repack(FRS, 21, 22, true));
+        assert!(!should_repack(FRS, 22, 22, true));
+        assert!(!should_repack(FRS, 32, 22, true));
+        assert!(should_repack(FRS, 1, 22, true));
+    }
+
+    #[test]
+    fn threshold_16_variant() {
+        assert!(should_repack(FRS, 15, 16, true));
+        assert!(!should_repack(FRS, 16, 16, true));
+        assert!(!should_repack(FRS, 21, 16, true));
+    }
+
+    #[test]
+    fn zero_threshold_disables() {
+        assert!(!repack_enabled(0));
+        for active in 0..=32 {
+            assert!(!should_repack(FRS, active, 0, true));
+        }
+    }
+
+    #[test]
+    fn only_in_final_phase_with_rays_and_a_live_warp() {
+        for mode in [Mode::Initial, Mode::TreeletStationary, Mode::Done] {
+            assert!(!should_repack(mode, 10, 22, true), "{mode:?}");
+        }
+        assert!(!should_repack(FRS, 10, 22, false), "nothing to refill with");
+        assert!(!should_repack(FRS, 0, 22, true), "an empty warp completes");
+    }
+
+    #[test]
+    fn refill_arithmetic() {
+        assert_eq!(lanes_to_refill(21, 32), 11);
+        assert_eq!(lanes_to_refill(40, 32), 0);
+        assert_eq!(split_refill(11, 32), (11, 21));
+        assert_eq!(split_refill(11, 5), (5, 0));
+        assert_eq!(split_refill(0, 5), (0, 5));
+    }
+}

@@ -3,8 +3,10 @@
 
 pub mod bvh;
 pub mod cmd;
+pub mod config;
 pub mod geometry;
 pub mod intersect;
+pub mod memory;
 pub mod rays_csv;
 pub mod scene;
 pub mod traversal;

@@ -1,6 +1,7 @@
 //! The `vtq` subcommands, one module each.
 
 pub mod bench;
+pub mod options;
 pub mod render;
 pub mod scenes;
 pub mod trace;

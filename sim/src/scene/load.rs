@@ -1,1 +1,394 @@
-//! (being written)
+//! Resolving a scene spec (built-in name, `.obj` file, scene folder or shared scene name) to a
+//! loaded [`Scene`], and listing the scenes available for `vtq scenes`.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::builtin::{builtin, builtin_title, BUILTIN_NAMES};
+use super::manifest::Manifest;
+use super::obj::ObjGeometry;
+use super::{Camera, Scene, SceneError};
+
+/// File name of a scene folder's manifest.
+pub const MANIFEST_FILE: &str = "scene.toml";
+
+/// Load the scene `spec` names, trying in order:
+/// 1. a built-in name (`wknd`, `cornell`; ASCII case-insensitive);
+/// 2. an existing path: a `.obj` file (default camera framing its bounds, sky on), a scene
+///    folder (every `.obj` in it, sorted by file name, in one world space, camera and sky from
+///    its `scene.toml` if present, else the default camera and sky on) or a `scene.toml` file
+///    (its folder);
+/// 3. a bare name (no path separator): a folder of that name, or whose manifest `name` is that
+///    name (ASCII case-insensitive, e.g. `SPNZA`), in the shared scenes folders
+///    (see [`shared_scenes_dir`]).
+///
+/// Errors name the file: [`SceneError::Io`] for a path that does not exist or cannot be read,
+/// [`SceneError::Parse`] for malformed OBJ/MTL/manifest contents (with a line number where
+/// known), a folder without `.obj` files or a scene without faces, [`SceneError::Unknown`] for a
+/// bare name nothing matches. Missing `.mtl` libraries are not errors: one warning per load goes
+/// to stderr and their faces use the default material. The scene passes [`Scene::validate`].
+pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+    if let Some(scene) = builtin(spec) {
+        return Ok(scene);
+    }
+    if spec.is_empty() {
+        return Err(SceneError::Unknown(String::new()));
+    }
+    let path = Path::new(spec);
+    if path.exists() {
+        return load_path(path);
+    }
+    let bare = !spec.contains(['/', '\\']) && spec != "." && spec != "..";
+    if bare {
+        for dir in shared_scenes_dirs() {
+            if let Some(folder) = find_shared_scene(&dir, spec) {
+                return load_folder(&folder);
+            }
+        }
+    }
+    if bare && path.extension().is_none() {
+        Err(SceneError::Unknown(spec.to_string()))
+    } else {
+        Err(SceneError::Io {
+            path: spec.to_string(),
+            reason: "no such file or folder".into(),
+        })
+    }
+}
+
+/// Load an existing path: a folder, a `scene.toml` (its folder) or a `.obj` file.
+fn load_path(path: &Path) -> Result<Scene, SceneError> {
+    if path.is_dir() {
+        return load_folder(path);
+    }
+    if path.file_name().is_some_and(|n| n == MANIFEST_FILE) {
+        return load_folder(path.parent().unwrap_or(Path::new(".")));
+    }
+    if is_obj(path) {
+        return load_obj_file(path);
+    }
+    Err(SceneError::Parse {
+        path: path.display().to_string(),
+        reason: "not a scene: expected a .obj file, a scene folder or a scene.toml".into(),
+    })
+}
+
+/// Load one `.obj` file (and its `.mtl` libraries) as a scene named after the file stem, with a
+/// camera framing its bounds ([`Camera::framing`]) and sky on.
+pub fn load_obj_file(path: &Path) -> Result<Scene, SceneError> {
+    let mut geometry = ObjGeometry::new();
+    geometry.load_file(path)?;
+    let name = path
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    finish(geometry, path, name, None)
+}
+
+/// Load a scene folder: every `.obj` file in it (not recursive; extension ASCII
+/// case-insensitive), sorted by file name, appended in that order, with camera, sky and name
+/// from `scene.toml` when present. A manifest `triangles` count that differs from the loaded
+/// count gives a warning on stderr.
+pub fn load_folder(dir: &Path) -> Result<Scene, SceneError> {
+    let manifest_path = dir.join(MANIFEST_FILE);
+    let manifest = if manifest_path.is_file() {
+        Some(Manifest::read(&manifest_path)?)
+    } else {
+        None
+    };
+    let parts = obj_files(dir)?;
+    if parts.is_empty() {
+        return Err(SceneError::Parse {
+            path: dir.display().to_string(),
+            reason: "the folder holds no .obj files".into(),
+        });
+    }
+    let mut geometry = ObjGeometry::new();
+    for part in &parts {
+        geometry.load_file(part)?;
+    }
+    if let Some(expected) = manifest.as_ref().and_then(|m| m.triangles) {
+        let loaded = geometry.triangles.len();
+        if expected != loaded as u64 {
+            eprintln!(
+                "warning: {} says {expected} triangles but {loaded} were loaded from {}",
+                manifest_path.display(),
+                dir.display()
+            );
+        }
+    }
+    let name = manifest
+        .as_ref()
+        .and_then(|m| m.name.clone())
+        .unwrap_or_else(|| folder_name(dir));
+    finish(geometry, dir, name, manifest.as_ref())
+}
+
+/// Build and check the scene from loaded geometry; warn once about missing material libraries.
+fn finish(
+    geometry: ObjGeometry,
+    origin: &Path,
+    name: String,
+    manifest: Option<&Manifest>,
+) -> Result<Scene, SceneError> {
+    if let Some(first) = geometry.missing_mtl.first() {
+        let n = geometry.missing_mtl.len();
+        eprintln!(
+            "warning: {n} material librar{} not found while loading {} (first: {}); \
+             their faces use the default grey material",
+            if n == 1 { "y" } else { "ies" },
+            origin.display(),
+            first.display()
+        );
+    }
+    if geometry.triangles.is_empty() {
+        return Err(SceneError::Parse {
+            path: origin.display().to_string(),
+            reason: "no faces: the scene has nothing to render".into(),
+        });
+    }
+    // Every stored position is used by a face, so their bounds are the scene's.
+    let camera = match manifest {
+        Some(m) => m.camera.camera(),
+        None => {
+            let (min, max) = geometry.positions.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(min, max), &p| (min.min(p), max.max(p)),
+            );
+            Camera::framing(min, max)
+        }
+    };
+    let scene = Scene {
+        name,
+        positions: geometry.positions,
+        triangles: geometry.triangles,
+        tri_material: geometry.tri_material,
+        spheres: Vec::new(),
+        materials: geometry.materials,
+        camera,
+        sky: manifest.is_none_or(|m| m.sky),
+    };
+    scene.validate().map_err(|e| match e {
+        SceneError::Parse { reason, .. } => SceneError::Parse {
+            path: origin.display().to_string(),
+            reason,
+        },
+        other => other,
+    })?;
+    Ok(scene)
+}
+
+/// The `.obj` files directly in `dir`, sorted by file name.
+fn obj_files(dir: &Path) -> Result<Vec<PathBuf>, SceneError> {
+    let entries = std::fs::read_dir(dir).map_err(|e| SceneError::Io {
+        path: dir.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    let mut files = Vec::new();
+    for entry in entries {
+        let path = entry
+            .map_err(|e| SceneError::Io {
+                path: dir.display().to_string(),
+                reason: e.to_string(),
+            })?
+            .path();
+        if path.is_file() && is_obj(&path) {
+            files.push(path);
+        }
+    }
+    files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    Ok(files)
+}
+
+/// Whether `path` has the extension `obj` (ASCII case-insensitive).
+fn is_obj(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+}
+
+/// The last component of `dir` (after resolving `.` and `..`), for naming a scene.
+fn folder_name(dir: &Path) -> String {
+    let resolved = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    resolved
+        .file_name()
+        .map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned())
+}
+
+/// The shared scenes folder (`../shared/scenes` from the project root), or `None` when absent.
+/// Searched for as `shared/scenes` in each ancestor of, in order: the current directory, the
+/// running executable, and this crate's source folder at build time. The first found wins.
+pub fn shared_scenes_dir() -> Option<PathBuf> {
+    shared_scenes_dirs().into_iter().next()
+}
+
+/// Every distinct shared scenes folder found, in [`shared_scenes_dir`]'s search order.
+fn shared_scenes_dirs() -> Vec<PathBuf> {
+    let mut starts = Vec::new();
+    if let Ok(cwd) = std::env::current_dir() {
+        starts.push(cwd);
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        starts.push(exe);
+    }
+    starts.push(PathBuf::from(env!("CARGO_MANIFEST_DIR")));
+    let mut found: Vec<PathBuf> = Vec::new();
+    for start in starts {
+        let hit = start
+            .ancestors()
+            .map(|a| a.join("shared").join("scenes"))
+            .find(|c| c.is_dir())
+            .and_then(|c| c.canonicalize().ok());
+        if let Some(dir) = hit {
+            if !found.contains(&dir) {
+                found.push(dir);
+            }
+        }
+    }
+    found
+}
+
+/// The folder in `shared` whose name, or whose manifest's `name`, is `name` (ASCII
+/// case-insensitive; an exact folder name first, then the first match in file-name order).
+fn find_shared_scene(shared: &Path, name: &str) -> Option<PathBuf> {
+    let exact = shared.join(name);
+    if exact.is_dir() {
+        return Some(exact);
+    }
+    scene_folders(shared).into_iter().find(|dir| {
+        folder_name(dir).eq_ignore_ascii_case(name)
+            || Manifest::read(&dir.join(MANIFEST_FILE))
+                .ok()
+                .and_then(|m| m.name)
+                .is_some_and(|n| n.eq_ignore_ascii_case(name))
+    })
+}
+
+/// The sub-folders of `shared` that hold a `scene.toml` or a `.obj` file, sorted by name.
+fn scene_folders(shared: &Path) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(shared) else {
+        return Vec::new();
+    };
+    let mut dirs: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .filter(|p| p.join(MANIFEST_FILE).is_file() || obj_files(p).is_ok_and(|f| !f.is_empty()))
+        .collect();
+    dirs.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    dirs
+}
+
+/// Where a listed scene comes from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SceneKind {
+    /// Generated in code ([`super::builtin`]).
+    BuiltIn,
+    /// A scene folder at this path.
+    Folder(PathBuf),
+}
+
+/// How a listed scene's primitive counts were obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CountSource {
+    /// Counted from the generated scene.
+    Loaded,
+    /// Read from the manifest's `triangles` field without loading the geometry.
+    Manifest,
+    /// Not known without loading (no manifest, no `triangles` field, or a broken manifest).
+    Unknown,
+}
+
+/// One entry of [`list_scenes`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneInfo {
+    /// The spec to pass to [`load_scene`] (built-in name or folder name).
+    pub name: String,
+    /// The manifest's short name (e.g. `SPNZA`), or the built-in name.
+    pub label: String,
+    /// One-line description (manifest title, or a built-in's description).
+    pub title: String,
+    /// Built-in or folder.
+    pub kind: SceneKind,
+    /// Triangle count, if known (see `counted`).
+    pub triangles: Option<usize>,
+    /// Procedural sphere count (0 for folders: OBJ scenes have none).
+    pub spheres: usize,
+    /// Where the counts come from.
+    pub counted: CountSource,
+    /// Whether the scene is complete (manifest `complete`); `None` when not stated.
+    pub complete: Option<bool>,
+    /// A problem found while listing (e.g. a manifest that does not parse), if any.
+    pub problem: Option<String>,
+}
+
+impl SceneInfo {
+    /// Number of primitives (triangles + spheres), if the triangle count is known.
+    pub fn prims(&self) -> Option<usize> {
+        self.triangles.map(|t| t + self.spheres)
+    }
+}
+
+/// The built-in scenes (counted by generating them) followed by the scene folders in
+/// [`shared_scenes_dir`] sorted by folder name (counted from their manifests, not loaded).
+pub fn list_scenes() -> Vec<SceneInfo> {
+    let mut list: Vec<SceneInfo> = BUILTIN_NAMES
+        .iter()
+        .filter_map(|&name| {
+            let scene = builtin(name)?;
+            Some(SceneInfo {
+                name: name.to_string(),
+                label: name.to_string(),
+                title: builtin_title(name).unwrap_or_default().to_string(),
+                kind: SceneKind::BuiltIn,
+                triangles: Some(scene.triangles.len()),
+                spheres: scene.spheres.len(),
+                counted: CountSource::Loaded,
+                complete: Some(true),
+                problem: None,
+            })
+        })
+        .collect();
+    if let Some(shared) = shared_scenes_dir() {
+        list.extend(
+            scene_folders(&shared)
+                .into_iter()
+                .map(|dir| folder_info(&dir)),
+        );
+    }
+    list
+}
+
+/// The listing entry of one scene folder, from its manifest.
+fn folder_info(dir: &Path) -> SceneInfo {
+    let name = folder_name(dir);
+    let mut info = SceneInfo {
+        name: name.clone(),
+        label: name,
+        title: String::new(),
+        kind: SceneKind::Folder(dir.to_path_buf()),
+        triangles: None,
+        spheres: 0,
+        counted: CountSource::Unknown,
+        complete: None,
+        problem: None,
+    };
+    let manifest_path = dir.join(MANIFEST_FILE);
+    if !manifest_path.is_file() {
+        info.problem = Some(format!("no {MANIFEST_FILE}: default camera"));
+        return info;
+    }
+    match Manifest::read(&manifest_path) {
+        Ok(m) => {
+            if let Some(label) = m.name {
+                info.label = label;
+            }
+            info.title = m.title.unwrap_or_default();
+            info.complete = m.complete;
+            if let Some(t) = m.triangles.and_then(|t| usize::try_from(t).ok()) {
+                info.triangles = Some(t);
+                info.counted = CountSource::Manifest;
+            }
+        }
+        Err(e) => info.problem = Some(e.to_string()),
+    }
+    info
+}

@@ -144,3 +144,134 @@ pub mod builtin;
 pub mod load;
 pub mod manifest;
 pub mod obj;
+
+impl Camera {
+    /// Check that the camera defines a usable view: finite vectors, `eye != look_at`, `up` not
+    /// parallel to the view direction, and a field of view in `(0, 180)` degrees. The error is a
+    /// one-line description of the first problem found.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.eye.is_finite() && self.look_at.is_finite() && self.up.is_finite()) {
+            return Err("eye, look_at and up must be finite".into());
+        }
+        if !(self.fov_y_deg > 0.0 && self.fov_y_deg < 180.0) {
+            return Err(format!(
+                "fov_y_deg must be in (0, 180) degrees, got {}",
+                self.fov_y_deg
+            ));
+        }
+        let view = self.look_at - self.eye;
+        if view == Vec3::ZERO {
+            return Err("eye and look_at are the same point".into());
+        }
+        if view.cross(self.up).length_squared() <= f32::MIN_POSITIVE {
+            return Err("up is zero or parallel to the view direction".into());
+        }
+        Ok(())
+    }
+
+    /// A camera that frames the box `[min, max]`: looking along -Z at the box centre from a
+    /// distance at which the box's bounding sphere fills the 45-degree vertical field of view,
+    /// with +Y up. Used for a `.obj` file or a folder without a `scene.toml`.
+    pub fn framing(min: Vec3, max: Vec3) -> Camera {
+        let fov_y_deg = 45.0_f32;
+        let center = (min + max) * 0.5;
+        let radius = (max - min).length() * 0.5;
+        let radius = if radius > 0.0 { radius } else { 1.0 };
+        let distance = radius / (fov_y_deg.to_radians() * 0.5).sin();
+        Camera {
+            eye: center + Vec3::Z * distance,
+            look_at: center,
+            up: Vec3::Y,
+            fov_y_deg,
+        }
+    }
+}
+
+impl Scene {
+    /// The axis-aligned bounding box `(min, max)` of every triangle vertex and sphere, or `None`
+    /// for a scene without primitives.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        for tri in &self.triangles {
+            for &v in tri {
+                let p = self.positions[v as usize];
+                min = min.min(p);
+                max = max.max(p);
+            }
+        }
+        for s in &self.spheres {
+            min = min.min(s.center - Vec3::splat(s.radius));
+            max = max.max(s.center + Vec3::splat(s.radius));
+        }
+        (self.prim_count() > 0).then_some((min, max))
+    }
+
+    /// Check the scene's invariants: material 0 is [`Material::DEFAULT`]; every triangle index,
+    /// triangle material and sphere material is in range; vertex positions, sphere centres and
+    /// material parameters are finite; radii are positive; the camera passes [`Camera::check`].
+    /// The error is a [`SceneError::Parse`] naming the scene and the first problem found.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let fail = |reason: String| SceneError::Parse {
+            path: format!("scene '{}'", self.name),
+            reason,
+        };
+        if self.materials.first() != Some(&Material::DEFAULT) {
+            return Err(fail("material 0 is not the default grey Lambertian".into()));
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            let finite = match *m {
+                Material::Lambertian { albedo } => albedo.is_finite(),
+                Material::Metal { albedo, fuzz } => albedo.is_finite() && fuzz.is_finite(),
+                Material::Dielectric { ior } => ior.is_finite() && ior > 0.0,
+                Material::Light { emit } => emit.is_finite(),
+            };
+            if !finite {
+                return Err(fail(format!(
+                    "material {i} has a non-finite parameter: {m:?}"
+                )));
+            }
+        }
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(fail(format!("vertex {i} is not finite")));
+        }
+        if self.tri_material.len() != self.triangles.len() {
+            return Err(fail(format!(
+                "{} triangles but {} triangle materials",
+                self.triangles.len(),
+                self.tri_material.len()
+            )));
+        }
+        let n_pos = self.positions.len();
+        let n_mat = self.materials.len();
+        for (i, (tri, &m)) in self.triangles.iter().zip(&self.tri_material).enumerate() {
+            if tri.iter().any(|&v| v as usize >= n_pos) {
+                return Err(fail(format!(
+                    "triangle {i} indexes a vertex out of range ({n_pos} vertices)"
+                )));
+            }
+            if m as usize >= n_mat {
+                return Err(fail(format!("triangle {i} has material {m} of {n_mat}")));
+            }
+        }
+        for (i, s) in self.spheres.iter().enumerate() {
+            if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) {
+                return Err(fail(format!(
+                    "sphere {i} needs a finite centre and a finite radius > 0"
+                )));
+            }
+            if s.material as usize >= n_mat {
+                return Err(fail(format!(
+                    "sphere {i} has material {} of {n_mat}",
+                    s.material
+                )));
+            }
+        }
+        if u32::try_from(self.prim_count()).is_err() {
+            return Err(fail("more primitives than fit in a 32-bit id".into()));
+        }
+        self.camera
+            .check()
+            .map_err(|reason| fail(format!("camera: {reason}")))
+    }
+}

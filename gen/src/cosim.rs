@@ -1,0 +1,601 @@
+//! Co-simulation: a Rust [`Block`] and its Verilog, cycle by cycle.
+//!
+//! [`record`] runs the Rust block from reset over a sequence of inputs and keeps, per cycle,
+//! the flattened input and output [`vtq_hdl::Signals`]. [`write_testbench`] turns the trace into
+//! a self-checking Verilog-2005 testbench with the vectors in a `$readmemh` file, and
+//! [`run_cosim`] runs it with Icarus Verilog or Verilator and parses the verdict.
+//!
+//! # Timing convention
+//!
+//! The Verilog module has ports `clk`, `rst` and one port per signal, named and sized like the
+//! signals of the Rust port bundles. Every register updates on the rising edge of `clk`; `rst`
+//! is synchronous and active high. The testbench:
+//!
+//! 1. holds `rst` high with all inputs zero for two rising edges, then drops it while `clk` is
+//!    low: the registers now hold `Block::reset()`;
+//! 2. for each cycle `k`, with `clk` low: applies the inputs of cycle `k`, waits 1 ns for the
+//!    combinational logic to settle, and compares every output with the outputs that
+//!    `Block::eval(regs_k, inputs_k)` returned (`!==`, so an `x` or `z` is a mismatch); then
+//!    raises `clk` (the registers take `eval`'s next values) and lowers it again.
+//!
+//! So outputs are this cycle's combinational function of the registers and this cycle's inputs
+//! (Mealy outputs, exactly `eval`'s first result); a registered output simply does not depend
+//! on the inputs. The testbench prints every mismatch up to [`CosimOptions::max_reported`]
+//! (`cosim: MISMATCH cycle C signal S expected E got G`) and always a final
+//! `cosim: N cycles compared, M mismatches` line, where M counts (cycle, signal) pairs.
+
+use crate::emit::{is_identifier, range};
+use crate::error::GenError;
+use crate::tools::{create_dir, run, write_file};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use vtq_hdl::{Block, Dir, Signal, Signals};
+
+/// Name of the generated testbench module.
+pub const TESTBENCH_TOP: &str = "cosim_tb";
+/// File the vectors are written to (inside the work directory).
+pub const VECTORS_FILE: &str = "cosim_vectors.hex";
+/// File the testbench is written to (inside the work directory).
+pub const TESTBENCH_FILE: &str = "cosim_tb.v";
+
+/// Name and width of one traced signal.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct SignalInfo {
+    /// Signal (port) name.
+    pub name: String,
+    /// Width in bits.
+    pub width: u32,
+}
+
+/// The Rust block's inputs and outputs over a run, one row per cycle.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Trace {
+    /// Verilog module name of the block.
+    pub module: String,
+    /// Input signals, in the order of the input bundle.
+    pub inputs: Vec<SignalInfo>,
+    /// Output signals, in the order of the output bundle.
+    pub outputs: Vec<SignalInfo>,
+    /// Values, row-major: per cycle the inputs, then the outputs.
+    values: Vec<u64>,
+}
+
+impl Trace {
+    /// Cycles recorded.
+    pub fn cycles(&self) -> usize {
+        let stride = self.inputs.len() + self.outputs.len();
+        self.values.len().checked_div(stride).unwrap_or(0)
+    }
+
+    /// The input values of `cycle`, in [`Trace::inputs`] order.
+    pub fn input_values(&self, cycle: usize) -> &[u64] {
+        let stride = self.inputs.len() + self.outputs.len();
+        &self.values[cycle * stride..cycle * stride + self.inputs.len()]
+    }
+
+    /// The output values of `cycle`, in [`Trace::outputs`] order.
+    pub fn output_values(&self, cycle: usize) -> &[u64] {
+        let stride = self.inputs.len() + self.outputs.len();
+        &self.values[cycle * stride + self.inputs.len()..(cycle + 1) * stride]
+    }
+}
+
+/// Runs `block` from reset over `inputs` and records every cycle's signals. The signal lists
+/// must be the same every cycle, every value must fit its width, and the signals must match
+/// the block description's ports (same names, directions and widths, every port covered).
+pub fn record<B: Block>(
+    block: &B,
+    inputs: impl IntoIterator<Item = B::Inputs>,
+) -> Result<Trace, GenError> {
+    let desc = block.describe();
+    let fail = |reason: String| GenError::Cosim {
+        block: desc.name.clone(),
+        reason,
+    };
+    let mut regs = block.reset();
+    let mut trace: Option<Trace> = None;
+    for (cycle, inp) in inputs.into_iter().enumerate() {
+        let (out, next) = block.eval(&regs, &inp);
+        regs = next;
+        let ins = inp.signals();
+        let outs = out.signals();
+        let t = match trace.as_mut() {
+            Some(t) => t,
+            None => trace.insert(Trace {
+                module: desc.name.clone(),
+                inputs: infos(&ins),
+                outputs: infos(&outs),
+                values: Vec::new(),
+            }),
+        };
+        for (kind, infos, sigs) in [("input", &t.inputs, &ins), ("output", &t.outputs, &outs)] {
+            if sigs.len() != infos.len()
+                || sigs
+                    .iter()
+                    .zip(infos.iter())
+                    .any(|(s, i)| s.name != i.name || s.width != i.width)
+            {
+                return Err(fail(format!(
+                    "the {kind} signals changed at cycle {cycle}: they must be the same list \
+                     every cycle"
+                )));
+            }
+            if let Some(s) = sigs
+                .iter()
+                .find(|s| s.width < 64 && s.value >> s.width != 0)
+            {
+                return Err(fail(format!(
+                    "{kind} `{}` = {} does not fit its {} bits at cycle {cycle}",
+                    s.name, s.value, s.width
+                )));
+            }
+        }
+        t.values
+            .extend(ins.iter().chain(outs.iter()).map(|s| s.value));
+    }
+    let trace = trace.ok_or_else(|| fail("no input cycles to simulate".to_string()))?;
+    for (dir, sigs) in [(Dir::In, &trace.inputs), (Dir::Out, &trace.outputs)] {
+        for s in sigs.iter() {
+            if !is_identifier(&s.name) || s.name == "clk" || s.name == "rst" {
+                return Err(fail(format!(
+                    "signal `{}` cannot be a Verilog port name",
+                    s.name
+                )));
+            }
+            match desc.port(&s.name) {
+                Some(p) if p.dir == dir && p.width == s.width => {}
+                Some(p) => {
+                    return Err(fail(format!(
+                        "signal `{}` ({:?}, {} bits) disagrees with its port ({:?}, {} bits)",
+                        s.name, dir, s.width, p.dir, p.width
+                    )))
+                }
+                None => {
+                    return Err(fail(format!(
+                        "signal `{}` is not a port of the block description",
+                        s.name
+                    )))
+                }
+            }
+        }
+    }
+    if let Some(p) = desc.ports.iter().find(|p| {
+        !trace.inputs.iter().any(|s| s.name == p.name)
+            && !trace.outputs.iter().any(|s| s.name == p.name)
+    }) {
+        return Err(fail(format!(
+            "port `{}` has no signal in the port bundles",
+            p.name
+        )));
+    }
+    Ok(trace)
+}
+
+fn infos(sigs: &[Signal]) -> Vec<SignalInfo> {
+    sigs.iter()
+        .map(|s| SignalInfo {
+            name: s.name.clone(),
+            width: s.width,
+        })
+        .collect()
+}
+
+/// Packs `(value, width)` fields, the first one most significant, into a hex string of
+/// ceil(total width / 4) digits.
+fn pack_hex(fields: impl DoubleEndedIterator<Item = (u64, u32)>, total: u32) -> String {
+    let mut limbs = vec![0u64; (total as usize).div_ceil(64) + 1];
+    let mut offset = 0usize;
+    for (value, width) in fields.rev() {
+        let (i, shift) = (offset / 64, offset % 64);
+        limbs[i] |= value << shift;
+        if shift != 0 && shift + width as usize > 64 {
+            limbs[i + 1] |= value >> (64 - shift);
+        }
+        offset += width as usize;
+    }
+    let digits = (total as usize).div_ceil(4);
+    let mut s = String::with_capacity(digits + 1);
+    for d in (0..digits).rev() {
+        let bit = d * 4;
+        let nibble = (limbs[bit / 64] >> (bit % 64)) & 0xf;
+        s.push(char::from_digit(nibble as u32, 16).unwrap_or('0'));
+    }
+    s
+}
+
+/// Which simulator runs the testbench.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Simulator {
+    /// Icarus Verilog (`iverilog -g2005` + `vvp`): quick to start, good for short runs.
+    Icarus,
+    /// Verilator (`--binary --timing`): slow to compile, fast to run.
+    Verilator,
+}
+
+/// Where and how to run a co-simulation.
+#[derive(Debug, Clone)]
+pub struct CosimOptions {
+    /// Simulator to use.
+    pub simulator: Simulator,
+    /// Directory for the testbench, vectors and simulator files (created if missing).
+    pub work_dir: PathBuf,
+    /// Mismatches printed individually (all are counted).
+    pub max_reported: u32,
+}
+
+impl CosimOptions {
+    /// Icarus Verilog in `work_dir`, reporting the first 10 mismatches.
+    pub fn icarus(work_dir: impl Into<PathBuf>) -> Self {
+        CosimOptions {
+            simulator: Simulator::Icarus,
+            work_dir: work_dir.into(),
+            max_reported: 10,
+        }
+    }
+}
+
+/// One output that differed from the Rust model.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Mismatch {
+    /// Cycle after reset (0-based).
+    pub cycle: u64,
+    /// Output signal name.
+    pub signal: String,
+    /// What the Rust block drove (hex).
+    pub expected: String,
+    /// What the Verilog drove (hex; may contain `x` or `z`).
+    pub got: String,
+}
+
+/// The verdict of a co-simulation run.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct CosimResult {
+    /// Simulator that ran it.
+    pub simulator: Simulator,
+    /// Cycles compared.
+    pub cycles: u64,
+    /// (cycle, output) pairs that differed.
+    pub mismatches: u64,
+    /// The first mismatches, in cycle order.
+    pub reported: Vec<Mismatch>,
+}
+
+impl CosimResult {
+    /// Every output matched in every cycle.
+    pub fn passed(&self) -> bool {
+        self.mismatches == 0
+    }
+}
+
+impl std::fmt::Display for CosimResult {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "cosim ({:?}): {} cycles compared, {} mismatches",
+            self.simulator, self.cycles, self.mismatches
+        )?;
+        for m in &self.reported {
+            writeln!(
+                f,
+                "  cycle {} signal {}: expected {} got {}",
+                m.cycle, m.signal, m.expected, m.got
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The vectors file for `trace`: one line per cycle, the inputs then the outputs concatenated
+/// (first signal most significant) in hex.
+pub fn vectors(trace: &Trace) -> String {
+    let widths: Vec<u32> = trace
+        .inputs
+        .iter()
+        .chain(trace.outputs.iter())
+        .map(|s| s.width)
+        .collect();
+    let total: u32 = widths.iter().sum();
+    let mut out = String::new();
+    for cycle in 0..trace.cycles() {
+        let values = trace
+            .input_values(cycle)
+            .iter()
+            .chain(trace.output_values(cycle))
+            .copied();
+        out.push_str(&pack_hex(
+            values
+                .zip(widths.iter().copied())
+                .collect::<Vec<_>>()
+                .into_iter(),
+            total,
+        ));
+        out.push('\n');
+    }
+    out
+}
+
+/// The self-checking testbench for `trace` (see the module documentation for its timing).
+pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
+    let total: u32 = trace
+        .inputs
+        .iter()
+        .chain(trace.outputs.iter())
+        .map(|s| s.width)
+        .sum();
+    // Bit position of each signal's least significant bit in a vector word.
+    let mut lsb = Vec::new();
+    let mut hi = total;
+    for s in trace.inputs.iter().chain(trace.outputs.iter()) {
+        hi -= s.width;
+        lsb.push(hi);
+    }
+    let slice = |i: usize, w: u32| format!("vec_now[{}:{}]", lsb[i] + w - 1, lsb[i]);
+    let n_in = trace.inputs.len();
+    let mut v = String::new();
+    let _ = writeln!(
+        v,
+        "// Self-checking co-simulation testbench for {}, generated by vtq-gen.",
+        trace.module
+    );
+    let _ = writeln!(
+        v,
+        "// Vectors: {VECTORS_FILE}, one line per cycle: inputs then expected outputs."
+    );
+    let _ = writeln!(v, "`timescale 1ns/1ps");
+    let _ = writeln!(v, "module {TESTBENCH_TOP};");
+    let _ = writeln!(v, "    localparam integer CYCLES = {};", trace.cycles());
+    let _ = writeln!(v, "    localparam integer MAX_REPORTED = {max_reported};");
+    let _ = writeln!(v, "    reg clk = 1'b0;");
+    let _ = writeln!(v, "    reg rst = 1'b1;");
+    let _ = writeln!(v, "    reg [{}:0] vectors [0:CYCLES-1];", total - 1);
+    let _ = writeln!(v, "    reg [{}:0] vec_now;", total - 1);
+    let _ = writeln!(v, "    integer cycle;");
+    let _ = writeln!(v, "    integer mismatches;");
+    for s in &trace.inputs {
+        let _ = writeln!(v, "    reg  {}i_{};", range(s.width), s.name);
+    }
+    for s in &trace.outputs {
+        let _ = writeln!(v, "    wire {}o_{};", range(s.width), s.name);
+    }
+    let _ = writeln!(v);
+    let _ = writeln!(v, "    {} dut (", trace.module);
+    let mut conns = vec![
+        "        .clk(clk)".to_string(),
+        "        .rst(rst)".to_string(),
+    ];
+    conns.extend(
+        trace
+            .inputs
+            .iter()
+            .map(|s| format!("        .{0}(i_{0})", s.name)),
+    );
+    conns.extend(
+        trace
+            .outputs
+            .iter()
+            .map(|s| format!("        .{0}(o_{0})", s.name)),
+    );
+    let _ = writeln!(v, "{}", conns.join(",\n"));
+    let _ = writeln!(v, "    );");
+    let _ = writeln!(v);
+    let _ = writeln!(v, "    task check(input integer c, input [8*64-1:0] name, input [63:0] expected, input [63:0] got);");
+    let _ = writeln!(v, "        begin");
+    let _ = writeln!(v, "            if (got !== expected) begin");
+    let _ = writeln!(v, "                mismatches = mismatches + 1;");
+    let _ = writeln!(v, "                if (mismatches <= MAX_REPORTED)");
+    let _ = writeln!(v, "                    $display(\"cosim: MISMATCH cycle %0d signal %0s expected %h got %h\", c, name, expected, got);");
+    let _ = writeln!(v, "            end");
+    let _ = writeln!(v, "        end");
+    let _ = writeln!(v, "    endtask");
+    let _ = writeln!(v);
+    let _ = writeln!(v, "    initial begin");
+    let _ = writeln!(v, "        $readmemh(\"{VECTORS_FILE}\", vectors);");
+    let _ = writeln!(v, "        mismatches = 0;");
+    for s in &trace.inputs {
+        let _ = writeln!(v, "        i_{} = {}'d0;", s.name, s.width);
+    }
+    let _ = writeln!(
+        v,
+        "        // Reset: two rising edges with rst high, then rst low while clk is low."
+    );
+    let _ = writeln!(v, "        #5 clk = 1'b1; #5 clk = 1'b0;");
+    let _ = writeln!(v, "        #5 clk = 1'b1; #5 clk = 1'b0;");
+    let _ = writeln!(v, "        rst = 1'b0;");
+    let _ = writeln!(
+        v,
+        "        for (cycle = 0; cycle < CYCLES; cycle = cycle + 1) begin"
+    );
+    let _ = writeln!(v, "            vec_now = vectors[cycle];");
+    for (i, s) in trace.inputs.iter().enumerate() {
+        let _ = writeln!(v, "            i_{} = {};", s.name, slice(i, s.width));
+    }
+    let _ = writeln!(v, "            #1;");
+    for (j, s) in trace.outputs.iter().enumerate() {
+        // Zero-extend both sides to the task's 64-bit arguments.
+        let pad = |x: String| {
+            if s.width >= 64 {
+                x
+            } else {
+                format!("{{{}'d0, {x}}}", 64 - s.width)
+            }
+        };
+        let _ = writeln!(
+            v,
+            "            check(cycle, \"{}\", {}, {});",
+            s.name,
+            pad(slice(n_in + j, s.width)),
+            pad(format!("o_{}", s.name))
+        );
+    }
+    let _ = writeln!(v, "            #4 clk = 1'b1;");
+    let _ = writeln!(v, "            #5 clk = 1'b0;");
+    let _ = writeln!(v, "        end");
+    let _ = writeln!(
+        v,
+        "        $display(\"cosim: %0d cycles compared, %0d mismatches\", CYCLES, mismatches);"
+    );
+    let _ = writeln!(v, "        $finish;");
+    let _ = writeln!(v, "    end");
+    let _ = writeln!(v, "endmodule");
+    v
+}
+
+/// Writes the testbench and vectors for `trace` into `opts.work_dir`, simulates them with the
+/// DUT `sources`, and parses the verdict.
+pub fn run_cosim(
+    trace: &Trace,
+    sources: &[PathBuf],
+    opts: &CosimOptions,
+) -> Result<CosimResult, GenError> {
+    if trace.cycles() == 0 || trace.outputs.is_empty() {
+        return Err(GenError::Cosim {
+            block: trace.module.clone(),
+            reason: "the trace has no cycles or no outputs to compare".to_string(),
+        });
+    }
+    let dir = &opts.work_dir;
+    create_dir(dir)?;
+    let dir = std::fs::canonicalize(dir)
+        .map_err(|e| GenError::io(format!("resolving {}", dir.display()), e))?;
+    write_file(&dir.join(VECTORS_FILE), &vectors(trace))?;
+    write_file(
+        &dir.join(TESTBENCH_FILE),
+        &write_testbench(trace, opts.max_reported),
+    )?;
+    let mut files = vec![TESTBENCH_FILE.to_string()];
+    for s in sources {
+        let abs = std::fs::canonicalize(s)
+            .map_err(|e| GenError::io(format!("finding Verilog source {}", s.display()), e))?;
+        files.push(abs.display().to_string());
+    }
+    let files: Vec<&str> = files.iter().map(String::as_str).collect();
+    let output = match opts.simulator {
+        Simulator::Icarus => {
+            let mut args = vec!["-g2005", "-o", "cosim.vvp", "-s", TESTBENCH_TOP];
+            args.extend(&files);
+            run("iverilog", &args, &dir, false)?;
+            run("vvp", &["-n", "cosim.vvp"], &dir, false)?.0.stdout
+        }
+        Simulator::Verilator => {
+            let mut args = vec![
+                "--binary",
+                "-j",
+                "2",
+                "--timescale",
+                "1ns/1ps",
+                "-Wno-fatal",
+                "-Wno-lint",
+                "-Wno-style",
+                "--top-module",
+                TESTBENCH_TOP,
+                "-o",
+                "cosim",
+            ];
+            args.extend(&files);
+            run("verilator", &args, &dir, false)?;
+            run("./obj_dir/cosim", &[], &dir, false)?.0.stdout
+        }
+    };
+    parse_result(&output, opts.simulator, &trace.module)
+}
+
+/// Records `block` over `inputs` and co-simulates it against the Verilog `sources`.
+pub fn cosim_block<B: Block>(
+    block: &B,
+    inputs: impl IntoIterator<Item = B::Inputs>,
+    sources: &[PathBuf],
+    opts: &CosimOptions,
+) -> Result<CosimResult, GenError> {
+    let trace = record(block, inputs)?;
+    run_cosim(&trace, sources, opts)
+}
+
+/// A 64-bit hex value from the testbench without its leading zeros (`000a` -> `a`).
+fn trim_hex(s: &str) -> String {
+    let t = s.trim_start_matches('0');
+    if t.is_empty() { "0" } else { t }.to_string()
+}
+
+/// Reads the testbench's `cosim:` lines.
+fn parse_result(output: &str, simulator: Simulator, module: &str) -> Result<CosimResult, GenError> {
+    let bad = |reason: String| GenError::Parse {
+        tool: format!("{simulator:?} co-simulation of {module}"),
+        reason,
+    };
+    let mut reported = Vec::new();
+    let mut summary = None;
+    for line in output.lines() {
+        let Some(rest) = line.trim().strip_prefix("cosim: ") else {
+            continue;
+        };
+        if let Some(m) = rest.strip_prefix("MISMATCH ") {
+            let words: Vec<&str> = m.split_whitespace().collect();
+            match words.as_slice() {
+                ["cycle", c, "signal", s, "expected", e, "got", g] => reported.push(Mismatch {
+                    cycle: c
+                        .parse()
+                        .map_err(|_| bad(format!("bad cycle in `{line}`")))?,
+                    signal: s.to_string(),
+                    expected: trim_hex(e),
+                    got: trim_hex(g),
+                }),
+                _ => return Err(bad(format!("malformed mismatch line `{line}`"))),
+            }
+        } else {
+            let words: Vec<&str> = rest.split_whitespace().collect();
+            if let [n, "cycles", "compared,", m, "mismatches"] = words.as_slice() {
+                let n: u64 = n
+                    .parse()
+                    .map_err(|_| bad(format!("bad count in `{line}`")))?;
+                let m: u64 = m
+                    .parse()
+                    .map_err(|_| bad(format!("bad count in `{line}`")))?;
+                summary = Some((n, m));
+            }
+        }
+    }
+    let (cycles, mismatches) = summary.ok_or_else(|| {
+        bad(format!(
+            "no `cosim: N cycles compared, M mismatches` line in:\n{output}"
+        ))
+    })?;
+    Ok(CosimResult {
+        simulator,
+        cycles,
+        mismatches,
+        reported,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packs_fields_msb_first() {
+        assert_eq!(pack_hex([(1u64, 1u32), (0xab, 8)].into_iter(), 9), "1ab");
+        assert_eq!(pack_hex([(0x5, 3), (0x3, 2)].into_iter(), 5), "17");
+        // A field straddling a 64-bit limb boundary.
+        let s = pack_hex([(0xf, 4), (u64::MAX, 64)].into_iter(), 68);
+        assert_eq!(s, "fffffffffffffffff");
+        let s = pack_hex([(1, 1), (0, 62), (0x3, 2)].into_iter(), 65);
+        assert_eq!(s, "10000000000000003");
+    }
+
+    #[test]
+    fn parses_results() {
+        let out = "VCD info\ncosim: MISMATCH cycle 7 signal count expected 3 got 4\n\
+                   cosim: 100 cycles compared, 2 mismatches\n";
+        let r = parse_result(out, Simulator::Icarus, "m").unwrap();
+        assert_eq!(r.cycles, 100);
+        assert_eq!(r.mismatches, 2);
+        assert_eq!(r.reported[0].cycle, 7);
+        assert_eq!(r.reported[0].signal, "count");
+        assert!(!r.passed());
+        assert_eq!(trim_hex("000000000000000a"), "a");
+        assert_eq!(trim_hex("0000"), "0");
+        assert_eq!(trim_hex("00000000000000xx"), "xx");
+        assert!(parse_result("nothing", Simulator::Icarus, "m").is_err());
+    }
+}

@@ -1,0 +1,295 @@
+//! End-to-end test of the co-simulation harness on a tiny block: a 4-bit counter with enable,
+//! load and a combinational (Mealy) wrap output, its hand-written Verilog, and a deliberately
+//! broken Verilog variant whose mismatches must be found and reported at the right cycle.
+
+use std::path::PathBuf;
+use vtq_gen::cosim::{cosim_block, record, run_cosim, write_testbench, CosimOptions, Simulator};
+use vtq_gen::synth::lint;
+use vtq_gen::tools::or_skip;
+use vtq_gen::GenError;
+use vtq_hdl::describe::port;
+use vtq_hdl::{Block, BlockDesc, Dir, Signal, Signals};
+
+/// The counter: `count` is the register (a Moore output); `wrap` is high in a cycle where the
+/// counter is enabled at 15 (a Mealy output, combinational in the inputs). `load` wins over
+/// `en`. With `skip_ten` set the model is wrong on purpose: it jumps from 9 to 11, like the
+/// broken Verilog below, so the test can predict the first mismatch independently.
+struct Counter {
+    skip_ten: bool,
+}
+
+#[derive(Clone)]
+struct CounterIn {
+    en: bool,
+    load: bool,
+    value: u64,
+}
+
+#[derive(Clone)]
+struct CounterOut {
+    count: u64,
+    wrap: bool,
+}
+
+#[derive(Clone)]
+struct CounterRegs {
+    count: u64,
+}
+
+impl Signals for CounterIn {
+    fn signals(&self) -> Vec<Signal> {
+        vec![
+            Signal::new("en", 1, self.en as u64),
+            Signal::new("load", 1, self.load as u64),
+            Signal::new("value", 4, self.value),
+        ]
+    }
+}
+
+impl Signals for CounterOut {
+    fn signals(&self) -> Vec<Signal> {
+        vec![
+            Signal::new("count", 4, self.count),
+            Signal::new("wrap", 1, self.wrap as u64),
+        ]
+    }
+}
+
+impl Signals for CounterRegs {
+    fn signals(&self) -> Vec<Signal> {
+        vec![Signal::new("count", 4, self.count)]
+    }
+}
+
+impl Block for Counter {
+    type Inputs = CounterIn;
+    type Outputs = CounterOut;
+    type Regs = CounterRegs;
+
+    fn reset(&self) -> CounterRegs {
+        CounterRegs { count: 0 }
+    }
+
+    fn eval(&self, regs: &CounterRegs, i: &CounterIn) -> (CounterOut, CounterRegs) {
+        let out = CounterOut {
+            count: regs.count,
+            wrap: i.en && regs.count == 15,
+        };
+        let next = if i.load {
+            i.value
+        } else if i.en {
+            if self.skip_ten && regs.count == 9 {
+                11
+            } else {
+                (regs.count + 1) % 16
+            }
+        } else {
+            regs.count
+        };
+        (out, CounterRegs { count: next })
+    }
+
+    fn describe(&self) -> BlockDesc {
+        BlockDesc {
+            name: "counter4".to_string(),
+            doc: "4-bit counter for testing the co-simulation harness".to_string(),
+            params: vec![],
+            ports: vec![
+                port("en", Dir::In, 1, "count up"),
+                port("load", Dir::In, 1, "load value"),
+                port("value", Dir::In, 4, "value to load"),
+                port("count", Dir::Out, 4, "current count"),
+                port("wrap", Dir::Out, 1, "counting up from 15 this cycle"),
+            ],
+            registers: vec![],
+            memories: vec![],
+            fsms: vec![],
+            timing: vec![],
+        }
+    }
+}
+
+const COUNTER_V: &str = "\
+module counter4 (
+    input  wire       clk,
+    input  wire       rst,
+    input  wire       en,
+    input  wire       load,
+    input  wire [3:0] value,
+    output wire [3:0] count,
+    output wire       wrap
+);
+    reg [3:0] count_q;
+    always @(posedge clk) begin
+        if (rst) count_q <= 4'd0;
+        else if (load) count_q <= value;
+        else if (en) count_q <= NEXT;
+    end
+    assign count = count_q;
+    assign wrap = en && (count_q == 4'd15);
+endmodule
+";
+
+fn counter_v(broken: bool) -> String {
+    let next = if broken {
+        "(count_q == 4'd9) ? 4'd11 : count_q + 4'd1"
+    } else {
+        "count_q + 4'd1"
+    };
+    COUNTER_V.replace("NEXT", next)
+}
+
+/// Deterministic pseudo-random inputs (xorshift64*): enable most of the time, load rarely.
+fn inputs(cycles: usize, seed: u64) -> Vec<CounterIn> {
+    let mut s = seed;
+    (0..cycles)
+        .map(|_| {
+            s ^= s >> 12;
+            s ^= s << 25;
+            s ^= s >> 27;
+            let r = s.wrapping_mul(0x2545_f491_4f6c_dd1d);
+            CounterIn {
+                en: r & 7 != 0,
+                load: (r >> 3) & 31 == 0,
+                value: (r >> 8) & 15,
+            }
+        })
+        .collect()
+}
+
+fn work_dir(test: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("vtq-gen-{test}"))
+}
+
+fn write_dut(dir: &PathBuf, broken: bool) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join("counter4.v");
+    std::fs::write(&path, counter_v(broken)).unwrap();
+    path
+}
+
+#[test]
+fn handwritten_counter_is_lint_clean() {
+    let dir = work_dir("counter-lint");
+    let dut = write_dut(&dir, false);
+    let Some(report) = or_skip(lint(&[dut], "counter4", &dir)).unwrap() else {
+        return;
+    };
+    assert!(report.is_clean(), "{report}");
+}
+
+#[test]
+fn counter_matches_over_100k_random_cycles() {
+    let dir = work_dir("counter-icarus");
+    let dut = write_dut(&dir, false);
+    let block = Counter { skip_ten: false };
+    let trace = record(&block, inputs(100_000, 0x9e37_79b9_7f4a_7c15)).unwrap();
+    assert_eq!(trace.cycles(), 100_000);
+    // The random inputs do exercise the Mealy output and the load path.
+    assert!((0..trace.cycles()).any(|c| trace.output_values(c)[1] == 1));
+    let Some(result) = or_skip(run_cosim(&trace, &[dut], &CosimOptions::icarus(&dir))).unwrap()
+    else {
+        return;
+    };
+    assert_eq!(result.cycles, 100_000, "{result}");
+    assert!(result.passed(), "{result}");
+    assert!(result.reported.is_empty());
+}
+
+#[test]
+fn broken_counter_mismatch_is_found_at_the_right_cycle() {
+    let dir = work_dir("counter-broken");
+    let dut = write_dut(&dir, true);
+    let stimulus = inputs(5_000, 42);
+    let good = record(&Counter { skip_ten: false }, stimulus.clone()).unwrap();
+    let bad = record(&Counter { skip_ten: true }, stimulus).unwrap();
+    // The first cycle where the broken model's outputs differ is where the broken Verilog
+    // must first disagree with the correct Rust block.
+    let (first_cycle, first_signal) = (0..good.cycles())
+        .find_map(|c| {
+            let (g, b) = (good.output_values(c), bad.output_values(c));
+            (0..g.len())
+                .find(|&i| g[i] != b[i])
+                .map(|i| (c as u64, good.outputs[i].name.clone()))
+        })
+        .expect("the stimulus never reaches 10 by counting");
+    let Some(result) = or_skip(run_cosim(&good, &[dut], &CosimOptions::icarus(&dir))).unwrap()
+    else {
+        return;
+    };
+    assert!(!result.passed(), "{result}");
+    assert_eq!(result.cycles, 5_000);
+    let m = &result.reported[0];
+    assert_eq!(
+        (m.cycle, m.signal.as_str()),
+        (first_cycle, first_signal.as_str()),
+        "{result}"
+    );
+    assert_eq!(m.expected.trim_start_matches('0'), "a", "{result}");
+    assert_eq!(m.got.trim_start_matches('0'), "b", "{result}");
+    assert!(result.reported.len() <= 10);
+    // Every cycle where the broken model differs is counted.
+    let differing = (0..good.cycles())
+        .map(|c| {
+            let (g, b) = (good.output_values(c), bad.output_values(c));
+            (0..g.len()).filter(|&i| g[i] != b[i]).count() as u64
+        })
+        .sum::<u64>();
+    assert_eq!(result.mismatches, differing, "{result}");
+}
+
+#[test]
+fn counter_matches_under_verilator() {
+    let dir = work_dir("counter-verilator");
+    let dut = write_dut(&dir, false);
+    let opts = CosimOptions {
+        simulator: Simulator::Verilator,
+        ..CosimOptions::icarus(&dir)
+    };
+    let block = Counter { skip_ten: false };
+    let Some(result) = or_skip(cosim_block(&block, inputs(2_000, 7), &[dut], &opts)).unwrap()
+    else {
+        return;
+    };
+    assert_eq!(result.cycles, 2_000, "{result}");
+    assert!(result.passed(), "{result}");
+}
+
+#[test]
+fn testbench_follows_the_timing_convention() {
+    let trace = record(&Counter { skip_ten: false }, inputs(3, 1)).unwrap();
+    let tb = write_testbench(&trace, 10);
+    // Inputs are applied, then outputs compared after 1 ns, then the rising edge.
+    let apply = tb.find("i_value = vec_now").unwrap();
+    let settle = tb.find("#1;").unwrap();
+    let compare = tb.find("check(cycle, \"count\"").unwrap();
+    let edge = tb.find("#4 clk = 1'b1;").unwrap();
+    assert!(apply < settle && settle < compare && compare < edge);
+    assert!(tb.contains("cosim: %0d cycles compared, %0d mismatches"));
+}
+
+#[test]
+fn record_rejects_signals_that_do_not_match_the_ports() {
+    struct Renamed;
+    impl Block for Renamed {
+        type Inputs = CounterIn;
+        type Outputs = CounterOut;
+        type Regs = CounterRegs;
+        fn reset(&self) -> CounterRegs {
+            Counter { skip_ten: false }.reset()
+        }
+        fn eval(&self, r: &CounterRegs, i: &CounterIn) -> (CounterOut, CounterRegs) {
+            Counter { skip_ten: false }.eval(r, i)
+        }
+        fn describe(&self) -> BlockDesc {
+            let mut d = Counter { skip_ten: false }.describe();
+            d.ports[2].width = 5;
+            d
+        }
+    }
+    let e = record(&Renamed, inputs(3, 1)).unwrap_err();
+    assert!(matches!(e, GenError::Cosim { .. }), "{e}");
+    assert!(e.to_string().contains("`value`"), "{e}");
+    let e = record(&Counter { skip_ten: false }, Vec::new()).unwrap_err();
+    assert!(e.to_string().contains("no input cycles"), "{e}");
+}

@@ -1,0 +1,397 @@
+//! The RT unit's port bundles (inputs, outputs) and register bundle, with the per-ray records
+//! that enter and leave the warp buffer.
+
+use super::node::{Hit, NodeEntry, RayWords, CHUNK_BYTES, MAX_NODE_CHUNKS};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Sticky error flags of the RT unit (the `errors` register and output). A set flag means the
+/// environment broke the block's protocol or the datapath returned something the hardware cannot
+/// hold; the offending item was dropped, so results after it are not trustworthy.
+pub mod errors {
+    /// A warp was issued while `issue_ready` was low (the warp was dropped).
+    pub const ISSUE_WHILE_FULL: u8 = 1 << 0;
+    /// An issued warp failed [`super::super::RtUnit::check_issue`] (the warp was dropped).
+    pub const BAD_ISSUE: u8 = 1 << 1;
+    /// More responses arrived than the response FIFO had room for, or than it has ports.
+    pub const FIFO_OVERFLOW: u8 = 1 << 2;
+    /// A response matched no node in flight (wrong tag, address or duplicate chunk).
+    pub const UNMATCHED_RESPONSE: u8 = 1 << 3;
+    /// A push exceeded `stack_depth` (the child was dropped).
+    pub const STACK_OVERFLOW: u8 = 1 << 4;
+    /// The datapath returned a child that is misaligned, of a bad size or outside the address
+    /// space (the child was dropped).
+    pub const BAD_CHILD: u8 = 1 << 5;
+    /// Width of the error register.
+    pub const BITS: u32 = 6;
+}
+
+/// Which traversal order a warp uses (set per warp at issue, held in its slot).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub enum TraversalOrder {
+    /// Single stack: every child goes on the current stack (baseline ray-stationary order).
+    #[default]
+    RayStationary,
+    /// Two-stack treelet order; at a treelet boundary the ray reports the treelet it needs next
+    /// and continues into it (the initial traversal phase).
+    TreeletContinue,
+    /// Two-stack treelet order; at a treelet boundary the ray reports the treelet it needs next
+    /// and stops (a treelet warp in treelet-stationary mode).
+    TreeletStop,
+}
+
+impl TraversalOrder {
+    /// Every order in encoding order.
+    pub const ALL: [TraversalOrder; 3] = [
+        TraversalOrder::RayStationary,
+        TraversalOrder::TreeletContinue,
+        TraversalOrder::TreeletStop,
+    ];
+
+    /// Width of the encoded order.
+    pub const BITS: u32 = 2;
+
+    /// Encoding (index in [`TraversalOrder::ALL`]).
+    pub fn code(self) -> u64 {
+        match self {
+            TraversalOrder::RayStationary => 0,
+            TraversalOrder::TreeletContinue => 1,
+            TraversalOrder::TreeletStop => 2,
+        }
+    }
+
+    /// Whether the order keeps a separate other-treelet stack.
+    pub fn two_stack(self) -> bool {
+        self != TraversalOrder::RayStationary
+    }
+}
+
+/// A ray's complete traversal state: loaded into a warp-buffer lane at issue and handed back
+/// when the warp completes (so a ray stopped at a treelet boundary can resume in another warp).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct RayRecord {
+    /// Ray id (below `max_rays`).
+    pub ray_id: u32,
+    /// Origin, direction, tmin, tmax as f32 bit patterns.
+    pub words: RayWords,
+    /// Closest hit so far.
+    pub hit: Option<Hit>,
+    /// Treelet (address >> log2(treelet_bytes)) the current stack belongs to.
+    pub current_treelet: u64,
+    /// Current-treelet stack, bottom first (the last entry is popped next).
+    pub current_stack: Vec<NodeEntry>,
+    /// Other-treelet stack, bottom first; when the current stack is empty its top is popped and
+    /// its treelet becomes the current treelet.
+    pub other_stack: Vec<NodeEntry>,
+}
+
+impl RayRecord {
+    /// A fresh ray starting at `root`: the root sits on the other stack, so the first fetch makes
+    /// the root's treelet the current treelet.
+    pub fn new(ray_id: u32, words: RayWords, root: NodeEntry) -> Self {
+        RayRecord {
+            ray_id,
+            words,
+            hit: None,
+            current_treelet: 0,
+            current_stack: Vec::new(),
+            other_stack: vec![root],
+        }
+    }
+
+    /// The node the ray visits next (top of the current stack, else top of the other stack).
+    pub fn next_node(&self) -> Option<NodeEntry> {
+        self.current_stack
+            .last()
+            .or(self.other_stack.last())
+            .copied()
+    }
+
+    /// Whether both stacks are empty (traversal finished).
+    pub fn finished(&self) -> bool {
+        self.current_stack.is_empty() && self.other_stack.is_empty()
+    }
+}
+
+/// A warp handed to the RT unit (`traceRayEXT()` from the raygen shader, or a treelet / repacked
+/// warp from the treelet controller).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct WarpIssue {
+    /// Traversal order of the warp.
+    pub order: TraversalOrder,
+    /// One entry per lane (`warp_size` of them); `None` is an inactive lane.
+    pub lanes: Vec<Option<RayRecord>>,
+}
+
+/// One 32 B memory request of the RT unit (to the L1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemRequest {
+    /// Byte address (32 B aligned).
+    pub address: u64,
+    /// A store of a hit record (no response follows) rather than a node load.
+    pub is_store: bool,
+    /// Requesting warp slot and lane, `slot << lane_bits | lane`; a load's response must carry it
+    /// back.
+    pub tag: u32,
+    /// Store data (the hit record); zero for loads.
+    pub data: [u8; CHUNK_BYTES as usize],
+}
+
+/// One 32 B chunk returned by memory for a load.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemResponse {
+    /// Byte address of the chunk.
+    pub address: u64,
+    /// Tag of the request it answers.
+    pub tag: u32,
+    /// The chunk's bytes.
+    pub data: [u8; CHUNK_BYTES as usize],
+}
+
+/// How a ray left the RT unit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RayOutcome {
+    /// Both stacks are empty: traversal is complete.
+    Finished,
+    /// Stopped at a treelet boundary ([`TraversalOrder::TreeletStop`]); needs this treelet next.
+    AtBoundary {
+        /// Treelet (address >> log2(treelet_bytes)) of the node the ray visits next.
+        treelet: u64,
+    },
+}
+
+/// A completed warp leaving the RT unit.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WarpDone {
+    /// Warp-buffer slot it occupied.
+    pub slot: u32,
+    /// Per lane the ray's final state and how it left; `None` for inactive lanes.
+    pub lanes: Vec<Option<(RayRecord, RayOutcome)>>,
+}
+
+/// A ray reached a treelet boundary: its current stack emptied and its next node lies in
+/// another treelet (reported to the treelet controller).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoundaryEvent {
+    /// Warp-buffer slot of the ray.
+    pub slot: u32,
+    /// Lane of the ray.
+    pub lane: u32,
+    /// Ray id.
+    pub ray_id: u32,
+    /// Treelet the ray needs next.
+    pub treelet: u64,
+}
+
+/// Widths of the fields of the port and register bundles, fixed by the configuration; they let a
+/// bundle list its signals with the same names and widths every cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Widths {
+    /// Lanes per warp.
+    pub warp_size: u32,
+    /// Warp-buffer slots.
+    pub slots: u32,
+    /// Response ports (responses accepted per cycle).
+    pub resp_ports: u32,
+    /// Bits of a ray id.
+    pub ray_id: u32,
+    /// Bits of a byte address.
+    pub address: u32,
+    /// Bits of a treelet number.
+    pub treelet: u32,
+    /// Bits of a lane index.
+    pub lane: u32,
+    /// Bits of a slot index.
+    pub slot: u32,
+    /// Bits of a request tag (slot and lane).
+    pub tag: u32,
+    /// Bits of the response-FIFO occupancy and free count.
+    pub fifo_count: u32,
+    /// Bits of an intersection-delay counter.
+    pub delay: u32,
+}
+
+/// The RT unit's inputs for one cycle. Build an idle bundle with
+/// [`super::RtUnit::idle_inputs`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RtUnitInputs {
+    /// Field widths (constant).
+    pub widths: Widths,
+    /// A warp to load into a free slot (only when `issue_ready`).
+    pub issue: Option<WarpIssue>,
+    /// Responses from memory this cycle, at most `resp_ports` and at most `resp_free`.
+    pub responses: Vec<MemResponse>,
+}
+
+/// The RT unit's outputs for one cycle.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RtUnitOutputs {
+    /// Field widths (constant).
+    pub widths: Widths,
+    /// A warp slot is free: a warp may be issued this cycle (depends on registers only).
+    pub issue_ready: bool,
+    /// Free response-FIFO entries at the start of the cycle (depends on registers only).
+    pub resp_free: u32,
+    /// The one 32 B memory request of this cycle.
+    pub request: Option<MemRequest>,
+    /// The one warp completing this cycle.
+    pub done: Option<WarpDone>,
+    /// Rays that reached a treelet boundary this cycle (all from the slot whose response was
+    /// popped).
+    pub boundary: Vec<BoundaryEvent>,
+    /// Sticky error flags ([`errors`]), including any raised this cycle.
+    pub errors: u8,
+}
+
+/// Traversal status of a warp-buffer lane (the lane state machine).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum LaneStatus {
+    /// No ray in this lane.
+    #[default]
+    Inactive,
+    /// The ray is traversing (fetching, testing or waiting to fetch).
+    Traversing,
+    /// Both stacks are empty.
+    Done,
+    /// Stopped at a treelet boundary (treelet-stop order).
+    Parked,
+}
+
+impl LaneStatus {
+    /// State names in encoding order.
+    pub const NAMES: [&'static str; 4] = ["inactive", "traversing", "done", "parked"];
+
+    /// Encoding (index in [`LaneStatus::NAMES`]).
+    pub fn code(self) -> u64 {
+        match self {
+            LaneStatus::Inactive => 0,
+            LaneStatus::Traversing => 1,
+            LaneStatus::Done => 2,
+            LaneStatus::Parked => 3,
+        }
+    }
+}
+
+/// The node a lane is fetching.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct InFlight {
+    /// The node.
+    pub node: NodeEntry,
+    /// Lane whose request (tag) fetches it; merged lanes share the leader's responses.
+    pub leader: u32,
+    /// Bit `k` set when chunk `k` has returned.
+    pub returned: u8,
+}
+
+/// One warp-buffer lane (ray buffer entry).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Lane {
+    /// Lane state.
+    pub status: LaneStatus,
+    /// The ray's record (geometry, hit, stacks, current treelet).
+    pub ray: RayRecord,
+    /// The node in flight, if any.
+    pub in_flight: Option<InFlight>,
+    /// Chunks of the node in flight returned so far.
+    pub chunks: [[u8; CHUNK_BYTES as usize]; MAX_NODE_CHUNKS],
+    /// Intersection-delay countdown; the next fetch waits until it is 0.
+    pub delay: u32,
+    /// A hit record is waiting to be stored.
+    pub store_pending: bool,
+}
+
+impl Lane {
+    /// The lane may request its next node: traversing, nothing in flight, delay 0, a node
+    /// left on a stack.
+    pub fn ready(&self) -> bool {
+        self.status == LaneStatus::Traversing
+            && self.in_flight.is_none()
+            && self.delay == 0
+            && self.ray.next_node().is_some()
+    }
+
+    /// Nothing of the lane is outstanding (its warp may complete as far as the lane goes).
+    pub fn quiescent(&self) -> bool {
+        self.status != LaneStatus::Traversing
+            && self.in_flight.is_none()
+            && self.delay == 0
+            && !self.store_pending
+    }
+}
+
+/// One warp-buffer slot.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct WarpSlot {
+    /// The slot holds a warp.
+    pub valid: bool,
+    /// The warp's traversal order.
+    pub order: TraversalOrder,
+    /// `warp_size` lanes.
+    pub lanes: Vec<Lane>,
+}
+
+/// The remaining chunks of the node whose first chunk was requested (highest scheduler
+/// priority).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Split {
+    /// Request tag of the node.
+    pub tag: u32,
+    /// The node.
+    pub node: NodeEntry,
+    /// Chunk to request next.
+    pub next_chunk: u8,
+}
+
+/// Statistics registers.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+pub struct RtStats {
+    /// Sum over cycles and valid warps of traversing lanes.
+    pub active_thread_cycles: u64,
+    /// Sum over cycles of valid warps (RT-unit warp cycles).
+    pub warp_cycles: u64,
+    /// 32 B load requests issued.
+    pub requests: u64,
+    /// Hit-record stores issued.
+    pub stores: u64,
+    /// Lanes served by another lane's request (merged within a warp).
+    pub merged: u64,
+    /// Node tests per kind, indexed by [`super::NodeKind::code`].
+    pub tests: [u64; 6],
+    /// Triangle tests that reported a hit.
+    pub hits: u64,
+    /// Warps completed.
+    pub warps_done: u64,
+}
+
+impl RtStats {
+    /// Width of each statistics counter.
+    pub const BITS: u32 = 48;
+
+    /// SIMT efficiency: active threads / `warp_size` per RT-unit warp cycle (0 with no cycles).
+    pub fn simt_efficiency(&self, warp_size: u32) -> f64 {
+        if self.warp_cycles == 0 {
+            0.0
+        } else {
+            self.active_thread_cycles as f64 / (self.warp_cycles as f64 * warp_size as f64)
+        }
+    }
+}
+
+/// All state of the RT unit's control.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RtUnitRegs {
+    /// Field widths (constant, for traces).
+    pub widths: Widths,
+    /// The warp buffer.
+    pub slots: Vec<WarpSlot>,
+    /// Valid slots, oldest first (the age order of the memory scheduler and of completion).
+    pub age: Vec<u32>,
+    /// The response FIFO.
+    pub fifo: VecDeque<MemResponse>,
+    /// Remaining chunks of the node being requested.
+    pub split: Option<Split>,
+    /// Sticky error flags ([`errors`]).
+    pub errors: u8,
+    /// Statistics counters.
+    pub stats: RtStats,
+}

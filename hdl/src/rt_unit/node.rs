@@ -1,0 +1,254 @@
+//! What the RT unit's control knows about BVH nodes: node references as held on the traversal
+//! stacks, the intersection latency of each node kind, and the interface to the (external,
+//! combinational) intersection datapath that decides which children a ray visits.
+
+use super::RtUnitError;
+use serde::{Deserialize, Serialize};
+
+/// Bytes of one memory request and of one response chunk (the RT unit's access granularity).
+pub const CHUNK_BYTES: u32 = 32;
+
+/// Mask of the byte-offset bits within a chunk (an address is chunk aligned when these are 0).
+pub const CHUNK_MASK: u64 = CHUNK_BYTES as u64 - 1;
+
+/// Largest node the RT unit fetches, in 32 B chunks (a 128 B instance leaf, FACTS.md "BVH format").
+pub const MAX_NODE_CHUNKS: usize = 4;
+
+/// 32-bit words of a ray record: origin xyz, direction xyz, tmin, tmax (32 B, FACTS.md).
+pub const RAY_WORDS: usize = 8;
+
+/// Index of the tmin word in [`RayWords`].
+pub const TMIN_WORD: usize = 6;
+
+/// Index of the tmax word in [`RayWords`] (a hit lowers it).
+pub const TMAX_WORD: usize = 7;
+
+/// A ray's geometry as raw 32-bit words (f32 bit patterns), in the order of [`RAY_WORDS`].
+pub type RayWords = [u32; RAY_WORDS];
+
+/// The kind of a BVH node, as encoded by its parent (Intel/Vulkan-Sim layout); it selects the
+/// intersection test and its latency.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize,
+)]
+pub enum NodeKind {
+    /// BVH header (top of an acceleration structure).
+    Header,
+    /// Internal node: a box test of its children.
+    #[default]
+    Internal,
+    /// Instance leaf: transforms the ray into a bottom-level structure.
+    InstanceLeaf,
+    /// Primitive-leaf descriptor.
+    PrimitiveDescriptor,
+    /// Triangle (quad) leaf: a ray/triangle test.
+    TriangleLeaf,
+    /// Procedural leaf: a ray/procedural-primitive test.
+    Procedural,
+}
+
+impl NodeKind {
+    /// Every kind, in encoding order (kind `k` is encoded as its index here).
+    pub const ALL: [NodeKind; 6] = [
+        NodeKind::Header,
+        NodeKind::Internal,
+        NodeKind::InstanceLeaf,
+        NodeKind::PrimitiveDescriptor,
+        NodeKind::TriangleLeaf,
+        NodeKind::Procedural,
+    ];
+
+    /// Bits of the kind field of a stack entry.
+    pub const BITS: u32 = 3;
+
+    /// The kind's encoding (its index in [`NodeKind::ALL`]).
+    pub fn code(self) -> u64 {
+        NodeKind::ALL.iter().position(|&k| k == self).unwrap_or(0) as u64
+    }
+
+    /// snake_case name, used for statistics and signal names.
+    pub fn name(self) -> &'static str {
+        match self {
+            NodeKind::Header => "header",
+            NodeKind::Internal => "internal",
+            NodeKind::InstanceLeaf => "instance_leaf",
+            NodeKind::PrimitiveDescriptor => "primitive_descriptor",
+            NodeKind::TriangleLeaf => "triangle_leaf",
+            NodeKind::Procedural => "procedural",
+        }
+    }
+}
+
+/// A reference to a node to visit: what a traversal-stack entry and the node in flight hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub struct NodeEntry {
+    /// Byte address of the node (32 B aligned).
+    pub address: u64,
+    /// Kind of the node (decides the test and its latency).
+    pub kind: NodeKind,
+    /// Size in 32 B chunks, 1..=[`MAX_NODE_CHUNKS`] (a 64 B node is 2 chunks).
+    pub chunks: u8,
+}
+
+impl NodeEntry {
+    /// A node of `bytes` bytes (32, 64, 96 or 128) at a 32 B aligned `address`.
+    pub fn new(address: u64, kind: NodeKind, bytes: u32) -> Result<Self, RtUnitError> {
+        let chunks = bytes / CHUNK_BYTES;
+        if bytes & (CHUNK_BYTES - 1) != 0 || chunks == 0 || chunks as usize > MAX_NODE_CHUNKS {
+            return Err(RtUnitError::BadNode {
+                address,
+                reason: format!("size {bytes} B is not 32, 64, 96 or 128"),
+            });
+        }
+        if address & CHUNK_MASK != 0 {
+            return Err(RtUnitError::BadNode {
+                address,
+                reason: "address is not 32 B aligned".into(),
+            });
+        }
+        Ok(NodeEntry {
+            address,
+            kind,
+            chunks: chunks as u8,
+        })
+    }
+
+    /// Size of the node in bytes.
+    pub fn bytes(&self) -> u32 {
+        self.chunks as u32 * CHUNK_BYTES
+    }
+
+    /// Bits of a stack entry for `address_bits`-bit addresses: address, kind, chunks - 1.
+    pub fn bits(address_bits: u32) -> u32 {
+        address_bits + NodeKind::BITS + 2
+    }
+
+    /// The entry packed as stored in a stack: `{address, kind, chunks - 1}`, address in the high bits.
+    pub fn encode(&self) -> u64 {
+        (self.address << (NodeKind::BITS + 2))
+            | (self.kind.code() << 2)
+            | (self.chunks.saturating_sub(1) as u64 & 3)
+    }
+}
+
+/// Intersection-test latencies in cycles per node kind, from FACTS.md "RT unit timing" (the
+/// public Vulkan-Sim treelet-prefetching configuration): header 2, internal 4, instance leaf 4,
+/// primitive-leaf descriptor 2, triangle (quad) leaf 4, triangle hit 4, procedural 4.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Latencies {
+    /// BVH header.
+    pub header: u32,
+    /// Internal node (box tests of all children in parallel).
+    pub internal: u32,
+    /// Instance leaf.
+    pub instance_leaf: u32,
+    /// Primitive-leaf descriptor.
+    pub primitive_descriptor: u32,
+    /// Triangle leaf whose triangle is missed.
+    pub triangle_leaf: u32,
+    /// Triangle leaf whose triangle is hit (replaces `triangle_leaf`; the hit also writes a 32 B
+    /// hit record).
+    pub triangle_hit: u32,
+    /// Procedural leaf.
+    pub procedural: u32,
+}
+
+impl Default for Latencies {
+    fn default() -> Self {
+        Latencies {
+            header: 2,
+            internal: 4,
+            instance_leaf: 4,
+            primitive_descriptor: 2,
+            triangle_leaf: 4,
+            triangle_hit: 4,
+            procedural: 4,
+        }
+    }
+}
+
+impl Latencies {
+    /// Latency of a test of a `kind` node; `hit` selects the triangle-hit latency for a
+    /// triangle leaf whose test reported a hit.
+    pub fn of(&self, kind: NodeKind, hit: bool) -> u32 {
+        match kind {
+            NodeKind::Header => self.header,
+            NodeKind::Internal => self.internal,
+            NodeKind::InstanceLeaf => self.instance_leaf,
+            NodeKind::PrimitiveDescriptor => self.primitive_descriptor,
+            NodeKind::TriangleLeaf if hit => self.triangle_hit,
+            NodeKind::TriangleLeaf => self.triangle_leaf,
+            NodeKind::Procedural => self.procedural,
+        }
+    }
+
+    /// The largest latency (sets the width of the intersection-delay counters).
+    pub fn max(&self) -> u32 {
+        self.all().into_iter().map(|(_, v)| v).max().unwrap_or(0)
+    }
+
+    /// Every latency with its name.
+    fn all(&self) -> [(&'static str, u32); 7] {
+        [
+            ("header", self.header),
+            ("internal", self.internal),
+            ("instance_leaf", self.instance_leaf),
+            ("primitive_descriptor", self.primitive_descriptor),
+            ("triangle_leaf", self.triangle_leaf),
+            ("triangle_hit", self.triangle_hit),
+            ("procedural", self.procedural),
+        ]
+    }
+
+    /// Every latency must be 1..=255 cycles.
+    pub fn validate(&self) -> Result<(), RtUnitError> {
+        for (name, v) in self.all() {
+            if !(1..=255).contains(&v) {
+                return Err(RtUnitError::BadParam {
+                    name: "latencies",
+                    value: v as u64,
+                    reason: format!("{name} latency must be 1..=255 cycles"),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A closest-hit update reported by a leaf test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Hit {
+    /// New tmax (f32 bit pattern); written to the ray's [`TMAX_WORD`].
+    pub t: u32,
+    /// Identifier of the primitive hit (written to the hit record).
+    pub hit_id: u32,
+    /// Two attribute words of the hit record (e.g. barycentrics u, v as f32 bits).
+    pub attribs: [u32; 2],
+}
+
+/// What one node test decided for one ray.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct TestResult {
+    /// Children to visit, in visit order (the first is visited first).
+    pub children: Vec<NodeEntry>,
+    /// A closer hit, if the node is a leaf the ray hits before its current tmax.
+    pub hit: Option<Hit>,
+}
+
+/// The RT unit's intersection datapath (box, triangle, procedural tests), supplied by the
+/// block's user: the simulator plugs in the real BVH decoder, tests plug in a toy tree.
+///
+/// It models combinational logic whose result is ready after the latency of
+/// [`Latencies::of`]; it must be a pure function of its arguments (no interior mutability), so
+/// that [`crate::Block::eval`] stays pure and deterministic.
+pub trait NodeDatapath {
+    /// Tests the ray `ray` against `node`, whose `node.bytes()` bytes (all chunks, in address
+    /// order) are `data`.
+    fn test(&self, ray: &RayWords, node: &NodeEntry, data: &[u8]) -> TestResult;
+}
+
+impl<T: NodeDatapath + ?Sized> NodeDatapath for &T {
+    fn test(&self, ray: &RayWords, node: &NodeEntry, data: &[u8]) -> TestResult {
+        (**self).test(ray, node, data)
+    }
+}

@@ -1,0 +1,928 @@
+//! Tests of the RT unit control block with a toy datapath and a fixed-latency memory.
+
+use std::collections::BTreeMap;
+use vtq_hdl::rt_unit::{
+    errors, BoundaryEvent, Hit, Lane, LaneStatus, MemRequest, MemResponse, NodeDatapath, NodeEntry,
+    NodeKind, RayOutcome, RayRecord, RayWords, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams,
+    RtUnitRegs, Split, TestResult, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+};
+use vtq_hdl::{Block, HwConfig, Signals};
+
+/// Last byte of every toy node; a node assembled from wrong or missing chunks lacks it.
+const MAGIC: u8 = 0xA5;
+/// Child mask selecting every ray.
+const ALL: u8 = 0xFF;
+/// Default test latencies (FACTS.md): internal node and triangle leaf / hit.
+const L_INTERNAL: u64 = 4;
+const L_TRIANGLE: u64 = 4;
+
+/// Toy node format: byte 0 child count, byte 1 hit flag, children from byte 4 as 8 bytes each
+/// (address u32 LE, kind code, size in chunks, lane mask, 0), last byte [`MAGIC`]. A child is
+/// visited by a ray when bit `ray[0]` of its mask is set; a hit reports t = 0.5 and the node's
+/// address as hit id.
+#[derive(Debug)]
+struct ToyDatapath;
+
+impl NodeDatapath for ToyDatapath {
+    fn test(&self, ray: &RayWords, node: &NodeEntry, data: &[u8]) -> TestResult {
+        if data.len() != node.bytes() as usize || data.last() != Some(&MAGIC) {
+            return TestResult::default();
+        }
+        let select = 1u8 << (ray[0] & 7);
+        let children = (0..data[0] as usize)
+            .map(|i| &data[4 + 8 * i..12 + 8 * i])
+            .filter(|c| c[6] & select != 0)
+            .map(|c| NodeEntry {
+                address: u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as u64,
+                kind: NodeKind::ALL[c[4] as usize],
+                chunks: c[5],
+            })
+            .collect();
+        let hit = (data[1] != 0).then(|| Hit {
+            t: 0.5f32.to_bits(),
+            hit_id: node.address as u32,
+            attribs: [1, 2],
+        });
+        TestResult { children, hit }
+    }
+}
+
+fn node(address: u64, kind: NodeKind, bytes: u32) -> NodeEntry {
+    NodeEntry::new(address, kind, bytes).unwrap()
+}
+
+/// BVH memory of toy nodes, by 32 B chunk address.
+#[derive(Default)]
+struct Tree {
+    chunks: BTreeMap<u64, [u8; 32]>,
+}
+
+impl Tree {
+    fn add(&mut self, n: NodeEntry, hit: bool, children: &[(NodeEntry, u8)]) -> &mut Self {
+        let mut bytes = vec![0u8; n.bytes() as usize];
+        bytes[0] = children.len() as u8;
+        bytes[1] = hit as u8;
+        for (i, (c, mask)) in children.iter().enumerate() {
+            let at = 4 + 8 * i;
+            bytes[at..at + 4].copy_from_slice(&(c.address as u32).to_le_bytes());
+            bytes[at + 4] = c.kind.code() as u8;
+            bytes[at + 5] = c.chunks;
+            bytes[at + 6] = *mask;
+        }
+        *bytes.last_mut().unwrap() = MAGIC;
+        for (k, chunk) in bytes.chunks_exact(32).enumerate() {
+            self.chunks
+                .insert(n.address + 32 * k as u64, chunk.try_into().unwrap());
+        }
+        self
+    }
+}
+
+/// Memory returning each load's chunk `latency` cycles after the request (plus a per-address
+/// extra delay), never before `hold_until`, as many per cycle as the RT unit accepts.
+struct Memory {
+    tree: Tree,
+    latency: u64,
+    extra: BTreeMap<u64, u64>,
+    hold_until: u64,
+    pending: Vec<(u64, MemResponse)>,
+    log: Vec<(u64, MemRequest)>,
+}
+
+impl Memory {
+    fn new(tree: Tree, latency: u64) -> Self {
+        Memory {
+            tree,
+            latency,
+            extra: BTreeMap::new(),
+            hold_until: 0,
+            pending: Vec::new(),
+            log: Vec::new(),
+        }
+    }
+
+    fn deliver(&mut self, cycle: u64, max: usize) -> Vec<MemResponse> {
+        if cycle < self.hold_until {
+            return Vec::new();
+        }
+        // `pending` is in request order; take the due ones oldest first.
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < self.pending.len() && out.len() < max {
+            if self.pending[i].0 <= cycle {
+                out.push(self.pending.remove(i).1);
+            } else {
+                i += 1;
+            }
+        }
+        out
+    }
+
+    fn accept(&mut self, cycle: u64, req: Option<MemRequest>) {
+        let Some(req) = req else { return };
+        self.log.push((cycle, req));
+        if !req.is_store {
+            let due = cycle + self.latency + self.extra.get(&req.address).copied().unwrap_or(0);
+            let data = self
+                .tree
+                .chunks
+                .get(&req.address)
+                .copied()
+                .unwrap_or([0; 32]);
+            self.pending.push((
+                due,
+                MemResponse {
+                    address: req.address,
+                    tag: req.tag,
+                    data,
+                },
+            ));
+        }
+    }
+
+    /// (cycle, address, is_store) of every request.
+    fn requests(&self) -> Vec<(u64, u64, bool)> {
+        self.log
+            .iter()
+            .map(|(c, r)| (*c, r.address, r.is_store))
+            .collect()
+    }
+}
+
+/// The RT unit, its registers and its memory, stepped cycle by cycle.
+struct Sim {
+    unit: RtUnit<ToyDatapath>,
+    regs: RtUnitRegs,
+    mem: Memory,
+    cycle: u64,
+    use_eval: bool,
+    done: Vec<(u64, WarpDone)>,
+    events: Vec<(u64, BoundaryEvent)>,
+    outputs: Vec<RtUnitOutputs>,
+    max_fifo: usize,
+}
+
+impl Sim {
+    fn new(cfg: HwConfig, params: RtUnitParams, mem: Memory) -> Self {
+        let unit = RtUnit::new(cfg, params, ToyDatapath).unwrap();
+        let regs = unit.reset();
+        Sim {
+            unit,
+            regs,
+            mem,
+            cycle: 0,
+            use_eval: false,
+            done: Vec::new(),
+            events: Vec::new(),
+            outputs: Vec::new(),
+            max_fifo: 0,
+        }
+    }
+
+    fn step(&mut self, issue: Option<WarpIssue>) {
+        let mut inputs = self.unit.idle_inputs();
+        inputs.issue = issue;
+        let max = self
+            .unit
+            .resp_free(&self.regs)
+            .min(self.unit.params().resp_ports);
+        inputs.responses = self.mem.deliver(self.cycle, max as usize);
+        let out = if self.use_eval {
+            let (out, next) = self.unit.eval(&self.regs, &inputs);
+            self.regs = next;
+            out
+        } else {
+            self.unit.step(&mut self.regs, &inputs)
+        };
+        self.max_fifo = self.max_fifo.max(self.regs.fifo.len());
+        self.mem.accept(self.cycle, out.request);
+        if let Some(d) = &out.done {
+            self.done.push((self.cycle, d.clone()));
+        }
+        self.events
+            .extend(out.boundary.iter().map(|e| (self.cycle, *e)));
+        self.outputs.push(out);
+        self.cycle += 1;
+    }
+
+    /// Issues `warps` one per cycle from cycle 0 and runs until all have completed.
+    fn run(&mut self, warps: Vec<WarpIssue>) {
+        let n = self.done.len() + warps.len();
+        for w in warps {
+            assert!(self.unit.issue_ready(&self.regs));
+            self.step(Some(w));
+        }
+        while self.done.len() < n {
+            assert!(self.cycle < 10_000, "warps did not complete");
+            self.step(None);
+        }
+        assert_eq!(self.regs.errors, 0, "protocol errors");
+    }
+}
+
+/// A small configuration: 4-lane warps, 2 warp slots, 16-bit addresses, 256 B treelets.
+fn small() -> HwConfig {
+    HwConfig {
+        max_rays: 16,
+        warp_size: 4,
+        address_bits: 16,
+        treelet_bytes: 256,
+        underpopulation_threshold: 8,
+        repack_threshold: 2,
+        divergence_threshold: 2,
+        warp_buffer_size: 2,
+        stack_depth: 8,
+        ..HwConfig::default()
+    }
+}
+
+/// Ray words selecting child-mask bit `select`.
+fn words(select: u32) -> RayWords {
+    let mut w = [0u32; 8];
+    w[0] = select;
+    w[7] = 1000f32.to_bits();
+    w
+}
+
+/// A warp of `lanes` (`None` inactive) padded to `warp_size` lanes.
+fn warp(order: TraversalOrder, warp_size: u32, lanes: Vec<Option<RayRecord>>) -> WarpIssue {
+    let mut lanes = lanes;
+    lanes.resize(warp_size as usize, None);
+    WarpIssue { order, lanes }
+}
+
+fn ray(id: u32, select: u32, root: NodeEntry) -> Option<RayRecord> {
+    Some(RayRecord::new(id, words(select), root))
+}
+
+#[test]
+fn single_ray_three_node_path_completes_on_the_derived_cycle() {
+    // Root A (internal, 64 B) -> B (internal, 64 B) -> C (triangle leaf, 32 B, hit).
+    let (a, b, c) = (
+        node(0x100, NodeKind::Internal, 64),
+        node(0x200, NodeKind::Internal, 64),
+        node(0x300, NodeKind::TriangleLeaf, 32),
+    );
+    let mut tree = Tree::default();
+    tree.add(a, false, &[(b, ALL)])
+        .add(b, false, &[(c, ALL)])
+        .add(c, true, &[]);
+    const M: u64 = 10;
+    let params = RtUnitParams {
+        hit_record_base: 0x8000,
+        ..RtUnitParams::default()
+    };
+    let mut sim = Sim::new(HwConfig::default(), params, Memory::new(tree, M));
+    sim.run(vec![warp(
+        TraversalOrder::RayStationary,
+        32,
+        vec![ray(7, 0, a)],
+    )]);
+    // Derivation (M = memory latency: a request in cycle t returns at the input in t + M,
+    // enters the FIFO at the end of that cycle and is popped in t + M + 1; a test of latency L
+    // popped in cycle p allows the next request in p + L + 1):
+    //   issue cycle 0 -> A chunk 0 requested in 1, chunk 1 in 2 (remaining chunks first);
+    //   A's chunks popped in 2 + M and 3 + M; internal test: B requested in 3 + M + 5 = 8 + M,
+    //   B + 32 in 9 + M; B's last chunk popped in 10 + 2M; C requested in 15 + 2M;
+    //   C popped in 16 + 3M: hit -> delay 4, store pending, ray done;
+    //   the store issues in 17 + 3M; the delay reaches 0 at the start of 21 + 3M, so the warp
+    //   completes in 21 + 3M = 51.
+    let expected = vec![
+        (1, 0x100, false),
+        (2, 0x120, false),
+        (8 + M, 0x200, false),
+        (9 + M, 0x220, false),
+        (15 + 2 * M, 0x300, false),
+        (17 + 3 * M, 0x8000 + 7 * 32, true),
+    ];
+    assert_eq!(sim.mem.requests(), expected);
+    assert_eq!(sim.done.len(), 1);
+    let (cycle, done) = &sim.done[0];
+    assert_eq!(*cycle, 21 + 3 * M);
+    assert_eq!(*cycle, 51);
+    let (rec, outcome) = done.lanes[0].as_ref().unwrap();
+    assert_eq!(*outcome, RayOutcome::Finished);
+    assert_eq!(rec.ray_id, 7);
+    assert_eq!(rec.hit.unwrap().hit_id, 0x300);
+    assert_eq!(rec.words[7], 0.5f32.to_bits(), "tmax lowered by the hit");
+    assert!(done.lanes[1..].iter().all(Option::is_none));
+    // The store carries the hit record: t, hit id, attributes, ray id.
+    let store = sim.mem.log.last().unwrap().1;
+    assert_eq!(&store.data[0..4], &0.5f32.to_bits().to_le_bytes());
+    assert_eq!(&store.data[4..8], &0x300u32.to_le_bytes());
+    assert_eq!(&store.data[16..20], &7u32.to_le_bytes());
+    let st = &sim.regs.stats;
+    assert_eq!(st.requests, 5);
+    assert_eq!(st.stores, 1);
+    assert_eq!(st.tests[NodeKind::Internal.code() as usize], 2);
+    assert_eq!(st.tests[NodeKind::TriangleLeaf.code() as usize], 1);
+    assert_eq!(st.hits, 1);
+    assert_eq!(st.warps_done, 1);
+}
+
+#[test]
+fn sixty_four_byte_nodes_take_two_consecutive_requests() {
+    let (a, b) = (
+        node(0x100, NodeKind::Internal, 64),
+        node(0x200, NodeKind::Internal, 64),
+    );
+    let mut tree = Tree::default();
+    tree.add(a, false, &[]).add(b, false, &[]);
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 20));
+    sim.run(vec![
+        warp(TraversalOrder::RayStationary, 4, vec![ray(0, 0, a)]),
+        warp(TraversalOrder::RayStationary, 4, vec![ray(1, 0, b)]),
+    ]);
+    // Warp 1 is ready in cycle 2, but A's second chunk goes first.
+    let reqs = sim.mem.requests();
+    assert_eq!(
+        reqs,
+        vec![
+            (1, 0x100, false),
+            (2, 0x120, false),
+            (3, 0x200, false),
+            (4, 0x220, false)
+        ]
+    );
+    let tags: Vec<u32> = sim.mem.log.iter().map(|(_, r)| r.tag).collect();
+    // tag = slot << lane_bits | lane with 2 lane bits.
+    assert_eq!(tags, vec![0, 0, 4, 4]);
+    // At most one request per cycle over the whole run.
+    for pair in reqs.windows(2) {
+        assert!(pair[0].0 < pair[1].0);
+    }
+}
+
+/// A lane ready to fetch `root`.
+fn ready_lane(id: u32, root: NodeEntry) -> Lane {
+    Lane {
+        status: LaneStatus::Traversing,
+        ray: RayRecord::new(id, words(0), root),
+        ..Lane::default()
+    }
+}
+
+/// A finished lane whose hit record still has to be stored.
+fn storing_lane(id: u32) -> Lane {
+    let mut ray = RayRecord::new(id, words(0), node(0, NodeKind::Internal, 32));
+    ray.other_stack.clear();
+    ray.hit = Some(Hit::default());
+    Lane {
+        status: LaneStatus::Done,
+        ray,
+        store_pending: true,
+        ..Lane::default()
+    }
+}
+
+#[test]
+fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
+    let unit = RtUnit::new(
+        small(),
+        RtUnitParams {
+            hit_record_base: 0x4000,
+            ..RtUnitParams::default()
+        },
+        ToyDatapath,
+    )
+    .unwrap();
+    let mut regs = unit.reset();
+    let (r0, r1, r2) = (
+        node(0x400, NodeKind::Internal, 32),
+        node(0x500, NodeKind::Internal, 64),
+        node(0x600, NodeKind::Internal, 32),
+    );
+    // Slot 1 is the older warp.
+    regs.age = vec![1, 0];
+    regs.slots[0].valid = true;
+    regs.slots[0].lanes[0] = ready_lane(0, r0);
+    regs.slots[0].lanes[2] = storing_lane(2);
+    regs.slots[1].valid = true;
+    regs.slots[1].lanes[0] = ready_lane(4, r1);
+    regs.slots[1].lanes[1] = ready_lane(5, r1);
+    regs.slots[1].lanes[2] = ready_lane(6, r2);
+    regs.slots[1].lanes[3] = storing_lane(7);
+    // A 64 B node of slot 0 lane 1 has its second chunk left.
+    let pending = node(0x700, NodeKind::Internal, 64);
+    regs.split = Some(Split {
+        tag: 1,
+        node: pending,
+        next_chunk: 1,
+    });
+    let idle = unit.idle_inputs();
+    let mut reqs = Vec::new();
+    for _ in 0..8 {
+        let out = unit.step(&mut regs, &idle);
+        reqs.push(out.request.map(|r| (r.address, r.is_store, r.tag)));
+    }
+    assert_eq!(
+        reqs,
+        vec![
+            Some((0x720, false, 1)),                   // remaining chunk first
+            Some((0x4000 + 7 * 32, true, 1 << 2 | 3)), // store of the oldest warp
+            Some((0x4000 + 2 * 32, true, 2)),          // then the younger warp's store
+            Some((0x500, false, 1 << 2)),              // oldest warp, lanes 0 and 1 merged
+            Some((0x520, false, 1 << 2)),              // its second chunk
+            Some((0x600, false, 1 << 2 | 2)),          // oldest warp is still not stalled
+            Some((0x400, false, 0)),                   // then the younger warp
+            None,
+        ]
+    );
+    let lanes = &regs.slots[1].lanes;
+    assert_eq!(lanes[0].in_flight.unwrap().leader, 0);
+    assert_eq!(lanes[1].in_flight.unwrap().leader, 0);
+    assert_eq!(lanes[1].in_flight.unwrap().node, r1);
+    assert_eq!(regs.stats.merged, 1);
+    assert_eq!(regs.stats.requests, 5);
+    assert_eq!(regs.stats.stores, 2);
+}
+
+#[test]
+fn identical_requests_merge_within_a_warp_not_across_warps() {
+    let r = node(0x100, NodeKind::Internal, 64);
+    let other = node(0x180, NodeKind::Internal, 64);
+    let mut tree = Tree::default();
+    tree.add(r, false, &[]).add(other, false, &[]);
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 15));
+    sim.run(vec![
+        warp(
+            TraversalOrder::RayStationary,
+            4,
+            vec![ray(0, 0, r), ray(1, 0, other), ray(2, 0, r), ray(3, 0, r)],
+        ),
+        warp(
+            TraversalOrder::RayStationary,
+            4,
+            vec![None, ray(4, 0, r), ray(5, 0, r)],
+        ),
+    ]);
+    let loads: Vec<(u64, u32)> = sim
+        .mem
+        .log
+        .iter()
+        .map(|(_, q)| (q.address, q.tag))
+        .collect();
+    assert_eq!(
+        loads,
+        vec![
+            (0x100, 0),
+            (0x120, 0),
+            (0x180, 1),
+            (0x1a0, 1),
+            (0x100, 4 | 1),
+            (0x120, 4 | 1)
+        ]
+    );
+    assert_eq!(sim.regs.stats.merged, 3);
+    assert_eq!(sim.regs.stats.tests[NodeKind::Internal.code() as usize], 6);
+    let finished: usize = sim
+        .done
+        .iter()
+        .flat_map(|(_, d)| d.lanes.iter().flatten())
+        .filter(|(_, o)| *o == RayOutcome::Finished)
+        .count();
+    assert_eq!(finished, 6);
+}
+
+#[test]
+fn next_fetch_waits_for_every_chunk_and_the_test_latency() {
+    for internal in [4u32, 9] {
+        let a = node(0x100, NodeKind::Internal, 64);
+        let c = node(0x300, NodeKind::TriangleLeaf, 32);
+        let mut tree = Tree::default();
+        tree.add(a, false, &[(c, ALL)]).add(c, false, &[]);
+        let mut mem = Memory::new(tree, 3);
+        mem.extra.insert(0x120, 17);
+        let mut params = RtUnitParams::default();
+        params.latencies.internal = internal;
+        let mut sim = Sim::new(small(), params, mem);
+        sim.step(Some(warp(
+            TraversalOrder::RayStationary,
+            4,
+            vec![ray(0, 0, a)],
+        )));
+        // A + 0 requested in 1, returns in 4, popped in 5; A + 32 requested in 2, returns in
+        // 2 + 3 + 17 = 22, popped in 23.
+        for _ in 1..6 {
+            sim.step(None);
+        }
+        let lane = &sim.regs.slots[0].lanes[0];
+        assert_eq!(lane.in_flight.unwrap().returned, 0b01, "chunk 0 only");
+        while sim.done.is_empty() {
+            sim.step(None);
+        }
+        let c_request = 23 + internal as u64 + 1;
+        assert_eq!(
+            sim.mem.requests(),
+            vec![
+                (1, 0x100, false),
+                (2, 0x120, false),
+                (c_request, 0x300, false)
+            ]
+        );
+    }
+}
+
+#[test]
+fn simt_efficiency_counts_traversing_lanes_per_warp_cycle() {
+    // Lane 0: root X is a leaf; lane 1: root Y (internal) -> Z (leaf); lanes 2, 3 inactive.
+    let (x, y, z) = (
+        node(0x100, NodeKind::TriangleLeaf, 32),
+        node(0x200, NodeKind::Internal, 32),
+        node(0x300, NodeKind::TriangleLeaf, 32),
+    );
+    let mut tree = Tree::default();
+    tree.add(x, false, &[])
+        .add(y, false, &[(z, ALL)])
+        .add(z, false, &[]);
+    const M: u64 = 5;
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, M));
+    sim.run(vec![warp(
+        TraversalOrder::RayStationary,
+        4,
+        vec![ray(0, 0, x), ray(1, 0, y)],
+    )]);
+    // X requested in 1, popped in 2 + M: lane 0 traverses in cycles 1..=2+M.
+    // Y requested in 2, popped in 3 + M; Z requested in 3 + M + L_INTERNAL + 1, popped
+    // M + 1 cycles later: lane 1 traverses in cycles 1..=last_pop.
+    let last_pop = 3 + M + L_INTERNAL + 1 + M + 1;
+    let lane0 = 2 + M;
+    // The warp is valid from cycle 1 until it completes when lane 1's delay ends.
+    let completion = last_pop + L_TRIANGLE + 1;
+    assert_eq!(sim.done[0].0, completion);
+    let st = &sim.regs.stats;
+    assert_eq!(st.warp_cycles, completion);
+    assert_eq!(st.active_thread_cycles, lane0 + last_pop);
+    let eff = st.simt_efficiency(4);
+    assert!((eff - (lane0 + last_pop) as f64 / (4 * completion) as f64).abs() < 1e-12);
+    assert!(eff < 0.5, "two of four lanes at most");
+}
+
+/// Tree for the treelet-order tests (treelets are 256 B: treelet = address >> 8).
+/// R (0x000, treelet 0) has children c1 (0x100, treelet 1, leaf) then c2 (0x040, treelet 0);
+/// c2 has child c3 (0x200, treelet 2, leaf).
+fn treelet_tree() -> (Tree, [NodeEntry; 4]) {
+    let r = node(0x000, NodeKind::Internal, 32);
+    let c1 = node(0x100, NodeKind::TriangleLeaf, 32);
+    let c2 = node(0x040, NodeKind::Internal, 32);
+    let c3 = node(0x200, NodeKind::TriangleLeaf, 32);
+    let mut tree = Tree::default();
+    tree.add(r, false, &[(c1, ALL), (c2, ALL)])
+        .add(c2, false, &[(c3, ALL)])
+        .add(c1, false, &[])
+        .add(c3, false, &[]);
+    (tree, [r, c1, c2, c3])
+}
+
+fn addresses(sim: &Sim) -> Vec<u64> {
+    sim.mem.log.iter().map(|(_, r)| r.address).collect()
+}
+
+#[test]
+fn two_stack_order_puts_other_treelets_on_the_other_stack() {
+    let (tree, [r, c1, c2, _]) = treelet_tree();
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 4));
+    sim.step(Some(warp(
+        TraversalOrder::TreeletContinue,
+        4,
+        vec![ray(3, 0, r)],
+    )));
+    // R is requested in 1 and popped in 6.
+    while sim.cycle < 7 {
+        sim.step(None);
+    }
+    let rec = &sim.regs.slots[0].lanes[0].ray;
+    assert_eq!(rec.current_treelet, 0);
+    assert_eq!(rec.current_stack, vec![c2]);
+    assert_eq!(rec.other_stack, vec![c1]);
+    while sim.done.is_empty() {
+        sim.step(None);
+    }
+    // c2 (same treelet) before c1 though c1 comes first in visit order; after c2 the current
+    // stack is empty: boundary, the most recent other-stack entry c3 (treelet 2) is next; after
+    // c3 another boundary to treelet 1.
+    assert_eq!(addresses(&sim), vec![0x000, 0x040, 0x200, 0x100]);
+    let events: Vec<(u32, u64)> = sim
+        .events
+        .iter()
+        .map(|(_, e)| (e.ray_id, e.treelet))
+        .collect();
+    assert_eq!(events, vec![(3, 2), (3, 1)]);
+    let (rec, outcome) = sim.done[0].1.lanes[0].clone().unwrap();
+    assert_eq!(outcome, RayOutcome::Finished);
+    assert_eq!(rec.current_treelet, 1);
+}
+
+#[test]
+fn treelet_stop_parks_the_ray_and_it_resumes_in_a_new_warp() {
+    let (tree, [r, c1, _, c3]) = treelet_tree();
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 4));
+    sim.run(vec![warp(
+        TraversalOrder::TreeletStop,
+        4,
+        vec![ray(3, 0, r)],
+    )]);
+    assert_eq!(addresses(&sim), vec![0x000, 0x040]);
+    let (rec, outcome) = sim.done[0].1.lanes[0].clone().unwrap();
+    assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 2 });
+    assert_eq!(sim.events.len(), 1);
+    assert_eq!(sim.events[0].1.treelet, 2);
+    assert!(rec.current_stack.is_empty());
+    assert_eq!(rec.other_stack, vec![c1, c3]);
+    // Resume the ray in a treelet warp: it switches to treelet 2, tests c3 and stops again.
+    let mut lanes = vec![None; 4];
+    lanes[2] = Some(rec);
+    sim.run(vec![WarpIssue {
+        order: TraversalOrder::TreeletStop,
+        lanes,
+    }]);
+    assert_eq!(addresses(&sim), vec![0x000, 0x040, 0x200]);
+    let (rec, outcome) = sim.done[1].1.lanes[2].clone().unwrap();
+    assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 1 });
+    assert_eq!(rec.current_treelet, 2);
+    assert_eq!(rec.other_stack, vec![c1]);
+    assert_eq!(sim.events.last().unwrap().1.lane, 2);
+}
+
+#[test]
+fn ray_stationary_order_uses_one_stack_and_reports_no_boundaries() {
+    let (tree, [r, ..]) = treelet_tree();
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 4));
+    sim.run(vec![warp(
+        TraversalOrder::RayStationary,
+        4,
+        vec![ray(3, 0, r)],
+    )]);
+    assert_eq!(addresses(&sim), vec![0x000, 0x100, 0x040, 0x200]);
+    assert!(sim.events.is_empty());
+}
+
+/// Four rays with distinct 64 B roots, each with a leaf child chosen per ray by mask.
+fn burst_setup(use_eval: bool) -> Sim {
+    let mut tree = Tree::default();
+    let leaf = |i: u64| node(0x800 + 0x40 * i, NodeKind::TriangleLeaf, 32);
+    let mut rays = Vec::new();
+    for i in 0..4u64 {
+        let root = node(0x100 * (i + 1), NodeKind::Internal, 64);
+        // Ray i visits leaf i only (mask bit i), and leaf i is hit.
+        let children: Vec<(NodeEntry, u8)> = (0..4).map(|j| (leaf(j), 1u8 << j)).collect();
+        tree.add(root, false, &children);
+        tree.add(leaf(i), true, &[]);
+        rays.push(ray(i as u32, i as u32, root));
+    }
+    let mut mem = Memory::new(tree, 2);
+    mem.hold_until = 20;
+    let params = RtUnitParams {
+        resp_fifo_depth: 4,
+        resp_ports: 2,
+        hit_record_base: 0x4000,
+        ..RtUnitParams::default()
+    };
+    let mut sim = Sim::new(small(), params, mem);
+    sim.use_eval = use_eval;
+    sim.run(vec![warp(TraversalOrder::RayStationary, 4, rays)]);
+    sim
+}
+
+#[test]
+fn response_fifo_loses_nothing_when_it_fills() {
+    let sim = burst_setup(false);
+    // Eight chunks are held back until cycle 20, then arrive two per cycle (as many as
+    // `resp_free` at the start of the cycle allows) while one is popped per cycle: after a cycle
+    // the FIFO holds at most depth - 1 = 3 entries (the popped one made room during the cycle).
+    assert_eq!(sim.max_fifo, 3);
+    let lanes = &sim.done[0].1.lanes;
+    for (i, lane) in lanes.iter().enumerate() {
+        let (rec, outcome) = lane.as_ref().unwrap();
+        assert_eq!(*outcome, RayOutcome::Finished);
+        assert_eq!(rec.hit.unwrap().hit_id, 0x800 + 0x40 * i as u32);
+    }
+    assert_eq!(sim.regs.stats.tests[NodeKind::Internal.code() as usize], 4);
+    assert_eq!(sim.regs.stats.hits, 4);
+    assert_eq!(sim.regs.stats.stores, 4);
+}
+
+#[test]
+fn step_in_place_matches_eval() {
+    let a = burst_setup(false);
+    let b = burst_setup(true);
+    assert_eq!(a.outputs, b.outputs);
+    assert_eq!(a.regs, b.regs);
+}
+
+#[test]
+fn protocol_violations_raise_sticky_errors() {
+    let unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
+    let mut regs = unit.reset();
+    let r = node(0x100, NodeKind::Internal, 32);
+    let mut inp = unit.idle_inputs();
+    // A response nobody waits for.
+    inp.responses = vec![MemResponse {
+        address: 0x100,
+        tag: 0,
+        data: [0; 32],
+    }];
+    unit.step(&mut regs, &inp);
+    let out = unit.step(&mut regs, &unit.idle_inputs());
+    assert_eq!(out.errors, errors::UNMATCHED_RESPONSE);
+    // Fill both slots, then issue a third warp.
+    let mut inp = unit.idle_inputs();
+    inp.issue = Some(warp(TraversalOrder::RayStationary, 4, vec![ray(0, 0, r)]));
+    unit.step(&mut regs, &inp);
+    unit.step(&mut regs, &inp);
+    assert!(!unit.issue_ready(&regs));
+    let out = unit.step(&mut regs, &inp);
+    assert!(!out.issue_ready);
+    let out = unit.step(&mut regs, &unit.idle_inputs());
+    assert_ne!(out.errors & errors::ISSUE_WHILE_FULL, 0);
+    // More responses than ports.
+    let mut inp = unit.idle_inputs();
+    inp.responses = vec![
+        MemResponse {
+            address: 0,
+            tag: 0,
+            data: [0; 32]
+        };
+        3
+    ];
+    unit.step(&mut regs, &inp);
+    assert_ne!(regs.errors & errors::FIFO_OVERFLOW, 0);
+    // A malformed warp is dropped.
+    let mut regs = unit.reset();
+    let mut inp = unit.idle_inputs();
+    inp.issue = Some(WarpIssue {
+        order: TraversalOrder::RayStationary,
+        lanes: vec![ray(0, 0, r)],
+    });
+    unit.step(&mut regs, &inp);
+    assert_eq!(regs.errors, errors::BAD_ISSUE);
+    assert!(regs.slots.iter().all(|s| !s.valid));
+}
+
+#[test]
+fn bad_parameters_and_issues_are_rejected_with_reasons() {
+    let bad = |p: RtUnitParams| RtUnit::new(small(), p, ToyDatapath).unwrap_err();
+    let e = bad(RtUnitParams {
+        resp_fifo_depth: 0,
+        ..RtUnitParams::default()
+    });
+    assert!(matches!(
+        e,
+        RtUnitError::BadParam {
+            name: "resp_fifo_depth",
+            ..
+        }
+    ));
+    let mut p = RtUnitParams::default();
+    p.latencies.header = 0;
+    assert!(bad(p).to_string().contains("header latency"));
+    let e = bad(RtUnitParams {
+        hit_record_base: 0xFFE0,
+        ..RtUnitParams::default()
+    });
+    assert!(matches!(
+        e,
+        RtUnitError::BadParam {
+            name: "hit_record_base",
+            ..
+        }
+    ));
+    let cfg = HwConfig {
+        warp_buffer_size: 0,
+        ..small()
+    };
+    assert!(matches!(
+        RtUnit::new(cfg, RtUnitParams::default(), ToyDatapath),
+        Err(RtUnitError::Config(_))
+    ));
+    assert!(NodeEntry::new(0x10, NodeKind::Internal, 64).is_err());
+    assert!(NodeEntry::new(0x40, NodeKind::Internal, 48).is_err());
+    assert!(NodeEntry::new(0x40, NodeKind::InstanceLeaf, 160).is_err());
+
+    let unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
+    let r = node(0x100, NodeKind::Internal, 32);
+    let e = unit
+        .check_issue(&warp(TraversalOrder::RayStationary, 4, vec![ray(16, 0, r)]))
+        .unwrap_err();
+    assert!(e.to_string().contains("max_rays"), "{e}");
+    let mut deep = RayRecord::new(1, words(0), r);
+    deep.other_stack = vec![r; 9];
+    let e = unit
+        .check_issue(&warp(
+            TraversalOrder::RayStationary,
+            4,
+            vec![None, Some(deep)],
+        ))
+        .unwrap_err();
+    assert!(matches!(e, RtUnitError::BadIssue { lane: 1, .. }), "{e}");
+    let outside = NodeEntry {
+        address: 0xFFE0,
+        kind: NodeKind::Internal,
+        chunks: 2,
+    };
+    assert!(unit.check_node(&outside).is_err());
+    assert_eq!(CHUNK_BYTES, 32);
+}
+
+#[test]
+fn stack_overflow_is_flagged() {
+    // A root with 3 children and stack_depth 2.
+    let cfg = HwConfig {
+        stack_depth: 2,
+        ..small()
+    };
+    let root = node(0x100, NodeKind::Internal, 32);
+    let leaves: Vec<(NodeEntry, u8)> = (0..3)
+        .map(|i| (node(0x200 + 0x20 * i, NodeKind::TriangleLeaf, 32), ALL))
+        .collect();
+    let mut tree = Tree::default();
+    tree.add(root, false, &leaves);
+    for (l, _) in &leaves {
+        tree.add(*l, false, &[]);
+    }
+    let mut sim = Sim::new(cfg, RtUnitParams::default(), Memory::new(tree, 3));
+    sim.step(Some(warp(
+        TraversalOrder::RayStationary,
+        4,
+        vec![ray(0, 0, root)],
+    )));
+    while sim.done.is_empty() {
+        sim.step(None);
+    }
+    assert_eq!(sim.regs.errors, errors::STACK_OVERFLOW);
+    assert_eq!(sim.mem.log.len(), 3, "root and the two children that fit");
+}
+
+/// The port or register a trace signal belongs to: numeric `_<n>` suffixes removed.
+fn base_name(name: &str) -> &str {
+    let mut s = name;
+    while let Some((head, tail)) = s.rsplit_once('_') {
+        if !tail.is_empty() && tail.chars().all(|c| c.is_ascii_digit()) {
+            s = head;
+        } else {
+            break;
+        }
+    }
+    s
+}
+
+#[test]
+fn signals_are_stable_fit_their_widths_and_name_described_items() {
+    let sim = burst_setup(false);
+    let desc = sim.unit.describe();
+    let idle = &sim.outputs[sim.outputs.len() - 1];
+    let busy = sim.outputs.iter().find(|o| o.request.is_some()).unwrap();
+    let shape = |sigs: Vec<vtq_hdl::Signal>| -> Vec<(String, u32)> {
+        sigs.into_iter().map(|s| (s.name, s.width)).collect()
+    };
+    assert_eq!(shape(idle.signals()), shape(busy.signals()));
+    let mut inputs = sim.unit.idle_inputs();
+    let empty = shape(inputs.signals());
+    inputs.issue = Some(warp(
+        TraversalOrder::TreeletStop,
+        4,
+        vec![None, ray(1, 0, node(0, NodeKind::Internal, 32))],
+    ));
+    assert_eq!(empty, shape(inputs.signals()));
+    let all = [inputs.signals(), busy.signals(), sim.regs.signals()].concat();
+    for s in all {
+        assert!(
+            s.width >= 64 || s.value >> s.width == 0,
+            "{} overflows",
+            s.name
+        );
+        let base = base_name(&s.name);
+        let known = desc.port(base).is_some() || desc.registers.iter().any(|r| r.name == base);
+        assert!(known, "{} ({base}) is not described", s.name);
+    }
+}
+
+#[test]
+fn describe_widths_follow_the_config() {
+    let unit = RtUnit::new(HwConfig::default(), RtUnitParams::default(), ToyDatapath).unwrap();
+    let d = unit.describe();
+    assert_eq!(d.port("req_address").unwrap().width, 32);
+    assert_eq!(d.port("req_tag").unwrap().width, 1 + 5);
+    assert_eq!(d.port("issue_ray_id").unwrap().width, 32 * 12);
+    assert_eq!(d.port("resp1_data").unwrap().width, 256);
+    assert!(d.port("resp2_data").is_none());
+    let stack = d.memories.iter().find(|m| m.name == "cur_stack").unwrap();
+    assert_eq!(stack.depth, 32 * 64);
+    assert_eq!(stack.width, 32 + 3 + 2);
+    let small_unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
+    let s = small_unit.describe();
+    assert_eq!(s.port("req_tag").unwrap().width, 1 + 2);
+    assert!(s.storage_bits() < d.storage_bits());
+}
+
+#[test]
+fn describe_snapshot_default() {
+    let unit = RtUnit::new(HwConfig::default(), RtUnitParams::default(), ToyDatapath).unwrap();
+    insta::assert_yaml_snapshot!("rt_unit_default", unit.describe());
+}
+
+#[test]
+fn describe_snapshot_small() {
+    let unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
+    insta::assert_yaml_snapshot!("rt_unit_small", unit.describe());
+}

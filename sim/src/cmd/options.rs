@@ -1,0 +1,136 @@
+//! Options and setup steps shared by the subcommands: image settings, BVH parameters and the
+//! cache, loading a scene and building its BVH with a printed summary.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::bvh::{build_cached, default_cache_dir, BvhParams, CacheOutcome, HwBvh};
+use crate::scene::load::load_scene as load;
+use crate::scene::Scene;
+use crate::workload::pathtracer::RenderSettings;
+
+/// Image size and path-tracing limits (defaults: the paper's 256x256, 1 spp, 3 bounces).
+#[derive(Debug, Clone, Args)]
+pub struct ImageArgs {
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// Samples (paths) per pixel.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Maximum secondary rays per path (each path traces at most 1 + bounces rays).
+    #[arg(long, default_value_t = 3)]
+    pub bounces: u32,
+}
+
+impl ImageArgs {
+    /// The render settings, checked.
+    pub fn settings(&self) -> anyhow::Result<RenderSettings> {
+        let settings = RenderSettings {
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            bounces: self.bounces,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+}
+
+/// Hardware BVH parameters and the build cache.
+#[derive(Debug, Clone, Args)]
+pub struct BvhArgs {
+    /// BVH width: children per internal node (2..=8).
+    #[arg(long, default_value_t = 6)]
+    pub bvh_width: u32,
+    /// Maximum treelet size in bytes (a power of two; 8192 = half the simulated 16 KB L1).
+    #[arg(long, default_value_t = 8192)]
+    pub treelet_bytes: u32,
+    /// Directory of cached BVH builds, keyed by scene geometry and BVH parameters
+    /// [default: $VTQ_CACHE_DIR, else $XDG_CACHE_HOME/vtq, else ~/.cache/vtq].
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Always build the BVH; neither read nor write the cache.
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl BvhArgs {
+    /// The build parameters.
+    pub fn params(&self) -> BvhParams {
+        BvhParams {
+            width: self.bvh_width,
+            treelet_bytes: self.treelet_bytes,
+        }
+    }
+}
+
+/// Load a scene by name or path and print a one-line summary.
+pub fn load_scene(spec: &str) -> anyhow::Result<Scene> {
+    let start = Instant::now();
+    let scene = load(spec).with_context(|| format!("loading scene '{spec}'"))?;
+    println!(
+        "scene {}: {} triangles, {} spheres, {} materials (loaded in {:.3} s)",
+        scene.name,
+        scene.triangles.len(),
+        scene.spheres.len(),
+        scene.materials.len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(scene)
+}
+
+/// Build the scene's hardware BVH (through the cache unless disabled) and print its summary:
+/// nodes, bytes, treelets, fill ratio, depth, and the build or cache-load time.
+pub fn build_bvh(scene: &Scene, args: &BvhArgs) -> anyhow::Result<HwBvh> {
+    let start = Instant::now();
+    let context = || format!("building the BVH of scene '{}'", scene.name);
+    let params = args.params();
+    let (bvh, how) = if args.no_cache {
+        let bvh = HwBvh::build(scene, &params).with_context(context)?;
+        (bvh, "built (cache disabled)".to_string())
+    } else {
+        let dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
+        let (bvh, outcome) = build_cached(scene, &params, Some(&dir)).with_context(context)?;
+        let how = match outcome {
+            CacheOutcome::Hit => format!("loaded from the cache in {}", dir.display()),
+            CacheOutcome::Built => format!("built and cached in {}", dir.display()),
+            CacheOutcome::Rebuilt(why) => {
+                format!(
+                    "rebuilt (cache file was invalid: {why}) and cached in {}",
+                    dir.display()
+                )
+            }
+            CacheOutcome::NotStored(why) => format!("built (not cached: {why})"),
+        };
+        (bvh, how)
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    let s = bvh.stats();
+    println!(
+        "bvh: width {}, {} internal nodes + {} leaves, {} bytes, depth {}; \
+         {} treelets of <= {} bytes, fill {:.1}%",
+        args.bvh_width,
+        s.internal_nodes,
+        s.leaves(),
+        s.bvh_bytes,
+        s.depth,
+        s.treelets,
+        args.treelet_bytes,
+        100.0 * s.treelet_fill,
+    );
+    if s.excluded_prims > 0 {
+        println!(
+            "bvh: {} degenerate or non-finite primitives left out",
+            s.excluded_prims
+        );
+    }
+    println!("bvh: {how} in {seconds:.3} s");
+    Ok(bvh)
+}

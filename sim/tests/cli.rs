@@ -1,0 +1,366 @@
+//! End-to-end tests of the `vtq` binary: render, trace, scenes, help, and one-line errors for
+//! bad input.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use glam::Vec3;
+use vtq_sim::bvh::{BvhParams, HwBvh};
+use vtq_sim::geometry::Ray;
+use vtq_sim::rays_csv::write_rays;
+use vtq_sim::scene::load::load_scene;
+use vtq_sim::traversal::{trace, Order};
+
+/// A fresh temporary folder for one test.
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vtq-cli-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn vtq(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args(args)
+        .output()
+        .expect("the vtq binary runs")
+}
+
+/// Assert the command failed with exactly one `error: ...` line mentioning `needle`.
+fn assert_one_line_error(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "expected failure, stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "stderr: {stderr}");
+    assert_eq!(
+        stderr.trim_end().lines().last(),
+        Some(errors[0]),
+        "the error is the last line"
+    );
+    assert!(
+        errors[0].contains(needle),
+        "'{needle}' not in: {}",
+        errors[0]
+    );
+}
+
+#[test]
+fn help_documents_every_option() {
+    let out = vtq(&["--help"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for sub in ["scenes", "render", "trace", "bench"] {
+        assert!(text.contains(sub), "--help lacks {sub}: {text}");
+    }
+    let out = vtq(&["render", "--help"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    for opt in [
+        "--scene",
+        "--out",
+        "--width",
+        "--height",
+        "--spp",
+        "--bounces",
+        "--bvh-width",
+        "--treelet-bytes",
+        "--cache-dir",
+        "--no-cache",
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(opt))
+            .unwrap_or_else(|| panic!("render --help lacks {opt}: {text}"));
+        assert!(
+            line.trim_start().len() > opt.len() + 10,
+            "{opt} has no description: {line}"
+        );
+    }
+}
+
+#[test]
+fn scenes_lists_the_built_ins() {
+    let out = vtq(&["scenes"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let wknd = text
+        .lines()
+        .find(|l| l.starts_with("wknd "))
+        .expect("wknd listed");
+    let spheres = load_scene("wknd").unwrap().spheres.len();
+    let cells: Vec<&str> = wknd.split_whitespace().collect();
+    // scene, label, triangles, spheres, primitives.
+    let n = spheres.to_string();
+    assert_eq!(cells[2..5], ["0", n.as_str(), n.as_str()], "{wknd}");
+    assert!(text.lines().any(|l| l.starts_with("cornell ")), "{text}");
+}
+
+#[test]
+fn render_writes_a_png_of_the_requested_size() {
+    let dir = temp_dir("render");
+    let png_path = dir.join("wknd.png");
+    let out = vtq(&[
+        "render",
+        "--scene",
+        "wknd",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        png_path.to_str().unwrap(),
+        "--cache-dir",
+        dir.join("cache").to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("rays/s"), "{stdout}");
+    assert!(stdout.contains("treelets"), "{stdout}");
+
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_path).unwrap(),
+    ));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.width, info.height), (32, 24));
+    let pixels: Vec<&[u8]> = buf[..info.buffer_size()].chunks(3).collect();
+    assert!(
+        pixels.iter().any(|p| *p != pixels[0]),
+        "the image is one colour"
+    );
+    // The wknd camera looks at the horizon: the top row is sky (blue above red).
+    assert!(pixels[0][2] > pixels[0][0], "{:?}", pixels[0]);
+
+    // --rays-out writes every traced ray, readable by `vtq trace`.
+    let rays_path = dir.join("rays.csv");
+    let out = vtq(&[
+        "render",
+        "--scene",
+        "cornell",
+        "--width",
+        "6",
+        "--height",
+        "5",
+        "--out",
+        png_path.to_str().unwrap(),
+        "--rays-out",
+        rays_path.to_str().unwrap(),
+        "--no-cache",
+    ]);
+    assert!(out.status.success());
+    let rays = vtq_sim::rays_csv::read_rays(&rays_path).unwrap();
+    assert!(
+        rays.len() >= 30 && rays.len() <= 30 * 4,
+        "{} rays",
+        rays.len()
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains(&format!(": {} rays in", rays.len())),
+        "{stdout}"
+    );
+
+    // A second run loads the BVH from the cache.
+    let again = vtq(&[
+        "render",
+        "--scene",
+        "wknd",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--out",
+        png_path.to_str().unwrap(),
+        "--cache-dir",
+        dir.join("cache").to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&again.stdout).contains("loaded from the cache"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn trace_reports_nan_and_inf_rays_as_misses_and_matches_traversal() {
+    let dir = temp_dir("trace");
+    let scene = load_scene("cornell").unwrap();
+    let cam = scene.camera;
+    let target = cam.look_at;
+    let mut rays: Vec<Ray> = (0..12)
+        .map(|i| {
+            let off = Vec3::new((i % 4) as f32 - 1.5, (i / 4) as f32 - 1.0, 0.0)
+                * 0.1
+                * (target - cam.eye).length();
+            Ray::new(cam.eye, (target + off - cam.eye).normalize())
+        })
+        .collect();
+    rays.push(Ray {
+        origin: cam.eye,
+        dir: Vec3::new(f32::NAN, 0.0, -1.0),
+        tmin: 0.0,
+        tmax: 1e4,
+    });
+    rays.push(Ray {
+        origin: Vec3::new(f32::INFINITY, 0.0, 0.0),
+        dir: Vec3::new(0.0, 0.0, -1.0),
+        tmin: 0.0,
+        tmax: 1e4,
+    });
+    let rays_path = dir.join("rays.csv");
+    write_rays(&rays_path, &rays).unwrap();
+    let text = std::fs::read_to_string(&rays_path).unwrap();
+    assert!(text.contains("NaN") && text.contains("inf"), "{text}");
+
+    let hits_path = dir.join("hits.csv");
+    for order in ["ray", "treelet"] {
+        let out = vtq(&[
+            "trace",
+            "--scene",
+            "cornell",
+            "--rays",
+            rays_path.to_str().unwrap(),
+            "--out",
+            hits_path.to_str().unwrap(),
+            "--order",
+            order,
+            "--no-cache",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+
+        let bvh = HwBvh::build(&scene, &BvhParams::default()).unwrap();
+        let text = std::fs::read_to_string(&hits_path).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("ray,hit,t,prim,u,v"));
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+        assert_eq!(rows.len(), rays.len());
+        let mut hits = 0;
+        for (i, (row, ray)) in rows.iter().zip(&rays).enumerate() {
+            assert_eq!(row[0], i.to_string());
+            match trace(&bvh, ray, Order::RayStationary) {
+                Some(h) => {
+                    hits += 1;
+                    assert_eq!(row[1], "1");
+                    assert_eq!(row[2].parse::<f32>().unwrap(), h.t);
+                    assert_eq!(row[3], h.prim.to_string());
+                    assert_eq!(row[4].parse::<f32>().unwrap(), h.u);
+                    assert_eq!(row[5].parse::<f32>().unwrap(), h.v);
+                }
+                None => assert_eq!(row[1..], ["0", "inf", "-1", "0", "0"]),
+            }
+        }
+        assert_eq!(hits, 12, "every ray aimed into the closed box hits");
+        assert_eq!(rows[12][1], "0", "NaN ray is a miss");
+        assert_eq!(rows[13][1], "0", "inf ray is a miss");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn missing_scene_file_is_a_one_line_error() {
+    let out = vtq(&[
+        "render",
+        "--scene",
+        "/nonexistent/vtq/scene.obj",
+        "--no-cache",
+    ]);
+    assert_one_line_error(&out, "/nonexistent/vtq/scene.obj");
+}
+
+#[test]
+fn malformed_obj_is_a_one_line_error() {
+    let dir = temp_dir("bad-obj");
+    let obj = dir.join("broken.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n").unwrap();
+    let out = vtq(&["render", "--scene", obj.to_str().unwrap(), "--no-cache"]);
+    assert_one_line_error(&out, "broken.obj");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn malformed_csv_is_a_one_line_error() {
+    let dir = temp_dir("bad-csv");
+    let csv = dir.join("rays.csv");
+    std::fs::write(
+        &csv,
+        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,0,0,0,-1,0,1\n0,0,zero,0,0,-1,0,1\n",
+    )
+    .unwrap();
+    let out = vtq(&[
+        "trace",
+        "--scene",
+        "cornell",
+        "--rays",
+        csv.to_str().unwrap(),
+        "--out",
+        dir.join("hits.csv").to_str().unwrap(),
+        "--no-cache",
+    ]);
+    assert_one_line_error(&out, "rays.csv:3: column 3 (oz)");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_scene_manifest_is_a_one_line_error() {
+    let dir = temp_dir("bad-toml");
+    let scene = dir.join("scene");
+    std::fs::create_dir_all(&scene).unwrap();
+    std::fs::write(
+        scene.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(scene.join("scene.toml"), "name = \"x\"\n[camera\neye = 1\n").unwrap();
+    let out = vtq(&["render", "--scene", scene.to_str().unwrap(), "--no-cache"]);
+    assert_one_line_error(&out, "scene.toml");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn out_of_range_options_are_one_line_errors() {
+    let out = vtq(&["render", "--scene", "cornell", "--width", "0", "--no-cache"]);
+    assert_one_line_error(&out, "width");
+    let out = vtq(&[
+        "render",
+        "--scene",
+        "cornell",
+        "--bvh-width",
+        "9",
+        "--no-cache",
+    ]);
+    assert_one_line_error(&out, "width 9");
+}
+
+#[test]
+fn bench_agrees_with_obvhs() {
+    let out = vtq(&[
+        "bench", "--scene", "cornell", "--width", "12", "--height", "10",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("ratio ours/obvhs"), "{stdout}");
+    // Both sides use the same leaf tests, so every closest-hit distance must agree.
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("agreement:"))
+        .expect("agreement line");
+    let n = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("rays:  "))
+        .and_then(|l| l.split_whitespace().next())
+        .expect("ray count");
+    assert!(
+        line.contains(&format!("same t on {n} (100.000%)")),
+        "{line}"
+    );
+}
