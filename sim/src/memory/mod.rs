@@ -1,0 +1,1 @@
+//! Memory hierarchy model (being written).
