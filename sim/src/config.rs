@@ -1,1 +1,1045 @@
-//! Simulator configuration (being written).
+//! The simulator's configuration ([`SimConfig`]): one TOML file of sections, each parameter
+//! documented with its default (the paper's Table 1 GPU, FACTS.md timing, or a stated modelling
+//! assumption; docs/config.md lists them all), `--set key=value` overrides, and validation that
+//! names the offending key, its value and why it is rejected.
+//!
+//! # Layers
+//! [`SimConfig::load`] starts from [`SimConfig::default`] (the baseline GPU of Table 1), merges
+//! the TOML file over it, then applies each `--set` override in order, and finally validates the
+//! result. Every key given by the file or an override is checked on its own against the
+//! defaults, so an unknown key or a value of the wrong type is reported with its exact dotted
+//! name and where it came from.
+//!
+//! # One place per parameter
+//! The RT-unit hardware sizes live in `[hw]` ([`HwConfig`], shared with the hardware models) and
+//! are not repeated elsewhere: the treelet size is `hw.treelet_bytes` (the BVH build reads it
+//! from there, [`SimConfig::bvh_params`]) and warp repacking is switched by
+//! `hw.repack_threshold` (0 = off). The only value held twice is the warp size (`gpu.warp_size`
+//! for the SM, `hw.warp_size` for the RT unit), and validation requires the two to agree.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use toml::{Table, Value};
+use vtq_hdl::controller::ControllerFeatures;
+use vtq_hdl::rt_unit::{Latencies, RtUnitError, RtUnitParams};
+use vtq_hdl::HwConfig;
+
+use crate::bvh::build::WIDTH_RANGE;
+use crate::bvh::BvhParams;
+use crate::memory::{MemConfig, MemConfigError};
+use crate::workload::pathtracer::RenderSettings;
+
+/// Workload keys that `--set` also accepts without their `workload.` prefix (`--set width=64`).
+pub const BARE_KEYS: [&str; 4] = ["width", "height", "spp", "bounces"];
+
+/// Bytes of one saved 32-bit value (register, SIMT mask, PC) of a suspended CTA.
+const WORD_BYTES: u64 = 4;
+
+/// Saved words per SIMT-stack entry of a suspended warp: active mask, PC, reconvergence PC.
+const WORDS_PER_SIMT_ENTRY: u64 = 3;
+
+/// A configuration could not be read, parsed, or holds an invalid value. Every variant names
+/// the file, override or key concerned.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// The configuration file could not be read.
+    #[error("cannot read config file {}: {reason}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// The configuration file is not valid TOML.
+    #[error("config file {} is not valid TOML: {message}", path.display())]
+    Syntax {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (with line, column and an excerpt).
+        message: String,
+    },
+    /// A `--set` argument is not of the form `key=value`.
+    #[error("--set `{text}`: {reason}")]
+    Override {
+        /// The argument as given.
+        text: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A key or section the configuration does not have.
+    #[error("{origin}: unknown key `{key}`; {hint}")]
+    UnknownKey {
+        /// Where the key was given: the file or the `--set` argument.
+        origin: String,
+        /// The dotted key.
+        key: String,
+        /// The valid keys of its section (and a likely intended key, if any).
+        hint: String,
+    },
+    /// A value of the wrong type for its key, or outside its type's range.
+    #[error("{origin}: `{key}` = {value}: {reason}")]
+    Type {
+        /// Where the value was given: the file or the `--set` argument.
+        origin: String,
+        /// The dotted key.
+        key: String,
+        /// The value as TOML.
+        value: String,
+        /// The expected type.
+        reason: String,
+    },
+    /// A value is out of range or inconsistent with another (found by [`SimConfig::validate`]).
+    #[error("invalid configuration: {key} = {value}: {reason}")]
+    Invalid {
+        /// The dotted key.
+        key: String,
+        /// Its value.
+        value: String,
+        /// Why it is rejected.
+        reason: String,
+    },
+    /// The configuration could not be converted to or from a TOML table (a value outside
+    /// TOML's integer range, or a section missing from the merged table).
+    #[error("configuration TOML conversion failed: {0}")]
+    Toml(String),
+}
+
+impl ConfigError {
+    /// The dotted key the error is about, when it is about one key.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            ConfigError::UnknownKey { key, .. }
+            | ConfigError::Type { key, .. }
+            | ConfigError::Invalid { key, .. } => Some(key),
+            ConfigError::Read { .. }
+            | ConfigError::Syntax { .. }
+            | ConfigError::Override { .. }
+            | ConfigError::Toml(_) => None,
+        }
+    }
+}
+
+/// An [`ConfigError::Invalid`] for `key` = `value`.
+fn invalid(key: &str, value: impl fmt::Display, reason: impl Into<String>) -> ConfigError {
+    ConfigError::Invalid {
+        key: key.to_string(),
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// Checks that `value` of `key` lies in `range`.
+fn in_range<T>(key: &str, value: T, range: std::ops::RangeInclusive<T>) -> Result<(), ConfigError>
+where
+    T: PartialOrd + fmt::Display + Copy,
+{
+    if range.contains(&value) {
+        Ok(())
+    } else {
+        Err(invalid(
+            key,
+            value,
+            format!("must be {}..={}", range.start(), range.end()),
+        ))
+    }
+}
+
+/// The complete simulator configuration, one field per TOML section.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// `[gpu]`: the SMs, CTA slots, registers and shader timing.
+    pub gpu: GpuConfig,
+    /// `[memory]`: the L1, L2 and DRAM of the memory system.
+    pub memory: MemConfig,
+    /// `[rt]`: RT-unit timing not in `[hw]`: intersection latencies and the response path.
+    pub rt: RtConfig,
+    /// `[hw]`: sizes and thresholds of the treelet-queue hardware (shared with `vtq-hdl`).
+    pub hw: HwConfig,
+    /// `[mode]`: which design is simulated (baseline, treelet prefetching, treelet queues).
+    pub mode: ModeConfig,
+    /// `[workload]`: the path-traced image.
+    pub workload: WorkloadConfig,
+    /// `[bvh]`: the hardware BVH build.
+    pub bvh: BvhConfig,
+    /// `[sim]`: the simulation engine (watchdog, lockstep verification, time series).
+    pub sim: EngineConfig,
+}
+
+/// `[gpu]`: the simulated GPU's SMs (paper Table 1) and the timing of the shaders run on them.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GpuConfig {
+    /// Streaming multiprocessors (Table 1: 16).
+    pub sms: u32,
+    /// Resident warps per SM (Table 1: 32).
+    pub max_warps_per_sm: u32,
+    /// Threads per warp (Table 1: 32); must equal `hw.warp_size`.
+    pub warp_size: u32,
+    /// Resident CTAs per SM (Table 1: 16).
+    pub max_ctas_per_sm: u32,
+    /// Threads of one raygen CTA (64: an 8x8 pixel tile; modelling assumption).
+    pub threads_per_cta: u32,
+    /// 32-bit registers per SM (Table 1: 32768).
+    pub registers_per_sm: u32,
+    /// 32-bit registers per raygen thread (10, from ptxas, paper section 6.6); sets the
+    /// registers a CTA occupies and the bytes a suspended CTA saves.
+    pub raygen_regs_per_thread: u32,
+    /// SIMT-stack entries saved per warp of a suspended CTA, each a 32-bit mask, a PC and a
+    /// reconvergence PC (2: the bounce loop's reconvergence entry and the current one;
+    /// modelling assumption).
+    pub simt_stack_entries: u32,
+    /// Cycles a warp spends in the raygen shader before each `traceRayEXT()` (camera-ray setup,
+    /// or accumulation and scattering between bounces); modelling assumption.
+    pub raygen_cycles: u32,
+    /// Cycles of one closest-hit shader invocation of a warp (material evaluation); modelling
+    /// assumption.
+    pub closest_hit_cycles: u32,
+    /// Cycles of one miss shader invocation of a warp (sky lookup); modelling assumption.
+    pub miss_cycles: u32,
+    /// Cycles from a free CTA slot to a new CTA's first instruction; modelling assumption.
+    /// Saving and restoring a suspended CTA take no fixed time: they are
+    /// [`SimConfig::cta_state_bytes`] of stores and loads through the memory system.
+    pub cta_launch_cycles: u32,
+}
+
+impl Default for GpuConfig {
+    fn default() -> Self {
+        GpuConfig {
+            sms: 16,
+            max_warps_per_sm: 32,
+            warp_size: 32,
+            max_ctas_per_sm: 16,
+            threads_per_cta: 64,
+            registers_per_sm: 32768,
+            raygen_regs_per_thread: 10,
+            simt_stack_entries: 2,
+            raygen_cycles: 100,
+            closest_hit_cycles: 50,
+            miss_cycles: 20,
+            cta_launch_cycles: 20,
+        }
+    }
+}
+
+/// `[rt]`: RT-unit timing that is not a hardware size of [`HwConfig`]. The defaults are
+/// [`RtUnitParams::default`]'s, so the simulator and the hardware models agree.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RtConfig {
+    /// `[rt.latencies]`: intersection-test cycles per node kind (FACTS.md: header 2,
+    /// internal 4, instance_leaf 4, primitive_descriptor 2, triangle_leaf 4, triangle_hit 4,
+    /// procedural 4).
+    pub latencies: Latencies,
+    /// Entries of the RT unit's response FIFO (8; modelling assumption of `vtq-hdl`).
+    pub resp_fifo_depth: u32,
+    /// Responses the memory system may deliver to the RT unit per cycle (2: an L1 hit return
+    /// and a miss fill; modelling assumption of `vtq-hdl`).
+    pub resp_ports: u32,
+}
+
+impl Default for RtConfig {
+    fn default() -> Self {
+        let p = RtUnitParams::default();
+        RtConfig {
+            latencies: p.latencies,
+            resp_fifo_depth: p.resp_fifo_depth,
+            resp_ports: p.resp_ports,
+        }
+    }
+}
+
+/// The design being simulated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModeKind {
+    /// The baseline RT unit: ray-stationary traversal in the two-stack treelet order.
+    #[default]
+    Baseline,
+    /// The baseline plus the treelet prefetcher of Chou et al. (MICRO 2023).
+    Prefetch,
+    /// Treelet queues (paper sections 3 and 4), with the switches of [`ModeConfig`].
+    Queues,
+}
+
+impl ModeKind {
+    /// The name used in configuration files.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModeKind::Baseline => "baseline",
+            ModeKind::Prefetch => "prefetch",
+            ModeKind::Queues => "queues",
+        }
+    }
+}
+
+impl fmt::Display for ModeKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// `[mode]`: the design and its feature switches. A switch that means nothing for the chosen
+/// `kind` is rejected by validation rather than ignored. Warp repacking is switched by
+/// `hw.repack_threshold` (0 = off), not here.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ModeConfig {
+    /// The design: `baseline`, `prefetch` or `queues`.
+    pub kind: ModeKind,
+    /// Ray virtualization (section 3.1): a CTA is suspended once all its threads have issued
+    /// their rays, freeing its slot for a new CTA, up to `hw.max_rays` rays in flight per SM.
+    pub virtualization: bool,
+    /// Group underpopulated treelet queues into ray-stationary warps (section 4.4); `queues`
+    /// only. Off is the naive treelet-queue design.
+    pub grouping: bool,
+    /// Preload the next treelet and its rays while the current one drains (section 4.3);
+    /// `queues` only.
+    pub preload: bool,
+    /// Treelet prefetcher policy: prefetch the most popular next treelet once it holds at least
+    /// this fraction of the RT unit's rays (FACTS.md: 0.75); `prefetch` only.
+    pub prefetch_threshold: f64,
+}
+
+impl Default for ModeConfig {
+    fn default() -> Self {
+        ModeConfig {
+            kind: ModeKind::Baseline,
+            virtualization: false,
+            grouping: false,
+            preload: false,
+            prefetch_threshold: 0.75,
+        }
+    }
+}
+
+/// `[workload]`: the path-traced image (the fields of [`RenderSettings`]; paper section 5.1).
+/// Random numbers are seeded per pixel and sample (TEA), so the workload has no seed key.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WorkloadConfig {
+    /// Image width in pixels (256).
+    pub width: u32,
+    /// Image height in pixels (256).
+    pub height: u32,
+    /// Samples (paths) per pixel (1).
+    pub spp: u32,
+    /// Maximum secondary rays per path (3); 0 traces primary rays only.
+    pub bounces: u32,
+}
+
+impl Default for WorkloadConfig {
+    fn default() -> Self {
+        let r = RenderSettings::default();
+        WorkloadConfig {
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            bounces: r.bounces,
+        }
+    }
+}
+
+/// `[bvh]`: the hardware BVH build. Its treelet size is `hw.treelet_bytes`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BvhConfig {
+    /// Children per internal node, 2..=8 (6, the public Vulkan-Sim build; the paper says 4).
+    pub width: u32,
+}
+
+impl Default for BvhConfig {
+    fn default() -> Self {
+        BvhConfig {
+            width: BvhParams::default().width,
+        }
+    }
+}
+
+/// `[sim]`: the simulation engine.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EngineConfig {
+    /// Stop with a state dump after this many cycles without progress (100000). Must exceed
+    /// one L1 + L2 + DRAM miss.
+    pub watchdog_cycles: u64,
+    /// Step every component every cycle instead of skipping idle cycles (verification mode;
+    /// results must be identical).
+    pub lockstep: bool,
+    /// Cycles between time-series samples (1000); 0 records no time series.
+    pub sample_interval: u64,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        EngineConfig {
+            watchdog_cycles: 100_000,
+            lockstep: false,
+            sample_interval: 1000,
+        }
+    }
+}
+
+/// Largest cycle count accepted for the engine's cycle parameters (2^40).
+const MAX_ENGINE_CYCLES: u64 = 1 << 40;
+
+/// Largest cycle count accepted for one shader invocation or CTA launch.
+const MAX_SHADER_CYCLES: u32 = 1_000_000;
+
+/// Largest image side in pixels.
+const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// Largest samples per pixel.
+const MAX_SPP: u32 = 1024;
+
+/// Largest bounces per path.
+const MAX_BOUNCES: u32 = 64;
+
+impl SimConfig {
+    /// Reads a configuration: the defaults, then the TOML file at `path` (if any), then each
+    /// `--set` override (`key=value`, dotted key; the workload keys also bare), then
+    /// [`SimConfig::validate`]. Values are TOML (`16`, `0.75`, `true`, `"queues"`); a value that
+    /// is not TOML but starts with a letter is taken as a string, so `mode.kind=queues` works.
+    pub fn load(path: Option<&Path>, overrides: &[String]) -> Result<SimConfig, ConfigError> {
+        let defaults = SimConfig::default().to_table()?;
+        let mut merged = defaults.clone();
+        if let Some(path) = path {
+            let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Read {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
+            })?;
+            let file: Table = text
+                .parse()
+                .map_err(|e: toml::de::Error| ConfigError::Syntax {
+                    path: path.to_path_buf(),
+                    message: e.to_string().trim_end().to_string(),
+                })?;
+            merge(
+                &defaults,
+                &mut merged,
+                &file,
+                &mut Vec::new(),
+                Origin::File(path),
+            )?;
+        }
+        for text in overrides {
+            apply_override(&defaults, &mut merged, text)?;
+        }
+        let config: SimConfig = Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Toml(e.message().to_string()))?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// The configuration as a TOML document, every key written out (for echoing the effective
+    /// configuration into statistics; [`SimConfig::load`] reads it back unchanged).
+    pub fn to_toml(&self) -> Result<String, ConfigError> {
+        toml::to_string(self).map_err(|e| ConfigError::Toml(e.to_string()))
+    }
+
+    /// The configuration as a TOML table.
+    fn to_table(&self) -> Result<Table, ConfigError> {
+        Table::try_from(self).map_err(|e| ConfigError::Toml(e.to_string()))
+    }
+
+    /// Checks every value's range and the rules between them, reporting the first violation
+    /// with its dotted key, its value and the reason.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_gpu()?;
+        self.validate_memory()?;
+        self.validate_rt()?;
+        self.validate_hw()?;
+        self.validate_mode()?;
+        self.validate_workload()?;
+        self.validate_bvh()?;
+        self.validate_engine()
+    }
+
+    /// Checks the SMs, CTA slots, registers, shader timing and the warp size shared with `[hw]`.
+    fn validate_gpu(&self) -> Result<(), ConfigError> {
+        let g = &self.gpu;
+        in_range("gpu.sms", g.sms, 1..=1024)?;
+        in_range("gpu.max_warps_per_sm", g.max_warps_per_sm, 1..=128)?;
+        if !g.warp_size.is_power_of_two() {
+            return Err(invalid(
+                "gpu.warp_size",
+                g.warp_size,
+                "must be a power of two",
+            ));
+        }
+        in_range("gpu.warp_size", g.warp_size, 2..=64)?;
+        if g.warp_size != self.hw.warp_size {
+            return Err(invalid(
+                "gpu.warp_size",
+                g.warp_size,
+                format!(
+                    "differs from hw.warp_size ({}): the SM and the RT unit must use one warp \
+                     size; set both",
+                    self.hw.warp_size
+                ),
+            ));
+        }
+        in_range("gpu.max_ctas_per_sm", g.max_ctas_per_sm, 1..=128)?;
+        in_range("gpu.threads_per_cta", g.threads_per_cta, 1..=1024)?;
+        if !g.threads_per_cta.is_multiple_of(g.warp_size) {
+            return Err(invalid(
+                "gpu.threads_per_cta",
+                g.threads_per_cta,
+                format!(
+                    "must be a multiple of gpu.warp_size ({}): CTAs are whole warps",
+                    g.warp_size
+                ),
+            ));
+        }
+        let cta_threads = g.max_ctas_per_sm as u64 * g.threads_per_cta as u64;
+        let warp_threads = g.max_warps_per_sm as u64 * g.warp_size as u64;
+        if cta_threads > warp_threads {
+            return Err(invalid(
+                "gpu.max_ctas_per_sm",
+                g.max_ctas_per_sm,
+                format!(
+                    "{} CTAs x {} threads = {cta_threads} threads exceed the SM's {} warps x {} \
+                     = {warp_threads} threads",
+                    g.max_ctas_per_sm, g.threads_per_cta, g.max_warps_per_sm, g.warp_size
+                ),
+            ));
+        }
+        in_range("gpu.registers_per_sm", g.registers_per_sm, 1..=1 << 20)?;
+        in_range(
+            "gpu.raygen_regs_per_thread",
+            g.raygen_regs_per_thread,
+            1..=255,
+        )?;
+        let regs = cta_threads * g.raygen_regs_per_thread as u64;
+        if regs > g.registers_per_sm as u64 {
+            return Err(invalid(
+                "gpu.registers_per_sm",
+                g.registers_per_sm,
+                format!(
+                    "too few for {} CTAs x {} threads x {} registers = {regs}",
+                    g.max_ctas_per_sm, g.threads_per_cta, g.raygen_regs_per_thread
+                ),
+            ));
+        }
+        in_range("gpu.simt_stack_entries", g.simt_stack_entries, 1..=64)?;
+        in_range("gpu.raygen_cycles", g.raygen_cycles, 1..=MAX_SHADER_CYCLES)?;
+        in_range(
+            "gpu.closest_hit_cycles",
+            g.closest_hit_cycles,
+            1..=MAX_SHADER_CYCLES,
+        )?;
+        in_range("gpu.miss_cycles", g.miss_cycles, 1..=MAX_SHADER_CYCLES)?;
+        in_range(
+            "gpu.cta_launch_cycles",
+            g.cta_launch_cycles,
+            0..=MAX_SHADER_CYCLES,
+        )
+    }
+
+    /// Checks the memory system, and that a treelet fits the L1.
+    fn validate_memory(&self) -> Result<(), ConfigError> {
+        self.memory.validate().map_err(memory_error)?;
+        let (treelet, l1) = (self.hw.treelet_bytes, self.memory.l1_bytes);
+        if treelet as u64 > l1 as u64 {
+            return Err(invalid(
+                "hw.treelet_bytes",
+                treelet,
+                format!("a treelet must fit the L1 (memory.l1_bytes = {l1})"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks intersection latencies and the response path.
+    fn validate_rt(&self) -> Result<(), ConfigError> {
+        let lat = &self.rt.latencies;
+        match lat.validate() {
+            Ok(()) => {}
+            Err(RtUnitError::BadParam { value, reason, .. }) => {
+                // The error carries the bad value; every latency equal to it is out of range,
+                // so the first such key is a correct one to name.
+                let table = Table::try_from(lat).map_err(|e| ConfigError::Toml(e.to_string()))?;
+                let name = table
+                    .iter()
+                    .find(|(_, v)| v.as_integer() == Some(value as i64))
+                    .map_or("latencies".to_string(), |(k, _)| k.clone());
+                return Err(invalid(&format!("rt.latencies.{name}"), value, reason));
+            }
+            Err(other) => return Err(invalid("rt.latencies", "[rt.latencies]", other.to_string())),
+        }
+        in_range("rt.resp_fifo_depth", self.rt.resp_fifo_depth, 1..=1024)?;
+        in_range("rt.resp_ports", self.rt.resp_ports, 1..=8)
+    }
+
+    /// Checks the RT-unit hardware, and that its ray ids cover every ray the CTA slots issue.
+    fn validate_hw(&self) -> Result<(), ConfigError> {
+        self.hw.validate().map_err(|e| ConfigError::Invalid {
+            key: format!("hw.{}", e.key),
+            value: e.value.to_string(),
+            reason: e.reason,
+        })?;
+        let hw = &self.hw;
+        let cta_rays = self.gpu.max_ctas_per_sm as u64 * self.gpu.threads_per_cta as u64;
+        if (self.mode.virtualization || self.mode.kind == ModeKind::Queues)
+            && (hw.max_rays as u64) < cta_rays
+        {
+            return Err(invalid(
+                "hw.max_rays",
+                hw.max_rays,
+                format!(
+                    "fewer than the rays the SM's CTA slots issue at once (gpu.max_ctas_per_sm x \
+                     gpu.threads_per_cta = {cta_rays})"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the mode's switches against its kind, and the queue features against each other.
+    fn validate_mode(&self) -> Result<(), ConfigError> {
+        let m = &self.mode;
+        let kind = m.kind;
+        let t = m.prefetch_threshold;
+        if !(t.is_finite() && t > 0.0 && t <= 1.0) {
+            return Err(invalid(
+                "mode.prefetch_threshold",
+                t,
+                "must be a fraction in (0, 1]",
+            ));
+        }
+        if kind != ModeKind::Prefetch && t != ModeConfig::default().prefetch_threshold {
+            return Err(invalid(
+                "mode.prefetch_threshold",
+                t,
+                format!("only the treelet prefetcher uses it, and mode.kind is \"{kind}\""),
+            ));
+        }
+        if kind != ModeKind::Queues {
+            for (key, on) in [("mode.grouping", m.grouping), ("mode.preload", m.preload)] {
+                if on {
+                    return Err(invalid(
+                        key,
+                        on,
+                        format!("only treelet queues use it, and mode.kind is \"{kind}\""),
+                    ));
+                }
+            }
+            let hw = &self.hw;
+            let d = HwConfig::default();
+            let queue_only = [
+                (
+                    "count_table_entries",
+                    hw.count_table_entries,
+                    d.count_table_entries,
+                ),
+                (
+                    "queue_table_entries",
+                    hw.queue_table_entries,
+                    d.queue_table_entries,
+                ),
+                (
+                    "underpopulation_threshold",
+                    hw.underpopulation_threshold,
+                    d.underpopulation_threshold,
+                ),
+                ("repack_threshold", hw.repack_threshold, d.repack_threshold),
+                (
+                    "max_resident_treelets",
+                    hw.max_resident_treelets,
+                    d.max_resident_treelets,
+                ),
+                (
+                    "divergence_threshold",
+                    hw.divergence_threshold,
+                    d.divergence_threshold,
+                ),
+                (
+                    "preload_threshold_warps",
+                    hw.preload_threshold_warps,
+                    d.preload_threshold_warps,
+                ),
+            ];
+            for (key, value, default) in queue_only {
+                if value != default {
+                    return Err(invalid(
+                        &format!("hw.{key}"),
+                        value,
+                        format!(
+                            "only the treelet-queue hardware uses it, and mode.kind is \
+                             \"{kind}\" (leave it at {default} or set mode.kind = \"queues\")"
+                        ),
+                    ));
+                }
+            }
+            return Ok(());
+        }
+        let hw = &self.hw;
+        if hw.repack_threshold > 0 && !m.grouping {
+            return Err(invalid(
+                "hw.repack_threshold",
+                hw.repack_threshold,
+                "warp repacking refills warps from the grouped underpopulated queues (paper \
+                 section 4.5), so it needs mode.grouping = true; 0 disables repacking",
+            ));
+        }
+        if hw.repack_threshold > 0 && !m.virtualization {
+            return Err(invalid(
+                "hw.repack_threshold",
+                hw.repack_threshold,
+                "warp repacking fetches new rays from memory, which needs ray virtualization \
+                 (mode.virtualization = true, paper section 4.5); 0 disables repacking",
+            ));
+        }
+        if !m.preload && hw.preload_threshold_warps != HwConfig::default().preload_threshold_warps {
+            return Err(invalid(
+                "hw.preload_threshold_warps",
+                hw.preload_threshold_warps,
+                "only preloading uses it, and mode.preload is false",
+            ));
+        }
+        if m.preload && hw.max_resident_treelets < 2 {
+            return Err(invalid(
+                "hw.max_resident_treelets",
+                hw.max_resident_treelets,
+                "preloading (mode.preload = true) needs room for a second resident treelet",
+            ));
+        }
+        let resident = hw.max_resident_treelets as u64 * hw.treelet_bytes as u64;
+        if resident > self.memory.l1_bytes as u64 {
+            return Err(invalid(
+                "hw.max_resident_treelets",
+                hw.max_resident_treelets,
+                format!(
+                    "{} resident treelets of hw.treelet_bytes = {} need {resident} bytes, more \
+                     than the L1 (memory.l1_bytes = {})",
+                    hw.max_resident_treelets, hw.treelet_bytes, self.memory.l1_bytes
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks image size, samples and bounces.
+    fn validate_workload(&self) -> Result<(), ConfigError> {
+        let w = &self.workload;
+        in_range("workload.width", w.width, 1..=MAX_IMAGE_SIDE)?;
+        in_range("workload.height", w.height, 1..=MAX_IMAGE_SIDE)?;
+        in_range("workload.spp", w.spp, 1..=MAX_SPP)?;
+        in_range("workload.bounces", w.bounces, 0..=MAX_BOUNCES)
+    }
+
+    /// Checks the BVH width, and the treelet size against it.
+    fn validate_bvh(&self) -> Result<(), ConfigError> {
+        let width = self.bvh.width;
+        if !WIDTH_RANGE.contains(&width) {
+            return Err(invalid(
+                "bvh.width",
+                width,
+                format!("must be {}..={}", WIDTH_RANGE.start(), WIDTH_RANGE.end()),
+            ));
+        }
+        // The width is valid, so what the build rejects is the treelet size for this width.
+        self.bvh_params()
+            .validate()
+            .map_err(|e| invalid("hw.treelet_bytes", self.hw.treelet_bytes, e.to_string()))
+    }
+
+    /// Checks watchdog and time-series intervals.
+    fn validate_engine(&self) -> Result<(), ConfigError> {
+        let s = &self.sim;
+        let m = &self.memory;
+        let miss = m.l1_latency as u64 + m.l2_latency as u64 + m.dram_latency as u64;
+        if s.watchdog_cycles <= miss || s.watchdog_cycles > MAX_ENGINE_CYCLES {
+            return Err(invalid(
+                "sim.watchdog_cycles",
+                s.watchdog_cycles,
+                format!(
+                    "must exceed one L1 + L2 + DRAM miss ({miss} cycles) and be at most \
+                     {MAX_ENGINE_CYCLES}"
+                ),
+            ));
+        }
+        in_range(
+            "sim.sample_interval",
+            s.sample_interval,
+            0..=MAX_ENGINE_CYCLES,
+        )
+    }
+
+    /// The image settings of the workload.
+    pub fn render_settings(&self) -> RenderSettings {
+        RenderSettings {
+            width: self.workload.width,
+            height: self.workload.height,
+            spp: self.workload.spp,
+            bounces: self.workload.bounces,
+        }
+    }
+
+    /// The BVH build parameters: `bvh.width` and the treelet size `hw.treelet_bytes`.
+    pub fn bvh_params(&self) -> BvhParams {
+        BvhParams {
+            width: self.bvh.width,
+            treelet_bytes: self.hw.treelet_bytes,
+        }
+    }
+
+    /// The treelet controller's feature switches (`mode.grouping`, `mode.preload`).
+    pub fn controller_features(&self) -> ControllerFeatures {
+        ControllerFeatures {
+            group_underpopulated: self.mode.grouping,
+            preload: self.mode.preload,
+        }
+    }
+
+    /// The RT unit's parameters, with its hit records placed at `hit_record_base` (a choice of
+    /// the simulator's memory layout, not of the configuration).
+    pub fn rt_unit_params(&self, hit_record_base: u64) -> RtUnitParams {
+        RtUnitParams {
+            latencies: self.rt.latencies,
+            resp_fifo_depth: self.rt.resp_fifo_depth,
+            resp_ports: self.rt.resp_ports,
+            hit_record_base,
+        }
+    }
+
+    /// Warps of one raygen CTA.
+    pub fn warps_per_cta(&self) -> u32 {
+        self.gpu.threads_per_cta.div_ceil(self.gpu.warp_size.max(1))
+    }
+
+    /// Bytes a suspended CTA saves to memory and loads back when it resumes (paper sections
+    /// 4.1 and 6.6): the raygen registers of every thread, and per warp `simt_stack_entries`
+    /// entries of a SIMT mask, a PC and a reconvergence PC (all 32-bit). 2608 by default.
+    pub fn cta_state_bytes(&self) -> u64 {
+        let g = &self.gpu;
+        let regs = g.threads_per_cta as u64 * g.raygen_regs_per_thread as u64 * WORD_BYTES;
+        let stacks = self.warps_per_cta() as u64
+            * g.simt_stack_entries as u64
+            * WORDS_PER_SIMT_ENTRY
+            * WORD_BYTES;
+        regs + stacks
+    }
+}
+
+/// Where a key was given, for messages.
+#[derive(Debug, Clone, Copy)]
+enum Origin<'a> {
+    /// The configuration file.
+    File(&'a Path),
+    /// A `--set` argument (as given).
+    Set(&'a str),
+}
+
+impl fmt::Display for Origin<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Origin::File(path) => write!(f, "config file {}", path.display()),
+            Origin::Set(text) => write!(f, "--set `{text}`"),
+        }
+    }
+}
+
+/// A [`MemConfig`] validation error as an [`ConfigError::Invalid`] naming its `memory.` key.
+fn memory_error(e: MemConfigError) -> ConfigError {
+    let (key, value) = match &e {
+        MemConfigError::Zero { key } => (*key, 0),
+        MemConfigError::NotPowerOfTwo { key, value }
+        | MemConfigError::TooLarge { key, value, .. } => (*key, *value),
+        MemConfigError::SectorVsLine { sector, .. } => ("sector_bytes", *sector),
+        MemConfigError::SmallerThanLine { key, bytes, .. } => (*key, *bytes),
+        MemConfigError::WaysDoNotDivide { key, ways, .. } => (*key, *ways),
+        MemConfigError::RayWays { ray_ways, .. } => ("l2_ray_ways", *ray_ways),
+        MemConfigError::NoSms => return invalid("gpu.sms", 0, e.to_string()),
+    };
+    invalid(&format!("memory.{key}"), value, e.to_string())
+}
+
+/// Applies one `--set key=value` override to `merged`.
+fn apply_override(defaults: &Table, merged: &mut Table, text: &str) -> Result<(), ConfigError> {
+    let bad = |reason: &str| ConfigError::Override {
+        text: text.to_string(),
+        reason: reason.to_string(),
+    };
+    let (key, raw) = text
+        .split_once('=')
+        .ok_or_else(|| bad("expected key=value, e.g. hw.repack_threshold=16"))?;
+    let key = key.trim();
+    if key.is_empty() {
+        return Err(bad("the key before '=' is empty"));
+    }
+    let raw = raw.trim();
+    // A bare word that is not TOML (such as `queues`) is a string; anything else must be TOML.
+    let value = match raw.parse::<Value>() {
+        Ok(value) => value,
+        Err(_) if raw.starts_with(|c: char| c.is_ascii_alphabetic()) => {
+            Value::String(raw.to_string())
+        }
+        Err(e) => {
+            return Err(bad(&format!(
+                "`{raw}` is not a TOML value: {} (a string that does not start with a letter \
+                 must be quoted)",
+                e.message().trim()
+            )))
+        }
+    };
+    let full = if BARE_KEYS.contains(&key) {
+        format!("workload.{key}")
+    } else {
+        key.to_string()
+    };
+    let parts: Vec<&str> = full.split('.').map(str::trim).collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(bad("the key has an empty part (expected section.key)"));
+    }
+    // Nest the value under its dotted key and merge it like a file's table.
+    let (last, init) = parts.split_last().unwrap_or((&"", &[]));
+    let mut nested = Table::new();
+    nested.insert(last.to_string(), value);
+    for part in init.iter().rev() {
+        let mut outer = Table::new();
+        outer.insert(part.to_string(), Value::Table(nested));
+        nested = outer;
+    }
+    merge(
+        defaults,
+        merged,
+        &nested,
+        &mut Vec::new(),
+        Origin::Set(text),
+    )
+}
+
+/// Merges `given` into `merged` (both under the dotted path `path`), checking every key exists
+/// in `defaults` and every value deserializes for its key.
+fn merge(
+    defaults: &Table,
+    merged: &mut Table,
+    given: &Table,
+    path: &mut Vec<String>,
+    origin: Origin,
+) -> Result<(), ConfigError> {
+    for (key, value) in given {
+        path.push(key.clone());
+        let dotted = path.join(".");
+        let Some(default) = defaults.get(key) else {
+            return Err(ConfigError::UnknownKey {
+                origin: origin.to_string(),
+                key: dotted,
+                hint: unknown_key_hint(defaults, path, origin),
+            });
+        };
+        match (default, value) {
+            (Value::Table(sub_default), Value::Table(sub_given)) => {
+                let Some(Value::Table(sub_merged)) = merged.get_mut(key) else {
+                    return Err(ConfigError::Toml(format!(
+                        "section `{dotted}` missing from the merged configuration"
+                    )));
+                };
+                merge(sub_default, sub_merged, sub_given, path, origin)?;
+            }
+            (Value::Table(sub_default), _) => {
+                return Err(ConfigError::Type {
+                    origin: origin.to_string(),
+                    key: dotted.clone(),
+                    value: value.to_string(),
+                    reason: format!(
+                        "`{dotted}` is a section; set one of its keys ({})",
+                        key_list(sub_default, &dotted)
+                    ),
+                });
+            }
+            _ => {
+                check_leaf(path, value).map_err(|reason| ConfigError::Type {
+                    origin: origin.to_string(),
+                    key: dotted.clone(),
+                    value: value.to_string(),
+                    reason,
+                })?;
+                merged.insert(key.clone(), value.clone());
+            }
+        }
+        path.pop();
+    }
+    Ok(())
+}
+
+/// Checks that `value` deserializes for the key at `path`: the defaults with that one key
+/// replaced must form a [`SimConfig`]. Returns the deserializer's reason otherwise.
+fn check_leaf(path: &[String], value: &Value) -> Result<(), String> {
+    let mut root = SimConfig::default().to_table().map_err(|e| e.to_string())?;
+    let mut table = &mut root;
+    let (last, init) = path.split_last().ok_or("empty key")?;
+    for part in init {
+        match table.get_mut(part) {
+            Some(Value::Table(t)) => table = t,
+            _ => return Err(format!("`{part}` is not a section")),
+        }
+    }
+    table.insert(last.clone(), value.clone());
+    Value::Table(root)
+        .try_into::<SimConfig>()
+        .map(|_| ())
+        .map_err(|e| e.message().to_string())
+}
+
+/// The hint of an unknown key at `path` whose section's defaults are `section`: a key of the
+/// same name elsewhere, and the valid keys of the section.
+fn unknown_key_hint(section: &Table, path: &[String], origin: Origin) -> String {
+    let name = path.last().map_or("", String::as_str);
+    let mut elsewhere = Vec::new();
+    if let Ok(root) = SimConfig::default().to_table() {
+        find_leaves(&root, name, &mut Vec::new(), &mut elsewhere);
+    }
+    let section_name = path[..path.len().saturating_sub(1)].join(".");
+    let mut hint = String::new();
+    if let Some(other) = elsewhere.first() {
+        hint.push_str(&format!("did you mean `{other}`? "));
+    }
+    if section_name.is_empty() {
+        hint.push_str(&format!(
+            "valid sections: {}",
+            section.keys().cloned().collect::<Vec<_>>().join(", ")
+        ));
+        if let Origin::Set(_) = origin {
+            hint.push_str(&format!(
+                " (keys without a section: {})",
+                BARE_KEYS.join(", ")
+            ));
+        }
+    } else {
+        hint.push_str(&format!(
+            "valid keys of [{section_name}]: {}",
+            key_list(section, &section_name)
+        ));
+    }
+    hint
+}
+
+/// The keys of a section's defaults, comma-separated, subsections as `[path.sub]`.
+fn key_list(section: &Table, section_name: &str) -> String {
+    section
+        .iter()
+        .map(|(k, v)| match v {
+            Value::Table(_) => format!("[{section_name}.{k}]"),
+            _ => k.clone(),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Collects the dotted paths of every leaf key called `name` under `table`.
+fn find_leaves(table: &Table, name: &str, path: &mut Vec<String>, out: &mut Vec<String>) {
+    for (k, v) in table {
+        path.push(k.clone());
+        match v {
+            Value::Table(sub) => find_leaves(sub, name, path, out),
+            _ if k == name => out.push(path.join(".")),
+            _ => {}
+        }
+        path.pop();
+    }
+}

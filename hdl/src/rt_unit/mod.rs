@@ -121,6 +121,56 @@ impl Default for RtUnitParams {
     }
 }
 
+/// Checks `cfg` and `params` and derives the bundle widths from them.
+fn checked_widths(cfg: &HwConfig, params: &RtUnitParams) -> Result<Widths, RtUnitError> {
+    cfg.validate()?;
+    params.latencies.validate()?;
+    let bad = |name, value: u64, reason: &str| RtUnitError::BadParam {
+        name,
+        value,
+        reason: reason.to_string(),
+    };
+    if !(1..=1024).contains(&params.resp_fifo_depth) {
+        return Err(bad(
+            "resp_fifo_depth",
+            params.resp_fifo_depth as u64,
+            "must be 1..=1024",
+        ));
+    }
+    if !(1..=8).contains(&params.resp_ports) {
+        return Err(bad("resp_ports", params.resp_ports as u64, "must be 1..=8"));
+    }
+    let records_end = params.hit_record_base + cfg.max_rays as u64 * CHUNK_BYTES as u64;
+    if params.hit_record_base & CHUNK_MASK != 0 || records_end > 1 << cfg.address_bits {
+        return Err(bad(
+            "hit_record_base",
+            params.hit_record_base,
+            "must be 32 B aligned with max_rays hit records inside the address space",
+        ));
+    }
+    let slot = clog2(cfg.warp_buffer_size as u64);
+    let lane = cfg.lane_bits();
+    Ok(Widths {
+        warp_size: cfg.warp_size,
+        slots: cfg.warp_buffer_size,
+        resp_ports: params.resp_ports,
+        ray_id: cfg.ray_id_bits(),
+        address: cfg.address_bits,
+        treelet: cfg.treelet_addr_bits(),
+        lane,
+        slot,
+        tag: slot + lane,
+        fifo_count: bits_for(params.resp_fifo_depth as u64),
+        delay: bits_for(params.latencies.max() as u64),
+    })
+}
+
+/// The RT unit's self-description for `cfg` and `params` (what `describe()` returns), without a
+/// datapath: for the Verilog and area generators.
+pub fn describe_rt_unit(cfg: &HwConfig, params: &RtUnitParams) -> Result<BlockDesc, RtUnitError> {
+    Ok(desc::describe(cfg, params, &checked_widths(cfg, params)?))
+}
+
 /// The RT unit control block, generic over the intersection datapath `D`.
 #[derive(Debug, Clone)]
 pub struct RtUnit<D> {
@@ -134,46 +184,7 @@ pub struct RtUnit<D> {
 impl<D: NodeDatapath> RtUnit<D> {
     /// An RT unit for `cfg` and `params` testing nodes with `datapath`; checks both.
     pub fn new(cfg: HwConfig, params: RtUnitParams, datapath: D) -> Result<Self, RtUnitError> {
-        cfg.validate()?;
-        params.latencies.validate()?;
-        let bad = |name, value: u64, reason: &str| RtUnitError::BadParam {
-            name,
-            value,
-            reason: reason.to_string(),
-        };
-        if !(1..=1024).contains(&params.resp_fifo_depth) {
-            return Err(bad(
-                "resp_fifo_depth",
-                params.resp_fifo_depth as u64,
-                "must be 1..=1024",
-            ));
-        }
-        if !(1..=8).contains(&params.resp_ports) {
-            return Err(bad("resp_ports", params.resp_ports as u64, "must be 1..=8"));
-        }
-        let records_end = params.hit_record_base + cfg.max_rays as u64 * CHUNK_BYTES as u64;
-        if params.hit_record_base & CHUNK_MASK != 0 || records_end > 1 << cfg.address_bits {
-            return Err(bad(
-                "hit_record_base",
-                params.hit_record_base,
-                "must be 32 B aligned with max_rays hit records inside the address space",
-            ));
-        }
-        let slot = clog2(cfg.warp_buffer_size as u64);
-        let lane = cfg.lane_bits();
-        let widths = Widths {
-            warp_size: cfg.warp_size,
-            slots: cfg.warp_buffer_size,
-            resp_ports: params.resp_ports,
-            ray_id: cfg.ray_id_bits(),
-            address: cfg.address_bits,
-            treelet: cfg.treelet_addr_bits(),
-            lane,
-            slot,
-            tag: slot + lane,
-            fifo_count: bits_for(params.resp_fifo_depth as u64),
-            delay: bits_for(params.latencies.max() as u64),
-        };
+        let widths = checked_widths(&cfg, &params)?;
         let treelet_shift = clog2(cfg.treelet_bytes as u64);
         Ok(RtUnit {
             cfg,
