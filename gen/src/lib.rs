@@ -4,6 +4,7 @@
 //!   (header, ports, storage, state encodings and a lint-clean skeleton body).
 //! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
 //! - [`area`]: the analytical storage and area model of the paper's section 6.5.
+//! - [`rtl`]: complete RTL of the treelet count table and treelet queue table.
 //! - [`synth`]: Yosys synthesis statistics and Verilator lint as structured results.
 //! - [`emit`]: the Verilog text writer; [`tools`]: running the external tools;
 //!   [`error`]: the crate's error type.
@@ -12,6 +13,7 @@ pub mod area;
 pub mod cosim;
 pub mod emit;
 pub mod error;
+pub mod rtl;
 pub mod synth;
 pub mod tools;
 pub mod verilog;

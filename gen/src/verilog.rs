@@ -104,10 +104,11 @@ pub fn validate_desc(desc: &BlockDesc) -> Result<(), GenError> {
         }
     }
     for f in &desc.fsms {
+        // The state register may be a bank: one copy of the machine per lane, say.
         match desc.registers.iter().find(|r| r.name == f.name) {
-            Some(r) if r.width != f.width || r.count != 1 => {
+            Some(r) if r.width != f.width => {
                 return Err(bad(format!(
-                    "state machine `{}` is also listed as a register with a different shape",
+                    "state machine `{}` is also listed as a register with a different width",
                     f.name
                 )))
             }
@@ -198,16 +199,7 @@ pub(crate) fn emit_header(w: &mut VerilogWriter, desc: &BlockDesc) {
             w.comment(&format!("  {}", one_line(t)));
         }
     }
-    let reg_bits: u64 = desc
-        .registers
-        .iter()
-        .map(|r| r.width as u64 * r.count as u64)
-        .sum();
-    let mem_bits: u64 = desc
-        .memories
-        .iter()
-        .map(|m| m.width as u64 * m.depth as u64)
-        .sum();
+    let (reg_bits, mem_bits) = (desc.register_bits(), desc.memory_bits());
     w.line("//");
     w.line(format!(
         "// Storage: {} bits ({reg_bits} in registers, {mem_bits} in memories).",

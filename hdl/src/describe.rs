@@ -92,19 +92,25 @@ pub struct BlockDesc {
 }
 
 impl BlockDesc {
-    /// Total storage bits: registers plus memories.
-    pub fn storage_bits(&self) -> u64 {
-        let regs: u64 = self
-            .registers
+    /// Storage bits held in registers (outside memories).
+    pub fn register_bits(&self) -> u64 {
+        self.registers
             .iter()
             .map(|r| r.width as u64 * r.count as u64)
-            .sum();
-        let mems: u64 = self
-            .memories
+            .sum()
+    }
+
+    /// Storage bits held in memory arrays.
+    pub fn memory_bits(&self) -> u64 {
+        self.memories
             .iter()
             .map(|m| m.width as u64 * m.depth as u64)
-            .sum();
-        regs + mems
+            .sum()
+    }
+
+    /// Total storage bits: registers plus memories.
+    pub fn storage_bits(&self) -> u64 {
+        self.register_bits() + self.memory_bits()
     }
 
     /// The port with the given name, if any.

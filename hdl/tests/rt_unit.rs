@@ -24,7 +24,13 @@ const L_TRIANGLE: u64 = 4;
 struct ToyDatapath;
 
 impl NodeDatapath for ToyDatapath {
-    fn test(&self, ray: &RayWords, node: &NodeEntry, data: &[u8]) -> TestResult {
+    fn test(
+        &self,
+        ray: &RayWords,
+        _best: Option<&Hit>,
+        node: &NodeEntry,
+        data: &[u8],
+    ) -> TestResult {
         if data.len() != node.bytes() as usize || data.last() != Some(&MAGIC) {
             return TestResult::default();
         }
@@ -304,7 +310,8 @@ fn single_ray_three_node_path_completes_on_the_derived_cycle() {
     assert_eq!(*outcome, RayOutcome::Finished);
     assert_eq!(rec.ray_id, 7);
     assert_eq!(rec.hit.unwrap().hit_id, 0x300);
-    assert_eq!(rec.words[7], 0.5f32.to_bits(), "tmax lowered by the hit");
+    assert_eq!(rec.hit.unwrap().t, 0.5f32.to_bits());
+    assert_eq!(rec.words, words(0), "the ray keeps its original words");
     assert!(done.lanes[1..].iter().all(Option::is_none));
     // The store carries the hit record: t, hit id, attributes, ray id.
     let store = sim.mem.log.last().unwrap().1;
@@ -925,4 +932,94 @@ fn describe_snapshot_default() {
 fn describe_snapshot_small() {
     let unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
     insta::assert_yaml_snapshot!("rt_unit_small", unit.describe());
+}
+
+/// A ray that hits two leaves with the same t: the first visited (larger id) is kept until the
+/// second (smaller id) replaces it; a later tie with a larger id does not.
+#[test]
+fn ties_in_t_go_to_the_smaller_hit_id() {
+    let mut tree = Tree::default();
+    let root = node(0x100, NodeKind::Internal, 64);
+    let leaves = [0x300u64, 0x200, 0x280].map(|a| node(a, NodeKind::TriangleLeaf, 32));
+    tree.add(root, false, &leaves.map(|l| (l, ALL)));
+    for l in leaves {
+        tree.add(l, true, &[]);
+    }
+    let params = RtUnitParams {
+        hit_record_base: 0x8000,
+        ..RtUnitParams::default()
+    };
+    let mut sim = Sim::new(small(), params, Memory::new(tree, 3));
+    sim.run(vec![warp(
+        TraversalOrder::RayStationary,
+        4,
+        vec![ray(0, 0, root), None, None, None],
+    )]);
+    let (rec, _) = sim.done[0].1.lanes[0].as_ref().unwrap();
+    assert_eq!(rec.hit.unwrap().hit_id, 0x200);
+    // Hits 0x300 then 0x200 were stored; 0x280 ties with a larger id and is dropped.
+    assert_eq!(sim.regs.stats.hits, 2);
+    assert_eq!(sim.regs.stats.stores, 2);
+}
+
+/// `skip(n)` equals `n` idle steps whenever `n <= idle_cycles`, and idle steps really are idle:
+/// checked at every cycle of runs with several warps, stores, merges and memory latencies.
+#[test]
+fn skip_equals_idle_steps() {
+    for latency in [1u64, 7, 40] {
+        let mut tree = Tree::default();
+        let root = node(0x100, NodeKind::Internal, 64);
+        let inner = node(0x200, NodeKind::Internal, 64);
+        let leaf = |a: u64| node(a, NodeKind::TriangleLeaf, 32);
+        let mut children: Vec<(NodeEntry, u8)> = (0..4u64)
+            .map(|j| (leaf(0x800 + 0x40 * j), 1u8 << j))
+            .collect();
+        children.push((inner, 0b0101));
+        tree.add(root, false, &children);
+        tree.add(inner, false, &[(leaf(0x900), ALL)]);
+        for a in [0x800, 0x840, 0x880, 0x8c0, 0x900] {
+            tree.add(leaf(a), true, &[]);
+        }
+        let mut sim = Sim::new(
+            small(),
+            RtUnitParams {
+                hit_record_base: 0x8000,
+                ..RtUnitParams::default()
+            },
+            Memory::new(tree, latency),
+        );
+        let warps: Vec<WarpIssue> = (0..3u32)
+            .map(|w| {
+                let lanes = (0..4u32)
+                    .map(|l| ray(4 * w + l, l, root))
+                    .collect::<Vec<_>>();
+                warp(TraversalOrder::TreeletContinue, 4, lanes)
+            })
+            .collect();
+        let mut checked_nonzero = 0;
+        let mut pending: Vec<WarpIssue> = warps.into_iter().rev().collect();
+        while !pending.is_empty() || sim.regs.slots.iter().any(|s| s.valid) {
+            let idle = sim.unit.idle_cycles(&sim.regs);
+            let n = idle.min(25);
+            let mut stepped = sim.regs.clone();
+            for _ in 0..n {
+                let out = sim.unit.step(&mut stepped, &sim.unit.idle_inputs());
+                assert!(out.request.is_none() && out.done.is_none() && out.boundary.is_empty());
+                assert_eq!(stepped.fifo.len(), sim.regs.fifo.len());
+            }
+            let mut skipped = sim.regs.clone();
+            sim.unit.skip(&mut skipped, n);
+            assert_eq!(skipped, stepped, "cycle {} skip {n}", sim.cycle);
+            checked_nonzero += usize::from(n > 0);
+            let issue = if sim.unit.issue_ready(&sim.regs) {
+                pending.pop()
+            } else {
+                None
+            };
+            sim.step(issue);
+            assert!(sim.cycle < 10_000, "warps did not complete");
+        }
+        assert_eq!(sim.regs.errors, 0);
+        assert!(checked_nonzero > 0, "no idle period was exercised");
+    }
 }

@@ -5,6 +5,7 @@ pub mod bvh;
 pub mod cmd;
 pub mod config;
 pub mod geometry;
+pub mod gpu;
 pub mod intersect;
 pub mod memory;
 pub mod rays_csv;

@@ -1,10 +1,10 @@
-//! `vtq`: list scenes, render the LumiBench path-tracing workload, trace ray files and benchmark
-//! the traversal against `obvhs`.
+//! `vtq`: list scenes, render the LumiBench path-tracing workload, trace ray files, benchmark
+//! the traversal against `obvhs`, and generate Verilog and area reports for the hardware.
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{bench, render, scenes, trace};
+use vtq_sim::cmd::{area, bench, render, scenes, sim, trace, verilog};
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
 #[derive(Debug, Parser)]
@@ -26,6 +26,12 @@ enum Command {
     Trace(trace::TraceArgs),
     /// Time our BVH build and traversal against obvhs on the workload's rays.
     Bench(bench::BenchArgs),
+    /// Simulate the workload on the cycle-exact GPU model and write its statistics.
+    Sim(sim::SimArgs),
+    /// Write Verilog for the hardware blocks at the configured sizes.
+    Verilog(verilog::VerilogArgs),
+    /// Storage sizes and area estimates of the treelet-queue tables (paper 6.5).
+    Area(area::AreaArgs),
 }
 
 fn main() -> ExitCode {
@@ -35,6 +41,9 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Trace(args) => trace::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Sim(args) => sim::run(args),
+        Command::Verilog(args) => verilog::run(args),
+        Command::Area(args) => area::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -203,6 +203,106 @@ fn scene_scale(header: &Header, ray: &Ray) -> f32 {
     far / ray.dir.abs().max_element()
 }
 
+/// Absolute part of the culling slack of a valid ray: [`CULL_SLACK`] times the scene scale
+/// (infinite when that is NaN, so nothing is culled).
+fn slack_base_of(header: &Header, ray: &Ray) -> f32 {
+    let base = CULL_SLACK * scene_scale(header, ray);
+    if base.is_nan() {
+        f32::INFINITY
+    } else {
+        base
+    }
+}
+
+/// The children of an internal node that a ray's box tests keep, closest first (equal entry
+/// distances keep slot order), and the number of box tests made.
+#[inline(always)]
+fn hit_children(
+    slab: &Slab,
+    view: &InternalView,
+    addr: u32,
+    lo_bound: f32,
+    cull_bound: f32,
+) -> ([Entry; 8], usize, u32) {
+    let count = view.child_count();
+    let mut hits = [Entry {
+        addr: 0,
+        kind: NodeKind::Internal,
+        t: 0.0,
+    }; 8];
+    let mut n = 0usize;
+    let mut caddr = view.child_base(addr);
+    let mut tests = 0;
+    let mut lo = [[0f32; 8]; 3];
+    let mut hi = [[0f32; 8]; 3];
+    view.decode_boxes(&mut lo, &mut hi);
+    let (t_near, hit) = slab_test_8(slab, &lo, &hi, lo_bound, cull_bound);
+    for i in 0..count {
+        let Some(kind) = view.child_kind(i) else {
+            continue;
+        };
+        tests += 1;
+        if hit[i] {
+            let t = t_near[i];
+            // Insertion sort by entry distance; equal distances keep slot order.
+            let mut j = n;
+            while j > 0 && hits[j - 1].t > t {
+                hits[j] = hits[j - 1];
+                j -= 1;
+            }
+            hits[j] = Entry {
+                addr: caddr,
+                kind,
+                t,
+            };
+            n += 1;
+        }
+        caddr = caddr.wrapping_add(view.child_size(kind));
+    }
+    (hits, n, tests)
+}
+
+/// The box tests of one ray outside a [`TraversalState`], for a datapath that sees one node at a
+/// time (the cycle-level RT unit): the same slab test, slack and child order as [`trace`], so
+/// culling is as conservative and closest hits are identical.
+#[derive(Debug, Clone, Copy)]
+pub struct BoxTester {
+    slab: Slab,
+    slack_base: f32,
+    lo_bound: f32,
+    tmax: f32,
+}
+
+impl BoxTester {
+    /// The box tester of a valid ray (see [`Ray::is_valid`]) in the BVH with header `header`.
+    pub fn new(header: &Header, ray: &Ray) -> Self {
+        let slack_base = slack_base_of(header, ray);
+        BoxTester {
+            slab: Slab::new(ray),
+            slack_base,
+            lo_bound: pad(ray.tmin, slack_base, false),
+            tmax: ray.tmax,
+        }
+    }
+
+    /// Tests the children of the internal node `view` at `addr` against the ray, culling against
+    /// the closest hit distance so far (`best_t`) as [`trace`] does; appends the kept children
+    /// (address and kind) closest first to `out` and returns the number of box tests.
+    pub fn children(
+        &self,
+        view: &InternalView,
+        addr: u32,
+        best_t: Option<f32>,
+        out: &mut Vec<(u32, NodeKind)>,
+    ) -> u32 {
+        let bound = best_t.map_or(self.tmax, |t| t.min(self.tmax));
+        let cull_bound = pad(bound, self.slack_base, true);
+        let (hits, n, tests) = hit_children(&self.slab, view, addr, self.lo_bound, cull_bound);
+        out.extend(hits[..n].iter().map(|e| (e.addr, e.kind)));
+        tests
+    }
+}
+
 impl TraversalState {
     /// Starts the traversal of `ray`. An invalid ray ([`Ray::is_valid`] false) is already
     /// done: a miss with no fetches.
@@ -215,14 +315,9 @@ impl TraversalState {
         stacks.other.clear();
         let valid = ray.is_valid();
         let slack_base = if valid {
-            CULL_SLACK * scene_scale(bvh.header(), ray)
+            slack_base_of(bvh.header(), ray)
         } else {
             0.0
-        };
-        let slack_base = if slack_base.is_nan() {
-            f32::INFINITY
-        } else {
-            slack_base
         };
         TraversalState {
             ray: *ray,
@@ -378,41 +473,7 @@ impl TraversalState {
     /// Tests the children of an internal node and pushes the hit ones; returns the box tests.
     #[inline(always)]
     fn visit_internal(&mut self, view: &InternalView, addr: u32) -> u32 {
-        let count = view.child_count();
-        let mut hits = [Entry {
-            addr: 0,
-            kind: NodeKind::Internal,
-            t: 0.0,
-        }; 8];
-        let mut n = 0usize;
-        let mut caddr = view.child_base(addr);
-        let mut tests = 0;
-        let mut lo = [[0f32; 8]; 3];
-        let mut hi = [[0f32; 8]; 3];
-        view.decode_boxes(&mut lo, &mut hi);
-        let (t_near, hit) = slab_test_8(&self.slab, &lo, &hi, self.lo_bound, self.cull_bound);
-        for i in 0..count {
-            let Some(kind) = view.child_kind(i) else {
-                continue;
-            };
-            tests += 1;
-            if hit[i] {
-                let t = t_near[i];
-                // Insertion sort by entry distance; equal distances keep slot order.
-                let mut j = n;
-                while j > 0 && hits[j - 1].t > t {
-                    hits[j] = hits[j - 1];
-                    j -= 1;
-                }
-                hits[j] = Entry {
-                    addr: caddr,
-                    kind,
-                    t,
-                };
-                n += 1;
-            }
-            caddr = caddr.wrapping_add(view.child_size(kind));
-        }
+        let (hits, n, tests) = hit_children(&self.slab, view, addr, self.lo_bound, self.cull_bound);
         let hits = &hits[..n];
         match self.order {
             Order::RayStationary => {

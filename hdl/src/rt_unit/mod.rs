@@ -3,7 +3,9 @@
 //!
 //! The intersection datapath is not part of this block: it is a pure function supplied as the
 //! type parameter `D: NodeDatapath` at construction, called when the last chunk of a node has
-//! arrived; its result (children to push, a closer hit) is written back at once and the lane's
+//! arrived; its result (children to push, a candidate hit, kept only when its `(t, hit id)` is
+//! lexicographically smaller than the lane's hit so far, so ties go to the smaller primitive id
+//! whatever the visiting order) is written back at once and the lane's
 //! intersection-delay counter is loaded with the test's latency ([`Latencies`]), which holds the
 //! lane's next fetch back. Node bytes reach the block only through the response input port, so
 //! [`Block::eval`] stays a pure function of registers and inputs.
@@ -232,6 +234,54 @@ impl<D: NodeDatapath> RtUnit<D> {
     /// The `resp_free` output for these registers (free response-FIFO entries).
     pub fn resp_free(&self, regs: &RtUnitRegs) -> u32 {
         self.params.resp_fifo_depth - regs.fifo.len() as u32
+    }
+
+    /// Cycles from now in which the unit, given idle inputs (no issue, no responses), does
+    /// nothing visible outside its statistics and delay counters: no request, no completion,
+    /// no response pop, no test. `u64::MAX` when it waits only for responses (or is empty).
+    /// Lets a simulator skip those cycles with [`skip`](Self::skip).
+    pub fn idle_cycles(&self, regs: &RtUnitRegs) -> u64 {
+        if !regs.fifo.is_empty() || regs.split.is_some() {
+            return 0;
+        }
+        let mut idle = u64::MAX;
+        for &s in &regs.age {
+            let slot = &regs.slots[s as usize];
+            if slot.lanes.iter().all(Lane::quiescent) {
+                return 0;
+            }
+            for lane in &slot.lanes {
+                if lane.store_pending || lane.ready() {
+                    return 0;
+                }
+                if lane.delay > 0 {
+                    idle = idle.min(lane.delay as u64);
+                }
+            }
+        }
+        idle
+    }
+
+    /// Advances the registers by `n` cycles with idle inputs, exactly as `n` calls of
+    /// [`Block::step`] would, provided `n <= idle_cycles(regs)`: the statistics count `n` warp
+    /// cycles per resident warp and the delays count down by `n`. Panics in debug builds when
+    /// `n` exceeds [`idle_cycles`](Self::idle_cycles).
+    pub fn skip(&self, regs: &mut RtUnitRegs, n: u64) {
+        debug_assert!(n <= self.idle_cycles(regs), "skip beyond the idle cycles");
+        if n == 0 {
+            return;
+        }
+        for slot in regs.slots.iter_mut().filter(|s| s.valid) {
+            regs.stats.warp_cycles += n;
+            let mut traversing = 0;
+            for lane in slot.lanes.iter_mut() {
+                if lane.status == LaneStatus::Traversing {
+                    traversing += 1;
+                }
+                lane.delay = (lane.delay as u64).saturating_sub(n) as u32;
+            }
+            regs.stats.active_thread_cycles += n * traversing;
+        }
     }
 
     /// Checks that the hardware can hold `node`: 1..=4 chunks, 32 B aligned, inside the
@@ -552,17 +602,22 @@ impl<D: NodeDatapath> RtUnit<D> {
         errs: &mut u8,
     ) -> Option<u64> {
         let data = &lane.chunks.as_flattened()[..node.bytes() as usize];
-        let result = self.datapath.test(&lane.ray.words, node, data);
+        let result = self
+            .datapath
+            .test(&lane.ray.words, lane.ray.hit.as_ref(), node, data);
         stats.tests[node.kind.code() as usize] += 1;
-        if let Some(hit) = result.hit {
-            lane.ray.words[TMAX_WORD] = hit.t;
+        let best = lane.ray.hit;
+        let accepted = result
+            .hit
+            .filter(|h| best.is_none_or(|b| h.closer_than(&b)));
+        if let Some(hit) = accepted {
             lane.ray.hit = Some(hit);
             lane.store_pending = true;
             if node.kind == NodeKind::TriangleLeaf {
                 stats.hits += 1;
             }
         }
-        lane.delay = self.params.latencies.of(node.kind, result.hit.is_some());
+        lane.delay = self.params.latencies.of(node.kind, accepted.is_some());
         let ray = &mut lane.ray;
         for child in result.children.iter().rev() {
             if self.check_node(child).is_err() {

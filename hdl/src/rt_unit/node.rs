@@ -218,7 +218,8 @@ impl Latencies {
 /// A closest-hit update reported by a leaf test.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Hit {
-    /// New tmax (f32 bit pattern); written to the ray's [`TMAX_WORD`].
+    /// Hit distance (f32 bit pattern). The ray's words keep their original tmax; the closest
+    /// hit so far is passed back to the datapath for culling.
     pub t: u32,
     /// Identifier of the primitive hit (written to the hit record).
     pub hit_id: u32,
@@ -231,7 +232,9 @@ pub struct Hit {
 pub struct TestResult {
     /// Children to visit, in visit order (the first is visited first).
     pub children: Vec<NodeEntry>,
-    /// A closer hit, if the node is a leaf the ray hits before its current tmax.
+    /// A candidate hit, if the node is a leaf the ray hits within its `[tmin, tmax]` and not
+    /// beyond the closest hit so far; the RT unit keeps it only if `(t, hit_id)` is
+    /// lexicographically smaller than that hit's (smallest `t`, ties to the smaller id).
     pub hit: Option<Hit>,
 }
 
@@ -242,13 +245,29 @@ pub struct TestResult {
 /// [`Latencies::of`]; it must be a pure function of its arguments (no interior mutability), so
 /// that [`crate::Block::eval`] stays pure and deterministic.
 pub trait NodeDatapath {
-    /// Tests the ray `ray` against `node`, whose `node.bytes()` bytes (all chunks, in address
-    /// order) are `data`.
-    fn test(&self, ray: &RayWords, node: &NodeEntry, data: &[u8]) -> TestResult;
+    /// Tests the ray `ray` (its original words) against `node`, whose `node.bytes()` bytes
+    /// (all chunks, in address order) are `data`; `best` is the ray's closest hit so far (box
+    /// tests cull against it).
+    fn test(&self, ray: &RayWords, best: Option<&Hit>, node: &NodeEntry, data: &[u8])
+        -> TestResult;
 }
 
 impl<T: NodeDatapath + ?Sized> NodeDatapath for &T {
-    fn test(&self, ray: &RayWords, node: &NodeEntry, data: &[u8]) -> TestResult {
-        (**self).test(ray, node, data)
+    fn test(
+        &self,
+        ray: &RayWords,
+        best: Option<&Hit>,
+        node: &NodeEntry,
+        data: &[u8],
+    ) -> TestResult {
+        (**self).test(ray, best, node, data)
+    }
+}
+
+impl Hit {
+    /// Whether this hit beats `other`: smaller `t` (as f32), ties broken by the smaller hit id.
+    pub fn closer_than(&self, other: &Hit) -> bool {
+        let (a, b) = (f32::from_bits(self.t), f32::from_bits(other.t));
+        a < b || (a == b && self.hit_id < other.hit_id)
     }
 }

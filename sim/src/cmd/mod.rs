@@ -1,7 +1,10 @@
 //! The `vtq` subcommands, one module each.
 
+pub mod area;
 pub mod bench;
 pub mod options;
 pub mod render;
 pub mod scenes;
+pub mod sim;
 pub mod trace;
+pub mod verilog;

@@ -134,3 +134,24 @@ pub fn build_bvh(scene: &Scene, args: &BvhArgs) -> anyhow::Result<HwBvh> {
     println!("bvh: {how} in {seconds:.3} s");
     Ok(bvh)
 }
+
+/// The simulator configuration file and `--set` overrides (see docs/config.md).
+#[derive(Debug, Clone, Args)]
+pub struct ConfigArgs {
+    /// Configuration file (TOML; e.g. configs/vtq.toml) [default: the paper's Table 1 baseline].
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Override one parameter, e.g. `--set hw.max_rays=8192` or `--set width=64` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+}
+
+impl ConfigArgs {
+    /// Defaults, then the file, then the overrides, validated.
+    pub fn load(&self) -> anyhow::Result<crate::config::SimConfig> {
+        Ok(crate::config::SimConfig::load(
+            self.config.as_deref(),
+            &self.overrides,
+        )?)
+    }
+}

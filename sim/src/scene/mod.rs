@@ -23,7 +23,9 @@ pub enum SceneError {
         reason: String,
     },
     /// A scene name matched no built-in and no folder.
-    #[error("unknown scene '{0}': not a built-in, a .obj file or a scene folder (run `vtq scenes`)")]
+    #[error(
+        "unknown scene '{0}': not a built-in, a .obj file or a scene folder (run `vtq scenes`)"
+    )]
     Unknown(String),
 }
 

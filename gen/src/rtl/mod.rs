@@ -1,0 +1,318 @@
+//! Complete, synthesizable Verilog-2005 RTL for the blocks whose behaviour is simple enough to
+//! write out in full: the treelet count table ([`count_table_verilog`]) and the treelet queue
+//! table ([`queue_table_verilog`]).
+//!
+//! Each module is built from the Rust block's [`vtq_hdl::Block::describe`]: the module name,
+//! the header comment and the port list come from g1's emitter ([`crate::verilog`]), and every
+//! width and size the body uses is looked up in the description (ports, registers, memories
+//! and parameters by name), so the RTL cannot drift from the Rust block; a description that
+//! lacks an item the body needs is a [`GenError::InvalidDesc`].
+//!
+//! Conventions shared by both bodies (and [`crate::cosim`]'s timing convention):
+//! - every register of the description is `<name>_q` with its next value `<name>_d`, computed
+//!   by combinational `always @*` blocks; one clocked block loads all of them, and synchronous
+//!   active-high `rst` loads the values of the Rust `Block::reset()`;
+//! - outputs are `assign`ed from the registers and this cycle's inputs (like `Block::eval`);
+//! - memories are `reg [W-1:0] name [0:D-1]` with synchronous writes; latency-1 (SRAM) reads
+//!   go through a registered read-data word; flip-flop arrays are reset like the Rust model.
+
+mod count_table;
+mod queue_table;
+
+pub use count_table::count_table_verilog;
+pub use queue_table::queue_table_verilog;
+
+use crate::emit::{one_line, range, VerilogWriter};
+use crate::error::GenError;
+use crate::verilog::{emit_header, emit_ports, validate_desc};
+use vtq_hdl::count_table::CountTable;
+use vtq_hdl::queue_table::QueueTable;
+use vtq_hdl::{Block, BlockDesc, Dir, HwConfig, MemDesc};
+
+/// The complete RTL of both tables for `cfg`, as `(module name, Verilog text)` pairs (count
+/// table first); write each to `<module name>.v`.
+pub fn table_modules(cfg: &HwConfig) -> Result<Vec<(String, String)>, GenError> {
+    let count = CountTable::new(cfg)?.describe().name;
+    let queue = QueueTable::new(cfg)?.describe().name;
+    Ok(vec![
+        (count, count_table_verilog(cfg)?),
+        (queue, queue_table_verilog(cfg)?),
+    ])
+}
+
+/// Looks up the sizes a body needs in a block description, failing with a message that names
+/// the missing or inconsistent item.
+struct DescInfo<'a> {
+    desc: &'a BlockDesc,
+}
+
+impl<'a> DescInfo<'a> {
+    fn new(desc: &'a BlockDesc) -> Result<Self, GenError> {
+        validate_desc(desc)?;
+        Ok(DescInfo { desc })
+    }
+
+    fn bad(&self, reason: String) -> GenError {
+        GenError::InvalidDesc {
+            block: self.desc.name.clone(),
+            reason,
+        }
+    }
+
+    /// Width of port `name`, which must have direction `dir`.
+    fn port(&self, name: &str, dir: Dir) -> Result<u32, GenError> {
+        match self.desc.port(name) {
+            Some(p) if p.dir == dir => Ok(p.width),
+            Some(p) => Err(self.bad(format!(
+                "port `{name}` is {:?}, the RTL needs {dir:?}",
+                p.dir
+            ))),
+            None => Err(self.bad(format!("the RTL needs a port `{name}`"))),
+        }
+    }
+
+    /// Width of the single register `name`.
+    fn reg(&self, name: &str) -> Result<u32, GenError> {
+        match self.desc.registers.iter().find(|r| r.name == name) {
+            Some(r) if r.count == 1 => Ok(r.width),
+            Some(r) => Err(self.bad(format!(
+                "register `{name}` is a bank of {}, the RTL needs one register",
+                r.count
+            ))),
+            None => Err(self.bad(format!("the RTL needs a register `{name}`"))),
+        }
+    }
+
+    /// Configuration parameter `name`.
+    fn param(&self, name: &str) -> Result<u64, GenError> {
+        self.desc
+            .params
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+            .ok_or_else(|| self.bad(format!("the RTL needs the parameter `{name}`")))
+    }
+
+    /// Memory `name` with its fields checked against `fields` (name, width), most significant
+    /// first, and its read latency against `latency`.
+    fn mem(&self, name: &str, fields: &[(&str, u32)], latency: u32) -> Result<&MemDesc, GenError> {
+        let m = self
+            .desc
+            .memories
+            .iter()
+            .find(|m| m.name == name)
+            .ok_or_else(|| self.bad(format!("the RTL needs a memory `{name}`")))?;
+        let got: Vec<(&str, u32)> = m.fields.iter().map(|(n, w)| (n.as_str(), *w)).collect();
+        if got != fields {
+            return Err(self.bad(format!(
+                "memory `{name}` has fields {got:?}, the RTL expects {fields:?}"
+            )));
+        }
+        if m.read_latency != latency {
+            return Err(self.bad(format!(
+                "memory `{name}` has read latency {}, the RTL expects {latency}",
+                m.read_latency
+            )));
+        }
+        Ok(m)
+    }
+}
+
+/// A sized decimal literal.
+fn lit(width: u32, value: u64) -> String {
+    format!("{width}'d{value}")
+}
+
+/// `expr` (of `from` bits) zero-extended to `to` bits.
+fn zext(expr: &str, from: u32, to: u32) -> String {
+    debug_assert!(to >= from, "zext from {from} to {to} bits");
+    if to <= from {
+        expr.to_string()
+    } else {
+        format!("{{{}'d0, {expr}}}", to - from)
+    }
+}
+
+/// Replaces every `${NAME}` in `template` by its value from `vars`. The templates are written
+/// in this crate, so an unknown name is a bug the lint tests catch (it is left in place and is
+/// not valid Verilog).
+fn fill(template: &str, vars: &[(&str, String)]) -> String {
+    let mut out = String::with_capacity(template.len() + template.len() / 4);
+    let mut rest = template;
+    while let Some(start) = rest.find("${") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 2..];
+        match after.find('}') {
+            Some(end) => {
+                let key = &after[..end];
+                match vars.iter().find(|(k, _)| *k == key) {
+                    Some((_, v)) => out.push_str(v),
+                    None => {
+                        debug_assert!(false, "template variable `{key}` has no value");
+                        out.push_str(&rest[start..start + 3 + end]);
+                    }
+                }
+                rest = &after[end + 1..];
+            }
+            None => {
+                out.push_str(&rest[start..]);
+                rest = "";
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+/// The register declarations (`<name>_q` and `<name>_d` for every register of the
+/// description; a bank of one-bit registers becomes a packed vector) and the clocked block
+/// that loads them, with `reset` giving the reset value of each register that does not reset
+/// to zero.
+fn emit_registers(w: &mut VerilogWriter, desc: &BlockDesc, reset: &[(&str, String)]) {
+    w.line("");
+    w.comment(
+        "Registers of the block description: `<name>_q` holds the register, `<name>_d` is its \
+         next value, computed combinationally below.",
+    );
+    for r in &desc.registers {
+        let width = if r.count > 1 {
+            debug_assert_eq!(
+                r.width, 1,
+                "banks of wide registers are not used by the RTL"
+            );
+            r.count
+        } else {
+            r.width
+        };
+        let doc = if r.count > 1 {
+            format!("{} (bit i = register i)", r.doc)
+        } else {
+            r.doc.clone()
+        };
+        w.line(format!(
+            "reg {}{}_q; // {}",
+            range(width),
+            r.name,
+            one_line(&doc)
+        ));
+        w.line(format!("reg {}{}_d;", range(width), r.name));
+    }
+    w.line("");
+    w.line("always @(posedge clk) begin : p_registers");
+    w.indent();
+    w.line("if (rst) begin");
+    w.indent();
+    for r in &desc.registers {
+        let width = if r.count > 1 { r.count } else { r.width };
+        let value = reset
+            .iter()
+            .find(|(n, _)| *n == r.name)
+            .map(|(_, v)| v.clone())
+            .unwrap_or_else(|| lit(width, 0));
+        w.line(format!("{}_q <= {value};", r.name));
+    }
+    w.dedent();
+    w.line("end else begin");
+    w.indent();
+    for r in &desc.registers {
+        w.line(format!("{0}_q <= {0}_d;", r.name));
+    }
+    w.dedent();
+    w.line("end");
+    w.dedent();
+    w.line("end");
+}
+
+/// A complete module: g1's header and port list (every output a wire), then `body`, which
+/// receives the writer at one level of indentation.
+fn emit_full_module(desc: &BlockDesc, note: &str, body: impl FnOnce(&mut VerilogWriter)) -> String {
+    let mut w = VerilogWriter::new();
+    emit_header(&mut w, desc);
+    w.comment(note);
+    w.line(format!("// {}", "-".repeat(93)));
+    emit_ports(&mut w, desc, false);
+    w.indent();
+    body(&mut w);
+    w.dedent();
+    w.line("endmodule");
+    w.finish()
+}
+
+/// Appends a multi-line template (already filled) at the writer's indentation, with the
+/// declarations tidied: single spaces in the code, and the trailing comments of consecutive
+/// declarations aligned.
+fn emit_text(w: &mut VerilogWriter, text: &str) {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut i = 0;
+    while i < lines.len() {
+        let Some(first) = split_declaration(lines[i]) else {
+            w.line(lines[i]);
+            i += 1;
+            continue;
+        };
+        let mut run = vec![first];
+        while let Some(d) = lines.get(i + run.len()).and_then(|l| split_declaration(l)) {
+            run.push(d);
+        }
+        let width = run
+            .iter()
+            .filter(|d| d.2.is_some())
+            .map(|d| d.1.len())
+            .max()
+            .unwrap_or(0);
+        for (indent, code, comment) in &run {
+            match comment {
+                Some(c) => w.line(format!("{indent}{code:width$} {c}")),
+                None => w.line(format!("{indent}{code}")),
+            }
+        }
+        i += run.len();
+    }
+}
+
+/// A one-line `reg`/`wire` declaration as (indentation, code with single spaces, comment).
+fn split_declaration(line: &str) -> Option<(String, String, Option<String>)> {
+    let text = line.trim_start();
+    if !(text.starts_with("reg ") || text.starts_with("wire ")) || !text.contains(';') {
+        return None;
+    }
+    let indent = line[..line.len() - text.len()].to_string();
+    let (code, comment) = match text.find("//") {
+        Some(i) => (&text[..i], Some(text[i..].trim_end().to_string())),
+        None => (text, None),
+    };
+    let code = code.split_whitespace().collect::<Vec<_>>().join(" ");
+    Some((indent, code, comment))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fill_replaces_known_names() {
+        let v = [("A", "1".to_string()), ("BB", "x".to_string())];
+        assert_eq!(fill("a${A}b${BB}${A}", &v), "a1bx1");
+        assert_eq!(fill("{no} $ {x}", &v), "{no} $ {x}");
+    }
+
+    #[test]
+    fn declarations_are_tidied() {
+        let mut w = VerilogWriter::new();
+        emit_text(
+            &mut w,
+            "reg   a;   // first\nwire [3:0]  bb = c; // second\nassign x = y;  // kept\n",
+        );
+        assert_eq!(
+            w.finish(),
+            "reg a;             // first\nwire [3:0] bb = c; // second\nassign x = y;  // kept\n"
+        );
+    }
+
+    #[test]
+    fn zext_pads_only_when_needed() {
+        assert_eq!(zext("a", 3, 3), "a");
+        assert_eq!(zext("a", 3, 5), "{2'd0, a}");
+        assert_eq!(lit(4, 9), "4'd9");
+    }
+}

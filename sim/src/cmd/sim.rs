@@ -1,0 +1,106 @@
+//! `vtq sim`: simulate the path-traced workload on the cycle-exact GPU model and write its
+//! statistics (JSON), time series (CSV beside the JSON) and, if asked, the image.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::cmd::options::{build_bvh, load_scene, BvhArgs};
+use crate::config::SimConfig;
+use crate::gpu::stats::write_time_series;
+use crate::gpu::{simulate, SimOptions};
+use crate::workload::image::write_png;
+
+/// Options of `vtq sim`.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// Scene: a built-in name (`wknd`, `cornell`), a folder under ../shared/scenes, a scene
+    /// folder path or a `.obj` file (see `vtq scenes`).
+    #[arg(long)]
+    pub scene: String,
+    /// Configuration file (TOML, see docs/config.md) [default: the baseline GPU].
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Override one configuration key, e.g. `--set gpu.sms=4` or `--set width=64` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Statistics output (JSON); the time series goes beside it as `<stem>.timeseries.csv`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the simulated image (PNG).
+    #[arg(long)]
+    pub image: Option<PathBuf>,
+    /// Step every cycle instead of skipping idle ones (verification; same results).
+    #[arg(long)]
+    pub lockstep: bool,
+    /// Directory of cached BVH builds [default: $VTQ_CACHE_DIR, else $XDG_CACHE_HOME/vtq, else
+    /// ~/.cache/vtq].
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Always build the BVH; neither read nor write the cache.
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+/// Where the time series of a statistics file goes: `<stem>.timeseries.csv` beside it.
+pub fn time_series_path(out: &Path) -> PathBuf {
+    out.with_extension("timeseries.csv")
+}
+
+/// Run `vtq sim`.
+pub fn run(args: &SimArgs) -> anyhow::Result<()> {
+    let mut cfg = SimConfig::load(args.config.as_deref(), &args.set)?;
+    if args.lockstep {
+        cfg.sim.lockstep = true;
+    }
+    let scene = load_scene(&args.scene)?;
+    let bvh_args = BvhArgs {
+        bvh_width: cfg.bvh.width,
+        treelet_bytes: cfg.hw.treelet_bytes,
+        cache_dir: args.cache_dir.clone(),
+        no_cache: args.no_cache,
+    };
+    let bvh = build_bvh(&scene, &bvh_args)?;
+    let settings = cfg.render_settings();
+    let progress = std::io::stderr().is_terminal().then(|| {
+        let bar = indicatif::ProgressBar::new(settings.pixels() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "sim {bar:40} {pos}/{len} pixels {elapsed} (eta {eta})",
+            )
+            .expect("the progress template is valid"),
+        );
+        bar
+    });
+    let out = simulate(&scene, &bvh, &cfg, SimOptions::default(), progress.as_ref())
+        .with_context(|| format!("simulating scene '{}'", scene.name))?;
+    if let Some(bar) = &progress {
+        bar.finish_and_clear();
+    }
+    let s = &out.stats;
+    let json = serde_json::to_string_pretty(s).context("serializing the statistics")?;
+    std::fs::write(&args.out, json + "\n")
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    let csv = time_series_path(&args.out);
+    write_time_series(&csv, &out.time_series)
+        .with_context(|| format!("writing {}", csv.display()))?;
+    println!(
+        "sim: {} cycles, {} rays, SIMT efficiency {:.3}, BVH L1 miss rate {:.3}; {:.2} s wall, \
+         {:.0} simulated rays/s",
+        s.cycles,
+        s.rays,
+        s.simt_efficiency,
+        s.bvh_l1_miss_rate,
+        s.sim_wall_seconds,
+        s.simulated_rays_per_second
+    );
+    println!("wrote {} and {}", args.out.display(), csv.display());
+    if let Some(path) = &args.image {
+        write_png(path, settings.width, settings.height, &out.image)
+            .context("writing the image")?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

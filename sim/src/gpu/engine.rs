@@ -1,0 +1,488 @@
+//! The cycle loop. Each cycle, in this order: time-series samples due, shader timers (warps
+//! become ready to trace or end; CTAs retire), CTA dispatch to free slots, memory responses into
+//! the RT units' return queues, one step of every RT unit (issue, responses, completion), and one
+//! memory request per SM to the L1. SMs are visited in index order, so runs are deterministic.
+//!
+//! Idle cycles are skipped in SST's declocking style: after a cycle every component reports the
+//! next cycle it has work ([`MemorySystem::next_event`], [`Sm::next_timer`],
+//! [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`) and the engine jumps
+//! there. Within an evaluated cycle, an RT unit with nothing to do is not stepped either; it
+//! catches up its warp-cycle statistics and delay counters with `skip` when next stepped (and at
+//! the end). With `sim.lockstep` every RT unit is stepped every cycle; results are identical
+//! (tested).
+
+use std::time::Instant;
+
+use glam::Vec3;
+use vtq_hdl::rt_unit::TraversalOrder;
+
+use crate::bvh::HwBvh;
+use crate::config::{ModeKind, SimConfig};
+use crate::geometry::{Hit, Ray};
+use crate::gpu::cta_scheduler::CtaScheduler;
+use crate::gpu::rt::{RtPort, TracedWarp};
+use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
+use crate::gpu::sm::Sm;
+use crate::gpu::stats::{PhaseStats, Phases, RtTotals, Sample, SimStats};
+use crate::gpu::watchdog::Watchdog;
+use crate::gpu::SimError;
+use crate::memory::MemorySystem;
+use crate::scene::Scene;
+use crate::workload::camera::CameraFrame;
+use crate::workload::pathtracer::RenderSettings;
+
+/// Bytes of one hit record.
+const HIT_RECORD_BYTES: u64 = 32;
+
+/// Alignment of the hit-record region after the BVH image.
+const HIT_RECORD_ALIGN: u64 = 4096;
+
+/// Options of a simulation that are not part of the configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SimOptions {
+    /// Record every traced ray with its closest hit ([`SimOutput::ray_log`]), for tests.
+    pub record_rays: bool,
+}
+
+/// One traced ray and the closest hit the RT unit found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TracedRay {
+    /// Pixel of the thread that traced it.
+    pub pixel: u32,
+    /// The ray.
+    pub ray: Ray,
+    /// Its closest hit (`None`: a miss).
+    pub hit: Option<Hit>,
+}
+
+/// The result of a simulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOutput {
+    /// Statistics.
+    pub stats: SimStats,
+    /// Linear radiance per pixel, row-major, as [`crate::workload::pathtracer::render`] gives.
+    pub image: Vec<Vec3>,
+    /// Samples whose radiance was NaN or infinite (written black).
+    pub nonfinite_samples: u64,
+    /// The time series (every `sim.sample_interval` cycles).
+    pub time_series: Vec<Sample>,
+    /// Every traced ray in completion order (only with [`SimOptions::record_rays`]).
+    pub ray_log: Vec<TracedRay>,
+}
+
+/// The whole simulated GPU.
+struct Gpu<'a> {
+    scene: &'a Scene,
+    cfg: &'a SimConfig,
+    settings: RenderSettings,
+    frame: CameraFrame,
+    timing: ShaderTiming,
+    options: SimOptions,
+    scheduler: CtaScheduler,
+    sms: Vec<Sm>,
+    rts: Vec<RtPort<'a>>,
+    mem: MemorySystem,
+    watchdog: Watchdog,
+    image: Vec<Vec3>,
+    nonfinite: u64,
+    ray_log: Vec<TracedRay>,
+    rays_hit: u64,
+    time_series: Vec<Sample>,
+    next_sample: u64,
+    last_sample_loads: (u64, u64),
+    pixels_done: u64,
+    stepped: u64,
+}
+
+/// Checks that the configuration asks for what this build simulates and fits the BVH.
+fn check_setup(bvh: &HwBvh, cfg: &SimConfig) -> Result<(), SimError> {
+    if cfg.mode.kind != ModeKind::Baseline {
+        return Err(SimError::NotImplemented(format!(
+            "mode.kind = \"{}\" (only \"baseline\" is simulated so far)",
+            cfg.mode.kind
+        )));
+    }
+    if cfg.mode.virtualization {
+        return Err(SimError::NotImplemented(
+            "mode.virtualization = true (ray virtualization is not simulated yet)".into(),
+        ));
+    }
+    if *bvh.params() != cfg.bvh_params() {
+        return Err(SimError::Setup(format!(
+            "the BVH was built with {:?} but the configuration asks for {:?}",
+            bvh.params(),
+            cfg.bvh_params()
+        )));
+    }
+    let ids = cfg.hw.warp_buffer_size as u64 * cfg.hw.warp_size as u64;
+    if ids > cfg.hw.max_rays as u64 {
+        return Err(SimError::Setup(format!(
+            "hw.warp_buffer_size x hw.warp_size = {ids} rays exceed hw.max_rays = {} (ray ids \
+             name warp-buffer lanes)",
+            cfg.hw.max_rays
+        )));
+    }
+    Ok(())
+}
+
+/// Simulates the path-traced workload of `cfg.workload` on `scene` (whose BVH is `bvh`, built
+/// with `cfg.bvh_params()`), advancing `progress` (if any) by finished pixels.
+pub fn simulate(
+    scene: &Scene,
+    bvh: &HwBvh,
+    cfg: &SimConfig,
+    options: SimOptions,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Result<SimOutput, SimError> {
+    cfg.validate().map_err(|e| SimError::Setup(e.to_string()))?;
+    check_setup(bvh, cfg)?;
+    let settings = cfg.render_settings();
+    settings.validate()?;
+    let frame = CameraFrame::new(&scene.camera, settings.width, settings.height)
+        .map_err(crate::workload::pathtracer::RenderError::from)?;
+    let config_toml = cfg
+        .to_toml()
+        .map_err(|e| SimError::Setup(format!("cannot write the configuration: {e}")))?;
+    let nsms = cfg.gpu.sms as usize;
+    let warps_per_cta = cfg.warps_per_cta() as usize;
+    let cta_slots = (cfg.gpu.max_ctas_per_sm as usize)
+        .min(cfg.gpu.max_warps_per_sm as usize / warps_per_cta.max(1));
+    if cta_slots == 0 {
+        return Err(SimError::Setup(format!(
+            "a CTA of {warps_per_cta} warps does not fit gpu.max_warps_per_sm = {}",
+            cfg.gpu.max_warps_per_sm
+        )));
+    }
+    let bvh_end = bvh.treelets().len() as u64 * bvh.params().treelet_bytes as u64;
+    let records = bvh_end.div_ceil(HIT_RECORD_ALIGN) * HIT_RECORD_ALIGN;
+    let per_sm = cfg.hw.max_rays as u64 * HIT_RECORD_BYTES;
+    let rts = (0..nsms)
+        .map(|sm| {
+            let params = cfg.rt_unit_params(records + sm as u64 * per_sm);
+            RtPort::new(&cfg.hw, params, bvh, TraversalOrder::TreeletContinue)
+                .map_err(|source| SimError::Rt { sm, source })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut gpu = Gpu {
+        scene,
+        cfg,
+        settings,
+        frame,
+        timing: ShaderTiming::new(&cfg.gpu),
+        options,
+        scheduler: CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta),
+        sms: (0..nsms)
+            .map(|_| Sm::new(cta_slots, warps_per_cta))
+            .collect(),
+        rts,
+        mem: MemorySystem::new(&cfg.memory, nsms)?,
+        watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
+        image: vec![Vec3::ZERO; settings.pixels()],
+        nonfinite: 0,
+        ray_log: Vec::new(),
+        rays_hit: 0,
+        time_series: Vec::new(),
+        next_sample: cfg.sim.sample_interval,
+        last_sample_loads: (0, 0),
+        pixels_done: 0,
+        stepped: 0,
+    };
+    let start = Instant::now();
+    let cycles = gpu.run(progress)?;
+    let wall = start.elapsed().as_secs_f64();
+    Ok(gpu.finish(cycles, wall, config_toml, bvh))
+}
+
+impl Gpu<'_> {
+    /// Runs to the end; returns the cycle count.
+    fn run(&mut self, progress: Option<&indicatif::ProgressBar>) -> Result<u64, SimError> {
+        let mut now = 0u64;
+        loop {
+            self.cycle(now)?;
+            self.stepped += 1;
+            if let Some(bar) = progress {
+                bar.set_position(self.pixels_done);
+            }
+            if self.finished() {
+                for rt in &mut self.rts {
+                    rt.catch_up(now + 1);
+                }
+                return Ok(now + 1);
+            }
+            let next = if self.cfg.sim.lockstep {
+                now + 1
+            } else {
+                self.next_event(now).unwrap_or(u64::MAX)
+            };
+            let next = next.min(self.watchdog.deadline());
+            if self.watchdog.expired(next) {
+                return Err(self.watchdog_error(next));
+            }
+            now = next;
+        }
+    }
+
+    /// Whether every CTA has run and retired.
+    fn finished(&self) -> bool {
+        self.scheduler.pending() == 0 && self.sms.iter().all(Sm::is_idle)
+    }
+
+    /// One cycle.
+    fn cycle(&mut self, now: u64) -> Result<(), SimError> {
+        self.sample(now);
+        for sm in &mut self.sms {
+            sm.run_timers(now);
+        }
+        self.dispatch(now);
+        for (i, rt) in self.rts.iter_mut().enumerate() {
+            rt.collect_responses(now, i, &mut self.mem);
+        }
+        let lockstep = self.cfg.sim.lockstep;
+        for i in 0..self.sms.len() {
+            let head = if self.rts[i].issue_ready() {
+                self.sms[i].peek_ready()
+            } else {
+                None
+            };
+            if !lockstep && !self.rts[i].busy_at(now, head.is_some()) {
+                // Idle this cycle: caught up lazily when next stepped.
+                if self.rts[i].send(now, i, &mut self.mem)? {
+                    self.watchdog.progress(now);
+                }
+                continue;
+            }
+            let rays: Vec<Option<Ray>> = head
+                .and_then(|w| self.sms[i].warp(w))
+                .map(|w| {
+                    w.threads
+                        .iter()
+                        .map(|t| t.as_ref().map(PathThread::ray))
+                        .collect()
+                })
+                .unwrap_or_default();
+            let out = self.rts[i].step(now, i, head.map(|w| (w, rays.as_slice())))?;
+            if out.accepted.is_some() {
+                self.sms[i].issue_ready();
+            }
+            if let Some(done) = out.done {
+                self.watchdog.progress(now);
+                self.shade(now, i, done);
+            }
+            if self.rts[i].send(now, i, &mut self.mem)? {
+                self.watchdog.progress(now);
+            }
+        }
+        Ok(())
+    }
+
+    /// Hands pending CTAs to free slots; their warps trace after launch and raygen.
+    fn dispatch(&mut self, now: u64) {
+        if self.scheduler.pending() == 0 {
+            return;
+        }
+        let mut free: Vec<u32> = self.sms.iter().map(Sm::free_slots).collect();
+        let start = now + self.cfg.gpu.cta_launch_cycles as u64 + self.timing.raygen;
+        let warp_size = self.cfg.gpu.warp_size as usize;
+        for (sm, cta) in self.scheduler.dispatch(&mut free) {
+            let pixels = self.scheduler.pixels(cta);
+            let warps = pixels
+                .chunks(warp_size)
+                .map(|chunk| {
+                    chunk
+                        .iter()
+                        .map(|p| p.map(|p| PathThread::new(&self.frame, &self.settings, p)))
+                        .collect()
+                })
+                .collect();
+            self.sms[sm].launch(cta, warps, start);
+        }
+    }
+
+    /// Runs the hit / miss shaders of a traced warp and schedules its next trace or its end.
+    fn shade(&mut self, now: u64, sm: usize, done: TracedWarp) {
+        let Some(warp) = self.sms[sm].warp_mut(done.warp) else {
+            return;
+        };
+        let (mut any_hit, mut any_miss, mut again) = (false, false, false);
+        for (thread, hit) in warp.threads.iter_mut().zip(&done.hits) {
+            let (Some(t), Some(hit)) = (thread.as_mut(), hit) else {
+                continue;
+            };
+            if self.options.record_rays {
+                self.ray_log.push(TracedRay {
+                    pixel: t.pixel(),
+                    ray: t.ray(),
+                    hit: *hit,
+                });
+            }
+            any_hit |= hit.is_some();
+            any_miss |= hit.is_none();
+            self.rays_hit += u64::from(hit.is_some());
+            match t.on_hit(self.scene, &self.frame, &self.settings, *hit) {
+                ThreadStep::Trace => again = true,
+                ThreadStep::Finished {
+                    pixel,
+                    color,
+                    nonfinite,
+                } => {
+                    self.image[pixel as usize] = color;
+                    self.nonfinite += nonfinite;
+                    self.pixels_done += 1;
+                    *thread = None;
+                }
+            }
+        }
+        let until = now + self.timing.after_trace(any_hit, any_miss, again);
+        self.sms[sm].start_shading(done.warp, until, !again);
+    }
+
+    /// The next cycle after `now` with work for some component.
+    fn next_event(&self, now: u64) -> Option<u64> {
+        let mut next = self.mem.next_event().map(|c| c.max(now + 1));
+        let mut at = |c: u64| next = Some(next.map_or(c, |n| n.min(c)));
+        for (sm, rt) in self.sms.iter().zip(&self.rts) {
+            if let Some(t) = sm.next_timer() {
+                at(t.max(now + 1));
+            }
+            if sm.peek_ready().is_some() && rt.issue_ready() {
+                at(now + 1);
+            }
+            if let Some(t) = rt.next_event(now) {
+                at(t);
+            }
+        }
+        if self.scheduler.pending() > 0 && self.sms.iter().any(|s| s.free_slots() > 0) {
+            at(now + 1);
+        }
+        next
+    }
+
+    /// Records the time-series samples due at the start of cycle `now`.
+    fn sample(&mut self, now: u64) {
+        let interval = self.cfg.sim.sample_interval;
+        if interval == 0 {
+            return;
+        }
+        while self.next_sample <= now {
+            let bvh = self.mem.stats().bvh;
+            let (loads, misses) = (
+                bvh.l1_loads - self.last_sample_loads.0,
+                bvh.l1_misses - self.last_sample_loads.1,
+            );
+            self.last_sample_loads = (bvh.l1_loads, bvh.l1_misses);
+            self.time_series.push(Sample {
+                cycle: self.next_sample,
+                bvh_l1_accesses: loads,
+                bvh_l1_misses: misses,
+                bvh_l1_miss_rate: ratio(misses, loads),
+                active_rays: self.rts.iter().map(RtPort::active_rays).sum(),
+            });
+            self.next_sample += interval;
+        }
+    }
+
+    /// The watchdog's error with every component's state.
+    fn watchdog_error(&self, cycle: u64) -> SimError {
+        let mut dump = format!(
+            "CTA scheduler: {} of {} CTAs not dispatched\n",
+            self.scheduler.pending(),
+            self.scheduler.total()
+        );
+        for (i, (sm, rt)) in self.sms.iter().zip(&self.rts).enumerate() {
+            dump += &format!("SM {i}: {}\n  {}\n", sm.debug_state(), rt.debug_state());
+        }
+        dump += &self.mem.debug_state(cycle);
+        SimError::Watchdog {
+            cycle,
+            last_progress: self.watchdog.last_progress(),
+            dump,
+        }
+    }
+
+    /// The statistics and image of a finished run.
+    fn finish(self, cycles: u64, wall: f64, config: String, bvh: &HwBvh) -> SimOutput {
+        let mut rt = RtTotals::default();
+        for port in &self.rts {
+            rt.add(port.hw_stats());
+        }
+        let mem = self.mem.stats();
+        let rays_issued: u64 = self.rts.iter().map(|r| r.rays_issued).sum();
+        let rays_completed: u64 = self.rts.iter().map(|r| r.rays_completed).sum();
+        let l2_misses = [mem.bvh, mem.ray_record, mem.cta_state, mem.hit_record]
+            .iter()
+            .map(|c| c.l2_misses)
+            .sum();
+        let mut units = vec![
+            "cta_scheduler",
+            "sm",
+            "shader",
+            "rt_unit",
+            "rt_datapath.box",
+        ];
+        if bvh.header().triangle_leaves > 0 {
+            units.push("rt_datapath.triangle");
+        }
+        if bvh.has_procedural() {
+            units.push("rt_datapath.procedural");
+        }
+        units.extend(["memory.l1", "memory.l2", "memory.dram"]);
+        let warp_size = self.cfg.hw.warp_size;
+        let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
+        let phases = Phases {
+            ray_stationary: PhaseStats {
+                cycles,
+                intersection_tests: rt.total_tests(),
+            },
+            ..Phases::default()
+        };
+        let stats = SimStats {
+            scene: self.scene.name.clone(),
+            mode: self.cfg.mode.kind.name().to_string(),
+            cycles,
+            rays: rays_completed,
+            rays_issued,
+            rays_completed,
+            rays_hit: self.rays_hit,
+            ctas: self.sms.iter().map(|s| s.ctas_done).sum(),
+            simt_efficiency: simt,
+            bvh_l1_accesses: mem.bvh.l1_loads,
+            bvh_l1_misses: mem.bvh.l1_misses,
+            bvh_l1_merges: mem.bvh.l1_merges,
+            bvh_l1_miss_rate: ratio(mem.bvh.l1_misses, mem.bvh.l1_loads),
+            l2_misses,
+            dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
+            phases,
+            max_queues: 0,
+            max_queues_above_threshold: 0,
+            count_table_evictions: 0,
+            queue_table_spills: 0,
+            cta_suspends: 0,
+            cta_resumes: 0,
+            rt,
+            max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
+            memory: mem,
+            time_series_samples: self.time_series.len() as u64,
+            active_units: units.into_iter().map(String::from).collect(),
+            config,
+            stepped_cycles: self.stepped,
+            sim_wall_seconds: wall,
+            simulated_rays_per_second: rays_completed as f64 / wall.max(1e-9),
+        };
+        SimOutput {
+            stats,
+            image: self.image,
+            nonfinite_samples: self.nonfinite,
+            time_series: self.time_series,
+            ray_log: self.ray_log,
+        }
+    }
+}
+
+/// `num / den`, 0 when `den` is 0.
+fn ratio(num: u64, den: u64) -> f64 {
+    if den == 0 {
+        0.0
+    } else {
+        num as f64 / den as f64
+    }
+}

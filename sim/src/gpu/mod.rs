@@ -1,0 +1,73 @@
+//! The cycle-exact GPU simulator: SMs running the path tracer's raygen / closest-hit / miss
+//! shaders, a CTA scheduler, one RT unit per SM (the `vtq-hdl` hardware model with the BVH
+//! datapath) and the memory hierarchy, driven by an engine that skips idle cycles.
+//!
+//! One file per concept: [`datapath`] (the RT unit's intersection tests over the BVH image),
+//! [`rt`] (an SM's RT unit with its memory queues), [`sm`] (CTA and warp slots), [`shader`]
+//! (raygen threads and shader timing), [`cta_scheduler`], [`engine`] (the cycle loop),
+//! [`watchdog`] and [`stats`]. Only the baseline design is built so far: treelet prefetching,
+//! treelet queues and ray virtualization are rejected by [`engine::simulate`] with
+//! [`SimError::NotImplemented`].
+
+pub mod cta_scheduler;
+pub mod datapath;
+pub mod engine;
+pub mod rt;
+pub mod shader;
+pub mod sm;
+pub mod stats;
+pub mod watchdog;
+
+pub use engine::{simulate, SimOptions, SimOutput, TracedRay};
+pub use stats::{SimStats, HOST_DEPENDENT_KEYS};
+
+/// Why a simulation could not run or had to stop.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The configuration asks for a design or feature this build does not simulate.
+    #[error("not implemented in this build: {0}")]
+    NotImplemented(String),
+    /// The configuration does not fit the scene or the BVH.
+    #[error("invalid simulation setup: {0}")]
+    Setup(String),
+    /// The image settings or the scene camera are unusable.
+    #[error(transparent)]
+    Render(#[from] crate::workload::pathtracer::RenderError),
+    /// An RT unit rejected its parameters or a warp.
+    #[error("RT unit of SM {sm}: {source}")]
+    Rt {
+        /// The SM.
+        sm: usize,
+        /// The hardware model's error.
+        source: vtq_hdl::rt_unit::RtUnitError,
+    },
+    /// An RT unit raised sticky error flags (e.g. a traversal stack overflowed: raise
+    /// `hw.stack_depth`).
+    #[error(
+        "RT unit of SM {sm} raised error flags {flags:#04x} (1 issue while full, 2 bad issue, \
+         4 FIFO overflow, 8 unmatched response, 16 stack overflow: raise hw.stack_depth, \
+         32 bad child)"
+    )]
+    RtProtocol {
+        /// The SM.
+        sm: usize,
+        /// The flags ([`vtq_hdl::rt_unit::errors`]).
+        flags: u8,
+    },
+    /// The memory system rejected a request.
+    #[error("memory: {0}")]
+    Memory(#[from] crate::memory::AccessError),
+    /// The memory system rejected its configuration.
+    #[error("memory: {0}")]
+    MemoryConfig(#[from] crate::memory::MemConfigError),
+    /// Nothing progressed for `sim.watchdog_cycles` cycles.
+    #[error("watchdog: no ray completed and no request issued from cycle {last_progress} to cycle {cycle}; state:\n{dump}")]
+    Watchdog {
+        /// Cycle the watchdog fired.
+        cycle: u64,
+        /// Last cycle with progress.
+        last_progress: u64,
+        /// Every component's state.
+        dump: String,
+    },
+}

@@ -1,0 +1,319 @@
+//! One SM's RT unit in the simulated GPU ([`RtPort`]): the hardware model
+//! [`vtq_hdl::rt_unit::RtUnit`] with its registers, the memory access queue between its memory
+//! scheduler and the L1 (requests wait there while the L1 stalls), and the return path that
+//! feeds memory responses into the response FIFO (at most `resp_ports` per cycle and never more
+//! than `resp_free`). Node data comes from the BVH image; hit-record stores go to memory.
+
+use std::collections::VecDeque;
+
+use vtq_hdl::rt_unit::{
+    MemResponse, RayRecord, RtUnit, RtUnitError, RtUnitParams, RtUnitRegs, TraversalOrder,
+    WarpIssue, CHUNK_BYTES,
+};
+use vtq_hdl::{Block, HwConfig};
+
+use crate::bvh::layout::HEADER_ADDR;
+use crate::bvh::{HwBvh, NodeKind};
+use crate::geometry::{Hit, Ray};
+use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
+use crate::gpu::SimError;
+use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem};
+
+/// A warp the RT unit finished: its SM warp slot and each lane's closest hit (`None` for a
+/// miss), for the lanes that carried a ray.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TracedWarp {
+    /// SM warp slot.
+    pub warp: usize,
+    /// Per lane: `Some(hit or miss)` for lanes that carried a ray.
+    pub hits: Vec<Option<Option<Hit>>>,
+}
+
+/// What one cycle of an [`RtPort`] produced.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RtCycle {
+    /// The warp accepted this cycle (its SM warp slot).
+    pub accepted: Option<usize>,
+    /// The warp completed this cycle.
+    pub done: Option<TracedWarp>,
+    /// Whether the memory scheduler issued a request.
+    pub requested: bool,
+}
+
+/// The RT unit of one SM with its memory queues.
+#[derive(Debug, Clone)]
+pub struct RtPort<'a> {
+    unit: RtUnit<BvhDatapath<'a>>,
+    regs: RtUnitRegs,
+    bvh: &'a HwBvh,
+    order: TraversalOrder,
+    /// SM warp slot held by each warp-buffer slot.
+    slot_warp: Vec<Option<usize>>,
+    /// Memory access queue (requests not yet accepted by the L1), oldest first.
+    requests: VecDeque<MemRequest>,
+    /// First cycle the head of `requests` may be offered again after a stall.
+    retry_at: u64,
+    /// Load responses waiting to enter the response FIFO.
+    responses: VecDeque<MemResponse>,
+    /// The cycle the registers stand at (the next cycle to evaluate); cycles before it that
+    /// were not stepped were idle and are caught up lazily with [`RtUnit::skip`].
+    at: u64,
+    /// Most requests queued at once.
+    pub max_queue: u64,
+    /// Rays issued.
+    pub rays_issued: u64,
+    /// Rays completed.
+    pub rays_completed: u64,
+}
+
+impl<'a> RtPort<'a> {
+    /// The RT unit of one SM: `hw` sizes, `params` timing (with this SM's hit-record base),
+    /// warps traversing in `order`.
+    pub fn new(
+        hw: &HwConfig,
+        params: RtUnitParams,
+        bvh: &'a HwBvh,
+        order: TraversalOrder,
+    ) -> Result<Self, RtUnitError> {
+        let unit = RtUnit::new(hw.clone(), params, BvhDatapath::new(bvh))?;
+        let regs = unit.reset();
+        Ok(RtPort {
+            slot_warp: vec![None; hw.warp_buffer_size as usize],
+            unit,
+            regs,
+            bvh,
+            order,
+            requests: VecDeque::new(),
+            retry_at: 0,
+            responses: VecDeque::new(),
+            at: 0,
+            max_queue: 0,
+            rays_issued: 0,
+            rays_completed: 0,
+        })
+    }
+
+    /// Whether a warp can be issued this cycle.
+    pub fn issue_ready(&self) -> bool {
+        self.unit.issue_ready(&self.regs)
+    }
+
+    /// The hardware statistics registers.
+    pub fn hw_stats(&self) -> &vtq_hdl::rt_unit::RtStats {
+        &self.regs.stats
+    }
+
+    /// Rays traversing in the warp buffer.
+    pub fn active_rays(&self) -> u64 {
+        self.regs
+            .slots
+            .iter()
+            .filter(|s| s.valid)
+            .flat_map(|s| s.lanes.iter())
+            .filter(|l| l.status == vtq_hdl::rt_unit::LaneStatus::Traversing)
+            .count() as u64
+    }
+
+    /// The warp-buffer entry of `rays` (one per lane, `None` for idle lanes) of SM warp `warp`;
+    /// a ray that is not valid enters already finished (a miss, as in the functional tracer).
+    fn warp_issue(&self, slot: usize, rays: &[Option<Ray>]) -> WarpIssue {
+        let warp_size = self.unit.config().warp_size as usize;
+        let internal = self.bvh.params().internal_node_bytes();
+        let root = node_entry(HEADER_ADDR, NodeKind::Header, internal);
+        let lanes = (0..warp_size)
+            .map(|lane| {
+                let ray = rays.get(lane).copied().flatten()?;
+                let id = (slot * warp_size + lane) as u32;
+                let words = ray_words(&ray);
+                Some(if ray.is_valid() {
+                    RayRecord::new(id, words, root)
+                } else {
+                    RayRecord {
+                        ray_id: id,
+                        words,
+                        ..RayRecord::default()
+                    }
+                })
+            })
+            .collect();
+        WarpIssue {
+            order: self.order,
+            lanes,
+        }
+    }
+
+    /// Moves SM `sm`'s load responses due by `now` from memory to the return queue.
+    pub fn collect_responses(&mut self, now: u64, sm: usize, mem: &mut MemorySystem) {
+        for r in mem.pop_ready(sm, now) {
+            if r.store {
+                continue;
+            }
+            let mut data = [0u8; CHUNK_BYTES as usize];
+            data.copy_from_slice(self.bvh.bytes_at(r.addr as u32, CHUNK_BYTES));
+            self.responses.push_back(MemResponse {
+                address: r.addr,
+                tag: r.tag as u32,
+                data,
+            });
+        }
+    }
+
+    /// Whether cycle `now` must be evaluated: a warp is offered (`offering`), responses are
+    /// waiting, or the RT unit's idle cycles end by `now`.
+    pub fn busy_at(&self, now: u64, offering: bool) -> bool {
+        offering
+            || !self.responses.is_empty()
+            || self.at.saturating_add(self.unit.idle_cycles(&self.regs)) <= now
+    }
+
+    /// Catches the registers up to the start of cycle `now` over idle cycles.
+    pub fn catch_up(&mut self, now: u64) {
+        if now > self.at {
+            self.unit.skip(&mut self.regs, now - self.at);
+            self.at = now;
+        }
+    }
+
+    /// One cycle `now` of the RT unit (after catching up idle cycles): issues `warp` (SM warp
+    /// slot and its lanes' rays) if given and a slot is free, feeds responses, and queues its
+    /// memory request.
+    pub fn step(
+        &mut self,
+        now: u64,
+        sm: usize,
+        warp: Option<(usize, &[Option<Ray>])>,
+    ) -> Result<RtCycle, SimError> {
+        self.catch_up(now);
+        self.at = now + 1;
+        let mut inputs = self.unit.idle_inputs();
+        let mut cycle = RtCycle::default();
+        if let Some((idx, rays)) = warp {
+            if let Some(slot) = self.regs.slots.iter().position(|s| !s.valid) {
+                let issue = self.warp_issue(slot, rays);
+                self.unit
+                    .check_issue(&issue)
+                    .map_err(|e| SimError::Rt { sm, source: e })?;
+                self.rays_issued += issue.lanes.iter().flatten().count() as u64;
+                self.slot_warp[slot] = Some(idx);
+                inputs.issue = Some(issue);
+                cycle.accepted = Some(idx);
+            }
+        }
+        let ports = self
+            .unit
+            .resp_free(&self.regs)
+            .min(self.unit.params().resp_ports);
+        let n = (ports as usize).min(self.responses.len());
+        inputs.responses.extend(self.responses.drain(..n));
+        let out = self.unit.step(&mut self.regs, &inputs);
+        if out.errors != 0 {
+            return Err(SimError::RtProtocol {
+                sm,
+                flags: out.errors,
+            });
+        }
+        if let Some(req) = out.request {
+            let class = if req.is_store {
+                AccessClass::HitRecord
+            } else {
+                AccessClass::Bvh
+            };
+            let r = if req.is_store {
+                MemRequest::store(req.address, CHUNK_BYTES, class, req.tag as u64)
+            } else {
+                MemRequest::load(req.address, CHUNK_BYTES, class, req.tag as u64)
+            };
+            self.requests.push_back(r);
+            self.max_queue = self.max_queue.max(self.requests.len() as u64);
+            cycle.requested = true;
+        }
+        if let Some(done) = out.done {
+            let warp = self.slot_warp[done.slot as usize]
+                .take()
+                .ok_or(SimError::RtProtocol { sm, flags: 0 })?;
+            let hits: Vec<Option<Option<Hit>>> = done
+                .lanes
+                .iter()
+                .map(|l| l.as_ref().map(|(rec, _)| rec.hit.as_ref().map(hit_from_hw)))
+                .collect();
+            self.rays_completed += hits.iter().flatten().count() as u64;
+            cycle.done = Some(TracedWarp { warp, hits });
+        }
+        Ok(cycle)
+    }
+
+    /// Offers the head of the memory access queue to the L1 (one request per cycle); returns
+    /// whether one was accepted.
+    pub fn send(&mut self, now: u64, sm: usize, mem: &mut MemorySystem) -> Result<bool, SimError> {
+        let Some(&req) = self.requests.front() else {
+            return Ok(false);
+        };
+        if now < self.retry_at {
+            return Ok(false);
+        }
+        match mem.access(now, sm, req) {
+            Ok(_) => {
+                self.requests.pop_front();
+                Ok(true)
+            }
+            Err(AccessError::Stall(s)) => {
+                self.retry_at = s.retry_at.max(now + 1);
+                Ok(false)
+            }
+            Err(e) => Err(SimError::Memory(e)),
+        }
+    }
+
+    /// The next cycle after `now` at which this port has work, assuming no new warp: a response
+    /// or request to move, or the end of the RT unit's idle cycles.
+    pub fn next_event(&self, now: u64) -> Option<u64> {
+        let mut next = None::<u64>;
+        let mut at = |c: u64| next = Some(next.map_or(c, |n| n.min(c)));
+        if !self.responses.is_empty() {
+            at(now + 1);
+        }
+        if !self.requests.is_empty() {
+            at(self.retry_at.max(now + 1));
+        }
+        let idle = self.unit.idle_cycles(&self.regs);
+        if idle != u64::MAX {
+            at(self.at.saturating_add(idle).max(now + 1));
+        }
+        next
+    }
+
+    /// A summary of the registers and queues, for the watchdog.
+    pub fn debug_state(&self) -> String {
+        let r = &self.regs;
+        let lanes: Vec<String> = r
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.valid)
+            .map(|(i, s)| {
+                let count = |st| s.lanes.iter().filter(|l| l.status == st).count();
+                use vtq_hdl::rt_unit::LaneStatus::*;
+                format!(
+                    "slot {i} (warp {:?}): {} traversing, {} done, {} in flight, {} delayed, {} stores pending",
+                    self.slot_warp[i],
+                    count(Traversing),
+                    count(Done),
+                    s.lanes.iter().filter(|l| l.in_flight.is_some()).count(),
+                    s.lanes.iter().filter(|l| l.delay > 0).count(),
+                    s.lanes.iter().filter(|l| l.store_pending).count()
+                )
+            })
+            .collect();
+        format!(
+            "RT unit: fifo {}, split {:?}, errors {:#x}, idle for {}; {}; access queue {} (retry at {}), return queue {}",
+            r.fifo.len(),
+            r.split,
+            r.errors,
+            self.unit.idle_cycles(r),
+            if lanes.is_empty() { "no warps".to_string() } else { lanes.join("; ") },
+            self.requests.len(),
+            self.retry_at,
+            self.responses.len()
+        )
+    }
+}

@@ -1,0 +1,195 @@
+//! [`SimStats`]: what one simulation measured, written as JSON (every key is documented in
+//! docs/stats.md), and its time series ([`Sample`]), written as CSV beside the JSON.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+use serde::Serialize;
+use vtq_hdl::rt_unit::{NodeKind, RtStats};
+
+use crate::memory::MemStats;
+
+/// Keys of [`SimStats`] that depend on the host or on the engine's stepping mode rather than on
+/// the simulated machine; runs of one configuration agree on every other key.
+pub const HOST_DEPENDENT_KEYS: [&str; 3] = [
+    "sim_wall_seconds",
+    "simulated_rays_per_second",
+    "stepped_cycles",
+];
+
+/// Cycles and intersection tests of one traversal phase (paper section 6.4).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct PhaseStats {
+    /// Cycles spent in the phase.
+    pub cycles: u64,
+    /// Intersection tests (node tests of every kind) made in the phase.
+    pub intersection_tests: u64,
+}
+
+/// The three traversal phases of treelet queues (paper section 3.2). The baseline has only
+/// ray-stationary traversal, so everything counts there.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Phases {
+    /// Initial ray-stationary phase, before the switch to treelet-stationary mode.
+    pub initial: PhaseStats,
+    /// Treelet-stationary mode.
+    pub treelet_stationary: PhaseStats,
+    /// Final ray-stationary phase (and all of the baseline).
+    pub ray_stationary: PhaseStats,
+}
+
+/// RT-unit counters summed over all SMs (from the hardware model's statistics registers).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct RtTotals {
+    /// Warps traced (issued to and completed by the RT units).
+    pub warps: u64,
+    /// RT-unit warp cycles (cycles x resident warps).
+    pub warp_cycles: u64,
+    /// Sum over warp cycles of traversing rays.
+    pub active_thread_cycles: u64,
+    /// 32 B node-load requests.
+    pub load_requests: u64,
+    /// 32 B hit-record stores.
+    pub stores: u64,
+    /// Lanes served by another lane's identical request.
+    pub merged: u64,
+    /// Node tests by kind (header, internal, triangle_leaf, procedural, ...).
+    pub tests: std::collections::BTreeMap<String, u64>,
+    /// Triangle tests that produced a new closest hit (the RT unit's `hits` counter; sphere
+    /// hits are not counted there).
+    pub triangle_hits: u64,
+}
+
+impl RtTotals {
+    /// Adds one RT unit's statistics registers.
+    pub fn add(&mut self, s: &RtStats) {
+        self.warps += s.warps_done;
+        self.warp_cycles += s.warp_cycles;
+        self.active_thread_cycles += s.active_thread_cycles;
+        self.load_requests += s.requests;
+        self.stores += s.stores;
+        self.merged += s.merged;
+        self.triangle_hits += s.hits;
+        for kind in NodeKind::ALL {
+            let n = s.tests[kind.code() as usize];
+            if n > 0 {
+                *self.tests.entry(kind.name().to_string()).or_default() += n;
+            }
+        }
+    }
+
+    /// All node tests.
+    pub fn total_tests(&self) -> u64 {
+        self.tests.values().sum()
+    }
+}
+
+/// One point of the time series, taken at the start of cycle `cycle` and describing the
+/// interval since the previous point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sample {
+    /// Cycle of the sample (a multiple of `sim.sample_interval`).
+    pub cycle: u64,
+    /// BVH demand loads the L1s saw in the interval.
+    pub bvh_l1_accesses: u64,
+    /// ... that missed.
+    pub bvh_l1_misses: u64,
+    /// Their miss rate (0 when there were no accesses).
+    pub bvh_l1_miss_rate: f64,
+    /// Rays traversing in the RT units at the sample.
+    pub active_rays: u64,
+}
+
+/// Writes the time series as CSV with a header line.
+pub fn write_time_series(path: &Path, samples: &[Sample]) -> std::io::Result<()> {
+    let mut out =
+        String::from("cycle,bvh_l1_accesses,bvh_l1_misses,bvh_l1_miss_rate,active_rays\n");
+    for s in samples {
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{}",
+            s.cycle, s.bvh_l1_accesses, s.bvh_l1_misses, s.bvh_l1_miss_rate, s.active_rays
+        );
+    }
+    std::fs::File::create(path)?.write_all(out.as_bytes())
+}
+
+/// Everything one simulation measured (see docs/stats.md for each key).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimStats {
+    /// Scene name.
+    pub scene: String,
+    /// Simulated design (`baseline`).
+    pub mode: String,
+    /// Cycles until the last CTA retired.
+    pub cycles: u64,
+    /// Rays traced (every path's rays: primary and secondary).
+    pub rays: u64,
+    /// Rays issued to the RT units.
+    pub rays_issued: u64,
+    /// Rays whose traversal completed.
+    pub rays_completed: u64,
+    /// Rays that hit something.
+    pub rays_hit: u64,
+    /// CTAs run.
+    pub ctas: u64,
+    /// RT-unit SIMT efficiency: traversing rays / warp size per RT-unit warp cycle.
+    pub simt_efficiency: f64,
+    /// BVH demand loads looked up in the L1s.
+    pub bvh_l1_accesses: u64,
+    /// ... that missed the L1 (a new sector fetch; merges with a pending fill are not misses).
+    pub bvh_l1_misses: u64,
+    /// ... that merged with a pending fill of the same sector.
+    pub bvh_l1_merges: u64,
+    /// `bvh_l1_misses / bvh_l1_accesses`.
+    pub bvh_l1_miss_rate: f64,
+    /// L2 misses of all classes.
+    pub l2_misses: u64,
+    /// Bytes moved to and from DRAM.
+    pub dram_bytes: u64,
+    /// Cycles and intersection tests per traversal phase.
+    pub phases: Phases,
+    /// Most treelet queues at once (treelet-queue mode; 0 in the baseline).
+    pub max_queues: u64,
+    /// Most treelet queues above the underpopulation threshold at once (0 in the baseline).
+    pub max_queues_above_threshold: u64,
+    /// Treelet count table evictions (0 in the baseline).
+    pub count_table_evictions: u64,
+    /// Treelet queue table entries spilled to memory (0 in the baseline).
+    pub queue_table_spills: u64,
+    /// CTAs suspended by ray virtualization (0 in the baseline).
+    pub cta_suspends: u64,
+    /// Suspended CTAs resumed (0 in the baseline).
+    pub cta_resumes: u64,
+    /// RT-unit counters summed over the SMs.
+    pub rt: RtTotals,
+    /// Most requests waiting in one SM's memory access queue (back-pressure from the L1).
+    pub max_access_queue: u64,
+    /// Memory-system counters by class.
+    pub memory: MemStats,
+    /// Samples in the time series (written to the CSV file).
+    pub time_series_samples: u64,
+    /// The units modelled in this run.
+    pub active_units: Vec<String>,
+    /// The effective configuration (TOML).
+    pub config: String,
+    /// Cycles the engine evaluated (all of them in lockstep mode; fewer when idle cycles are
+    /// skipped). Host dependent: see [`HOST_DEPENDENT_KEYS`].
+    pub stepped_cycles: u64,
+    /// Wall-clock seconds of the simulation loop. Host dependent.
+    pub sim_wall_seconds: f64,
+    /// `rays / sim_wall_seconds`. Host dependent.
+    pub simulated_rays_per_second: f64,
+}
+
+/// The statistics as a JSON value without the [`HOST_DEPENDENT_KEYS`] (for comparing runs).
+pub fn comparable_json(stats: &SimStats) -> serde_json::Value {
+    let mut v = serde_json::to_value(stats).unwrap_or(serde_json::Value::Null);
+    if let Some(map) = v.as_object_mut() {
+        for k in HOST_DEPENDENT_KEYS {
+            map.remove(k);
+        }
+    }
+    v
+}
