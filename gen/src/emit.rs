@@ -181,9 +181,27 @@ pub fn range(width: u32) -> String {
     }
 }
 
-/// A sized decimal literal (`12'd0`).
+/// Widest sized literal [`dec`] writes as one number: Verilator 5.006 rejects wider ones
+/// ("Width of number exceeds implementation limit"), which IEEE 1364-2005 permits for sizes
+/// above 65,536 bits, and warns about replications wider than 8 Kbit.
+pub const MAX_LITERAL_WIDTH: u32 = 1 << 16;
+
+/// A sized decimal literal (`12'd0`); above [`MAX_LITERAL_WIDTH`] bits a concatenation of
+/// literals of at most that width, the value in the last one (`{10240'd0, 65536'd5}`).
 pub fn dec(width: u32, value: u64) -> String {
-    format!("{width}'d{value}")
+    if width <= MAX_LITERAL_WIDTH {
+        return format!("{width}'d{value}");
+    }
+    let mut parts = Vec::new();
+    let mut rest = width - MAX_LITERAL_WIDTH;
+    while rest > 0 {
+        let w = rest.min(MAX_LITERAL_WIDTH);
+        parts.push(format!("{w}'d0"));
+        rest -= w;
+    }
+    parts.reverse();
+    parts.push(format!("{MAX_LITERAL_WIDTH}'d{value}"));
+    format!("{{{}}}", parts.join(", "))
 }
 
 /// `CamelCase`, `snake_case` or `kebab-case` text as `SCREAMING_SNAKE_CASE` (for localparams).
@@ -304,6 +322,9 @@ mod tests {
         assert_eq!(range(1), "");
         assert_eq!(range(12), "[11:0] ");
         assert_eq!(dec(7, 5), "7'd5");
+        assert_eq!(dec(MAX_LITERAL_WIDTH, 0), "65536'd0");
+        assert_eq!(dec(75776, 5), "{10240'd0, 65536'd5}");
+        assert_eq!(dec(3 << 16, 0), "{65536'd0, 65536'd0, 65536'd0}");
         assert_eq!(screaming_snake("RayStationary"), "RAY_STATIONARY");
         assert_eq!(screaming_snake("treelet_stationary"), "TREELET_STATIONARY");
         assert_eq!(screaming_snake("Phase2Done"), "PHASE2_DONE");

@@ -5,6 +5,7 @@
 //! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
 //! - [`area`]: the analytical storage and area model of the paper's section 6.5.
 //! - [`rtl`]: complete RTL of the treelet count table and treelet queue table.
+//! - [`stimulus`]: seeded random stimulus and reactive test benches for the two tables.
 //! - [`synth`]: Yosys synthesis statistics and Verilator lint as structured results.
 //! - [`emit`]: the Verilog text writer; [`tools`]: running the external tools;
 //!   [`error`]: the crate's error type.
@@ -14,6 +15,7 @@ pub mod cosim;
 pub mod emit;
 pub mod error;
 pub mod rtl;
+pub mod stimulus;
 pub mod synth;
 pub mod tools;
 pub mod verilog;

@@ -403,6 +403,26 @@ impl SimConfig {
     /// [`SimConfig::validate`]. Values are TOML (`16`, `0.75`, `true`, `"queues"`); a value that
     /// is not TOML but starts with a letter is taken as a string, so `mode.kind=queues` works.
     pub fn load(path: Option<&Path>, overrides: &[String]) -> Result<SimConfig, ConfigError> {
+        let config = SimConfig::parse(path, overrides)?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Reads a configuration like [`SimConfig::load`] (unknown keys and malformed values are
+    /// still errors) but checks only what the hardware generators read (`vtq verilog`, `vtq
+    /// area`, `vtq cosim`): see [`SimConfig::validate_hardware`]. So table sizes can be
+    /// explored without switching the simulated design to treelet queues.
+    pub fn load_hardware(
+        path: Option<&Path>,
+        overrides: &[String],
+    ) -> Result<SimConfig, ConfigError> {
+        let config = SimConfig::parse(path, overrides)?;
+        config.validate_hardware()?;
+        Ok(config)
+    }
+
+    /// The defaults, then the file, then the overrides, not validated.
+    fn parse(path: Option<&Path>, overrides: &[String]) -> Result<SimConfig, ConfigError> {
         let defaults = SimConfig::default().to_table()?;
         let mut merged = defaults.clone();
         if let Some(path) = path {
@@ -427,11 +447,9 @@ impl SimConfig {
         for text in overrides {
             apply_override(&defaults, &mut merged, text)?;
         }
-        let config: SimConfig = Value::Table(merged)
+        Value::Table(merged)
             .try_into()
-            .map_err(|e: toml::de::Error| ConfigError::Toml(e.message().to_string()))?;
-        config.validate()?;
-        Ok(config)
+            .map_err(|e: toml::de::Error| ConfigError::Toml(e.message().to_string()))
     }
 
     /// The configuration as a TOML document, every key written out (for echoing the effective
@@ -456,6 +474,26 @@ impl SimConfig {
         self.validate_workload()?;
         self.validate_bvh()?;
         self.validate_engine()
+    }
+
+    /// Checks the sections the hardware is generated from: `[hw]` (every value's range),
+    /// `[gpu]` (the CTA shape of the area model's suspended-CTA state, and the warp size shared
+    /// with `[hw]`) and `[memory]` (a treelet fits the L1). Not checked: the rules that tie
+    /// `[hw]` keys to `[mode]` (e.g. queue-table sizes differing from the defaults while
+    /// mode.kind is not "queues"), which concern what the simulator runs.
+    pub fn validate_hardware(&self) -> Result<(), ConfigError> {
+        self.validate_hw_ranges()?;
+        self.validate_gpu()?;
+        self.validate_memory()
+    }
+
+    /// Checks every `[hw]` value's range ([`HwConfig::validate`]), naming the key as `hw.KEY`.
+    fn validate_hw_ranges(&self) -> Result<(), ConfigError> {
+        self.hw.validate().map_err(|e| ConfigError::Invalid {
+            key: format!("hw.{}", e.key),
+            value: e.value.to_string(),
+            reason: e.reason,
+        })
     }
 
     /// Checks the SMs, CTA slots, registers, shader timing and the warp size shared with `[hw]`.
@@ -576,11 +614,7 @@ impl SimConfig {
 
     /// Checks the RT-unit hardware, and that its ray ids cover every ray the CTA slots issue.
     fn validate_hw(&self) -> Result<(), ConfigError> {
-        self.hw.validate().map_err(|e| ConfigError::Invalid {
-            key: format!("hw.{}", e.key),
-            value: e.value.to_string(),
-            reason: e.reason,
-        })?;
+        self.validate_hw_ranges()?;
         let hw = &self.hw;
         let cta_rays = self.gpu.max_ctas_per_sm as u64 * self.gpu.threads_per_cta as u64;
         if (self.mode.virtualization || self.mode.kind == ModeKind::Queues)

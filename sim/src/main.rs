@@ -1,10 +1,11 @@
 //! `vtq`: list scenes, render the LumiBench path-tracing workload, trace ray files, benchmark
-//! the traversal against `obvhs`, and generate Verilog and area reports for the hardware.
+//! the traversal against `obvhs`, generate Verilog and area reports for the hardware and
+//! co-simulate the tables' RTL against the Rust blocks.
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{area, bench, render, scenes, sim, trace, verilog};
+use vtq_sim::cmd::{area, bench, cosim, render, scenes, sim, trace, verilog};
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
 #[derive(Debug, Parser)]
@@ -28,13 +29,29 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Simulate the workload on the cycle-exact GPU model and write its statistics.
     Sim(sim::SimArgs),
-    /// Write Verilog for the hardware blocks at the configured sizes.
+    /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
+    /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
-    /// Storage sizes and area estimates of the treelet-queue tables (paper 6.5).
+    /// Storage sizes and area estimates of the treelet-queue tables (paper 6.5; checks only the
+    /// [hw], [gpu] and [memory] sections, so table sizes can be set in any mode).
     Area(area::AreaArgs),
+    /// Co-simulate the count and queue tables' RTL against the Rust blocks on random stimulus
+    /// (checks only the [hw], [gpu] and [memory] sections).
+    Cosim(cosim::CosimArgs),
+}
+
+/// Lets a closed output pipe (`vtq area --json | head`) end the process quietly, as for other
+/// command-line tools, instead of making `println!` panic.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called once at start-up before any thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }
 
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Scenes(args) => scenes::run(args),
@@ -44,6 +61,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
+        Command::Cosim(args) => cosim::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

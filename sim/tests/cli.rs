@@ -1,10 +1,12 @@
-//! End-to-end tests of the `vtq` binary: render, trace, scenes, help, and one-line errors for
-//! bad input.
+//! End-to-end tests of the `vtq` binary: render, trace, scenes, help, the hardware commands
+//! (area, verilog, cosim), and one-line errors for bad input.
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
 use glam::Vec3;
+use vtq_gen::synth::lint;
+use vtq_gen::tools::{or_skip, CI_ENV};
 use vtq_sim::bvh::{BvhParams, HwBvh};
 use vtq_sim::geometry::Ray;
 use vtq_sim::rays_csv::write_rays;
@@ -362,5 +364,175 @@ fn bench_agrees_with_obvhs() {
     assert!(
         line.contains(&format!("same t on {n} (100.000%)")),
         "{line}"
+    );
+}
+
+/// The `vtq` output of a command that must succeed, as text.
+fn vtq_ok(args: &[&str]) -> String {
+    let out = vtq(args);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "vtq {args:?}: {stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The line of `text` that starts with `start`.
+fn line_starting<'a>(text: &'a str, start: &str) -> &'a str {
+    text.lines()
+        .find(|l| l.starts_with(start))
+        .unwrap_or_else(|| panic!("no line starting with '{start}' in:\n{text}"))
+}
+
+#[test]
+fn area_reports_the_paper_sizes() {
+    let text = vtq_ok(&["area"]);
+    // Paper 6.5: 600 x 31 bits = 2325 B (printed "2.2 KB" in the paper, "2.27 KB" by us),
+    // 128 x (19 + 32 x 12) bits = 6448 B = 6.29 KB, 4096 rays x 32 B = 128 KB.
+    let count = line_starting(&text, "treelet count table  RT unit");
+    assert!(
+        count.contains("2.27 KB") && count.contains("2.2 KB"),
+        "{count}"
+    );
+    let queue = line_starting(&text, "treelet queue table  L1");
+    assert!(queue.contains("6.29 KB"), "{queue}");
+    let rays = line_starting(&text, "ray records          L2");
+    assert!(rays.contains("128 KB"), "{rays}");
+
+    let json: serde_json::Value =
+        serde_json::from_str(&vtq_ok(&["area", "--json"])).expect("vtq area --json prints JSON");
+    let structures = json["model"]["structures"].as_array().expect("structures");
+    let bytes = |name: &str| {
+        structures
+            .iter()
+            .find(|s| s["name"] == name)
+            .unwrap_or_else(|| panic!("no {name} in {json}"))["bytes"]
+            .as_u64()
+            .unwrap()
+    };
+    assert_eq!(bytes("treelet count table"), 600 * 31 / 8);
+    assert_eq!(bytes("treelet queue table"), 128 * (19 + 32 * 12) / 8);
+    assert_eq!(bytes("ray records"), 4096 * 32);
+    assert_eq!(json["synthesis"], serde_json::json!([]));
+}
+
+/// `vtq area` follows `--set`: 8192 rays need 13-bit ids, 32 KB treelets in a 32-bit address
+/// space leave 17-bit treelet addresses, and 8192 ray records of 32 B take 256 KB. Table sizes
+/// are accepted although the default mode (baseline) does not simulate the tables.
+#[test]
+fn area_follows_the_overrides() {
+    let text = vtq_ok(&[
+        "area",
+        "--set",
+        "hw.max_rays=8192",
+        "--set",
+        "hw.treelet_bytes=32768",
+        "--set",
+        "memory.l1_bytes=65536",
+    ]);
+    let widths = line_starting(&text, "Widths:");
+    assert!(
+        widths.contains("treelet address 17 b") && widths.contains("ray id 13 b"),
+        "{widths}"
+    );
+    let rays = line_starting(&text, "ray records          L2");
+    assert!(rays.contains(" 8192 ") && rays.contains("256 KB"), "{rays}");
+    let text = vtq_ok(&["area", "--set", "hw.count_table_entries=300"]);
+    let count = line_starting(&text, "treelet count table  RT unit");
+    assert!(count.contains(" 300 "), "{count}");
+}
+
+#[test]
+fn verilog_writes_four_modules_that_lint_clean() {
+    let dir = temp_dir("verilog");
+    let text = vtq_ok(&["verilog", "--out", dir.to_str().unwrap()]);
+    let modules = [
+        "treelet_count_table",
+        "treelet_queue_table",
+        "treelet_controller",
+        "rt_unit",
+    ];
+    for module in modules {
+        let path = dir.join(format!("{module}.v"));
+        assert!(text.contains(&path.display().to_string()), "{text}");
+        let source = std::fs::read_to_string(&path).unwrap();
+        assert!(source.contains(&format!("module {module}")), "{module}");
+    }
+    let written = std::fs::read_dir(&dir).unwrap().count();
+    assert_eq!(written, modules.len(), "only the four modules are written");
+    for module in modules {
+        let file = dir.join(format!("{module}.v"));
+        let lint_dir = dir.join(format!("lint-{module}"));
+        std::fs::create_dir_all(&lint_dir).unwrap();
+        let Some(report) = or_skip(lint(&[file], module, &lint_dir)).unwrap() else {
+            return;
+        };
+        assert!(report.is_clean(), "{module}:\n{report}");
+    }
+}
+
+#[test]
+fn cosim_matches_on_a_small_configuration() {
+    let dir = temp_dir("cosim");
+    let out = vtq(&[
+        "cosim",
+        "--cycles",
+        "3000",
+        "--set",
+        "hw.count_table_entries=16",
+        "--set",
+        "hw.queue_table_entries=8",
+        "--set",
+        "hw.max_rays=64",
+        "--set",
+        "hw.underpopulation_threshold=8",
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success()
+        && stderr.contains("is not installed")
+        && std::env::var_os(CI_ENV).is_none()
+    {
+        eprintln!("skipping: {}", stderr.trim());
+        return;
+    }
+    assert!(out.status.success(), "{stdout}{stderr}");
+    for module in ["treelet_count_table", "treelet_queue_table"] {
+        let line = line_starting(&stdout, &format!("{module}: "));
+        assert!(
+            line.contains("3000 cycles compared, 0 mismatches"),
+            "{line}"
+        );
+        assert!(dir.join(module).join(format!("{module}.v")).is_file());
+    }
+    assert!(!stdout.contains("first mismatch"), "{stdout}");
+}
+
+#[test]
+fn hardware_commands_reject_bad_configurations_in_one_line() {
+    let dir = temp_dir("bad-hw-config");
+    let out_dir = dir.to_str().unwrap();
+    for command in [
+        &["area"][..],
+        &["verilog", "--out", out_dir],
+        &["cosim", "--cycles", "10"],
+    ] {
+        for (set, key) in [
+            ("hw.repack_threshold=33", "hw.repack_threshold"),
+            ("hw.no_such_key=1", "no_such_key"),
+        ] {
+            let mut args = command.to_vec();
+            args.extend(["--set", set]);
+            assert_one_line_error(&vtq(&args), key);
+        }
+    }
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "nothing written"
     );
 }

@@ -57,7 +57,7 @@ fn synthesize_tables(cfg: &SimConfig) -> anyhow::Result<Vec<SynthReport>> {
 
 /// Run `vtq area`.
 pub fn run(args: &AreaArgs) -> anyhow::Result<()> {
-    let cfg = args.config.load()?;
+    let cfg = args.config.load_hardware()?;
     let model = area_report(&cfg.hw, &area_params(&cfg))?;
     let synthesis = if args.synth {
         synthesize_tables(&cfg).context("yosys synthesis of the table RTL")?

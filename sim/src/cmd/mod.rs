@@ -2,6 +2,7 @@
 
 pub mod area;
 pub mod bench;
+pub mod cosim;
 pub mod options;
 pub mod render;
 pub mod scenes;

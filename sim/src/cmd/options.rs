@@ -154,4 +154,15 @@ impl ConfigArgs {
             &self.overrides,
         )?)
     }
+
+    /// Defaults, then the file, then the overrides, with only the sections the hardware is
+    /// generated from validated (`[hw]`, `[gpu]`, `[memory]`; see
+    /// [`SimConfig::validate_hardware`](crate::config::SimConfig::validate_hardware)), for the
+    /// commands that generate, co-simulate or size the hardware.
+    pub fn load_hardware(&self) -> anyhow::Result<crate::config::SimConfig> {
+        Ok(crate::config::SimConfig::load_hardware(
+            self.config.as_deref(),
+            &self.overrides,
+        )?)
+    }
 }
