@@ -31,11 +31,11 @@ use vtq_hdl::{BlockDesc, Dir, FsmDesc};
 /// further needs every traced signal to fit a `u64`).
 ///
 /// IEEE 1364-2005 only guarantees vectors of up to 65,536 bits, and the RT
-/// unit's per-warp stack ports at the paper's configuration are wider (32 lanes x 64 entries x
-/// 37 bits = 75,776 bits). The tools vtq uses accept wider vectors: Verilator 5.006
+/// unit's per-warp stack ports at the default configuration are wider (32 lanes x 128 entries x
+/// 37 bits = 151,552 bits). The tools vtq uses accept wider vectors: Verilator 5.006
 /// (`--lint-only -Wall`), Icarus Verilog 11 and Yosys 0.23 (generic `synth`, no latches) were
-/// checked on a 75,776-bit port; `gen/tests/hdl_blocks.rs` lints and synthesizes the RT unit
-/// skeleton at the paper's configuration.
+/// checked on 75,776-bit and 151,552-bit ports; `gen/tests/hdl_blocks.rs` lints and
+/// synthesizes the RT unit skeleton at the default configuration.
 pub const MAX_WIDTH: u32 = 1 << 20;
 
 /// Names every generated module reserves for itself.

@@ -81,24 +81,29 @@ fn rt_unit_desc(cfg: HwConfig) -> BlockDesc {
         .describe()
 }
 
-/// At the paper's configuration the RT unit's per-warp stack ports are 32 lanes x 64 entries x
-/// 37 bits = 75,776 bits, wider than the 65,536 bits IEEE 1364-2005 guarantees but within
-/// `MAX_WIDTH`: its skeleton emits with every port at full width, lints clean with
-/// `verilator -Wall` and synthesizes with Yosys without latches or warnings.
+/// At the paper's configuration the RT unit's per-warp stack ports are warp_size lanes x
+/// stack_depth entries x 37-bit entries (32 x 128 x 37 = 151,552 bits by default), wider than
+/// the 65,536 bits IEEE 1364-2005 guarantees but within `MAX_WIDTH`: its skeleton emits with
+/// every port at full width, lints clean with `verilator -Wall` and synthesizes with Yosys
+/// without latches or warnings.
 #[test]
 fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
-    let d = rt_unit_desc(HwConfig::default());
+    let cfg = HwConfig::default();
+    let d = rt_unit_desc(cfg.clone());
     assert_eq!(d.name, "rt_unit");
     let stack = d
         .ports
         .iter()
         .find(|p| p.name.ends_with("_stack"))
         .expect("the RT unit has stack ports");
-    assert_eq!(stack.width, 32 * 64 * 37, "{}", stack.name);
+    let entry = NodeEntry::bits(cfg.address_bits);
+    assert_eq!(entry, 37, "address, kind and chunk count of a stack entry");
+    let width = cfg.warp_size * cfg.stack_depth * entry;
+    assert_eq!(stack.width, width, "{}", stack.name);
     assert!(stack.width > 1 << 16 && stack.width <= MAX_WIDTH);
     let text = emit_module(&d).unwrap_or_else(|e| panic!("{e}"));
     assert!(
-        text.contains("[75775:0]"),
+        text.contains(&format!("[{}:0]", width - 1)),
         "the stack ports keep their width"
     );
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-hdl-paper-rt_unit");

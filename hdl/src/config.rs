@@ -46,6 +46,12 @@ pub struct HwConfig {
     /// Warps the RT unit's warp buffer holds.
     pub warp_buffer_size: u32,
     /// Entries of each per-ray traversal stack (current-treelet and other-treelet stacks).
+    ///
+    /// The default, 128, is the smallest power of two that holds the BVHs vtq builds (width 6,
+    /// depth up to 18 for the shared scenes): a depth-first stack needs up to
+    /// (width - 1) x depth + 1 = 91 entries, and every scene in `shared/scenes` (ship, bunny,
+    /// lands, fox, sponza, bath, spring) simulates at 64x64 and 256x256 without a stack
+    /// overflow with 128 entries, while sponza overflows 64 (see docs/performance.md).
     pub stack_depth: u32,
 }
 
@@ -64,7 +70,7 @@ impl Default for HwConfig {
             divergence_threshold: 4,
             preload_threshold_warps: 2,
             warp_buffer_size: 1,
-            stack_depth: 64,
+            stack_depth: 128,
         }
     }
 }

@@ -906,7 +906,8 @@ fn signals_are_stable_fit_their_widths_and_name_described_items() {
 
 #[test]
 fn describe_widths_follow_the_config() {
-    let unit = RtUnit::new(HwConfig::default(), RtUnitParams::default(), ToyDatapath).unwrap();
+    let cfg = HwConfig::default();
+    let unit = RtUnit::new(cfg.clone(), RtUnitParams::default(), ToyDatapath).unwrap();
     let d = unit.describe();
     assert_eq!(d.port("req_address").unwrap().width, 32);
     assert_eq!(d.port("req_tag").unwrap().width, 1 + 5);
@@ -914,7 +915,7 @@ fn describe_widths_follow_the_config() {
     assert_eq!(d.port("resp1_data").unwrap().width, 256);
     assert!(d.port("resp2_data").is_none());
     let stack = d.memories.iter().find(|m| m.name == "cur_stack").unwrap();
-    assert_eq!(stack.depth, 32 * 64);
+    assert_eq!(stack.depth, 32 * cfg.stack_depth);
     assert_eq!(stack.width, 32 + 3 + 2);
     let small_unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
     let s = small_unit.describe();

@@ -100,6 +100,7 @@ impl RayRecord {
     }
 
     /// The node the ray visits next (top of the current stack, else top of the other stack).
+    #[inline]
     pub fn next_node(&self) -> Option<NodeEntry> {
         self.current_stack
             .last()
@@ -108,6 +109,7 @@ impl RayRecord {
     }
 
     /// Whether both stacks are empty (traversal finished).
+    #[inline]
     pub fn finished(&self) -> bool {
         self.current_stack.is_empty() && self.other_stack.is_empty()
     }
@@ -303,6 +305,7 @@ pub struct Lane {
 impl Lane {
     /// The lane may request its next node: traversing, nothing in flight, delay 0, a node
     /// left on a stack.
+    #[inline]
     pub fn ready(&self) -> bool {
         self.status == LaneStatus::Traversing
             && self.in_flight.is_none()
@@ -311,6 +314,7 @@ impl Lane {
     }
 
     /// Nothing of the lane is outstanding (its warp may complete as far as the lane goes).
+    #[inline]
     pub fn quiescent(&self) -> bool {
         self.status != LaneStatus::Traversing
             && self.in_flight.is_none()

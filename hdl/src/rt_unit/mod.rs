@@ -378,8 +378,12 @@ impl<D: NodeDatapath> RtUnit<D> {
         // 2. Completion, 3. memory scheduler, 4. delay countdown.
         let done = self.complete(r);
         let request = self.schedule(r);
-        for lane in r.slots.iter_mut().flat_map(|s| s.lanes.iter_mut()) {
-            lane.delay = lane.delay.saturating_sub(1);
+        for slot in &mut r.slots {
+            for lane in &mut slot.lanes {
+                if lane.delay > 0 {
+                    lane.delay -= 1;
+                }
+            }
         }
 
         // 5. Response pop, 6. response push.
@@ -482,11 +486,9 @@ impl<D: NodeDatapath> RtUnit<D> {
             };
             let mut served = 0;
             for lane in slot.lanes.iter_mut().skip(leader) {
-                let same = lane
-                    .ray
-                    .next_node()
-                    .is_some_and(|n| n.address == node.address && n.chunks == node.chunks);
-                if lane.ready() && same {
+                // `ready` first: it rejects most lanes without reading their stacks.
+                let same = |n: NodeEntry| n.address == node.address && n.chunks == node.chunks;
+                if lane.ready() && lane.ray.next_node().is_some_and(same) {
                     self.pop_next(&mut lane.ray);
                     lane.in_flight = Some(InFlight {
                         node,

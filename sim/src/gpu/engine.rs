@@ -336,23 +336,22 @@ impl Gpu<'_> {
         self.sms[sm].start_shading(done.warp, until, !again);
     }
 
-    /// The next cycle after `now` with work for some component.
+    /// The next cycle after `now` with work for some component. Every candidate is at least
+    /// `now + 1`, so the search stops as soon as one component has work in the next cycle.
     fn next_event(&self, now: u64) -> Option<u64> {
-        let mut next = self.mem.next_event().map(|c| c.max(now + 1));
-        let mut at = |c: u64| next = Some(next.map_or(c, |n| n.min(c)));
+        let soon = now + 1;
+        let mut next = self.mem.next_event().map(|c| c.max(soon));
         for (sm, rt) in self.sms.iter().zip(&self.rts) {
-            if let Some(t) = sm.next_timer() {
-                at(t.max(now + 1));
+            if next == Some(soon) {
+                return next;
             }
-            if sm.peek_ready().is_some() && rt.issue_ready() {
-                at(now + 1);
-            }
-            if let Some(t) = rt.next_event(now) {
-                at(t);
-            }
+            let offered = sm.peek_ready().is_some() && rt.issue_ready();
+            next = earliest(next, sm.next_timer().map(|t| t.max(soon)));
+            next = earliest(next, offered.then_some(soon));
+            next = earliest(next, rt.next_event(now));
         }
         if self.scheduler.pending() > 0 && self.sms.iter().any(|s| s.free_slots() > 0) {
-            at(now + 1);
+            next = Some(soon);
         }
         next
     }
@@ -475,6 +474,14 @@ impl Gpu<'_> {
             time_series: self.time_series,
             ray_log: self.ray_log,
         }
+    }
+}
+
+/// The earlier of two optional cycles (`None`: no event).
+fn earliest(a: Option<u64>, b: Option<u64>) -> Option<u64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
     }
 }
 

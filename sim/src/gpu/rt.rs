@@ -7,8 +7,8 @@
 use std::collections::VecDeque;
 
 use vtq_hdl::rt_unit::{
-    MemResponse, RayRecord, RtUnit, RtUnitError, RtUnitParams, RtUnitRegs, TraversalOrder,
-    WarpIssue, CHUNK_BYTES,
+    MemResponse, RayRecord, RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs,
+    TraversalOrder, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -55,9 +55,16 @@ pub struct RtPort<'a> {
     retry_at: u64,
     /// Load responses waiting to enter the response FIFO.
     responses: VecDeque<MemResponse>,
+    /// The RT unit's input bundle, reused every step so feeding responses does not allocate.
+    inputs: RtUnitInputs,
     /// The cycle the registers stand at (the next cycle to evaluate); cycles before it that
     /// were not stepped were idle and are caught up lazily with [`RtUnit::skip`].
     at: u64,
+    /// First cycle the RT unit has work again with idle inputs: `at + idle_cycles` (saturating),
+    /// recomputed after every step. Skipping idle cycles leaves it unchanged (each skipped
+    /// cycle advances `at` and lowers `idle_cycles` by one), so it is computed once per step
+    /// instead of once per query.
+    wake: u64,
     /// Most requests queued at once.
     pub max_queue: u64,
     /// Rays issued.
@@ -77,6 +84,8 @@ impl<'a> RtPort<'a> {
     ) -> Result<Self, RtUnitError> {
         let unit = RtUnit::new(hw.clone(), params, BvhDatapath::new(bvh))?;
         let regs = unit.reset();
+        let wake = unit.idle_cycles(&regs);
+        let inputs = unit.idle_inputs();
         Ok(RtPort {
             slot_warp: vec![None; hw.warp_buffer_size as usize],
             unit,
@@ -86,7 +95,9 @@ impl<'a> RtPort<'a> {
             requests: VecDeque::new(),
             retry_at: 0,
             responses: VecDeque::new(),
+            inputs,
             at: 0,
+            wake,
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
@@ -161,9 +172,12 @@ impl<'a> RtPort<'a> {
     /// Whether cycle `now` must be evaluated: a warp is offered (`offering`), responses are
     /// waiting, or the RT unit's idle cycles end by `now`.
     pub fn busy_at(&self, now: u64, offering: bool) -> bool {
-        offering
-            || !self.responses.is_empty()
-            || self.at.saturating_add(self.unit.idle_cycles(&self.regs)) <= now
+        debug_assert_eq!(
+            self.wake,
+            self.at.saturating_add(self.unit.idle_cycles(&self.regs)),
+            "stale wake cycle"
+        );
+        offering || !self.responses.is_empty() || self.wake <= now
     }
 
     /// Catches the registers up to the start of cycle `now` over idle cycles.
@@ -185,7 +199,8 @@ impl<'a> RtPort<'a> {
     ) -> Result<RtCycle, SimError> {
         self.catch_up(now);
         self.at = now + 1;
-        let mut inputs = self.unit.idle_inputs();
+        self.inputs.issue = None;
+        self.inputs.responses.clear();
         let mut cycle = RtCycle::default();
         if let Some((idx, rays)) = warp {
             if let Some(slot) = self.regs.slots.iter().position(|s| !s.valid) {
@@ -195,7 +210,7 @@ impl<'a> RtPort<'a> {
                     .map_err(|e| SimError::Rt { sm, source: e })?;
                 self.rays_issued += issue.lanes.iter().flatten().count() as u64;
                 self.slot_warp[slot] = Some(idx);
-                inputs.issue = Some(issue);
+                self.inputs.issue = Some(issue);
                 cycle.accepted = Some(idx);
             }
         }
@@ -204,8 +219,9 @@ impl<'a> RtPort<'a> {
             .resp_free(&self.regs)
             .min(self.unit.params().resp_ports);
         let n = (ports as usize).min(self.responses.len());
-        inputs.responses.extend(self.responses.drain(..n));
-        let out = self.unit.step(&mut self.regs, &inputs);
+        self.inputs.responses.extend(self.responses.drain(..n));
+        let out = self.unit.step(&mut self.regs, &self.inputs);
+        self.wake = self.at.saturating_add(self.unit.idle_cycles(&self.regs));
         if out.errors != 0 {
             return Err(SimError::RtProtocol {
                 sm,
@@ -275,9 +291,8 @@ impl<'a> RtPort<'a> {
         if !self.requests.is_empty() {
             at(self.retry_at.max(now + 1));
         }
-        let idle = self.unit.idle_cycles(&self.regs);
-        if idle != u64::MAX {
-            at(self.at.saturating_add(idle).max(now + 1));
+        if self.wake != u64::MAX {
+            at(self.wake.max(now + 1));
         }
         next
     }

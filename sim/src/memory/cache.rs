@@ -12,9 +12,11 @@
 //!   it is never chosen as a victim, as in GPGPU-Sim. When every candidate line of a set is
 //!   reserved, [`find_slot`](SectorCache::find_slot) reports the first cycle a line frees up.
 //! - Lookups use an index from line address to slot; nothing iterates over it, so results do
-//!   not depend on hash order.
+//!   not depend on hash order. The index hashes with [`LineHasher`] (one multiply) instead of
+//!   the DoS-resistant default, which dominated lookups in the cycle loop.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 use std::ops::Range;
 
 use super::config::Geometry;
@@ -74,8 +76,29 @@ pub struct SectorCache {
     slots: Vec<LineState>,
     /// Fill cycle per sector, `slot * sectors_per_line + sector`.
     ready: Vec<u64>,
-    index: HashMap<u64, usize>,
+    index: HashMap<u64, usize, BuildHasherDefault<LineHasher>>,
     clock: u64,
+}
+
+/// Hasher of the line-address index: Fibonacci hashing of the 64-bit key (line addresses are
+/// trusted simulator values, so no DoS resistance is needed).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LineHasher(u64);
+
+impl Hasher for LineHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_u64(&mut self, n: u64) {
+        self.0 = (self.0.rotate_left(5) ^ n).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
 }
 
 impl SectorCache {
@@ -86,7 +109,7 @@ impl SectorCache {
             geometry,
             slots: vec![LineState::default(); lines],
             ready: vec![0; lines * geometry.sectors_per_line() as usize],
-            index: HashMap::with_capacity(lines),
+            index: HashMap::with_capacity_and_hasher(lines, BuildHasherDefault::default()),
             clock: 0,
         }
     }
@@ -134,20 +157,24 @@ impl SectorCache {
         }
         let base = (line % u64::from(self.geometry.sets)) as usize * self.geometry.ways as usize;
         let candidates = (base + ways.start as usize)..(base + ways.end as usize);
-        if let Some(free) = candidates.clone().find(|&s| !self.slots[s].present) {
-            return Ok(Slot(free));
+        // One pass: the first empty way wins outright; otherwise the least recently used line
+        // not being filled (stamps are unique), else the earliest end of a fill.
+        let mut victim: Option<(u64, usize)> = None;
+        let mut retry: Option<u64> = None;
+        for s in candidates {
+            let state = &self.slots[s];
+            if !state.present {
+                return Ok(Slot(s));
+            }
+            if state.pending_until <= now {
+                if victim.is_none_or(|(lru, _)| state.lru < lru) {
+                    victim = Some((state.lru, s));
+                }
+            } else {
+                retry = Some(retry.map_or(state.pending_until, |r| r.min(state.pending_until)));
+            }
         }
-        candidates
-            .clone()
-            .filter(|&s| self.slots[s].pending_until <= now)
-            .min_by_key(|&s| self.slots[s].lru)
-            .map(Slot)
-            .ok_or_else(|| {
-                candidates
-                    .map(|s| self.slots[s].pending_until)
-                    .min()
-                    .unwrap_or(now + 1)
-            })
+        victim.map(|(_, s)| Slot(s)).ok_or(retry.unwrap_or(now + 1))
     }
 
     /// Puts sector `sector` of `line` into `slot` (from [`find_slot`](Self::find_slot) for the
