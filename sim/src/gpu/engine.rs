@@ -20,6 +20,7 @@ use crate::bvh::HwBvh;
 use crate::config::{ModeKind, SimConfig};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::cta_scheduler::CtaScheduler;
+use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::rt::{RtPort, TracedWarp};
 use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
 use crate::gpu::sm::Sm;
@@ -96,9 +97,9 @@ struct Gpu<'a> {
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
 fn check_setup(bvh: &HwBvh, cfg: &SimConfig) -> Result<(), SimError> {
-    if cfg.mode.kind != ModeKind::Baseline {
+    if cfg.mode.kind == ModeKind::Queues {
         return Err(SimError::NotImplemented(format!(
-            "mode.kind = \"{}\" (only \"baseline\" is simulated so far)",
+            "mode.kind = \"{}\" (only \"baseline\" and \"prefetch\" are simulated so far)",
             cfg.mode.kind
         )));
     }
@@ -159,8 +160,13 @@ pub fn simulate(
     let rts = (0..nsms)
         .map(|sm| {
             let params = cfg.rt_unit_params(records + sm as u64 * per_sm);
-            RtPort::new(&cfg.hw, params, bvh, TraversalOrder::TreeletContinue)
-                .map_err(|source| SimError::Rt { sm, source })
+            let port = RtPort::new(&cfg.hw, params, bvh, TraversalOrder::TreeletContinue)
+                .map_err(|source| SimError::Rt { sm, source })?;
+            Ok::<_, SimError>(if cfg.mode.kind == ModeKind::Prefetch {
+                port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
+            } else {
+                port
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     let mut gpu = Gpu {
@@ -424,6 +430,9 @@ impl Gpu<'_> {
         if bvh.has_procedural() {
             units.push("rt_datapath.procedural");
         }
+        if self.cfg.mode.kind == ModeKind::Prefetch {
+            units.push("prefetcher");
+        }
         units.extend(["memory.l1", "memory.l2", "memory.dram"]);
         let warp_size = self.cfg.hw.warp_size;
         let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
@@ -459,6 +468,9 @@ impl Gpu<'_> {
             cta_resumes: 0,
             rt,
             max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
+            prefetches_issued: mem.prefetch.issued,
+            prefetches_used: mem.prefetch.used,
+            prefetches_unused_evicted: mem.prefetch.evicted_unused,
             memory: mem,
             time_series_samples: self.time_series.len() as u64,
             active_units: units.into_iter().map(String::from).collect(),

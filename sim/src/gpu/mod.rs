@@ -5,13 +5,14 @@
 //! One file per concept: [`datapath`] (the RT unit's intersection tests over the BVH image),
 //! [`rt`] (an SM's RT unit with its memory queues), [`sm`] (CTA and warp slots), [`shader`]
 //! (raygen threads and shader timing), [`cta_scheduler`], [`engine`] (the cycle loop),
-//! [`watchdog`] and [`stats`]. Only the baseline design is built so far: treelet prefetching,
-//! treelet queues and ray virtualization are rejected by [`engine::simulate`] with
-//! [`SimError::NotImplemented`].
+//! [`watchdog`], [`stats`] and [`prefetch`] (the treelet prefetcher of the `prefetch` mode).
+//! The baseline and treelet prefetching are built so far: treelet queues and ray
+//! virtualization are rejected by [`engine::simulate`] with [`SimError::NotImplemented`].
 
 pub mod cta_scheduler;
 pub mod datapath;
 pub mod engine;
+pub mod prefetch;
 pub mod rt;
 pub mod shader;
 pub mod sm;

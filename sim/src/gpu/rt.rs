@@ -16,6 +16,7 @@ use crate::bvh::layout::HEADER_ADDR;
 use crate::bvh::{HwBvh, NodeKind};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
+use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::SimError;
 use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem};
 
@@ -65,6 +66,8 @@ pub struct RtPort<'a> {
     /// cycle advances `at` and lowers `idle_cycles` by one), so it is computed once per step
     /// instead of once per query.
     wake: u64,
+    /// The treelet prefetcher (prefetch mode only).
+    prefetcher: Option<Prefetcher<'a>>,
     /// Most requests queued at once.
     pub max_queue: u64,
     /// Rays issued.
@@ -98,10 +101,24 @@ impl<'a> RtPort<'a> {
             inputs,
             at: 0,
             wake,
+            prefetcher: None,
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
         })
+    }
+
+    /// The same port with a treelet prefetcher beside the RT unit.
+    pub fn with_prefetcher(self, prefetcher: Prefetcher<'a>) -> Self {
+        RtPort {
+            prefetcher: Some(prefetcher),
+            ..self
+        }
+    }
+
+    /// The treelet prefetcher, if this port has one.
+    pub fn prefetcher(&self) -> Option<&Prefetcher<'a>> {
+        self.prefetcher.as_ref()
     }
 
     /// Whether a warp can be issued this cycle.
@@ -222,6 +239,9 @@ impl<'a> RtPort<'a> {
         self.inputs.responses.extend(self.responses.drain(..n));
         let out = self.unit.step(&mut self.regs, &self.inputs);
         self.wake = self.at.saturating_add(self.unit.idle_cycles(&self.regs));
+        if let Some(p) = self.prefetcher.as_mut() {
+            p.observe(&self.regs);
+        }
         if out.errors != 0 {
             return Err(SimError::RtProtocol {
                 sm,
@@ -259,9 +279,13 @@ impl<'a> RtPort<'a> {
     }
 
     /// Offers the head of the memory access queue to the L1 (one request per cycle); returns
-    /// whether one was accepted.
+    /// whether one was accepted. With the queue empty (no demand request this cycle) the
+    /// prefetcher, if any, may offer one prefetch instead (not counted as accepted).
     pub fn send(&mut self, now: u64, sm: usize, mem: &mut MemorySystem) -> Result<bool, SimError> {
         let Some(&req) = self.requests.front() else {
+            if let Some(p) = self.prefetcher.as_mut() {
+                p.issue(now, sm, mem)?;
+            }
             return Ok(false);
         };
         if now < self.retry_at {
@@ -281,7 +305,7 @@ impl<'a> RtPort<'a> {
     }
 
     /// The next cycle after `now` at which this port has work, assuming no new warp: a response
-    /// or request to move, or the end of the RT unit's idle cycles.
+    /// or request to move, a queued prefetch, or the end of the RT unit's idle cycles.
     pub fn next_event(&self, now: u64) -> Option<u64> {
         let mut next = None::<u64>;
         let mut at = |c: u64| next = Some(next.map_or(c, |n| n.min(c)));
@@ -293,6 +317,9 @@ impl<'a> RtPort<'a> {
         }
         if self.wake != u64::MAX {
             at(self.wake.max(now + 1));
+        }
+        if let Some(c) = self.prefetcher.as_ref().and_then(|p| p.next_event(now)) {
+            at(c);
         }
         next
     }
@@ -320,7 +347,7 @@ impl<'a> RtPort<'a> {
             })
             .collect();
         format!(
-            "RT unit: fifo {}, split {:?}, errors {:#x}, idle for {}; {}; access queue {} (retry at {}), return queue {}",
+            "RT unit: fifo {}, split {:?}, errors {:#x}, idle for {}; {}; access queue {} (retry at {}), return queue {}, prefetches queued {}",
             r.fifo.len(),
             r.split,
             r.errors,
@@ -328,7 +355,8 @@ impl<'a> RtPort<'a> {
             if lanes.is_empty() { "no warps".to_string() } else { lanes.join("; ") },
             self.requests.len(),
             self.retry_at,
-            self.responses.len()
+            self.responses.len(),
+            self.prefetcher.as_ref().map_or(0, Prefetcher::pending)
         )
     }
 }

@@ -120,7 +120,7 @@ pub fn write_time_series(path: &Path, samples: &[Sample]) -> std::io::Result<()>
 pub struct SimStats {
     /// Scene name.
     pub scene: String,
-    /// Simulated design (`baseline`).
+    /// Simulated design (`baseline` or `prefetch`).
     pub mode: String,
     /// Cycles until the last CTA retired.
     pub cycles: u64,
@@ -166,6 +166,13 @@ pub struct SimStats {
     pub rt: RtTotals,
     /// Most requests waiting in one SM's memory access queue (back-pressure from the L1).
     pub max_access_queue: u64,
+    /// Treelet prefetches that missed the L1 and fetched their sector (0 outside `prefetch`
+    /// mode; prefetches of sectors already in the L1 are dropped and not counted).
+    pub prefetches_issued: u64,
+    /// Prefetched sectors later used by a demand load.
+    pub prefetches_used: u64,
+    /// Prefetched sectors evicted from the L1 before any demand use.
+    pub prefetches_unused_evicted: u64,
     /// Memory-system counters by class.
     pub memory: MemStats,
     /// Samples in the time series (written to the CSV file).
