@@ -1,0 +1,121 @@
+//! Helpers shared by the simulator's end-to-end tests (`sim_baseline.rs`, `sim_prefetch.rs`):
+//! a small GPU configuration, running a simulation, and the checks every design must pass —
+//! closest hits and the image equal the functional tracer's, and skipping idle cycles equals
+//! stepping every cycle.
+
+// Each test binary compiles this module on its own and uses only part of it.
+#![allow(dead_code)]
+
+use vtq_sim::bvh::HwBvh;
+use vtq_sim::config::SimConfig;
+use vtq_sim::geometry::Hit;
+use vtq_sim::gpu::stats::comparable_json;
+use vtq_sim::gpu::{simulate, SimOptions, SimOutput};
+use vtq_sim::scene::load::load_scene;
+use vtq_sim::scene::Scene;
+use vtq_sim::traversal::{trace, Order};
+use vtq_sim::workload::pathtracer::render;
+
+/// A small GPU in `mode` (`baseline` or `prefetch`): `sms` SMs, a `side` x `side` image, 4 KB
+/// L1s, 16 KB L2, 2 KB treelets, then the `extra` overrides.
+pub fn small_config(mode: &str, sms: u32, side: u32, extra: &[&str]) -> SimConfig {
+    let mut sets: Vec<String> = [
+        format!("mode.kind={mode}"),
+        format!("gpu.sms={sms}"),
+        format!("width={side}"),
+        format!("height={side}"),
+        "memory.l1_bytes=4096".into(),
+        "memory.l2_bytes=16384".into(),
+        "hw.treelet_bytes=2048".into(),
+        "sim.sample_interval=500".into(),
+    ]
+    .into();
+    sets.extend(extra.iter().map(|s| s.to_string()));
+    SimConfig::load(None, &sets).expect("valid test configuration")
+}
+
+/// A built-in scene and its BVH for `cfg`.
+pub fn setup(name: &str, cfg: &SimConfig) -> (Scene, HwBvh) {
+    let scene = load_scene(name).expect("built-in scene");
+    let bvh = HwBvh::build(&scene, &cfg.bvh_params()).expect("BVH builds");
+    (scene, bvh)
+}
+
+/// A simulation that records every ray and its hit.
+pub fn run(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> SimOutput {
+    simulate(scene, bvh, cfg, SimOptions { record_rays: true }, None).expect("simulation runs")
+}
+
+/// A hit as bits, so comparisons are exact (and NaN-proof).
+pub fn hit_bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
+    h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()))
+}
+
+/// An image as bits, so comparisons are exact.
+pub fn image_bits(img: &[glam::Vec3]) -> Vec<[u32; 3]> {
+    img.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+}
+
+/// Simulates scene `name` with `cfg` and checks it against the functional renderer: every
+/// ray's closest hit equals `traversal::trace`'s, every pixel traced the renderer's rays in the
+/// same order, rays issued = completed, and the image is bit-identical. Returns the output
+/// for the design's own checks.
+pub fn check_against_functional(name: &str, cfg: &SimConfig) -> SimOutput {
+    let (scene, bvh) = setup(name, cfg);
+    let out = run(&scene, &bvh, cfg);
+    let reference = render(&scene, &bvh, &cfg.render_settings(), None).unwrap();
+
+    assert_eq!(out.ray_log.len(), reference.rays.len(), "{name}: ray count");
+    assert_eq!(out.stats.rays, reference.rays.len() as u64);
+    assert_eq!(out.stats.rays_issued, out.stats.rays_completed);
+    let mut per_pixel: Vec<Vec<_>> = vec![Vec::new(); reference.image.len()];
+    for r in &out.ray_log {
+        assert_eq!(
+            hit_bits(r.hit),
+            hit_bits(trace(&bvh, &r.ray, Order::RayStationary)),
+            "{name}: closest hit of {:?}",
+            r.ray
+        );
+        per_pixel[r.pixel as usize].push(r.ray);
+    }
+    for (p, rays) in per_pixel.iter().enumerate() {
+        assert_eq!(
+            rays.as_slice(),
+            reference.pixel_rays(p),
+            "{name}: rays of pixel {p}"
+        );
+    }
+    assert_eq!(
+        image_bits(&out.image),
+        image_bits(&reference.image),
+        "{name}: image"
+    );
+    out
+}
+
+/// Statistics without host-dependent keys and the configuration text (which names lockstep).
+fn strip(o: &SimOutput) -> serde_json::Value {
+    let mut v = comparable_json(&o.stats);
+    v.as_object_mut().unwrap().remove("config");
+    v
+}
+
+/// Simulates wknd with `cfg` skipping idle cycles and in lockstep, and checks both give the same
+/// statistics and time series and that the skipping run really skipped cycles. Returns
+/// (skipping run, lockstep run).
+pub fn check_skip_matches_lockstep(cfg: &SimConfig) -> (SimOutput, SimOutput) {
+    let (scene, bvh) = setup("wknd", cfg);
+    let skip = run(&scene, &bvh, cfg);
+    let mut lock_cfg = cfg.clone();
+    lock_cfg.sim.lockstep = true;
+    let lock = run(&scene, &bvh, &lock_cfg);
+    assert_eq!(strip(&skip), strip(&lock));
+    assert_eq!(skip.time_series, lock.time_series);
+    assert!(!skip.time_series.is_empty());
+    assert_eq!(lock.stats.stepped_cycles, lock.stats.cycles);
+    assert!(
+        skip.stats.stepped_cycles < skip.stats.cycles,
+        "idle cycles were skipped"
+    );
+    (skip, lock)
+}
