@@ -104,8 +104,9 @@ pub struct AreaParams {
     pub reg_bits: u32,
     /// Bits of a program counter and of a reconvergence PC (32, as Vulkan-Sim's addresses).
     pub pc_bits: u32,
-    /// Saved SIMT-stack entries per warp (each: active mask, PC, reconvergence PC). Default 8,
-    /// an assumption: the paper saves "per SIMT stack depth" without giving the depth.
+    /// Saved SIMT-stack entries per warp (each: active mask, PC, reconvergence PC). Default 2,
+    /// the simulator's `gpu.simt_stack_entries` (the bounce loop's reconvergence entry and the
+    /// current one); an assumption: the paper saves "per SIMT stack depth" without the depth.
     pub simt_stack_depth: u32,
 }
 
@@ -117,7 +118,7 @@ impl Default for AreaParams {
             regs_per_thread: 10,
             reg_bits: 32,
             pc_bits: 32,
-            simt_stack_depth: 8,
+            simt_stack_depth: 2,
         }
     }
 }
