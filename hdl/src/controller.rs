@@ -1033,6 +1033,11 @@ impl TreeletController {
         } else if regs.queued_rays == 0 {
             self.emit_fill(&f, &[], true, n, out);
             n.seq = Seq::Idle;
+        } else if inputs.qt.ready && inputs.qt.spilled > 0 && inputs.qt.free_entries > 0 {
+            // Spilled rays first, as in `Seq::Idle`: without this a table emptied by pops
+            // answers every PopAny with nothing while its rays wait in memory. The sequence
+            // stays here; the next op waits for `qt_ready` (the refill's answer is ignored).
+            out.qt_op = QtOp::Refill;
         } else if inputs.qt.ready {
             out.qt_op = QtOp::PopAny;
             n.seq = Seq::PopWait;

@@ -351,6 +351,25 @@ impl CountTable {
         self.cfg.count_table_entries.div_ceil(self.scan_width)
     }
 
+    /// Whether a `Nop` cycle changes the registers: a scan is running, or a pointer is stale
+    /// with entries left (the next cycle starts a scan). When false, `Nop` cycles change
+    /// nothing, so a simulator need not evaluate them.
+    pub fn busy(&self, r: &CountTableRegs) -> bool {
+        r.scanning || ((!r.max.valid || !r.min.valid) && r.occupancy > 0)
+    }
+
+    /// `Nop` cycles after which both pointers are published again (`max_valid` high), if a
+    /// scan is running or about to start; `None` when the table is not [`busy`](Self::busy).
+    pub fn cycles_to_publish(&self, r: &CountTableRegs) -> Option<u32> {
+        if r.scanning {
+            Some((self.entries() - r.scan_pos).div_ceil(self.scan_width))
+        } else if self.busy(r) {
+            Some(1 + self.scan_cycles())
+        } else {
+            None
+        }
+    }
+
     fn entries(&self) -> u32 {
         self.cfg.count_table_entries
     }
@@ -881,6 +900,29 @@ mod tests {
             assert!(o.error, "{op:?}");
             assert_eq!(r, before, "{op:?} changed state");
         }
+    }
+
+    #[test]
+    fn cycles_to_publish_counts_the_nop_cycles_of_a_scan() {
+        let cfg = HwConfig {
+            count_table_entries: 20,
+            ..HwConfig::default()
+        };
+        let t = CountTable::with_scan_width(&cfg, 8).unwrap();
+        let mut r = t.reset();
+        for (treelet, n) in [(1, 3), (2, 5), (3, 2)] {
+            t.step(&mut r, &t.input(CountOp::Add { treelet, n }));
+        }
+        assert!(!t.busy(&r) && t.cycles_to_publish(&r).is_none());
+        // Shrinking the largest entry makes the max stale and starts a scan.
+        t.step(&mut r, &t.input(CountOp::Remove { treelet: 2, n: 4 }));
+        let k = t.cycles_to_publish(&r).expect("scanning");
+        for step in 1..=k {
+            assert!(!r.max.valid, "published early, after {step} of {k}");
+            t.step(&mut r, &t.input(CountOp::Nop));
+        }
+        assert!(r.max.valid && !t.busy(&r));
+        assert_eq!((r.max.treelet, r.max.count_m1 + 1), (1, 3));
     }
 
     #[test]

@@ -2,9 +2,10 @@
 
 use std::collections::BTreeMap;
 use vtq_hdl::rt_unit::{
-    errors, BoundaryEvent, Hit, Lane, LaneStatus, MemRequest, MemResponse, NodeDatapath, NodeEntry,
-    NodeKind, RayOutcome, RayRecord, RayWords, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams,
-    RtUnitRegs, Split, TestResult, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    errors, BoundaryEvent, Hit, IssueTarget, Lane, LaneStatus, MemRequest, MemResponse,
+    NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord, RayWords, RtUnit, RtUnitError,
+    RtUnitOutputs, RtUnitParams, RtUnitRegs, Split, TestResult, TraversalOrder, WarpDone,
+    WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig, Signals};
 
@@ -186,8 +187,13 @@ impl Sim {
     }
 
     fn step(&mut self, issue: Option<WarpIssue>) {
+        self.step_with(|inputs| inputs.issue = issue);
+    }
+
+    /// One cycle with idle inputs changed by `set` (responses are added here).
+    fn step_with(&mut self, set: impl FnOnce(&mut vtq_hdl::rt_unit::RtUnitInputs)) {
         let mut inputs = self.unit.idle_inputs();
-        inputs.issue = issue;
+        set(&mut inputs);
         let max = self
             .unit
             .resp_free(&self.regs)
@@ -254,7 +260,11 @@ fn words(select: u32) -> RayWords {
 fn warp(order: TraversalOrder, warp_size: u32, lanes: Vec<Option<RayRecord>>) -> WarpIssue {
     let mut lanes = lanes;
     lanes.resize(warp_size as usize, None);
-    WarpIssue { order, lanes }
+    WarpIssue {
+        order,
+        lanes,
+        ..WarpIssue::default()
+    }
 }
 
 fn ray(id: u32, select: u32, root: NodeEntry) -> Option<RayRecord> {
@@ -642,6 +652,7 @@ fn treelet_stop_parks_the_ray_and_it_resumes_in_a_new_warp() {
     sim.run(vec![WarpIssue {
         order: TraversalOrder::TreeletStop,
         lanes,
+        ..WarpIssue::default()
     }]);
     assert_eq!(addresses(&sim), vec![0x000, 0x040, 0x200]);
     let (rec, outcome) = sim.done[1].1.lanes[2].clone().unwrap();
@@ -760,6 +771,7 @@ fn protocol_violations_raise_sticky_errors() {
     inp.issue = Some(WarpIssue {
         order: TraversalOrder::RayStationary,
         lanes: vec![ray(0, 0, r)],
+        ..WarpIssue::default()
     });
     unit.step(&mut regs, &inp);
     assert_eq!(regs.errors, errors::BAD_ISSUE);
@@ -1023,4 +1035,155 @@ fn skip_equals_idle_steps() {
         assert_eq!(sim.regs.errors, 0);
         assert!(checked_nonzero > 0, "no idle period was exercised");
     }
+}
+
+/// A two-treelet path for the treelet controller's commands: A (0x000) and B (0x040) in
+/// treelet 0, the hit leaf C (0x100) in treelet 1 (256 B treelets).
+fn two_treelet_tree() -> (Tree, NodeEntry, NodeEntry) {
+    let (a, b, c) = (
+        node(0x000, NodeKind::Internal, 64),
+        node(0x040, NodeKind::Internal, 64),
+        node(0x100, NodeKind::TriangleLeaf, 32),
+    );
+    let mut tree = Tree::default();
+    tree.add(a, false, &[(b, ALL)])
+        .add(b, false, &[(c, ALL)])
+        .add(c, true, &[]);
+    (tree, a, c)
+}
+
+#[test]
+fn stop_makes_a_continuing_warp_park_at_its_next_treelet_boundary() {
+    for stop in [false, true] {
+        let (tree, a, c) = two_treelet_tree();
+        let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 5));
+        let w = warp(TraversalOrder::TreeletContinue, 4, vec![ray(3, 0, a)]);
+        sim.step(Some(w));
+        sim.step(None); // the first fetch: the ray is inside treelet 0 now
+        if stop {
+            sim.step_with(|i| i.stop = Some(0));
+            assert_eq!(sim.regs.slots[0].order, TraversalOrder::TreeletStop);
+        }
+        while sim.done.is_empty() {
+            assert!(sim.cycle < 1000);
+            sim.step(None);
+        }
+        assert_eq!(sim.regs.errors, 0);
+        let (rec, outcome) = sim.done[0].1.lanes[0].clone().unwrap();
+        if stop {
+            assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 1 });
+            assert_eq!(
+                rec.other_stack,
+                vec![c],
+                "C waits on the other-treelet stack"
+            );
+            assert!(rec.hit.is_none());
+        } else {
+            assert_eq!(outcome, RayOutcome::Finished);
+            assert_eq!(rec.hit.unwrap().hit_id, 0x100);
+        }
+    }
+}
+
+#[test]
+fn issue_into_a_reserved_slot_and_bad_commands_raise_an_error() {
+    let (tree, a, _) = two_treelet_tree();
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 5));
+    let mut w = warp(TraversalOrder::RayStationary, 4, vec![ray(1, 0, a)]);
+    w.target = IssueTarget::Slot(1);
+    sim.step(Some(w.clone()));
+    assert!(sim.regs.slots[1].valid && !sim.regs.slots[0].valid);
+    assert_eq!(sim.regs.errors, 0);
+    // Slot 1 is taken: a second issue there is refused and flagged.
+    sim.step(Some(w));
+    assert_ne!(sim.regs.errors & errors::BAD_COMMAND, 0);
+    for bad in [
+        |i: &mut vtq_hdl::rt_unit::RtUnitInputs| i.stop = Some(0),
+        |i: &mut vtq_hdl::rt_unit::RtUnitInputs| {
+            let mut w = warp(
+                TraversalOrder::RayStationary,
+                4,
+                vec![None, ray(2, 0, node(0, NodeKind::Internal, 64))],
+            );
+            w.target = IssueTarget::Append {
+                slot: 1,
+                last: true,
+            };
+            i.issue = Some(w);
+        },
+    ] {
+        let (tree, a, _) = two_treelet_tree();
+        let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 5));
+        let mut w = warp(TraversalOrder::RayStationary, 4, vec![ray(1, 0, a)]);
+        w.target = IssueTarget::Slot(1);
+        sim.step(Some(w));
+        sim.step_with(bad); // stop of an empty slot; append to a slot that is not held
+        assert_ne!(sim.regs.errors & errors::BAD_COMMAND, 0);
+    }
+}
+
+#[test]
+fn repack_releases_finished_lanes_holds_the_warp_and_an_append_refills_it() {
+    // Lane 0 hits leaf L at once; lane 1 walks A -> B -> C (select bit 1 only reaches A's child).
+    let (mut tree, a, _) = two_treelet_tree();
+    let leaf = node(0x080, NodeKind::TriangleLeaf, 32);
+    tree.add(leaf, true, &[]);
+    let mut sim = Sim::new(small(), RtUnitParams::default(), Memory::new(tree, 5));
+    sim.step(Some(warp(
+        TraversalOrder::RayStationary,
+        4,
+        vec![ray(0, 0, leaf), ray(1, 0, a)],
+    )));
+    // Run until lane 0 is done and quiescent (its hit record stored).
+    while !sim.regs.slots[0].lanes[0].quiescent() {
+        sim.step(None);
+    }
+    sim.step_with(|i| i.repack = Some(0));
+    let released = sim.outputs.last().unwrap().released.clone().unwrap();
+    assert_eq!(released.slot, 0);
+    let (rec, outcome) = released.lanes[0].clone().unwrap();
+    assert_eq!((rec.ray_id, outcome), (0, RayOutcome::Finished));
+    assert_eq!(rec.hit.unwrap().hit_id, 0x080);
+    assert!(
+        released.lanes[1..].iter().all(Option::is_none),
+        "lane 1 still traverses"
+    );
+    assert!(sim.regs.slots[0].held);
+    assert_eq!(sim.regs.slots[0].lanes[0].status, LaneStatus::Inactive);
+    // Lane 1 finishes, but the held warp does not complete.
+    while sim.regs.slots[0].lanes[1].status == LaneStatus::Traversing
+        || !sim.regs.slots[0].lanes[1].quiescent()
+    {
+        assert!(sim.cycle < 1000);
+        sim.step(None);
+    }
+    for _ in 0..20 {
+        sim.step(None);
+    }
+    assert!(sim.done.is_empty(), "a held warp does not complete");
+    // The fill appends a new ray into lane 0 and releases the hold.
+    let mut w = warp(TraversalOrder::RayStationary, 4, vec![ray(5, 0, leaf)]);
+    w.target = IssueTarget::Append {
+        slot: 0,
+        last: true,
+    };
+    sim.step(Some(w));
+    assert!(!sim.regs.slots[0].held);
+    while sim.done.is_empty() {
+        assert!(sim.cycle < 2000);
+        sim.step(None);
+    }
+    assert_eq!(sim.regs.errors, 0);
+    let done = &sim.done[0].1;
+    let ids: Vec<u32> = done.lanes.iter().flatten().map(|(r, _)| r.ray_id).collect();
+    assert_eq!(
+        ids,
+        vec![5, 1],
+        "the appended ray and the long one complete together"
+    );
+    assert!(done
+        .lanes
+        .iter()
+        .flatten()
+        .all(|(_, o)| *o == RayOutcome::Finished));
 }

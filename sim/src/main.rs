@@ -1,11 +1,12 @@
 //! `vtq`: list scenes, render the LumiBench path-tracing workload, trace ray files, benchmark
-//! the traversal against `obvhs`, generate Verilog and area reports for the hardware and
-//! co-simulate the tables' RTL against the Rust blocks.
+//! the traversal against `obvhs`, simulate and compare designs on the cycle-exact GPU model,
+//! generate Verilog and area reports for the hardware and co-simulate the tables' RTL against
+//! the Rust blocks.
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{area, bench, cosim, render, scenes, sim, trace, verilog};
+use vtq_sim::cmd::{area, bench, compare, cosim, render, scenes, sim, trace, verilog};
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
 #[derive(Debug, Parser)]
@@ -29,6 +30,9 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Simulate the workload on the cycle-exact GPU model and write its statistics.
     Sim(sim::SimArgs),
+    /// Simulate one scene on several designs (baseline, prefetch, vtq, or configuration files)
+    /// and print cycles, speedups, miss rates, SIMT efficiency and the phase split side by side.
+    Compare(compare::CompareArgs),
     /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
     /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
@@ -59,6 +63,7 @@ fn main() -> ExitCode {
         Command::Trace(args) => trace::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Sim(args) => sim::run(args),
+        Command::Compare(args) => compare::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),

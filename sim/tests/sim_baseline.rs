@@ -86,13 +86,3 @@ fn watchdog_stops_a_run_without_progress() {
         assert!(dump.contains(part), "dump lacks {part}: {dump}");
     }
 }
-
-/// Designs this build does not simulate are refused with a clear error.
-#[test]
-fn other_modes_are_not_implemented_yet() {
-    let cfg = small_config("queues", 1, 8, &["hw.repack_threshold=0"]);
-    let (scene, bvh) = setup("cornell", &cfg);
-    let err = simulate(&scene, &bvh, &cfg, SimOptions::default(), None).unwrap_err();
-    assert!(matches!(err, SimError::NotImplemented(_)), "{err}");
-    assert!(err.to_string().contains("mode.kind = \"queues\""), "{err}");
-}

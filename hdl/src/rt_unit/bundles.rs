@@ -22,8 +22,12 @@ pub mod errors {
     /// The datapath returned a child that is misaligned, of a bad size or outside the address
     /// space (the child was dropped).
     pub const BAD_CHILD: u8 = 1 << 5;
+    /// A treelet-controller command named a slot it cannot act on: an issue into a slot that is
+    /// not free, an append to a slot that is not held or has too few inactive lanes, a stop or
+    /// repack of an empty slot (the command was dropped).
+    pub const BAD_COMMAND: u8 = 1 << 6;
     /// Width of the error register.
-    pub const BITS: u32 = 6;
+    pub const BITS: u32 = 7;
 }
 
 /// Which traversal order a warp uses (set per warp at issue, held in its slot).
@@ -119,10 +123,54 @@ impl RayRecord {
 /// warp from the treelet controller).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct WarpIssue {
-    /// Traversal order of the warp.
+    /// Traversal order of the warp (ignored by an append).
     pub order: TraversalOrder,
-    /// One entry per lane (`warp_size` of them); `None` is an inactive lane.
+    /// One entry per lane (`warp_size` of them); `None` is an inactive lane. For an append,
+    /// `Some` lanes must be inactive lanes of the held slot.
     pub lanes: Vec<Option<RayRecord>>,
+    /// Where the rays go.
+    pub target: IssueTarget,
+}
+
+/// Where an issued warp's rays go (`issue_target`, `issue_slot`, `issue_last`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum IssueTarget {
+    /// A new warp in the lowest free slot (a warp from the SM; code 0).
+    #[default]
+    AnyFree,
+    /// A new warp in this free slot (a treelet or grouped warp the treelet controller reserved
+    /// the slot for; code 1).
+    Slot(u32),
+    /// Rays appended into inactive lanes of this held slot (a repack fill; code 2); `last`
+    /// releases the hold, so the warp may complete again.
+    Append {
+        /// The held slot.
+        slot: u32,
+        /// The fill is complete.
+        last: bool,
+    },
+}
+
+impl IssueTarget {
+    /// Width of the target code.
+    pub const BITS: u32 = 2;
+
+    /// The `issue_target` code.
+    pub fn code(self) -> u64 {
+        match self {
+            IssueTarget::AnyFree => 0,
+            IssueTarget::Slot(_) => 1,
+            IssueTarget::Append { .. } => 2,
+        }
+    }
+
+    /// The slot named on `issue_slot` (0 for `AnyFree`).
+    pub fn slot(self) -> u32 {
+        match self {
+            IssueTarget::AnyFree => 0,
+            IssueTarget::Slot(s) | IssueTarget::Append { slot: s, .. } => s,
+        }
+    }
 }
 
 /// One 32 B memory request of the RT unit (to the L1).
@@ -223,6 +271,15 @@ pub struct RtUnitInputs {
     pub issue: Option<WarpIssue>,
     /// Responses from memory this cycle, at most `resp_ports` and at most `resp_free`.
     pub responses: Vec<MemResponse>,
+    /// Terminate this slot's warp into the treelet queues (treelet controller `terminate`): its
+    /// order becomes [`TraversalOrder::TreeletStop`], so each ray stops at its next treelet
+    /// boundary; a ray already between treelets (current stack empty, nothing in flight)
+    /// parks at once.
+    pub stop: Option<u32>,
+    /// Repack this slot's warp (treelet controller `repack`): its finished, quiescent lanes are
+    /// released on [`RtUnitOutputs::released`] and the slot is held (it does not complete) until
+    /// an [`IssueTarget::Append`] with `last` arrives.
+    pub repack: Option<u32>,
 }
 
 /// The RT unit's outputs for one cycle.
@@ -241,6 +298,9 @@ pub struct RtUnitOutputs {
     /// Rays that reached a treelet boundary this cycle (all from the slot whose response was
     /// popped).
     pub boundary: Vec<BoundaryEvent>,
+    /// Finished lanes released by this cycle's repack (slot and per-lane final records; their
+    /// hit records are already stored), freeing the lanes for the repack fill.
+    pub released: Option<WarpDone>,
     /// Sticky error flags ([`errors`]), including any raised this cycle.
     pub errors: u8,
 }
@@ -330,6 +390,8 @@ pub struct WarpSlot {
     pub valid: bool,
     /// The warp's traversal order.
     pub order: TraversalOrder,
+    /// Held by a repack: the warp does not complete until the repack fill's last append.
+    pub held: bool,
     /// `warp_size` lanes.
     pub lanes: Vec<Lane>,
 }
@@ -398,4 +460,19 @@ pub struct RtUnitRegs {
     pub errors: u8,
     /// Statistics counters.
     pub stats: RtStats,
+}
+
+/// A combinational summary of one warp-buffer slot, as the treelet controller's reports need it
+/// (initial-phase divergence reports, active-ray reports for repacking).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SlotSummary {
+    /// Lanes still traversing.
+    pub traversing: u32,
+    /// Lanes a repack cannot release yet: traversing, or finished but with a node in flight, a
+    /// delay or a hit-record store outstanding, or parked.
+    pub busy: u32,
+    /// Distinct treelets the traversing lanes visit next (the treelet of each one's next node).
+    pub distinct_next_treelets: u32,
+    /// Every lane is quiescent: the warp completes this cycle unless it is held.
+    pub quiescent: bool,
 }

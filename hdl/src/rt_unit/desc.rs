@@ -2,8 +2,8 @@
 //! the flattening of its bundles into trace signals.
 
 use super::bundles::{
-    errors, LaneStatus, MemRequest, MemResponse, RtStats, RtUnitInputs, RtUnitOutputs, RtUnitRegs,
-    TraversalOrder, Widths,
+    errors, IssueTarget, LaneStatus, MemRequest, MemResponse, RtStats, RtUnitInputs, RtUnitOutputs,
+    RtUnitRegs, TraversalOrder, Widths,
 };
 use super::node::{NodeEntry, NodeKind, CHUNK_BYTES, MAX_NODE_CHUNKS, RAY_WORDS};
 use super::RtUnitParams;
@@ -32,6 +32,13 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         port("issue_valid", Dir::In, 1, "a warp is issued to the warp buffer this cycle"),
         port("issue_ready", Dir::Out, 1, "a warp-buffer slot is free (registers only)"),
         port("issue_order", Dir::In, TraversalOrder::BITS, "traversal order: 0 ray-stationary single stack, 1 treelet two-stack continuing across boundaries, 2 treelet two-stack stopping at a boundary"),
+        port("issue_target", Dir::In, IssueTarget::BITS, "0 a new warp in the lowest free slot, 1 a new warp in issue_slot (reserved by the treelet controller), 2 append the active lanes into inactive lanes of held slot issue_slot (repack fill)"),
+        port("issue_slot", Dir::In, w.slot, "slot of issue_target 1 and 2"),
+        port("issue_last", Dir::In, 1, "with issue_target 2: the repack fill is complete, release the hold"),
+        port("stop_valid", Dir::In, 1, "treelet controller terminate: stop_slot's rays stop at their next treelet boundary (order becomes treelet-stop)"),
+        port("stop_slot", Dir::In, w.slot, "the terminated slot"),
+        port("repack_valid", Dir::In, 1, "treelet controller repack: release repack_slot's finished lanes and hold the slot until a fill with issue_last"),
+        port("repack_slot", Dir::In, w.slot, "the repacked slot"),
     ];
     ports.extend(ray_state_ports("issue", Dir::In, cfg, w));
     ports.extend([
@@ -132,7 +139,10 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         port("boundary_slot", Dir::Out, w.slot, "slot of the rays reaching a boundary (the slot whose response was popped)"),
         port("boundary_ray_id", Dir::Out, n * w.ray_id, "per lane: ray id"),
         port("boundary_treelet", Dir::Out, n * w.treelet, "per lane: treelet the ray needs next"),
-        port("errors", Dir::Out, errors::BITS, "sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack overflow, bad child"),
+        port("released_valid", Dir::Out, 1, "a repack released finished lanes this cycle (their hit records are already stored)"),
+        port("released_slot", Dir::Out, w.slot, "slot of the released lanes"),
+        port("released_mask", Dir::Out, n, "per lane: released"),
+        port("errors", Dir::Out, errors::BITS, "sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack overflow, bad child, bad controller command"),
     ]);
 
     let mut registers = vec![
@@ -147,6 +157,12 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             TraversalOrder::BITS,
             cfg.warp_buffer_size,
             "traversal order of the slot's warp",
+        ),
+        reg(
+            "slot_held",
+            1,
+            cfg.warp_buffer_size,
+            "the slot's warp is being repacked: it does not complete until the fill's last append",
         ),
         reg(
             "age_order",
@@ -352,7 +368,8 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
                 l.header, l.internal, l.instance_leaf, l.primitive_descriptor, l.triangle_leaf, l.triangle_hit, l.procedural
             ),
             "response FIFO: written at the end of the cycle a response arrives, one entry popped per cycle (from the next cycle on)".into(),
-            "a warp completes when every lane is inactive, done or parked with nothing in flight, no delay and no store pending; at most one per cycle (oldest first); an issued warp can request from the next cycle".into(),
+            "a warp completes when every lane is inactive, done or parked with nothing in flight, no delay and no store pending, and it is not held by a repack; at most one per cycle (oldest first); an issued warp can request from the next cycle".into(),
+            "treelet controller commands (issue into a reserved slot, append, stop, repack) take effect at the end of the cycle after the warp issue; a repack releases the lanes that are done and quiescent after this cycle's completion, response delivery and issue".into(),
         ],
     }
 }
@@ -425,6 +442,28 @@ impl Signals for RtUnitInputs {
                 TraversalOrder::BITS,
                 self.issue.as_ref().map_or(0, |i| i.order.code()),
             ),
+            Signal::new(
+                "issue_target",
+                IssueTarget::BITS,
+                self.issue.as_ref().map_or(0, |i| i.target.code()),
+            ),
+            Signal::new(
+                "issue_slot",
+                w.slot,
+                self.issue.as_ref().map_or(0, |i| i.target.slot() as u64),
+            ),
+            Signal::new(
+                "issue_last",
+                1,
+                self.issue
+                    .as_ref()
+                    .is_some_and(|i| matches!(i.target, IssueTarget::Append { last: true, .. }))
+                    as u64,
+            ),
+            Signal::new("stop_valid", 1, self.stop.is_some() as u64),
+            Signal::new("stop_slot", w.slot, self.stop.unwrap_or(0) as u64),
+            Signal::new("repack_valid", 1, self.repack.is_some() as u64),
+            Signal::new("repack_slot", w.slot, self.repack.unwrap_or(0) as u64),
             Signal::new(
                 "issue_active",
                 w.warp_size,
@@ -528,6 +567,21 @@ impl Signals for RtUnitOutputs {
                 event(i).map_or(0, |e| e.treelet),
             ));
         }
+        let released = self.released.as_ref();
+        v.push(Signal::new("released_valid", 1, released.is_some() as u64));
+        v.push(Signal::new(
+            "released_slot",
+            w.slot,
+            released.map_or(0, |d| d.slot as u64),
+        ));
+        v.push(Signal::new(
+            "released_mask",
+            w.warp_size,
+            mask(
+                (0..n)
+                    .map(|i| released.is_some_and(|d| d.lanes.get(i).is_some_and(Option::is_some))),
+            ),
+        ));
         v.push(Signal::new("errors", errors::BITS, self.errors as u64));
         v
     }
@@ -544,6 +598,7 @@ impl Signals for RtUnitRegs {
                 TraversalOrder::BITS,
                 slot.order.code(),
             ));
+            v.push(Signal::new(format!("slot_held_{s}"), 1, slot.held as u64));
         }
         for k in 0..self.slots.len() {
             v.push(Signal::new(

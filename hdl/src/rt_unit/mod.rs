@@ -48,9 +48,9 @@ mod desc;
 mod node;
 
 pub use bundles::{
-    errors, BoundaryEvent, InFlight, Lane, LaneStatus, MemRequest, MemResponse, RayOutcome,
-    RayRecord, RtStats, RtUnitInputs, RtUnitOutputs, RtUnitRegs, Split, TraversalOrder, WarpDone,
-    WarpIssue, WarpSlot, Widths,
+    errors, BoundaryEvent, InFlight, IssueTarget, Lane, LaneStatus, MemRequest, MemResponse,
+    RayOutcome, RayRecord, RtStats, RtUnitInputs, RtUnitOutputs, RtUnitRegs, SlotSummary, Split,
+    TraversalOrder, WarpDone, WarpIssue, WarpSlot, Widths,
 };
 pub use node::{
     Hit, Latencies, NodeDatapath, NodeEntry, NodeKind, RayWords, TestResult, CHUNK_BYTES,
@@ -218,7 +218,50 @@ impl<D: NodeDatapath> RtUnit<D> {
             widths: self.widths,
             issue: None,
             responses: Vec::new(),
+            stop: None,
+            repack: None,
         }
+    }
+
+    /// The summary of slot `slot` for the treelet controller's reports (`None` for an empty or
+    /// nonexistent slot); the distinct next treelets are counted only with `distinct` (0
+    /// otherwise), as only initial-phase divergence reports need them.
+    pub fn slot_summary(
+        &self,
+        regs: &RtUnitRegs,
+        slot: u32,
+        distinct: bool,
+    ) -> Option<SlotSummary> {
+        let s = regs.slots.get(slot as usize).filter(|s| s.valid)?;
+        let mut sum = SlotSummary {
+            quiescent: true,
+            ..SlotSummary::default()
+        };
+        // At most warp_size distinct treelets: a fixed bank, searched linearly.
+        let mut treelets = [0u64; 64];
+        let mut found = 0;
+        for lane in &s.lanes {
+            let quiet = lane.quiescent();
+            sum.quiescent &= quiet;
+            match lane.status {
+                LaneStatus::Inactive => {}
+                LaneStatus::Done if quiet => {}
+                LaneStatus::Traversing => {
+                    sum.traversing += 1;
+                    sum.busy += 1;
+                    if let Some(n) = lane.ray.next_node().filter(|_| distinct) {
+                        let t = self.treelet_of(n.address);
+                        if !treelets[..found].contains(&t) && found < treelets.len() {
+                            treelets[found] = t;
+                            found += 1;
+                        }
+                    }
+                }
+                LaneStatus::Done | LaneStatus::Parked => sum.busy += 1,
+            }
+        }
+        sum.distinct_next_treelets = found as u32;
+        Some(sum)
     }
 
     /// Treelet of a byte address (address >> log2(treelet_bytes)).
@@ -247,7 +290,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         let mut idle = u64::MAX;
         for &s in &regs.age {
             let slot = &regs.slots[s as usize];
-            if slot.lanes.iter().all(Lane::quiescent) {
+            if !slot.held && slot.lanes.iter().all(Lane::quiescent) {
                 return 0;
             }
             for lane in &slot.lanes {
@@ -361,7 +404,12 @@ impl<D: NodeDatapath> RtUnit<D> {
 
     /// The whole cycle, in place; `eval` runs it on a copy of the registers.
     fn update(&self, r: &mut RtUnitRegs, inp: &RtUnitInputs) -> RtUnitOutputs {
-        let free_slot = r.slots.iter().position(|s| !s.valid);
+        let free_mask = r
+            .slots
+            .iter()
+            .enumerate()
+            .fold(0u64, |m, (i, s)| m | (u64::from(!s.valid) << i));
+        let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
         let issue_ready = free_slot.is_some();
         let resp_free = self.resp_free(r);
 
@@ -401,14 +449,14 @@ impl<D: NodeDatapath> RtUnit<D> {
             }
         }
 
-        // 7. Warp issue.
+        // 7. Warp issue, then the treelet controller's commands.
         if let Some(issue) = &inp.issue {
-            match free_slot {
-                None => r.errors |= errors::ISSUE_WHILE_FULL,
-                Some(_) if self.check_issue(issue).is_err() => r.errors |= errors::BAD_ISSUE,
-                Some(s) => self.load(r, s, issue),
-            }
+            self.issue(r, free_mask, issue);
         }
+        if let Some(s) = inp.stop {
+            self.stop(r, s);
+        }
+        let released = inp.repack.and_then(|s| self.repack(r, s));
 
         RtUnitOutputs {
             widths: self.widths,
@@ -417,7 +465,101 @@ impl<D: NodeDatapath> RtUnit<D> {
             request,
             done,
             boundary,
+            released,
             errors: r.errors,
+        }
+    }
+
+    /// Step 7: loads an issued warp into a slot that was free at the start of the cycle (bit
+    /// `s` of `free_mask`) or appends a repack fill to a held slot.
+    fn issue(&self, r: &mut RtUnitRegs, free_mask: u64, issue: &WarpIssue) {
+        let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
+        if self.check_issue(issue).is_err() {
+            r.errors |= errors::BAD_ISSUE;
+            return;
+        }
+        match issue.target {
+            IssueTarget::AnyFree => match free_slot {
+                None => r.errors |= errors::ISSUE_WHILE_FULL,
+                Some(s) => self.load(r, s, issue),
+            },
+            IssueTarget::Slot(s) if s < 64 && free_mask >> s & 1 == 1 => {
+                self.load(r, s as usize, issue)
+            }
+            IssueTarget::Slot(_) => r.errors |= errors::BAD_COMMAND,
+            IssueTarget::Append { slot: s, last } => {
+                let ok =
+                    r.slots.get(s as usize).is_some_and(|slot| {
+                        slot.valid
+                            && slot.held
+                            && slot.lanes.iter().zip(&issue.lanes).all(|(lane, ray)| {
+                                ray.is_none() || lane.status == LaneStatus::Inactive
+                            })
+                    });
+                if !ok {
+                    r.errors |= errors::BAD_COMMAND;
+                    return;
+                }
+                let slot = &mut r.slots[s as usize];
+                for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
+                    if let Some(ray) = ray {
+                        *lane = Self::lane_for(ray);
+                    }
+                }
+                if last {
+                    slot.held = false;
+                }
+            }
+        }
+    }
+
+    /// Terminates slot `s`'s warp into the treelet queues: treelet-stop order from now on, and
+    /// rays already between treelets park at once.
+    fn stop(&self, r: &mut RtUnitRegs, s: u32) {
+        let Some(slot) = r.slots.get_mut(s as usize).filter(|slot| slot.valid) else {
+            r.errors |= errors::BAD_COMMAND;
+            return;
+        };
+        slot.order = TraversalOrder::TreeletStop;
+        for lane in &mut slot.lanes {
+            if lane.status == LaneStatus::Traversing
+                && lane.in_flight.is_none()
+                && lane.ray.current_stack.is_empty()
+                && !lane.ray.other_stack.is_empty()
+            {
+                lane.status = LaneStatus::Parked;
+            }
+        }
+    }
+
+    /// Repacks slot `s`: releases its finished, quiescent lanes and holds the slot. A slot
+    /// that completed this cycle is left alone (nothing to repack).
+    fn repack(&self, r: &mut RtUnitRegs, s: u32) -> Option<WarpDone> {
+        let slot = r.slots.get_mut(s as usize).filter(|slot| slot.valid)?;
+        slot.held = true;
+        let lanes = slot
+            .lanes
+            .iter_mut()
+            .map(|lane| {
+                (lane.status == LaneStatus::Done && lane.quiescent()).then(|| {
+                    lane.status = LaneStatus::Inactive;
+                    (std::mem::take(&mut lane.ray), RayOutcome::Finished)
+                })
+            })
+            .collect();
+        Some(WarpDone { slot: s, lanes })
+    }
+
+    /// A fresh lane holding `ray` (already finished rays enter done).
+    fn lane_for(ray: &RayRecord) -> Lane {
+        Lane {
+            status: if ray.finished() {
+                LaneStatus::Done
+            } else {
+                LaneStatus::Traversing
+            },
+            ray: ray.clone(),
+            ..Lane::default()
         }
     }
 
@@ -425,7 +567,7 @@ impl<D: NodeDatapath> RtUnit<D> {
     fn complete(&self, r: &mut RtUnitRegs) -> Option<WarpDone> {
         let pos = r.age.iter().position(|&s| {
             let slot = &r.slots[s as usize];
-            slot.lanes.iter().all(Lane::quiescent)
+            !slot.held && slot.lanes.iter().all(Lane::quiescent)
         })?;
         let s = r.age.remove(pos);
         let slot = &mut r.slots[s as usize];
@@ -656,17 +798,10 @@ impl<D: NodeDatapath> RtUnit<D> {
     fn load(&self, r: &mut RtUnitRegs, s: usize, issue: &WarpIssue) {
         let slot = &mut r.slots[s];
         slot.valid = true;
+        slot.held = false;
         slot.order = issue.order;
         for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
-            *lane = Lane::default();
-            if let Some(ray) = ray {
-                lane.status = if ray.finished() {
-                    LaneStatus::Done
-                } else {
-                    LaneStatus::Traversing
-                };
-                lane.ray = ray.clone();
-            }
+            *lane = ray.as_ref().map_or_else(Lane::default, Self::lane_for);
         }
         r.age.push(s as u32);
     }
@@ -690,6 +825,7 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
     fn reset(&self) -> RtUnitRegs {
         let slot = WarpSlot {
             valid: false,
+            held: false,
             order: TraversalOrder::RayStationary,
             lanes: vec![Lane::default(); self.cfg.warp_size as usize],
         };

@@ -5,7 +5,13 @@
 //! Both sides use the same leaf tests (our watertight ray/triangle and ray/sphere tests from
 //! [`crate::intersect`]), so the comparison measures the acceleration structure and its
 //! traversal, and disagreements can only come from ties between primitives at the same distance.
+//!
+//! `vtq bench --sim` measures the cycle-exact simulator instead: in one run it path traces the
+//! workload with the functional tracer on one thread (as `vtq render` does, ray tracing only),
+//! simulates the same workload, and prints simulated rays/s and the slowdown (simulation wall
+//! time over render wall time) against the project's targets.
 
+use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
@@ -19,12 +25,14 @@ use obvhs::BvhBuildParams;
 
 use crate::bvh::build::{sphere_bounds, triangle_bounds};
 use crate::bvh::HwBvh;
-use crate::cmd::options::{load_scene, BvhArgs, ImageArgs};
+use crate::cmd::options::{load_scene, BvhArgs, ConfigArgs, ImageArgs};
+use crate::config::SimConfig;
 use crate::geometry::{Hit, Ray};
+use crate::gpu::{simulate, SimOptions};
 use crate::intersect::{ray_sphere, ray_triangle, RayPrecomp};
 use crate::scene::Scene;
 use crate::traversal::{trace, Order};
-use crate::workload::pathtracer::render;
+use crate::workload::pathtracer::{render, render_serial};
 
 /// Options of `vtq bench`.
 #[derive(Debug, Args)]
@@ -33,8 +41,17 @@ pub struct BenchArgs {
     #[arg(long)]
     pub scene: String,
     /// Use at most this many of the workload's rays (in pixel order) [default: all].
-    #[arg(long)]
+    #[arg(long, conflicts_with = "sim")]
     pub rays: Option<usize>,
+    /// Benchmark the cycle-exact simulator instead: time the functional path tracer on one
+    /// thread and the simulation of the same workload, and print simulated rays/s and the
+    /// slowdown against the targets.
+    #[arg(long)]
+    pub sim: bool,
+    /// With --sim: the simulated GPU and design (`--config`, `--set` as in `vtq sim`). The
+    /// workload and BVH come from the image and BVH options below; `--set` overrides them.
+    #[command(flatten)]
+    pub config: ConfigArgs,
     /// Image size and path limits of the workload whose rays are timed.
     #[command(flatten)]
     pub image: ImageArgs,
@@ -105,6 +122,12 @@ fn time_trace(rays: &[Ray], f: impl Fn(&Ray) -> Option<Hit>) -> (Vec<Option<Hit>
 
 /// Run `vtq bench`.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    if args.sim {
+        return run_sim(args);
+    }
+    if args.config.config.is_some() || !args.config.overrides.is_empty() {
+        anyhow::bail!("--config and --set configure the simulator: use them with --sim");
+    }
     let settings = args.image.settings()?;
     let scene = load_scene(&args.scene)?;
 
@@ -225,5 +248,150 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         ours_build.as_secs_f64(),
         obvhs_build.as_secs_f64()
     );
+    Ok(())
+}
+
+/// The simulator speed targets: at least this many simulated rays per second ...
+const TARGET_RAYS_PER_SECOND: f64 = 100_000.0;
+
+/// ... and at most this slowdown against the single-threaded functional path tracer.
+const TARGET_SLOWDOWN: f64 = 30.0;
+
+/// The simulator configuration of `bench --sim`: the file, then the bench's image and BVH
+/// options as overrides, then `--set`. A workload or BVH key the file sets to another value
+/// than those options is an error rather than silently replaced.
+fn sim_config(args: &BenchArgs) -> anyhow::Result<SimConfig> {
+    let flags = [
+        ("workload.width", "--width", args.image.width),
+        ("workload.height", "--height", args.image.height),
+        ("workload.spp", "--spp", args.image.spp),
+        ("workload.bounces", "--bounces", args.image.bounces),
+        ("bvh.width", "--bvh-width", args.bvh.bvh_width),
+        (
+            "hw.treelet_bytes",
+            "--treelet-bytes",
+            args.bvh.treelet_bytes,
+        ),
+    ];
+    let mut sets: Vec<String> = flags.iter().map(|(k, _, v)| format!("{k}={v}")).collect();
+    sets.extend(args.config.overrides.iter().cloned());
+    let cfg = SimConfig::load(args.config.config.as_deref(), &sets)?;
+    if let Some(path) = &args.config.config {
+        // What the file and --set give without the bench's options (as `vtq sim` would run).
+        let as_sim = SimConfig::load(Some(path), &args.config.overrides)?;
+        let value = |c: &SimConfig, key: &str| match key {
+            "workload.width" => c.workload.width,
+            "workload.height" => c.workload.height,
+            "workload.spp" => c.workload.spp,
+            "workload.bounces" => c.workload.bounces,
+            "bvh.width" => c.bvh.width,
+            _ => c.hw.treelet_bytes,
+        };
+        let default = SimConfig::default();
+        for (key, flag, _) in flags {
+            let (theirs, ours) = (value(&as_sim, key), value(&cfg, key));
+            if theirs != value(&default, key) && theirs != ours {
+                anyhow::bail!(
+                    "{} sets {key} = {theirs} but bench --sim uses {flag} {ours}: pass \
+                     {flag} {theirs} (or --set {key}={theirs})",
+                    path.display()
+                );
+            }
+        }
+    }
+    Ok(cfg)
+}
+
+/// Pass or fail, for a target line.
+fn verdict(ok: bool) -> &'static str {
+    if ok {
+        "pass"
+    } else {
+        "FAIL"
+    }
+}
+
+/// Run `vtq bench --sim`.
+fn run_sim(args: &BenchArgs) -> anyhow::Result<()> {
+    let cfg = sim_config(args)?;
+    let settings = cfg.render_settings();
+    let scene = load_scene(&args.scene)?;
+    let start = Instant::now();
+    let bvh = HwBvh::build(&scene, &cfg.bvh_params())
+        .with_context(|| format!("building the BVH of scene '{}'", scene.name))?;
+    println!(
+        "bvh:   built in {:.3} s ({} treelets); workload {}x{}, {} spp, {} bounces; mode {}",
+        start.elapsed().as_secs_f64(),
+        bvh.stats().treelets,
+        settings.width,
+        settings.height,
+        settings.spp,
+        settings.bounces,
+        cfg.mode.kind
+    );
+
+    let functional = render_serial(&scene, &bvh, &settings, None)
+        .with_context(|| format!("rendering scene '{}'", scene.name))?;
+    let progress = std::io::stderr().is_terminal().then(|| {
+        let bar = indicatif::ProgressBar::new(settings.pixels() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("sim {bar:40} {pos}/{len} pixels {elapsed}")
+                .expect("the progress template is valid"),
+        );
+        bar
+    });
+    let out = simulate(&scene, &bvh, &cfg, SimOptions::default(), progress.as_ref())
+        .with_context(|| format!("simulating scene '{}'", scene.name))?;
+    if let Some(bar) = &progress {
+        bar.finish_and_clear();
+    }
+    let s = &out.stats;
+    if s.rays != functional.stats.rays_traced {
+        anyhow::bail!(
+            "the simulation traced {} rays but the functional render {}",
+            s.rays,
+            functional.stats.rays_traced
+        );
+    }
+    let render_wall = functional.stats.wall_seconds;
+    let slowdown = s.sim_wall_seconds / render_wall.max(1e-9);
+    println!(
+        "rays: {} (the functional render and the simulation agree)",
+        s.rays
+    );
+    println!(
+        "render wall: {render_wall:.4} s, {:.0} rays/s (functional path tracer, one thread, \
+         ray tracing only)",
+        rate(s.rays as usize, Duration::from_secs_f64(render_wall))
+    );
+    println!(
+        "sim wall: {:.4} s for {} cycles (simulation loop, one thread)",
+        s.sim_wall_seconds, s.cycles
+    );
+    println!("simulated rays/s: {:.0}", s.simulated_rays_per_second);
+    println!("slowdown: {slowdown:.1}x (sim wall / render wall)");
+    let bits = |img: &[glam::Vec3]| -> Vec<[u32; 3]> {
+        img.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+    };
+    let identical = bits(&out.image) == bits(&functional.image);
+    println!(
+        "image: {}",
+        if identical {
+            "identical to the functional render"
+        } else {
+            "DIFFERENT from the functional render"
+        }
+    );
+    println!(
+        "target >= 100,000 simulated rays/s: {}",
+        verdict(s.simulated_rays_per_second >= TARGET_RAYS_PER_SECOND)
+    );
+    println!(
+        "target slowdown < 30x: {}",
+        verdict(slowdown < TARGET_SLOWDOWN)
+    );
+    if !identical {
+        anyhow::bail!("the simulated image differs from the functional render's");
+    }
     Ok(())
 }

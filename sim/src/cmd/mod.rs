@@ -2,6 +2,7 @@
 
 pub mod area;
 pub mod bench;
+pub mod compare;
 pub mod cosim;
 pub mod options;
 pub mod render;

@@ -1,5 +1,8 @@
 //! The CTA scheduler: cuts the image into pixel tiles, one raygen CTA each, and hands them out
 //! in pixel order (tiles row-major) to SMs with a free CTA slot, round-robin over the SMs.
+//! With ray virtualization, CTAs ready to resume take free slots of their SM first (paper
+//! section 3.1: resuming CTAs have priority), and an SM takes a new CTA only while its ray
+//! budget allows ([`crate::gpu::sm::Sm::launchable`]); the engine passes what is left here.
 
 /// Shape of the pixel tile of one CTA and the order of CTAs over the image.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -63,8 +66,8 @@ impl CtaScheduler {
             .collect()
     }
 
-    /// Hands out pending CTAs to SMs with free slots (`free[sm]` free slots each), round-robin
-    /// from where the last pass stopped; returns `(sm, cta)` in hand-out order.
+    /// Hands out pending CTAs to SMs with room (`free[sm]` new CTAs each), round-robin from
+    /// where the last pass stopped; returns `(sm, cta)` in hand-out order.
     pub fn dispatch(&mut self, free: &mut [u32]) -> Vec<(usize, u32)> {
         let mut out = Vec::new();
         let n = free.len();

@@ -1,14 +1,17 @@
 //! The cycle loop. Each cycle, in this order: time-series samples due, shader timers (warps
-//! become ready to trace or end; CTAs retire), CTA dispatch to free slots, memory responses into
-//! the RT units' return queues, one step of every RT unit (issue, responses, completion), and one
-//! memory request per SM to the L1. SMs are visited in index order, so runs are deterministic.
+//! become ready to trace or end; CTAs retire or, with ray virtualization, start suspending),
+//! CTA dispatch to free slots (CTAs ready to resume first, then new ones), memory responses into
+//! the RT units' return queues (CTA-state loads to their SMs: a CTA whose state is back shades
+//! the hits its warps received while suspended), one step of every RT unit (issue, responses,
+//! completion) with its memory request to the L1, and one CTA-state access per SM. SMs are
+//! visited in index order, so runs are deterministic.
 //!
 //! Idle cycles are skipped in SST's declocking style: after a cycle every component reports the
 //! next cycle it has work ([`MemorySystem::next_event`], [`Sm::next_timer`],
-//! [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`) and the engine jumps
-//! there. Within an evaluated cycle, an RT unit with nothing to do is not stepped either; it
-//! catches up its warp-cycle statistics and delay counters with `skip` when next stepped (and at
-//! the end). With `sim.lockstep` every RT unit is stepped every cycle; results are identical
+//! [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`,
+//! [`CtaStatePort::next_event`]) and the engine jumps there. Within an evaluated cycle, an RT
+//! unit with nothing to do is not stepped either; it catches up its warp-cycle statistics and
+//! delay counters with `skip` when next stepped (and at the end). With `sim.lockstep` every RT unit is stepped every cycle; results are identical
 //! (tested).
 
 use std::time::Instant;
@@ -25,9 +28,11 @@ use crate::gpu::rt::{RtPort, TracedWarp};
 use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
 use crate::gpu::sm::Sm;
 use crate::gpu::stats::{PhaseStats, Phases, RtTotals, Sample, SimStats};
+use crate::gpu::treelet_queues::TreeletQueues;
+use crate::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::gpu::watchdog::Watchdog;
 use crate::gpu::SimError;
-use crate::memory::MemorySystem;
+use crate::memory::{MemorySystem, Response};
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
 use crate::workload::pathtracer::RenderSettings;
@@ -82,6 +87,10 @@ struct Gpu<'a> {
     scheduler: CtaScheduler,
     sms: Vec<Sm>,
     rts: Vec<RtPort<'a>>,
+    /// Each SM's CTA-state traffic (ray virtualization; idle without it).
+    states: Vec<CtaStatePort>,
+    /// CTA-state load responses of the SM being visited (reused buffer).
+    state_loads: Vec<Response>,
     mem: MemorySystem,
     watchdog: Watchdog,
     image: Vec<Vec3>,
@@ -97,17 +106,6 @@ struct Gpu<'a> {
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
 fn check_setup(bvh: &HwBvh, cfg: &SimConfig) -> Result<(), SimError> {
-    if cfg.mode.kind == ModeKind::Queues {
-        return Err(SimError::NotImplemented(format!(
-            "mode.kind = \"{}\" (only \"baseline\" and \"prefetch\" are simulated so far)",
-            cfg.mode.kind
-        )));
-    }
-    if cfg.mode.virtualization {
-        return Err(SimError::NotImplemented(
-            "mode.virtualization = true (ray virtualization is not simulated yet)".into(),
-        ));
-    }
     if *bvh.params() != cfg.bvh_params() {
         return Err(SimError::Setup(format!(
             "the BVH was built with {:?} but the configuration asks for {:?}",
@@ -162,13 +160,35 @@ pub fn simulate(
             let params = cfg.rt_unit_params(records + sm as u64 * per_sm);
             let port = RtPort::new(&cfg.hw, params, bvh, TraversalOrder::TreeletContinue)
                 .map_err(|source| SimError::Rt { sm, source })?;
-            Ok::<_, SimError>(if cfg.mode.kind == ModeKind::Prefetch {
-                port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
-            } else {
-                port
+            Ok::<_, SimError>(match cfg.mode.kind {
+                ModeKind::Baseline => port,
+                ModeKind::Prefetch => {
+                    port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
+                }
+                ModeKind::Queues => {
+                    let ray_base = records + (nsms + sm) as u64 * per_sm;
+                    let queues = TreeletQueues::new(&cfg.hw, cfg.controller_features(), ray_base)
+                        .map_err(|e| SimError::Setup(e.to_string()))?;
+                    let port = port.with_queues(queues);
+                    if cfg.mode.preload {
+                        port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
+                    } else {
+                        port
+                    }
+                }
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    // Hit records, then (queues mode) ray records, then suspended CTAs' state.
+    let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
+    let sm = |_| {
+        let sm = Sm::new(cta_slots, warps_per_cta);
+        if cfg.mode.virtualization {
+            sm.with_virtualization(cfg.hw.max_rays as u64, cfg.gpu.threads_per_cta as u64)
+        } else {
+            sm
+        }
+    };
     let mut gpu = Gpu {
         scene,
         cfg,
@@ -177,10 +197,12 @@ pub fn simulate(
         timing: ShaderTiming::new(&cfg.gpu),
         options,
         scheduler: CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta),
-        sms: (0..nsms)
-            .map(|_| Sm::new(cta_slots, warps_per_cta))
-            .collect(),
+        sms: (0..nsms).map(sm).collect(),
         rts,
+        states: (0..nsms)
+            .map(|_| CtaStatePort::new(state_base, cfg.cta_state_bytes()))
+            .collect(),
+        state_loads: Vec::new(),
         mem: MemorySystem::new(&cfg.memory, nsms)?,
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         image: vec![Vec3::ZERO; settings.pixels()],
@@ -212,6 +234,7 @@ impl Gpu<'_> {
             if self.finished() {
                 for rt in &mut self.rts {
                     rt.catch_up(now + 1);
+                    rt.finish();
                 }
                 return Ok(now + 1);
             }
@@ -236,12 +259,15 @@ impl Gpu<'_> {
     /// One cycle.
     fn cycle(&mut self, now: u64) -> Result<(), SimError> {
         self.sample(now);
-        for sm in &mut self.sms {
-            sm.run_timers(now);
+        for (sm, states) in self.sms.iter_mut().zip(&mut self.states) {
+            for cta in sm.run_timers(now) {
+                states.save(cta);
+            }
         }
         self.dispatch(now);
-        for (i, rt) in self.rts.iter_mut().enumerate() {
-            rt.collect_responses(now, i, &mut self.mem);
+        for i in 0..self.rts.len() {
+            self.rts[i].collect_responses(now, i, &mut self.mem, &mut self.state_loads);
+            self.resume_loaded(now, i);
         }
         let lockstep = self.cfg.sim.lockstep;
         for i in 0..self.sms.len() {
@@ -272,21 +298,53 @@ impl Gpu<'_> {
             }
             if let Some(done) = out.done {
                 self.watchdog.progress(now);
-                self.shade(now, i, done);
+                if let Some(done) = self.sms[i].traversal_done(done) {
+                    self.shade(now, i, done);
+                }
             }
             if self.rts[i].send(now, i, &mut self.mem)? {
                 self.watchdog.progress(now);
             }
         }
+        for (i, (sm, states)) in self.sms.iter_mut().zip(&mut self.states).enumerate() {
+            match states.send(now, i, &mut self.mem)? {
+                StateSend::Idle => {}
+                StateSend::Accepted => self.watchdog.progress(now),
+                StateSend::Saved(id) => {
+                    self.watchdog.progress(now);
+                    sm.state_saved(id);
+                }
+            }
+        }
         Ok(())
     }
 
-    /// Hands pending CTAs to free slots; their warps trace after launch and raygen.
+    /// Takes SM `sm`'s CTA-state load responses; a CTA whose state is back runs again and
+    /// shades the traversals its warps completed while it was suspended.
+    fn resume_loaded(&mut self, now: u64, sm: usize) {
+        let mut loads = std::mem::take(&mut self.state_loads);
+        for r in loads.drain(..) {
+            if let Some(id) = self.states[sm].loaded(&r) {
+                for done in self.sms[sm].state_restored(id) {
+                    self.shade(now, sm, done);
+                }
+            }
+        }
+        self.state_loads = loads;
+    }
+
+    /// Resumes CTAs ready to resume (their state loads are queued), then hands pending CTAs to
+    /// the slots left; new CTAs' warps trace after launch and raygen.
     fn dispatch(&mut self, now: u64) {
+        for (sm, states) in self.sms.iter_mut().zip(&mut self.states) {
+            for cta in sm.resume() {
+                states.restore(cta);
+            }
+        }
         if self.scheduler.pending() == 0 {
             return;
         }
-        let mut free: Vec<u32> = self.sms.iter().map(Sm::free_slots).collect();
+        let mut free: Vec<u32> = self.sms.iter().map(Sm::launchable).collect();
         let start = now + self.cfg.gpu.cta_launch_cycles as u64 + self.timing.raygen;
         let warp_size = self.cfg.gpu.warp_size as usize;
         for (sm, cta) in self.scheduler.dispatch(&mut free) {
@@ -304,12 +362,14 @@ impl Gpu<'_> {
         }
     }
 
-    /// Runs the hit / miss shaders of a traced warp and schedules its next trace or its end.
+    /// Runs the hit / miss shaders of a traced warp (of a running CTA) and schedules its next
+    /// trace or its end.
     fn shade(&mut self, now: u64, sm: usize, done: TracedWarp) {
         let Some(warp) = self.sms[sm].warp_mut(done.warp) else {
             return;
         };
         let (mut any_hit, mut any_miss, mut again) = (false, false, false);
+        let mut finished = 0;
         for (thread, hit) in warp.threads.iter_mut().zip(&done.hits) {
             let (Some(t), Some(hit)) = (thread.as_mut(), hit) else {
                 continue;
@@ -334,12 +394,13 @@ impl Gpu<'_> {
                     self.image[pixel as usize] = color;
                     self.nonfinite += nonfinite;
                     self.pixels_done += 1;
+                    finished += 1;
                     *thread = None;
                 }
             }
         }
         let until = now + self.timing.after_trace(any_hit, any_miss, again);
-        self.sms[sm].start_shading(done.warp, until, !again);
+        self.sms[sm].start_shading(done.warp, until, !again, finished);
     }
 
     /// The next cycle after `now` with work for some component. Every candidate is at least
@@ -347,7 +408,8 @@ impl Gpu<'_> {
     fn next_event(&self, now: u64) -> Option<u64> {
         let soon = now + 1;
         let mut next = self.mem.next_event().map(|c| c.max(soon));
-        for (sm, rt) in self.sms.iter().zip(&self.rts) {
+        let pending = self.scheduler.pending() > 0;
+        for ((sm, rt), states) in self.sms.iter().zip(&self.rts).zip(&self.states) {
             if next == Some(soon) {
                 return next;
             }
@@ -355,8 +417,9 @@ impl Gpu<'_> {
             next = earliest(next, sm.next_timer().map(|t| t.max(soon)));
             next = earliest(next, offered.then_some(soon));
             next = earliest(next, rt.next_event(now));
+            next = earliest(next, states.next_event(now));
         }
-        if self.scheduler.pending() > 0 && self.sms.iter().any(|s| s.free_slots() > 0) {
+        if self.sms.iter().any(|s| s.can_dispatch(pending)) {
             next = Some(soon);
         }
         next
@@ -393,8 +456,12 @@ impl Gpu<'_> {
             self.scheduler.pending(),
             self.scheduler.total()
         );
-        for (i, (sm, rt)) in self.sms.iter().zip(&self.rts).enumerate() {
+        for (i, ((sm, rt), states)) in self.sms.iter().zip(&self.rts).zip(&self.states).enumerate()
+        {
             dump += &format!("SM {i}: {}\n  {}\n", sm.debug_state(), rt.debug_state());
+            if self.cfg.mode.virtualization {
+                dump += &format!("  {}\n", states.debug_state());
+            }
         }
         dump += &self.mem.debug_state(cycle);
         SimError::Watchdog {
@@ -430,18 +497,55 @@ impl Gpu<'_> {
         if bvh.has_procedural() {
             units.push("rt_datapath.procedural");
         }
-        if self.cfg.mode.kind == ModeKind::Prefetch {
-            units.push("prefetcher");
+        match self.cfg.mode.kind {
+            ModeKind::Baseline => {}
+            ModeKind::Prefetch => units.push("prefetcher"),
+            ModeKind::Queues => {
+                units.extend([
+                    "treelet_controller",
+                    "treelet_count_table",
+                    "treelet_queue_table",
+                ]);
+                if self.cfg.mode.preload {
+                    units.push("treelet_preloader");
+                }
+            }
+        }
+        if self.cfg.mode.virtualization {
+            units.push("virtualization");
         }
         units.extend(["memory.l1", "memory.l2", "memory.dram"]);
         let warp_size = self.cfg.hw.warp_size;
         let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
-        let phases = Phases {
-            ray_stationary: PhaseStats {
-                cycles,
-                intersection_tests: rt.total_tests(),
-            },
-            ..Phases::default()
+        let queues: Vec<&TreeletQueues> = self.rts.iter().filter_map(RtPort::queues).collect();
+        let phases = if queues.is_empty() {
+            Phases {
+                ray_stationary: PhaseStats {
+                    cycles,
+                    intersection_tests: rt.total_tests(),
+                },
+                ..Phases::default()
+            }
+        } else {
+            // Cycles: each SM's controller time per mode, averaged over the SMs.
+            let n = queues.len() as u64;
+            let phase = |f: &dyn Fn(&TreeletQueues) -> (u64, u64)| {
+                let (c, t) = queues
+                    .iter()
+                    .map(|q| f(q))
+                    .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                PhaseStats {
+                    cycles: c / n,
+                    intersection_tests: t,
+                }
+            };
+            Phases {
+                initial: phase(&|q| (q.controller_stats().cycles_initial, q.stats.tests[0])),
+                treelet_stationary: phase(&|q| {
+                    (q.controller_stats().cycles_treelet, q.stats.tests[1])
+                }),
+                ray_stationary: phase(&|q| (q.controller_stats().cycles_final, q.stats.tests[2])),
+            }
         };
         let stats = SimStats {
             scene: self.scene.name.clone(),
@@ -460,12 +564,17 @@ impl Gpu<'_> {
             l2_misses,
             dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
             phases,
-            max_queues: 0,
-            max_queues_above_threshold: 0,
-            count_table_evictions: 0,
-            queue_table_spills: 0,
-            cta_suspends: 0,
-            cta_resumes: 0,
+            max_queues: queues.iter().map(|q| q.stats.max_queues).max().unwrap_or(0),
+            max_queues_above_threshold: queues
+                .iter()
+                .map(|q| q.stats.max_queues_above_threshold)
+                .max()
+                .unwrap_or(0),
+            count_table_evictions: queues.iter().map(|q| q.controller_stats().evictions).sum(),
+            queue_table_spills: queues.iter().map(|q| q.stats.spills).sum(),
+            cta_suspends: self.sms.iter().map(|s| s.suspends).sum(),
+            cta_resumes: self.sms.iter().map(|s| s.resumes).sum(),
+            max_rays_in_flight: self.sms.iter().map(|s| s.max_in_flight).max().unwrap_or(0),
             rt,
             max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
             prefetches_issued: mem.prefetch.issued,

@@ -5,9 +5,11 @@
 //! One file per concept: [`datapath`] (the RT unit's intersection tests over the BVH image),
 //! [`rt`] (an SM's RT unit with its memory queues), [`sm`] (CTA and warp slots), [`shader`]
 //! (raygen threads and shader timing), [`cta_scheduler`], [`engine`] (the cycle loop),
-//! [`watchdog`], [`stats`] and [`prefetch`] (the treelet prefetcher of the `prefetch` mode).
-//! The baseline and treelet prefetching are built so far: treelet queues and ray
-//! virtualization are rejected by [`engine::simulate`] with [`SimError::NotImplemented`].
+//! [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of the `prefetch` mode),
+//! [`treelet_queues`] (the `queues` mode's treelet controller, count table and queue table
+//! beside the RT unit) and [`virtualization`] (ray virtualization's CTA-state traffic;
+//! suspending and resuming CTAs is in [`sm`]). Every design runs with or without ray
+//! virtualization.
 
 pub mod cta_scheduler;
 pub mod datapath;
@@ -17,6 +19,8 @@ pub mod rt;
 pub mod shader;
 pub mod sm;
 pub mod stats;
+pub mod treelet_queues;
+pub mod virtualization;
 pub mod watchdog;
 
 pub use engine::{simulate, SimOptions, SimOutput, TracedRay};
@@ -25,9 +29,6 @@ pub use stats::{SimStats, HOST_DEPENDENT_KEYS};
 /// Why a simulation could not run or had to stop.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    /// The configuration asks for a design or feature this build does not simulate.
-    #[error("not implemented in this build: {0}")]
-    NotImplemented(String),
     /// The configuration does not fit the scene or the BVH.
     #[error("invalid simulation setup: {0}")]
     Setup(String),
@@ -54,6 +55,15 @@ pub enum SimError {
         sm: usize,
         /// The flags ([`vtq_hdl::rt_unit::errors`]).
         flags: u8,
+    },
+    /// The treelet hardware of queues mode lost track of a ray (a modelling bug, reported
+    /// rather than giving wrong numbers).
+    #[error("treelet queues of SM {sm}: {reason}")]
+    Queues {
+        /// The SM.
+        sm: usize,
+        /// What went wrong.
+        reason: String,
     },
     /// The memory system rejected a request.
     #[error("memory: {0}")]

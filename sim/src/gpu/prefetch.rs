@@ -104,8 +104,16 @@ impl<'a> Prefetcher<'a> {
         if self.history.len() > HISTORY {
             self.history.pop_front();
         }
+        self.queue_treelet(treelet);
+    }
+
+    /// Queues every 32 B sector of `treelet`'s nodes for prefetching (the treelet controller's
+    /// preload in queues mode; a treelet number outside the BVH is ignored).
+    pub fn queue_treelet(&mut self, treelet: u32) {
+        let Some(&info) = self.bvh.treelets().get(treelet as usize) else {
+            return;
+        };
         self.treelets_queued += 1;
-        let info = self.bvh.treelets()[treelet as usize];
         let (base, end) = (info.base as u64, info.base as u64 + info.bytes as u64);
         let step = CHUNK_BYTES as u64;
         self.queue

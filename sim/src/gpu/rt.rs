@@ -4,11 +4,11 @@
 //! feeds memory responses into the response FIFO (at most `resp_ports` per cycle and never more
 //! than `resp_free`). Node data comes from the BVH image; hit-record stores go to memory.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::rt_unit::{
-    MemResponse, RayRecord, RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs,
-    TraversalOrder, WarpIssue, CHUNK_BYTES,
+    MemResponse, RayRecord, RtUnit, RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams,
+    RtUnitRegs, TraversalOrder, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -17,17 +17,28 @@ use crate::bvh::{HwBvh, NodeKind};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
 use crate::gpu::prefetch::Prefetcher;
+use crate::gpu::treelet_queues::{FinishedRay, TreeletQueues};
 use crate::gpu::SimError;
-use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem};
+use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem, Response};
 
 /// A warp the RT unit finished: its SM warp slot and each lane's closest hit (`None` for a
 /// miss), for the lanes that carried a ray.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TracedWarp {
-    /// SM warp slot.
+    /// SM warp id (stable while its CTA is suspended).
     pub warp: usize,
     /// Per lane: `Some(hit or miss)` for lanes that carried a ray.
     pub hits: Vec<Option<Option<Hit>>>,
+}
+
+/// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
+#[derive(Debug, Clone, PartialEq)]
+struct PendingWarp {
+    /// Per lane that carried a ray: `Some(closest hit)` (`Some(None)`, a miss, until the ray
+    /// finishes); `None` for idle lanes.
+    hits: Vec<Option<Option<Hit>>>,
+    /// Rays still out.
+    left: u32,
 }
 
 /// What one cycle of an [`RtPort`] produced.
@@ -66,8 +77,15 @@ pub struct RtPort<'a> {
     /// cycle advances `at` and lowers `idle_cycles` by one), so it is computed once per step
     /// instead of once per query.
     wake: u64,
-    /// The treelet prefetcher (prefetch mode only).
+    /// The treelet prefetcher (prefetch mode; in queues mode it serves the controller's
+    /// preloads).
     prefetcher: Option<Prefetcher<'a>>,
+    /// The treelet controller and tables (queues mode only).
+    queues: Option<TreeletQueues>,
+    /// Queues mode: SM warps with rays still traversing, by warp id.
+    pending: BTreeMap<usize, PendingWarp>,
+    /// Queues mode: SM warps whose rays have all finished, returned one per cycle.
+    completed: VecDeque<TracedWarp>,
     /// Most requests queued at once.
     pub max_queue: u64,
     /// Rays issued.
@@ -102,6 +120,9 @@ impl<'a> RtPort<'a> {
             at: 0,
             wake,
             prefetcher: None,
+            queues: None,
+            pending: BTreeMap::new(),
+            completed: VecDeque::new(),
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
@@ -116,14 +137,32 @@ impl<'a> RtPort<'a> {
         }
     }
 
+    /// The same port in queues mode: `queues` decides which rays the RT unit traverses; a
+    /// prefetcher (if any) preloads the treelets it names.
+    pub fn with_queues(self, queues: TreeletQueues) -> Self {
+        RtPort {
+            queues: Some(queues),
+            ..self
+        }
+    }
+
+    /// The treelet controller and tables, if this port runs in queues mode.
+    pub fn queues(&self) -> Option<&TreeletQueues> {
+        self.queues.as_ref()
+    }
+
     /// The treelet prefetcher, if this port has one.
     pub fn prefetcher(&self) -> Option<&Prefetcher<'a>> {
         self.prefetcher.as_ref()
     }
 
-    /// Whether a warp can be issued this cycle.
+    /// Whether a warp can be issued this cycle (queues mode: a slot may be given to an SM warp
+    /// and a warp's worth of ray ids is free; the controller may still reserve the slot).
     pub fn issue_ready(&self) -> bool {
-        self.unit.issue_ready(&self.regs)
+        match &self.queues {
+            Some(q) => q.sm_may_issue(&self.regs),
+            None => self.unit.issue_ready(&self.regs),
+        }
     }
 
     /// The hardware statistics registers.
@@ -167,13 +206,31 @@ impl<'a> RtPort<'a> {
         WarpIssue {
             order: self.order,
             lanes,
+            ..WarpIssue::default()
         }
     }
 
-    /// Moves SM `sm`'s load responses due by `now` from memory to the return queue.
-    pub fn collect_responses(&mut self, now: u64, sm: usize, mem: &mut MemorySystem) {
+    /// Moves SM `sm`'s load responses due by `now` from memory to the return queue. CTA-state
+    /// loads (ray virtualization) are the SM's, not the RT unit's: they go to `cta_state`.
+    pub fn collect_responses(
+        &mut self,
+        now: u64,
+        sm: usize,
+        mem: &mut MemorySystem,
+        cta_state: &mut Vec<Response>,
+    ) {
         for r in mem.pop_ready(sm, now) {
             if r.store {
+                continue;
+            }
+            if r.class == AccessClass::CtaState {
+                cta_state.push(r);
+                continue;
+            }
+            if r.class == AccessClass::RayRecord {
+                if let Some(q) = self.queues.as_mut() {
+                    q.ray_loaded(r.tag);
+                }
                 continue;
             }
             let mut data = [0u8; CHUNK_BYTES as usize];
@@ -194,13 +251,23 @@ impl<'a> RtPort<'a> {
             self.at.saturating_add(self.unit.idle_cycles(&self.regs)),
             "stale wake cycle"
         );
-        offering || !self.responses.is_empty() || self.wake <= now
+        offering
+            || !self.responses.is_empty()
+            || self.wake <= now
+            || !self.completed.is_empty()
+            || self
+                .queues
+                .as_ref()
+                .is_some_and(|q| q.busy() || q.wake() <= now)
     }
 
     /// Catches the registers up to the start of cycle `now` over idle cycles.
     pub fn catch_up(&mut self, now: u64) {
         if now > self.at {
             self.unit.skip(&mut self.regs, now - self.at);
+            if let Some(q) = self.queues.as_mut() {
+                q.skip(now - self.at);
+            }
             self.at = now;
         }
     }
@@ -217,9 +284,13 @@ impl<'a> RtPort<'a> {
         self.catch_up(now);
         self.at = now + 1;
         self.inputs.issue = None;
+        self.inputs.stop = None;
+        self.inputs.repack = None;
         self.inputs.responses.clear();
         let mut cycle = RtCycle::default();
-        if let Some((idx, rays)) = warp {
+        if self.queues.is_some() {
+            cycle.accepted = self.queue_commands(sm, warp)?;
+        } else if let Some((idx, rays)) = warp {
             if let Some(slot) = self.regs.slots.iter().position(|s| !s.valid) {
                 let issue = self.warp_issue(slot, rays);
                 self.unit
@@ -239,7 +310,7 @@ impl<'a> RtPort<'a> {
         self.inputs.responses.extend(self.responses.drain(..n));
         let out = self.unit.step(&mut self.regs, &self.inputs);
         self.wake = self.at.saturating_add(self.unit.idle_cycles(&self.regs));
-        if let Some(p) = self.prefetcher.as_mut() {
+        if let (Some(p), None) = (self.prefetcher.as_mut(), &self.queues) {
             p.observe(&self.regs);
         }
         if out.errors != 0 {
@@ -263,7 +334,10 @@ impl<'a> RtPort<'a> {
             self.max_queue = self.max_queue.max(self.requests.len() as u64);
             cycle.requested = true;
         }
-        if let Some(done) = out.done {
+        if self.queues.is_some() {
+            self.queue_results(sm, &out)?;
+            cycle.done = self.completed.pop_front();
+        } else if let Some(done) = out.done {
             let warp = self.slot_warp[done.slot as usize]
                 .take()
                 .ok_or(SimError::RtProtocol { sm, flags: 0 })?;
@@ -276,6 +350,92 @@ impl<'a> RtPort<'a> {
             cycle.done = Some(TracedWarp { warp, hits });
         }
         Ok(cycle)
+    }
+
+    /// Queues mode, before the RT unit steps: runs the treelet controller and tables, turns their
+    /// commands into the RT unit's inputs and admits SM warp `warp` if it may enter; returns
+    /// the admitted warp.
+    fn queue_commands(
+        &mut self,
+        sm: usize,
+        warp: Option<(usize, &[Option<Ray>])>,
+    ) -> Result<Option<usize>, SimError> {
+        let q = self.queues.as_mut().expect("queues mode");
+        let cmd = q.before_step(&self.unit, &self.regs, warp.is_some(), &mut self.requests);
+        self.inputs.stop = cmd.stop;
+        self.inputs.repack = cmd.repack;
+        if let (Some(t), Some(p)) = (cmd.preload, self.prefetcher.as_mut()) {
+            p.queue_treelet(t);
+        }
+        let mut accepted = None;
+        let issue = match (cmd.issue, cmd.sm_slot, warp) {
+            (Some(issue), _, _) => Some(issue),
+            (None, Some(slot), Some((idx, rays))) => {
+                let lanes = self.warp_issue(0, rays).lanes;
+                let active = lanes.iter().flatten().count();
+                let q = self.queues.as_mut().expect("queues mode");
+                let issue = q.admit(idx, slot, lanes, &mut self.requests);
+                if issue.is_some() {
+                    accepted = Some(idx);
+                    self.rays_issued += active as u64;
+                    let lanes = self.unit.config().warp_size as usize;
+                    let hits = (0..lanes)
+                        .map(|l| rays.get(l).copied().flatten().map(|_| None))
+                        .collect::<Vec<_>>();
+                    if active == 0 {
+                        self.completed.push_back(TracedWarp { warp: idx, hits });
+                    } else {
+                        let left = active as u32;
+                        self.pending.insert(idx, PendingWarp { hits, left });
+                    }
+                }
+                issue
+            }
+            _ => None,
+        };
+        if let Some(issue) = &issue {
+            self.unit
+                .check_issue(issue)
+                .map_err(|e| SimError::Rt { sm, source: e })?;
+        }
+        self.inputs.issue = issue;
+        self.max_queue = self.max_queue.max(self.requests.len() as u64);
+        Ok(accepted)
+    }
+
+    /// Queues mode, after the RT unit stepped: hands finished rays back to their SM warps
+    /// (a warp whose last ray finished joins `completed`).
+    fn queue_results(&mut self, sm: usize, out: &RtUnitOutputs) -> Result<(), SimError> {
+        let q = self.queues.as_mut().expect("queues mode");
+        let mut finished: Vec<FinishedRay> = Vec::new();
+        q.after_step(&self.unit, &self.regs, out, self.at, &mut finished);
+        if let Some(reason) = q.fault() {
+            return Err(SimError::Queues {
+                sm,
+                reason: reason.to_string(),
+            });
+        }
+        for f in finished {
+            let Some(PendingWarp { hits, left }) = self.pending.get_mut(&f.warp) else {
+                return Err(SimError::Queues {
+                    sm,
+                    reason: format!("a ray of SM warp {} finished twice", f.warp),
+                });
+            };
+            if let Some(h) = hits.get_mut(f.lane as usize) {
+                *h = Some(f.hit);
+            }
+            *left -= 1;
+            self.rays_completed += 1;
+            if *left == 0 {
+                let done = self.pending.remove(&f.warp).expect("present");
+                self.completed.push_back(TracedWarp {
+                    warp: f.warp,
+                    hits: done.hits,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Offers the head of the memory access queue to the L1 (one request per cycle); returns
@@ -321,7 +481,21 @@ impl<'a> RtPort<'a> {
         if let Some(c) = self.prefetcher.as_ref().and_then(|p| p.next_event(now)) {
             at(c);
         }
+        if let Some(q) = &self.queues {
+            if q.busy() || !self.completed.is_empty() {
+                at(now + 1);
+            } else if q.wake() != u64::MAX {
+                at(q.wake().max(now + 1));
+            }
+        }
         next
+    }
+
+    /// Queues mode: attributes the last intersection tests to their phase (call at the end).
+    pub fn finish(&mut self) {
+        if let Some(q) = self.queues.as_mut() {
+            q.finish(&self.regs);
+        }
     }
 
     /// A summary of the registers and queues, for the watchdog.
@@ -357,6 +531,13 @@ impl<'a> RtPort<'a> {
             self.retry_at,
             self.responses.len(),
             self.prefetcher.as_ref().map_or(0, Prefetcher::pending)
-        )
+        ) + &self.queues.as_ref().map_or(String::new(), |q| {
+            format!(
+                "\n  {}; SM warps waiting for rays {}, returning {}",
+                q.debug_state(),
+                self.pending.len(),
+                self.completed.len()
+            )
+        })
     }
 }

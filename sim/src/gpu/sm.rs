@@ -1,14 +1,27 @@
-//! A streaming multiprocessor's thread side: CTA slots, warp slots, the warps' shader timers and
-//! the queue of warps waiting to hand their rays to the SM's RT unit (`traceRayEXT()`).
+//! A streaming multiprocessor's thread side: CTA slots, the CTAs and warps it holds, the warps'
+//! shader timers and the queue of warps waiting to hand their rays to the SM's RT unit
+//! (`traceRayEXT()`).
 //!
 //! A warp cycles through: shader work (a timer) → waiting for the RT unit → in the RT unit →
 //! shader work → ... until none of its threads traces again; the CTA retires when its last warp
-//! ends, freeing the CTA slot and its warp slots.
+//! ends, freeing its CTA slot and warp slots.
+//!
+//! CTAs and warps are named by virtual ids that stay valid while a CTA is out of its slot, so
+//! the RT unit can hold a warp handle across a suspension: CTA `id` owns warps
+//! `id * warps_per_cta ..` of the warp table. Without ray virtualization every CTA holds a slot,
+//! ids are the lowest free ones and equal the physical slot numbers. With ray virtualization
+//! ([`Sm::with_virtualization`], paper section 3.1) a CTA whose live warps all wait for or are
+//! in the RT unit is suspended: its state is stored (it keeps its slot until the last store is
+//! accepted), then it leaves its slot; when all its rays have completed traversal it is ready
+//! to resume, takes a free slot before any new CTA, loads its state back, and only then shades
+//! the hits its warps received meanwhile. The table grows as CTAs are suspended; its size is
+//! bounded by the ray budget, since every CTA reserves its live threads.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 use std::fmt::Write as _;
 
+use crate::gpu::rt::TracedWarp;
 use crate::gpu::shader::PathThread;
 
 /// Where a warp is.
@@ -25,40 +38,102 @@ pub enum WarpState {
     WaitingRt,
     /// Its rays are in the RT unit.
     InRt,
+    /// Its traversal completed while its CTA was suspended: the hits wait with the warp until
+    /// the CTA has resumed.
+    Traced,
 }
 
-/// A resident warp.
+/// A warp of a CTA on the SM (resident or suspended).
 #[derive(Debug, Clone)]
 pub struct Warp {
-    /// CTA slot it belongs to.
-    pub cta_slot: usize,
+    /// Virtual id of its CTA.
+    pub cta_id: usize,
     /// Its threads (`None`: outside the image, or finished).
     pub threads: Vec<Option<PathThread>>,
     /// Where it is.
     pub state: WarpState,
+    /// The completed traversal kept while the CTA is suspended ([`WarpState::Traced`]).
+    traced: Option<TracedWarp>,
 }
 
-/// A resident CTA.
+/// Where a CTA is with respect to ray virtualization.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CtaPhase {
+    /// In a CTA slot, executing.
+    Running,
+    /// Every live warp traces: its state is being stored; it still holds its slot.
+    Suspending,
+    /// Its state is in memory and its slot is free.
+    Suspended,
+    /// Back in a slot, its state being loaded.
+    Resuming,
+}
+
+/// A CTA on the SM.
 #[derive(Debug, Clone, PartialEq, Eq)]
-struct CtaSlot {
+struct Cta {
     /// CTA number.
     cta: u32,
+    /// Where it is.
+    phase: CtaPhase,
     /// Warps not yet ended.
     live_warps: u32,
+    /// Warps waiting for or in the RT unit.
+    tracing_warps: u32,
+    /// Threads not finished: the rays this CTA may still have in flight.
+    live_threads: u64,
+}
+
+/// A CTA named by its virtual id on the SM and its CTA number (which places its saved state).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CtaRef {
+    /// Virtual id on the SM (its warps are `id * warps_per_cta ..`).
+    pub id: usize,
+    /// CTA number (pixel tile).
+    pub cta: u32,
+}
+
+/// The ray budget of ray virtualization.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct RayBudget {
+    /// Rays in flight per SM at most (`hw.max_rays`).
+    max_rays: u64,
+    /// Threads of one CTA: what a new CTA needs from the budget.
+    cta_threads: u64,
 }
 
 /// One SM.
 #[derive(Debug, Clone)]
 pub struct Sm {
     warps_per_cta: usize,
-    ctas: Vec<Option<CtaSlot>>,
+    /// CTA slots.
+    slots: usize,
+    /// CTAs holding a slot (running, suspending or resuming).
+    resident: usize,
+    /// Ray virtualization's budget (`None`: no virtualization).
+    budget: Option<RayBudget>,
+    /// CTAs by virtual id.
+    ctas: Vec<Option<Cta>>,
+    /// Warps by virtual id.
     warps: Vec<Option<Warp>>,
     /// Warps waiting for the RT unit, in the order they became ready.
     ready: VecDeque<usize>,
-    /// Shader timers: (cycle, warp slot), earliest first, ties by warp slot.
+    /// Shader timers: (cycle, warp id), earliest first, ties by warp id.
     timers: BinaryHeap<Reverse<(u64, usize)>>,
+    /// Suspended CTAs whose rays have all completed, in the order they became ready.
+    resumable: VecDeque<usize>,
+    /// Live threads of all CTAs on the SM (each may still trace a ray).
+    reserved: u64,
+    /// Rays issued or waiting to issue whose traversal has not completed.
+    in_flight: u64,
+    /// Most rays in flight at once.
+    pub max_in_flight: u64,
     /// CTAs that ran to completion here.
     pub ctas_done: u64,
+    /// CTAs suspended.
+    pub suspends: u64,
+    /// CTAs resumed.
+    pub resumes: u64,
 }
 
 impl Sm {
@@ -66,20 +141,61 @@ impl Sm {
     pub fn new(cta_slots: usize, warps_per_cta: usize) -> Self {
         Sm {
             warps_per_cta,
+            slots: cta_slots,
+            resident: 0,
+            budget: None,
             ctas: vec![None; cta_slots],
             warps: vec![None; cta_slots * warps_per_cta],
             ready: VecDeque::new(),
             timers: BinaryHeap::new(),
+            resumable: VecDeque::new(),
+            reserved: 0,
+            in_flight: 0,
+            max_in_flight: 0,
             ctas_done: 0,
+            suspends: 0,
+            resumes: 0,
+        }
+    }
+
+    /// The same SM with ray virtualization: at most `max_rays` rays in flight, a new CTA (of
+    /// `cta_threads` threads) launched only if its threads fit.
+    pub fn with_virtualization(self, max_rays: u64, cta_threads: u64) -> Self {
+        Sm {
+            budget: Some(RayBudget {
+                max_rays,
+                cta_threads,
+            }),
+            ..self
         }
     }
 
     /// Free CTA slots.
     pub fn free_slots(&self) -> u32 {
-        self.ctas.iter().filter(|c| c.is_none()).count() as u32
+        (self.slots - self.resident) as u32
     }
 
-    /// Whether no CTA is resident.
+    /// New CTAs the SM can take now: its free slots, and with ray virtualization only as many
+    /// as fit the ray budget besides the live threads of the CTAs it already holds.
+    pub fn launchable(&self) -> u32 {
+        let free = self.free_slots();
+        match self.budget {
+            None => free,
+            Some(b) => {
+                let fit = b.max_rays.saturating_sub(self.reserved) / b.cta_threads.max(1);
+                free.min(fit.min(u32::MAX as u64) as u32)
+            }
+        }
+    }
+
+    /// Whether the CTA dispatch has something to do on this SM: a CTA ready to resume and a
+    /// free slot, or (when CTAs are `pending`) room for a new CTA.
+    pub fn can_dispatch(&self, pending: bool) -> bool {
+        let free = self.free_slots() > 0;
+        (free && !self.resumable.is_empty()) || (pending && self.launchable() > 0)
+    }
+
+    /// Whether no CTA is on the SM (resident or suspended).
     pub fn is_idle(&self) -> bool {
         self.ctas.iter().all(Option::is_none)
     }
@@ -88,27 +204,46 @@ impl Sm {
     /// (after the launch and the first raygen work). Panics if no slot is free (the CTA scheduler
     /// only dispatches to free slots).
     pub fn launch(&mut self, cta: u32, warps: Vec<Vec<Option<PathThread>>>, start: u64) {
-        let slot = self
-            .ctas
-            .iter()
-            .position(Option::is_none)
-            .expect("the CTA scheduler dispatches only to free slots");
+        assert!(
+            self.resident < self.slots,
+            "the CTA scheduler dispatches only to free slots"
+        );
+        let id = match self.ctas.iter().position(Option::is_none) {
+            Some(id) => id,
+            None => {
+                self.ctas.push(None);
+                self.warps
+                    .extend(std::iter::repeat_n(None, self.warps_per_cta));
+                self.ctas.len() - 1
+            }
+        };
         let mut live = 0;
+        let mut threads_live = 0;
         for (w, threads) in warps.into_iter().enumerate() {
-            let idx = slot * self.warps_per_cta + w;
-            let last = threads.iter().all(Option::is_none);
+            let idx = id * self.warps_per_cta + w;
+            let n = threads.iter().flatten().count() as u64;
             live += 1;
+            threads_live += n;
             self.warps[idx] = Some(Warp {
-                cta_slot: slot,
+                cta_id: id,
                 threads,
-                state: WarpState::Shading { until: start, last },
+                state: WarpState::Shading {
+                    until: start,
+                    last: n == 0,
+                },
+                traced: None,
             });
             self.timers.push(Reverse((start, idx)));
         }
-        self.ctas[slot] = Some(CtaSlot {
+        self.ctas[id] = Some(Cta {
             cta,
+            phase: CtaPhase::Running,
             live_warps: live,
+            tracing_warps: 0,
+            live_threads: threads_live,
         });
+        self.resident += 1;
+        self.reserved += threads_live;
     }
 
     /// Earliest shader timer.
@@ -117,9 +252,10 @@ impl Sm {
     }
 
     /// Ends the shader work due at or before `now`: warps that trace again join the RT queue,
-    /// the others end (retiring their CTA when it was its last warp). Returns CTAs retired.
-    pub fn run_timers(&mut self, now: u64) -> u32 {
-        let mut retired = 0;
+    /// the others end (retiring their CTA when it was its last warp). Returns the CTAs that
+    /// start suspending (ray virtualization), whose state is to be stored.
+    pub fn run_timers(&mut self, now: u64) -> Vec<CtaRef> {
+        let mut suspended = Vec::new();
         while let Some(&Reverse((c, idx))) = self.timers.peek() {
             if c > now {
                 break;
@@ -128,26 +264,53 @@ impl Sm {
             let Some(warp) = self.warps[idx].as_mut() else {
                 continue;
             };
+            let id = warp.cta_id;
             match warp.state {
                 WarpState::Shading { last: false, .. } => {
                     warp.state = WarpState::WaitingRt;
+                    self.in_flight += warp.threads.iter().flatten().count() as u64;
+                    self.max_in_flight = self.max_in_flight.max(self.in_flight);
                     self.ready.push_back(idx);
+                    self.cta_mut(id).tracing_warps += 1;
                 }
                 WarpState::Shading { last: true, .. } => {
-                    let slot = warp.cta_slot;
                     self.warps[idx] = None;
-                    let cta = self.ctas[slot].as_mut().expect("a warp's CTA is resident");
+                    let cta = self.cta_mut(id);
                     cta.live_warps -= 1;
                     if cta.live_warps == 0 {
-                        self.ctas[slot] = None;
+                        let left = cta.live_threads;
+                        self.ctas[id] = None;
+                        self.resident -= 1;
+                        self.reserved -= left;
                         self.ctas_done += 1;
-                        retired += 1;
+                        continue;
                     }
                 }
-                WarpState::WaitingRt | WarpState::InRt => {}
+                WarpState::WaitingRt | WarpState::InRt | WarpState::Traced => continue,
+            }
+            if let Some(s) = self.try_suspend(id) {
+                suspended.push(s);
             }
         }
-        retired
+        suspended
+    }
+
+    /// Suspends CTA `id` if ray virtualization is on, it runs, and every live warp traces.
+    fn try_suspend(&mut self, id: usize) -> Option<CtaRef> {
+        self.budget?;
+        let cta = self.cta_mut(id);
+        if cta.phase != CtaPhase::Running || cta.tracing_warps != cta.live_warps {
+            return None;
+        }
+        cta.phase = CtaPhase::Suspending;
+        let r = CtaRef { id, cta: cta.cta };
+        self.suspends += 1;
+        Some(r)
+    }
+
+    /// The CTA with virtual id `id` (it exists: warps name only CTAs on the SM).
+    fn cta_mut(&mut self, id: usize) -> &mut Cta {
+        self.ctas[id].as_mut().expect("a warp's CTA is on the SM")
     }
 
     /// The warp at the head of the RT queue, if any.
@@ -164,36 +327,129 @@ impl Sm {
         Some(idx)
     }
 
-    /// The warp in warp slot `idx`.
+    /// The warp with id `idx`.
     pub fn warp(&self, idx: usize) -> Option<&Warp> {
-        self.warps[idx].as_ref()
+        self.warps.get(idx)?.as_ref()
     }
 
-    /// The warp in warp slot `idx`, mutably.
+    /// The warp with id `idx`, mutably.
     pub fn warp_mut(&mut self, idx: usize) -> Option<&mut Warp> {
-        self.warps[idx].as_mut()
+        self.warps.get_mut(idx)?.as_mut()
     }
 
-    /// Starts shader work of warp `idx` (its trace completed) ending at `until`; `last` when
-    /// no thread traces again.
-    pub fn start_shading(&mut self, idx: usize, until: u64, last: bool) {
-        if let Some(w) = self.warps[idx].as_mut() {
-            w.state = WarpState::Shading { until, last };
-            self.timers.push(Reverse((until, idx)));
+    /// The RT unit completed warp `done.warp`'s traversal. Returns it when its CTA runs (shade
+    /// it now); while the CTA is suspended the hits stay with the warp until it has resumed,
+    /// and the CTA becomes ready to resume once all its traversals have completed.
+    pub fn traversal_done(&mut self, done: TracedWarp) -> Option<TracedWarp> {
+        let id = self.warps.get(done.warp)?.as_ref()?.cta_id;
+        self.in_flight -= done.hits.iter().flatten().count() as u64;
+        let cta = self.cta_mut(id);
+        cta.tracing_warps -= 1;
+        let (phase, tracing) = (cta.phase, cta.tracing_warps);
+        if phase == CtaPhase::Running {
+            return Some(done);
         }
+        if phase == CtaPhase::Suspended && tracing == 0 {
+            self.resumable.push_back(id);
+        }
+        if let Some(w) = self.warps[done.warp].as_mut() {
+            w.state = WarpState::Traced;
+            w.traced = Some(done);
+        }
+        None
+    }
+
+    /// Starts shader work of warp `idx` (its trace completed and was shaded, `finished` of its
+    /// threads ended) ending at `until`; `last` when no thread traces again.
+    pub fn start_shading(&mut self, idx: usize, until: u64, last: bool, finished: u64) {
+        let Some(w) = self.warps[idx].as_mut() else {
+            return;
+        };
+        w.state = WarpState::Shading { until, last };
+        let id = w.cta_id;
+        self.timers.push(Reverse((until, idx)));
+        self.cta_mut(id).live_threads -= finished;
+        self.reserved -= finished;
+    }
+
+    /// The last store of suspending CTA `id`'s state was accepted: it leaves its slot, and is
+    /// ready to resume at once if its rays have all completed meanwhile.
+    pub fn state_saved(&mut self, id: usize) {
+        let cta = self.cta_mut(id);
+        cta.phase = CtaPhase::Suspended;
+        let ready = cta.tracing_warps == 0;
+        self.resident -= 1;
+        if ready {
+            self.resumable.push_back(id);
+        }
+    }
+
+    /// Puts CTAs ready to resume into free slots, in the order they became ready (before any
+    /// new CTA is launched); returns them: their state is to be loaded.
+    pub fn resume(&mut self) -> Vec<CtaRef> {
+        let mut out = Vec::new();
+        while self.resident < self.slots {
+            let Some(id) = self.resumable.pop_front() else {
+                break;
+            };
+            let cta = self.cta_mut(id);
+            cta.phase = CtaPhase::Resuming;
+            let r = CtaRef { id, cta: cta.cta };
+            self.resident += 1;
+            self.resumes += 1;
+            out.push(r);
+        }
+        out
+    }
+
+    /// The last load of resuming CTA `id`'s state returned: it runs again. Returns its warps'
+    /// completed traversals, in warp order, to be shaded now.
+    pub fn state_restored(&mut self, id: usize) -> Vec<TracedWarp> {
+        self.cta_mut(id).phase = CtaPhase::Running;
+        let range = id * self.warps_per_cta..(id + 1) * self.warps_per_cta;
+        self.warps[range]
+            .iter_mut()
+            .flatten()
+            .filter_map(|w| w.traced.take())
+            .collect()
     }
 
     /// A one-paragraph summary of the SM's state, for the watchdog.
     pub fn debug_state(&self) -> String {
         let mut out = String::new();
-        let ctas: Vec<u32> = self.ctas.iter().flatten().map(|c| c.cta).collect();
+        let in_phase = |p: CtaPhase| -> Vec<u32> {
+            self.ctas
+                .iter()
+                .flatten()
+                .filter(|c| c.phase == p)
+                .map(|c| c.cta)
+                .collect()
+        };
         let _ = write!(
             out,
-            "CTAs resident {ctas:?}, {} done; RT queue {:?}; next timer {:?}; warps:",
+            "CTAs resident {:?}, {} done; RT queue {:?}; next timer {:?}",
+            in_phase(CtaPhase::Running),
             self.ctas_done,
             self.ready,
             self.next_timer()
         );
+        if self.budget.is_some() {
+            let _ = write!(
+                out,
+                "; virtualization: suspending {:?}, suspended {:?}, resuming {:?}, ready to \
+                 resume (ids) {:?}, {} rays in flight, {} threads reserved, {} suspends, {} \
+                 resumes",
+                in_phase(CtaPhase::Suspending),
+                in_phase(CtaPhase::Suspended),
+                in_phase(CtaPhase::Resuming),
+                self.resumable,
+                self.in_flight,
+                self.reserved,
+                self.suspends,
+                self.resumes
+            );
+        }
+        out += "; warps:";
         for (i, w) in self.warps.iter().enumerate() {
             if let Some(w) = w {
                 let live = w.threads.iter().flatten().count();
@@ -201,5 +457,43 @@ impl Sm {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A warp's worth of empty threads (`PathThread`s need a scene; these tests only move
+    /// warps between states).
+    fn warps(n: usize) -> Vec<Vec<Option<PathThread>>> {
+        vec![vec![None]; n]
+    }
+
+    #[test]
+    fn virtual_ids_without_virtualization_are_the_lowest_free_slots() {
+        let mut sm = Sm::new(2, 2);
+        sm.launch(7, warps(2), 10);
+        sm.launch(8, warps(2), 10);
+        assert_eq!(sm.free_slots(), 0);
+        assert_eq!(sm.launchable(), 0);
+        // Warps without threads end at their first timer; both CTAs retire.
+        assert!(sm.run_timers(10).is_empty());
+        assert!(sm.is_idle());
+        assert_eq!(sm.ctas_done, 2);
+        assert_eq!(sm.free_slots(), 2);
+        sm.launch(9, warps(2), 20);
+        assert_eq!(sm.warp(0).map(|w| w.cta_id), Some(0));
+        assert!(sm.warp(2).is_none());
+    }
+
+    #[test]
+    fn launchable_respects_the_ray_budget() {
+        let sm = Sm::new(4, 2).with_virtualization(128, 64);
+        assert_eq!(sm.launchable(), 2);
+        assert!(sm.can_dispatch(true));
+        assert!(!sm.can_dispatch(false));
+        let sm = Sm::new(4, 2);
+        assert_eq!(sm.launchable(), 4);
     }
 }

@@ -162,6 +162,9 @@ pub struct SimStats {
     pub cta_suspends: u64,
     /// Suspended CTAs resumed (0 in the baseline).
     pub cta_resumes: u64,
+    /// Most rays in flight in one SM at once (issued or waiting to issue, traversal not
+    /// completed, rays of suspended CTAs included); at most `hw.max_rays` with virtualization.
+    pub max_rays_in_flight: u64,
     /// RT-unit counters summed over the SMs.
     pub rt: RtTotals,
     /// Most requests waiting in one SM's memory access queue (back-pressure from the L1).

@@ -1,0 +1,576 @@
+//! `vtq compare`: simulate one scene and workload on several designs (by default the baseline,
+//! treelet prefetching and Virtualized Treelet Queues) with the cycle-exact GPU model and print
+//! one table: cycles, speedup over the baseline, BVH L1 miss rate, SIMT efficiency, the phase
+//! split and wall time, plus whether every design produced the identical image.
+//!
+//! The three paper configurations (`configs/{baseline,prefetch,vtq}.toml`) are embedded in the
+//! binary, so the command works from any directory; other configuration files are named by
+//! path. Designs run concurrently (`--jobs`), each simulation single-threaded, so every
+//! statistic except wall time is deterministic.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use glam::Vec3;
+
+use crate::bvh::HwBvh;
+use crate::cmd::options::{build_bvh, load_scene, BvhArgs};
+use crate::config::SimConfig;
+use crate::gpu::{simulate, SimOptions, SimStats};
+use crate::scene::Scene;
+
+/// A configuration compiled into the binary: its design name, the file it was read from
+/// (relative to the workspace root) and the file's text.
+struct BuiltIn {
+    name: &'static str,
+    path: &'static str,
+    toml: &'static str,
+}
+
+/// The paper's three designs, in the default order of `--designs`.
+const BUILT_INS: [BuiltIn; 3] = [
+    BuiltIn {
+        name: "baseline",
+        path: "configs/baseline.toml",
+        toml: include_str!("../../../configs/baseline.toml"),
+    },
+    BuiltIn {
+        name: "prefetch",
+        path: "configs/prefetch.toml",
+        toml: include_str!("../../../configs/prefetch.toml"),
+    },
+    BuiltIn {
+        name: "vtq",
+        path: "configs/vtq.toml",
+        toml: include_str!("../../../configs/vtq.toml"),
+    },
+];
+
+/// The design whose cycles the speedups divide, when it is among `--designs`.
+const BASELINE: &str = "baseline";
+
+/// Options of `vtq compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Scene: a built-in name (`wknd`, `cornell`), a folder under ../shared/scenes, a scene
+    /// folder path or a `.obj` file (see `vtq scenes`).
+    #[arg(long)]
+    pub scene: String,
+    /// Designs to simulate, in table order: `baseline`, `prefetch` and `vtq` (built in: the
+    /// configs/ files of those names) or paths of configuration files (TOML, docs/config.md).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "baseline,prefetch,vtq",
+        value_name = "DESIGN,..."
+    )]
+    pub designs: Vec<String>,
+    /// Override one configuration key in every design, e.g. `--set gpu.sms=4` or
+    /// `--set width=64` (repeatable; applied after the design's file).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Image width in pixels (same as `--set width=N`; applied after the --set overrides).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (same as `--set height=N`).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel (same as `--set spp=N`).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Maximum secondary rays per path (same as `--set bounces=N`).
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    /// Write every design's statistics (docs/stats.md) to this JSON file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Simulate up to this many designs at once, one thread each [default: the available
+    /// cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub jobs: Option<u32>,
+    /// Step every cycle instead of skipping idle ones (verification; same results).
+    #[arg(long)]
+    pub lockstep: bool,
+    /// Directory of cached BVH builds [default: $VTQ_CACHE_DIR, else $XDG_CACHE_HOME/vtq, else
+    /// ~/.cache/vtq].
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// Always build the BVH; neither read nor write the cache.
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl CompareArgs {
+    /// The overrides applied to every design: `--set`, then the image options.
+    fn overrides(&self) -> Vec<String> {
+        let mut sets = self.set.clone();
+        for (key, value) in [
+            ("width", self.width),
+            ("height", self.height),
+            ("spp", self.spp),
+            ("bounces", self.bounces),
+        ] {
+            if let Some(v) = value {
+                sets.push(format!("workload.{key}={v}"));
+            }
+        }
+        sets
+    }
+}
+
+/// One design to simulate.
+struct Design {
+    /// Its name in the table and the JSON (`baseline`, or a configuration file's stem).
+    label: String,
+    /// Where its configuration came from.
+    source: String,
+    /// The configuration, overrides applied.
+    config: SimConfig,
+}
+
+/// The dotted `key=value` assignments of a TOML table's leaves, in the table's order.
+fn flatten(table: &toml::Table, prefix: &str, out: &mut Vec<String>) {
+    for (key, value) in table {
+        let dotted = if prefix.is_empty() {
+            key.clone()
+        } else {
+            format!("{prefix}.{key}")
+        };
+        match value {
+            toml::Value::Table(sub) => flatten(sub, &dotted, out),
+            leaf => out.push(format!("{dotted}={leaf}")),
+        }
+    }
+}
+
+/// A built-in configuration with `overrides` applied. The file's keys go through
+/// [`SimConfig::load`] as overrides before the user's, which merges them exactly as it merges a
+/// file (same key and type checks).
+fn built_in_config(built_in: &BuiltIn, overrides: &[String]) -> anyhow::Result<SimConfig> {
+    let table: toml::Table = built_in
+        .toml
+        .parse()
+        .with_context(|| format!("parsing the built-in {}", built_in.path))?;
+    let mut sets = Vec::new();
+    flatten(&table, "", &mut sets);
+    sets.extend_from_slice(overrides);
+    Ok(SimConfig::load(None, &sets)?)
+}
+
+/// Resolves one `--designs` entry: a built-in name, or else a configuration file path.
+fn resolve_design(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
+    let spec = spec.trim();
+    let context = || format!("design '{spec}'");
+    if let Some(built_in) = BUILT_INS.iter().find(|b| b.name == spec) {
+        return Ok(Design {
+            label: built_in.name.to_string(),
+            source: format!("built-in {}", built_in.path),
+            config: built_in_config(built_in, overrides).with_context(context)?,
+        });
+    }
+    let path = Path::new(spec);
+    let looks_like_path = spec.contains(['/', '\\']) || spec.ends_with(".toml");
+    if spec.is_empty() || !(looks_like_path || path.is_file()) {
+        let names: Vec<&str> = BUILT_INS.iter().map(|b| b.name).collect();
+        bail!(
+            "unknown design '{spec}': expected one of {} or the path of a configuration file",
+            names.join(", ")
+        );
+    }
+    let label = path
+        .file_stem()
+        .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
+    Ok(Design {
+        label,
+        source: spec.to_string(),
+        config: SimConfig::load(Some(path), overrides).with_context(context)?,
+    })
+}
+
+/// What one design's simulation gave.
+struct Outcome {
+    /// Statistics and image, or why the simulation failed.
+    result: Result<(SimStats, Vec<Vec3>), String>,
+    /// Wall-clock seconds of the whole `simulate` call (setup included).
+    wall_seconds: f64,
+}
+
+/// Simulates every design (each with its BVH) on `jobs` threads; outcomes in design order.
+fn simulate_all(
+    scene: &Scene,
+    runs: &[(&Design, &HwBvh)],
+    jobs: usize,
+    bars: &[Option<indicatif::ProgressBar>],
+) -> Vec<Outcome> {
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<Outcome>>> = runs.iter().map(|_| Mutex::new(None)).collect();
+    let worker = || loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        let Some((design, bvh)) = runs.get(i) else {
+            return;
+        };
+        let start = Instant::now();
+        let result = simulate(
+            scene,
+            bvh,
+            &design.config,
+            SimOptions::default(),
+            bars[i].as_ref(),
+        )
+        .map(|out| (out.stats, out.image))
+        .map_err(|e| e.to_string());
+        if let Some(bar) = &bars[i] {
+            match &result {
+                Ok(_) => bar.finish_with_message("done"),
+                Err(_) => bar.abandon_with_message("failed"),
+            }
+        }
+        let outcome = Outcome {
+            result,
+            wall_seconds: start.elapsed().as_secs_f64(),
+        };
+        if let Ok(mut slot) = slots[i].lock() {
+            *slot = Some(outcome);
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 0..jobs.min(runs.len()) {
+            s.spawn(worker);
+        }
+    });
+    // A simulation that panicked left its slot empty (the panic message is on stderr).
+    slots
+        .into_iter()
+        .map(|slot| {
+            slot.into_inner().ok().flatten().unwrap_or(Outcome {
+                result: Err("the simulation panicked (a simulator bug)".into()),
+                wall_seconds: 0.0,
+            })
+        })
+        .collect()
+}
+
+/// Progress bars, one per design, on a terminal only.
+fn progress_bars(designs: &[Design], pixels: u64) -> Vec<Option<indicatif::ProgressBar>> {
+    if !std::io::stderr().is_terminal() {
+        return designs.iter().map(|_| None).collect();
+    }
+    let multi = indicatif::MultiProgress::new();
+    let width = designs.iter().map(|d| d.label.len()).max().unwrap_or(0);
+    designs
+        .iter()
+        .map(|d| {
+            let bar = multi.add(indicatif::ProgressBar::new(pixels));
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(&format!(
+                    "{{prefix:<{width}}} {{bar:40}} {{pos}}/{{len}} pixels {{elapsed}} {{msg}}"
+                ))
+                .expect("the progress template is valid"),
+            );
+            bar.set_prefix(d.label.clone());
+            Some(bar)
+        })
+        .collect()
+}
+
+/// Percentages of the three traversal phases' cycles (initial, treelet-stationary,
+/// ray-stationary), or `-` when no phase counted a cycle.
+fn phase_split(stats: &SimStats) -> String {
+    let p = &stats.phases;
+    let cycles = [
+        p.initial.cycles,
+        p.treelet_stationary.cycles,
+        p.ray_stationary.cycles,
+    ];
+    let total: u64 = cycles.iter().sum();
+    if total == 0 {
+        return "-".into();
+    }
+    let pct = cycles.map(|c| format!("{:.1}", 100.0 * c as f64 / total as f64));
+    pct.join("/")
+}
+
+/// The index of the first pixel whose color differs bit for bit, and how many differ.
+fn image_difference(a: &[Vec3], b: &[Vec3]) -> Option<(usize, usize)> {
+    let bits = |c: &Vec3| c.to_array().map(f32::to_bits);
+    let mut differing = (0..a.len().max(b.len()))
+        .filter(|&i| a.get(i).map(bits) != b.get(i).map(bits))
+        .peekable();
+    let first = *differing.peek()?;
+    Some((first, differing.count()))
+}
+
+/// Run `vtq compare`.
+pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
+    let overrides = args.overrides();
+    let designs = args
+        .designs
+        .iter()
+        .map(|spec| resolve_design(spec, &overrides))
+        .collect::<anyhow::Result<Vec<Design>>>()?;
+    let Some(first) = designs.first() else {
+        bail!("--designs is empty");
+    };
+    let settings = first.config.render_settings();
+    if let Some(other) = designs
+        .iter()
+        .find(|d| d.config.render_settings() != settings)
+    {
+        bail!(
+            "designs '{}' and '{}' simulate different workloads ({:?} vs {:?}): set the \
+             workload with --set or --width/--height/--spp/--bounces",
+            first.label,
+            other.label,
+            settings,
+            other.config.render_settings()
+        );
+    }
+    let designs: Vec<Design> = designs
+        .into_iter()
+        .map(|mut d| {
+            d.config.sim.lockstep |= args.lockstep;
+            d
+        })
+        .collect();
+
+    let scene = load_scene(&args.scene)?;
+    // One BVH per distinct build parameters, shared by every design that uses them.
+    let mut bvhs: Vec<HwBvh> = Vec::new();
+    let mut bvh_of = Vec::with_capacity(designs.len());
+    for d in &designs {
+        let params = d.config.bvh_params();
+        let k = match bvhs.iter().position(|b| *b.params() == params) {
+            Some(k) => k,
+            None => {
+                let bvh_args = BvhArgs {
+                    bvh_width: params.width,
+                    treelet_bytes: params.treelet_bytes,
+                    cache_dir: args.cache_dir.clone(),
+                    no_cache: args.no_cache,
+                };
+                bvhs.push(build_bvh(&scene, &bvh_args)?);
+                bvhs.len() - 1
+            }
+        };
+        bvh_of.push(k);
+    }
+    let runs: Vec<(&Design, &HwBvh)> = designs
+        .iter()
+        .zip(bvh_of)
+        .map(|(d, k)| (d, &bvhs[k]))
+        .collect();
+
+    let jobs = match args.jobs {
+        Some(n) => n as usize,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    println!(
+        "compare: {} designs on scene {}, {}x{}, {} spp, {} bounces, {} at a time",
+        designs.len(),
+        scene.name,
+        settings.width,
+        settings.height,
+        settings.spp,
+        settings.bounces,
+        jobs.min(designs.len())
+    );
+    let bars = progress_bars(&designs, settings.pixels() as u64);
+    let outcomes = simulate_all(&scene, &runs, jobs, &bars);
+    for bar in bars.iter().flatten() {
+        bar.finish_and_clear();
+    }
+
+    // Speedups divide the baseline's cycles when it is compared, else the first design's.
+    let reference = designs
+        .iter()
+        .position(|d| d.label == BASELINE)
+        .unwrap_or(0);
+    let reference_cycles = match &outcomes[reference].result {
+        Ok((stats, _)) => Some(stats.cycles),
+        Err(_) => None,
+    };
+    let speedup = |stats: &SimStats| {
+        reference_cycles
+            .filter(|_| stats.cycles > 0)
+            .map(|r| r as f64 / stats.cycles as f64)
+    };
+
+    let label_width = designs
+        .iter()
+        .map(|d| d.label.len())
+        .max()
+        .unwrap_or(0)
+        .max("design".len());
+    println!(
+        "{:<label_width$}  {:>12}  {:>8}  {:>11}  {:>9}  {:>23}  {:>8}",
+        "design", "cycles", "speedup", "BVH L1 miss", "SIMT eff.", "phases % init/TS/RS", "wall s"
+    );
+    let mut failures = Vec::new();
+    for (design, outcome) in designs.iter().zip(&outcomes) {
+        match &outcome.result {
+            Ok((stats, _)) => println!(
+                "{:<label_width$}  {:>12}  {:>8}  {:>11.3}  {:>9.3}  {:>23}  {:>8.2}",
+                design.label,
+                stats.cycles,
+                speedup(stats).map_or_else(|| "-".into(), |s| format!("{s:.2}")),
+                stats.bvh_l1_miss_rate,
+                stats.simt_efficiency,
+                phase_split(stats),
+                outcome.wall_seconds
+            ),
+            Err(e) => {
+                println!("{:<label_width$}  error: {e}", design.label);
+                failures.push(format!("{}: {e}", design.label));
+            }
+        }
+    }
+    println!(
+        "speedup = {} cycles / design cycles; phases: initial / treelet-stationary / \
+         ray-stationary share of traversal-phase cycles",
+        designs[reference].label
+    );
+
+    let ran: Vec<(&Design, &[Vec3])> = designs
+        .iter()
+        .zip(&outcomes)
+        .filter_map(|(d, o)| {
+            o.result
+                .as_ref()
+                .ok()
+                .map(|(_, image)| (d, image.as_slice()))
+        })
+        .collect();
+    let mut mismatches = Vec::new();
+    if let Some(((first, first_image), rest)) = ran.split_first() {
+        for (design, image) in rest {
+            if let Some((pixel, count)) = image_difference(first_image, image) {
+                let w = settings.width as usize;
+                mismatches.push(format!(
+                    "{} differs from {} in {count} of {} pixels (first at x={}, y={})",
+                    design.label,
+                    first.label,
+                    settings.pixels(),
+                    pixel % w,
+                    pixel / w
+                ));
+            }
+        }
+    }
+    match (ran.len(), mismatches.is_empty()) {
+        (0, _) => println!("images: no design produced an image"),
+        (1, _) => println!(
+            "images: only {} produced an image, nothing to compare",
+            ran[0].0.label
+        ),
+        (n, true) => println!(
+            "images: identical: all {n} designs that ran produced the same {}x{} image, \
+             pixel for pixel",
+            settings.width, settings.height
+        ),
+        (_, false) => println!("images: DIFFERENT: {}", mismatches.join("; ")),
+    }
+
+    if let Some(path) = &args.json {
+        let entries: Vec<serde_json::Value> = designs
+            .iter()
+            .zip(&outcomes)
+            .map(|(d, o)| match &o.result {
+                Ok((stats, _)) => serde_json::json!({
+                    "design": d.label,
+                    "source": d.source,
+                    "speedup": speedup(stats),
+                    "wall_seconds": o.wall_seconds,
+                    "stats": stats,
+                }),
+                Err(e) => serde_json::json!({
+                    "design": d.label,
+                    "source": d.source,
+                    "error": e,
+                }),
+            })
+            .collect();
+        let doc = serde_json::json!({
+            "scene": scene.name,
+            "speedup_reference": designs[reference].label,
+            "images_identical": ran.len() >= 2 && mismatches.is_empty(),
+            "designs": entries,
+        });
+        let text = serde_json::to_string_pretty(&doc).context("serializing the statistics")?;
+        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+
+    let mut problems = Vec::new();
+    if !mismatches.is_empty() {
+        problems.push(format!(
+            "the designs' images differ (they must be identical): {}",
+            mismatches.join("; ")
+        ));
+    }
+    if !failures.is_empty() {
+        problems.push(format!(
+            "{} of {} designs failed: {}",
+            failures.len(),
+            designs.len(),
+            failures.join("; ")
+        ));
+    }
+    if !problems.is_empty() {
+        bail!("{}", problems.join("; "));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_configs_equal_the_files() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        for b in &BUILT_INS {
+            let on_disk = std::fs::read_to_string(root.join(b.path)).unwrap();
+            assert_eq!(b.toml, on_disk, "{} is stale in the binary", b.path);
+        }
+    }
+
+    #[test]
+    fn built_in_configs_load_as_their_files_do() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let sets = vec!["width=16".to_string(), "gpu.sms=2".to_string()];
+        for b in &BUILT_INS {
+            let from_file = SimConfig::load(Some(&root.join(b.path)), &sets).unwrap();
+            assert_eq!(built_in_config(b, &sets).unwrap(), from_file, "{}", b.path);
+        }
+        // The built-ins differ from each other, so the file's keys were applied.
+        let configs: Vec<SimConfig> = BUILT_INS
+            .iter()
+            .map(|b| built_in_config(b, &[]).unwrap())
+            .collect();
+        assert_ne!(configs[0], configs[1]);
+        assert_ne!(configs[1], configs[2]);
+    }
+
+    #[test]
+    fn unknown_design_names_the_choices() {
+        let err = resolve_design("fastest", &[]).err().unwrap().to_string();
+        assert!(err.contains("unknown design 'fastest'"), "{err}");
+        assert!(err.contains("baseline, prefetch, vtq"), "{err}");
+    }
+
+    #[test]
+    fn image_difference_finds_the_first_and_counts() {
+        let a = vec![Vec3::ZERO; 4];
+        let mut b = a.clone();
+        assert_eq!(image_difference(&a, &b), None);
+        b[1] = Vec3::X;
+        b[3] = Vec3::new(-0.0, 0.0, 0.0);
+        assert_eq!(image_difference(&a, &b), Some((1, 2)));
+        assert_eq!(image_difference(&a, &a[..3]), Some((3, 1)));
+    }
+}

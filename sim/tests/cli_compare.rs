@@ -1,0 +1,271 @@
+//! End-to-end tests of `vtq compare` (designs side by side on the cycle-exact simulator) and
+//! `vtq bench --sim` (simulator speed against the functional path tracer), on tiny images of
+//! the built-in `wknd` scene. Only the baseline and prefetch designs are run: the treelet-queue
+//! designs are not simulated by every build.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+use vtq_sim::gpu::HOST_DEPENDENT_KEYS;
+
+/// A fresh temporary folder for one test.
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vtq-cli-compare-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The workspace root (configs/ lives there).
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Runs `vtq` from `dir` (so the built-in configurations must not need the working directory).
+fn vtq_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the vtq binary runs")
+}
+
+/// The options of a tiny wknd workload without the BVH cache.
+const TINY: [&str; 7] = [
+    "--scene",
+    "wknd",
+    "--set",
+    "width=32",
+    "--set",
+    "height=32",
+    "--no-cache",
+];
+
+/// Assert the command failed with exit code 1 and exactly one `error: ...` line (the last)
+/// mentioning `needle`.
+fn assert_one_line_error(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "stderr: {stderr}");
+    assert_eq!(stderr.trim_end().lines().last(), Some(errors[0]));
+    assert!(
+        errors[0].contains(needle),
+        "'{needle}' not in: {}",
+        errors[0]
+    );
+}
+
+/// The table row of `design`, split into columns.
+fn row<'a>(stdout: &'a str, design: &str) -> Vec<&'a str> {
+    let line = stdout
+        .lines()
+        .find(|l| l.split_whitespace().next() == Some(design))
+        .unwrap_or_else(|| panic!("no row for {design} in:\n{stdout}"));
+    line.split_whitespace().collect()
+}
+
+/// A design's statistics from the `--json` file, without the host-dependent keys.
+fn comparable(entry: &Value) -> Value {
+    let mut stats = entry["stats"].clone();
+    let map = stats.as_object_mut().expect("stats is an object");
+    for k in HOST_DEPENDENT_KEYS {
+        assert!(map.remove(k).is_some(), "stats lack {k}");
+    }
+    stats
+}
+
+#[test]
+fn compare_baseline_and_prefetch() {
+    let dir = temp_dir("two");
+    let json = dir.join("cmp.json");
+    let mut args = vec!["compare", "--designs", "baseline,prefetch"];
+    args.extend(TINY);
+    args.extend(["--json", json.to_str().unwrap()]);
+    let out = vtq_in(&dir, &args);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let header = stdout
+        .lines()
+        .find(|l| l.starts_with("design"))
+        .expect("a table header");
+    for column in [
+        "cycles",
+        "speedup",
+        "BVH L1 miss",
+        "SIMT eff.",
+        "phases",
+        "wall s",
+    ] {
+        assert!(header.contains(column), "header lacks {column}: {header}");
+    }
+    let base = row(&stdout, "baseline");
+    let pre = row(&stdout, "prefetch");
+    // design, cycles, speedup, miss rate, SIMT efficiency, phase split, wall seconds.
+    assert_eq!(base.len(), 7, "{base:?}");
+    assert_eq!(pre.len(), 7, "{pre:?}");
+    assert_eq!(base[2], "1.00", "the baseline's speedup over itself");
+    // The baseline has only ray-stationary traversal (docs/stats.md).
+    assert_eq!(base[5], "0.0/0.0/100.0");
+    assert!(
+        stdout.contains("images: identical"),
+        "no identical-image line in:\n{stdout}"
+    );
+
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(doc["scene"], "wknd");
+    assert_eq!(doc["images_identical"], true);
+    let designs = doc["designs"].as_array().expect("a designs array");
+    let names: Vec<&str> = designs
+        .iter()
+        .map(|d| d["design"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["baseline", "prefetch"]);
+    let (b, p) = (&designs[0]["stats"], &designs[1]["stats"]);
+    assert_eq!(b["mode"], "baseline");
+    assert_eq!(p["mode"], "prefetch");
+    // Same workload: the same rays, and every pixel traced at least one.
+    assert_eq!(b["rays"], p["rays"]);
+    assert!(b["rays"].as_u64().unwrap() >= 32 * 32);
+    // The table shows the JSON's numbers; the speedup is baseline cycles / prefetch cycles.
+    let (bc, pc) = (b["cycles"].as_u64().unwrap(), p["cycles"].as_u64().unwrap());
+    assert_eq!(base[1], bc.to_string());
+    assert_eq!(pre[1], pc.to_string());
+    assert_eq!(pre[2], format!("{:.2}", bc as f64 / pc as f64));
+    assert_eq!(designs[0]["speedup"].as_f64(), Some(1.0));
+    assert_eq!(
+        pre[4],
+        format!("{:.3}", p["simt_efficiency"].as_f64().unwrap())
+    );
+    assert!(p["prefetches_issued"].as_u64().unwrap() > 0);
+    assert_eq!(b["prefetches_issued"], 0);
+}
+
+#[test]
+fn config_file_design_matches_the_built_in_on_any_thread_count() {
+    let dir = temp_dir("path");
+    let json = dir.join("cmp.json");
+    let file = workspace_root().join("configs/prefetch.toml");
+    let designs = format!("prefetch,{}", file.display());
+    for jobs in ["1", "2"] {
+        let mut args = vec!["compare", "--designs", &designs, "--jobs", jobs];
+        args.extend(TINY);
+        args.extend(["--json", json.to_str().unwrap()]);
+        let out = vtq_in(&dir, &args);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "stdout: {stdout}");
+        // Without the baseline, speedups are over the first design.
+        assert_eq!(row(&stdout, "prefetch")[2], "1.00");
+        let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let designs = doc["designs"].as_array().unwrap();
+        assert_eq!(designs.len(), 2);
+        assert_eq!(designs[1]["source"], file.display().to_string());
+        assert_eq!(
+            comparable(&designs[0]),
+            comparable(&designs[1]),
+            "the embedded configs/prefetch.toml and the file simulate identically (--jobs {jobs})"
+        );
+    }
+}
+
+#[test]
+fn compare_errors_are_one_line() {
+    let dir = temp_dir("errors");
+    let out = vtq_in(
+        &dir,
+        &[
+            "compare",
+            "--scene",
+            "wknd",
+            "--designs",
+            "baseline,fastest",
+        ],
+    );
+    assert_one_line_error(&out, "unknown design 'fastest'");
+
+    let out = vtq_in(
+        &dir,
+        &[
+            "compare",
+            "--scene",
+            "no-such-scene",
+            "--designs",
+            "baseline",
+        ],
+    );
+    assert_one_line_error(&out, "no-such-scene");
+
+    let out = vtq_in(
+        &dir,
+        &["compare", "--scene", "wknd", "--designs", "missing.toml"],
+    );
+    assert_one_line_error(&out, "missing.toml");
+
+    // A design whose file sets another image cannot be compared pixel for pixel.
+    let small = dir.join("small.toml");
+    std::fs::write(&small, "[workload]\nwidth = 8\nheight = 8\n").unwrap();
+    let designs = format!("baseline,{}", small.display());
+    let out = vtq_in(
+        &dir,
+        &[
+            "compare",
+            "--scene",
+            "wknd",
+            "--designs",
+            &designs,
+            "--no-cache",
+        ],
+    );
+    assert_one_line_error(&out, "different workloads");
+}
+
+#[test]
+fn bench_sim_prints_the_ratios() {
+    let dir = temp_dir("bench");
+    let out = vtq_in(
+        &dir,
+        &[
+            "bench", "--sim", "--scene", "wknd", "--width", "16", "--height", "16",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for field in [
+        "rays:",
+        "render wall:",
+        "sim wall:",
+        "simulated rays/s:",
+        "slowdown:",
+        ">= 100,000 simulated rays/s",
+        "< 30x",
+    ] {
+        assert!(stdout.contains(field), "no '{field}' in:\n{stdout}");
+    }
+    // Each target line ends in a verdict.
+    let verdicts = stdout
+        .lines()
+        .filter(|l| l.starts_with("target"))
+        .filter(|l| l.ends_with("pass") || l.ends_with("FAIL"))
+        .count();
+    assert_eq!(verdicts, 2, "two target verdicts in:\n{stdout}");
+    // The simulated image is the functional tracer's.
+    assert!(stdout.contains("image: identical"), "{stdout}");
+}
+
+#[test]
+fn bench_config_options_need_sim() {
+    let dir = temp_dir("bench-err");
+    let out = vtq_in(&dir, &["bench", "--scene", "wknd", "--set", "gpu.sms=2"]);
+    assert_one_line_error(&out, "--sim");
+}

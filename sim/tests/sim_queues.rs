@@ -1,0 +1,153 @@
+//! End-to-end tests of the `queues` design (dynamic treelet queues, paper sections 3.2 and 4)
+//! in each of the paper's variants — naive queues, +grouping, +repacking, full VTQ with ray
+//! virtualization — on small images of the built-in scenes: closest hits and the image equal the
+//! functional tracer's bit for bit, no ray is lost when the tables overflow, skipping idle
+//! cycles changes nothing and runs repeat exactly.
+
+mod common;
+
+use common::{check_against_functional, check_skip_matches_lockstep, run, setup, small_config};
+use vtq_sim::gpu::stats::comparable_json;
+use vtq_sim::gpu::SimOutput;
+
+/// The overrides of each variant (the configs/ files' switches).
+const NAIVE: &[&str] = &[
+    "mode.virtualization=true",
+    "mode.grouping=false",
+    "mode.preload=true",
+    "hw.repack_threshold=0",
+];
+const GROUPING: &[&str] = &[
+    "mode.virtualization=true",
+    "mode.grouping=true",
+    "mode.preload=true",
+    "hw.repack_threshold=0",
+];
+const REPACK16: &[&str] = &[
+    "mode.virtualization=true",
+    "mode.grouping=true",
+    "mode.preload=true",
+    "hw.repack_threshold=16",
+];
+const VTQ: &[&str] = &[
+    "mode.virtualization=true",
+    "mode.grouping=true",
+    "mode.preload=true",
+    "hw.repack_threshold=22",
+];
+/// Queues without ray virtualization (repacking needs it, so it is off).
+const NO_VIRT: &[&str] = &[
+    "mode.virtualization=false",
+    "mode.grouping=true",
+    "mode.preload=false",
+    "hw.repack_threshold=0",
+];
+
+/// A small queues-mode configuration: `variant` switches, treelet phase reachable (a low
+/// divergence and underpopulation threshold for the small images), then `extra`.
+fn cfg(variant: &[&str], sms: u32, side: u32, extra: &[&str]) -> vtq_sim::config::SimConfig {
+    let mut sets: Vec<&str> = variant.to_vec();
+    sets.extend([
+        "hw.divergence_threshold=2",
+        "hw.underpopulation_threshold=8",
+    ]);
+    sets.extend(extra);
+    small_config("queues", sms, side, &sets)
+}
+
+/// Checks shared by every queues run: the treelet hardware was used and reported.
+fn check_queue_stats(out: &SimOutput) {
+    let s = &out.stats;
+    assert_eq!(s.mode, "queues");
+    for unit in [
+        "treelet_controller",
+        "treelet_count_table",
+        "treelet_queue_table",
+    ] {
+        assert!(s.active_units.iter().any(|u| u == unit), "{unit} listed");
+    }
+    assert!(
+        s.phases.treelet_stationary.intersection_tests > 0,
+        "rays were traversed treelet-stationary: {:?}",
+        s.phases
+    );
+    assert!(s.max_queues > 0);
+    let tests = s.phases.initial.intersection_tests
+        + s.phases.treelet_stationary.intersection_tests
+        + s.phases.ray_stationary.intersection_tests;
+    assert_eq!(
+        tests,
+        s.rt.total_tests(),
+        "every test is attributed to a phase"
+    );
+    // Every ray that left its warp for a queue came back: records were loaded for them.
+    assert!(s.memory.ray_record.l1_bypasses > 0);
+}
+
+#[test]
+fn full_vtq_hits_and_image_equal_the_functional_tracer() {
+    let out = check_against_functional("wknd", &cfg(VTQ, 2, 32, &[]));
+    check_queue_stats(&out);
+    assert!(out.stats.cta_suspends > 0, "virtualization suspended CTAs");
+    let out = check_against_functional("cornell", &cfg(VTQ, 1, 24, &[]));
+    check_queue_stats(&out);
+}
+
+#[test]
+fn naive_grouping_and_repack_variants_trace_every_ray_exactly() {
+    for (name, variant) in [
+        ("naive", NAIVE),
+        ("grouping", GROUPING),
+        ("repack16", REPACK16),
+    ] {
+        let out = check_against_functional("wknd", &cfg(variant, 1, 24, &[]));
+        check_queue_stats(&out);
+        let finals = out.stats.phases.ray_stationary.intersection_tests;
+        if name == "naive" {
+            assert_eq!(finals, 0, "naive queues never group underpopulated queues");
+        }
+    }
+}
+
+#[test]
+fn queues_without_virtualization_trace_every_ray_exactly() {
+    let out = check_against_functional("cornell", &cfg(NO_VIRT, 2, 24, &[]));
+    check_queue_stats(&out);
+    assert_eq!(out.stats.cta_suspends, 0);
+}
+
+/// Tiny tables: the queue table spills to memory and the count table evicts, and still every
+/// ray is traced exactly once with the right hit.
+#[test]
+fn no_ray_is_lost_when_the_tables_overflow() {
+    let tiny = ["hw.queue_table_entries=2", "hw.count_table_entries=2"];
+    let out = check_against_functional("wknd", &cfg(VTQ, 1, 32, &tiny));
+    check_queue_stats(&out);
+    assert!(out.stats.queue_table_spills > 0, "the queue table spilled");
+    assert!(
+        out.stats.count_table_evictions > 0,
+        "the count table evicted"
+    );
+    let out = check_against_functional("wknd", &cfg(NAIVE, 1, 32, &tiny));
+    assert!(out.stats.queue_table_spills > 0);
+}
+
+#[test]
+fn skipping_idle_cycles_matches_lockstep() {
+    for variant in [VTQ, NAIVE, NO_VIRT] {
+        let (skip, _) = check_skip_matches_lockstep(&cfg(variant, 2, 24, &[]));
+        check_queue_stats(&skip);
+    }
+}
+
+/// Two runs of one configuration give identical statistics, images and ray logs.
+#[test]
+fn runs_are_deterministic() {
+    let c = cfg(VTQ, 2, 16, &["bounces=2"]);
+    let (scene, bvh) = setup("cornell", &c);
+    let a = run(&scene, &bvh, &c);
+    let b = run(&scene, &bvh, &c);
+    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
+    assert_eq!(a.ray_log, b.ray_log);
+    assert_eq!(a.image, b.image);
+}
