@@ -123,7 +123,8 @@ impl NodeDatapath for BvhDatapath<'_> {
             }
             HwKind::Internal => {
                 if let Some(view) = InternalView::new(data) {
-                    let mut kept = Vec::with_capacity(8);
+                    // Allocates only when some child is kept.
+                    let mut kept = Vec::new();
                     BoxTester::new(self.bvh.header(), &ray).children(
                         &view,
                         node.address as u32,

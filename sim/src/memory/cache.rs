@@ -5,15 +5,24 @@
 //! from which cycle on" for the timing model in [`super::system`].
 //!
 //! - Sets are selected by `line % sets`; a fully associative cache has one set.
-//! - Replacement is LRU over a per-cache use counter (every [`touch`](SectorCache::touch) or
-//!   [`install`](SectorCache::install) makes the line most recently used), so ties cannot
-//!   occur. Empty lines are used first, lowest way first.
+//! - Replacement is LRU: every [`touch`](SectorCache::touch) or
+//!   [`install`](SectorCache::install) makes the line the most recently used of its set.
+//!   Empty lines are used first, lowest way first.
 //! - A line with a sector whose fill cycle is still in the future is *reserved* (being filled):
 //!   it is never chosen as a victim, as in GPGPU-Sim. When every candidate line of a set is
 //!   reserved, [`find_slot`](SectorCache::find_slot) reports the first cycle a line frees up.
 //! - Lookups use an index from line address to slot; nothing iterates over it, so results do
 //!   not depend on hash order. The index hashes with [`LineHasher`] (one multiply) instead of
-//!   the DoS-resistant default, which dominated lookups in the cycle loop.
+//!   the DoS-resistant default, which dominated lookups in the cycle loop. Callers look a line
+//!   up once ([`lookup`](SectorCache::lookup)) and then work on its [`Slot`].
+//!
+//! # Speed
+//! Each set keeps its lines in a doubly linked recency list (least recently used first) and a
+//! count of its empty ways, so choosing a victim in the 128-way L1 does not scan the set: a
+//! full set walks the list from its least recently used end and stops at the first line in
+//! the allowed ways that is not being filled, which is exactly the least recently used such
+//! line. Only a set with an empty way (while the cache warms up) or one whose candidates are
+//! all being filled (a stall) is scanned.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -46,19 +55,22 @@ pub struct EvictedLine {
     pub unused_prefetch: u64,
 }
 
-/// A line slot chosen by [`SectorCache::find_slot`] for [`SectorCache::install`].
+/// A line slot of a [`SectorCache`]: where a line is ([`SectorCache::lookup`]) or will go
+/// ([`SectorCache::find_slot`]). Valid until the next [`install`](SectorCache::install) into
+/// the same cache.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Slot(usize);
 
+/// End of a recency list.
+const NIL: u32 = u32::MAX;
+
 /// Tag state of one line slot.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct LineState {
     /// Whether the slot holds a line.
     present: bool,
     /// Line address held.
     line: u64,
-    /// Use stamp for LRU (larger = more recent).
-    lru: u64,
     /// Valid sectors (present or being filled).
     valid: u64,
     /// Dirty sectors.
@@ -67,17 +79,51 @@ struct LineState {
     prefetched: u64,
     /// Latest fill cycle of its sectors: the line is reserved while this is in the future.
     pending_until: u64,
+    /// Next less recently used line of the set, or [`NIL`] (only while present).
+    older: u32,
+    /// Next more recently used line of the set, or [`NIL`] (only while present).
+    newer: u32,
+}
+
+impl Default for LineState {
+    fn default() -> Self {
+        LineState {
+            present: false,
+            line: 0,
+            valid: 0,
+            dirty: 0,
+            prefetched: 0,
+            pending_until: 0,
+            older: NIL,
+            newer: NIL,
+        }
+    }
+}
+
+/// Recency list and occupancy of one set.
+#[derive(Debug, Clone, Copy)]
+struct SetState {
+    /// Least recently used line, or [`NIL`] when the set is empty.
+    oldest: u32,
+    /// Most recently used line, or [`NIL`] when the set is empty.
+    newest: u32,
+    /// Ways not holding a line.
+    empty: u32,
 }
 
 /// Tag store of one sectored, set-associative (or fully associative) LRU cache.
 #[derive(Debug, Clone)]
 pub struct SectorCache {
     geometry: Geometry,
+    /// `geometry.sectors_per_line()`, kept to spare a division per lookup.
+    sectors: usize,
+    /// `geometry.ways`, as an index.
+    ways: usize,
     slots: Vec<LineState>,
+    sets: Vec<SetState>,
     /// Fill cycle per sector, `slot * sectors_per_line + sector`.
     ready: Vec<u64>,
     index: HashMap<u64, usize, BuildHasherDefault<LineHasher>>,
-    clock: u64,
 }
 
 /// Hasher of the line-address index: Fibonacci hashing of the 64-bit key (line addresses are
@@ -105,12 +151,19 @@ impl SectorCache {
     /// An empty cache of the given shape.
     pub fn new(geometry: Geometry) -> Self {
         let lines = geometry.lines() as usize;
+        let set = SetState {
+            oldest: NIL,
+            newest: NIL,
+            empty: geometry.ways,
+        };
         SectorCache {
             geometry,
+            sectors: geometry.sectors_per_line() as usize,
+            ways: geometry.ways as usize,
             slots: vec![LineState::default(); lines],
+            sets: vec![set; geometry.sets as usize],
             ready: vec![0; lines * geometry.sectors_per_line() as usize],
             index: HashMap::with_capacity_and_hasher(lines, BuildHasherDefault::default()),
-            clock: 0,
         }
     }
 
@@ -119,19 +172,33 @@ impl SectorCache {
         self.geometry
     }
 
-    fn sectors(&self) -> usize {
-        self.geometry.sectors_per_line() as usize
+    fn set_of(&self, slot: usize) -> usize {
+        slot / self.ways
+    }
+
+    /// The slot holding `line`, if present.
+    #[inline]
+    pub fn lookup(&self, line: u64) -> Option<Slot> {
+        self.index.get(&line).map(|&s| Slot(s))
     }
 
     /// State of sector `sector` of line `line` at cycle `now`.
     pub fn state(&self, line: u64, sector: u32, now: u64) -> SectorState {
-        let Some(&slot) = self.index.get(&line) else {
-            return SectorState::Absent;
-        };
-        if self.slots[slot].valid & (1 << sector) == 0 {
+        match self.lookup(line) {
+            Some(slot) => self.sector_state(slot, sector, now),
+            None => SectorState::Absent,
+        }
+    }
+
+    /// State at cycle `now` of sector `sector` of the line in `slot` (from
+    /// [`lookup`](Self::lookup)).
+    #[inline]
+    pub fn sector_state(&self, slot: Slot, sector: u32, now: u64) -> SectorState {
+        let Slot(s) = slot;
+        if self.slots[s].valid & (1 << sector) == 0 {
             return SectorState::Absent;
         }
-        let ready_at = self.ready[slot * self.sectors() + sector as usize];
+        let ready_at = self.ready[s * self.sectors + sector as usize];
         if ready_at > now {
             SectorState::Pending { ready_at }
         } else {
@@ -139,11 +206,40 @@ impl SectorCache {
         }
     }
 
-    /// Makes `line` the most recently used line of its set (no effect when absent).
-    pub fn touch(&mut self, line: u64) {
-        if let Some(&slot) = self.index.get(&line) {
-            self.clock += 1;
-            self.slots[slot].lru = self.clock;
+    /// Removes present slot `s` from its set's recency list.
+    fn unlink(&mut self, s: usize) {
+        let LineState { older, newer, .. } = self.slots[s];
+        let set = self.set_of(s);
+        match older {
+            NIL => self.sets[set].oldest = newer,
+            o => self.slots[o as usize].newer = newer,
+        }
+        match newer {
+            NIL => self.sets[set].newest = older,
+            n => self.slots[n as usize].older = older,
+        }
+    }
+
+    /// Appends slot `s` to its set's recency list as the most recently used line.
+    fn push_newest(&mut self, s: usize) {
+        let set = self.set_of(s);
+        let newest = self.sets[set].newest;
+        self.slots[s].older = newest;
+        self.slots[s].newer = NIL;
+        match newest {
+            NIL => self.sets[set].oldest = s as u32,
+            n => self.slots[n as usize].newer = s as u32,
+        }
+        self.sets[set].newest = s as u32;
+    }
+
+    /// Makes the line in `slot` the most recently used line of its set.
+    #[inline]
+    pub fn touch(&mut self, slot: Slot) {
+        let Slot(s) = slot;
+        if self.slots[s].newer != NIL {
+            self.unlink(s);
+            self.push_newest(s);
         }
     }
 
@@ -152,29 +248,32 @@ impl SectorCache {
     /// that is not being filled. `Err(retry_at)` when every candidate is being filled;
     /// `retry_at` is the first cycle one of them is not. Changes nothing.
     pub fn find_slot(&self, line: u64, now: u64, ways: Range<u32>) -> Result<Slot, u64> {
-        if let Some(&slot) = self.index.get(&line) {
-            return Ok(Slot(slot));
+        if let Some(slot) = self.lookup(line) {
+            return Ok(slot);
         }
-        let base = (line % u64::from(self.geometry.sets)) as usize * self.geometry.ways as usize;
+        let set = (line % u64::from(self.geometry.sets)) as usize;
+        let base = set * self.ways;
         let candidates = (base + ways.start as usize)..(base + ways.end as usize);
-        // One pass: the first empty way wins outright; otherwise the least recently used line
-        // not being filled (stamps are unique), else the earliest end of a fill.
-        let mut victim: Option<(u64, usize)> = None;
-        let mut retry: Option<u64> = None;
-        for s in candidates {
-            let state = &self.slots[s];
-            if !state.present {
+        let set = self.sets[set];
+        if set.empty > 0 {
+            if let Some(s) = candidates.clone().find(|&s| !self.slots[s].present) {
                 return Ok(Slot(s));
             }
-            if state.pending_until <= now {
-                if victim.is_none_or(|(lru, _)| state.lru < lru) {
-                    victim = Some((state.lru, s));
-                }
-            } else {
-                retry = Some(retry.map_or(state.pending_until, |r| r.min(state.pending_until)));
-            }
         }
-        victim.map(|(_, s)| Slot(s)).ok_or(retry.unwrap_or(now + 1))
+        // Least recently used first: the first allowed line not being filled is the victim.
+        let mut s = set.oldest;
+        while s != NIL {
+            let state = &self.slots[s as usize];
+            if candidates.contains(&(s as usize)) && state.pending_until <= now {
+                return Ok(Slot(s as usize));
+            }
+            s = state.newer;
+        }
+        // Every candidate is present and being filled.
+        Err(candidates
+            .map(|s| self.slots[s].pending_until)
+            .min()
+            .unwrap_or(now + 1))
     }
 
     /// Puts sector `sector` of `line` into `slot` (from [`find_slot`](Self::find_slot) for the
@@ -188,7 +287,7 @@ impl SectorCache {
         ready_at: u64,
     ) -> Option<EvictedLine> {
         let Slot(s) = slot;
-        let sectors = self.sectors();
+        let sectors = self.sectors;
         let old = self.slots[s];
         let mut evicted = None;
         if !old.present || old.line != line {
@@ -199,6 +298,10 @@ impl SectorCache {
                     dirty: old.dirty & old.valid,
                     unused_prefetch: old.prefetched & old.valid,
                 });
+                self.unlink(s);
+            } else {
+                let set = self.set_of(s);
+                self.sets[set].empty -= 1;
             }
             self.index.insert(line, s);
             self.slots[s] = LineState {
@@ -207,44 +310,39 @@ impl SectorCache {
                 ..LineState::default()
             };
             self.ready[s * sectors..(s + 1) * sectors].fill(0);
+            self.push_newest(s);
+        } else {
+            self.touch(slot);
         }
-        self.clock += 1;
         let state = &mut self.slots[s];
-        state.lru = self.clock;
         state.valid |= 1 << sector;
         state.pending_until = state.pending_until.max(ready_at);
         self.ready[s * sectors + sector as usize] = ready_at;
         evicted
     }
 
-    fn bits(&mut self, line: u64) -> Option<&mut LineState> {
-        let slot = *self.index.get(&line)?;
-        Some(&mut self.slots[slot])
+    /// Marks sector `sector` of the line in `slot` dirty if it is valid.
+    #[inline]
+    pub fn mark_dirty(&mut self, slot: Slot, sector: u32) {
+        let state = &mut self.slots[slot.0];
+        state.dirty |= state.valid & (1 << sector);
     }
 
-    /// Marks a valid sector dirty (no effect when absent).
-    pub fn mark_dirty(&mut self, line: u64, sector: u32) {
-        if let Some(state) = self.bits(line) {
-            state.dirty |= state.valid & (1 << sector);
-        }
+    /// Marks sector `sector` of the line in `slot` as filled by a prefetch if it is valid.
+    #[inline]
+    pub fn mark_prefetched(&mut self, slot: Slot, sector: u32) {
+        let state = &mut self.slots[slot.0];
+        state.prefetched |= state.valid & (1 << sector);
     }
 
-    /// Marks a valid sector as filled by a prefetch (no effect when absent).
-    pub fn mark_prefetched(&mut self, line: u64, sector: u32) {
-        if let Some(state) = self.bits(line) {
-            state.prefetched |= state.valid & (1 << sector);
-        }
-    }
-
-    /// Clears a sector's prefetch mark; true when it was set (its first demand use).
-    pub fn take_prefetched(&mut self, line: u64, sector: u32) -> bool {
-        match self.bits(line) {
-            Some(state) if state.prefetched & (1 << sector) != 0 => {
-                state.prefetched &= !(1 << sector);
-                true
-            }
-            _ => false,
-        }
+    /// Clears the prefetch mark of sector `sector` of the line in `slot`; true when it was set
+    /// (its first demand use).
+    #[inline]
+    pub fn take_prefetched(&mut self, slot: Slot, sector: u32) -> bool {
+        let state = &mut self.slots[slot.0];
+        let was = state.prefetched & (1 << sector) != 0;
+        state.prefetched &= !(1 << sector);
+        was
     }
 
     /// Number of lines held.
@@ -260,9 +358,9 @@ impl SectorCache {
             .enumerate()
             .filter(|(_, l)| l.present && l.pending_until > now)
             .flat_map(|(s, l)| {
-                (0..self.sectors())
+                (0..self.sectors)
                     .filter(move |&k| l.valid & (1 << k) != 0)
-                    .map(move |k| self.ready[s * self.sectors() + k])
+                    .map(move |k| self.ready[s * self.sectors + k])
             })
             .filter(|&r| r > now);
         pending.fold((0, None), |(n, min), r| {
@@ -291,14 +389,19 @@ mod tests {
         c.state(line, 0, u64::MAX) != SectorState::Absent
     }
 
+    fn touch(c: &mut SectorCache, line: u64) {
+        let slot = c.lookup(line).unwrap();
+        c.touch(slot);
+    }
+
     #[test]
     fn fully_associative_lru_evicts_least_recently_used() {
         let mut c = cache(4, 0);
         for line in [10, 20, 30, 40] {
             assert_eq!(fill(&mut c, line, 0), None);
         }
-        c.touch(10);
-        c.touch(30);
+        touch(&mut c, 10);
+        touch(&mut c, 30);
         // LRU order now: 20, 40, 10, 30.
         assert_eq!(fill(&mut c, 50, 0).map(|e| e.line), Some(20));
         assert_eq!(fill(&mut c, 60, 0).map(|e| e.line), Some(40));
@@ -318,7 +421,7 @@ mod tests {
         for line in [1, 2, 3, 5] {
             assert_eq!(fill(&mut c, line, 0), None);
         }
-        c.touch(0);
+        touch(&mut c, 0);
         assert_eq!(fill(&mut c, 64, 0).map(|e| e.line), Some(4));
         assert_eq!(fill(&mut c, 68, 0).map(|e| e.line), Some(8));
         assert!(present(&c, 0) && present(&c, 1));
@@ -358,14 +461,15 @@ mod tests {
         fill(&mut c, 1, 0);
         let s = c.find_slot(1, 0, 0..1).unwrap();
         c.install(s, 1, 2, 0);
-        c.mark_dirty(1, 2);
-        c.mark_prefetched(1, 0);
-        c.mark_dirty(1, 3); // not valid: ignored
+        c.mark_dirty(s, 2);
+        c.mark_prefetched(s, 0);
+        c.mark_dirty(s, 3); // not valid: ignored
         let e = fill(&mut c, 2, 0).unwrap();
         assert_eq!((e.line, e.dirty, e.unused_prefetch), (1, 0b100, 0b1));
-        c.mark_prefetched(2, 0);
-        assert!(c.take_prefetched(2, 0));
-        assert!(!c.take_prefetched(2, 0));
+        let s = c.lookup(2).unwrap();
+        c.mark_prefetched(s, 0);
+        assert!(c.take_prefetched(s, 0));
+        assert!(!c.take_prefetched(s, 0));
         assert_eq!(fill(&mut c, 3, 0).unwrap().unused_prefetch, 0);
     }
 
@@ -384,5 +488,111 @@ mod tests {
         assert_eq!(c.install(s, 101, 0, 0).map(|e| e.line), Some(100));
         // A present line is found whatever the range.
         assert!(c.find_slot(5, 0, 0..1).is_ok());
+    }
+
+    /// The replacement rule written out directly: a use stamp per way and a scan of the set.
+    struct Reference {
+        ways: usize,
+        sets: u64,
+        /// Per way: (line, use stamp, pending until); `None` when empty.
+        lines: Vec<Option<(u64, u64, u64)>>,
+        clock: u64,
+    }
+
+    impl Reference {
+        fn find_slot(&self, line: u64, now: u64, ways: Range<u32>) -> Result<usize, u64> {
+            if let Some(s) = self
+                .lines
+                .iter()
+                .position(|l| l.is_some_and(|l| l.0 == line))
+            {
+                return Ok(s);
+            }
+            let base = (line % self.sets) as usize * self.ways;
+            let range = (base + ways.start as usize)..(base + ways.end as usize);
+            if let Some(s) = range.clone().find(|&s| self.lines[s].is_none()) {
+                return Ok(s);
+            }
+            let lines = || range.clone().map(|s| (s, self.lines[s].unwrap()));
+            lines()
+                .filter(|(_, l)| l.2 <= now)
+                .min_by_key(|(_, l)| l.1)
+                .map(|(s, _)| s)
+                .ok_or_else(|| lines().map(|(_, l)| l.2).min().unwrap_or(now + 1))
+        }
+
+        fn install(&mut self, s: usize, line: u64, ready_at: u64) -> Option<u64> {
+            self.clock += 1;
+            let old = self.lines[s];
+            let pending = match old {
+                Some((l, _, p)) if l == line => p.max(ready_at),
+                _ => ready_at,
+            };
+            self.lines[s] = Some((line, self.clock, pending));
+            old.map(|o| o.0).filter(|&l| l != line)
+        }
+
+        fn touch(&mut self, line: u64) {
+            self.clock += 1;
+            if let Some(l) = self.lines.iter_mut().flatten().find(|l| l.0 == line) {
+                l.1 = self.clock;
+            }
+        }
+    }
+
+    #[test]
+    fn recency_lists_choose_the_same_victims_as_a_scan_of_use_stamps() {
+        // Two shapes: fully associative, and 4 sets of 8 ways with a partition of the ways.
+        for (lines, ways, split) in [(16u32, 0u32, 0u32), (32, 8, 3)] {
+            let mut c = cache(lines, ways);
+            let g = c.geometry();
+            let mut r = Reference {
+                ways: g.ways as usize,
+                sets: u64::from(g.sets),
+                lines: vec![None; lines as usize],
+                clock: 0,
+            };
+            let mut seed = 0x2545_f491_4f6c_dd1du64;
+            let mut next = |n: u64| {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                seed % n
+            };
+            let mut now = 0;
+            let (mut stalls, mut evictions) = (0, 0);
+            for _ in 0..20_000 {
+                now += next(3);
+                let line = next(u64::from(lines) * 3);
+                let range = match (split, next(2)) {
+                    (0, _) => 0..g.ways,
+                    (k, 0) => 0..k,
+                    (k, _) => k..g.ways,
+                };
+                if next(4) == 0 {
+                    if let Some(slot) = c.lookup(line) {
+                        c.touch(slot);
+                    }
+                    r.touch(line);
+                    continue;
+                }
+                let got = c.find_slot(line, now, range.clone());
+                let want = r.find_slot(line, now, range);
+                assert_eq!(got.map(|Slot(s)| s), want, "line {line} at {now}");
+                if let Ok(slot) = got {
+                    let ready_at = now + next(40);
+                    let evicted = c.install(slot, line, next(4) as u32, ready_at);
+                    assert_eq!(evicted.map(|e| e.line), r.install(slot.0, line, ready_at));
+                    evictions += usize::from(evicted.is_some());
+                } else {
+                    stalls += 1;
+                }
+            }
+            // Both paths of the victim search were exercised.
+            assert!(
+                stalls > 0 && evictions > 0,
+                "{stalls} stalls, {evictions} evictions"
+            );
+        }
     }
 }

@@ -7,6 +7,7 @@
 //!   valid bits per `sector_bytes` (32) sector, LRU, lines being filled never evicted.
 //! - [`dram`]: [`DramChannel`], fixed latency plus a byte-exact bandwidth limit.
 //! - [`system`]: [`MemorySystem`], which composes them and queues responses per SM.
+//! - [`responses`]: [`ResponseQueue`], one SM's undelivered responses in delivery order.
 //! - [`request`] and [`stats`]: requests, responses, stalls, errors and counters.
 //!
 //! # Timing rules
@@ -67,6 +68,7 @@ pub mod cache;
 pub mod config;
 pub mod dram;
 pub mod request;
+pub mod responses;
 pub mod stats;
 pub mod system;
 
@@ -76,5 +78,6 @@ pub use dram::DramChannel;
 pub use request::{
     Accepted, AccessClass, AccessError, MemRequest, Response, Source, Stall, StallReason,
 };
+pub use responses::ResponseQueue;
 pub use stats::{ClassStats, DramStats, MemStats, PrefetchStats};
 pub use system::MemorySystem;

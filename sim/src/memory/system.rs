@@ -1,7 +1,7 @@
 //! [`MemorySystem`]: per-SM L1s, the shared L2 and DRAM, with completion cycles fixed at
 //! acceptance (the timing rules are in the [module documentation](super)).
 
-use std::cmp::{Ordering, Reverse};
+use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::fmt::Write as _;
 use std::ops::Range;
@@ -12,49 +12,17 @@ use super::dram::DramChannel;
 use super::request::{
     Accepted, AccessClass, AccessError, MemRequest, Response, Source, Stall, StallReason, MAX_CYCLE,
 };
+use super::responses::ResponseQueue;
 use super::stats::MemStats;
-
-/// A response waiting for its cycle; ordered by (completion cycle, acceptance order).
-#[derive(Debug, Clone, Copy)]
-struct Queued {
-    seq: u64,
-    response: Response,
-}
-
-impl Queued {
-    fn key(&self) -> (u64, u64) {
-        (self.response.cycle, self.seq)
-    }
-}
-
-impl PartialEq for Queued {
-    fn eq(&self, other: &Self) -> bool {
-        self.key() == other.key()
-    }
-}
-
-impl Eq for Queued {}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        self.key().cmp(&other.key())
-    }
-}
 
 /// Per-SM state: the SM's L1, its outstanding misses and its undelivered responses.
 #[derive(Debug, Clone)]
 struct SmPort {
     l1: SectorCache,
-    /// Fill cycles of the outstanding L1 misses (one MSHR each); entries at or before the
-    /// current cycle are free.
-    mshrs: Vec<u64>,
-    responses: BinaryHeap<Reverse<Queued>>,
+    /// Fill cycles of the outstanding L1 misses (one MSHR each), earliest first; entries at
+    /// or before the current cycle are free.
+    mshrs: BinaryHeap<Reverse<u64>>,
+    responses: ResponseQueue,
 }
 
 /// The memory hierarchy of the simulated GPU: one L1 per SM, a shared L2 and one DRAM channel.
@@ -67,8 +35,19 @@ struct SmPort {
 pub struct MemorySystem {
     cfg: MemConfig,
     sms: Vec<SmPort>,
+    /// Per SM: completion cycle of its next response (`u64::MAX` when none), kept beside the
+    /// ports so [`next_event`](Self::next_event) scans one small array.
+    due: Vec<u64>,
     l2: SectorCache,
     dram: DramChannel,
+    /// Lines per L1 set.
+    l1_set_ways: u32,
+    /// Lines per L2 set.
+    l2_set_ways: u32,
+    /// log2 of the line size (validated to be a power of two).
+    line_shift: u32,
+    /// log2 of the sector size (validated to be a power of two).
+    sector_shift: u32,
     /// Acceptance counter: breaks completion-cycle ties.
     seq: u64,
     /// Cycle of the latest access.
@@ -85,14 +64,19 @@ impl MemorySystem {
         }
         let port = SmPort {
             l1: SectorCache::new(cfg.l1_geometry()),
-            mshrs: Vec::with_capacity(cfg.l1_mshrs as usize),
-            responses: BinaryHeap::new(),
+            mshrs: BinaryHeap::with_capacity(cfg.l1_mshrs as usize),
+            responses: ResponseQueue::new(),
         };
         Ok(MemorySystem {
             cfg: cfg.clone(),
             sms: vec![port; num_sms],
+            due: vec![u64::MAX; num_sms],
             l2: SectorCache::new(cfg.l2_geometry()),
             dram: DramChannel::new(cfg.dram_latency, cfg.dram_bytes_per_cycle),
+            l1_set_ways: cfg.l1_geometry().ways,
+            l2_set_ways: cfg.l2_geometry().ways,
+            line_shift: cfg.line_bytes.trailing_zeros(),
+            sector_shift: cfg.sector_bytes.trailing_zeros(),
             seq: 0,
             last_now: 0,
             stats: MemStats::default(),
@@ -124,9 +108,9 @@ impl MemorySystem {
 
     /// Line address and sector index of a byte address.
     fn locate(&self, addr: u64) -> (u64, u32) {
-        let line = addr / u64::from(self.cfg.line_bytes);
-        let sector = (addr % u64::from(self.cfg.line_bytes)) / u64::from(self.cfg.sector_bytes);
-        (line, sector as u32)
+        let line = addr >> self.line_shift;
+        let offset = addr & ((1 << self.line_shift) - 1);
+        (line, (offset >> self.sector_shift) as u32)
     }
 
     /// Offers one request from SM `sm` at cycle `now` (cycles must not decrease from call to
@@ -146,9 +130,11 @@ impl MemorySystem {
         if req.store {
             if !req.bypass_l1 {
                 let l1 = &mut self.sms[sm].l1;
-                let hit = l1.state(line, sector, now) == SectorState::Ready;
-                if hit {
-                    l1.touch(line);
+                let slot = l1.lookup(line);
+                let hit =
+                    slot.is_some_and(|s| l1.sector_state(s, sector, now) == SectorState::Ready);
+                if let (true, Some(slot)) = (hit, slot) {
+                    l1.touch(slot);
                 }
                 let class = self.stats.class_mut(req.class);
                 class.l1_stores += 1;
@@ -158,7 +144,7 @@ impl MemorySystem {
             }
             self.l2_write(at_l2, line, sector, req.class);
             let done = at_l2 + self.l2_latency();
-            self.respond(sm, &req, done);
+            self.respond(sm, &req, done, Source::L2Write);
             return Ok(Accepted {
                 done,
                 source: Source::L2Write,
@@ -167,10 +153,12 @@ impl MemorySystem {
         if req.bypass_l1 {
             self.stats.class_mut(req.class).l1_bypasses += 1;
             let (done, source) = self.l2_read(at_l2, line, sector, req.class);
-            self.respond(sm, &req, done);
+            self.respond(sm, &req, done, source);
             return Ok(Accepted { done, source });
         }
-        let state = self.sms[sm].l1.state(line, sector, now);
+        let l1 = &self.sms[sm].l1;
+        let slot = l1.lookup(line);
+        let state = slot.map_or(SectorState::Absent, |s| l1.sector_state(s, sector, now));
         if req.prefetch && state != SectorState::Absent {
             self.stats.prefetch.requests += 1;
             self.stats.prefetch.dropped += 1;
@@ -179,14 +167,14 @@ impl MemorySystem {
                 source: Source::AlreadyInL1,
             });
         }
-        let (done, source) = match state {
-            SectorState::Ready => (now + self.l1_latency(), Source::L1Hit),
-            SectorState::Pending { ready_at } => (ready_at, Source::L1Merge),
-            SectorState::Absent => return self.l1_miss(now, sm, req, line, sector),
+        let (done, source, slot) = match (state, slot) {
+            (SectorState::Ready, Some(slot)) => (now + self.l1_latency(), Source::L1Hit, slot),
+            (SectorState::Pending { ready_at }, Some(slot)) => (ready_at, Source::L1Merge, slot),
+            _ => return self.l1_miss(now, sm, req, line, sector),
         };
         let port = &mut self.sms[sm];
-        port.l1.touch(line);
-        let used = port.l1.take_prefetched(line, sector);
+        port.l1.touch(slot);
+        let used = port.l1.take_prefetched(slot, sector);
         self.stats.prefetch.used += u64::from(used);
         let class = self.stats.class_mut(req.class);
         class.l1_loads += 1;
@@ -194,7 +182,7 @@ impl MemorySystem {
             Source::L1Hit => class.l1_hits += 1,
             _ => class.l1_merges += 1,
         }
-        self.respond(sm, &req, done);
+        self.respond(sm, &req, done, source);
         Ok(Accepted { done, source })
     }
 
@@ -207,7 +195,7 @@ impl MemorySystem {
             });
         }
         let sector_bytes = self.cfg.sector_bytes;
-        let offset = req.addr % u64::from(sector_bytes);
+        let offset = req.addr & ((1 << self.sector_shift) - 1);
         if req.bytes == 0 || offset + u64::from(req.bytes) > u64::from(sector_bytes) {
             return Err(AccessError::BadSize {
                 addr: req.addr,
@@ -240,12 +228,14 @@ impl MemorySystem {
         line: u64,
         sector: u32,
     ) -> Result<Accepted, AccessError> {
-        let ways = self.cfg.l1_geometry().ways;
+        let ways = self.l1_set_ways;
         let port = &mut self.sms[sm];
-        port.mshrs.retain(|&fill| fill > now);
+        while port.mshrs.peek().is_some_and(|&Reverse(fill)| fill <= now) {
+            port.mshrs.pop();
+        }
         if port.mshrs.len() >= self.cfg.l1_mshrs as usize {
             self.stats.mshr_stalls += 1;
-            let retry_at = port.mshrs.iter().copied().min().unwrap_or(now + 1);
+            let retry_at = port.mshrs.peek().map_or(now + 1, |&Reverse(fill)| fill);
             return Err(AccessError::Stall(Stall {
                 reason: StallReason::MshrsFull,
                 retry_at,
@@ -266,23 +256,23 @@ impl MemorySystem {
         if let Some(evicted) = port.l1.install(slot, line, sector, done) {
             self.stats.prefetch.evicted_unused += u64::from(evicted.unused_prefetch.count_ones());
         }
-        port.mshrs.push(done);
+        port.mshrs.push(Reverse(done));
         if req.prefetch {
-            port.l1.mark_prefetched(line, sector);
+            port.l1.mark_prefetched(slot, sector);
             self.stats.prefetch.requests += 1;
             self.stats.prefetch.issued += 1;
         } else {
             let class = self.stats.class_mut(req.class);
             class.l1_loads += 1;
             class.l1_misses += 1;
-            self.respond(sm, &req, done);
+            self.respond(sm, &req, done, source);
         }
         Ok(Accepted { done, source })
     }
 
     /// Ways of an L2 set that `class` may allocate into.
     fn l2_ways(&self, class: AccessClass) -> Range<u32> {
-        let ways = self.cfg.l2_geometry().ways;
+        let ways = self.l2_set_ways;
         match (self.cfg.l2_ray_ways, class) {
             (0, _) => 0..ways,
             (ray, AccessClass::RayRecord) => 0..ray,
@@ -293,21 +283,22 @@ impl MemorySystem {
     /// A read reaching the L2 at cycle `at`: returns its completion cycle and source.
     fn l2_read(&mut self, at: u64, line: u64, sector: u32, class: AccessClass) -> (u64, Source) {
         let hit_done = at + self.l2_latency();
-        let state = self.l2.state(line, sector, at);
+        let slot = self.l2.lookup(line);
+        let state = slot.map_or(SectorState::Absent, |s| self.l2.sector_state(s, sector, at));
         let stats = self.stats.class_mut(class);
         stats.l2_accesses += 1;
-        match state {
-            SectorState::Ready => {
+        match (state, slot) {
+            (SectorState::Ready, Some(slot)) => {
                 stats.l2_hits += 1;
-                self.l2.touch(line);
+                self.l2.touch(slot);
                 (hit_done, Source::L2Hit)
             }
-            SectorState::Pending { ready_at } => {
+            (SectorState::Pending { ready_at }, Some(slot)) => {
                 stats.l2_merges += 1;
-                self.l2.touch(line);
+                self.l2.touch(slot);
                 (ready_at.max(hit_done), Source::L2Merge)
             }
-            SectorState::Absent => {
+            _ => {
                 stats.l2_misses += 1;
                 stats.dram_reads += 1;
                 let grant = self.dram.schedule(hit_done, self.cfg.sector_bytes);
@@ -330,28 +321,40 @@ impl MemorySystem {
     /// A store reaching the L2 at cycle `at` (write-back, write-allocate without a fetch).
     fn l2_write(&mut self, at: u64, line: u64, sector: u32, class: AccessClass) {
         let leave = at + self.l2_latency();
-        let state = self.l2.state(line, sector, at);
+        let slot = self.l2.lookup(line);
+        let state = slot.map_or(SectorState::Absent, |s| self.l2.sector_state(s, sector, at));
         let stats = self.stats.class_mut(class);
         stats.l2_accesses += 1;
-        match state {
-            SectorState::Ready => stats.l2_hits += 1,
-            SectorState::Pending { .. } => stats.l2_merges += 1,
-            SectorState::Absent => {
+        let slot = match (state, slot) {
+            (SectorState::Ready, Some(slot)) => {
+                stats.l2_hits += 1;
+                Some(slot)
+            }
+            (SectorState::Pending { .. }, Some(slot)) => {
+                stats.l2_merges += 1;
+                Some(slot)
+            }
+            _ => {
                 stats.l2_misses += 1;
                 match self.l2.find_slot(line, at, self.l2_ways(class)) {
                     Ok(slot) => {
                         let evicted = self.l2.install(slot, line, sector, at);
                         self.write_back(leave, evicted);
+                        Some(slot)
                     }
                     Err(_) => {
                         self.stats.l2_no_allocate += 1;
                         self.dram_write(leave);
+                        None
                     }
                 }
             }
+        };
+        // Without an L2 line (not allocated) there is nothing to update.
+        if let Some(slot) = slot {
+            self.l2.touch(slot);
+            self.l2.mark_dirty(slot, sector);
         }
-        self.l2.touch(line);
-        self.l2.mark_dirty(line, sector);
     }
 
     /// Writes the dirty sectors of an evicted L2 line to DRAM, leaving the L2 at `leave`.
@@ -372,20 +375,19 @@ impl MemorySystem {
         dram.queue_cycles += grant.start - arrival;
     }
 
-    /// Queues the response to `req` for cycle `done`.
-    fn respond(&mut self, sm: usize, req: &MemRequest, done: u64) {
+    /// Queues the response to `req`, served from `source`, for cycle `done`.
+    fn respond(&mut self, sm: usize, req: &MemRequest, done: u64, source: Source) {
         let seq = self.seq;
         self.seq += 1;
-        self.sms[sm].responses.push(Reverse(Queued {
-            seq,
-            response: Response {
-                tag: req.tag,
-                addr: req.addr,
-                class: req.class,
-                store: req.store,
-                cycle: done,
-            },
-        }));
+        let response = Response {
+            tag: req.tag,
+            addr: req.addr,
+            class: req.class,
+            store: req.store,
+            cycle: done,
+        };
+        self.sms[sm].responses.push(seq, source, response);
+        self.due[sm] = self.due[sm].min(done);
     }
 
     /// Removes and yields SM `sm`'s responses due at or before `now`, in completion-cycle
@@ -393,23 +395,23 @@ impl MemorySystem {
     /// caller does not consume stay queued.
     pub fn pop_ready(&mut self, sm: usize, now: u64) -> impl Iterator<Item = Response> + '_ {
         let mut queue = self.sms.get_mut(sm).map(|port| &mut port.responses);
+        let mut due = self.due.get_mut(sm);
         std::iter::from_fn(move || {
-            let queue = queue.as_mut()?;
-            if queue.peek()?.0.response.cycle <= now {
-                queue.pop().map(|Reverse(q)| q.response)
-            } else {
-                None
+            let due = due.as_mut()?;
+            if **due > now {
+                return None;
             }
+            let queue = queue.as_mut()?;
+            let response = queue.pop_due(now);
+            **due = queue.earliest().unwrap_or(u64::MAX);
+            response
         })
     }
 
     /// Earliest cycle at which some SM has a response due, if any is queued. Fills without a
     /// response (prefetches) are not events: their effect is already in the cache state.
     pub fn next_event(&self) -> Option<u64> {
-        self.sms
-            .iter()
-            .filter_map(|port| port.responses.peek().map(|r| r.0.response.cycle))
-            .min()
+        self.due.iter().copied().min().filter(|&c| c != u64::MAX)
     }
 
     /// Responses queued for SM `sm` (0 for an SM that does not exist).
@@ -458,8 +460,13 @@ impl MemorySystem {
             self.dram.next_free_cycle()
         );
         for (sm, port) in self.sms.iter().enumerate() {
-            let busy: Vec<u64> = port.mshrs.iter().copied().filter(|&f| f > now).collect();
-            let next = port.responses.peek().map(|r| r.0.response);
+            let busy: Vec<u64> = port
+                .mshrs
+                .iter()
+                .map(|&Reverse(f)| f)
+                .filter(|&f| f > now)
+                .collect();
+            let next = port.responses.peek();
             let _ = writeln!(
                 out,
                 "  SM {sm}: L1 {} lines, MSHRs {}/{} busy (first fill {:?}), {} responses queued (next {:?})",
