@@ -1177,3 +1177,26 @@ fn every_ray_is_traced_exactly_once_in_every_variant() {
         println!("{name}: {order:?} {s:?}");
     }
 }
+
+/// While a repacked warp is being filled, spilled rays are refilled before the next pop (a
+/// table emptied by pops would otherwise answer every `PopAny` with nothing while its rays wait
+/// in memory), and the fill sequence continues afterwards.
+#[test]
+fn a_fill_refills_spilled_rays_before_popping() {
+    let mut h = final_phase(HwConfig::default());
+    assert!(repack_starts(&mut h, 21));
+    let spilled = |h: &Harness, n: u32| {
+        let mut i = h.quiet();
+        i.qt.spilled = n;
+        i
+    };
+    let o = h.step(&spilled(&h, 3));
+    assert_eq!((o.qt_op, o.reserve), (QtOp::Refill, Some(0)));
+    assert_eq!(h.regs.seq, Seq::FillNext, "the fill sequence goes on");
+    // A full table cannot take a refilled ray: pop instead.
+    let mut i = spilled(&h, 3);
+    i.qt.free_entries = 0;
+    assert_eq!(h.step(&i).qt_op, QtOp::PopAny);
+    let o = h.step(&spilled(&h, 0));
+    assert_eq!(o.fill.expect("filled").kind, FillKind::Repack);
+}

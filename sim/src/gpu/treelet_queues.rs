@@ -37,6 +37,9 @@
 //!   4.2 ❶); forming a treelet, grouped or repack warp loads 32 B per ray. The traversal stacks
 //!   travel with the record without extra traffic (the paper counts only the 32 B record).
 //! - Spilled queue-table entries wait in a FIFO in memory whose traffic is not modelled.
+//! - A preload prefetches the treelet's nodes into the L1 (one sector per cycle in which the
+//!   RT unit sends no demand request); the rays' records are loaded when their warp forms, not
+//!   preloaded.
 //! - When the controller is `done` (everything drained) and the SM offers a new warp, the
 //!   controller restarts from the initial phase (its statistics are kept): each wave of rays
 //!   (e.g. a bounce) goes through the phases again.
