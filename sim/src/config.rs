@@ -408,6 +408,18 @@ impl SimConfig {
         Ok(config)
     }
 
+    /// Reads a configuration exactly as [`SimConfig::load`] reads the file `origin`, but from
+    /// `text` (for configurations built into the binary); `origin` names it in messages.
+    pub fn load_str(
+        origin: &Path,
+        text: &str,
+        overrides: &[String],
+    ) -> Result<SimConfig, ConfigError> {
+        let config = SimConfig::parse_text(Some((origin, text)), overrides)?;
+        config.validate()?;
+        Ok(config)
+    }
+
     /// Reads a configuration like [`SimConfig::load`] (unknown keys and malformed values are
     /// still errors) but checks only what the hardware generators read (`vtq verilog`, `vtq
     /// area`, `vtq cosim`): see [`SimConfig::validate_hardware`]. So table sizes can be
@@ -423,13 +435,26 @@ impl SimConfig {
 
     /// The defaults, then the file, then the overrides, not validated.
     fn parse(path: Option<&Path>, overrides: &[String]) -> Result<SimConfig, ConfigError> {
+        let text = path
+            .map(|path| {
+                std::fs::read_to_string(path).map_err(|e| ConfigError::Read {
+                    path: path.to_path_buf(),
+                    reason: e.to_string(),
+                })
+            })
+            .transpose()?;
+        SimConfig::parse_text(path.zip(text.as_deref()), overrides)
+    }
+
+    /// The defaults, then the configuration text (and the path it came from), then the
+    /// overrides, not validated.
+    fn parse_text(
+        file: Option<(&Path, &str)>,
+        overrides: &[String],
+    ) -> Result<SimConfig, ConfigError> {
         let defaults = SimConfig::default().to_table()?;
         let mut merged = defaults.clone();
-        if let Some(path) = path {
-            let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Read {
-                path: path.to_path_buf(),
-                reason: e.to_string(),
-            })?;
+        if let Some((path, text)) = file {
             let file: Table = text
                 .parse()
                 .map_err(|e: toml::de::Error| ConfigError::Syntax {

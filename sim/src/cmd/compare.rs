@@ -133,33 +133,10 @@ struct Design {
     config: SimConfig,
 }
 
-/// The dotted `key=value` assignments of a TOML table's leaves, in the table's order.
-fn flatten(table: &toml::Table, prefix: &str, out: &mut Vec<String>) {
-    for (key, value) in table {
-        let dotted = if prefix.is_empty() {
-            key.clone()
-        } else {
-            format!("{prefix}.{key}")
-        };
-        match value {
-            toml::Value::Table(sub) => flatten(sub, &dotted, out),
-            leaf => out.push(format!("{dotted}={leaf}")),
-        }
-    }
-}
-
-/// A built-in configuration with `overrides` applied. The file's keys go through
-/// [`SimConfig::load`] as overrides before the user's, which merges them exactly as it merges a
-/// file (same key and type checks).
+/// A built-in configuration with `overrides` applied, read as [`SimConfig::load`] reads its file.
 fn built_in_config(built_in: &BuiltIn, overrides: &[String]) -> anyhow::Result<SimConfig> {
-    let table: toml::Table = built_in
-        .toml
-        .parse()
-        .with_context(|| format!("parsing the built-in {}", built_in.path))?;
-    let mut sets = Vec::new();
-    flatten(&table, "", &mut sets);
-    sets.extend_from_slice(overrides);
-    Ok(SimConfig::load(None, &sets)?)
+    let origin = Path::new(built_in.path);
+    Ok(SimConfig::load_str(origin, built_in.toml, overrides)?)
 }
 
 /// Resolves one `--designs` entry: a built-in name, or else a configuration file path.
