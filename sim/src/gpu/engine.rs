@@ -6,13 +6,19 @@
 //! completion) with its memory request to the L1, and one CTA-state access per SM. SMs are
 //! visited in index order, so runs are deterministic.
 //!
-//! Idle cycles are skipped in SST's declocking style: after a cycle every component reports the
-//! next cycle it has work ([`MemorySystem::next_event`], [`Sm::next_timer`],
-//! [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`,
-//! [`CtaStatePort::next_event`]) and the engine jumps there. Within an evaluated cycle, an RT
-//! unit with nothing to do is not stepped either; it catches up its warp-cycle statistics and
-//! delay counters with `skip` when next stepped (and at the end). With `sim.lockstep` every RT unit is stepped every cycle; results are identical
-//! (tested).
+//! Idle cycles are skipped in SST's declocking style, per SM: after visiting an SM the engine
+//! records the next cycle that SM has work (its shader timers [`Sm::next_timer`], a warp it can
+//! offer its RT unit, [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`,
+//! [`CtaStatePort::next_event`], its next memory response
+//! [`MemorySystem::next_response`], room for the CTA dispatch), jumps to the earliest such
+//! cycle over all SMs, and there visits only the SMs whose wake cycle has come (all of them
+//! when the CTA dispatch ran). This is exact because an SM's wake cycle changes only when the
+//! SM itself is visited or the dispatch gives it a CTA: its memory responses come from its own
+//! accesses, and visiting it earlier would do nothing (each of its components reports no work
+//! before that cycle). Within a visited SM, an RT unit with nothing to do is not stepped
+//! either; it catches up its warp-cycle statistics and delay counters with `skip` when next
+//! stepped (and at the end). With `sim.lockstep` every SM is visited and every RT unit stepped
+//! every cycle; results are identical (tested).
 
 use std::time::Instant;
 
@@ -92,6 +98,10 @@ struct Gpu<'a> {
     /// CTA-state load responses of the SM being visited (reused buffer).
     state_loads: Vec<Response>,
     mem: MemorySystem,
+    /// Per SM: the next cycle it has work (it is visited when this cycle has come).
+    wake: Vec<u64>,
+    /// The SMs visited in the current cycle, in index order (reused buffer).
+    awake: Vec<usize>,
     watchdog: Watchdog,
     image: Vec<Vec3>,
     nonfinite: u64,
@@ -204,6 +214,8 @@ pub fn simulate(
             .collect(),
         state_loads: Vec::new(),
         mem: MemorySystem::new(&cfg.memory, nsms)?,
+        wake: vec![0; nsms],
+        awake: Vec::with_capacity(nsms),
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         image: vec![Vec3::ZERO; settings.pixels()],
         nonfinite: 0,
@@ -241,7 +253,7 @@ impl Gpu<'_> {
             let next = if self.cfg.sim.lockstep {
                 now + 1
             } else {
-                self.next_event(now).unwrap_or(u64::MAX)
+                self.next_event().unwrap_or(u64::MAX)
             };
             let next = next.min(self.watchdog.deadline());
             if self.watchdog.expired(next) {
@@ -251,40 +263,83 @@ impl Gpu<'_> {
         }
     }
 
-    /// Whether every CTA has run and retired.
+    /// Whether every CTA has run and retired. (The SMs visited last are checked first: while
+    /// CTAs run, one of them is usually busy.)
     fn finished(&self) -> bool {
-        self.scheduler.pending() == 0 && self.sms.iter().all(Sm::is_idle)
+        self.scheduler.pending() == 0
+            && self.awake.iter().all(|&i| self.sms[i].is_idle())
+            && self.sms.iter().all(Sm::is_idle)
     }
 
-    /// One cycle.
+    /// One cycle: visits the SMs whose wake cycle has come (every SM in lockstep, or when the
+    /// CTA dispatch runs), in index order, phase by phase, then records their next wake cycles.
     fn cycle(&mut self, now: u64) -> Result<(), SimError> {
         self.sample(now);
-        for (sm, states) in self.sms.iter_mut().zip(&mut self.states) {
-            for cta in sm.run_timers(now) {
-                states.save(cta);
+        let lockstep = self.cfg.sim.lockstep;
+        // Which SMs are awake follows no pattern, so they are collected without a branch.
+        let mut awake = std::mem::take(&mut self.awake);
+        awake.resize(self.sms.len(), 0);
+        let mut len = 0;
+        for (i, &wake) in self.wake.iter().enumerate() {
+            awake[len] = i;
+            len += usize::from(lockstep || wake <= now);
+        }
+        awake.truncate(len);
+        for &i in &awake {
+            for cta in self.sms[i].run_timers(now) {
+                self.states[i].save(cta);
             }
         }
-        self.dispatch(now);
-        for i in 0..self.rts.len() {
+        // An SM not visited could not dispatch after its last visit (its wake cycle would be
+        // the next one), and nothing but a visit or the dispatch changes that.
+        let pending = self.scheduler.pending() > 0;
+        if awake.iter().any(|&i| self.sms[i].can_dispatch(pending)) {
+            self.dispatch(now);
+            // It may have launched or resumed a CTA on any SM.
+            awake.clear();
+            awake.extend(0..self.sms.len());
+        }
+        for &i in &awake {
             self.rts[i].collect_responses(now, i, &mut self.mem, &mut self.state_loads);
             self.resume_loaded(now, i);
         }
-        let lockstep = self.cfg.sim.lockstep;
-        for i in 0..self.sms.len() {
-            let head = if self.rts[i].issue_ready() {
-                self.sms[i].peek_ready()
-            } else {
-                None
-            };
-            if !lockstep && !self.rts[i].busy_at(now, head.is_some()) {
-                // Idle this cycle: caught up lazily when next stepped.
-                if self.rts[i].send(now, i, &mut self.mem)? {
+        for &i in &awake {
+            self.step_rt(now, i, lockstep)?;
+        }
+        for &i in &awake {
+            match self.states[i].send(now, i, &mut self.mem)? {
+                StateSend::Idle => {}
+                StateSend::Accepted => self.watchdog.progress(now),
+                StateSend::Saved(id) => {
                     self.watchdog.progress(now);
+                    self.sms[i].state_saved(id);
                 }
-                continue;
             }
+        }
+        let pending = self.scheduler.pending() > 0;
+        for &i in &awake {
+            self.wake[i] = self.wake_cycle(now, i, pending);
+        }
+        debug_assert!(
+            (0..self.sms.len())
+                .all(|i| self.wake[i] <= now + 1 || self.quiet(self.wake[i] - 1, i, pending)),
+            "after cycle {now}, an SM has work before its wake cycle"
+        );
+        self.awake = awake;
+        Ok(())
+    }
+
+    /// SM `sm`'s RT unit in cycle `now`: offered the SM's first ready warp, stepped if it has
+    /// work (always in `lockstep`), and its memory request offered to the L1.
+    fn step_rt(&mut self, now: u64, sm: usize, lockstep: bool) -> Result<(), SimError> {
+        let head = if self.rts[sm].issue_ready() {
+            self.sms[sm].peek_ready()
+        } else {
+            None
+        };
+        if lockstep || self.rts[sm].busy_at(now, head.is_some()) {
             let rays: Vec<Option<Ray>> = head
-                .and_then(|w| self.sms[i].warp(w))
+                .and_then(|w| self.sms[sm].warp(w))
                 .map(|w| {
                     w.threads
                         .iter()
@@ -292,29 +347,20 @@ impl Gpu<'_> {
                         .collect()
                 })
                 .unwrap_or_default();
-            let out = self.rts[i].step(now, i, head.map(|w| (w, rays.as_slice())))?;
+            let out = self.rts[sm].step(now, sm, head.map(|w| (w, rays.as_slice())))?;
             if out.accepted.is_some() {
-                self.sms[i].issue_ready();
+                self.sms[sm].issue_ready();
             }
             if let Some(done) = out.done {
                 self.watchdog.progress(now);
-                if let Some(done) = self.sms[i].traversal_done(done) {
-                    self.shade(now, i, done);
+                if let Some(done) = self.sms[sm].traversal_done(done) {
+                    self.shade(now, sm, done);
                 }
-            }
-            if self.rts[i].send(now, i, &mut self.mem)? {
-                self.watchdog.progress(now);
             }
         }
-        for (i, (sm, states)) in self.sms.iter_mut().zip(&mut self.states).enumerate() {
-            match states.send(now, i, &mut self.mem)? {
-                StateSend::Idle => {}
-                StateSend::Accepted => self.watchdog.progress(now),
-                StateSend::Saved(id) => {
-                    self.watchdog.progress(now);
-                    sm.state_saved(id);
-                }
-            }
+        // Idle RT units are caught up lazily when next stepped.
+        if self.rts[sm].send(now, sm, &mut self.mem)? {
+            self.watchdog.progress(now);
         }
         Ok(())
     }
@@ -403,26 +449,52 @@ impl Gpu<'_> {
         self.sms[sm].start_shading(done.warp, until, !again, finished);
     }
 
-    /// The next cycle after `now` with work for some component. Every candidate is at least
-    /// `now + 1`, so the search stops as soon as one component has work in the next cycle.
-    fn next_event(&self, now: u64) -> Option<u64> {
+    /// The next cycle with work for some SM (every SM's wake cycle is after the current one).
+    fn next_event(&self) -> Option<u64> {
+        self.wake.iter().copied().min().filter(|&c| c != u64::MAX)
+    }
+
+    /// The next cycle after `now` at which SM `sm` has work if nothing but its own visits
+    /// changes it (`u64::MAX`: none): room for the CTA dispatch (with CTAs `pending` or ready
+    /// to resume) or a warp it can offer its RT unit (the next cycle), a shader timer, a memory
+    /// response, or work of its RT unit or CTA-state port.
+    fn wake_cycle(&self, now: u64, sm: usize, pending: bool) -> u64 {
         let soon = now + 1;
-        let mut next = self.mem.next_event().map(|c| c.max(soon));
-        let pending = self.scheduler.pending() > 0;
-        for ((sm, rt), states) in self.sms.iter().zip(&self.rts).zip(&self.states) {
-            if next == Some(soon) {
-                return next;
-            }
-            let offered = sm.peek_ready().is_some() && rt.issue_ready();
-            next = earliest(next, sm.next_timer().map(|t| t.max(soon)));
-            next = earliest(next, offered.then_some(soon));
-            next = earliest(next, rt.next_event(now));
-            next = earliest(next, states.next_event(now));
+        let (s, rt) = (&self.sms[sm], &self.rts[sm]);
+        if s.can_dispatch(pending) || (s.peek_ready().is_some() && rt.issue_ready()) {
+            return soon;
         }
-        if self.sms.iter().any(|s| s.can_dispatch(pending)) {
-            next = Some(soon);
+        let mut wake = u64::MAX;
+        if let Some(c) = s.next_timer() {
+            wake = c;
         }
-        next
+        if let Some(c) = self.mem.next_response(sm) {
+            wake = wake.min(c);
+        }
+        wake = wake.max(soon);
+        if let Some(c) = rt.next_event(now) {
+            wake = wake.min(c);
+        }
+        if let Some(c) = self.states[sm].next_event(now) {
+            wake = wake.min(c);
+        }
+        wake
+    }
+
+    /// Whether visiting SM `sm` in cycle `now` (`now > 0`; CTAs `pending`) would do nothing if
+    /// nothing changes it meanwhile. Debug builds check after every cycle that each SM is quiet
+    /// until its wake cycle (the components' answers only grow with `now`, so checking the
+    /// cycle before it suffices).
+    fn quiet(&self, now: u64, sm: usize, pending: bool) -> bool {
+        let (s, rt) = (&self.sms[sm], &self.rts[sm]);
+        let before = now.saturating_sub(1);
+        s.next_timer().is_none_or(|c| c > now)
+            && self.mem.next_response(sm).is_none_or(|c| c > now)
+            && !s.can_dispatch(pending)
+            && !(s.peek_ready().is_some() && rt.issue_ready())
+            && !rt.busy_at(now, false)
+            && rt.next_event(before).is_none_or(|c| c > now)
+            && self.states[sm].next_event(before).is_none_or(|c| c > now)
     }
 
     /// Records the time-series samples due at the start of cycle `now`.
@@ -595,14 +667,6 @@ impl Gpu<'_> {
             time_series: self.time_series,
             ray_log: self.ray_log,
         }
-    }
-}
-
-/// The earlier of two optional cycles (`None`: no event).
-fn earliest(a: Option<u64>, b: Option<u64>) -> Option<u64> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
     }
 }
 

@@ -414,6 +414,13 @@ impl MemorySystem {
         self.due.iter().copied().min().filter(|&c| c != u64::MAX)
     }
 
+    /// Completion cycle of SM `sm`'s next response, if one is queued (`None` also for an SM
+    /// that does not exist). Only SM `sm`'s own accesses change it, so an engine can keep
+    /// per-SM wake times.
+    pub fn next_response(&self, sm: usize) -> Option<u64> {
+        self.due.get(sm).copied().filter(|&c| c != u64::MAX)
+    }
+
     /// Responses queued for SM `sm` (0 for an SM that does not exist).
     pub fn pending_responses(&self, sm: usize) -> usize {
         self.sms.get(sm).map_or(0, |port| port.responses.len())
