@@ -80,8 +80,14 @@ fn check_queue_stats(out: &SimOutput) {
         s.rt.total_tests(),
         "every test is attributed to a phase"
     );
-    // Every ray that left its warp for a queue came back: records were loaded for them.
-    assert!(s.memory.ray_record.l1_bypasses > 0);
+    // Every ray an SM issued stored its record once; every ray that entered a queue left it
+    // again and had its record loaded once.
+    let q = &s.queues;
+    assert_eq!(q.ray_stores, s.rays_issued);
+    assert!(q.terminated_warps > 0 && q.enqueued_rays > 0);
+    assert_eq!(q.ray_loads, q.enqueued_rays);
+    assert_eq!(s.memory.ray_record.l1_bypasses, q.ray_loads + q.ray_stores);
+    assert!(q.restarts >= 1);
 }
 
 #[test]
@@ -103,8 +109,15 @@ fn naive_grouping_and_repack_variants_trace_every_ray_exactly() {
         let out = check_against_functional("wknd", &cfg(variant, 1, 24, &[]));
         check_queue_stats(&out);
         let finals = out.stats.phases.ray_stationary.intersection_tests;
-        if name == "naive" {
-            assert_eq!(finals, 0, "naive queues never group underpopulated queues");
+        let q = &out.stats.queues;
+        match name {
+            "naive" => {
+                assert_eq!(finals, 0, "naive queues never group underpopulated queues");
+                assert_eq!((q.grouped_warps, q.repacks), (0, 0));
+                assert!(q.treelet_warps > 0);
+            }
+            "grouping" => assert!(q.grouped_warps > 0 && q.repacks == 0, "{q:?}"),
+            _ => assert!(q.grouped_warps > 0 && q.repacks > 0, "{q:?}"),
         }
     }
 }

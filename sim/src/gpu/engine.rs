@@ -33,7 +33,7 @@ use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::rt::{RtPort, TracedWarp};
 use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
 use crate::gpu::sm::Sm;
-use crate::gpu::stats::{PhaseStats, Phases, RtTotals, Sample, SimStats};
+use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
 use crate::gpu::treelet_queues::TreeletQueues;
 use crate::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::gpu::watchdog::Watchdog;
@@ -649,6 +649,10 @@ impl Gpu<'_> {
             max_rays_in_flight: self.sms.iter().map(|s| s.max_in_flight).max().unwrap_or(0),
             rt,
             max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
+            queues: queues.iter().fold(QueueTotals::default(), |mut t, q| {
+                t.add(q.controller_stats(), &q.stats);
+                t
+            }),
             prefetches_issued: mem.prefetch.issued,
             prefetches_used: mem.prefetch.used,
             prefetches_unused_evicted: mem.prefetch.evicted_unused,

@@ -8,6 +8,7 @@ use std::path::Path;
 use serde::Serialize;
 use vtq_hdl::rt_unit::{NodeKind, RtStats};
 
+use crate::gpu::treelet_queues::QueueStats;
 use crate::memory::MemStats;
 
 /// Keys of [`SimStats`] that depend on the host or on the engine's stepping mode rather than on
@@ -37,6 +38,52 @@ pub struct Phases {
     pub treelet_stationary: PhaseStats,
     /// Final ray-stationary phase (and all of the baseline).
     pub ray_stationary: PhaseStats,
+}
+
+/// Treelet-controller and treelet-queue counters summed over all SMs (the controller's
+/// statistics registers and the queue glue's counters, `gpu::treelet_queues`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct QueueTotals {
+    /// Initial-phase warps terminated into the queues (they diverged).
+    pub terminated_warps: u64,
+    /// Rays inserted into the treelet queues.
+    pub enqueued_rays: u64,
+    /// Treelets made resident (claimed from the count table).
+    pub claims: u64,
+    /// Treelets preloaded behind the current one.
+    pub preloads: u64,
+    /// Treelet warps dispatched (one queue entry each, treelet-stationary).
+    pub treelet_warps: u64,
+    /// Ray-stationary warps grouped from underpopulated queues.
+    pub grouped_warps: u64,
+    /// Warps repacked.
+    pub repacks: u64,
+    /// Spilled rays brought back into the queue table.
+    pub refills: u64,
+    /// 32 B ray-record loads for treelet, grouped and repacked warps.
+    pub ray_loads: u64,
+    /// 32 B ray-record stores when SM warps issue their rays.
+    pub ray_stores: u64,
+    /// Controller restarts from `done` when new warps arrive (an idle controller is `done`, so
+    /// the first warp of a run counts too; then one per wave of rays).
+    pub restarts: u64,
+}
+
+impl QueueTotals {
+    /// Adds one SM's counters.
+    pub fn add(&mut self, ctl: &vtq_hdl::controller::ControllerStats, q: &QueueStats) {
+        self.terminated_warps += ctl.terminated_warps;
+        self.enqueued_rays += ctl.enqueued_rays;
+        self.claims += ctl.claims;
+        self.preloads += ctl.preloads;
+        self.treelet_warps += ctl.treelet_warps;
+        self.grouped_warps += ctl.grouped_warps;
+        self.repacks += ctl.repacks;
+        self.refills += q.refills;
+        self.ray_loads += q.ray_loads;
+        self.ray_stores += q.ray_stores;
+        self.restarts += q.restarts;
+    }
 }
 
 /// RT-unit counters summed over all SMs (from the hardware model's statistics registers).
@@ -120,7 +167,7 @@ pub fn write_time_series(path: &Path, samples: &[Sample]) -> std::io::Result<()>
 pub struct SimStats {
     /// Scene name.
     pub scene: String,
-    /// Simulated design (`baseline` or `prefetch`).
+    /// Simulated design (`baseline`, `prefetch` or `queues`).
     pub mode: String,
     /// Cycles until the last CTA retired.
     pub cycles: u64,
@@ -167,6 +214,9 @@ pub struct SimStats {
     pub max_rays_in_flight: u64,
     /// RT-unit counters summed over the SMs.
     pub rt: RtTotals,
+    /// Treelet-controller and treelet-queue counters summed over the SMs (zeros outside
+    /// `queues` mode).
+    pub queues: QueueTotals,
     /// Most requests waiting in one SM's memory access queue (back-pressure from the L1).
     pub max_access_queue: u64,
     /// Treelet prefetches that missed the L1 and fetched their sector (0 outside `prefetch`
