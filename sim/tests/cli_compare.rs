@@ -1,7 +1,6 @@
 //! End-to-end tests of `vtq compare` (designs side by side on the cycle-exact simulator) and
 //! `vtq bench --sim` (simulator speed against the functional path tracer), on tiny images of
-//! the built-in `wknd` scene. Only the baseline and prefetch designs are run: the treelet-queue
-//! designs are not simulated by every build.
+//! the built-in `wknd` scene.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -268,4 +267,32 @@ fn bench_config_options_need_sim() {
     let dir = temp_dir("bench-err");
     let out = vtq_in(&dir, &["bench", "--scene", "wknd", "--set", "gpu.sms=2"]);
     assert_one_line_error(&out, "--sim");
+}
+
+/// The default designs (baseline, prefetch, VTQ) all run, render the identical image and the VTQ
+/// row reports its treelet phases.
+#[test]
+fn default_designs_include_vtq() {
+    let dir = temp_dir("vtq");
+    let json = dir.join("all.json");
+    let mut args: Vec<&str> = vec!["compare"];
+    args.extend(TINY);
+    args.extend(["--json", json.to_str().unwrap()]);
+    let out = vtq_in(&dir, &args);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for design in ["baseline", "prefetch", "vtq"] {
+        row(&stdout, design);
+    }
+    assert!(stdout.contains("images: identical"), "{stdout}");
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let vtq = &doc["designs"][2];
+    assert_eq!(vtq["design"], "vtq");
+    assert_eq!(vtq["stats"]["mode"], "queues");
+    assert!(vtq["stats"]["cta_suspends"].as_u64().unwrap() > 0);
+    let _ = std::fs::remove_dir_all(&dir);
 }
