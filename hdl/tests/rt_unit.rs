@@ -4,8 +4,8 @@ use std::collections::BTreeMap;
 use vtq_hdl::rt_unit::{
     errors, BoundaryEvent, Hit, IssueTarget, Lane, LaneStatus, MemRequest, MemResponse,
     NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord, RayWords, RtUnit, RtUnitError,
-    RtUnitOutputs, RtUnitParams, RtUnitRegs, Split, TestResult, TraversalOrder, WarpDone,
-    WarpIssue, CHUNK_BYTES,
+    RtUnitOutputs, RtUnitParams, RtUnitRegs, SlotSummary, Split, TestResult, TraversalOrder,
+    WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig, Signals};
 
@@ -426,6 +426,9 @@ fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
         node: pending,
         next_chunk: 1,
     });
+    // The lanes were written directly: bring the unit's lane summaries up to date.
+    assert!(!regs.summaries_consistent());
+    regs.refresh_summaries();
     let idle = unit.idle_inputs();
     let mut reqs = Vec::new();
     for _ in 0..8 {
@@ -1186,4 +1189,251 @@ fn repack_releases_finished_lanes_holds_the_warp_and_an_append_refills_it() {
         .iter()
         .flatten()
         .all(|(_, o)| *o == RayOutcome::Finished));
+}
+
+/// Deterministic xorshift generator for the randomized run below.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    /// A value in `0..n`.
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+}
+
+/// `idle_cycles` as a scan of every lane (the definition the unit's lane summaries replace).
+fn idle_cycles_by_scan(regs: &RtUnitRegs) -> u64 {
+    if !regs.fifo.is_empty() || regs.split.is_some() {
+        return 0;
+    }
+    let mut idle = u64::MAX;
+    for &s in &regs.age {
+        let slot = &regs.slots[s as usize];
+        if !slot.held && slot.lanes.iter().all(Lane::quiescent) {
+            return 0;
+        }
+        for lane in &slot.lanes {
+            if lane.store_pending || lane.ready() {
+                return 0;
+            }
+            if lane.delay > 0 {
+                idle = idle.min(lane.delay as u64);
+            }
+        }
+    }
+    idle
+}
+
+/// `slot_summary` as a scan of every lane (the definition the unit's lane summaries replace).
+fn slot_summary_by_scan(
+    unit: &RtUnit<ToyDatapath>,
+    regs: &RtUnitRegs,
+    slot: u32,
+    distinct: bool,
+) -> Option<SlotSummary> {
+    let s = regs.slots.get(slot as usize).filter(|s| s.valid)?;
+    let mut treelets = Vec::new();
+    let mut sum = SlotSummary {
+        quiescent: s.lanes.iter().all(Lane::quiescent),
+        ..SlotSummary::default()
+    };
+    for lane in &s.lanes {
+        let busy = match lane.status {
+            LaneStatus::Inactive => false,
+            LaneStatus::Done => !lane.quiescent(),
+            LaneStatus::Traversing | LaneStatus::Parked => true,
+        };
+        sum.busy += u32::from(busy);
+        if lane.status == LaneStatus::Traversing {
+            sum.traversing += 1;
+            if let Some(n) = lane.ray.next_node().filter(|_| distinct) {
+                let t = unit.treelet_of(n.address);
+                if !treelets.contains(&t) {
+                    treelets.push(t);
+                }
+            }
+        }
+    }
+    sum.distinct_next_treelets = treelets.len() as u32;
+    Some(sum)
+}
+
+/// A random DAG of toy nodes, one per 128 B (two per 256 B treelet): node `i`'s children are
+/// later nodes, so every path ends. Returns the tree and the nodes (node 0 is the root).
+fn random_tree(rng: &mut Rng, count: usize) -> (Tree, Vec<NodeEntry>) {
+    // The root is a 128 B node with three children, so every ray does some work.
+    let sizes: Vec<u32> = (0..count)
+        .map(|i| {
+            if i == 0 {
+                128
+            } else {
+                32 * (1 + rng.below(4) as u32)
+            }
+        })
+        .collect();
+    let mut nodes = Vec::new();
+    let mut children = Vec::new();
+    for (i, &bytes) in sizes.iter().enumerate() {
+        let max = (((bytes - 5) / 8) as usize).min(3).min(count - 1 - i);
+        let n = if i == 0 {
+            max
+        } else {
+            rng.below(max as u64 + 1) as usize
+        };
+        let picked: Vec<usize> = (0..n)
+            .map(|_| i + 1 + rng.below((count - 1 - i) as u64) as usize)
+            .collect();
+        let kind = if picked.is_empty() {
+            NodeKind::TriangleLeaf
+        } else {
+            NodeKind::Internal
+        };
+        nodes.push(node(0x80 * i as u64, kind, bytes));
+        children.push(picked);
+    }
+    let mut tree = Tree::default();
+    for (i, picked) in children.iter().enumerate() {
+        let kids: Vec<(NodeEntry, u8)> = picked
+            .iter()
+            .map(|&j| {
+                // Every ray visits the root's children; bit 0 keeps some ray on every edge.
+                let mask = if i == 0 { ALL } else { rng.next() as u8 | 1 };
+                (nodes[j], mask)
+            })
+            .collect();
+        tree.add(nodes[i], rng.below(3) == 0, &kids);
+    }
+    (tree, nodes)
+}
+
+#[test]
+fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
+    /// Rays issued per run (ids below `max_rays`).
+    const RAYS: u32 = 128;
+    let cfg = HwConfig {
+        max_rays: 128,
+        warp_size: 8,
+        warp_buffer_size: 3,
+        stack_depth: 64,
+        ..small()
+    };
+    for seed in 1..=4u64 {
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ seed);
+        let (tree, nodes) = random_tree(&mut rng, 24);
+        let mut mem = Memory::new(tree, 3 + seed);
+        for n in &nodes {
+            mem.extra.insert(n.address, rng.below(6));
+        }
+        let mut sim = Sim::new(cfg.clone(), RtUnitParams::default(), mem);
+        let mut next_ray = 0u32;
+        let (mut stops, mut repacks, mut fills, mut idle) = (0, 0, 0, 0);
+        // Held slots waiting for their (empty) repack fill, and the cycle it comes.
+        let mut fill_due: Vec<(u64, u32)> = Vec::new();
+        loop {
+            let regs = &sim.regs;
+            assert!(
+                regs.summaries_consistent(),
+                "seed {seed} cycle {}",
+                sim.cycle
+            );
+            let idle_cycles = sim.unit.idle_cycles(regs);
+            assert_eq!(
+                idle_cycles,
+                idle_cycles_by_scan(regs),
+                "seed {seed} cycle {}",
+                sim.cycle
+            );
+            idle += u32::from(idle_cycles > 0 && idle_cycles < u64::MAX);
+            for s in 0..cfg.warp_buffer_size + 1 {
+                for distinct in [false, true] {
+                    assert_eq!(
+                        sim.unit.slot_summary(regs, s, distinct),
+                        slot_summary_by_scan(&sim.unit, regs, s, distinct),
+                        "seed {seed} cycle {} slot {s}",
+                        sim.cycle
+                    );
+                }
+            }
+            let valid: Vec<u32> = (0..cfg.warp_buffer_size)
+                .filter(|&s| regs.slots[s as usize].valid)
+                .collect();
+            if next_ray >= RAYS && valid.is_empty() {
+                break;
+            }
+            assert!(sim.cycle < 20_000, "seed {seed}: warps did not complete");
+            let mut issue = None;
+            if let Some(i) = fill_due.iter().position(|&(at, _)| at <= sim.cycle) {
+                let (_, slot) = fill_due.remove(i);
+                let mut w = warp(TraversalOrder::RayStationary, 8, Vec::new());
+                w.target = IssueTarget::Append { slot, last: true };
+                issue = Some(w);
+                fills += 1;
+            } else if next_ray < RAYS && sim.unit.issue_ready(regs) && rng.below(4) == 0 {
+                let order = TraversalOrder::ALL[rng.below(3) as usize];
+                let lanes = (0..8)
+                    .map(|_| {
+                        let id = next_ray;
+                        next_ray += 1;
+                        (rng.below(5) != 0)
+                            .then(|| RayRecord::new(id, words(rng.below(8) as u32), nodes[0]))
+                    })
+                    .collect();
+                issue = Some(warp(order, 8, lanes));
+            }
+            let mut stop = None;
+            let mut repack = None;
+            // Stop only a warp that cannot complete in this cycle (a stop of a slot that
+            // empties in the same cycle is a protocol error).
+            let busy: Vec<u32> = valid
+                .iter()
+                .copied()
+                .filter(|&s| {
+                    sim.unit
+                        .slot_summary(regs, s, false)
+                        .is_some_and(|m| !m.quiescent)
+                })
+                .collect();
+            if !busy.is_empty() && rng.below(150) == 0 {
+                stop = Some(busy[rng.below(busy.len() as u64) as usize]);
+                stops += 1;
+            }
+            let unheld: Vec<u32> = valid
+                .iter()
+                .copied()
+                .filter(|&s| !regs.slots[s as usize].held)
+                .collect();
+            if fill_due.is_empty() && !unheld.is_empty() && rng.below(100) == 0 {
+                let s = unheld[rng.below(unheld.len() as u64) as usize];
+                repack = Some(s);
+                fill_due.push((sim.cycle + 1 + rng.below(30), s));
+                repacks += 1;
+            }
+            sim.step_with(|i| {
+                i.issue = issue;
+                i.stop = stop;
+                i.repack = repack;
+            });
+            // A repack of a slot that completed in the same cycle releases nothing and holds
+            // nothing: its fill is not needed.
+            if let Some(s) = repack {
+                if !sim.regs.slots[s as usize].valid {
+                    fill_due.retain(|&(_, slot)| slot != s);
+                }
+            }
+        }
+        assert_eq!(sim.regs.errors, 0, "seed {seed}");
+        assert!(
+            sim.regs.stats.tests.iter().sum::<u64>() > 100,
+            "seed {seed}"
+        );
+        assert!(stops > 0 && repacks > 0 && fills > 0, "seed {seed}");
+        assert!(idle > 0, "seed {seed}: no idle period was exercised");
+    }
 }

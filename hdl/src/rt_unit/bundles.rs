@@ -394,6 +394,100 @@ pub struct WarpSlot {
     pub held: bool,
     /// `warp_size` lanes.
     pub lanes: Vec<Lane>,
+    /// Simulation cache, not a register: per-lane predicates of `lanes` as bit masks, always
+    /// equal to `LaneMasks::of(&lanes)` (see [`RtUnitRegs::refresh_summaries`]).
+    pub(super) masks: LaneMasks,
+}
+
+/// Per-lane predicates of one slot's lanes as bit masks (bit `l` for lane `l`; `warp_size` is
+/// at most 64), and the leader of each lane's node in flight. A simulation cache, not hardware state: it is a pure function of the lanes
+/// ([`LaneMasks::of`]), kept up to date by every write to a lane so that the per-cycle
+/// decisions (completion, scheduling, delay countdown, response delivery, idle cycles) need not
+/// scan all lanes. It is not described and not traced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct LaneMasks {
+    /// `status == Traversing`.
+    pub traversing: u64,
+    /// `status == Done`.
+    pub done: u64,
+    /// `status == Parked`.
+    pub parked: u64,
+    /// `store_pending`.
+    pub store: u64,
+    /// `delay > 0`.
+    pub delayed: u64,
+    /// `in_flight.is_some()`.
+    pub in_flight: u64,
+    /// The ray has a next node (`!ray.finished()`).
+    pub has_next: u64,
+    /// Per lane the low 8 bits of `in_flight.leader` (0 with nothing in flight), so response
+    /// delivery reads the lanes of one request only instead of every lane with a node in flight.
+    pub leader: [u8; 64],
+}
+
+impl Default for LaneMasks {
+    fn default() -> Self {
+        LaneMasks {
+            traversing: 0,
+            done: 0,
+            parked: 0,
+            store: 0,
+            delayed: 0,
+            in_flight: 0,
+            has_next: 0,
+            leader: [0; 64],
+        }
+    }
+}
+
+impl LaneMasks {
+    /// The masks of `lanes`.
+    pub fn of(lanes: &[Lane]) -> Self {
+        let mut m = LaneMasks::default();
+        for (l, lane) in lanes.iter().enumerate() {
+            m.set(l, lane);
+        }
+        m
+    }
+
+    /// Recomputes lane `l`'s bits from `lane`.
+    #[inline]
+    pub fn set(&mut self, l: usize, lane: &Lane) {
+        let bit = 1u64 << l;
+        let put = |mask: &mut u64, on: bool| *mask = (*mask & !bit) | (u64::from(on) << l);
+        put(&mut self.traversing, lane.status == LaneStatus::Traversing);
+        put(&mut self.done, lane.status == LaneStatus::Done);
+        put(&mut self.parked, lane.status == LaneStatus::Parked);
+        put(&mut self.store, lane.store_pending);
+        put(&mut self.delayed, lane.delay > 0);
+        put(&mut self.in_flight, lane.in_flight.is_some());
+        put(&mut self.has_next, !lane.ray.finished());
+        self.leader[l] = lane.in_flight.map_or(0, |f| f.leader as u8);
+    }
+
+    /// Lanes that are not [`Lane::quiescent`].
+    #[inline]
+    pub fn busy(&self) -> u64 {
+        self.traversing | self.in_flight | self.delayed | self.store
+    }
+
+    /// Lanes that are [`Lane::ready`].
+    #[inline]
+    pub fn ready(&self) -> u64 {
+        self.traversing & !self.in_flight & !self.delayed & self.has_next
+    }
+}
+
+/// The set bits of `mask`, lowest first.
+#[inline]
+pub(super) fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
 }
 
 /// The remaining chunks of the node whose first chunk was requested (highest scheduler
@@ -460,6 +554,25 @@ pub struct RtUnitRegs {
     pub errors: u8,
     /// Statistics counters.
     pub stats: RtStats,
+}
+
+impl RtUnitRegs {
+    /// Recomputes the simulation caches that summarize the lanes of each slot. The RT unit keeps
+    /// them up to date itself; call this only after writing lane registers directly (for
+    /// example when building a register state by hand in a test).
+    pub fn refresh_summaries(&mut self) {
+        for slot in &mut self.slots {
+            slot.masks = LaneMasks::of(&slot.lanes);
+        }
+    }
+
+    /// Whether every slot's cached lane summary equals a fresh computation from its lanes (the
+    /// invariant [`refresh_summaries`](Self::refresh_summaries) restores).
+    pub fn summaries_consistent(&self) -> bool {
+        self.slots
+            .iter()
+            .all(|slot| slot.masks == LaneMasks::of(&slot.lanes))
+    }
 }
 
 /// A combinational summary of one warp-buffer slot, as the treelet controller's reports need it

@@ -38,6 +38,16 @@
 //! [`TraversalOrder::TreeletStop`] the ray stops ([`RayOutcome::AtBoundary`]). The single-stack
 //! [`TraversalOrder::RayStationary`] order pushes every child on the current stack.
 //!
+//! # Lane summaries (simulation cache)
+//! Each slot carries bit masks of its lanes' predicates (traversing, done, parked, store
+//! pending, delay above 0, node in flight, next node present) and each in-flight lane's leader.
+//! They are not registers: they are a pure function of the lanes, updated wherever a lane is
+//! written, so that completion, scheduling, the delay countdown, response delivery,
+//! [`RtUnit::idle_cycles`] and [`RtUnit::slot_summary`] touch only the lanes concerned instead
+//! of scanning all of them. Code that writes lane registers directly must call
+//! [`RtUnitRegs::refresh_summaries`] afterwards; debug builds check the summaries at the start
+//! of every cycle.
+//!
 //! # Signals
 //! Per-lane fields of a bus port appear in traces as `<port>_<lane>`, the 256-bit data buses as
 //! `<port>_<k>` 64-bit words (`k` = 0 for the lowest bytes). Ray words and stack contents are
@@ -47,6 +57,7 @@ mod bundles;
 mod desc;
 mod node;
 
+use bundles::{bits, LaneMasks};
 pub use bundles::{
     errors, BoundaryEvent, InFlight, IssueTarget, Lane, LaneStatus, MemRequest, MemResponse,
     RayOutcome, RayRecord, RtStats, RtUnitInputs, RtUnitOutputs, RtUnitRegs, SlotSummary, Split,
@@ -233,35 +244,29 @@ impl<D: NodeDatapath> RtUnit<D> {
         distinct: bool,
     ) -> Option<SlotSummary> {
         let s = regs.slots.get(slot as usize).filter(|s| s.valid)?;
-        let mut sum = SlotSummary {
-            quiescent: true,
-            ..SlotSummary::default()
-        };
+        let m = &s.masks;
+        let not_quiet = m.busy();
         // At most warp_size distinct treelets: a fixed bank, searched linearly.
         let mut treelets = [0u64; 64];
         let mut found = 0;
-        for lane in &s.lanes {
-            let quiet = lane.quiescent();
-            sum.quiescent &= quiet;
-            match lane.status {
-                LaneStatus::Inactive => {}
-                LaneStatus::Done if quiet => {}
-                LaneStatus::Traversing => {
-                    sum.traversing += 1;
-                    sum.busy += 1;
-                    if let Some(n) = lane.ray.next_node().filter(|_| distinct) {
-                        let t = self.treelet_of(n.address);
-                        if !treelets[..found].contains(&t) && found < treelets.len() {
-                            treelets[found] = t;
-                            found += 1;
-                        }
+        if distinct {
+            for l in bits(m.traversing) {
+                if let Some(n) = s.lanes[l].ray.next_node() {
+                    let t = self.treelet_of(n.address);
+                    if !treelets[..found].contains(&t) && found < treelets.len() {
+                        treelets[found] = t;
+                        found += 1;
                     }
                 }
-                LaneStatus::Done | LaneStatus::Parked => sum.busy += 1,
             }
         }
-        sum.distinct_next_treelets = found as u32;
-        Some(sum)
+        Some(SlotSummary {
+            traversing: m.traversing.count_ones(),
+            // Traversing, parked, or done with something outstanding.
+            busy: (m.traversing | m.parked | (m.done & not_quiet)).count_ones(),
+            distinct_next_treelets: found as u32,
+            quiescent: not_quiet == 0,
+        })
     }
 
     /// Treelet of a byte address (address >> log2(treelet_bytes)).
@@ -290,16 +295,12 @@ impl<D: NodeDatapath> RtUnit<D> {
         let mut idle = u64::MAX;
         for &s in &regs.age {
             let slot = &regs.slots[s as usize];
-            if !slot.held && slot.lanes.iter().all(Lane::quiescent) {
+            let m = &slot.masks;
+            if (!slot.held && m.busy() == 0) || m.store | m.ready() != 0 {
                 return 0;
             }
-            for lane in &slot.lanes {
-                if lane.store_pending || lane.ready() {
-                    return 0;
-                }
-                if lane.delay > 0 {
-                    idle = idle.min(lane.delay as u64);
-                }
+            for l in bits(m.delayed) {
+                idle = idle.min(slot.lanes[l].delay as u64);
             }
         }
         idle
@@ -316,14 +317,14 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
         for slot in regs.slots.iter_mut().filter(|s| s.valid) {
             regs.stats.warp_cycles += n;
-            let mut traversing = 0;
-            for lane in slot.lanes.iter_mut() {
-                if lane.status == LaneStatus::Traversing {
-                    traversing += 1;
-                }
+            regs.stats.active_thread_cycles += n * u64::from(slot.masks.traversing.count_ones());
+            for l in bits(slot.masks.delayed) {
+                let lane = &mut slot.lanes[l];
                 lane.delay = (lane.delay as u64).saturating_sub(n) as u32;
+                if lane.delay == 0 {
+                    slot.masks.delayed &= !(1 << l);
+                }
             }
-            regs.stats.active_thread_cycles += n * traversing;
         }
     }
 
@@ -404,6 +405,10 @@ impl<D: NodeDatapath> RtUnit<D> {
 
     /// The whole cycle, in place; `eval` runs it on a copy of the registers.
     fn update(&self, r: &mut RtUnitRegs, inp: &RtUnitInputs) -> RtUnitOutputs {
+        debug_assert!(
+            r.summaries_consistent(),
+            "lane summaries out of date: call RtUnitRegs::refresh_summaries after writing lanes"
+        );
         let free_mask = r
             .slots
             .iter()
@@ -416,20 +421,18 @@ impl<D: NodeDatapath> RtUnit<D> {
         // 1. Statistics.
         for slot in r.slots.iter().filter(|s| s.valid) {
             r.stats.warp_cycles += 1;
-            r.stats.active_thread_cycles += slot
-                .lanes
-                .iter()
-                .filter(|l| l.status == LaneStatus::Traversing)
-                .count() as u64;
+            r.stats.active_thread_cycles += u64::from(slot.masks.traversing.count_ones());
         }
 
         // 2. Completion, 3. memory scheduler, 4. delay countdown.
         let done = self.complete(r);
         let request = self.schedule(r);
         for slot in &mut r.slots {
-            for lane in &mut slot.lanes {
-                if lane.delay > 0 {
-                    lane.delay -= 1;
+            for l in bits(slot.masks.delayed) {
+                let lane = &mut slot.lanes[l];
+                lane.delay -= 1;
+                if lane.delay == 0 {
+                    slot.masks.delayed &= !(1 << l);
                 }
             }
         }
@@ -506,6 +509,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                         *lane = Self::lane_for(ray);
                     }
                 }
+                slot.masks = LaneMasks::of(&slot.lanes);
                 if last {
                     slot.held = false;
                 }
@@ -521,13 +525,14 @@ impl<D: NodeDatapath> RtUnit<D> {
             return;
         };
         slot.order = TraversalOrder::TreeletStop;
-        for lane in &mut slot.lanes {
+        for (l, lane) in slot.lanes.iter_mut().enumerate() {
             if lane.status == LaneStatus::Traversing
                 && lane.in_flight.is_none()
                 && lane.ray.current_stack.is_empty()
                 && !lane.ray.other_stack.is_empty()
             {
                 lane.status = LaneStatus::Parked;
+                slot.masks.set(l, lane);
             }
         }
     }
@@ -547,6 +552,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 })
             })
             .collect();
+        slot.masks = LaneMasks::of(&slot.lanes);
         Some(WarpDone { slot: s, lanes })
     }
 
@@ -567,7 +573,7 @@ impl<D: NodeDatapath> RtUnit<D> {
     fn complete(&self, r: &mut RtUnitRegs) -> Option<WarpDone> {
         let pos = r.age.iter().position(|&s| {
             let slot = &r.slots[s as usize];
-            !slot.held && slot.lanes.iter().all(Lane::quiescent)
+            !slot.held && slot.masks.busy() == 0
         })?;
         let s = r.age.remove(pos);
         let slot = &mut r.slots[s as usize];
@@ -588,6 +594,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 Some((std::mem::take(&mut lane.ray), outcome))
             })
             .collect();
+        slot.masks = LaneMasks::of(&slot.lanes);
         Some(WarpDone { slot: s, lanes })
     }
 
@@ -607,36 +614,39 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
         for &s in &r.age {
             let slot = &mut r.slots[s as usize];
-            if let Some((l, lane)) = slot
-                .lanes
-                .iter_mut()
-                .enumerate()
-                .find(|(_, l)| l.store_pending)
-            {
+            if slot.masks.store != 0 {
+                let l = slot.masks.store.trailing_zeros() as usize;
+                let lane = &mut slot.lanes[l];
                 lane.store_pending = false;
+                slot.masks.set(l, lane);
                 r.stats.stores += 1;
                 return Some(self.store_request(&lane.ray, s << lane_bits | l as u32));
             }
         }
         for &s in &r.age {
             let slot = &mut r.slots[s as usize];
-            let Some(leader) = slot.lanes.iter().position(Lane::ready) else {
+            // Serving a lane changes only that lane, so the ready set of the scan is the one at
+            // its start.
+            let ready = slot.masks.ready();
+            if ready == 0 {
                 continue;
-            };
+            }
+            let leader = ready.trailing_zeros() as usize;
             let Some(node) = slot.lanes[leader].ray.next_node() else {
                 continue;
             };
+            let same = |n: NodeEntry| n.address == node.address && n.chunks == node.chunks;
             let mut served = 0;
-            for lane in slot.lanes.iter_mut().skip(leader) {
-                // `ready` first: it rejects most lanes without reading their stacks.
-                let same = |n: NodeEntry| n.address == node.address && n.chunks == node.chunks;
-                if lane.ready() && lane.ray.next_node().is_some_and(same) {
+            for l in bits(ready) {
+                let lane = &mut slot.lanes[l];
+                if lane.ray.next_node().is_some_and(same) {
                     self.pop_next(&mut lane.ray);
                     lane.in_flight = Some(InFlight {
                         node,
                         leader: leader as u32,
                         returned: 0,
                     });
+                    slot.masks.set(l, lane);
                     served += 1;
                 }
             }
@@ -699,7 +709,12 @@ impl<D: NodeDatapath> RtUnit<D> {
         };
         let order = slot.order;
         let mut matched = false;
-        for (l, lane) in slot.lanes.iter_mut().enumerate() {
+        // Only lanes whose cached leader matches can match (the full check follows).
+        let group = bits(slot.masks.in_flight)
+            .filter(|&l| slot.masks.leader[l] == leader as u8)
+            .fold(0u64, |m, l| m | 1 << l);
+        for l in bits(group) {
+            let lane = &mut slot.lanes[l];
             let Some(f) = lane.in_flight.as_mut() else {
                 continue;
             };
@@ -720,6 +735,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 let node = f.node;
                 lane.in_flight = None;
                 let event = self.test(lane, &node, order, &mut r.stats, &mut r.errors);
+                slot.masks.set(l, lane);
                 if let Some(treelet) = event {
                     boundary.push(BoundaryEvent {
                         slot: s,
@@ -803,6 +819,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
             *lane = ray.as_ref().map_or_else(Lane::default, Self::lane_for);
         }
+        slot.masks = LaneMasks::of(&slot.lanes);
         r.age.push(s as u32);
     }
 }
@@ -823,11 +840,13 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
     type Regs = RtUnitRegs;
 
     fn reset(&self) -> RtUnitRegs {
+        let lanes = vec![Lane::default(); self.cfg.warp_size as usize];
         let slot = WarpSlot {
             valid: false,
             held: false,
             order: TraversalOrder::RayStationary,
-            lanes: vec![Lane::default(); self.cfg.warp_size as usize],
+            masks: LaneMasks::of(&lanes),
+            lanes,
         };
         RtUnitRegs {
             widths: self.widths,
