@@ -64,6 +64,52 @@ use crate::geometry::Hit;
 use crate::gpu::datapath::hit_from_hw;
 use crate::memory::{AccessClass, MemRequest};
 
+/// Whether a controller cycle did anything: an output other than its mode, or a register
+/// change other than the cycle counters (`regs` before, `next` after).
+fn acts(out: &ControllerOutputs, next: &ControllerRegs, regs: &ControllerRegs) -> bool {
+    out.ct_op != CtOp::Nop
+        || out.qt_op != QtOp::Nop
+        || out.fill.is_some()
+        || out.terminate.is_some()
+        || out.repack.is_some()
+        || out.preload.is_some()
+        || out.reserve.is_some()
+        || out.enq_ready
+        || !same_but_statistics(next, regs)
+}
+
+/// Whether two controller register sets are equal except for the statistics counters (the
+/// pattern is exhaustive, so a new register cannot be forgotten).
+fn same_but_statistics(a: &ControllerRegs, b: &ControllerRegs) -> bool {
+    let ControllerRegs {
+        widths,
+        mode,
+        seq,
+        queued_rays,
+        res,
+        res_head,
+        res_tail,
+        slots,
+        fill,
+        spare_rays,
+        spare_count,
+        pending_remove,
+        stats: _,
+    } = a;
+    *widths == b.widths
+        && *mode == b.mode
+        && *seq == b.seq
+        && *queued_rays == b.queued_rays
+        && *res == b.res
+        && *res_head == b.res_head
+        && *res_tail == b.res_tail
+        && *slots == b.slots
+        && *fill == b.fill
+        && *spare_rays == b.spare_rays
+        && *spare_count == b.spare_count
+        && *pending_remove == b.pending_remove
+}
+
 /// Tag bit marking a ray-data load's response (the low bits are the warp-buffer slot).
 pub const RAY_LOAD_TAG: u64 = 1 << 48;
 
@@ -187,6 +233,9 @@ pub struct TreeletQueues {
     /// The controller inputs the last dry run computed (valid for the next cycle if no cycle
     /// is skipped in between).
     cached: Option<ControllerInputs>,
+    /// The last dry run found the controller idle with `cached` (no output, registers
+    /// unchanged but for the cycle counters).
+    idle: bool,
     /// RT-unit intersection tests already attributed to a phase.
     tests_seen: u64,
     /// First inconsistency found (reported as an error by the caller).
@@ -230,6 +279,7 @@ impl TreeletQueues {
             awake: true,
             ct_wake: u64::MAX,
             cached: None,
+            idle: false,
             tests_seen: 0,
             fault: None,
             stats: QueueStats::default(),
@@ -306,6 +356,12 @@ impl TreeletQueues {
                 .step(&mut self.ct_regs, &self.ct.input(CountOp::Nop));
             left -= 1;
         }
+        self.count_cycles(n);
+    }
+
+    /// Counts `n` cycles in which the controller did nothing in its mode's cycle counter, as
+    /// its `eval` would.
+    fn count_cycles(&mut self, n: u64) {
         let s = &mut self.ctl_regs.stats;
         let c = match self.ctl_regs.mode {
             Mode::Initial => &mut s.cycles_initial,
@@ -441,7 +497,7 @@ impl TreeletQueues {
         // The dry run of the last step computed these inputs from the same registers unless
         // cycles were skipped since (they change the RT unit's delays) or the controller
         // restarted.
-        let inp = match self.cached.take() {
+        let (inp, reused) = match self.cached.take() {
             Some(mut inp) if !restarted => {
                 self.set_offering(&mut inp, offering);
                 debug_assert_eq!(
@@ -449,33 +505,53 @@ impl TreeletQueues {
                     self.inputs(unit, regs, offering),
                     "stale cached inputs"
                 );
-                inp
+                (inp, true)
             }
-            _ => self.inputs(unit, regs, offering),
+            _ => (self.inputs(unit, regs, offering), false),
         };
         let admitting = self.admitting();
-        let out = self.ctl.step(&mut self.ctl_regs, &inp);
-        if inp.warp_done.is_some() || out.enq_ready {
+        // The dry run found the controller idle for exactly these inputs (no warp offered):
+        // this cycle only counts in its mode's cycle counter (debug builds check it).
+        let idle = reused && self.idle && !(offering && admitting);
+        let out = if idle {
+            debug_assert!(
+                {
+                    let (o, n) = self.ctl.eval(&self.ctl_regs, &inp);
+                    !acts(&o, &n, &self.ctl_regs)
+                },
+                "the controller was not idle"
+            );
+            self.count_cycles(1);
+            None
+        } else {
+            Some(self.ctl.step(&mut self.ctl_regs, &inp))
+        };
+        let out = out.as_ref();
+        if inp.warp_done.is_some() || out.is_some_and(|o| o.enq_ready) {
             if let Some(Event::WarpDone(s)) = self.events.pop_front() {
                 self.uses[s as usize] = SlotUse::Free;
             }
         }
-        self.step_tables(&out);
+        self.step_tables(
+            out.map_or(CtOp::Nop, |o| o.ct_op),
+            out.map_or(QtOp::Nop, |o| o.qt_op),
+        );
         let mut cmd = Commands {
-            stop: out.terminate,
-            repack: out.repack,
-            preload: out.preload,
+            stop: out.and_then(|o| o.terminate),
+            repack: out.and_then(|o| o.repack),
+            preload: out.and_then(|o| o.preload),
             ..Commands::default()
         };
-        if let Some(fill) = &out.fill {
+        if let Some(fill) = out.and_then(|o| o.fill.as_ref()) {
             self.start_fill(fill, requests);
         }
         cmd.issue = self.finished_build(regs);
+        let reserve = out.and_then(|o| o.reserve);
         if cmd.issue.is_none() && admitting {
             cmd.sm_slot = (0..self.uses.len() as u32).find(|&s| {
                 self.uses[s as usize] == SlotUse::Free
                     && !regs.slots[s as usize].valid
-                    && out.reserve != Some(s)
+                    && reserve != Some(s)
             });
         }
         cmd
@@ -488,6 +564,7 @@ impl TreeletQueues {
     /// pointers are published ([`wake`](Self::wake)).
     /// No SM warp is assumed offered: a cycle in which one is offered is evaluated anyway.
     fn dry_run<D: NodeDatapath>(&mut self, unit: &RtUnit<D>, regs: &RtUnitRegs) -> bool {
+        self.idle = false;
         if self.qt_regs.ctl.state != QueueState::Idle
             || self.qt_done.is_some()
             || self.ct_evict.is_some()
@@ -498,21 +575,14 @@ impl TreeletQueues {
         let inp = self.inputs(unit, regs, false);
         let (out, next) = self.ctl.eval(&self.ctl_regs, &inp);
         self.cached = Some(inp);
-        let mut same = next.clone();
-        same.stats = self.ctl_regs.stats;
-        out.ct_op != CtOp::Nop
-            || out.qt_op != QtOp::Nop
-            || out.fill.is_some()
-            || out.terminate.is_some()
-            || out.repack.is_some()
-            || out.preload.is_some()
-            || out.reserve.is_some()
-            || same != self.ctl_regs
+        let acts = acts(&out, &next, &self.ctl_regs);
+        self.idle = !acts;
+        acts
     }
 
     /// Applies this cycle's table ops and keeps the tables' answers for the next cycle.
-    fn step_tables(&mut self, out: &ControllerOutputs) {
-        let ct_op = match out.ct_op {
+    fn step_tables(&mut self, ct_op: CtOp, qt_op: QtOp) {
+        let ct_op = match ct_op {
             CtOp::Nop => CountOp::Nop,
             CtOp::Add { treelet, rays } => CountOp::Add {
                 treelet: treelet as u64,
@@ -537,7 +607,7 @@ impl TreeletQueues {
             .max_queues_above_threshold
             .max(self.ct_regs.above as u64);
 
-        let qt_op = match out.qt_op {
+        let qt_op = match qt_op {
             QtOp::Nop => QueueOp::Nop,
             QtOp::Insert { treelet, ray } => QueueOp::Insert {
                 treelet: treelet as u64,
