@@ -164,3 +164,14 @@ fn runs_are_deterministic() {
     assert_eq!(a.ray_log, b.ray_log);
     assert_eq!(a.image, b.image);
 }
+
+/// A warp buffer of several slots: SM warps, treelet warps, grouped and repacked warps share
+/// it (reserved slots, appends into held slots), and still every ray is traced exactly once.
+#[test]
+fn a_wider_warp_buffer_traces_every_ray_exactly() {
+    let c = cfg(VTQ, 1, 32, &["hw.warp_buffer_size=4"]);
+    let out = check_against_functional("wknd", &c);
+    check_queue_stats(&out);
+    let (skip, _) = check_skip_matches_lockstep(&cfg(NAIVE, 1, 24, &["hw.warp_buffer_size=2"]));
+    check_queue_stats(&skip);
+}
