@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::{check_against_functional, check_skip_matches_lockstep, run, setup, small_config};
+use common::{
+    check_against_functional, check_skip_matches_lockstep, run, setup, small_config, STARVED_MEMORY,
+};
 use vtq_sim::gpu::stats::comparable_json;
 use vtq_sim::gpu::{simulate, SimError, SimOptions};
 
@@ -58,19 +60,7 @@ fn runs_are_deterministic() {
 /// with a state dump of every component.
 #[test]
 fn watchdog_stops_a_run_without_progress() {
-    let cfg = small_config(
-        "baseline",
-        2,
-        8,
-        &[
-            "memory.l1_latency=1",
-            "memory.l2_latency=1",
-            "memory.dram_latency=1",
-            "memory.dram_bytes_per_cycle=1",
-            "memory.l1_mshrs=1",
-            "sim.watchdog_cycles=8",
-        ],
-    );
+    let cfg = small_config("baseline", 2, 8, &STARVED_MEMORY);
     let (scene, bvh) = setup("wknd", &cfg);
     let err = simulate(&scene, &bvh, &cfg, SimOptions::default(), None).unwrap_err();
     let SimError::Watchdog {

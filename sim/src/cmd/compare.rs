@@ -19,7 +19,7 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::bvh::HwBvh;
-use crate::cmd::options::{build_bvh, load_scene, BvhArgs};
+use crate::cmd::options::{build_bvh, load_scene, CacheArgs};
 use crate::config::SimConfig;
 use crate::gpu::{simulate, SimOptions, SimStats};
 use crate::scene::Scene;
@@ -96,13 +96,9 @@ pub struct CompareArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
-    /// Directory of cached BVH builds [default: $VTQ_CACHE_DIR, else $XDG_CACHE_HOME/vtq, else
-    /// ~/.cache/vtq].
-    #[arg(long)]
-    pub cache_dir: Option<PathBuf>,
-    /// Always build the BVH; neither read nor write the cache.
-    #[arg(long)]
-    pub no_cache: bool,
+    /// The BVH build cache.
+    #[command(flatten)]
+    pub cache: CacheArgs,
 }
 
 impl CompareArgs {
@@ -324,13 +320,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         let k = match bvhs.iter().position(|b| *b.params() == params) {
             Some(k) => k,
             None => {
-                let bvh_args = BvhArgs {
-                    bvh_width: params.width,
-                    treelet_bytes: params.treelet_bytes,
-                    cache_dir: args.cache_dir.clone(),
-                    no_cache: args.no_cache,
-                };
-                bvhs.push(build_bvh(&scene, &bvh_args)?);
+                bvhs.push(build_bvh(&scene, &params, &args.cache)?);
                 bvhs.len() - 1
             }
         };

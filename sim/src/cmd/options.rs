@@ -52,6 +52,14 @@ pub struct BvhArgs {
     /// Maximum treelet size in bytes (a power of two; 8192 = half the simulated 16 KB L1).
     #[arg(long, default_value_t = 8192)]
     pub treelet_bytes: u32,
+    /// The build cache.
+    #[command(flatten)]
+    pub cache: CacheArgs,
+}
+
+/// Where built BVHs are cached (`--cache-dir`, `--no-cache`).
+#[derive(Debug, Clone, Args)]
+pub struct CacheArgs {
     /// Directory of cached BVH builds, keyed by scene geometry and BVH parameters
     /// [default: $VTQ_CACHE_DIR, else $XDG_CACHE_HOME/vtq, else ~/.cache/vtq].
     #[arg(long)]
@@ -88,10 +96,10 @@ pub fn load_scene(spec: &str) -> anyhow::Result<Scene> {
 
 /// Build the scene's hardware BVH (through the cache unless disabled) and print its summary:
 /// nodes, bytes, treelets, fill ratio, depth, and the build or cache-load time.
-pub fn build_bvh(scene: &Scene, args: &BvhArgs) -> anyhow::Result<HwBvh> {
+pub fn build_bvh(scene: &Scene, params: &BvhParams, args: &CacheArgs) -> anyhow::Result<HwBvh> {
     let start = Instant::now();
     let context = || format!("building the BVH of scene '{}'", scene.name);
-    let params = args.params();
+    let params = *params;
     let (bvh, how) = if args.no_cache {
         let bvh = HwBvh::build(scene, &params).with_context(context)?;
         (bvh, "built (cache disabled)".to_string())
@@ -116,13 +124,13 @@ pub fn build_bvh(scene: &Scene, args: &BvhArgs) -> anyhow::Result<HwBvh> {
     println!(
         "bvh: width {}, {} internal nodes + {} leaves, {} bytes, depth {}; \
          {} treelets of <= {} bytes, fill {:.1}%",
-        args.bvh_width,
+        params.width,
         s.internal_nodes,
         s.leaves(),
         s.bvh_bytes,
         s.depth,
         s.treelets,
-        args.treelet_bytes,
+        params.treelet_bytes,
         100.0 * s.treelet_fill,
     );
     if s.excluded_prims > 0 {

@@ -54,7 +54,7 @@ fn default_out(scene_name: &str) -> PathBuf {
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let settings = args.image.settings()?;
     let scene = load_scene(&args.scene)?;
-    let bvh = build_bvh(&scene, &args.bvh)?;
+    let bvh = build_bvh(&scene, &args.bvh.params(), &args.bvh.cache)?;
 
     let progress = std::io::stderr().is_terminal().then(|| {
         let bar = indicatif::ProgressBar::new(u64::from(settings.height));

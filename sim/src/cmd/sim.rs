@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 
-use crate::cmd::options::{build_bvh, load_scene, BvhArgs};
+use crate::cmd::options::{build_bvh, load_scene, CacheArgs};
 use crate::config::SimConfig;
 use crate::gpu::stats::write_time_series;
 use crate::gpu::{simulate, SimOptions};
@@ -35,13 +35,9 @@ pub struct SimArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
-    /// Directory of cached BVH builds [default: $VTQ_CACHE_DIR, else $XDG_CACHE_HOME/vtq, else
-    /// ~/.cache/vtq].
-    #[arg(long)]
-    pub cache_dir: Option<PathBuf>,
-    /// Always build the BVH; neither read nor write the cache.
-    #[arg(long)]
-    pub no_cache: bool,
+    /// The BVH build cache.
+    #[command(flatten)]
+    pub cache: CacheArgs,
 }
 
 /// Where the time series of a statistics file goes: `<stem>.timeseries.csv` beside it.
@@ -56,13 +52,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         cfg.sim.lockstep = true;
     }
     let scene = load_scene(&args.scene)?;
-    let bvh_args = BvhArgs {
-        bvh_width: cfg.bvh.width,
-        treelet_bytes: cfg.hw.treelet_bytes,
-        cache_dir: args.cache_dir.clone(),
-        no_cache: args.no_cache,
-    };
-    let bvh = build_bvh(&scene, &bvh_args)?;
+    let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
     let settings = cfg.render_settings();
     let progress = std::io::stderr().is_terminal().then(|| {
         let bar = indicatif::ProgressBar::new(settings.pixels() as u64);

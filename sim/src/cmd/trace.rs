@@ -55,7 +55,7 @@ pub struct TraceArgs {
 pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
     let rays = read_rays(&args.rays).context("reading the rays")?;
     let scene = load_scene(&args.scene)?;
-    let bvh = build_bvh(&scene, &args.bvh)?;
+    let bvh = build_bvh(&scene, &args.bvh.params(), &args.bvh.cache)?;
     let order = Order::from(args.order);
     let hits: Vec<Option<Hit>> = rays
         .par_iter()

@@ -93,6 +93,35 @@ pub fn check_against_functional(name: &str, cfg: &SimConfig) -> SimOutput {
     out
 }
 
+/// Checks that two runs of one workload on different designs (or timing settings) traced the
+/// same rays with the same hits, in whatever order, and rendered the same image.
+pub fn check_same_results(a: &SimOutput, b: &SimOutput) {
+    assert_eq!(a.stats.rays, b.stats.rays);
+    assert_eq!(a.stats.rays_hit, b.stats.rays_hit);
+    assert_eq!(image_bits(&a.image), image_bits(&b.image));
+    let sorted = |o: &SimOutput| {
+        let mut v: Vec<_> = o
+            .ray_log
+            .iter()
+            .map(|r| (r.pixel, hit_bits(r.hit)))
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    assert_eq!(sorted(a), sorted(b));
+}
+
+/// Memory so slow (one MSHR, one DRAM byte per cycle) that the RT unit waits longer than a
+/// watchdog of 8 cycles allows.
+pub const STARVED_MEMORY: [&str; 6] = [
+    "memory.l1_latency=1",
+    "memory.l2_latency=1",
+    "memory.dram_latency=1",
+    "memory.dram_bytes_per_cycle=1",
+    "memory.l1_mshrs=1",
+    "sim.watchdog_cycles=8",
+];
+
 /// Statistics without host-dependent keys and the configuration text (which names lockstep).
 fn strip(o: &SimOutput) -> serde_json::Value {
     let mut v = comparable_json(&o.stats);
