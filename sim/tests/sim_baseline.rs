@@ -6,9 +6,9 @@
 mod common;
 
 use common::{
-    check_against_functional, check_skip_matches_lockstep, run, setup, small_config, STARVED_MEMORY,
+    check_against_functional, check_deterministic, check_skip_matches_lockstep, setup,
+    small_config, STARVED_MEMORY,
 };
-use vtq_sim::gpu::stats::comparable_json;
 use vtq_sim::gpu::{simulate, SimError, SimOptions};
 
 /// Hits and image equal the functional tracer's; the RT units' requests and stores all
@@ -46,13 +46,7 @@ fn skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    let cfg = small_config("baseline", 2, 8, &["bounces=2"]);
-    let (scene, bvh) = setup("cornell", &cfg);
-    let a = run(&scene, &bvh, &cfg);
-    let b = run(&scene, &bvh, &cfg);
-    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
-    assert_eq!(a.ray_log, b.ray_log);
-    assert_eq!(a.image, b.image);
+    check_deterministic(&small_config("baseline", 2, 8, &["bounces=2"]));
 }
 
 /// With one MSHR, one-cycle latencies and a DRAM moving one byte per cycle, every miss keeps

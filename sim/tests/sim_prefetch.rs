@@ -7,10 +7,9 @@
 mod common;
 
 use common::{
-    check_against_functional, check_same_results, check_skip_matches_lockstep, run, setup,
-    small_config,
+    check_against_functional, check_deterministic, check_same_results, check_skip_matches_lockstep,
+    run, setup, small_config,
 };
-use vtq_sim::gpu::stats::comparable_json;
 
 /// In prefetch mode every ray's closest hit equals `traversal::trace`'s, every pixel traced
 /// the functional renderer's rays in order, the image is bit-identical, and the prefetcher
@@ -49,13 +48,7 @@ fn skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    let cfg = small_config("prefetch", 2, 16, &["bounces=2"]);
-    let (scene, bvh) = setup("cornell", &cfg);
-    let a = run(&scene, &bvh, &cfg);
-    let b = run(&scene, &bvh, &cfg);
-    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
-    assert_eq!(a.ray_log, b.ray_log);
-    assert_eq!(a.image, b.image);
+    check_deterministic(&small_config("prefetch", 2, 16, &["bounces=2"]));
 }
 
 /// The prefetcher changes the timing (cycles, L1 behaviour) but not what is traced: the same

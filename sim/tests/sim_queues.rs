@@ -6,8 +6,9 @@
 
 mod common;
 
-use common::{check_against_functional, check_skip_matches_lockstep, run, setup, small_config};
-use vtq_sim::gpu::stats::comparable_json;
+use common::{
+    check_against_functional, check_deterministic, check_skip_matches_lockstep, small_config,
+};
 use vtq_sim::gpu::SimOutput;
 
 /// The overrides of each variant (the configs/ files' switches).
@@ -156,13 +157,8 @@ fn skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    let c = cfg(VTQ, 2, 16, &["bounces=2"]);
-    let (scene, bvh) = setup("cornell", &c);
-    let a = run(&scene, &bvh, &c);
-    let b = run(&scene, &bvh, &c);
-    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
-    assert_eq!(a.ray_log, b.ray_log);
-    assert_eq!(a.image, b.image);
+    let out = check_deterministic(&cfg(VTQ, 2, 16, &["bounces=2"]));
+    assert!(out.stats.queues.enqueued_rays > 0);
 }
 
 /// A warp buffer of several slots: SM warps, treelet warps, grouped and repacked warps share

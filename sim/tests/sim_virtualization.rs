@@ -8,11 +8,10 @@
 mod common;
 
 use common::{
-    check_against_functional, check_same_results, check_skip_matches_lockstep, image_bits, run,
-    setup, small_config, STARVED_MEMORY,
+    check_against_functional, check_deterministic, check_same_results, check_skip_matches_lockstep,
+    run, setup, small_config, STARVED_MEMORY,
 };
 use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::stats::comparable_json;
 use vtq_sim::gpu::{simulate, SimError, SimOptions, SimOutput};
 
 /// `mode` with ray virtualization on one SM, a `side` x `side` image, then `extra`.
@@ -121,15 +120,8 @@ fn prefetch_skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    let cfg = virt_config("prefetch", 32, &["bounces=2"]);
-    let (scene, bvh) = setup("cornell", &cfg);
-    let a = run(&scene, &bvh, &cfg);
-    let b = run(&scene, &bvh, &cfg);
-    assert!(a.stats.cta_suspends > 0);
-    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
-    assert_eq!(a.time_series, b.time_series);
-    assert_eq!(a.ray_log, b.ray_log);
-    assert_eq!(image_bits(&a.image), image_bits(&b.image));
+    let out = check_deterministic(&virt_config("prefetch", 32, &["bounces=2"]));
+    assert!(out.stats.cta_suspends > 0);
 }
 
 /// Virtualization changes the timing (cycles, memory traffic) but not what is traced; without

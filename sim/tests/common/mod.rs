@@ -93,6 +93,19 @@ pub fn check_against_functional(name: &str, cfg: &SimConfig) -> SimOutput {
     out
 }
 
+/// Runs the cornell box twice with `cfg` and checks both runs give identical statistics (but
+/// for host-dependent keys), time series, ray logs and images. Returns the first run.
+pub fn check_deterministic(cfg: &SimConfig) -> SimOutput {
+    let (scene, bvh) = setup("cornell", cfg);
+    let a = run(&scene, &bvh, cfg);
+    let b = run(&scene, &bvh, cfg);
+    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
+    assert_eq!(a.time_series, b.time_series);
+    assert_eq!(a.ray_log, b.ray_log);
+    assert_eq!(image_bits(&a.image), image_bits(&b.image));
+    a
+}
+
 /// Checks that two runs of one workload on different designs (or timing settings) traced the
 /// same rays with the same hits, in whatever order, and rendered the same image.
 pub fn check_same_results(a: &SimOutput, b: &SimOutput) {
