@@ -14,7 +14,11 @@
 //!    warps that complete this cycle. Both choices depend on registers only, so skipping idle
 //!    cycles cannot change them.
 //! 2. The controller is evaluated; its table ops are applied to the tables (a table with no op
-//!    and no work in progress is not stepped: its registers would not change).
+//!    and no work in progress is not stepped: its registers would not change). After every
+//!    step a dry run evaluates the controller on the new registers: if it would do nothing,
+//!    the engine may skip cycles (a count-table scan's `Nop` cycles are stepped on catching
+//!    up), and the next step reuses the dry run's inputs and, when they still hold, does not
+//!    evaluate the controller again (debug builds check both against a real evaluation).
 //! 3. Its commands go to the RT unit: `terminate` → the unit's `stop`, `repack` → `repack`,
 //!    `fill` → ray-data loads, then (when every ray of the fill has arrived and the fill is
 //!    complete) one warp issue into the reserved slot (or an append, for a repack), `preload`
@@ -111,7 +115,7 @@ fn same_but_statistics(a: &ControllerRegs, b: &ControllerRegs) -> bool {
 }
 
 /// Tag bit marking a ray-data load's response (the low bits are the warp-buffer slot).
-pub const RAY_LOAD_TAG: u64 = 1 << 48;
+const RAY_LOAD_TAG: u64 = 1 << 48;
 
 /// Who owns a warp-buffer slot, as the glue sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
