@@ -295,18 +295,8 @@ impl TreeletQueues {
         &self.ctl_regs.stats
     }
 
-    /// The controller's mode.
-    pub fn mode(&self) -> Mode {
-        self.ctl_regs.mode
-    }
-
-    /// Rays waiting in the queue table or spilled from it.
-    pub fn queued_rays(&self) -> u32 {
-        self.ctl_regs.queued_rays
-    }
-
     /// Ray ids in use (rays this SM's RT unit holds, queues or still has to return).
-    pub fn rays_in_flight(&self) -> u32 {
+    fn rays_in_flight(&self) -> u32 {
         self.max_rays - self.free_ids.len() as u32
     }
 
