@@ -57,6 +57,24 @@ fn assert_one_line_error(out: &Output, needle: &str) {
     );
 }
 
+/// Runs `vtq compare` in `dir` on the tiny workload with `extra` options, writing `--json json`;
+/// checks it succeeded and returns its stdout and the JSON document.
+fn compare_ok(dir: &Path, extra: &[&str], json: &Path) -> (String, Value) {
+    let mut args = vec!["compare"];
+    args.extend_from_slice(extra);
+    args.extend(TINY);
+    args.extend(["--json", json.to_str().unwrap()]);
+    let out = vtq_in(dir, &args);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc = serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    (stdout, doc)
+}
+
 /// The table row of `design`, split into columns.
 fn row<'a>(stdout: &'a str, design: &str) -> Vec<&'a str> {
     let line = stdout
@@ -80,16 +98,7 @@ fn comparable(entry: &Value) -> Value {
 fn compare_baseline_and_prefetch() {
     let dir = temp_dir("two");
     let json = dir.join("cmp.json");
-    let mut args = vec!["compare", "--designs", "baseline,prefetch"];
-    args.extend(TINY);
-    args.extend(["--json", json.to_str().unwrap()]);
-    let out = vtq_in(&dir, &args);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "stdout: {stdout}\nstderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let (stdout, doc) = compare_ok(&dir, &["--designs", "baseline,prefetch"], &json);
 
     let header = stdout
         .lines()
@@ -118,7 +127,6 @@ fn compare_baseline_and_prefetch() {
         "no identical-image line in:\n{stdout}"
     );
 
-    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(doc["scene"], "wknd");
     assert_eq!(doc["images_identical"], true);
     let designs = doc["designs"].as_array().expect("a designs array");
@@ -154,15 +162,9 @@ fn config_file_design_matches_the_built_in_on_any_thread_count() {
     let file = workspace_root().join("configs/prefetch.toml");
     let designs = format!("prefetch,{}", file.display());
     for jobs in ["1", "2"] {
-        let mut args = vec!["compare", "--designs", &designs, "--jobs", jobs];
-        args.extend(TINY);
-        args.extend(["--json", json.to_str().unwrap()]);
-        let out = vtq_in(&dir, &args);
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "stdout: {stdout}");
+        let (stdout, doc) = compare_ok(&dir, &["--designs", &designs, "--jobs", jobs], &json);
         // Without the baseline, speedups are over the first design.
         assert_eq!(row(&stdout, "prefetch")[2], "1.00");
-        let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         let designs = doc["designs"].as_array().unwrap();
         assert_eq!(designs.len(), 2);
         assert_eq!(designs[1]["source"], file.display().to_string());
@@ -275,21 +277,11 @@ fn bench_config_options_need_sim() {
 fn default_designs_include_vtq() {
     let dir = temp_dir("vtq");
     let json = dir.join("all.json");
-    let mut args: Vec<&str> = vec!["compare"];
-    args.extend(TINY);
-    args.extend(["--json", json.to_str().unwrap()]);
-    let out = vtq_in(&dir, &args);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let (stdout, doc) = compare_ok(&dir, &[], &json);
     for design in ["baseline", "prefetch", "vtq"] {
         row(&stdout, design);
     }
     assert!(stdout.contains("images: identical"), "{stdout}");
-    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let vtq = &doc["designs"][2];
     assert_eq!(vtq["design"], "vtq");
     assert_eq!(vtq["stats"]["mode"], "queues");

@@ -11,7 +11,6 @@
 //! simulates the same workload, and prints simulated rays/s and the slowdown (simulation wall
 //! time over render wall time) against the project's targets.
 
-use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
@@ -25,10 +24,9 @@ use obvhs::BvhBuildParams;
 
 use crate::bvh::build::{sphere_bounds, triangle_bounds};
 use crate::bvh::HwBvh;
-use crate::cmd::options::{load_scene, BvhArgs, ConfigArgs, ImageArgs};
+use crate::cmd::options::{load_scene, simulate_with_progress, BvhArgs, ConfigArgs, ImageArgs};
 use crate::config::SimConfig;
 use crate::geometry::{Hit, Ray};
-use crate::gpu::{simulate, SimOptions};
 use crate::intersect::{ray_sphere, ray_triangle, RayPrecomp};
 use crate::scene::Scene;
 use crate::traversal::{trace, Order};
@@ -332,19 +330,7 @@ fn run_sim(args: &BenchArgs) -> anyhow::Result<()> {
 
     let functional = render_serial(&scene, &bvh, &settings, None)
         .with_context(|| format!("rendering scene '{}'", scene.name))?;
-    let progress = std::io::stderr().is_terminal().then(|| {
-        let bar = indicatif::ProgressBar::new(settings.pixels() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("sim {bar:40} {pos}/{len} pixels {elapsed}")
-                .expect("the progress template is valid"),
-        );
-        bar
-    });
-    let out = simulate(&scene, &bvh, &cfg, SimOptions::default(), progress.as_ref())
-        .with_context(|| format!("simulating scene '{}'", scene.name))?;
-    if let Some(bar) = &progress {
-        bar.finish_and_clear();
-    }
+    let out = simulate_with_progress(&scene, &bvh, &cfg)?;
     let s = &out.stats;
     if s.rays != functional.stats.rays_traced {
         anyhow::bail!(

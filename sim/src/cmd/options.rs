@@ -174,3 +174,36 @@ impl ConfigArgs {
         )?)
     }
 }
+
+/// Simulates `cfg`'s workload on `scene` (cycle-exact), with a progress bar of finished pixels
+/// while stderr is a terminal.
+pub fn simulate_with_progress(
+    scene: &Scene,
+    bvh: &HwBvh,
+    cfg: &crate::config::SimConfig,
+) -> anyhow::Result<crate::gpu::SimOutput> {
+    use std::io::IsTerminal;
+    let pixels = cfg.render_settings().pixels() as u64;
+    let progress = std::io::stderr().is_terminal().then(|| {
+        let bar = indicatif::ProgressBar::new(pixels);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "sim {bar:40} {pos}/{len} pixels {elapsed} (eta {eta})",
+            )
+            .expect("the progress template is valid"),
+        );
+        bar
+    });
+    let out = crate::gpu::simulate(
+        scene,
+        bvh,
+        cfg,
+        crate::gpu::SimOptions::default(),
+        progress.as_ref(),
+    )
+    .with_context(|| format!("simulating scene '{}'", scene.name))?;
+    if let Some(bar) = &progress {
+        bar.finish_and_clear();
+    }
+    Ok(out)
+}

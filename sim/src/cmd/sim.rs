@@ -1,16 +1,14 @@
 //! `vtq sim`: simulate the path-traced workload on the cycle-exact GPU model and write its
 //! statistics (JSON), time series (CSV beside the JSON) and, if asked, the image.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
 
-use crate::cmd::options::{build_bvh, load_scene, CacheArgs};
+use crate::cmd::options::{build_bvh, load_scene, simulate_with_progress, CacheArgs};
 use crate::config::SimConfig;
 use crate::gpu::stats::write_time_series;
-use crate::gpu::{simulate, SimOptions};
 use crate::workload::image::write_png;
 
 /// Options of `vtq sim`.
@@ -53,22 +51,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     }
     let scene = load_scene(&args.scene)?;
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
-    let settings = cfg.render_settings();
-    let progress = std::io::stderr().is_terminal().then(|| {
-        let bar = indicatif::ProgressBar::new(settings.pixels() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "sim {bar:40} {pos}/{len} pixels {elapsed} (eta {eta})",
-            )
-            .expect("the progress template is valid"),
-        );
-        bar
-    });
-    let out = simulate(&scene, &bvh, &cfg, SimOptions::default(), progress.as_ref())
-        .with_context(|| format!("simulating scene '{}'", scene.name))?;
-    if let Some(bar) = &progress {
-        bar.finish_and_clear();
-    }
+    let out = simulate_with_progress(&scene, &bvh, &cfg)?;
     let s = &out.stats;
     let json = serde_json::to_string_pretty(s).context("serializing the statistics")?;
     std::fs::write(&args.out, json + "\n")
@@ -88,7 +71,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     );
     println!("wrote {} and {}", args.out.display(), csv.display());
     if let Some(path) = &args.image {
-        write_png(path, settings.width, settings.height, &out.image)
+        write_png(path, cfg.workload.width, cfg.workload.height, &out.image)
             .context("writing the image")?;
         println!("wrote {}", path.display());
     }
