@@ -81,14 +81,17 @@ fn rt_unit_desc(cfg: HwConfig) -> BlockDesc {
         .describe()
 }
 
-/// At the paper's configuration the RT unit's per-warp stack ports are warp_size lanes x
-/// stack_depth entries x 37-bit entries (32 x 128 x 37 = 151,552 bits by default), wider than
-/// the 65,536 bits IEEE 1364-2005 guarantees but within `MAX_WIDTH`: its skeleton emits with
-/// every port at full width, lints clean with `verilator -Wall` and synthesizes with Yosys
-/// without latches or warnings.
+/// The RT unit's per-warp stack ports are warp_size lanes x stack_depth entries x 37-bit
+/// entries. At the paper's configuration with 128-entry on-chip stacks (the default is 32)
+/// that is 32 x 128 x 37 = 151,552 bits, wider than the 65,536 bits IEEE 1364-2005 guarantees
+/// but within `MAX_WIDTH`: its skeleton emits with every port at full width, lints clean with
+/// `verilator -Wall` and synthesizes with Yosys without latches or warnings.
 #[test]
 fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
-    let cfg = HwConfig::default();
+    let cfg = HwConfig {
+        stack_depth: 128,
+        ..HwConfig::default()
+    };
     let d = rt_unit_desc(cfg.clone());
     assert_eq!(d.name, "rt_unit");
     let stack = d

@@ -188,6 +188,7 @@ fn syntax_errors_are_tool_failures() {
     std::fs::write(&file, "module broken (input wire a;\nendmodule\n").unwrap();
     let Some(result) = or_skip(match synthesize(&[file], "broken", &dir) {
         Err(GenError::ToolFailed { output, .. }) => Ok(output),
+        Err(missing @ GenError::ToolMissing { .. }) => Err(missing),
         other => panic!("expected a yosys failure, got {other:?}"),
     })
     .unwrap() else {

@@ -45,13 +45,15 @@ pub struct HwConfig {
     pub preload_threshold_warps: u32,
     /// Warps the RT unit's warp buffer holds.
     pub warp_buffer_size: u32,
-    /// Entries of each per-ray traversal stack (current-treelet and other-treelet stacks).
+    /// On-chip entries of each per-ray traversal stack (current-treelet and other-treelet
+    /// stacks); older entries spill to memory in 32 B chunks and are filled back on demand, so
+    /// a stack never overflows (see the RT unit's "Stack spilling").
     ///
-    /// The default, 128, is the smallest power of two that holds the BVHs vtq builds (width 6,
-    /// depth up to 18 for the shared scenes): a depth-first stack needs up to
-    /// (width - 1) x depth + 1 = 91 entries, and every scene in `shared/scenes` (ship, bunny,
-    /// lands, fox, sponza, bath, spring) simulates at 64x64 and 256x256 without a stack
-    /// overflow with 128 entries, while sponza overflows 64 (see docs/performance.md).
+    /// The default, 32, is the short stack of the GPGPU-Sim ray-tracing model that Vulkan-Sim's
+    /// RT unit grew from (`MAX_TRAVERSAL_STACK_SIZE 32`, "short stack", in its
+    /// `ray_trace_function.h`); AMD's RDNA 3 keeps its per-lane BVH stack in LDS with 8 to 64
+    /// entries (`DS_BVH_STACK_RTN`), and Intel's Xe ray-tracing unit uses a short stack backed
+    /// by memory. At least the BVH width (a node's children must fit).
     pub stack_depth: u32,
 }
 
@@ -70,7 +72,7 @@ impl Default for HwConfig {
             divergence_threshold: 4,
             preload_threshold_warps: 2,
             warp_buffer_size: 1,
-            stack_depth: 128,
+            stack_depth: 32,
         }
     }
 }
@@ -165,7 +167,11 @@ impl HwConfig {
             ));
         }
         if !(2..=1024).contains(&self.stack_depth) {
-            return Err(err("stack_depth", self.stack_depth, "must be 2..=1024"));
+            return Err(err(
+                "stack_depth",
+                self.stack_depth,
+                "must be 2..=1024 (and at least the BVH width)",
+            ));
         }
         Ok(())
     }

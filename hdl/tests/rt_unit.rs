@@ -2,10 +2,10 @@
 
 use std::collections::BTreeMap;
 use vtq_hdl::rt_unit::{
-    errors, BoundaryEvent, Hit, IssueTarget, Lane, LaneStatus, MemRequest, MemResponse,
-    NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord, RayWords, RtUnit, RtUnitError,
-    RtUnitOutputs, RtUnitParams, RtUnitRegs, SlotSummary, Split, TestResult, TraversalOrder,
-    WarpDone, WarpIssue, CHUNK_BYTES,
+    errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
+    LaneStatus, MemRequest, MemResponse, NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord,
+    RayWords, RequestKind, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams, RtUnitRegs,
+    SlotSummary, Split, TestResult, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig, Signals};
 
@@ -128,7 +128,10 @@ impl Memory {
     fn accept(&mut self, cycle: u64, req: Option<MemRequest>) {
         let Some(req) = req else { return };
         self.log.push((cycle, req));
-        if !req.is_store {
+        if req.kind == RequestKind::StackSpill {
+            self.tree.chunks.insert(req.address, req.data);
+        }
+        if !req.is_store() {
             let due = cycle + self.latency + self.extra.get(&req.address).copied().unwrap_or(0);
             let data = self
                 .tree
@@ -151,7 +154,7 @@ impl Memory {
     fn requests(&self) -> Vec<(u64, u64, bool)> {
         self.log
             .iter()
-            .map(|(c, r)| (*c, r.address, r.is_store))
+            .map(|(c, r)| (*c, r.address, r.is_store()))
             .collect()
     }
 }
@@ -225,7 +228,7 @@ impl Sim {
             self.step(Some(w));
         }
         while self.done.len() < n {
-            assert!(self.cycle < 10_000, "warps did not complete");
+            assert!(self.cycle < 50_000, "warps did not complete");
             self.step(None);
         }
         assert_eq!(self.regs.errors, 0, "protocol errors");
@@ -243,7 +246,7 @@ fn small() -> HwConfig {
         repack_threshold: 2,
         divergence_threshold: 2,
         warp_buffer_size: 2,
-        stack_depth: 8,
+        stack_depth: 16,
         ..HwConfig::default()
     }
 }
@@ -433,7 +436,7 @@ fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
     let mut reqs = Vec::new();
     for _ in 0..8 {
         let out = unit.step(&mut regs, &idle);
-        reqs.push(out.request.map(|r| (r.address, r.is_store, r.tag)));
+        reqs.push(out.request.map(|r| (r.address, r.is_store(), r.tag)));
     }
     assert_eq!(
         reqs,
@@ -828,7 +831,7 @@ fn bad_parameters_and_issues_are_rejected_with_reasons() {
         .unwrap_err();
     assert!(e.to_string().contains("max_rays"), "{e}");
     let mut deep = RayRecord::new(1, words(0), r);
-    deep.other_stack = vec![r; 9];
+    deep.other_stack = vec![r; 17];
     let e = unit
         .check_issue(&warp(
             TraversalOrder::RayStationary,
@@ -846,33 +849,235 @@ fn bad_parameters_and_issues_are_rejected_with_reasons() {
     assert_eq!(CHUNK_BYTES, 32);
 }
 
-#[test]
-fn stack_overflow_is_flagged() {
-    // A root with 3 children and stack_depth 2.
+/// A complete `fanout`-ary tree of 64 B internal nodes `depth` levels deep over 32 B triangle
+/// leaves (a hit at every leaf, t = 0.5, so the smallest leaf address wins), laid out breadth
+/// first from 0x100, 64 B apart (so 256 B treelets hold four nodes). Returns the tree and its
+/// root.
+fn deep_tree(fanout: usize, depth: u32) -> (Tree, NodeEntry) {
+    let mut tree = Tree::default();
+    let mut level = vec![0x100u64];
+    let mut next = 0x100 + 64;
+    let mut levels = vec![];
+    for _ in 0..depth {
+        let mut below = Vec::new();
+        for _ in 0..level.len() * fanout {
+            below.push(next);
+            next += 64;
+        }
+        levels.push(level);
+        level = below;
+    }
+    let leaf_addrs = level;
+    for &a in &leaf_addrs {
+        tree.add(node(a, NodeKind::TriangleLeaf, 32), true, &[]);
+    }
+    let mut children = leaf_addrs;
+    for (d, addrs) in levels.iter().enumerate().rev() {
+        let child = |c: u64| {
+            if d + 1 == levels.len() {
+                node(c, NodeKind::TriangleLeaf, 32)
+            } else {
+                node(c, NodeKind::Internal, 64)
+            }
+        };
+        for (i, &a) in addrs.iter().enumerate() {
+            let kids: Vec<(NodeEntry, u8)> = children[i * fanout..(i + 1) * fanout]
+                .iter()
+                .map(|&c| (child(c), ALL))
+                .collect();
+            tree.add(node(a, NodeKind::Internal, 64), false, &kids);
+        }
+        children = addrs.clone();
+    }
+    (tree, node(0x100, NodeKind::Internal, 64))
+}
+
+/// Runs one warp of `rays` rays (ids 0.., lanes 0..) through a deep tree in `order` on a unit
+/// with `stack_depth` on-chip entries; under the treelet-stop order parked rays are issued
+/// again (as a treelet controller would) until every ray finished. Returns each ray's final
+/// record, the unit's statistics registers and every request.
+fn run_deep(
+    order: TraversalOrder,
+    stack_depth: u32,
+    spill_chunks: u32,
+) -> (Vec<RayRecord>, vtq_hdl::rt_unit::RtStats, Vec<MemRequest>) {
+    let (tree, root) = deep_tree(4, 4);
     let cfg = HwConfig {
-        stack_depth: 2,
+        max_rays: 64,
+        address_bits: 20,
+        stack_depth,
         ..small()
     };
-    let root = node(0x100, NodeKind::Internal, 32);
-    let leaves: Vec<(NodeEntry, u8)> = (0..3)
-        .map(|i| (node(0x200 + 0x20 * i, NodeKind::TriangleLeaf, 32), ALL))
-        .collect();
-    let mut tree = Tree::default();
-    tree.add(root, false, &leaves);
-    for (l, _) in &leaves {
-        tree.add(*l, false, &[]);
+    let params = RtUnitParams {
+        hit_record_base: 0x8_0000,
+        max_children: 4,
+        stack_spill_chunks: spill_chunks,
+        ..RtUnitParams::default()
+    };
+    let mut sim = Sim::new(cfg, params, Memory::new(tree, 7));
+    let mut finished = BTreeMap::new();
+    let mut pending: Vec<RayRecord> = (0..4).map(|i| RayRecord::new(i, words(0), root)).collect();
+    while !pending.is_empty() {
+        let lanes = pending.drain(..).map(Some).collect();
+        let before = sim.done.len();
+        sim.run(vec![warp(order, 4, lanes)]);
+        for (_, done) in &sim.done[before..] {
+            for (rec, outcome) in done.lanes.iter().flatten() {
+                match outcome {
+                    RayOutcome::Finished => {
+                        finished.insert(rec.ray_id, rec.clone());
+                    }
+                    RayOutcome::AtBoundary { .. } => pending.push(rec.clone()),
+                }
+            }
+        }
+        assert_eq!(sim.regs.errors, 0, "{:?}", sim.regs.first_error);
     }
-    let mut sim = Sim::new(cfg, RtUnitParams::default(), Memory::new(tree, 3));
+    let reqs = sim.mem.log.iter().map(|(_, r)| *r).collect();
+    (
+        finished.into_values().collect(),
+        sim.regs.stats.clone(),
+        reqs,
+    )
+}
+
+/// Per ray id, the node addresses it fetched, in order (first chunks only).
+fn fetch_order(reqs: &[MemRequest]) -> Vec<u64> {
+    reqs.iter()
+        .filter(|r| r.kind == RequestKind::NodeLoad)
+        .map(|r| r.address)
+        .collect()
+}
+
+#[test]
+fn a_short_stack_spills_and_fills_without_changing_the_traversal() {
+    for order in TraversalOrder::ALL {
+        // At most 1 + 3 x 4 = 13 entries: a 64-entry stack never spills.
+        let (deep_recs, deep_stats, deep_reqs) = run_deep(order, 64, 16);
+        assert_eq!(deep_stats.stack_spills, 0, "{order:?}");
+        let (recs, stats, reqs) = run_deep(order, 6, 16);
+        assert!(
+            stats.stack_spills > 0,
+            "{order:?}: the 6-entry stack must spill"
+        );
+        assert_eq!(
+            stats.stack_fills, stats.stack_spills,
+            "{order:?}: every chunk returns"
+        );
+        assert_eq!(recs.len(), 4);
+        assert_eq!(recs, deep_recs, "{order:?}: same hits and final state");
+        assert_eq!(stats.tests, deep_stats.tests, "{order:?}: same tests");
+        // Lanes desynchronize, so fetches merge differently; the nodes fetched are the same.
+        let mut a = fetch_order(&reqs);
+        let mut b = fetch_order(&deep_reqs);
+        for v in [&mut a, &mut b] {
+            v.sort_unstable();
+            v.dedup();
+        }
+        assert_eq!(a, b, "{order:?}: same nodes fetched");
+        // Spills and fills stay inside the spill area, one 32 B chunk each.
+        let cfg = HwConfig {
+            max_rays: 64,
+            address_bits: 20,
+            stack_depth: 6,
+            ..small()
+        };
+        let params = RtUnitParams {
+            stack_spill_chunks: 16,
+            ..RtUnitParams::default()
+        };
+        let (lo, hi) = spill_area(&cfg, &params);
+        for r in reqs.iter().filter(|r| r.kind != RequestKind::NodeLoad) {
+            if r.kind == RequestKind::HitStore {
+                continue;
+            }
+            assert!(
+                (lo..hi).contains(&r.address) && r.address % 32 == 0,
+                "{r:?}"
+            );
+        }
+        for r in reqs.iter().filter(|r| r.kind == RequestKind::StackSpill) {
+            let entries = unpack_spill_chunk(&r.data);
+            assert!((1..=4).contains(&entries.len()), "{entries:?}");
+        }
+    }
+}
+
+#[test]
+fn spill_addresses_follow_the_ray_and_stack() {
+    let (_, _, reqs) = run_deep(TraversalOrder::RayStationary, 6, 16);
+    let cfg = HwConfig {
+        max_rays: 64,
+        address_bits: 20,
+        stack_depth: 6,
+        ..small()
+    };
+    let params = RtUnitParams {
+        stack_spill_chunks: 16,
+        ..RtUnitParams::default()
+    };
+    let (base, _) = spill_area(&cfg, &params);
+    // The first spill is ray (lane) 0's current stack, chunk 0; its fill reads it back.
+    let first = reqs
+        .iter()
+        .find(|r| r.kind == RequestKind::StackSpill)
+        .unwrap();
+    let lane = first.tag & 3;
+    assert_eq!(first.address, base + (lane as u64 * 2) * 16 * 32);
+    assert!(reqs
+        .iter()
+        .any(|r| r.kind == RequestKind::StackFill && r.address == first.address));
+}
+
+#[test]
+fn a_full_spill_area_is_an_error_naming_the_ray_and_the_limit() {
+    let (tree, root) = deep_tree(4, 5);
+    let cfg = HwConfig {
+        max_rays: 64,
+        address_bits: 20,
+        stack_depth: 4,
+        ..small()
+    };
+    let params = RtUnitParams {
+        hit_record_base: 0x8_0000,
+        max_children: 4,
+        stack_spill_chunks: 1,
+        ..RtUnitParams::default()
+    };
+    let mut sim = Sim::new(cfg, params, Memory::new(tree, 3));
     sim.step(Some(warp(
         TraversalOrder::RayStationary,
         4,
-        vec![ray(0, 0, root)],
+        vec![None, ray(9, 0, root)],
     )));
-    while sim.done.is_empty() {
+    while sim.regs.errors == 0 {
+        assert!(sim.cycle < 5_000, "no error raised");
         sim.step(None);
     }
-    assert_eq!(sim.regs.errors, errors::STACK_OVERFLOW);
-    assert_eq!(sim.mem.log.len(), 3, "root and the two children that fit");
+    assert_eq!(sim.regs.errors, errors::SPILL_AREA_FULL);
+    let e = sim.regs.first_error.expect("captured");
+    assert_eq!(e.kind, ErrorKind::SpillAreaFull);
+    assert_eq!((e.lane, e.ray_id, e.value, e.limit), (1, 9, 2, 1));
+    assert_eq!(sim.outputs.last().unwrap().first_error, Some(e));
+}
+
+#[test]
+fn max_children_must_fit_the_stack() {
+    let cfg = HwConfig {
+        stack_depth: 4,
+        ..small()
+    };
+    let e = RtUnit::new(cfg, RtUnitParams::default(), ToyDatapath).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            RtUnitError::BadParam {
+                name: "max_children",
+                ..
+            }
+        ),
+        "{e}"
+    );
 }
 
 /// The port or register a trace signal belongs to: numeric `_<n>` suffixes removed.
@@ -1317,123 +1522,136 @@ fn random_tree(rng: &mut Rng, count: usize) -> (Tree, Vec<NodeEntry>) {
 fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
     /// Rays issued per run (ids below `max_rays`).
     const RAYS: u32 = 128;
-    let cfg = HwConfig {
-        max_rays: 128,
-        warp_size: 8,
-        warp_buffer_size: 3,
-        stack_depth: 64,
-        ..small()
-    };
-    for seed in 1..=4u64 {
-        let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ seed);
-        let (tree, nodes) = random_tree(&mut rng, 24);
-        let mut mem = Memory::new(tree, 3 + seed);
-        for n in &nodes {
-            mem.extra.insert(n.address, rng.below(6));
-        }
-        let mut sim = Sim::new(cfg.clone(), RtUnitParams::default(), mem);
-        let mut next_ray = 0u32;
-        let (mut stops, mut repacks, mut fills, mut idle) = (0, 0, 0, 0);
-        // Held slots waiting for their (empty) repack fill, and the cycle it comes.
-        let mut fill_due: Vec<(u64, u32)> = Vec::new();
-        loop {
-            let regs = &sim.regs;
-            assert!(
-                regs.summaries_consistent(),
-                "seed {seed} cycle {}",
-                sim.cycle
-            );
-            let idle_cycles = sim.unit.idle_cycles(regs);
-            assert_eq!(
-                idle_cycles,
-                idle_cycles_by_scan(regs),
-                "seed {seed} cycle {}",
-                sim.cycle
-            );
-            idle += u32::from(idle_cycles > 0 && idle_cycles < u64::MAX);
-            for s in 0..cfg.warp_buffer_size + 1 {
-                for distinct in [false, true] {
-                    assert_eq!(
-                        sim.unit.slot_summary(regs, s, distinct),
-                        slot_summary_by_scan(&sim.unit, regs, s, distinct),
-                        "seed {seed} cycle {} slot {s}",
-                        sim.cycle
-                    );
+    // A deep stack (no spills) and a 4-entry one that spills and fills all the time.
+    for (stack_depth, seed) in [64, 4]
+        .into_iter()
+        .flat_map(|d| (1..=4u64).map(move |s| (d, s)))
+    {
+        let cfg = HwConfig {
+            max_rays: 128,
+            warp_size: 8,
+            warp_buffer_size: 3,
+            stack_depth,
+            ..small()
+        };
+        let params = RtUnitParams {
+            max_children: 3,
+            stack_spill_chunks: 4,
+            ..RtUnitParams::default()
+        };
+        {
+            let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ seed);
+            let (tree, nodes) = random_tree(&mut rng, 24);
+            let mut mem = Memory::new(tree, 3 + seed);
+            for n in &nodes {
+                mem.extra.insert(n.address, rng.below(6));
+            }
+            let mut sim = Sim::new(cfg.clone(), params.clone(), mem);
+            let mut next_ray = 0u32;
+            let (mut stops, mut repacks, mut fills, mut idle) = (0, 0, 0, 0);
+            // Held slots waiting for their (empty) repack fill, and the cycle it comes.
+            let mut fill_due: Vec<(u64, u32)> = Vec::new();
+            loop {
+                let regs = &sim.regs;
+                assert!(
+                    regs.summaries_consistent(),
+                    "seed {seed} cycle {}",
+                    sim.cycle
+                );
+                let idle_cycles = sim.unit.idle_cycles(regs);
+                assert_eq!(
+                    idle_cycles,
+                    idle_cycles_by_scan(regs),
+                    "seed {seed} cycle {}",
+                    sim.cycle
+                );
+                idle += u32::from(idle_cycles > 0 && idle_cycles < u64::MAX);
+                for s in 0..cfg.warp_buffer_size + 1 {
+                    for distinct in [false, true] {
+                        assert_eq!(
+                            sim.unit.slot_summary(regs, s, distinct),
+                            slot_summary_by_scan(&sim.unit, regs, s, distinct),
+                            "seed {seed} cycle {} slot {s}",
+                            sim.cycle
+                        );
+                    }
                 }
-            }
-            let valid: Vec<u32> = (0..cfg.warp_buffer_size)
-                .filter(|&s| regs.slots[s as usize].valid)
-                .collect();
-            if next_ray >= RAYS && valid.is_empty() {
-                break;
-            }
-            assert!(sim.cycle < 20_000, "seed {seed}: warps did not complete");
-            let mut issue = None;
-            if let Some(i) = fill_due.iter().position(|&(at, _)| at <= sim.cycle) {
-                let (_, slot) = fill_due.remove(i);
-                let mut w = warp(TraversalOrder::RayStationary, 8, Vec::new());
-                w.target = IssueTarget::Append { slot, last: true };
-                issue = Some(w);
-                fills += 1;
-            } else if next_ray < RAYS && sim.unit.issue_ready(regs) && rng.below(4) == 0 {
-                let order = TraversalOrder::ALL[rng.below(3) as usize];
-                let lanes = (0..8)
-                    .map(|_| {
-                        let id = next_ray;
-                        next_ray += 1;
-                        (rng.below(5) != 0)
-                            .then(|| RayRecord::new(id, words(rng.below(8) as u32), nodes[0]))
+                let valid: Vec<u32> = (0..cfg.warp_buffer_size)
+                    .filter(|&s| regs.slots[s as usize].valid)
+                    .collect();
+                if next_ray >= RAYS && valid.is_empty() {
+                    break;
+                }
+                assert!(sim.cycle < 20_000, "seed {seed}: warps did not complete");
+                let mut issue = None;
+                if let Some(i) = fill_due.iter().position(|&(at, _)| at <= sim.cycle) {
+                    let (_, slot) = fill_due.remove(i);
+                    let mut w = warp(TraversalOrder::RayStationary, 8, Vec::new());
+                    w.target = IssueTarget::Append { slot, last: true };
+                    issue = Some(w);
+                    fills += 1;
+                } else if next_ray < RAYS && sim.unit.issue_ready(regs) && rng.below(4) == 0 {
+                    let order = TraversalOrder::ALL[rng.below(3) as usize];
+                    let lanes = (0..8)
+                        .map(|_| {
+                            let id = next_ray;
+                            next_ray += 1;
+                            (rng.below(5) != 0)
+                                .then(|| RayRecord::new(id, words(rng.below(8) as u32), nodes[0]))
+                        })
+                        .collect();
+                    issue = Some(warp(order, 8, lanes));
+                }
+                let mut stop = None;
+                let mut repack = None;
+                // Stop only a warp that cannot complete in this cycle (a stop of a slot that
+                // empties in the same cycle is a protocol error).
+                let busy: Vec<u32> = valid
+                    .iter()
+                    .copied()
+                    .filter(|&s| {
+                        sim.unit
+                            .slot_summary(regs, s, false)
+                            .is_some_and(|m| !m.quiescent)
                     })
                     .collect();
-                issue = Some(warp(order, 8, lanes));
-            }
-            let mut stop = None;
-            let mut repack = None;
-            // Stop only a warp that cannot complete in this cycle (a stop of a slot that
-            // empties in the same cycle is a protocol error).
-            let busy: Vec<u32> = valid
-                .iter()
-                .copied()
-                .filter(|&s| {
-                    sim.unit
-                        .slot_summary(regs, s, false)
-                        .is_some_and(|m| !m.quiescent)
-                })
-                .collect();
-            if !busy.is_empty() && rng.below(150) == 0 {
-                stop = Some(busy[rng.below(busy.len() as u64) as usize]);
-                stops += 1;
-            }
-            let unheld: Vec<u32> = valid
-                .iter()
-                .copied()
-                .filter(|&s| !regs.slots[s as usize].held)
-                .collect();
-            if fill_due.is_empty() && !unheld.is_empty() && rng.below(100) == 0 {
-                let s = unheld[rng.below(unheld.len() as u64) as usize];
-                repack = Some(s);
-                fill_due.push((sim.cycle + 1 + rng.below(30), s));
-                repacks += 1;
-            }
-            sim.step_with(|i| {
-                i.issue = issue;
-                i.stop = stop;
-                i.repack = repack;
-            });
-            // A repack of a slot that completed in the same cycle releases nothing and holds
-            // nothing: its fill is not needed.
-            if let Some(s) = repack {
-                if !sim.regs.slots[s as usize].valid {
-                    fill_due.retain(|&(_, slot)| slot != s);
+                if !busy.is_empty() && rng.below(150) == 0 {
+                    stop = Some(busy[rng.below(busy.len() as u64) as usize]);
+                    stops += 1;
+                }
+                let unheld: Vec<u32> = valid
+                    .iter()
+                    .copied()
+                    .filter(|&s| !regs.slots[s as usize].held)
+                    .collect();
+                if fill_due.is_empty() && !unheld.is_empty() && rng.below(100) == 0 {
+                    let s = unheld[rng.below(unheld.len() as u64) as usize];
+                    repack = Some(s);
+                    fill_due.push((sim.cycle + 1 + rng.below(30), s));
+                    repacks += 1;
+                }
+                sim.step_with(|i| {
+                    i.issue = issue;
+                    i.stop = stop;
+                    i.repack = repack;
+                });
+                // A repack of a slot that completed in the same cycle releases nothing and holds
+                // nothing: its fill is not needed.
+                if let Some(s) = repack {
+                    if !sim.regs.slots[s as usize].valid {
+                        fill_due.retain(|&(_, slot)| slot != s);
+                    }
                 }
             }
+            assert_eq!(sim.regs.errors, 0, "seed {seed}");
+            assert!(
+                sim.regs.stats.tests.iter().sum::<u64>() > 100,
+                "seed {seed}"
+            );
+            assert!(stops > 0 && repacks > 0 && fills > 0, "seed {seed}");
+            assert!(idle > 0, "seed {seed}: no idle period was exercised");
+            let spills = sim.regs.stats.stack_spills;
+            assert_eq!(spills > 0, stack_depth == 4, "seed {seed}: {spills} spills");
         }
-        assert_eq!(sim.regs.errors, 0, "seed {seed}");
-        assert!(
-            sim.regs.stats.tests.iter().sum::<u64>() > 100,
-            "seed {seed}"
-        );
-        assert!(stops > 0 && repacks > 0 && fills > 0, "seed {seed}");
-        assert!(idle > 0, "seed {seed}: no idle period was exercised");
     }
 }

@@ -800,6 +800,15 @@ impl SimConfig {
                 format!("must be {}..={}", WIDTH_RANGE.start(), WIDTH_RANGE.end()),
             ));
         }
+        if self.hw.stack_depth < width {
+            return Err(invalid(
+                "hw.stack_depth",
+                self.hw.stack_depth,
+                format!(
+                    "must be at least bvh.width ({width}): a stack must hold one node's children"
+                ),
+            ));
+        }
         // The width is valid, so what the build rejects is the treelet size for this width.
         self.bvh_params()
             .validate()
@@ -854,14 +863,24 @@ impl SimConfig {
         }
     }
 
-    /// The RT unit's parameters, with its hit records placed at `hit_record_base` (a choice of
-    /// the simulator's memory layout, not of the configuration).
-    pub fn rt_unit_params(&self, hit_record_base: u64) -> RtUnitParams {
+    /// The RT unit's parameters, with its hit records placed at `hit_record_base` and its
+    /// stack spill area of `stack_spill_chunks` chunks per ray stack at `stack_base` (choices of
+    /// the simulator's memory layout, not of the configuration; `None`: at the top of the
+    /// address space). The stack room kept free before a fetch is the BVH width.
+    pub fn rt_unit_params(
+        &self,
+        hit_record_base: u64,
+        stack_base: Option<u64>,
+        stack_spill_chunks: u32,
+    ) -> RtUnitParams {
         RtUnitParams {
             latencies: self.rt.latencies,
             resp_fifo_depth: self.rt.resp_fifo_depth,
             resp_ports: self.rt.resp_ports,
             hit_record_base,
+            max_children: self.bvh.width,
+            stack_base,
+            stack_spill_chunks,
         }
     }
 

@@ -191,7 +191,7 @@ fn dotted_and_bare_overrides() {
     assert_eq!((c.workload.width, c.workload.height), (64, 32));
     assert_eq!((c.workload.spp, c.workload.bounces), (2, 0));
     assert_eq!(c.rt.latencies.internal, 8);
-    assert_eq!(c.rt_unit_params(0).latencies.internal, 8);
+    assert_eq!(c.rt_unit_params(0, None, 16).latencies.internal, 8);
     assert!(c.sim.lockstep);
     // Untouched keys keep the file's values.
     assert!(c.mode.grouping);

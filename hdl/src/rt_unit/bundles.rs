@@ -6,8 +6,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
 /// Sticky error flags of the RT unit (the `errors` register and output). A set flag means the
-/// environment broke the block's protocol or the datapath returned something the hardware cannot
-/// hold; the offending item was dropped, so results after it are not trustworthy.
+/// environment broke the block's protocol, the datapath returned something the hardware cannot
+/// hold, or a ray outgrew its stack spill area; the offending item was dropped, so results
+/// after it are not trustworthy. The first error's details are captured in
+/// [`RtUnitRegs::first_error`] ([`ErrorRecord`]).
 pub mod errors {
     /// A warp was issued while `issue_ready` was low (the warp was dropped).
     pub const ISSUE_WHILE_FULL: u8 = 1 << 0;
@@ -15,12 +17,14 @@ pub mod errors {
     pub const BAD_ISSUE: u8 = 1 << 1;
     /// More responses arrived than the response FIFO had room for, or than it has ports.
     pub const FIFO_OVERFLOW: u8 = 1 << 2;
-    /// A response matched no node in flight (wrong tag, address or duplicate chunk).
+    /// A response matched no node or stack fill in flight (wrong tag, address or duplicate
+    /// chunk).
     pub const UNMATCHED_RESPONSE: u8 = 1 << 3;
-    /// A push exceeded `stack_depth` (the child was dropped).
-    pub const STACK_OVERFLOW: u8 = 1 << 4;
+    /// A ray's stack needed more spilled 32 B chunks than its spill area holds
+    /// (`RtUnitParams::stack_spill_chunks`; the spill was not made).
+    pub const SPILL_AREA_FULL: u8 = 1 << 4;
     /// The datapath returned a child that is misaligned, of a bad size or outside the address
-    /// space (the child was dropped).
+    /// space, or more children than `RtUnitParams::max_children` (the child was dropped).
     pub const BAD_CHILD: u8 = 1 << 5;
     /// A treelet-controller command named a slot it cannot act on: an issue into a slot that is
     /// not free, an append to a slot that is not held or has too few inactive lanes, a stop or
@@ -28,6 +32,80 @@ pub mod errors {
     pub const BAD_COMMAND: u8 = 1 << 6;
     /// Width of the error register.
     pub const BITS: u32 = 7;
+}
+
+/// What went wrong, for the first-error capture register ([`ErrorRecord`]); each kind is one
+/// flag of [`errors`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ErrorKind {
+    /// [`errors::ISSUE_WHILE_FULL`].
+    IssueWhileFull,
+    /// [`errors::BAD_ISSUE`].
+    BadIssue,
+    /// [`errors::FIFO_OVERFLOW`].
+    FifoOverflow,
+    /// [`errors::UNMATCHED_RESPONSE`].
+    UnmatchedResponse,
+    /// [`errors::SPILL_AREA_FULL`].
+    SpillAreaFull,
+    /// [`errors::BAD_CHILD`].
+    BadChild,
+    /// [`errors::BAD_COMMAND`].
+    BadCommand,
+}
+
+impl ErrorKind {
+    /// The kind's flag in [`errors`] (its bit index is the kind's encoding).
+    pub fn flag(self) -> u8 {
+        match self {
+            ErrorKind::IssueWhileFull => errors::ISSUE_WHILE_FULL,
+            ErrorKind::BadIssue => errors::BAD_ISSUE,
+            ErrorKind::FifoOverflow => errors::FIFO_OVERFLOW,
+            ErrorKind::UnmatchedResponse => errors::UNMATCHED_RESPONSE,
+            ErrorKind::SpillAreaFull => errors::SPILL_AREA_FULL,
+            ErrorKind::BadChild => errors::BAD_CHILD,
+            ErrorKind::BadCommand => errors::BAD_COMMAND,
+        }
+    }
+
+    /// The kind's encoding on the `error_kind` port (bit index of its flag).
+    pub fn code(self) -> u64 {
+        self.flag().trailing_zeros() as u64
+    }
+
+    /// What happened, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            ErrorKind::IssueWhileFull => "a warp was issued while the warp buffer was full",
+            ErrorKind::BadIssue => "an issued warp does not fit the warp buffer",
+            ErrorKind::FifoOverflow => "more responses arrived than the response FIFO could take",
+            ErrorKind::UnmatchedResponse => "a memory response matched no request in flight",
+            ErrorKind::SpillAreaFull => "a traversal stack outgrew its spill area in memory",
+            ErrorKind::BadChild => {
+                "the intersection datapath returned a child the RT unit cannot hold"
+            }
+            ErrorKind::BadCommand => "a treelet-controller command named a slot it cannot act on",
+        }
+    }
+}
+
+/// The first error the RT unit raised (a capture register, like a machine-check log): what,
+/// where, and the value against the limit it broke. Fields that do not apply are 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ErrorRecord {
+    /// What went wrong.
+    pub kind: ErrorKind,
+    /// Warp-buffer slot concerned.
+    pub slot: u32,
+    /// Lane concerned.
+    pub lane: u32,
+    /// Ray id of that lane (0 when no ray is concerned).
+    pub ray_id: u32,
+    /// The value that was needed or seen (e.g. spilled chunks needed, children returned,
+    /// responses offered, an address).
+    pub value: u64,
+    /// The limit it broke (e.g. `stack_spill_chunks`, `max_children`, free FIFO entries).
+    pub limit: u64,
 }
 
 /// Which traversal order a warp uses (set per warp at issue, held in its slot).
@@ -70,8 +148,39 @@ impl TraversalOrder {
     }
 }
 
+/// Which of a ray's two traversal stacks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum StackSel {
+    /// The current-treelet stack (the only stack of the ray-stationary order).
+    Current,
+    /// The other-treelet stack.
+    Other,
+}
+
+impl StackSel {
+    /// Encoding: 0 current, 1 other (also the stack's index in its ray's spill area).
+    pub fn code(self) -> u64 {
+        match self {
+            StackSel::Current => 0,
+            StackSel::Other => 1,
+        }
+    }
+
+    /// The stack's name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            StackSel::Current => "current-treelet",
+            StackSel::Other => "other-treelet",
+        }
+    }
+}
+
 /// A ray's complete traversal state: loaded into a warp-buffer lane at issue and handed back
 /// when the warp completes (so a ray stopped at a treelet boundary can resume in another warp).
+///
+/// Each stack is split between the lane's on-chip stack (at most `stack_depth` entries, its
+/// top) and 32 B chunks of older entries spilled to the ray's spill area in memory (the chunks
+/// stay there while the ray waits outside the RT unit; their number travels with the record).
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct RayRecord {
     /// Ray id (below `max_rays`).
@@ -82,11 +191,15 @@ pub struct RayRecord {
     pub hit: Option<Hit>,
     /// Treelet (address >> log2(treelet_bytes)) the current stack belongs to.
     pub current_treelet: u64,
-    /// Current-treelet stack, bottom first (the last entry is popped next).
+    /// On-chip part of the current-treelet stack, bottom first (the last entry is popped next).
     pub current_stack: Vec<NodeEntry>,
-    /// Other-treelet stack, bottom first; when the current stack is empty its top is popped and
-    /// its treelet becomes the current treelet.
+    /// On-chip part of the other-treelet stack, bottom first; when the current stack is empty
+    /// its top is popped and its treelet becomes the current treelet.
     pub other_stack: Vec<NodeEntry>,
+    /// Chunks of the current-treelet stack spilled to memory (entries below `current_stack`).
+    pub current_spilled: u32,
+    /// Chunks of the other-treelet stack spilled to memory (entries below `other_stack`).
+    pub other_spilled: u32,
 }
 
 impl RayRecord {
@@ -100,22 +213,65 @@ impl RayRecord {
             current_treelet: 0,
             current_stack: Vec::new(),
             other_stack: vec![root],
+            current_spilled: 0,
+            other_spilled: 0,
         }
     }
 
-    /// The node the ray visits next (top of the current stack, else top of the other stack).
+    /// The node the ray visits next if it is on chip (top of the current stack, else, with no
+    /// current-stack entries spilled either, top of the other stack); `None` when the ray is
+    /// finished or its next entry waits in memory.
     #[inline]
     pub fn next_node(&self) -> Option<NodeEntry> {
-        self.current_stack
-            .last()
-            .or(self.other_stack.last())
-            .copied()
+        match self.current_stack.last() {
+            Some(n) => Some(*n),
+            None if self.current_spilled > 0 => None,
+            None => self.other_stack.last().copied(),
+        }
     }
 
-    /// Whether both stacks are empty (traversal finished).
+    /// Whether the current-treelet stack is empty, spilled part included.
+    #[inline]
+    pub fn current_empty(&self) -> bool {
+        self.current_stack.is_empty() && self.current_spilled == 0
+    }
+
+    /// Whether both stacks are empty, spilled parts included (traversal finished).
     #[inline]
     pub fn finished(&self) -> bool {
-        self.current_stack.is_empty() && self.other_stack.is_empty()
+        self.current_empty() && self.other_stack.is_empty() && self.other_spilled == 0
+    }
+
+    /// The on-chip part of stack `s`.
+    pub fn stack(&self, s: StackSel) -> &Vec<NodeEntry> {
+        match s {
+            StackSel::Current => &self.current_stack,
+            StackSel::Other => &self.other_stack,
+        }
+    }
+
+    /// The on-chip part of stack `s`, writable.
+    pub fn stack_mut(&mut self, s: StackSel) -> &mut Vec<NodeEntry> {
+        match s {
+            StackSel::Current => &mut self.current_stack,
+            StackSel::Other => &mut self.other_stack,
+        }
+    }
+
+    /// Chunks of stack `s` spilled to memory.
+    pub fn spilled(&self, s: StackSel) -> u32 {
+        match s {
+            StackSel::Current => self.current_spilled,
+            StackSel::Other => self.other_spilled,
+        }
+    }
+
+    /// Chunks of stack `s` spilled to memory, writable.
+    pub fn spilled_mut(&mut self, s: StackSel) -> &mut u32 {
+        match s {
+            StackSel::Current => &mut self.current_spilled,
+            StackSel::Other => &mut self.other_spilled,
+        }
     }
 }
 
@@ -173,18 +329,59 @@ impl IssueTarget {
     }
 }
 
+/// What a memory request of the RT unit does (`req_kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum RequestKind {
+    /// Load one chunk of a BVH node (code 0).
+    #[default]
+    NodeLoad,
+    /// Store a ray's 32 B hit record (code 1; no response).
+    HitStore,
+    /// Store 32 B of stack entries spilled from a lane's on-chip stack (code 2; no response).
+    StackSpill,
+    /// Load back the most recently spilled 32 B of a lane's stack (code 3).
+    StackFill,
+}
+
+impl RequestKind {
+    /// Width of the kind code.
+    pub const BITS: u32 = 2;
+
+    /// The `req_kind` code.
+    pub fn code(self) -> u64 {
+        match self {
+            RequestKind::NodeLoad => 0,
+            RequestKind::HitStore => 1,
+            RequestKind::StackSpill => 2,
+            RequestKind::StackFill => 3,
+        }
+    }
+
+    /// Whether the request stores data (no response follows).
+    pub fn is_store(self) -> bool {
+        matches!(self, RequestKind::HitStore | RequestKind::StackSpill)
+    }
+}
+
 /// One 32 B memory request of the RT unit (to the L1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MemRequest {
     /// Byte address (32 B aligned).
     pub address: u64,
-    /// A store of a hit record (no response follows) rather than a node load.
-    pub is_store: bool,
+    /// What the request does.
+    pub kind: RequestKind,
     /// Requesting warp slot and lane, `slot << lane_bits | lane`; a load's response must carry it
     /// back.
     pub tag: u32,
-    /// Store data (the hit record); zero for loads.
+    /// Store data (a hit record or spilled stack entries); zero for loads.
     pub data: [u8; CHUNK_BYTES as usize],
+}
+
+impl MemRequest {
+    /// Whether the request stores data (no response follows).
+    pub fn is_store(&self) -> bool {
+        self.kind.is_store()
+    }
 }
 
 /// One 32 B chunk returned by memory for a load.
@@ -259,6 +456,8 @@ pub struct Widths {
     pub fifo_count: u32,
     /// Bits of an intersection-delay counter.
     pub delay: u32,
+    /// Bits of a stack's spilled-chunk count.
+    pub spilled: u32,
 }
 
 /// The RT unit's inputs for one cycle. Build an idle bundle with
@@ -303,6 +502,8 @@ pub struct RtUnitOutputs {
     pub released: Option<WarpDone>,
     /// Sticky error flags ([`errors`]), including any raised this cycle.
     pub errors: u8,
+    /// The first error raised so far, with its details (sticky, like `errors`).
+    pub first_error: Option<ErrorRecord>,
 }
 
 /// Traversal status of a warp-buffer lane (the lane state machine).
@@ -354,6 +555,8 @@ pub struct Lane {
     pub ray: RayRecord,
     /// The node in flight, if any.
     pub in_flight: Option<InFlight>,
+    /// The stack whose spilled chunk is being loaded back (a stack fill in flight), if any.
+    pub filling: Option<StackSel>,
     /// Chunks of the node in flight returned so far.
     pub chunks: [[u8; CHUNK_BYTES as usize]; MAX_NODE_CHUNKS],
     /// Intersection-delay countdown; the next fetch waits until it is 0.
@@ -363,14 +566,15 @@ pub struct Lane {
 }
 
 impl Lane {
-    /// The lane may request its next node: traversing, nothing in flight, delay 0, a node
-    /// left on a stack.
+    /// The lane may make its next request (a node fetch, a stack spill or a stack fill):
+    /// traversing, nothing in flight, delay 0, an entry left on a stack.
     #[inline]
     pub fn ready(&self) -> bool {
         self.status == LaneStatus::Traversing
             && self.in_flight.is_none()
+            && self.filling.is_none()
             && self.delay == 0
-            && self.ray.next_node().is_some()
+            && !self.ray.finished()
     }
 
     /// Nothing of the lane is outstanding (its warp may complete as far as the lane goes).
@@ -378,6 +582,7 @@ impl Lane {
     pub fn quiescent(&self) -> bool {
         self.status != LaneStatus::Traversing
             && self.in_flight.is_none()
+            && self.filling.is_none()
             && self.delay == 0
             && !self.store_pending
     }
@@ -416,7 +621,7 @@ pub(super) struct LaneMasks {
     pub store: u64,
     /// `delay > 0`.
     pub delayed: u64,
-    /// `in_flight.is_some()`.
+    /// `in_flight.is_some() || filling.is_some()`.
     pub in_flight: u64,
     /// The ray has a next node (`!ray.finished()`).
     pub has_next: u64,
@@ -460,7 +665,10 @@ impl LaneMasks {
         put(&mut self.parked, lane.status == LaneStatus::Parked);
         put(&mut self.store, lane.store_pending);
         put(&mut self.delayed, lane.delay > 0);
-        put(&mut self.in_flight, lane.in_flight.is_some());
+        put(
+            &mut self.in_flight,
+            lane.in_flight.is_some() || lane.filling.is_some(),
+        );
         put(&mut self.has_next, !lane.ray.finished());
         self.leader[l] = lane.in_flight.map_or(0, |f| f.leader as u8);
     }
@@ -513,6 +721,10 @@ pub struct RtStats {
     pub requests: u64,
     /// Hit-record stores issued.
     pub stores: u64,
+    /// 32 B stack spills (stores of stack entries to the ray's spill area).
+    pub stack_spills: u64,
+    /// 32 B stack fills (loads of spilled stack entries back onto the lane's stack).
+    pub stack_fills: u64,
     /// Lanes served by another lane's request (merged within a warp).
     pub merged: u64,
     /// Node tests per kind, indexed by [`super::NodeKind::code`].
@@ -552,6 +764,8 @@ pub struct RtUnitRegs {
     pub split: Option<Split>,
     /// Sticky error flags ([`errors`]).
     pub errors: u8,
+    /// The first error raised, with its details (capture register).
+    pub first_error: Option<ErrorRecord>,
     /// Statistics counters.
     pub stats: RtStats,
 }

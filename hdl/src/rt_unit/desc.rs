@@ -2,8 +2,8 @@
 //! the flattening of its bundles into trace signals.
 
 use super::bundles::{
-    errors, IssueTarget, LaneStatus, MemRequest, MemResponse, RtStats, RtUnitInputs, RtUnitOutputs,
-    RtUnitRegs, TraversalOrder, Widths,
+    errors, IssueTarget, LaneStatus, MemRequest, MemResponse, RequestKind, RtStats, RtUnitInputs,
+    RtUnitOutputs, RtUnitRegs, TraversalOrder, Widths,
 };
 use super::node::{NodeEntry, NodeKind, CHUNK_BYTES, MAX_NODE_CHUNKS, RAY_WORDS};
 use super::RtUnitParams;
@@ -61,10 +61,10 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             "request size in bytes (always 32; a 64 B node takes two requests)",
         ),
         port(
-            "req_is_store",
+            "req_kind",
             Dir::Out,
-            1,
-            "the request stores a 32 B hit record (no response)",
+            RequestKind::BITS,
+            "0 node-chunk load, 1 hit-record store (no response), 2 stack spill store (no response), 3 stack fill load",
         ),
         port(
             "req_tag",
@@ -76,7 +76,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             "req_data",
             Dir::Out,
             DATA_BITS,
-            "store data: hit record (t, hit id, two attributes, ray id)",
+            "store data: hit record (t, hit id, two attributes, ray id) or up to four spilled stack entries (64-bit slots, valid bit 63, bottom first)",
         ),
         port(
             "resp_free",
@@ -142,7 +142,14 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         port("released_valid", Dir::Out, 1, "a repack released finished lanes this cycle (their hit records are already stored)"),
         port("released_slot", Dir::Out, w.slot, "slot of the released lanes"),
         port("released_mask", Dir::Out, n, "per lane: released"),
-        port("errors", Dir::Out, errors::BITS, "sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack overflow, bad child, bad controller command"),
+        port("errors", Dir::Out, errors::BITS, "sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack spill area full, bad child, bad controller command"),
+        port("error_valid", Dir::Out, 1, "an error was captured (first error, sticky)"),
+        port("error_kind", Dir::Out, 3, "first error: bit index of its flag in errors"),
+        port("error_slot", Dir::Out, w.slot, "first error: warp-buffer slot"),
+        port("error_lane", Dir::Out, w.lane, "first error: lane"),
+        port("error_ray_id", Dir::Out, w.ray_id, "first error: ray id"),
+        port("error_value", Dir::Out, 64, "first error: the value needed or seen"),
+        port("error_limit", Dir::Out, 64, "first error: the limit it broke"),
     ]);
 
     let mut registers = vec![
@@ -205,6 +212,12 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         reg("fifo_count", w.fifo_count, 1, "response-FIFO occupancy"),
         reg("errors", errors::BITS, 1, "sticky error flags"),
         reg(
+            "first_error",
+            1 + 3 + w.slot + w.lane + w.ray_id + 128,
+            1,
+            "capture of the first error: valid, kind, slot, lane, ray id, value, limit",
+        ),
+        reg(
             "lane_status",
             2,
             lanes,
@@ -241,6 +254,24 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             sp,
             lanes,
             "per lane: other-treelet stack depth",
+        ),
+        reg(
+            "lane_cur_spilled",
+            w.spilled,
+            lanes,
+            "per lane: current-treelet stack chunks in the spill area",
+        ),
+        reg(
+            "lane_other_spilled",
+            w.spilled,
+            lanes,
+            "per lane: other-treelet stack chunks in the spill area",
+        ),
+        reg(
+            "lane_filling",
+            2,
+            lanes,
+            "per lane: stack fill in flight: 0 none, 1 current-treelet, 2 other-treelet",
         ),
         reg("lane_node_valid", 1, lanes, "per lane: a node is in flight"),
         reg(
@@ -279,6 +310,8 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         "stat_warp_cycles",
         "stat_requests",
         "stat_stores",
+        "stat_stack_spills",
+        "stat_stack_fills",
         "stat_merged",
         "stat_hits",
         "stat_warps_done",
@@ -303,8 +336,8 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         doc: doc.to_string(),
     };
     let memories = vec![
-        stack("cur_stack", "current-treelet stacks, stack_depth entries per lane, banked per lane; a test's children are written as one wide write"),
-        stack("other_stack", "other-treelet stacks, stack_depth entries per lane, banked per lane"),
+        stack("cur_stack", "on-chip current-treelet stacks, stack_depth entries per lane, banked per lane; a test's children are written as one wide write; older entries spill to memory 4 per 32 B chunk"),
+        stack("other_stack", "on-chip other-treelet stacks, stack_depth entries per lane, banked per lane; older entries spill to memory"),
         MemDesc {
             name: "node_buffer".into(),
             depth: lanes * MAX_NODE_CHUNKS as u32,
@@ -350,6 +383,9 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             ("resp_fifo_depth".into(), params.resp_fifo_depth as u64),
             ("resp_ports".into(), params.resp_ports as u64),
             ("hit_record_base".into(), params.hit_record_base),
+            ("max_children".into(), params.max_children as u64),
+            ("stack_base".into(), super::spill_area(cfg, params).0),
+            ("stack_spill_chunks".into(), params.stack_spill_chunks as u64),
         ],
         ports,
         registers,
@@ -360,7 +396,8 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             width: 2,
         }],
         timing: vec![
-            "memory scheduler: at most one 32 B request per cycle; priority: remaining chunks of the node being requested, then a hit-record store (oldest warp, lowest lane), then the next node of the lowest ready lane of the oldest warp with a ready lane".into(),
+            "memory scheduler: at most one 32 B request per cycle; priority: remaining chunks of the node being requested, then a hit-record store (oldest warp, lowest lane), then the request of the lowest ready lane of the oldest warp with a ready lane: a stack spill, a stack fill or its next node".into(),
+            "stack spilling: before a fetch, every stack that may receive the node's children must have max_children free entries after the pop, else the lane's request is a 32 B store of up to four of that stack's oldest on-chip entries (never the one about to be popped) to the ray's spill area (stack_base + ((ray_id * 2 + stack) * stack_spill_chunks + k) * 32); a stack empty on chip with chunks in memory is refilled by a 32 B load of its last spilled chunk (the lane waits for it); the on-chip stacks never overflow".into(),
             "requests for the same (address, size) by ready lanes of one warp in one cycle are merged; never across warps".into(),
             "a ray has one node in flight; its next fetch waits for every chunk and for its intersection delay to reach 0; all delays count down in parallel".into(),
             format!(
@@ -394,6 +431,8 @@ fn ray_state_ports(
         p("cur_treelet", n * w.treelet, "per lane: current treelet"),
         p("cur_sp", n * sp, "per lane: current-treelet stack depth"),
         p("other_sp", n * sp, "per lane: other-treelet stack depth"),
+        p("cur_spilled", n * w.spilled, "per lane: current-treelet stack chunks in the spill area"),
+        p("other_spilled", n * w.spilled, "per lane: other-treelet stack chunks in the spill area"),
         p("cur_stack", n * cfg.stack_depth * entry, "per lane: current-treelet stack entries, bottom first (parallel load of the ray state)"),
         p("other_stack", n * cfg.stack_depth * entry, "per lane: other-treelet stack entries, bottom first"),
     ]
@@ -507,13 +546,17 @@ impl Signals for RtUnitOutputs {
             Signal::new("req_valid", 1, req.is_some() as u64),
             Signal::new("req_address", w.address, req.map_or(0, |r| r.address)),
             Signal::new("req_size", SIZE_BITS, req.map_or(0, |_| CHUNK_BYTES as u64)),
-            Signal::new("req_is_store", 1, req.is_some_and(|r| r.is_store) as u64),
+            Signal::new(
+                "req_kind",
+                RequestKind::BITS,
+                req.map_or(0, |r| r.kind.code()),
+            ),
             Signal::new("req_tag", w.tag, req.map_or(0, |r| r.tag as u64)),
         ];
         push_data(
             &mut v,
             "req_data",
-            req.filter(|r| r.is_store).map(|r| &r.data),
+            req.filter(|r| r.is_store()).map(|r| &r.data),
         );
         let done_lanes = self.done.as_ref().map(|d| &d.lanes[..]).unwrap_or(&[]);
         let done_lane = |i: usize| done_lanes.get(i).and_then(|l| l.as_ref());
@@ -583,6 +626,16 @@ impl Signals for RtUnitOutputs {
             ),
         ));
         v.push(Signal::new("errors", errors::BITS, self.errors as u64));
+        let e = self.first_error.as_ref();
+        v.extend([
+            Signal::new("error_valid", 1, e.is_some() as u64),
+            Signal::new("error_kind", 3, e.map_or(0, |e| e.kind.code())),
+            Signal::new("error_slot", w.slot, e.map_or(0, |e| e.slot as u64)),
+            Signal::new("error_lane", w.lane, e.map_or(0, |e| e.lane as u64)),
+            Signal::new("error_ray_id", w.ray_id, e.map_or(0, |e| e.ray_id as u64)),
+            Signal::new("error_value", 64, e.map_or(0, |e| e.value)),
+            Signal::new("error_limit", 64, e.map_or(0, |e| e.limit)),
+        ]);
         v
     }
 }
@@ -646,6 +699,8 @@ impl Signals for RtUnitRegs {
             ("stat_warp_cycles", st.warp_cycles),
             ("stat_requests", st.requests),
             ("stat_stores", st.stores),
+            ("stat_stack_spills", st.stack_spills),
+            ("stat_stack_fills", st.stack_fills),
             ("stat_merged", st.merged),
             ("stat_hits", st.hits),
             ("stat_warps_done", st.warps_done),

@@ -28,6 +28,21 @@
 //! So a node whose last chunk is popped in cycle `t` with test latency `L` lets the ray request
 //! its next node in cycle `t + L + 1` at the earliest.
 //!
+//! # Stack spilling
+//! Each lane's stacks hold at most `stack_depth` entries on chip; older entries live in the
+//! ray's spill area in memory (`stack_spill_chunks` 32 B chunks per stack at
+//! `stack_base + ((ray_id * 2 + stack) * stack_spill_chunks + k) * 32`, four entries per chunk,
+//! bottom first). Before a ray fetches its next node it makes sure that, once that node is
+//! popped, every stack that may receive the node's children has room for `max_children` more:
+//! otherwise its request this cycle is a *spill*, a 32 B store of up to four of that stack's
+//! oldest on-chip entries (never the entry about to be popped). When the stack to pop from is
+//! empty on chip but has chunks in memory, the request is a *fill*: a 32 B load of the most
+//! recently spilled chunk, whose entries become the on-chip stack when the response is popped.
+//! So the on-chip stacks never overflow, and a ray's stack can grow as deep as its spill area.
+//! Spills and fills compete with node fetches as the lane's one request; they are not merged.
+//! A ray whose current stack is empty and whose other stack's top is in memory reports its
+//! treelet boundary when the fill brings that top back.
+//!
 //! # Traversal order
 //! The two-stack treelet order (FACTS.md "Treelets"): a child in the ray's current treelet
 //! (address >> log2(treelet_bytes)) goes on the current stack, any other child on the
@@ -59,13 +74,15 @@ mod node;
 
 use bundles::{bits, LaneMasks};
 pub use bundles::{
-    errors, BoundaryEvent, InFlight, IssueTarget, Lane, LaneStatus, MemRequest, MemResponse,
-    RayOutcome, RayRecord, RtStats, RtUnitInputs, RtUnitOutputs, RtUnitRegs, SlotSummary, Split,
-    TraversalOrder, WarpDone, WarpIssue, WarpSlot, Widths,
+    errors, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane, LaneStatus,
+    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtStats, RtUnitInputs,
+    RtUnitOutputs, RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue,
+    WarpSlot, Widths,
 };
 pub use node::{
-    Hit, Latencies, NodeDatapath, NodeEntry, NodeKind, RayWords, TestResult, CHUNK_BYTES,
-    CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS, TMAX_WORD, TMIN_WORD,
+    pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NodeDatapath, NodeEntry, NodeKind,
+    RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
+    STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
 
 use crate::bits::{bits_for, clog2};
@@ -121,6 +138,15 @@ pub struct RtUnitParams {
     pub resp_ports: u32,
     /// Byte address of ray 0's 32 B hit record; ray `r`'s is at `hit_record_base + 32 r`.
     pub hit_record_base: u64,
+    /// Most children a node test returns (the BVH width): the stack room kept free before a
+    /// fetch. At most `stack_depth`.
+    pub max_children: u32,
+    /// Byte address of the stack spill area (32 B aligned): `stack_spill_chunks` chunks per
+    /// stack of each of `max_rays` rays. `None`: the area ends at the top of the address space
+    /// ([`spill_area`] gives the resolved range).
+    pub stack_base: Option<u64>,
+    /// 32 B chunks of spilled entries each stack of each ray may hold in memory (at least 1).
+    pub stack_spill_chunks: u32,
 }
 
 impl Default for RtUnitParams {
@@ -130,6 +156,9 @@ impl Default for RtUnitParams {
             resp_fifo_depth: 8,
             resp_ports: 2,
             hit_record_base: 0,
+            max_children: 8,
+            stack_base: None,
+            stack_spill_chunks: 16,
         }
     }
 }
@@ -161,6 +190,40 @@ fn checked_widths(cfg: &HwConfig, params: &RtUnitParams) -> Result<Widths, RtUni
             "must be 32 B aligned with max_rays hit records inside the address space",
         ));
     }
+    if !(1..=64).contains(&params.max_children) || params.max_children > cfg.stack_depth {
+        return Err(bad(
+            "max_children",
+            params.max_children as u64,
+            &format!(
+                "must be 1..=64 and at most stack_depth ({}): a stack must hold one node's children",
+                cfg.stack_depth
+            ),
+        ));
+    }
+    if !(1..=1 << 24).contains(&params.stack_spill_chunks) {
+        return Err(bad(
+            "stack_spill_chunks",
+            params.stack_spill_chunks as u64,
+            "must be 1..=16777216",
+        ));
+    }
+    let (stack_base, spill_end) = spill_area(cfg, params);
+    let spill_bytes = spill_end.wrapping_sub(stack_base);
+    let overlaps_records = stack_base < records_end && params.hit_record_base < spill_end;
+    if stack_base & CHUNK_MASK != 0
+        || spill_end > 1 << cfg.address_bits
+        || spill_end < stack_base
+        || overlaps_records
+    {
+        return Err(bad(
+            "stack_base",
+            stack_base,
+            &format!(
+                "must be 32 B aligned with the {spill_bytes}-byte stack spill area inside the \
+                 address space and apart from the hit records"
+            ),
+        ));
+    }
     let slot = clog2(cfg.warp_buffer_size as u64);
     let lane = cfg.lane_bits();
     Ok(Widths {
@@ -175,13 +238,56 @@ fn checked_widths(cfg: &HwConfig, params: &RtUnitParams) -> Result<Widths, RtUni
         tag: slot + lane,
         fifo_count: bits_for(params.resp_fifo_depth as u64),
         delay: bits_for(params.latencies.max() as u64),
+        spilled: bits_for(params.stack_spill_chunks as u64),
     })
+}
+
+/// The byte range `[start, end)` of the stack spill area for `cfg` and `params`: `max_rays` x 2
+/// stacks x `stack_spill_chunks` chunks of 32 B from `stack_base`, or ending at the top of the
+/// address space when `stack_base` is `None`. Saturating: [`RtUnit::new`] rejects an area that
+/// does not fit.
+pub fn spill_area(cfg: &HwConfig, params: &RtUnitParams) -> (u64, u64) {
+    let bytes = (cfg.max_rays as u64 * 2)
+        .saturating_mul(params.stack_spill_chunks as u64)
+        .saturating_mul(CHUNK_BYTES as u64);
+    let top = 1u64 << cfg.address_bits.min(63);
+    let start = params.stack_base.unwrap_or(top.saturating_sub(bytes));
+    (start, start.saturating_add(bytes))
 }
 
 /// The RT unit's self-description for `cfg` and `params` (what `describe()` returns), without a
 /// datapath: for the Verilog and area generators.
 pub fn describe_rt_unit(cfg: &HwConfig, params: &RtUnitParams) -> Result<BlockDesc, RtUnitError> {
     Ok(desc::describe(cfg, params, &checked_widths(cfg, params)?))
+}
+
+/// A ready lane's request this cycle (see the module documentation, "Stack spilling").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LaneAction {
+    /// Fetch this node (popping it).
+    Fetch(NodeEntry),
+    /// Store this many of the stack's oldest on-chip entries to its spill area.
+    Spill(StackSel, usize),
+    /// Load the stack's most recently spilled chunk back.
+    Fill(StackSel),
+}
+
+/// Sets `kind`'s flag in `flags` and captures `record` if it is the first error.
+fn raise(flags: &mut u8, first: &mut Option<ErrorRecord>, record: ErrorRecord) {
+    *flags |= record.kind.flag();
+    first.get_or_insert(record);
+}
+
+/// An error record of `kind` with no location.
+fn record(kind: ErrorKind, value: u64, limit: u64) -> ErrorRecord {
+    ErrorRecord {
+        kind,
+        slot: 0,
+        lane: 0,
+        ray_id: 0,
+        value,
+        limit,
+    }
 }
 
 /// The RT unit control block, generic over the intersection datapath `D`.
@@ -192,6 +298,8 @@ pub struct RtUnit<D> {
     datapath: D,
     widths: Widths,
     treelet_shift: u32,
+    /// The stack spill area, `[start, end)` ([`spill_area`]).
+    spill: (u64, u64),
 }
 
 impl<D: NodeDatapath> RtUnit<D> {
@@ -199,12 +307,14 @@ impl<D: NodeDatapath> RtUnit<D> {
     pub fn new(cfg: HwConfig, params: RtUnitParams, datapath: D) -> Result<Self, RtUnitError> {
         let widths = checked_widths(&cfg, &params)?;
         let treelet_shift = clog2(cfg.treelet_bytes as u64);
+        let spill = spill_area(&cfg, &params);
         Ok(RtUnit {
             cfg,
             params,
             datapath,
             widths,
             treelet_shift,
+            spill,
         })
     }
 
@@ -384,6 +494,19 @@ impl<D: NodeDatapath> RtUnit<D> {
                     ),
                 ));
             }
+            for s in [StackSel::Current, StackSel::Other] {
+                if ray.spilled(s) > self.params.stack_spill_chunks {
+                    return Err(bad(
+                        i,
+                        format!(
+                            "{} stack has {} chunks spilled, stack_spill_chunks is {}",
+                            s.name(),
+                            ray.spilled(s),
+                            self.params.stack_spill_chunks
+                        ),
+                    ));
+                }
+            }
             for (name, stack) in [("current", &ray.current_stack), ("other", &ray.other_stack)] {
                 if stack.len() > self.cfg.stack_depth as usize {
                     return Err(bad(
@@ -448,7 +571,16 @@ impl<D: NodeDatapath> RtUnit<D> {
             {
                 r.fifo.push_back(*resp);
             } else {
-                r.errors |= errors::FIFO_OVERFLOW;
+                let limit = (self.params.resp_ports as usize).min(resp_free as usize);
+                raise(
+                    &mut r.errors,
+                    &mut r.first_error,
+                    record(
+                        ErrorKind::FifoOverflow,
+                        inp.responses.len() as u64,
+                        limit as u64,
+                    ),
+                );
             }
         }
 
@@ -470,6 +602,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             boundary,
             released,
             errors: r.errors,
+            first_error: r.first_error,
         }
     }
 
@@ -477,19 +610,54 @@ impl<D: NodeDatapath> RtUnit<D> {
     /// `s` of `free_mask`) or appends a repack fill to a held slot.
     fn issue(&self, r: &mut RtUnitRegs, free_mask: u64, issue: &WarpIssue) {
         let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
-        if self.check_issue(issue).is_err() {
-            r.errors |= errors::BAD_ISSUE;
+        if let Err(e) = self.check_issue(issue) {
+            let lane = match e {
+                RtUnitError::BadIssue { lane, .. } => lane,
+                _ => 0,
+            };
+            let ray_id = issue
+                .lanes
+                .get(lane as usize)
+                .and_then(|l| l.as_ref())
+                .map_or(0, |ray| ray.ray_id);
+            raise(
+                &mut r.errors,
+                &mut r.first_error,
+                ErrorRecord {
+                    lane,
+                    ray_id,
+                    ..record(ErrorKind::BadIssue, 0, 0)
+                },
+            );
             return;
         }
+        let bad_command = |r: &mut RtUnitRegs, slot: u32| {
+            raise(
+                &mut r.errors,
+                &mut r.first_error,
+                ErrorRecord {
+                    slot,
+                    ..record(ErrorKind::BadCommand, issue.target.code(), 0)
+                },
+            )
+        };
         match issue.target {
             IssueTarget::AnyFree => match free_slot {
-                None => r.errors |= errors::ISSUE_WHILE_FULL,
+                None => raise(
+                    &mut r.errors,
+                    &mut r.first_error,
+                    record(
+                        ErrorKind::IssueWhileFull,
+                        self.cfg.warp_buffer_size as u64 + 1,
+                        self.cfg.warp_buffer_size as u64,
+                    ),
+                ),
                 Some(s) => self.load(r, s, issue),
             },
             IssueTarget::Slot(s) if s < 64 && free_mask >> s & 1 == 1 => {
                 self.load(r, s as usize, issue)
             }
-            IssueTarget::Slot(_) => r.errors |= errors::BAD_COMMAND,
+            IssueTarget::Slot(s) => bad_command(r, s),
             IssueTarget::Append { slot: s, last } => {
                 let ok =
                     r.slots.get(s as usize).is_some_and(|slot| {
@@ -500,7 +668,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                             })
                     });
                 if !ok {
-                    r.errors |= errors::BAD_COMMAND;
+                    bad_command(r, s);
                     return;
                 }
                 let slot = &mut r.slots[s as usize];
@@ -521,14 +689,22 @@ impl<D: NodeDatapath> RtUnit<D> {
     /// rays already between treelets park at once.
     fn stop(&self, r: &mut RtUnitRegs, s: u32) {
         let Some(slot) = r.slots.get_mut(s as usize).filter(|slot| slot.valid) else {
-            r.errors |= errors::BAD_COMMAND;
+            raise(
+                &mut r.errors,
+                &mut r.first_error,
+                ErrorRecord {
+                    slot: s,
+                    ..record(ErrorKind::BadCommand, 0, 0)
+                },
+            );
             return;
         };
         slot.order = TraversalOrder::TreeletStop;
         for (l, lane) in slot.lanes.iter_mut().enumerate() {
             if lane.status == LaneStatus::Traversing
                 && lane.in_flight.is_none()
-                && lane.ray.current_stack.is_empty()
+                && lane.filling.is_none()
+                && lane.ray.current_empty()
                 && !lane.ray.other_stack.is_empty()
             {
                 lane.status = LaneStatus::Parked;
@@ -632,14 +808,57 @@ impl<D: NodeDatapath> RtUnit<D> {
                 continue;
             }
             let leader = ready.trailing_zeros() as usize;
-            let Some(node) = slot.lanes[leader].ray.next_node() else {
-                continue;
+            let order = slot.order;
+            let tag = s << lane_bits | leader as u32;
+            let node = match self.action(&slot.lanes[leader].ray, order) {
+                None => continue,
+                Some(LaneAction::Fetch(node)) => node,
+                Some(LaneAction::Spill(stack, k)) => {
+                    let lane = &mut slot.lanes[leader];
+                    let spilled = lane.ray.spilled(stack);
+                    if spilled >= self.params.stack_spill_chunks {
+                        let failure = ErrorRecord {
+                            slot: s,
+                            lane: leader as u32,
+                            ray_id: lane.ray.ray_id,
+                            ..record(
+                                ErrorKind::SpillAreaFull,
+                                spilled as u64 + 1,
+                                self.params.stack_spill_chunks as u64,
+                            )
+                        };
+                        raise(&mut r.errors, &mut r.first_error, failure);
+                        return None;
+                    }
+                    let entries: Vec<NodeEntry> = lane.ray.stack_mut(stack).drain(..k).collect();
+                    *lane.ray.spilled_mut(stack) += 1;
+                    slot.masks.set(leader, lane);
+                    r.stats.stack_spills += 1;
+                    return Some(MemRequest {
+                        address: self.spill_address(lane.ray.ray_id, stack, spilled),
+                        kind: RequestKind::StackSpill,
+                        tag,
+                        data: pack_spill_chunk(&entries),
+                    });
+                }
+                Some(LaneAction::Fill(stack)) => {
+                    let lane = &mut slot.lanes[leader];
+                    lane.filling = Some(stack);
+                    slot.masks.set(leader, lane);
+                    r.stats.stack_fills += 1;
+                    let index = lane.ray.spilled(stack) - 1;
+                    return Some(MemRequest {
+                        address: self.spill_address(lane.ray.ray_id, stack, index),
+                        kind: RequestKind::StackFill,
+                        tag,
+                        data: [0; CHUNK_BYTES as usize],
+                    });
+                }
             };
-            let same = |n: NodeEntry| n.address == node.address && n.chunks == node.chunks;
             let mut served = 0;
             for l in bits(ready) {
                 let lane = &mut slot.lanes[l];
-                if lane.ray.next_node().is_some_and(same) {
+                if self.action(&lane.ray, order) == Some(LaneAction::Fetch(node)) {
                     self.pop_next(&mut lane.ray);
                     lane.in_flight = Some(InFlight {
                         node,
@@ -651,7 +870,6 @@ impl<D: NodeDatapath> RtUnit<D> {
                 }
             }
             r.stats.merged += served - 1;
-            let tag = s << lane_bits | leader as u32;
             if node.chunks > 1 {
                 r.split = Some(Split {
                     tag,
@@ -663,6 +881,56 @@ impl<D: NodeDatapath> RtUnit<D> {
             return Some(load_request(&node, 0, tag));
         }
         None
+    }
+
+    /// The request a ready lane holding `ray` makes next in a warp of traversal order `order`
+    /// (`None` when the ray is finished).
+    fn action(&self, ray: &RayRecord, order: TraversalOrder) -> Option<LaneAction> {
+        let depth = self.cfg.stack_depth as usize;
+        let room = self.params.max_children as usize;
+        let (pop, node) = if let Some(&n) = ray.current_stack.last() {
+            (StackSel::Current, n)
+        } else if ray.current_spilled > 0 {
+            return Some(LaneAction::Fill(StackSel::Current));
+        } else if let Some(&n) = ray.other_stack.last() {
+            (StackSel::Other, n)
+        } else if ray.other_spilled > 0 {
+            return Some(LaneAction::Fill(StackSel::Other));
+        } else {
+            return None;
+        };
+        // After the pop, every stack that may receive children needs `room` free entries.
+        let receivers: &[StackSel] = if order.two_stack() {
+            &[StackSel::Current, StackSel::Other]
+        } else {
+            &[StackSel::Current]
+        };
+        for &stack in receivers {
+            let keep = usize::from(stack == pop);
+            let after = ray.stack(stack).len() - keep;
+            if after + room > depth {
+                let k = after.min(STACK_ENTRIES_PER_CHUNK);
+                return Some(LaneAction::Spill(stack, k));
+            }
+        }
+        Some(LaneAction::Fetch(node))
+    }
+
+    /// Byte address of chunk `index` of stack `stack`'s spill area of ray `ray_id`.
+    fn spill_address(&self, ray_id: u32, stack: StackSel, index: u32) -> u64 {
+        let area = ray_id as u64 * 2 + stack.code();
+        self.spill.0
+            + (area * self.params.stack_spill_chunks as u64 + index as u64) * CHUNK_BYTES as u64
+    }
+
+    /// Whether `address` lies in the stack spill area.
+    fn in_spill_area(&self, address: u64) -> bool {
+        (self.spill.0..self.spill.1).contains(&address)
+    }
+
+    /// The stack spill area, `[start, end)`.
+    pub fn spill_range(&self) -> (u64, u64) {
+        self.spill
     }
 
     /// The 32 B hit-record store of a ray: t, hit id, two attribute words, ray id, zeros.
@@ -684,7 +952,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
         MemRequest {
             address: self.params.hit_record_base + ray.ray_id as u64 * CHUNK_BYTES as u64,
-            is_store: true,
+            kind: RequestKind::HitStore,
             tag,
             data,
         }
@@ -703,10 +971,21 @@ impl<D: NodeDatapath> RtUnit<D> {
     fn deliver(&self, r: &mut RtUnitRegs, resp: &MemResponse, boundary: &mut Vec<BoundaryEvent>) {
         let s = resp.tag >> self.widths.lane;
         let leader = resp.tag & ((1 << self.widths.lane) - 1);
+        let unmatched = ErrorRecord {
+            slot: s,
+            lane: leader,
+            ..record(ErrorKind::UnmatchedResponse, resp.address, 0)
+        };
         let Some(slot) = r.slots.get_mut(s as usize).filter(|slot| slot.valid) else {
-            r.errors |= errors::UNMATCHED_RESPONSE;
+            raise(&mut r.errors, &mut r.first_error, unmatched);
             return;
         };
+        if self.in_spill_area(resp.address) {
+            if !self.fill(slot, s, leader as usize, resp, boundary) {
+                raise(&mut r.errors, &mut r.first_error, unmatched);
+            }
+            return;
+        }
         let order = slot.order;
         let mut matched = false;
         // Only lanes whose cached leader matches can match (the full check follows).
@@ -734,7 +1013,14 @@ impl<D: NodeDatapath> RtUnit<D> {
             if f.returned == (1u8 << f.node.chunks) - 1 {
                 let node = f.node;
                 lane.in_flight = None;
-                let event = self.test(lane, &node, order, &mut r.stats, &mut r.errors);
+                let event = self.test(
+                    lane,
+                    (s, l as u32),
+                    &node,
+                    order,
+                    &mut r.stats,
+                    (&mut r.errors, &mut r.first_error),
+                );
                 slot.masks.set(l, lane);
                 if let Some(treelet) = event {
                     boundary.push(BoundaryEvent {
@@ -747,8 +1033,55 @@ impl<D: NodeDatapath> RtUnit<D> {
             }
         }
         if !matched {
-            r.errors |= errors::UNMATCHED_RESPONSE;
+            raise(&mut r.errors, &mut r.first_error, unmatched);
         }
+    }
+
+    /// Delivers a stack-fill response to lane `l` of slot `s`: the chunk's entries become the
+    /// lane's on-chip stack. A ray whose current stack is empty and whose other stack's top
+    /// came back reaches its treelet boundary now. Returns whether the response matched.
+    fn fill(
+        &self,
+        slot: &mut WarpSlot,
+        s: u32,
+        l: usize,
+        resp: &MemResponse,
+        boundary: &mut Vec<BoundaryEvent>,
+    ) -> bool {
+        let order = slot.order;
+        let Some(lane) = slot.lanes.get_mut(l) else {
+            return false;
+        };
+        let Some(stack) = lane.filling else {
+            return false;
+        };
+        let spilled = lane.ray.spilled(stack);
+        let entries = unpack_spill_chunk(&resp.data);
+        if spilled == 0
+            || resp.address != self.spill_address(lane.ray.ray_id, stack, spilled - 1)
+            || !lane.ray.stack(stack).is_empty()
+            || entries.is_empty()
+        {
+            return false;
+        }
+        *lane.ray.stack_mut(stack) = entries;
+        *lane.ray.spilled_mut(stack) -= 1;
+        lane.filling = None;
+        if stack == StackSel::Other && order.two_stack() && lane.ray.current_empty() {
+            if let Some(top) = lane.ray.other_stack.last() {
+                if order == TraversalOrder::TreeletStop {
+                    lane.status = LaneStatus::Parked;
+                }
+                boundary.push(BoundaryEvent {
+                    slot: s,
+                    lane: l as u32,
+                    ray_id: lane.ray.ray_id,
+                    treelet: self.treelet_of(top.address),
+                });
+            }
+        }
+        slot.masks.set(l, lane);
+        true
     }
 
     /// Runs the datapath on a complete node and writes the result back; returns the treelet
@@ -756,10 +1089,11 @@ impl<D: NodeDatapath> RtUnit<D> {
     fn test(
         &self,
         lane: &mut Lane,
+        (s, l): (u32, u32),
         node: &NodeEntry,
         order: TraversalOrder,
         stats: &mut RtStats,
-        errs: &mut u8,
+        (flags, first): (&mut u8, &mut Option<ErrorRecord>),
     ) -> Option<u64> {
         let data = &lane.chunks.as_flattened()[..node.bytes() as usize];
         let result = self
@@ -779,9 +1113,26 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
         lane.delay = self.params.latencies.of(node.kind, accepted.is_some());
         let ray = &mut lane.ray;
-        for child in result.children.iter().rev() {
+        let ray_id = ray.ray_id;
+        let bad_child = |value: u64, limit: u64| ErrorRecord {
+            slot: s,
+            lane: l,
+            ray_id,
+            ..record(ErrorKind::BadChild, value, limit)
+        };
+        let children = result.children.len();
+        if children > self.params.max_children as usize {
+            let failure = bad_child(children as u64, self.params.max_children as u64);
+            raise(flags, first, failure);
+        }
+        // The fetch kept `max_children` entries free on every stack that may receive them.
+        for child in result.children[..children.min(self.params.max_children as usize)]
+            .iter()
+            .rev()
+        {
             if self.check_node(child).is_err() {
-                *errs |= errors::BAD_CHILD;
+                let failure = bad_child(child.address, 1 << self.cfg.address_bits);
+                raise(flags, first, failure);
                 continue;
             }
             let current =
@@ -791,17 +1142,15 @@ impl<D: NodeDatapath> RtUnit<D> {
             } else {
                 &mut ray.other_stack
             };
-            if stack.len() < self.cfg.stack_depth as usize {
-                stack.push(*child);
-            } else {
-                *errs |= errors::STACK_OVERFLOW;
-            }
+            debug_assert!(stack.len() < self.cfg.stack_depth as usize, "stack room");
+            stack.push(*child);
         }
         if ray.finished() {
             lane.status = LaneStatus::Done;
             return None;
         }
-        if !order.two_stack() || !ray.current_stack.is_empty() {
+        // A boundary whose next treelet waits in memory is reported when the fill returns.
+        if !order.two_stack() || !ray.current_empty() || ray.other_stack.is_empty() {
             return None;
         }
         if order == TraversalOrder::TreeletStop {
@@ -828,7 +1177,7 @@ impl<D: NodeDatapath> RtUnit<D> {
 fn load_request(node: &NodeEntry, chunk: u8, tag: u32) -> MemRequest {
     MemRequest {
         address: node.address + chunk as u64 * CHUNK_BYTES as u64,
-        is_store: false,
+        kind: RequestKind::NodeLoad,
         tag,
         data: [0; CHUNK_BYTES as usize],
     }
@@ -855,6 +1204,7 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
             fifo: VecDeque::with_capacity(self.params.resp_fifo_depth as usize),
             split: None,
             errors: 0,
+            first_error: None,
             stats: RtStats::default(),
         }
     }

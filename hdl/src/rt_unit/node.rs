@@ -14,6 +14,10 @@ pub const CHUNK_MASK: u64 = CHUNK_BYTES as u64 - 1;
 /// Largest node the RT unit fetches, in 32 B chunks (a 128 B instance leaf, FACTS.md "BVH format").
 pub const MAX_NODE_CHUNKS: usize = 4;
 
+/// Stack entries in one 32 B spill chunk: four 64-bit slots, bottom entry first (see
+/// [`pack_spill_chunk`]).
+pub const STACK_ENTRIES_PER_CHUNK: usize = 4;
+
 /// 32-bit words of a ray record: origin xyz, direction xyz, tmin, tmax (32 B, FACTS.md).
 pub const RAY_WORDS: usize = 8;
 
@@ -129,6 +133,50 @@ impl NodeEntry {
             | (self.kind.code() << 2)
             | (self.chunks.saturating_sub(1) as u64 & 3)
     }
+
+    /// The entry as a 64-bit slot of a spill chunk: a valid bit (bit 63) over [`encode`]
+    /// (an empty slot is all zeros).
+    ///
+    /// [`encode`]: NodeEntry::encode
+    pub fn spill_word(&self) -> u64 {
+        1 << 63 | self.encode()
+    }
+
+    /// The entry of a spill-chunk slot, `None` for an empty slot or an undefined kind code.
+    pub fn from_spill_word(word: u64) -> Option<NodeEntry> {
+        if word >> 63 == 0 {
+            return None;
+        }
+        let fields = word & !(1 << 63);
+        let kind = *NodeKind::ALL.get(((fields >> 2) & 7) as usize)?;
+        Some(NodeEntry {
+            address: fields >> (NodeKind::BITS + 2),
+            kind,
+            chunks: (fields & 3) as u8 + 1,
+        })
+    }
+}
+
+/// Packs up to [`STACK_ENTRIES_PER_CHUNK`] stack entries (bottom first) into a 32 B spill
+/// chunk: little-endian 64-bit slots ([`NodeEntry::spill_word`]), unused slots zero.
+pub fn pack_spill_chunk(entries: &[NodeEntry]) -> [u8; CHUNK_BYTES as usize] {
+    debug_assert!(entries.len() <= STACK_ENTRIES_PER_CHUNK);
+    let mut data = [0u8; CHUNK_BYTES as usize];
+    for (slot, e) in data.chunks_exact_mut(8).zip(entries) {
+        slot.copy_from_slice(&e.spill_word().to_le_bytes());
+    }
+    data
+}
+
+/// The stack entries of a 32 B spill chunk, bottom first, up to the first empty slot.
+pub fn unpack_spill_chunk(data: &[u8; CHUNK_BYTES as usize]) -> Vec<NodeEntry> {
+    data.chunks_exact(8)
+        .map_while(|slot| {
+            let mut bytes = [0u8; 8];
+            bytes.copy_from_slice(slot);
+            NodeEntry::from_spill_word(u64::from_le_bytes(bytes))
+        })
+        .collect()
 }
 
 /// Intersection-test latencies in cycles per node kind, from FACTS.md "RT unit timing" (the

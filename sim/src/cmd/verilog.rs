@@ -27,7 +27,14 @@ pub struct VerilogArgs {
 pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
     let mut out = vtq_gen::rtl::table_modules(&cfg.hw)?;
     let controller = TreeletController::new(cfg.hw.clone(), ControllerFeatures::FULL)?;
-    let rt = describe_rt_unit(&cfg.hw, &cfg.rt_unit_params(0))?;
+    let rt = describe_rt_unit(
+        &cfg.hw,
+        &cfg.rt_unit_params(
+            0,
+            None,
+            vtq_hdl::rt_unit::RtUnitParams::default().stack_spill_chunks,
+        ),
+    )?;
     for desc in [controller.describe(), rt] {
         out.push((desc.name.clone(), vtq_gen::emit_module(&desc)?));
     }

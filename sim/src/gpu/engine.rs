@@ -23,7 +23,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use vtq_hdl::rt_unit::TraversalOrder;
+use vtq_hdl::rt_unit::{TraversalOrder, CHUNK_BYTES};
 
 use crate::bvh::HwBvh;
 use crate::config::{ModeKind, SimConfig};
@@ -38,7 +38,7 @@ use crate::gpu::treelet_queues::TreeletQueues;
 use crate::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::gpu::watchdog::Watchdog;
 use crate::gpu::SimError;
-use crate::memory::{MemorySystem, Response};
+use crate::memory::{AccessClass, MemorySystem, Response};
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
 use crate::workload::pathtracer::RenderSettings;
@@ -165,9 +165,20 @@ pub fn simulate(
     let bvh_end = bvh.treelets().len() as u64 * bvh.params().treelet_bytes as u64;
     let records = bvh_end.div_ceil(HIT_RECORD_ALIGN) * HIT_RECORD_ALIGN;
     let per_sm = cfg.hw.max_rays as u64 * HIT_RECORD_BYTES;
+    // Hit records, then (queues mode) ray records, then suspended CTAs' state, then the
+    // traversal stacks' spill areas.
+    let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
+    let scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
+    let state_end = state_base
+        + scheduler.total() as u64 * cfg.cta_state_bytes().next_multiple_of(CHUNK_BYTES as u64);
+    let spill = SpillLayout::new(cfg, bvh, state_end.next_multiple_of(HIT_RECORD_ALIGN))?;
     let rts = (0..nsms)
         .map(|sm| {
-            let params = cfg.rt_unit_params(records + sm as u64 * per_sm);
+            let params = cfg.rt_unit_params(
+                records + sm as u64 * per_sm,
+                Some(spill.base(sm)),
+                spill.chunks,
+            );
             let port = RtPort::new(&cfg.hw, params, bvh, TraversalOrder::TreeletContinue)
                 .map_err(|source| SimError::Rt { sm, source })?;
             Ok::<_, SimError>(match cfg.mode.kind {
@@ -189,8 +200,6 @@ pub fn simulate(
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    // Hit records, then (queues mode) ray records, then suspended CTAs' state.
-    let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
     let sm = |_| {
         let sm = Sm::new(cta_slots, warps_per_cta);
         if cfg.mode.virtualization {
@@ -206,7 +215,7 @@ pub fn simulate(
         frame,
         timing: ShaderTiming::new(&cfg.gpu),
         options,
-        scheduler: CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta),
+        scheduler,
         sms: (0..nsms).map(sm).collect(),
         rts,
         states: (0..nsms)
@@ -230,7 +239,56 @@ pub fn simulate(
     let start = Instant::now();
     let cycles = gpu.run(progress)?;
     let wall = start.elapsed().as_secs_f64();
-    Ok(gpu.finish(cycles, wall, config_toml, bvh))
+    Ok(gpu.finish(cycles, wall, config_toml, bvh, spill.chunks))
+}
+
+/// Where the RT units' traversal stacks spill: each SM's area holds `chunks` 32 B chunks for
+/// each of the two stacks of each of its `hw.max_rays` ray ids, the areas one after another
+/// from `start`.
+#[derive(Debug, Clone, Copy)]
+struct SpillLayout {
+    /// First byte of SM 0's area.
+    start: u64,
+    /// Bytes of one SM's area.
+    per_sm: u64,
+    /// Chunks per ray stack.
+    chunks: u32,
+}
+
+impl SpillLayout {
+    /// Chunks per ray stack never need to exceed this: a chunk holds at least one entry, and a
+    /// ray's stack holds at most (width - 1) x depth + 1 entries of its current treelet plus
+    /// one per treelet root (only treelet roots go on the other stack, each at most once).
+    fn needed(bvh: &HwBvh) -> u64 {
+        let s = bvh.stats();
+        (bvh.params().width as u64 - 1) * s.depth as u64 + 1 + s.treelets as u64
+    }
+
+    /// The layout after everything else (from `start`): as many chunks per ray stack as fit the
+    /// `hw.address_bits` address space, but no more than [`SpillLayout::needed`] and 2^20.
+    fn new(cfg: &SimConfig, bvh: &HwBvh, start: u64) -> Result<Self, SimError> {
+        let stacks = cfg.gpu.sms as u64 * cfg.hw.max_rays as u64 * 2;
+        let top = 1u64 << cfg.hw.address_bits;
+        let room = top.saturating_sub(start) / (stacks * CHUNK_BYTES as u64);
+        let chunks = Self::needed(bvh).min(1 << 20).min(room);
+        if chunks == 0 {
+            return Err(SimError::Setup(format!(
+                "no room for the traversal stacks' spill areas: the BVH, records and CTA state \
+                 end at byte {start} of the {}-bit address space; raise hw.address_bits",
+                cfg.hw.address_bits
+            )));
+        }
+        Ok(SpillLayout {
+            start,
+            per_sm: cfg.hw.max_rays as u64 * 2 * chunks * CHUNK_BYTES as u64,
+            chunks: chunks as u32,
+        })
+    }
+
+    /// First byte of SM `sm`'s area.
+    fn base(&self, sm: usize) -> u64 {
+        self.start + sm as u64 * self.per_sm
+    }
 }
 
 impl Gpu<'_> {
@@ -347,7 +405,9 @@ impl Gpu<'_> {
                         .collect()
                 })
                 .unwrap_or_default();
-            let out = self.rts[sm].step(now, sm, head.map(|w| (w, rays.as_slice())))?;
+            let out = self.rts[sm]
+                .step(now, sm, head.map(|w| (w, rays.as_slice())))
+                .map_err(|e| self.locate(sm, e))?;
             if out.accepted.is_some() {
                 self.sms[sm].issue_ready();
             }
@@ -363,6 +423,21 @@ impl Gpu<'_> {
             self.watchdog.progress(now);
         }
         Ok(())
+    }
+
+    /// Adds the pixel of the ray an RT-unit error of SM `sm` names (from its SM warp and lane).
+    fn locate(&self, sm: usize, mut e: SimError) -> SimError {
+        if let SimError::RtUnit { fault, .. } = &mut e {
+            if let Some((w, l)) = fault.owner {
+                let thread = self.sms[sm]
+                    .warp(w)
+                    .and_then(|warp| warp.threads.get(l as usize))
+                    .and_then(|t| t.as_ref());
+                let width = self.settings.width.max(1);
+                fault.pixel = thread.map(|t| (t.pixel() % width, t.pixel() / width));
+            }
+        }
+        e
     }
 
     /// Takes SM `sm`'s CTA-state load responses; a CTA whose state is back runs again and
@@ -544,7 +619,14 @@ impl Gpu<'_> {
     }
 
     /// The statistics and image of a finished run.
-    fn finish(self, cycles: u64, wall: f64, config: String, bvh: &HwBvh) -> SimOutput {
+    fn finish(
+        self,
+        cycles: u64,
+        wall: f64,
+        config: String,
+        bvh: &HwBvh,
+        stack_spill_chunks: u32,
+    ) -> SimOutput {
         let mut rt = RtTotals::default();
         for port in &self.rts {
             rt.add(port.hw_stats());
@@ -552,9 +634,9 @@ impl Gpu<'_> {
         let mem = self.mem.stats();
         let rays_issued: u64 = self.rts.iter().map(|r| r.rays_issued).sum();
         let rays_completed: u64 = self.rts.iter().map(|r| r.rays_completed).sum();
-        let l2_misses = [mem.bvh, mem.ray_record, mem.cta_state, mem.hit_record]
+        let l2_misses = AccessClass::ALL
             .iter()
-            .map(|c| c.l2_misses)
+            .map(|&c| mem.class(c).l2_misses)
             .sum();
         let mut units = vec![
             "cta_scheduler",
@@ -647,6 +729,7 @@ impl Gpu<'_> {
             cta_suspends: self.sms.iter().map(|s| s.suspends).sum(),
             cta_resumes: self.sms.iter().map(|s| s.resumes).sum(),
             max_rays_in_flight: self.sms.iter().map(|s| s.max_in_flight).max().unwrap_or(0),
+            stack_spill_chunks: stack_spill_chunks as u64,
             rt,
             max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
             queues: queues.iter().fold(QueueTotals::default(), |mut t, q| {

@@ -43,18 +43,15 @@ pub enum SimError {
         /// The hardware model's error.
         source: vtq_hdl::rt_unit::RtUnitError,
     },
-    /// An RT unit raised sticky error flags (e.g. a traversal stack overflowed: raise
-    /// `hw.stack_depth`).
-    #[error(
-        "RT unit of SM {sm} raised error flags {flags:#04x} (1 issue while full, 2 bad issue, \
-         4 FIFO overflow, 8 unmatched response, 16 stack overflow: raise hw.stack_depth, \
-         32 bad child)"
-    )]
-    RtProtocol {
+    /// An RT unit raised an error: a ray outgrew its stack spill area, the datapath returned
+    /// a child the unit cannot hold, or the simulator broke the unit's protocol. The message
+    /// names what happened, the ray, its SM warp, lane and pixel, and the limit.
+    #[error("RT unit of SM {sm}: {fault}")]
+    RtUnit {
         /// The SM.
         sm: usize,
-        /// The flags ([`vtq_hdl::rt_unit::errors`]).
-        flags: u8,
+        /// What happened and where.
+        fault: Box<rt::RtFault>,
     },
     /// The treelet hardware of queues mode lost track of a ray (a modelling bug, reported
     /// rather than giving wrong numbers).

@@ -2,13 +2,15 @@
 //! [`vtq_hdl::rt_unit::RtUnit`] with its registers, the memory access queue between its memory
 //! scheduler and the L1 (requests wait there while the L1 stalls), and the return path that
 //! feeds memory responses into the response FIFO (at most `resp_ports` per cycle and never more
-//! than `resp_free`). Node data comes from the BVH image; hit-record stores go to memory.
+//! than `resp_free`). Node data comes from the BVH image; hit-record stores go to memory;
+//! traversal-stack spills are stored in this SM's stack spill area ([`SpillMemory`]) and
+//! stack fills read them back.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 
 use vtq_hdl::rt_unit::{
-    MemResponse, RayRecord, RtUnit, RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams,
-    RtUnitRegs, TraversalOrder, WarpIssue, CHUNK_BYTES,
+    ErrorKind, ErrorRecord, MemResponse, RayRecord, RequestKind, RtUnit, RtUnitError, RtUnitInputs,
+    RtUnitOutputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -29,6 +31,92 @@ pub struct TracedWarp {
     pub warp: usize,
     /// Per lane: `Some(hit or miss)` for lanes that carried a ray.
     pub hits: Vec<Option<Option<Hit>>>,
+}
+
+/// The contents of one SM's stack spill area: what the RT unit's spill stores wrote, by
+/// address, read back by its fills (memory contents, not timing: timing is the memory
+/// system's, through the `Stack` access class).
+#[derive(Debug, Clone, Default)]
+pub struct SpillMemory {
+    chunks: HashMap<u64, [u8; CHUNK_BYTES as usize]>,
+}
+
+impl SpillMemory {
+    /// Writes the 32 B chunk at `address`.
+    fn store(&mut self, address: u64, data: [u8; CHUNK_BYTES as usize]) {
+        self.chunks.insert(address, data);
+    }
+
+    /// The 32 B chunk at `address` (zeros where nothing was stored: the RT unit then reports
+    /// an unmatched response).
+    fn load(&self, address: u64) -> [u8; CHUNK_BYTES as usize] {
+        self.chunks.get(&address).copied().unwrap_or_default()
+    }
+}
+
+/// An error the RT unit raised, with where its ray came from, so the message can name the SM
+/// warp, lane and pixel rather than a flag.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RtFault {
+    /// The RT unit's first-error capture.
+    pub record: ErrorRecord,
+    /// SM warp (virtual id) and lane of the ray concerned, when known.
+    pub owner: Option<(usize, u32)>,
+    /// Pixel `(x, y)` of that ray's thread, when known (filled in by the engine).
+    pub pixel: Option<(u32, u32)>,
+    /// `hw.address_bits`, which sizes the stack spill area.
+    pub address_bits: u32,
+}
+
+impl std::fmt::Display for RtFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let r = &self.record;
+        write!(f, "{}", r.kind.describe())?;
+        let ray = match (self.owner, self.pixel) {
+            (Some((w, l)), Some((x, y))) => {
+                format!("ray {} (SM warp {w}, lane {l}, pixel ({x}, {y}))", r.ray_id)
+            }
+            (Some((w, l)), None) => format!("ray {} (SM warp {w}, lane {l})", r.ray_id),
+            _ => format!("ray {}", r.ray_id),
+        };
+        let at = format!("warp-buffer slot {}, lane {}", r.slot, r.lane);
+        match r.kind {
+            ErrorKind::SpillAreaFull => write!(
+                f,
+                ": {ray} in {at} needs {} spilled 32 B chunks of one stack, but its spill area \
+                 holds {} (the area is sized from the free address space: raise \
+                 hw.address_bits, now {})",
+                r.value, r.limit, self.address_bits
+            ),
+            ErrorKind::BadChild if r.limit == 0 => write!(
+                f,
+                ": {ray} in {at}: a child at address {:#x} is misaligned, of a bad size or \
+                 outside the address space",
+                r.value
+            ),
+            ErrorKind::BadChild => write!(
+                f,
+                ": {ray} in {at}: {} children, the stack room per node (max_children = \
+                 bvh.width) is {}",
+                r.value, r.limit
+            ),
+            ErrorKind::FifoOverflow => write!(
+                f,
+                ": {} responses offered in one cycle, at most {} accepted (a simulator bug)",
+                r.value, r.limit
+            ),
+            ErrorKind::UnmatchedResponse => write!(
+                f,
+                ": the response for address {:#x} (tag: {at}) (a simulator bug)",
+                r.value
+            ),
+            ErrorKind::IssueWhileFull | ErrorKind::BadIssue | ErrorKind::BadCommand => write!(
+                f,
+                ": {ray}, {at}, value {}, limit {} (a simulator bug)",
+                r.value, r.limit
+            ),
+        }
+    }
 }
 
 /// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
@@ -86,6 +174,10 @@ pub struct RtPort<'a> {
     pending: BTreeMap<usize, PendingWarp>,
     /// Queues mode: SM warps whose rays have all finished, returned one per cycle.
     completed: VecDeque<TracedWarp>,
+    /// Contents of this SM's stack spill area.
+    spill: SpillMemory,
+    /// `hw.address_bits`, for error messages.
+    address_bits: u32,
     /// Most requests queued at once.
     pub max_queue: u64,
     /// Rays issued.
@@ -123,6 +215,8 @@ impl<'a> RtPort<'a> {
             queues: None,
             pending: BTreeMap::new(),
             completed: VecDeque::new(),
+            spill: SpillMemory::default(),
+            address_bits: hw.address_bits,
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
@@ -233,8 +327,13 @@ impl<'a> RtPort<'a> {
                 }
                 continue;
             }
-            let mut data = [0u8; CHUNK_BYTES as usize];
-            data.copy_from_slice(self.bvh.bytes_at(r.addr as u32, CHUNK_BYTES));
+            let data = if r.class == AccessClass::Stack {
+                self.spill.load(r.addr)
+            } else {
+                let mut data = [0u8; CHUNK_BYTES as usize];
+                data.copy_from_slice(self.bvh.bytes_at(r.addr as u32, CHUNK_BYTES));
+                data
+            };
             self.responses.push_back(MemResponse {
                 address: r.addr,
                 tag: r.tag as u32,
@@ -313,19 +412,22 @@ impl<'a> RtPort<'a> {
         if let (Some(p), None) = (self.prefetcher.as_mut(), &self.queues) {
             p.observe(&self.regs);
         }
-        if out.errors != 0 {
-            return Err(SimError::RtProtocol {
+        if let Some(record) = out.first_error {
+            return Err(SimError::RtUnit {
                 sm,
-                flags: out.errors,
+                fault: Box::new(self.fault(record)),
             });
         }
         if let Some(req) = out.request {
-            let class = if req.is_store {
-                AccessClass::HitRecord
-            } else {
-                AccessClass::Bvh
+            let class = match req.kind {
+                RequestKind::NodeLoad => AccessClass::Bvh,
+                RequestKind::HitStore => AccessClass::HitRecord,
+                RequestKind::StackSpill | RequestKind::StackFill => AccessClass::Stack,
             };
-            let r = if req.is_store {
+            if req.kind == RequestKind::StackSpill {
+                self.spill.store(req.address, req.data);
+            }
+            let r = if req.is_store() {
                 MemRequest::store(req.address, CHUNK_BYTES, class, req.tag as u64)
             } else {
                 MemRequest::load(req.address, CHUNK_BYTES, class, req.tag as u64)
@@ -338,9 +440,16 @@ impl<'a> RtPort<'a> {
             self.queue_results(sm, &out)?;
             cycle.done = self.completed.pop_front();
         } else if let Some(done) = out.done {
-            let warp = self.slot_warp[done.slot as usize]
-                .take()
-                .ok_or(SimError::RtProtocol { sm, flags: 0 })?;
+            let warp =
+                self.slot_warp[done.slot as usize]
+                    .take()
+                    .ok_or_else(|| SimError::Queues {
+                        sm,
+                        reason: format!(
+                            "warp-buffer slot {} completed a warp it never got",
+                            done.slot
+                        ),
+                    })?;
             let hits: Vec<Option<Option<Hit>>> = done
                 .lanes
                 .iter()
@@ -350,6 +459,32 @@ impl<'a> RtPort<'a> {
             cycle.done = Some(TracedWarp { warp, hits });
         }
         Ok(cycle)
+    }
+
+    /// The fault of an RT-unit error `record`, with the SM warp and lane of its ray where
+    /// known (the pixel is the engine's to add).
+    fn fault(&self, record: ErrorRecord) -> RtFault {
+        let owner = match &self.queues {
+            Some(q) => q.owner(record.ray_id),
+            None => self
+                .slot_warp
+                .get(record.slot as usize)
+                .copied()
+                .flatten()
+                .map(|w| (w, record.lane)),
+        };
+        let owner = owner.filter(|_| {
+            !matches!(
+                record.kind,
+                ErrorKind::FifoOverflow | ErrorKind::UnmatchedResponse
+            )
+        });
+        RtFault {
+            record,
+            owner,
+            pixel: None,
+            address_bits: self.address_bits,
+        }
     }
 
     /// Queues mode, before the RT unit steps: runs the treelet controller and tables, turns their

@@ -99,6 +99,10 @@ pub struct RtTotals {
     pub load_requests: u64,
     /// 32 B hit-record stores.
     pub stores: u64,
+    /// 32 B traversal-stack spills (stores of on-chip stack entries to memory).
+    pub stack_spills: u64,
+    /// 32 B traversal-stack fills (loads of spilled entries back onto the stack).
+    pub stack_fills: u64,
     /// Lanes served by another lane's identical request.
     pub merged: u64,
     /// Node tests by kind (header, internal, triangle_leaf, procedural, ...).
@@ -116,6 +120,8 @@ impl RtTotals {
         self.active_thread_cycles += s.active_thread_cycles;
         self.load_requests += s.requests;
         self.stores += s.stores;
+        self.stack_spills += s.stack_spills;
+        self.stack_fills += s.stack_fills;
         self.merged += s.merged;
         self.triangle_hits += s.hits;
         for kind in NodeKind::ALL {
@@ -212,6 +218,10 @@ pub struct SimStats {
     /// Most rays in flight in one SM at once (issued or waiting to issue, traversal not
     /// completed, rays of suspended CTAs included); at most `hw.max_rays` with virtualization.
     pub max_rays_in_flight: u64,
+    /// 32 B chunks each ray's traversal stack may spill to memory (the spill area the
+    /// simulator's memory layout gives each of the two stacks of each ray id; see
+    /// docs/stats.md).
+    pub stack_spill_chunks: u64,
     /// RT-unit counters summed over the SMs.
     pub rt: RtTotals,
     /// Treelet-controller and treelet-queue counters summed over the SMs (zeros outside

@@ -788,6 +788,11 @@ impl TreeletQueues {
             .map_or(u64::MAX, |k| next + k as u64);
     }
 
+    /// SM warp and lane of the ray with id `ray_id`, if it is in flight.
+    pub fn owner(&self, ray_id: u32) -> Option<(usize, u32)> {
+        self.rays.get(ray_id as usize)?.as_ref().map(|r| r.owner)
+    }
+
     /// The first inconsistency the glue found (a ray it cannot place or account for), if any.
     pub fn fault(&self) -> Option<&str> {
         self.fault.as_deref()

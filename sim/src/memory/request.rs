@@ -16,15 +16,18 @@ pub enum AccessClass {
     CtaState,
     /// Hit records written by the RT unit.
     HitRecord,
+    /// Traversal-stack entries the RT unit spills to and fills back from memory.
+    Stack,
 }
 
 impl AccessClass {
     /// Every class, in statistics order.
-    pub const ALL: [AccessClass; 4] = [
+    pub const ALL: [AccessClass; 5] = [
         AccessClass::Bvh,
         AccessClass::RayRecord,
         AccessClass::CtaState,
         AccessClass::HitRecord,
+        AccessClass::Stack,
     ];
 }
 

@@ -79,6 +79,8 @@ pub struct MemStats {
     pub cta_state: ClassStats,
     /// Hit-record traffic.
     pub hit_record: ClassStats,
+    /// Traversal-stack spill and fill traffic.
+    pub stack: ClassStats,
     /// L1 prefetches.
     pub prefetch: PrefetchStats,
     /// DRAM traffic.
@@ -100,6 +102,7 @@ impl MemStats {
             AccessClass::RayRecord => &self.ray_record,
             AccessClass::CtaState => &self.cta_state,
             AccessClass::HitRecord => &self.hit_record,
+            AccessClass::Stack => &self.stack,
         }
     }
 
@@ -110,6 +113,7 @@ impl MemStats {
             AccessClass::RayRecord => &mut self.ray_record,
             AccessClass::CtaState => &mut self.cta_state,
             AccessClass::HitRecord => &mut self.hit_record,
+            AccessClass::Stack => &mut self.stack,
         }
     }
 }

@@ -62,8 +62,14 @@ pub fn image_bits(img: &[glam::Vec3]) -> Vec<[u32; 3]> {
 /// for the design's own checks.
 pub fn check_against_functional(name: &str, cfg: &SimConfig) -> SimOutput {
     let (scene, bvh) = setup(name, cfg);
-    let out = run(&scene, &bvh, cfg);
-    let reference = render(&scene, &bvh, &cfg.render_settings(), None).unwrap();
+    check_scene_against_functional(&scene, &bvh, cfg)
+}
+
+/// [`check_against_functional`] for a scene built in the test, with its BVH.
+pub fn check_scene_against_functional(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> SimOutput {
+    let name = &scene.name;
+    let out = run(scene, bvh, cfg);
+    let reference = render(scene, bvh, &cfg.render_settings(), None).unwrap();
 
     assert_eq!(out.ray_log.len(), reference.rays.len(), "{name}: ray count");
     assert_eq!(out.stats.rays, reference.rays.len() as u64);
@@ -72,7 +78,7 @@ pub fn check_against_functional(name: &str, cfg: &SimConfig) -> SimOutput {
     for r in &out.ray_log {
         assert_eq!(
             hit_bits(r.hit),
-            hit_bits(trace(&bvh, &r.ray, Order::RayStationary)),
+            hit_bits(trace(bvh, &r.ray, Order::RayStationary)),
             "{name}: closest hit of {:?}",
             r.ray
         );
@@ -136,7 +142,7 @@ pub const STARVED_MEMORY: [&str; 6] = [
 ];
 
 /// Statistics without host-dependent keys and the configuration text (which names lockstep).
-fn strip(o: &SimOutput) -> serde_json::Value {
+pub fn strip(o: &SimOutput) -> serde_json::Value {
     let mut v = comparable_json(&o.stats);
     v.as_object_mut().unwrap().remove("config");
     v
@@ -147,10 +153,19 @@ fn strip(o: &SimOutput) -> serde_json::Value {
 /// (skipping run, lockstep run).
 pub fn check_skip_matches_lockstep(cfg: &SimConfig) -> (SimOutput, SimOutput) {
     let (scene, bvh) = setup("wknd", cfg);
-    let skip = run(&scene, &bvh, cfg);
+    check_scene_skip_matches_lockstep(&scene, &bvh, cfg)
+}
+
+/// [`check_skip_matches_lockstep`] for a scene built in the test, with its BVH.
+pub fn check_scene_skip_matches_lockstep(
+    scene: &Scene,
+    bvh: &HwBvh,
+    cfg: &SimConfig,
+) -> (SimOutput, SimOutput) {
+    let skip = run(scene, bvh, cfg);
     let mut lock_cfg = cfg.clone();
     lock_cfg.sim.lockstep = true;
-    let lock = run(&scene, &bvh, &lock_cfg);
+    let lock = run(scene, bvh, &lock_cfg);
     assert_eq!(strip(&skip), strip(&lock));
     assert_eq!(skip.time_series, lock.time_series);
     assert!(!skip.time_series.is_empty());
