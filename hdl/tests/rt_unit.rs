@@ -4,8 +4,8 @@ use std::collections::BTreeMap;
 use vtq_hdl::rt_unit::{
     errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
     LaneStatus, MemRequest, MemResponse, NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord,
-    RayWords, RequestKind, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams, RtUnitRegs,
-    SlotSummary, Split, TestResult, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    RayWords, RequestKind, RtCache, RtStats, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams,
+    RtUnitRegs, SlotSummary, Split, TestResult, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig, Signals};
 
@@ -163,6 +163,8 @@ impl Memory {
 struct Sim {
     unit: RtUnit<ToyDatapath>,
     regs: RtUnitRegs,
+    cache: RtCache,
+    stats: RtStats,
     mem: Memory,
     cycle: u64,
     use_eval: bool,
@@ -178,6 +180,8 @@ impl Sim {
         let regs = unit.reset();
         Sim {
             unit,
+            cache: RtCache::of(&regs),
+            stats: RtStats::default(),
             regs,
             mem,
             cycle: 0,
@@ -205,10 +209,23 @@ impl Sim {
         let out = if self.use_eval {
             let (out, next) = self.unit.eval(&self.regs, &inputs);
             self.regs = next;
+            self.cache = RtCache::of(&self.regs);
             out
         } else {
-            self.unit.step(&mut self.regs, &inputs)
+            // The fast path must give exactly what the definition gives.
+            let (expected, next) = self.unit.eval(&self.regs, &inputs);
+            let out = self
+                .unit
+                .step_cached(&mut self.regs, &mut self.cache, &inputs);
+            assert_eq!(out, expected, "step_cached outputs, cycle {}", self.cycle);
+            assert_eq!(
+                self.regs, next,
+                "step_cached registers, cycle {}",
+                self.cycle
+            );
+            out
         };
+        self.stats.add(&out.counts);
         self.max_fifo = self.max_fifo.max(self.regs.fifo.len());
         self.mem.accept(self.cycle, out.request);
         if let Some(d) = &out.done {
@@ -331,7 +348,7 @@ fn single_ray_three_node_path_completes_on_the_derived_cycle() {
     assert_eq!(&store.data[0..4], &0.5f32.to_bits().to_le_bytes());
     assert_eq!(&store.data[4..8], &0x300u32.to_le_bytes());
     assert_eq!(&store.data[16..20], &7u32.to_le_bytes());
-    let st = &sim.regs.stats;
+    let st = &sim.stats;
     assert_eq!(st.requests, 5);
     assert_eq!(st.stores, 1);
     assert_eq!(st.tests[NodeKind::Internal.code() as usize], 2);
@@ -429,13 +446,12 @@ fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
         node: pending,
         next_chunk: 1,
     });
-    // The lanes were written directly: bring the unit's lane summaries up to date.
-    assert!(!regs.summaries_consistent());
-    regs.refresh_summaries();
     let idle = unit.idle_inputs();
     let mut reqs = Vec::new();
+    let mut stats = RtStats::default();
     for _ in 0..8 {
         let out = unit.step(&mut regs, &idle);
+        stats.add(&out.counts);
         reqs.push(out.request.map(|r| (r.address, r.is_store(), r.tag)));
     }
     assert_eq!(
@@ -455,9 +471,9 @@ fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
     assert_eq!(lanes[0].in_flight.unwrap().leader, 0);
     assert_eq!(lanes[1].in_flight.unwrap().leader, 0);
     assert_eq!(lanes[1].in_flight.unwrap().node, r1);
-    assert_eq!(regs.stats.merged, 1);
-    assert_eq!(regs.stats.requests, 5);
-    assert_eq!(regs.stats.stores, 2);
+    assert_eq!(stats.merged, 1);
+    assert_eq!(stats.requests, 5);
+    assert_eq!(stats.stores, 2);
 }
 
 #[test]
@@ -496,8 +512,8 @@ fn identical_requests_merge_within_a_warp_not_across_warps() {
             (0x120, 4 | 1)
         ]
     );
-    assert_eq!(sim.regs.stats.merged, 3);
-    assert_eq!(sim.regs.stats.tests[NodeKind::Internal.code() as usize], 6);
+    assert_eq!(sim.stats.merged, 3);
+    assert_eq!(sim.stats.tests[NodeKind::Internal.code() as usize], 6);
     let finished: usize = sim
         .done
         .iter()
@@ -573,7 +589,7 @@ fn simt_efficiency_counts_traversing_lanes_per_warp_cycle() {
     // The warp is valid from cycle 1 until it completes when lane 1's delay ends.
     let completion = last_pop + L_TRIANGLE + 1;
     assert_eq!(sim.done[0].0, completion);
-    let st = &sim.regs.stats;
+    let st = &sim.stats;
     assert_eq!(st.warp_cycles, completion);
     assert_eq!(st.active_thread_cycles, lane0 + last_pop);
     let eff = st.simt_efficiency(4);
@@ -721,9 +737,9 @@ fn response_fifo_loses_nothing_when_it_fills() {
         assert_eq!(*outcome, RayOutcome::Finished);
         assert_eq!(rec.hit.unwrap().hit_id, 0x800 + 0x40 * i as u32);
     }
-    assert_eq!(sim.regs.stats.tests[NodeKind::Internal.code() as usize], 4);
-    assert_eq!(sim.regs.stats.hits, 4);
-    assert_eq!(sim.regs.stats.stores, 4);
+    assert_eq!(sim.stats.tests[NodeKind::Internal.code() as usize], 4);
+    assert_eq!(sim.stats.hits, 4);
+    assert_eq!(sim.stats.stores, 4);
 }
 
 #[test]
@@ -934,11 +950,7 @@ fn run_deep(
         assert_eq!(sim.regs.errors, 0, "{:?}", sim.regs.first_error);
     }
     let reqs = sim.mem.log.iter().map(|(_, r)| *r).collect();
-    (
-        finished.into_values().collect(),
-        sim.regs.stats.clone(),
-        reqs,
-    )
+    (finished.into_values().collect(), sim.stats.clone(), reqs)
 }
 
 /// Per ray id, the node addresses it fetched, in order (first chunks only).
@@ -1179,8 +1191,8 @@ fn ties_in_t_go_to_the_smaller_hit_id() {
     let (rec, _) = sim.done[0].1.lanes[0].as_ref().unwrap();
     assert_eq!(rec.hit.unwrap().hit_id, 0x200);
     // Hits 0x300 then 0x200 were stored; 0x280 ties with a larger id and is dropped.
-    assert_eq!(sim.regs.stats.hits, 2);
-    assert_eq!(sim.regs.stats.stores, 2);
+    assert_eq!(sim.stats.hits, 2);
+    assert_eq!(sim.stats.stores, 2);
 }
 
 /// `skip(n)` equals `n` idle steps whenever `n <= idle_cycles`, and idle steps really are idle:
@@ -1220,17 +1232,22 @@ fn skip_equals_idle_steps() {
         let mut checked_nonzero = 0;
         let mut pending: Vec<WarpIssue> = warps.into_iter().rev().collect();
         while !pending.is_empty() || sim.regs.slots.iter().any(|s| s.valid) {
-            let idle = sim.unit.idle_cycles(&sim.regs);
+            let idle = sim.unit.idle_cycles(&sim.regs, &sim.cache);
             let n = idle.min(25);
             let mut stepped = sim.regs.clone();
+            let mut stepped_counts = RtStats::default();
             for _ in 0..n {
                 let out = sim.unit.step(&mut stepped, &sim.unit.idle_inputs());
                 assert!(out.request.is_none() && out.done.is_none() && out.boundary.is_empty());
                 assert_eq!(stepped.fifo.len(), sim.regs.fifo.len());
+                stepped_counts.add(&out.counts);
             }
             let mut skipped = sim.regs.clone();
-            sim.unit.skip(&mut skipped, n);
+            let mut skipped_cache = sim.cache.clone();
+            let counts = sim.unit.skip(&mut skipped, &mut skipped_cache, n);
             assert_eq!(skipped, stepped, "cycle {} skip {n}", sim.cycle);
+            assert_eq!(counts, stepped_counts, "cycle {} skip {n}", sim.cycle);
+            assert!(skipped_cache.consistent(&skipped));
             checked_nonzero += usize::from(n > 0);
             let issue = if sim.unit.issue_ready(&sim.regs) {
                 pending.pop()
@@ -1554,11 +1571,11 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
             loop {
                 let regs = &sim.regs;
                 assert!(
-                    regs.summaries_consistent(),
+                    sim.cache.consistent(regs),
                     "seed {seed} cycle {}",
                     sim.cycle
                 );
-                let idle_cycles = sim.unit.idle_cycles(regs);
+                let idle_cycles = sim.unit.idle_cycles(regs, &sim.cache);
                 assert_eq!(
                     idle_cycles,
                     idle_cycles_by_scan(regs),
@@ -1569,7 +1586,7 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                 for s in 0..cfg.warp_buffer_size + 1 {
                     for distinct in [false, true] {
                         assert_eq!(
-                            sim.unit.slot_summary(regs, s, distinct),
+                            sim.unit.slot_summary(regs, &sim.cache, s, distinct),
                             slot_summary_by_scan(&sim.unit, regs, s, distinct),
                             "seed {seed} cycle {} slot {s}",
                             sim.cycle
@@ -1611,7 +1628,7 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                     .copied()
                     .filter(|&s| {
                         sim.unit
-                            .slot_summary(regs, s, false)
+                            .slot_summary(regs, &sim.cache, s, false)
                             .is_some_and(|m| !m.quiescent)
                     })
                     .collect();
@@ -1644,13 +1661,10 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                 }
             }
             assert_eq!(sim.regs.errors, 0, "seed {seed}");
-            assert!(
-                sim.regs.stats.tests.iter().sum::<u64>() > 100,
-                "seed {seed}"
-            );
+            assert!(sim.stats.tests.iter().sum::<u64>() > 100, "seed {seed}");
             assert!(stops > 0 && repacks > 0 && fills > 0, "seed {seed}");
             assert!(idle > 0, "seed {seed}: no idle period was exercised");
-            let spills = sim.regs.stats.stack_spills;
+            let spills = sim.stats.stack_spills;
             assert_eq!(spills > 0, stack_depth == 4, "seed {seed}: {spills} spills");
         }
     }

@@ -504,6 +504,10 @@ pub struct RtUnitOutputs {
     pub errors: u8,
     /// The first error raised so far, with its details (sticky, like `errors`).
     pub first_error: Option<ErrorRecord>,
+    /// This cycle's events for the statistics counters outside the block (warp cycles,
+    /// active lanes, requests, tests...): one cycle's increments, summed by whoever keeps
+    /// the statistics ([`RtStats::add`]).
+    pub counts: RtStats,
 }
 
 /// Traversal status of a warp-buffer lane (the lane state machine).
@@ -599,9 +603,6 @@ pub struct WarpSlot {
     pub held: bool,
     /// `warp_size` lanes.
     pub lanes: Vec<Lane>,
-    /// Simulation cache, not a register: per-lane predicates of `lanes` as bit masks, always
-    /// equal to `LaneMasks::of(&lanes)` (see [`RtUnitRegs::refresh_summaries`]).
-    pub(super) masks: LaneMasks,
 }
 
 /// Per-lane predicates of one slot's lanes as bit masks (bit `l` for lane `l`; `warp_size` is
@@ -710,8 +711,10 @@ pub struct Split {
     pub next_chunk: u8,
 }
 
-/// Statistics registers.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+/// Statistics counters of an RT unit. Not registers of the block: each cycle's increments leave
+/// it on [`RtUnitOutputs::counts`] (and [`super::RtUnit::skip`] returns those of skipped idle
+/// cycles), and an observer beside the block sums them with [`RtStats::add`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct RtStats {
     /// Sum over cycles and valid warps of traversing lanes.
     pub active_thread_cycles: u64,
@@ -736,8 +739,26 @@ pub struct RtStats {
 }
 
 impl RtStats {
-    /// Width of each statistics counter.
-    pub const BITS: u32 = 48;
+    /// Adds the increments `c` (one cycle's, or a skip's) to these counters.
+    pub fn add(&mut self, c: &RtStats) {
+        self.active_thread_cycles += c.active_thread_cycles;
+        self.warp_cycles += c.warp_cycles;
+        self.requests += c.requests;
+        self.stores += c.stores;
+        self.stack_spills += c.stack_spills;
+        self.stack_fills += c.stack_fills;
+        self.merged += c.merged;
+        for (t, n) in self.tests.iter_mut().zip(c.tests) {
+            *t += n;
+        }
+        self.hits += c.hits;
+        self.warps_done += c.warps_done;
+    }
+
+    /// Node tests of every kind.
+    pub fn total_tests(&self) -> u64 {
+        self.tests.iter().sum()
+    }
 
     /// SIMT efficiency: active threads / `warp_size` per RT-unit warp cycle (0 with no cycles).
     pub fn simt_efficiency(&self, warp_size: u32) -> f64 {
@@ -749,7 +770,7 @@ impl RtStats {
     }
 }
 
-/// All state of the RT unit's control.
+/// All registers of the RT unit's control.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RtUnitRegs {
     /// Field widths (constant, for traces).
@@ -766,26 +787,32 @@ pub struct RtUnitRegs {
     pub errors: u8,
     /// The first error raised, with its details (capture register).
     pub first_error: Option<ErrorRecord>,
-    /// Statistics counters.
-    pub stats: RtStats,
 }
 
-impl RtUnitRegs {
-    /// Recomputes the simulation caches that summarize the lanes of each slot. The RT unit keeps
-    /// them up to date itself; call this only after writing lane registers directly (for
-    /// example when building a register state by hand in a test).
-    pub fn refresh_summaries(&mut self) {
-        for slot in &mut self.slots {
-            slot.masks = LaneMasks::of(&slot.lanes);
+/// A simulation cache of an RT unit's registers, not hardware: per slot, its lanes'
+/// predicates as bit masks (traversing, done, parked, store pending, delay above 0, request in
+/// flight, entries left) and each in-flight lane's leader. It is a pure function of the
+/// registers ([`RtCache::of`]); [`super::RtUnit::step_cached`] keeps it up to date so that
+/// completion, scheduling, the delay countdown, response delivery, `idle_cycles` and
+/// `slot_summary` touch only the lanes concerned instead of scanning them all. Whoever steps
+/// the unit owns it beside the registers; [`crate::Block::eval`] builds a fresh one.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RtCache {
+    pub(super) masks: Vec<LaneMasks>,
+}
+
+impl RtCache {
+    /// The cache of `regs`.
+    pub fn of(regs: &RtUnitRegs) -> Self {
+        RtCache {
+            masks: regs.slots.iter().map(|s| LaneMasks::of(&s.lanes)).collect(),
         }
     }
 
-    /// Whether every slot's cached lane summary equals a fresh computation from its lanes (the
-    /// invariant [`refresh_summaries`](Self::refresh_summaries) restores).
-    pub fn summaries_consistent(&self) -> bool {
-        self.slots
-            .iter()
-            .all(|slot| slot.masks == LaneMasks::of(&slot.lanes))
+    /// Whether this cache equals a fresh computation from `regs` (debug builds check it at the
+    /// start of every cached step).
+    pub fn consistent(&self, regs: &RtUnitRegs) -> bool {
+        *self == RtCache::of(regs)
     }
 }
 

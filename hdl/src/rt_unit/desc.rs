@@ -152,7 +152,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         port("error_limit", Dir::Out, 64, "first error: the limit it broke"),
     ]);
 
-    let mut registers = vec![
+    let registers = vec![
         reg(
             "slot_valid",
             1,
@@ -305,25 +305,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             "per lane: hit-record store waiting",
         ),
     ];
-    for name in [
-        "stat_active_thread_cycles",
-        "stat_warp_cycles",
-        "stat_requests",
-        "stat_stores",
-        "stat_stack_spills",
-        "stat_stack_fills",
-        "stat_merged",
-        "stat_hits",
-        "stat_warps_done",
-    ] {
-        registers.push(reg(name, RtStats::BITS, 1, "statistics counter"));
-    }
-    registers.push(reg(
-        "stat_tests",
-        RtStats::BITS,
-        NodeKind::ALL.len() as u32,
-        "node tests per kind (header, internal, instance leaf, primitive descriptor, triangle leaf, procedural)",
-    ));
+    ports.extend(count_ports(w));
 
     let stack = |name: &str, doc: &str| MemDesc {
         name: name.to_string(),
@@ -636,6 +618,9 @@ impl Signals for RtUnitOutputs {
             Signal::new("error_value", 64, e.map_or(0, |e| e.value)),
             Signal::new("error_limit", 64, e.map_or(0, |e| e.limit)),
         ]);
+        for (name, width, value, _) in counts(w, &self.counts) {
+            v.push(Signal::new(name, width, value));
+        }
         v
     }
 }
@@ -692,28 +677,103 @@ impl Signals for RtUnitRegs {
                 ));
             }
         }
-        let st = &self.stats;
-        let m = (1u64 << RtStats::BITS) - 1;
-        for (name, value) in [
-            ("stat_active_thread_cycles", st.active_thread_cycles),
-            ("stat_warp_cycles", st.warp_cycles),
-            ("stat_requests", st.requests),
-            ("stat_stores", st.stores),
-            ("stat_stack_spills", st.stack_spills),
-            ("stat_stack_fills", st.stack_fills),
-            ("stat_merged", st.merged),
-            ("stat_hits", st.hits),
-            ("stat_warps_done", st.warps_done),
-        ] {
-            v.push(Signal::new(name, RtStats::BITS, value & m));
-        }
-        for kind in NodeKind::ALL {
-            v.push(Signal::new(
-                format!("stat_tests_{}", kind.code()),
-                RtStats::BITS,
-                st.tests[kind.code() as usize] & m,
-            ));
-        }
         v
     }
+}
+
+/// The statistics-event output ports: this cycle's increments of the counters an observer
+/// beside the block keeps ([`RtStats`]), each with the name, width and value of its signal.
+fn counts(w: &Widths, c: &RtStats) -> Vec<(&'static str, u32, u64, &'static str)> {
+    let lanes = bits_for(w.warp_size as u64);
+    let all_lanes = bits_for(w.warp_size as u64 * w.slots as u64);
+    vec![
+        (
+            "count_warps",
+            bits_for(w.slots as u64),
+            c.warp_cycles,
+            "valid warps this cycle (warp cycles)",
+        ),
+        (
+            "count_active",
+            all_lanes,
+            c.active_thread_cycles,
+            "traversing lanes of the valid warps this cycle (active-thread cycles)",
+        ),
+        (
+            "count_request",
+            1,
+            c.requests,
+            "a node-chunk load was requested",
+        ),
+        (
+            "count_store",
+            1,
+            c.stores,
+            "a hit-record store was requested",
+        ),
+        (
+            "count_spill",
+            1,
+            c.stack_spills,
+            "a stack spill was requested",
+        ),
+        ("count_fill", 1, c.stack_fills, "a stack fill was requested"),
+        (
+            "count_merged",
+            lanes,
+            c.merged,
+            "lanes served by the leader's request (merged)",
+        ),
+        (
+            "count_tests_header",
+            lanes,
+            c.tests[0],
+            "header tests completed",
+        ),
+        (
+            "count_tests_internal",
+            lanes,
+            c.tests[1],
+            "internal-node tests completed",
+        ),
+        (
+            "count_tests_instance_leaf",
+            lanes,
+            c.tests[2],
+            "instance-leaf tests completed",
+        ),
+        (
+            "count_tests_primitive_descriptor",
+            lanes,
+            c.tests[3],
+            "primitive-descriptor tests completed",
+        ),
+        (
+            "count_tests_triangle_leaf",
+            lanes,
+            c.tests[4],
+            "triangle-leaf tests completed",
+        ),
+        (
+            "count_tests_procedural",
+            lanes,
+            c.tests[5],
+            "procedural tests completed",
+        ),
+        (
+            "count_hits",
+            lanes,
+            c.hits,
+            "triangle tests that produced a new closest hit",
+        ),
+        ("count_warp_done", 1, c.warps_done, "a warp completed"),
+    ]
+}
+
+/// The statistics-event ports of [`counts`] as port descriptions.
+fn count_ports(w: &Widths) -> Vec<crate::describe::PortDesc> {
+    counts(w, &RtStats::default())
+        .into_iter()
+        .map(|(name, width, _, doc)| port(name, Dir::Out, width, doc))
+        .collect()
 }

@@ -53,15 +53,20 @@
 //! [`TraversalOrder::TreeletStop`] the ray stops ([`RayOutcome::AtBoundary`]). The single-stack
 //! [`TraversalOrder::RayStationary`] order pushes every child on the current stack.
 //!
-//! # Lane summaries (simulation cache)
-//! Each slot carries bit masks of its lanes' predicates (traversing, done, parked, store
-//! pending, delay above 0, node in flight, next node present) and each in-flight lane's leader.
-//! They are not registers: they are a pure function of the lanes, updated wherever a lane is
-//! written, so that completion, scheduling, the delay countdown, response delivery,
-//! [`RtUnit::idle_cycles`] and [`RtUnit::slot_summary`] touch only the lanes concerned instead
-//! of scanning all of them. Code that writes lane registers directly must call
-//! [`RtUnitRegs::refresh_summaries`] afterwards; debug builds check the summaries at the start
-//! of every cycle.
+//! # Definition and fast path
+//! [`Block::eval`] is the definition: a pure function of the registers and inputs. It builds
+//! the lane summaries of an [`RtCache`] (bit masks of each slot's lane predicates, a pure
+//! function of the registers) and runs the cycle on a copy of the registers.
+//! [`RtUnit::step_cached`] runs the same cycle in place with a cache kept up to date across
+//! cycles by its owner (the simulator), so that completion, scheduling, the delay countdown,
+//! response delivery, [`RtUnit::idle_cycles`] and [`RtUnit::slot_summary`] touch only the
+//! lanes concerned; debug builds check the cache against the registers at every cached step
+//! and tests check the fast path against `eval`.
+//!
+//! # Statistics
+//! The block has no statistics registers: each cycle's increments leave on
+//! [`RtUnitOutputs::counts`] ([`RtUnit::skip`] returns those of skipped idle cycles) and the
+//! observer beside it sums them ([`RtStats::add`]).
 //!
 //! # Signals
 //! Per-lane fields of a bus port appear in traces as `<port>_<lane>`, the 256-bit data buses as
@@ -75,7 +80,7 @@ mod node;
 use bundles::{bits, LaneMasks};
 pub use bundles::{
     errors, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane, LaneStatus,
-    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtStats, RtUnitInputs,
+    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats, RtUnitInputs,
     RtUnitOutputs, RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue,
     WarpSlot, Widths,
 };
@@ -350,11 +355,12 @@ impl<D: NodeDatapath> RtUnit<D> {
     pub fn slot_summary(
         &self,
         regs: &RtUnitRegs,
+        cache: &RtCache,
         slot: u32,
         distinct: bool,
     ) -> Option<SlotSummary> {
         let s = regs.slots.get(slot as usize).filter(|s| s.valid)?;
-        let m = &s.masks;
+        let m = &cache.masks[slot as usize];
         let not_quiet = m.busy();
         // At most warp_size distinct treelets: a fixed bank, searched linearly.
         let mut treelets = [0u64; 64];
@@ -379,6 +385,22 @@ impl<D: NodeDatapath> RtUnit<D> {
         })
     }
 
+    /// The address of the next node of every traversing ray whose next node is on chip, slot by
+    /// slot and lane by lane (the per-lane next-access wires a treelet prefetcher taps).
+    pub fn next_addresses<'r>(
+        &self,
+        regs: &'r RtUnitRegs,
+        cache: &'r RtCache,
+    ) -> impl Iterator<Item = u64> + 'r {
+        regs.slots
+            .iter()
+            .zip(&cache.masks)
+            .filter(|(slot, _)| slot.valid)
+            .flat_map(|(slot, m)| {
+                bits(m.traversing).filter_map(|l| slot.lanes[l].ray.next_node().map(|n| n.address))
+            })
+    }
+
     /// Treelet of a byte address (address >> log2(treelet_bytes)).
     pub fn treelet_of(&self, address: u64) -> u64 {
         address >> self.treelet_shift
@@ -398,14 +420,14 @@ impl<D: NodeDatapath> RtUnit<D> {
     /// nothing visible outside its statistics and delay counters: no request, no completion,
     /// no response pop, no test. `u64::MAX` when it waits only for responses (or is empty).
     /// Lets a simulator skip those cycles with [`skip`](Self::skip).
-    pub fn idle_cycles(&self, regs: &RtUnitRegs) -> u64 {
+    pub fn idle_cycles(&self, regs: &RtUnitRegs, cache: &RtCache) -> u64 {
         if !regs.fifo.is_empty() || regs.split.is_some() {
             return 0;
         }
         let mut idle = u64::MAX;
         for &s in &regs.age {
             let slot = &regs.slots[s as usize];
-            let m = &slot.masks;
+            let m = &cache.masks[s as usize];
             if (!slot.held && m.busy() == 0) || m.store | m.ready() != 0 {
                 return 0;
             }
@@ -416,26 +438,51 @@ impl<D: NodeDatapath> RtUnit<D> {
         idle
     }
 
-    /// Advances the registers by `n` cycles with idle inputs, exactly as `n` calls of
-    /// [`Block::step`] would, provided `n <= idle_cycles(regs)`: the statistics count `n` warp
-    /// cycles per resident warp and the delays count down by `n`. Panics in debug builds when
-    /// `n` exceeds [`idle_cycles`](Self::idle_cycles).
-    pub fn skip(&self, regs: &mut RtUnitRegs, n: u64) {
-        debug_assert!(n <= self.idle_cycles(regs), "skip beyond the idle cycles");
+    /// Advances the registers (and their cache) by `n` cycles with idle inputs, exactly as
+    /// `n` cached steps would, provided `n <= idle_cycles`: the delays count down by `n`.
+    /// Returns the statistics increments of those cycles (`n` warp cycles per resident warp
+    /// and its traversing lanes). Panics in debug builds when `n` exceeds
+    /// [`idle_cycles`](Self::idle_cycles).
+    pub fn skip(&self, regs: &mut RtUnitRegs, cache: &mut RtCache, n: u64) -> RtStats {
+        debug_assert!(
+            n <= self.idle_cycles(regs, cache),
+            "skip beyond the idle cycles"
+        );
+        let mut counts = RtStats::default();
         if n == 0 {
-            return;
+            return counts;
         }
-        for slot in regs.slots.iter_mut().filter(|s| s.valid) {
-            regs.stats.warp_cycles += n;
-            regs.stats.active_thread_cycles += n * u64::from(slot.masks.traversing.count_ones());
-            for l in bits(slot.masks.delayed) {
+        for (slot, m) in regs.slots.iter_mut().zip(&mut cache.masks) {
+            if !slot.valid {
+                continue;
+            }
+            counts.warp_cycles += n;
+            counts.active_thread_cycles += n * u64::from(m.traversing.count_ones());
+            for l in bits(m.delayed) {
                 let lane = &mut slot.lanes[l];
                 lane.delay = (lane.delay as u64).saturating_sub(n) as u32;
                 if lane.delay == 0 {
-                    slot.masks.delayed &= !(1 << l);
+                    m.delayed &= !(1 << l);
                 }
             }
         }
+        counts
+    }
+
+    /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
+    /// outputs and next registers as [`Block::eval`], without copying the warp buffer. `cache`
+    /// must be the cache of `regs` ([`RtCache::of`]; debug builds check it).
+    pub fn step_cached(
+        &self,
+        regs: &mut RtUnitRegs,
+        cache: &mut RtCache,
+        inputs: &RtUnitInputs,
+    ) -> RtUnitOutputs {
+        debug_assert!(
+            cache.consistent(regs),
+            "stale RT-unit cache: it must follow every change of the registers"
+        );
+        self.update(regs, cache, inputs)
     }
 
     /// Checks that the hardware can hold `node`: 1..=4 chunks, 32 B aligned, inside the
@@ -526,12 +573,9 @@ impl<D: NodeDatapath> RtUnit<D> {
         Ok(())
     }
 
-    /// The whole cycle, in place; `eval` runs it on a copy of the registers.
-    fn update(&self, r: &mut RtUnitRegs, inp: &RtUnitInputs) -> RtUnitOutputs {
-        debug_assert!(
-            r.summaries_consistent(),
-            "lane summaries out of date: call RtUnitRegs::refresh_summaries after writing lanes"
-        );
+    /// The whole cycle, in place on `r` with its cache `c`.
+    fn update(&self, r: &mut RtUnitRegs, c: &mut RtCache, inp: &RtUnitInputs) -> RtUnitOutputs {
+        let mut counts = RtStats::default();
         let free_mask = r
             .slots
             .iter()
@@ -542,20 +586,22 @@ impl<D: NodeDatapath> RtUnit<D> {
         let resp_free = self.resp_free(r);
 
         // 1. Statistics.
-        for slot in r.slots.iter().filter(|s| s.valid) {
-            r.stats.warp_cycles += 1;
-            r.stats.active_thread_cycles += u64::from(slot.masks.traversing.count_ones());
+        for (slot, m) in r.slots.iter().zip(&c.masks) {
+            if slot.valid {
+                counts.warp_cycles += 1;
+                counts.active_thread_cycles += u64::from(m.traversing.count_ones());
+            }
         }
 
         // 2. Completion, 3. memory scheduler, 4. delay countdown.
-        let done = self.complete(r);
-        let request = self.schedule(r);
-        for slot in &mut r.slots {
-            for l in bits(slot.masks.delayed) {
+        let done = self.complete(r, c, &mut counts);
+        let request = self.schedule(r, c, &mut counts);
+        for (slot, m) in r.slots.iter_mut().zip(&mut c.masks) {
+            for l in bits(m.delayed) {
                 let lane = &mut slot.lanes[l];
                 lane.delay -= 1;
                 if lane.delay == 0 {
-                    slot.masks.delayed &= !(1 << l);
+                    m.delayed &= !(1 << l);
                 }
             }
         }
@@ -563,7 +609,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         // 5. Response pop, 6. response push.
         let mut boundary = Vec::new();
         if let Some(resp) = r.fifo.pop_front() {
-            self.deliver(r, &resp, &mut boundary);
+            self.deliver(r, c, &resp, &mut boundary, &mut counts);
         }
         for (k, resp) in inp.responses.iter().enumerate() {
             if k < self.params.resp_ports as usize
@@ -586,12 +632,12 @@ impl<D: NodeDatapath> RtUnit<D> {
 
         // 7. Warp issue, then the treelet controller's commands.
         if let Some(issue) = &inp.issue {
-            self.issue(r, free_mask, issue);
+            self.issue(r, c, free_mask, issue);
         }
         if let Some(s) = inp.stop {
-            self.stop(r, s);
+            self.stop(r, c, s);
         }
-        let released = inp.repack.and_then(|s| self.repack(r, s));
+        let released = inp.repack.and_then(|s| self.repack(r, c, s));
 
         RtUnitOutputs {
             widths: self.widths,
@@ -603,12 +649,13 @@ impl<D: NodeDatapath> RtUnit<D> {
             released,
             errors: r.errors,
             first_error: r.first_error,
+            counts,
         }
     }
 
     /// Step 7: loads an issued warp into a slot that was free at the start of the cycle (bit
     /// `s` of `free_mask`) or appends a repack fill to a held slot.
-    fn issue(&self, r: &mut RtUnitRegs, free_mask: u64, issue: &WarpIssue) {
+    fn issue(&self, r: &mut RtUnitRegs, c: &mut RtCache, free_mask: u64, issue: &WarpIssue) {
         let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
         if let Err(e) = self.check_issue(issue) {
             let lane = match e {
@@ -652,10 +699,10 @@ impl<D: NodeDatapath> RtUnit<D> {
                         self.cfg.warp_buffer_size as u64,
                     ),
                 ),
-                Some(s) => self.load(r, s, issue),
+                Some(s) => self.load(r, c, s, issue),
             },
             IssueTarget::Slot(s) if s < 64 && free_mask >> s & 1 == 1 => {
-                self.load(r, s as usize, issue)
+                self.load(r, c, s as usize, issue)
             }
             IssueTarget::Slot(s) => bad_command(r, s),
             IssueTarget::Append { slot: s, last } => {
@@ -677,7 +724,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                         *lane = Self::lane_for(ray);
                     }
                 }
-                slot.masks = LaneMasks::of(&slot.lanes);
+                c.masks[s as usize] = LaneMasks::of(&slot.lanes);
                 if last {
                     slot.held = false;
                 }
@@ -687,7 +734,7 @@ impl<D: NodeDatapath> RtUnit<D> {
 
     /// Terminates slot `s`'s warp into the treelet queues: treelet-stop order from now on, and
     /// rays already between treelets park at once.
-    fn stop(&self, r: &mut RtUnitRegs, s: u32) {
+    fn stop(&self, r: &mut RtUnitRegs, c: &mut RtCache, s: u32) {
         let Some(slot) = r.slots.get_mut(s as usize).filter(|slot| slot.valid) else {
             raise(
                 &mut r.errors,
@@ -708,14 +755,14 @@ impl<D: NodeDatapath> RtUnit<D> {
                 && !lane.ray.other_stack.is_empty()
             {
                 lane.status = LaneStatus::Parked;
-                slot.masks.set(l, lane);
+                c.masks[s as usize].set(l, lane);
             }
         }
     }
 
     /// Repacks slot `s`: releases its finished, quiescent lanes and holds the slot. A slot
     /// that completed this cycle is left alone (nothing to repack).
-    fn repack(&self, r: &mut RtUnitRegs, s: u32) -> Option<WarpDone> {
+    fn repack(&self, r: &mut RtUnitRegs, c: &mut RtCache, s: u32) -> Option<WarpDone> {
         let slot = r.slots.get_mut(s as usize).filter(|slot| slot.valid)?;
         slot.held = true;
         let lanes = slot
@@ -728,7 +775,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 })
             })
             .collect();
-        slot.masks = LaneMasks::of(&slot.lanes);
+        c.masks[s as usize] = LaneMasks::of(&slot.lanes);
         Some(WarpDone { slot: s, lanes })
     }
 
@@ -746,15 +793,20 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 
     /// Removes and reports the oldest warp with nothing outstanding.
-    fn complete(&self, r: &mut RtUnitRegs) -> Option<WarpDone> {
-        let pos = r.age.iter().position(|&s| {
-            let slot = &r.slots[s as usize];
-            !slot.held && slot.masks.busy() == 0
-        })?;
+    fn complete(
+        &self,
+        r: &mut RtUnitRegs,
+        c: &mut RtCache,
+        counts: &mut RtStats,
+    ) -> Option<WarpDone> {
+        let pos = r
+            .age
+            .iter()
+            .position(|&s| !r.slots[s as usize].held && c.masks[s as usize].busy() == 0)?;
         let s = r.age.remove(pos);
         let slot = &mut r.slots[s as usize];
         slot.valid = false;
-        r.stats.warps_done += 1;
+        counts.warps_done += 1;
         let lanes = slot
             .lanes
             .iter_mut()
@@ -770,12 +822,17 @@ impl<D: NodeDatapath> RtUnit<D> {
                 Some((std::mem::take(&mut lane.ray), outcome))
             })
             .collect();
-        slot.masks = LaneMasks::of(&slot.lanes);
+        c.masks[s as usize] = LaneMasks::of(&slot.lanes);
         Some(WarpDone { slot: s, lanes })
     }
 
     /// Picks this cycle's memory request and updates the lanes it serves.
-    fn schedule(&self, r: &mut RtUnitRegs) -> Option<MemRequest> {
+    fn schedule(
+        &self,
+        r: &mut RtUnitRegs,
+        c: &mut RtCache,
+        counts: &mut RtStats,
+    ) -> Option<MemRequest> {
         let lane_bits = self.widths.lane;
         if let Some(split) = r.split.take() {
             let chunk = split.next_chunk;
@@ -785,25 +842,27 @@ impl<D: NodeDatapath> RtUnit<D> {
                     ..split
                 });
             }
-            r.stats.requests += 1;
+            counts.requests += 1;
             return Some(load_request(&split.node, chunk, split.tag));
         }
         for &s in &r.age {
             let slot = &mut r.slots[s as usize];
-            if slot.masks.store != 0 {
-                let l = slot.masks.store.trailing_zeros() as usize;
+            let m = &mut c.masks[s as usize];
+            if m.store != 0 {
+                let l = m.store.trailing_zeros() as usize;
                 let lane = &mut slot.lanes[l];
                 lane.store_pending = false;
-                slot.masks.set(l, lane);
-                r.stats.stores += 1;
+                m.set(l, lane);
+                counts.stores += 1;
                 return Some(self.store_request(&lane.ray, s << lane_bits | l as u32));
             }
         }
         for &s in &r.age {
             let slot = &mut r.slots[s as usize];
+            let m = &mut c.masks[s as usize];
             // Serving a lane changes only that lane, so the ready set of the scan is the one at
             // its start.
-            let ready = slot.masks.ready();
+            let ready = m.ready();
             if ready == 0 {
                 continue;
             }
@@ -832,8 +891,8 @@ impl<D: NodeDatapath> RtUnit<D> {
                     }
                     let entries: Vec<NodeEntry> = lane.ray.stack_mut(stack).drain(..k).collect();
                     *lane.ray.spilled_mut(stack) += 1;
-                    slot.masks.set(leader, lane);
-                    r.stats.stack_spills += 1;
+                    m.set(leader, lane);
+                    counts.stack_spills += 1;
                     return Some(MemRequest {
                         address: self.spill_address(lane.ray.ray_id, stack, spilled),
                         kind: RequestKind::StackSpill,
@@ -844,8 +903,8 @@ impl<D: NodeDatapath> RtUnit<D> {
                 Some(LaneAction::Fill(stack)) => {
                     let lane = &mut slot.lanes[leader];
                     lane.filling = Some(stack);
-                    slot.masks.set(leader, lane);
-                    r.stats.stack_fills += 1;
+                    m.set(leader, lane);
+                    counts.stack_fills += 1;
                     let index = lane.ray.spilled(stack) - 1;
                     return Some(MemRequest {
                         address: self.spill_address(lane.ray.ray_id, stack, index),
@@ -865,11 +924,11 @@ impl<D: NodeDatapath> RtUnit<D> {
                         leader: leader as u32,
                         returned: 0,
                     });
-                    slot.masks.set(l, lane);
+                    m.set(l, lane);
                     served += 1;
                 }
             }
-            r.stats.merged += served - 1;
+            counts.merged += served - 1;
             if node.chunks > 1 {
                 r.split = Some(Split {
                     tag,
@@ -877,7 +936,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                     next_chunk: 1,
                 });
             }
-            r.stats.requests += 1;
+            counts.requests += 1;
             return Some(load_request(&node, 0, tag));
         }
         None
@@ -968,7 +1027,14 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 
     /// Delivers a popped response to the lanes waiting for it and runs completed tests.
-    fn deliver(&self, r: &mut RtUnitRegs, resp: &MemResponse, boundary: &mut Vec<BoundaryEvent>) {
+    fn deliver(
+        &self,
+        r: &mut RtUnitRegs,
+        c: &mut RtCache,
+        resp: &MemResponse,
+        boundary: &mut Vec<BoundaryEvent>,
+        counts: &mut RtStats,
+    ) {
         let s = resp.tag >> self.widths.lane;
         let leader = resp.tag & ((1 << self.widths.lane) - 1);
         let unmatched = ErrorRecord {
@@ -980,8 +1046,9 @@ impl<D: NodeDatapath> RtUnit<D> {
             raise(&mut r.errors, &mut r.first_error, unmatched);
             return;
         };
+        let m = &mut c.masks[s as usize];
         if self.in_spill_area(resp.address) {
-            if !self.fill(slot, s, leader as usize, resp, boundary) {
+            if !self.fill(slot, m, s, leader as usize, resp, boundary) {
                 raise(&mut r.errors, &mut r.first_error, unmatched);
             }
             return;
@@ -989,8 +1056,8 @@ impl<D: NodeDatapath> RtUnit<D> {
         let order = slot.order;
         let mut matched = false;
         // Only lanes whose cached leader matches can match (the full check follows).
-        let group = bits(slot.masks.in_flight)
-            .filter(|&l| slot.masks.leader[l] == leader as u8)
+        let group = bits(m.in_flight)
+            .filter(|&l| m.leader[l] == leader as u8)
             .fold(0u64, |m, l| m | 1 << l);
         for l in bits(group) {
             let lane = &mut slot.lanes[l];
@@ -1018,10 +1085,10 @@ impl<D: NodeDatapath> RtUnit<D> {
                     (s, l as u32),
                     &node,
                     order,
-                    &mut r.stats,
+                    counts,
                     (&mut r.errors, &mut r.first_error),
                 );
-                slot.masks.set(l, lane);
+                m.set(l, lane);
                 if let Some(treelet) = event {
                     boundary.push(BoundaryEvent {
                         slot: s,
@@ -1043,6 +1110,7 @@ impl<D: NodeDatapath> RtUnit<D> {
     fn fill(
         &self,
         slot: &mut WarpSlot,
+        m: &mut LaneMasks,
         s: u32,
         l: usize,
         resp: &MemResponse,
@@ -1080,7 +1148,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 });
             }
         }
-        slot.masks.set(l, lane);
+        m.set(l, lane);
         true
     }
 
@@ -1160,7 +1228,7 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 
     /// Writes an issued warp into slot `s`.
-    fn load(&self, r: &mut RtUnitRegs, s: usize, issue: &WarpIssue) {
+    fn load(&self, r: &mut RtUnitRegs, c: &mut RtCache, s: usize, issue: &WarpIssue) {
         let slot = &mut r.slots[s];
         slot.valid = true;
         slot.held = false;
@@ -1168,7 +1236,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
             *lane = ray.as_ref().map_or_else(Lane::default, Self::lane_for);
         }
-        slot.masks = LaneMasks::of(&slot.lanes);
+        c.masks[s] = LaneMasks::of(&slot.lanes);
         r.age.push(s as u32);
     }
 }
@@ -1194,7 +1262,6 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
             valid: false,
             held: false,
             order: TraversalOrder::RayStationary,
-            masks: LaneMasks::of(&lanes),
             lanes,
         };
         RtUnitRegs {
@@ -1205,19 +1272,15 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
             split: None,
             errors: 0,
             first_error: None,
-            stats: RtStats::default(),
         }
     }
 
+    /// The definition: the cycle on a copy of the registers with their freshly built cache.
     fn eval(&self, regs: &RtUnitRegs, inputs: &RtUnitInputs) -> (RtUnitOutputs, RtUnitRegs) {
         let mut next = regs.clone();
-        let out = self.update(&mut next, inputs);
+        let mut cache = RtCache::of(regs);
+        let out = self.update(&mut next, &mut cache, inputs);
         (out, next)
-    }
-
-    /// In place: the same update as `eval` without copying the warp buffer.
-    fn step(&self, regs: &mut RtUnitRegs, inputs: &RtUnitInputs) -> RtUnitOutputs {
-        self.update(regs, inputs)
     }
 
     fn describe(&self) -> BlockDesc {

@@ -14,7 +14,7 @@
 
 use std::collections::VecDeque;
 
-use vtq_hdl::rt_unit::{LaneStatus, RtUnitRegs, CHUNK_BYTES};
+use vtq_hdl::rt_unit::CHUNK_BYTES;
 
 use crate::bvh::HwBvh;
 use crate::gpu::SimError;
@@ -59,31 +59,24 @@ impl<'a> Prefetcher<'a> {
         }
     }
 
-    /// Counts the next-access treelets of the rays in `regs` and queues the most popular
-    /// treelet's sectors if it holds enough of them and was not queued recently.
-    pub fn observe(&mut self, regs: &RtUnitRegs) {
+    /// Counts the treelets of the next accesses `next` of the RT unit's traversing rays
+    /// ([`vtq_hdl::rt_unit::RtUnit::next_addresses`]) and queues the most popular treelet's
+    /// sectors if it holds enough of them and was not queued recently.
+    pub fn observe(&mut self, next: impl Iterator<Item = u64>) {
         let mut total = 0u32;
-        for slot in regs.slots.iter().filter(|s| s.valid) {
-            for lane in &slot.lanes {
-                if lane.status != LaneStatus::Traversing {
-                    continue;
-                }
-                let Some(node) = lane.ray.next_node() else {
-                    continue;
-                };
-                let Ok(addr) = u32::try_from(node.address) else {
-                    continue;
-                };
-                let t = self.bvh.treelet_of(addr);
-                let Some(count) = self.counts.get_mut(t as usize) else {
-                    continue;
-                };
-                if *count == 0 {
-                    self.touched.push(t);
-                }
-                *count += 1;
-                total += 1;
+        for address in next {
+            let Ok(addr) = u32::try_from(address) else {
+                continue;
+            };
+            let t = self.bvh.treelet_of(addr);
+            let Some(count) = self.counts.get_mut(t as usize) else {
+                continue;
+            };
+            if *count == 0 {
+                self.touched.push(t);
             }
+            *count += 1;
+            total += 1;
         }
         let mut best: Option<(u32, u32)> = None;
         for &t in &self.touched {

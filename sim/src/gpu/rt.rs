@@ -9,8 +9,9 @@
 use std::collections::{BTreeMap, HashMap, VecDeque};
 
 use vtq_hdl::rt_unit::{
-    ErrorKind, ErrorRecord, MemResponse, RayRecord, RequestKind, RtUnit, RtUnitError, RtUnitInputs,
-    RtUnitOutputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue, CHUNK_BYTES,
+    ErrorKind, ErrorRecord, MemResponse, RayRecord, RequestKind, RtCache, RtStats, RtUnit,
+    RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue,
+    CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -145,6 +146,10 @@ pub struct RtCycle {
 pub struct RtPort<'a> {
     unit: RtUnit<BvhDatapath<'a>>,
     regs: RtUnitRegs,
+    /// The RT unit's simulation cache (lane summaries of `regs`).
+    cache: RtCache,
+    /// The RT unit's statistics, summed from its per-cycle counts.
+    stats: RtStats,
     bvh: &'a HwBvh,
     order: TraversalOrder,
     /// SM warp slot held by each warp-buffer slot.
@@ -197,12 +202,15 @@ impl<'a> RtPort<'a> {
     ) -> Result<Self, RtUnitError> {
         let unit = RtUnit::new(hw.clone(), params, BvhDatapath::new(bvh))?;
         let regs = unit.reset();
-        let wake = unit.idle_cycles(&regs);
+        let cache = RtCache::of(&regs);
+        let wake = unit.idle_cycles(&regs, &cache);
         let inputs = unit.idle_inputs();
         Ok(RtPort {
             slot_warp: vec![None; hw.warp_buffer_size as usize],
             unit,
             regs,
+            cache,
+            stats: RtStats::default(),
             bvh,
             order,
             requests: VecDeque::new(),
@@ -260,8 +268,8 @@ impl<'a> RtPort<'a> {
     }
 
     /// The hardware statistics registers.
-    pub fn hw_stats(&self) -> &vtq_hdl::rt_unit::RtStats {
-        &self.regs.stats
+    pub fn hw_stats(&self) -> &RtStats {
+        &self.stats
     }
 
     /// Rays traversing in the warp buffer.
@@ -347,7 +355,8 @@ impl<'a> RtPort<'a> {
     pub fn busy_at(&self, now: u64, offering: bool) -> bool {
         debug_assert_eq!(
             self.wake,
-            self.at.saturating_add(self.unit.idle_cycles(&self.regs)),
+            self.at
+                .saturating_add(self.unit.idle_cycles(&self.regs, &self.cache)),
             "stale wake cycle"
         );
         offering
@@ -363,7 +372,10 @@ impl<'a> RtPort<'a> {
     /// Catches the registers up to the start of cycle `now` over idle cycles.
     pub fn catch_up(&mut self, now: u64) {
         if now > self.at {
-            self.unit.skip(&mut self.regs, now - self.at);
+            let counts = self
+                .unit
+                .skip(&mut self.regs, &mut self.cache, now - self.at);
+            self.stats.add(&counts);
             if let Some(q) = self.queues.as_mut() {
                 q.skip(now - self.at);
             }
@@ -407,10 +419,15 @@ impl<'a> RtPort<'a> {
             .min(self.unit.params().resp_ports);
         let n = (ports as usize).min(self.responses.len());
         self.inputs.responses.extend(self.responses.drain(..n));
-        let out = self.unit.step(&mut self.regs, &self.inputs);
-        self.wake = self.at.saturating_add(self.unit.idle_cycles(&self.regs));
+        let out = self
+            .unit
+            .step_cached(&mut self.regs, &mut self.cache, &self.inputs);
+        self.stats.add(&out.counts);
+        self.wake = self
+            .at
+            .saturating_add(self.unit.idle_cycles(&self.regs, &self.cache));
         if let (Some(p), None) = (self.prefetcher.as_mut(), &self.queues) {
-            p.observe(&self.regs);
+            p.observe(self.unit.next_addresses(&self.regs, &self.cache));
         }
         if let Some(record) = out.first_error {
             return Err(SimError::RtUnit {
@@ -496,7 +513,12 @@ impl<'a> RtPort<'a> {
         warp: Option<(usize, &[Option<Ray>])>,
     ) -> Result<Option<usize>, SimError> {
         let q = self.queues.as_mut().expect("queues mode");
-        let cmd = q.before_step(&self.unit, &self.regs, warp.is_some(), &mut self.requests);
+        let cmd = q.before_step(
+            &self.unit,
+            (&self.regs, &self.cache, &self.stats),
+            warp.is_some(),
+            &mut self.requests,
+        );
         self.inputs.stop = cmd.stop;
         self.inputs.repack = cmd.repack;
         if let (Some(t), Some(p)) = (cmd.preload, self.prefetcher.as_mut()) {
@@ -543,7 +565,13 @@ impl<'a> RtPort<'a> {
     fn queue_results(&mut self, sm: usize, out: &RtUnitOutputs) -> Result<(), SimError> {
         let q = self.queues.as_mut().expect("queues mode");
         let mut finished: Vec<FinishedRay> = Vec::new();
-        q.after_step(&self.unit, &self.regs, out, self.at, &mut finished);
+        q.after_step(
+            &self.unit,
+            (&self.regs, &self.cache),
+            out,
+            self.at,
+            &mut finished,
+        );
         if let Some(reason) = q.fault() {
             return Err(SimError::Queues {
                 sm,
@@ -629,7 +657,7 @@ impl<'a> RtPort<'a> {
     /// Queues mode: attributes the last intersection tests to their phase (call at the end).
     pub fn finish(&mut self) {
         if let Some(q) = self.queues.as_mut() {
-            q.finish(&self.regs);
+            q.finish(&self.stats);
         }
     }
 
@@ -660,7 +688,7 @@ impl<'a> RtPort<'a> {
             r.fifo.len(),
             r.split,
             r.errors,
-            self.unit.idle_cycles(r),
+            self.unit.idle_cycles(r, &self.cache),
             if lanes.is_empty() { "no warps".to_string() } else { lanes.join("; ") },
             self.requests.len(),
             self.retry_at,

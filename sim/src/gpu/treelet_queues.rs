@@ -59,8 +59,8 @@ use vtq_hdl::count_table::{CountOp, CountTable, CountTableRegs};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::{QueueOp, QueueState, QueueTable, QueueTableRegs};
 use vtq_hdl::rt_unit::{
-    IssueTarget, LaneStatus, NodeDatapath, RayOutcome, RayRecord, RtUnit, RtUnitOutputs,
-    RtUnitRegs, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    IssueTarget, LaneStatus, NodeDatapath, RayOutcome, RayRecord, RtCache, RtStats, RtUnit,
+    RtUnitOutputs, RtUnitRegs, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, ConfigError, HwConfig};
 
@@ -394,7 +394,7 @@ impl TreeletQueues {
     fn inputs<D: NodeDatapath>(
         &self,
         unit: &RtUnit<D>,
-        regs: &RtUnitRegs,
+        (regs, cache): (&RtUnitRegs, &RtCache),
         offering: bool,
     ) -> ControllerInputs {
         let mut inp = self.ctl.idle_inputs();
@@ -412,7 +412,7 @@ impl TreeletQueues {
             let initial = *u == SlotUse::Initial
                 && regs.slots[s].order != TraversalOrder::TreeletStop
                 && mode.terminates_divergent_warps();
-            let Some(sum) = unit.slot_summary(regs, slot, initial) else {
+            let Some(sum) = unit.slot_summary(regs, cache, slot, initial) else {
                 continue;
             };
             if sum.quiescent && !regs.slots[s].held {
@@ -476,11 +476,11 @@ impl TreeletQueues {
     pub fn before_step<D: NodeDatapath>(
         &mut self,
         unit: &RtUnit<D>,
-        regs: &RtUnitRegs,
+        (regs, cache, stats): (&RtUnitRegs, &RtCache, &RtStats),
         offering: bool,
         requests: &mut VecDeque<MemRequest>,
     ) -> Commands {
-        self.attribute_tests(regs);
+        self.attribute_tests(stats);
         let restarted = self.ctl_regs.mode == Mode::Done && offering;
         if restarted {
             let stats = self.ctl_regs.stats;
@@ -496,12 +496,12 @@ impl TreeletQueues {
                 self.set_offering(&mut inp, offering);
                 debug_assert_eq!(
                     inp,
-                    self.inputs(unit, regs, offering),
+                    self.inputs(unit, (regs, cache), offering),
                     "stale cached inputs"
                 );
                 (inp, true)
             }
-            _ => (self.inputs(unit, regs, offering), false),
+            _ => (self.inputs(unit, (regs, cache), offering), false),
         };
         let admitting = self.admitting();
         // The dry run found the controller idle for exactly these inputs (no warp offered):
@@ -557,7 +557,11 @@ impl TreeletQueues {
     /// `Nop` cycles are stepped in [`skip`](Self::skip) and the controller wakes when the
     /// pointers are published ([`wake`](Self::wake)).
     /// No SM warp is assumed offered: a cycle in which one is offered is evaluated anyway.
-    fn dry_run<D: NodeDatapath>(&mut self, unit: &RtUnit<D>, regs: &RtUnitRegs) -> bool {
+    fn dry_run<D: NodeDatapath>(
+        &mut self,
+        unit: &RtUnit<D>,
+        regs: (&RtUnitRegs, &RtCache),
+    ) -> bool {
         self.idle = false;
         if self.qt_regs.ctl.state != QueueState::Idle
             || self.qt_done.is_some()
@@ -768,7 +772,7 @@ impl TreeletQueues {
     pub fn after_step<D: NodeDatapath>(
         &mut self,
         unit: &RtUnit<D>,
-        regs: &RtUnitRegs,
+        regs: (&RtUnitRegs, &RtCache),
         out: &RtUnitOutputs,
         next: u64,
         finished: &mut Vec<FinishedRay>,
@@ -835,8 +839,8 @@ impl TreeletQueues {
     }
 
     /// Attributes the RT unit's intersection tests since the last call to the current phase.
-    fn attribute_tests(&mut self, regs: &RtUnitRegs) {
-        let total: u64 = regs.stats.tests.iter().sum();
+    fn attribute_tests(&mut self, stats: &RtStats) {
+        let total: u64 = stats.tests.iter().sum();
         let new = total - self.tests_seen;
         self.tests_seen = total;
         let phase = match self.ctl_regs.mode {
@@ -848,8 +852,8 @@ impl TreeletQueues {
     }
 
     /// Attributes the tests of the last steps (call once at the end of the run).
-    pub fn finish(&mut self, regs: &RtUnitRegs) {
-        self.attribute_tests(regs);
+    pub fn finish(&mut self, stats: &RtStats) {
+        self.attribute_tests(stats);
     }
 
     /// A one-line summary for the watchdog.
