@@ -831,6 +831,51 @@ impl Signals for CountTableRegs {
     }
 }
 
+/// A treelet and its queued rays, as the count table reports its largest entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct QueueCount {
+    /// Treelet address.
+    pub treelet: u32,
+    /// Rays queued (1..=max_rays; on the wire as count - 1).
+    pub count: u32,
+}
+
+/// The count table's register-only outputs: what a controller may read before it drives an op
+/// in the same cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct CountTableStatus {
+    /// The table accepts any op this cycle: low only while it is full and its minimum is stale
+    /// (the one case in which it refuses an Add).
+    pub ready: bool,
+    /// The largest tracked treelet queue, if the max pointer is current (it is stale while the
+    /// table rescans after the largest entry shrank, and absent when empty).
+    pub max: Option<QueueCount>,
+    /// Valid table entries.
+    pub occupancy: u32,
+    /// Entries holding at least `underpopulation_threshold` rays.
+    pub above_threshold: u32,
+}
+
+impl CountTable {
+    /// The register-only outputs for these registers.
+    pub fn status(&self, r: &CountTableRegs) -> CountTableStatus {
+        CountTableStatus {
+            ready: !(r.occupancy == self.entries() && !r.min.valid),
+            max: r.max.valid.then_some(QueueCount {
+                treelet: r.max.treelet as u32,
+                count: r.max.count_m1 + 1,
+            }),
+            occupancy: r.occupancy,
+            above_threshold: r.above,
+        }
+    }
+}
+
+impl CountOp {
+    /// Width of the op-kind code.
+    pub const BITS: u32 = 2;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,8 @@
 
 pub mod bits;
 pub mod block;
+pub mod bundle;
+pub mod compose;
 pub mod config;
 pub mod describe;
 
@@ -20,4 +22,5 @@ pub mod mode;
 pub mod queue_table;
 pub mod rt_unit;
 pub mod trace;
+pub mod treelet_rt_unit;
 pub mod warp_repacking;

@@ -998,6 +998,66 @@ impl Signals for QueueTableRegs {
     }
 }
 
+/// The queue table's register-only outputs: what a controller may read before it drives an op
+/// in the same cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct QueueTableStatus {
+    /// The table accepts an op this cycle (it is idle).
+    pub ready: bool,
+    /// Free table entries.
+    pub free_entries: u32,
+    /// Rays spilled to memory and not yet refilled.
+    pub spilled: u32,
+    /// The table waits for the answer to its refill request (the environment presents the spill
+    /// FIFO's head on `refill_*`).
+    pub refill_waiting: bool,
+}
+
+/// The answer to a `Pop`/`PopAny` (the popped entry), or the end of any other op.
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+pub struct PopResult {
+    /// Treelet address of the popped entry.
+    pub treelet: u32,
+    /// Ray ids of the entry (at most warp_size; empty when the queue was empty or the op was not
+    /// a pop).
+    pub rays: Vec<u32>,
+}
+
+impl QueueTable {
+    /// The register-only outputs for these registers.
+    pub fn status(&self, r: &QueueTableRegs) -> QueueTableStatus {
+        QueueTableStatus {
+            ready: r.ctl.state == QueueState::Idle,
+            free_entries: r.ctl.free_count,
+            spilled: r.ctl.spilled,
+            refill_waiting: r.ctl.state == QueueState::RefillWait,
+        }
+    }
+
+    /// A one-line summary of the registers, for a watchdog's dump.
+    pub fn debug_state(&self, r: &QueueTableRegs) -> String {
+        format!(
+            "{:?} ({} free, {} spilled)",
+            r.ctl.state, r.ctl.free_count, r.ctl.spilled
+        )
+    }
+}
+
+impl QueueTableOut {
+    /// The op that ends this cycle with its popped entry, if one ends.
+    pub fn popped(&self) -> Option<PopResult> {
+        self.done.then(|| PopResult {
+            treelet: self.pop_treelet as u32,
+            rays: self.pop_rays[..self.pop_count as usize].to_vec(),
+        })
+    }
+}
+
+impl QueueOp {
+    /// Width of the op-kind code.
+    pub const BITS: u32 = 3;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,10 +6,11 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use vtq_hdl::controller::{
     ActiveReport, ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs,
-    CountEntry, CtOp, EnqueueRequest, FillKind, InitReport, PopResult, QtOp, Seq,
-    TreeletController,
+    ControllerStats, EnqueueRequest, FillKind, InitReport, Seq, TreeletController,
 };
+use vtq_hdl::count_table::{CountOp, QueueCount};
 use vtq_hdl::mode::Mode;
+use vtq_hdl::queue_table::{PopResult, QueueOp};
 use vtq_hdl::{Block, Dir, HwConfig, Signals};
 
 const A: u32 = 0x1_2345;
@@ -25,21 +26,23 @@ struct RefCountTable {
 }
 
 impl RefCountTable {
-    fn max(&self) -> Option<CountEntry> {
+    fn max(&self) -> Option<QueueCount> {
         self.counts
             .iter()
             .max_by_key(|&(&t, &c)| (c, std::cmp::Reverse(t)))
-            .map(|(&treelet, &count)| CountEntry { treelet, count })
+            .map(|(&treelet, &count)| QueueCount { treelet, count })
     }
 
-    fn apply(&mut self, op: CtOp, warp_size: u32) {
+    fn apply(&mut self, op: CountOp, warp_size: u32) {
         match op {
-            CtOp::Nop => {}
-            CtOp::Add { treelet, rays } => {
+            CountOp::Nop => {}
+            CountOp::Add { treelet, n: rays } => {
+                let treelet = treelet as u32;
                 assert!((1..=warp_size).contains(&rays));
                 *self.counts.entry(treelet).or_default() += rays;
             }
-            CtOp::Remove { treelet, rays } => {
+            CountOp::Remove { treelet, n: rays } => {
+                let treelet = treelet as u32;
                 assert!((1..=warp_size).contains(&rays));
                 let c = self
                     .counts
@@ -82,10 +85,10 @@ impl RefQueueTable {
     }
 
     /// Advances one cycle with the controller's op (driven only while ready).
-    fn apply(&mut self, op: QtOp) {
+    fn apply(&mut self, op: QueueOp) {
         self.answer = None;
         if let Some((left, res)) = self.busy.take() {
-            assert_eq!(op, QtOp::Nop, "op driven while the queue table is busy");
+            assert_eq!(op, QueueOp::Nop, "op driven while the queue table is busy");
             if left <= 1 {
                 self.answer = Some(res);
             } else {
@@ -98,8 +101,9 @@ impl RefQueueTable {
             rays: q.pop_front().unwrap_or_default(),
         };
         let result = match op {
-            QtOp::Nop => return,
-            QtOp::Insert { treelet, ray } => {
+            QueueOp::Nop | QueueOp::Count { .. } => return,
+            QueueOp::Insert { treelet, ray } => {
+                let treelet = treelet as u32;
                 let q = self.queues.entry(treelet).or_default();
                 match q.back_mut() {
                     Some(e) if e.len() < self.warp_size => e.push(ray),
@@ -107,14 +111,17 @@ impl RefQueueTable {
                 }
                 return;
             }
-            QtOp::Pop { treelet } => pop(self.queues.entry(treelet).or_default(), treelet),
-            QtOp::PopAny => match self.queues.iter_mut().find(|(_, q)| !q.is_empty()) {
+            QueueOp::Pop { treelet } => {
+                let treelet = treelet as u32;
+                pop(self.queues.entry(treelet).or_default(), treelet)
+            }
+            QueueOp::PopAny => match self.queues.iter_mut().find(|(_, q)| !q.is_empty()) {
                 Some((&t, q)) => pop(q, t),
                 None => PopResult::default(),
             },
             // Nothing is ever spilled here: a refill is answered empty, as by a table whose
             // spill count is 0.
-            QtOp::Refill => PopResult::default(),
+            QueueOp::Refill => PopResult::default(),
         };
         self.queues.retain(|_, q| !q.is_empty());
         self.busy = Some((self.latency - 1, result));
@@ -128,6 +135,8 @@ impl RefQueueTable {
 struct Harness {
     ctl: TreeletController,
     regs: ControllerRegs,
+    /// Its statistics, counted from its ports.
+    stats: ControllerStats,
     cycle: u64,
     ct: RefCountTable,
     qt: RefQueueTable,
@@ -141,6 +150,7 @@ impl Harness {
         Harness {
             ctl,
             regs,
+            stats: ControllerStats::default(),
             cycle: 0,
             ct: RefCountTable::default(),
             qt,
@@ -162,7 +172,7 @@ impl Harness {
             .filter(|&&c| c >= cfg.underpopulation_threshold)
             .count() as u32;
         i.qt.ready = self.qt.busy.is_none();
-        i.qt.done = self.qt.answer.clone();
+        i.qt_done = self.qt.answer.clone();
         i.qt.free_entries = cfg.queue_table_entries;
         i
     }
@@ -184,14 +194,15 @@ impl Harness {
                 s.width
             );
         }
-        if out.ct_op != CtOp::Nop {
+        if out.ct_op != CountOp::Nop {
             assert!(inputs.ct.ready, "count-table op while not ready");
         }
-        if out.qt_op != QtOp::Nop {
+        if out.qt_op != QueueOp::Nop {
             assert!(inputs.qt.ready, "queue-table op while not ready");
         }
         self.ct.apply(out.ct_op, self.ctl.config().warp_size);
         self.qt.apply(out.qt_op);
+        self.stats.observe(inputs, &out);
         self.cycle += 1;
         out
     }
@@ -258,9 +269,9 @@ fn initial_to_treelet_stationary_on_the_divergent_cycle_set_by_config() {
             };
             assert_eq!(o.mode, expect, "threshold {threshold} cycle {k}");
         }
-        assert_eq!(h.regs.stats.terminated_warps, 2);
-        assert_eq!(h.regs.stats.terminated_rays, 64);
-        assert_eq!(h.regs.stats.cycles_initial, threshold as u64 + 1);
+        assert_eq!(h.stats.terminated_warps, 2);
+        assert_eq!(h.stats.terminated_rays, 64);
+        assert_eq!(h.stats.cycles_initial, threshold as u64 + 1);
     }
 }
 
@@ -275,13 +286,16 @@ fn claims_and_dispatches_the_largest_queue() {
     i.warp_done = Some(0);
     let o = h.step(&i);
     assert_eq!(o.mode, Mode::TreeletStationary);
-    assert_eq!((o.qt_op, o.ct_op, o.preload), (QtOp::Nop, CtOp::Nop, None));
+    assert_eq!(
+        (o.qt_op, o.ct_op, o.preload),
+        (QueueOp::Nop, CountOp::Nop, None)
+    );
     assert!(o.resident.is_empty());
     // +2: pop A's first entry for the free slot, which the controller reserves.
     let mut i = h.quiet();
     i.wb_free_slot = Some(0);
     let o = h.step(&i);
-    assert_eq!(o.qt_op, QtOp::Pop { treelet: A });
+    assert_eq!(o.qt_op, QueueOp::Pop { treelet: A as u64 });
     assert_eq!((o.reserve, o.resident.clone()), (Some(0), vec![A]));
     // +3: the entry arrives and becomes a treelet warp for A.
     let o = h.step(&h.quiet());
@@ -297,14 +311,14 @@ fn claims_and_dispatches_the_largest_queue() {
     let o = h.step(&h.quiet());
     assert_eq!(
         o.ct_op,
-        CtOp::Remove {
-            treelet: A,
-            rays: 32
+        CountOp::Remove {
+            treelet: A as u64,
+            n: 32
         }
     );
     assert_eq!(h.ct.counts[&A], 168);
     assert_eq!(h.regs.queued_rays, 328);
-    assert_eq!(h.regs.stats.treelet_warps, 1);
+    assert_eq!(h.stats.treelet_warps, 1);
 }
 
 /// Runs one slot: `running` counts down the cycles of the warp in slot 0; at 0 the warp is
@@ -443,14 +457,14 @@ fn underpopulation_threshold_from_config_keeps_c_treelet_stationary() {
         ..HwConfig::default()
     };
     let (mut h, _) = drain_a(cfg, ControllerFeatures::FULL, 130);
-    assert_eq!(h.regs.stats.preloads, 1);
+    assert_eq!(h.stats.preloads, 1);
     for _ in 0..4 {
         let mut i = h.quiet();
         i.wb_free_slot = Some(0);
         let o = h.step(&i);
         assert_eq!(o.mode, Mode::TreeletStationary);
-        if o.qt_op != QtOp::Nop {
-            assert_eq!(o.qt_op, QtOp::Pop { treelet: C });
+        if o.qt_op != QueueOp::Nop {
+            assert_eq!(o.qt_op, QueueOp::Pop { treelet: C as u64 });
             return;
         }
     }
@@ -482,7 +496,7 @@ fn naive_design_stays_treelet_stationary_one_warp_per_queue_entry() {
     assert_eq!(warps, vec![(C, 32), (C, 8), (D, 20)]);
     assert_eq!(h.regs.mode, Mode::Done);
     assert_eq!(h.regs.queued_rays, 0);
-    assert_eq!(h.regs.stats.cycles_final, 0);
+    assert_eq!(h.stats.cycles_final, 0);
 }
 
 /// Brings the controller to the final ray-stationary phase with C (40 rays) and D (20) queued
@@ -525,11 +539,11 @@ fn repacks_a_warp_with_21_active_rays_at_threshold_22_but_not_22() {
     assert!(!repack_starts(&mut h, 22));
     assert!(!repack_starts(&mut h, 32));
     assert!(repack_starts(&mut h, 21));
-    assert_eq!(h.regs.stats.repacks, 1);
+    assert_eq!(h.stats.repacks, 1);
     // +1: pop any queue entry; +2: it arrives (C's first 32 rays). The 11 idle lanes take
     // 11 rays, the other 21 wait in the spare buffer for the next warp.
     let o = h.step(&h.quiet());
-    assert_eq!((o.qt_op, o.reserve), (QtOp::PopAny, Some(0)));
+    assert_eq!((o.qt_op, o.reserve), (QueueOp::PopAny, Some(0)));
     let o = h.step(&h.quiet());
     let fill = o.fill.expect("repack filled");
     assert_eq!(fill.kind, FillKind::Repack);
@@ -589,7 +603,7 @@ fn groups_underpopulated_queues_into_full_warps_then_finishes() {
             (FillKind::Grouped, false, true, 20),
         ]
     );
-    assert_eq!(h.regs.stats.grouped_warps, 2);
+    assert_eq!(h.stats.grouped_warps, 2);
     assert_eq!((h.regs.queued_rays, h.regs.spare_count), (0, 0));
     assert!(done_at.is_some(), "Done once drained");
 }
@@ -618,12 +632,12 @@ fn stale_max_waits_and_spilled_rays_are_refilled_first() {
     }
     // Spilled rays are refilled before anything else while the table has room.
     let o = h.step(&inputs(&h, 1, 2));
-    assert_eq!(o.qt_op, QtOp::Refill);
+    assert_eq!(o.qt_op, QueueOp::Refill);
     assert_eq!(h.regs.seq, Seq::RefillWait);
     let o = h.step(&inputs(&h, 1, 1)); // the refill's answer arrives
-    assert_eq!((o.qt_op, h.regs.seq), (QtOp::Nop, Seq::Idle));
+    assert_eq!((o.qt_op, h.regs.seq), (QueueOp::Nop, Seq::Idle));
     let o = h.step(&inputs(&h, 1, 1));
-    assert_eq!(o.qt_op, QtOp::Refill);
+    assert_eq!(o.qt_op, QueueOp::Refill);
     // All entries are under the threshold now and nothing feeds the queues: the refill is
     // answered, the next cycle (sequencer idle) judges the phase over, the one after is final.
     let modes: Vec<(Seq, Mode)> = (0..3)
@@ -652,19 +666,22 @@ fn an_empty_pop_of_a_resident_queue_removes_its_whole_count() {
     h.step(&i); // claim A (naive: any size)
     let mut i = h.quiet();
     i.wb_free_slot = Some(0);
-    assert_eq!(h.step(&i).qt_op, QtOp::Pop { treelet: A });
+    assert_eq!(h.step(&i).qt_op, QueueOp::Pop { treelet: A as u64 });
     // The table answers with nothing: A's rays are all spilled to memory.
     let mut i = h.quiet();
-    i.qt.done = Some(PopResult {
+    i.qt_done = Some(PopResult {
         treelet: A,
         rays: vec![],
     });
     let o = h.step(&i);
     assert_eq!(o.fill, None);
     // A's whole count leaves the count table, a warp's worth per cycle, and A retires.
-    let removes: Vec<CtOp> = (0..5).map(|_| h.step(&h.quiet()).ct_op).collect();
-    let r = |rays| CtOp::Remove { treelet: A, rays };
-    assert_eq!(removes, vec![r(32), r(32), r(32), r(4), CtOp::Nop]);
+    let removes: Vec<CountOp> = (0..5).map(|_| h.step(&h.quiet()).ct_op).collect();
+    let r = |n| CountOp::Remove {
+        treelet: A as u64,
+        n,
+    };
+    assert_eq!(removes, vec![r(32), r(32), r(32), r(4), CountOp::Nop]);
     assert!(h.ct.counts.is_empty());
     assert!(h.regs.res.iter().all(|e| !e.valid));
 }
@@ -690,7 +707,7 @@ fn done_only_when_everything_drained() {
     i.rt_idle = true;
     assert_eq!(h.step(&i).mode, Mode::Initial);
     assert_eq!(h.step(&i).mode, Mode::Done, "Done the cycle after draining");
-    assert_eq!(h.regs.stats.cycles_initial, 1);
+    assert_eq!(h.stats.cycles_initial, 1);
     // Done is absorbing and ignores events.
     i.init_report = Some(InitReport {
         slot: 0,
@@ -1160,7 +1177,7 @@ fn every_ray_is_traced_exactly_once_in_every_variant() {
         let mut sorted = order.clone();
         sorted.sort_by_key(|m| m.encoding());
         assert_eq!(order, sorted, "{name}");
-        let s = r.stats;
+        let s = run.h.stats;
         let done_cycle = run.modes.last().unwrap().0;
         assert_eq!(
             s.cycles_initial + s.cycles_treelet + s.cycles_final,
@@ -1191,12 +1208,12 @@ fn a_fill_refills_spilled_rays_before_popping() {
         i
     };
     let o = h.step(&spilled(&h, 3));
-    assert_eq!((o.qt_op, o.reserve), (QtOp::Refill, Some(0)));
+    assert_eq!((o.qt_op, o.reserve), (QueueOp::Refill, Some(0)));
     assert_eq!(h.regs.seq, Seq::FillNext, "the fill sequence goes on");
     // A full table cannot take a refilled ray: pop instead.
     let mut i = spilled(&h, 3);
     i.qt.free_entries = 0;
-    assert_eq!(h.step(&i).qt_op, QtOp::PopAny);
+    assert_eq!(h.step(&i).qt_op, QueueOp::PopAny);
     let o = h.step(&spilled(&h, 0));
     assert_eq!(o.fill.expect("filled").kind, FillKind::Repack);
 }

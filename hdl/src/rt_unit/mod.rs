@@ -1241,6 +1241,105 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 }
 
+/// The register-only view of one occupied warp-buffer slot that the treelet wiring reads
+/// ([`RtUnit::slot_peek`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SlotPeek {
+    /// The warp's traversal order.
+    pub order: TraversalOrder,
+    /// Held by a repack.
+    pub held: bool,
+    /// Its lanes' summary.
+    pub summary: SlotSummary,
+}
+
+impl<D: NodeDatapath> RtUnit<D> {
+    /// Whether slot `slot` holds a warp.
+    pub fn slot_valid(&self, regs: &RtUnitRegs, slot: u32) -> bool {
+        regs.slots.get(slot as usize).is_some_and(|s| s.valid)
+    }
+
+    /// Slot `slot`'s order, hold and lane summary (`None` for an empty or nonexistent slot); the
+    /// distinct next treelets are counted only with `distinct`.
+    pub fn slot_peek(
+        &self,
+        regs: &RtUnitRegs,
+        cache: &RtCache,
+        slot: u32,
+        distinct: bool,
+    ) -> Option<SlotPeek> {
+        let summary = self.slot_summary(regs, cache, slot, distinct)?;
+        let s = &regs.slots[slot as usize];
+        Some(SlotPeek {
+            order: s.order,
+            held: s.held,
+            summary,
+        })
+    }
+
+    /// Bit `l` set for each inactive lane of slot `slot` (where a repack fill may append).
+    pub fn inactive_lanes(&self, regs: &RtUnitRegs, slot: u32) -> u64 {
+        regs.slots.get(slot as usize).map_or(0, |s| {
+            s.lanes
+                .iter()
+                .enumerate()
+                .filter(|(_, l)| l.status == LaneStatus::Inactive)
+                .fold(0, |m, (i, _)| m | 1 << i)
+        })
+    }
+
+    /// Whether the warp buffer holds no warp.
+    pub fn is_empty(&self, regs: &RtUnitRegs) -> bool {
+        regs.slots.iter().all(|s| !s.valid)
+    }
+
+    /// Rays traversing in the warp buffer.
+    pub fn traversing_rays(&self, regs: &RtUnitRegs, cache: &RtCache) -> u64 {
+        regs.slots
+            .iter()
+            .zip(&cache.masks)
+            .filter(|(s, _)| s.valid)
+            .map(|(_, m)| u64::from(m.traversing.count_ones()))
+            .sum()
+    }
+
+    /// A one-line summary of the registers, for a watchdog's dump.
+    pub fn debug_state(&self, regs: &RtUnitRegs, cache: &RtCache) -> String {
+        let slots: Vec<String> = regs
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.valid)
+            .map(|(i, s)| {
+                let count = |st| s.lanes.iter().filter(|l| l.status == st).count();
+                format!(
+                    "slot {i}: {} traversing, {} done, {} in flight, {} delayed, {} stores pending",
+                    count(LaneStatus::Traversing),
+                    count(LaneStatus::Done),
+                    s.lanes
+                        .iter()
+                        .filter(|l| l.in_flight.is_some() || l.filling.is_some())
+                        .count(),
+                    s.lanes.iter().filter(|l| l.delay > 0).count(),
+                    s.lanes.iter().filter(|l| l.store_pending).count()
+                )
+            })
+            .collect();
+        format!(
+            "RT unit: fifo {}, split {:?}, errors {:#x}, idle for {}; {}",
+            regs.fifo.len(),
+            regs.split,
+            regs.errors,
+            self.idle_cycles(regs, cache),
+            if slots.is_empty() {
+                "no warps".to_string()
+            } else {
+                slots.join("; ")
+            }
+        )
+    }
+}
+
 /// The load request for chunk `chunk` of `node`.
 fn load_request(node: &NodeEntry, chunk: u8, tag: u32) -> MemRequest {
     MemRequest {

@@ -30,11 +30,10 @@ use crate::config::{ModeKind, SimConfig};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::prefetch::Prefetcher;
-use crate::gpu::rt::{RtPort, TracedWarp};
+use crate::gpu::rt::{QueueObserver, QueueSetup, RtPort, TracedWarp};
 use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
 use crate::gpu::sm::Sm;
 use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
-use crate::gpu::treelet_queues::TreeletQueues;
 use crate::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::gpu::watchdog::Watchdog;
 use crate::gpu::SimError;
@@ -179,24 +178,27 @@ pub fn simulate(
                 Some(spill.base(sm)),
                 spill.chunks,
             );
-            let port = RtPort::new(&cfg.hw, params, bvh, TraversalOrder::TreeletContinue)
-                .map_err(|source| SimError::Rt { sm, source })?;
-            Ok::<_, SimError>(match cfg.mode.kind {
-                ModeKind::Baseline => port,
-                ModeKind::Prefetch => {
-                    port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
-                }
-                ModeKind::Queues => {
-                    let ray_base = records + (nsms + sm) as u64 * per_sm;
-                    let queues = TreeletQueues::new(&cfg.hw, cfg.controller_features(), ray_base)
-                        .map_err(|e| SimError::Setup(e.to_string()))?;
-                    let port = port.with_queues(queues);
-                    if cfg.mode.preload {
-                        port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
-                    } else {
-                        port
-                    }
-                }
+            let queues = (cfg.mode.kind == ModeKind::Queues).then(|| QueueSetup {
+                features: cfg.controller_features(),
+                ray_base: records + (nsms + sm) as u64 * per_sm,
+            });
+            let port = RtPort::new(
+                &cfg.hw,
+                params,
+                bvh,
+                TraversalOrder::TreeletContinue,
+                queues,
+            )
+            .map_err(|source| SimError::Rt { sm, source })?;
+            let prefetch = match cfg.mode.kind {
+                ModeKind::Baseline => false,
+                ModeKind::Prefetch => true,
+                ModeKind::Queues => cfg.mode.preload,
+            };
+            Ok::<_, SimError>(if prefetch {
+                port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
+            } else {
+                port
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -304,7 +306,6 @@ impl Gpu<'_> {
             if self.finished() {
                 for rt in &mut self.rts {
                     rt.catch_up(now + 1);
-                    rt.finish();
                 }
                 return Ok(now + 1);
             }
@@ -671,7 +672,7 @@ impl Gpu<'_> {
         units.extend(["memory.l1", "memory.l2", "memory.dram"]);
         let warp_size = self.cfg.hw.warp_size;
         let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
-        let queues: Vec<&TreeletQueues> = self.rts.iter().filter_map(RtPort::queues).collect();
+        let queues: Vec<&QueueObserver> = self.rts.iter().filter_map(RtPort::queue_stats).collect();
         let phases = if queues.is_empty() {
             Phases {
                 ray_stationary: PhaseStats {
@@ -683,7 +684,7 @@ impl Gpu<'_> {
         } else {
             // Cycles: each SM's controller time per mode, averaged over the SMs.
             let n = queues.len() as u64;
-            let phase = |f: &dyn Fn(&TreeletQueues) -> (u64, u64)| {
+            let phase = |f: &dyn Fn(&QueueObserver) -> (u64, u64)| {
                 let (c, t) = queues
                     .iter()
                     .map(|q| f(q))
@@ -694,11 +695,9 @@ impl Gpu<'_> {
                 }
             };
             Phases {
-                initial: phase(&|q| (q.controller_stats().cycles_initial, q.stats.tests[0])),
-                treelet_stationary: phase(&|q| {
-                    (q.controller_stats().cycles_treelet, q.stats.tests[1])
-                }),
-                ray_stationary: phase(&|q| (q.controller_stats().cycles_final, q.stats.tests[2])),
+                initial: phase(&|q| (q.counts.ctl.cycles_initial, q.tests[0])),
+                treelet_stationary: phase(&|q| (q.counts.ctl.cycles_treelet, q.tests[1])),
+                ray_stationary: phase(&|q| (q.counts.ctl.cycles_final, q.tests[2])),
             }
         };
         let stats = SimStats {
@@ -718,14 +717,14 @@ impl Gpu<'_> {
             l2_misses,
             dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
             phases,
-            max_queues: queues.iter().map(|q| q.stats.max_queues).max().unwrap_or(0),
+            max_queues: queues.iter().map(|q| q.max_queues).max().unwrap_or(0),
             max_queues_above_threshold: queues
                 .iter()
-                .map(|q| q.stats.max_queues_above_threshold)
+                .map(|q| q.max_queues_above_threshold)
                 .max()
                 .unwrap_or(0),
-            count_table_evictions: queues.iter().map(|q| q.controller_stats().evictions).sum(),
-            queue_table_spills: queues.iter().map(|q| q.stats.spills).sum(),
+            count_table_evictions: queues.iter().map(|q| q.counts.ctl.evictions).sum(),
+            queue_table_spills: queues.iter().map(|q| q.counts.spills).sum(),
             cta_suspends: self.sms.iter().map(|s| s.suspends).sum(),
             cta_resumes: self.sms.iter().map(|s| s.resumes).sum(),
             max_rays_in_flight: self.sms.iter().map(|s| s.max_in_flight).max().unwrap_or(0),
@@ -733,7 +732,7 @@ impl Gpu<'_> {
             rt,
             max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
             queues: queues.iter().fold(QueueTotals::default(), |mut t, q| {
-                t.add(q.controller_stats(), &q.stats);
+                t.add(&q.counts);
                 t
             }),
             prefetches_issued: mem.prefetch.issued,

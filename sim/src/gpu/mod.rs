@@ -3,23 +3,25 @@
 //! datapath) and the memory hierarchy, driven by an engine that skips idle cycles.
 //!
 //! One file per concept: [`datapath`] (the RT unit's intersection tests over the BVH image),
-//! [`rt`] (an SM's RT unit with its memory queues), [`sm`] (CTA and warp slots), [`shader`]
-//! (raygen threads and shader timing), [`cta_scheduler`], [`engine`] (the cycle loop),
-//! [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of the `prefetch` mode),
-//! [`treelet_queues`] (the `queues` mode's treelet controller, count table and queue table
-//! beside the RT unit) and [`virtualization`] (ray virtualization's CTA-state traffic;
-//! suspending and resuming CTAs is in [`sm`]). Every design runs with or without ray
-//! virtualization.
+//! [`rt`] (an SM's RT unit — the plain one, or the `queues` mode's treelet RT unit of `vtq-hdl`
+//! — stepped through its ports, with its memory queues), [`ray_memory`] (the memory contents
+//! the treelet hardware reads and writes), [`rt_fault`] (RT-unit errors in words), [`sm`] (CTA
+//! and warp slots), [`shader`] (raygen threads and shader timing), [`cta_scheduler`],
+//! [`engine`] (the cycle loop), [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of
+//! the `prefetch` mode, which also serves the controller's preloads) and [`virtualization`] (ray
+//! virtualization's CTA-state traffic; suspending and resuming CTAs is in [`sm`]). Every design
+//! runs with or without ray virtualization.
 
 pub mod cta_scheduler;
 pub mod datapath;
 pub mod engine;
 pub mod prefetch;
+pub mod ray_memory;
 pub mod rt;
+pub mod rt_fault;
 pub mod shader;
 pub mod sm;
 pub mod stats;
-pub mod treelet_queues;
 pub mod virtualization;
 pub mod watchdog;
 
@@ -51,7 +53,7 @@ pub enum SimError {
         /// The SM.
         sm: usize,
         /// What happened and where.
-        fault: Box<rt::RtFault>,
+        fault: Box<rt_fault::RtFault>,
     },
     /// The treelet hardware of queues mode lost track of a ray (a modelling bug, reported
     /// rather than giving wrong numbers).

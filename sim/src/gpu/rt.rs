@@ -1,17 +1,25 @@
-//! One SM's RT unit in the simulated GPU ([`RtPort`]): the hardware model
-//! [`vtq_hdl::rt_unit::RtUnit`] with its registers, the memory access queue between its memory
-//! scheduler and the L1 (requests wait there while the L1 stalls), and the return path that
-//! feeds memory responses into the response FIFO (at most `resp_ports` per cycle and never more
-//! than `resp_free`). Node data comes from the BVH image; hit-record stores go to memory;
-//! traversal-stack spills are stored in this SM's stack spill area ([`SpillMemory`]) and
-//! stack fills read them back.
+//! One SM's RT unit in the simulated GPU ([`RtPort`]): the hardware model — the RT unit
+//! ([`vtq_hdl::rt_unit::RtUnit`], baseline and prefetch designs) or the treelet RT unit
+//! ([`vtq_hdl::treelet_rt_unit::TreeletRtUnit`], the queues design) — stepped through its ports,
+//! with what surrounds it: the memory access queue between it and the L1 (requests wait there
+//! while the L1 stalls), the return path that feeds memory responses into the RT unit's response
+//! FIFO (at most `resp_ports` per cycle and never more than `resp_free`), the memory contents it
+//! reads and writes (node bytes from the BVH image, stack spills, ray records, the queue table's
+//! spill FIFO; [`crate::gpu::ray_memory`]), the SM warps waiting for their rays, and the
+//! statistics observers beside the blocks. It reads no register of any block: only the blocks'
+//! outputs and their register-only output functions.
 
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 
+use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{
-    ErrorKind, ErrorRecord, MemResponse, RayRecord, RequestKind, RtCache, RtStats, RtUnit,
-    RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue,
+    ErrorRecord, MemRequest as HwRequest, MemResponse, RayRecord, RequestKind, RtCache, RtStats,
+    RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue,
     CHUNK_BYTES,
+};
+use vtq_hdl::treelet_rt_unit::{
+    RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
+    TreeletRtUnitParams, TreeletRtUnitRegs,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -20,9 +28,14 @@ use crate::bvh::{HwBvh, NodeKind};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
 use crate::gpu::prefetch::Prefetcher;
-use crate::gpu::treelet_queues::{FinishedRay, TreeletQueues};
+use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
+use crate::gpu::rt_fault::RtFault;
 use crate::gpu::SimError;
 use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem, Response};
+
+/// Tag bit marking a ray-record load's response; below it, the ray id (bits 16 and up) and the
+/// warp-buffer slot of the fill (bits 0-15).
+const RAY_LOAD_TAG: u64 = 1 << 48;
 
 /// A warp the RT unit finished: its SM warp slot and each lane's closest hit (`None` for a
 /// miss), for the lanes that carried a ray.
@@ -34,89 +47,54 @@ pub struct TracedWarp {
     pub hits: Vec<Option<Option<Hit>>>,
 }
 
-/// The contents of one SM's stack spill area: what the RT unit's spill stores wrote, by
-/// address, read back by its fills (memory contents, not timing: timing is the memory
-/// system's, through the `Stack` access class).
-#[derive(Debug, Clone, Default)]
-pub struct SpillMemory {
-    chunks: HashMap<u64, [u8; CHUNK_BYTES as usize]>,
+/// What one cycle of an [`RtPort`] produced.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RtCycle {
+    /// The warp accepted this cycle (its SM warp slot).
+    pub accepted: Option<usize>,
+    /// The warp completed this cycle.
+    pub done: Option<TracedWarp>,
 }
 
-impl SpillMemory {
-    /// Writes the 32 B chunk at `address`.
-    fn store(&mut self, address: u64, data: [u8; CHUNK_BYTES as usize]) {
-        self.chunks.insert(address, data);
-    }
-
-    /// The 32 B chunk at `address` (zeros where nothing was stored: the RT unit then reports
-    /// an unmatched response).
-    fn load(&self, address: u64) -> [u8; CHUNK_BYTES as usize] {
-        self.chunks.get(&address).copied().unwrap_or_default()
-    }
+/// The statistics observer beside one SM's treelet RT unit: its summed events, its tests per
+/// traversal phase and the largest number of queues.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct QueueObserver {
+    /// The treelet RT unit's events, summed (the RT unit's part is also in [`RtPort::hw_stats`]).
+    pub counts: TreeletCounts,
+    /// Intersection tests per phase (the controller's mode after the cycle of the test):
+    /// initial, treelet stationary, final ray stationary.
+    pub tests: [u64; 3],
+    /// Most treelet queues tracked by the count table at once.
+    pub max_queues: u64,
+    /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
+    pub max_queues_above_threshold: u64,
 }
 
-/// An error the RT unit raised, with where its ray came from, so the message can name the SM
-/// warp, lane and pixel rather than a flag.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct RtFault {
-    /// The RT unit's first-error capture.
-    pub record: ErrorRecord,
-    /// SM warp (virtual id) and lane of the ray concerned, when known.
-    pub owner: Option<(usize, u32)>,
-    /// Pixel `(x, y)` of that ray's thread, when known (filled in by the engine).
-    pub pixel: Option<(u32, u32)>,
-    /// `hw.address_bits`, which sizes the stack spill area.
-    pub address_bits: u32,
-}
-
-impl std::fmt::Display for RtFault {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let r = &self.record;
-        write!(f, "{}", r.kind.describe())?;
-        let ray = match (self.owner, self.pixel) {
-            (Some((w, l)), Some((x, y))) => {
-                format!("ray {} (SM warp {w}, lane {l}, pixel ({x}, {y}))", r.ray_id)
-            }
-            (Some((w, l)), None) => format!("ray {} (SM warp {w}, lane {l})", r.ray_id),
-            _ => format!("ray {}", r.ray_id),
-        };
-        let at = format!("warp-buffer slot {}, lane {}", r.slot, r.lane);
-        match r.kind {
-            ErrorKind::SpillAreaFull => write!(
-                f,
-                ": {ray} in {at} needs {} spilled 32 B chunks of one stack, but its spill area \
-                 holds {} (the area is sized from the free address space: raise \
-                 hw.address_bits, now {})",
-                r.value, r.limit, self.address_bits
-            ),
-            ErrorKind::BadChild if r.limit == 0 => write!(
-                f,
-                ": {ray} in {at}: a child at address {:#x} is misaligned, of a bad size or \
-                 outside the address space",
-                r.value
-            ),
-            ErrorKind::BadChild => write!(
-                f,
-                ": {ray} in {at}: {} children, the stack room per node (max_children = \
-                 bvh.width) is {}",
-                r.value, r.limit
-            ),
-            ErrorKind::FifoOverflow => write!(
-                f,
-                ": {} responses offered in one cycle, at most {} accepted (a simulator bug)",
-                r.value, r.limit
-            ),
-            ErrorKind::UnmatchedResponse => write!(
-                f,
-                ": the response for address {:#x} (tag: {at}) (a simulator bug)",
-                r.value
-            ),
-            ErrorKind::IssueWhileFull | ErrorKind::BadIssue | ErrorKind::BadCommand => write!(
-                f,
-                ": {ray}, {at}, value {}, limit {} (a simulator bug)",
-                r.value, r.limit
-            ),
-        }
+/// The error of an RT-unit error record of SM `sm`, with its ray's SM warp and lane where known
+/// (`address_bits` sizes the stack spill area the message may name).
+fn rt_error(
+    sm: usize,
+    record: ErrorRecord,
+    owner: Option<(usize, u32)>,
+    address_bits: u32,
+) -> SimError {
+    // Errors about responses name no ray.
+    let owner = owner.filter(|_| {
+        !matches!(
+            record.kind,
+            vtq_hdl::rt_unit::ErrorKind::FifoOverflow
+                | vtq_hdl::rt_unit::ErrorKind::UnmatchedResponse
+        )
+    });
+    SimError::RtUnit {
+        sm,
+        fault: Box::new(RtFault {
+            record,
+            owner,
+            pixel: None,
+            address_bits,
+        }),
     }
 }
 
@@ -130,59 +108,86 @@ struct PendingWarp {
     left: u32,
 }
 
-/// What one cycle of an [`RtPort`] produced.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct RtCycle {
-    /// The warp accepted this cycle (its SM warp slot).
-    pub accepted: Option<usize>,
-    /// The warp completed this cycle.
-    pub done: Option<TracedWarp>,
-    /// Whether the memory scheduler issued a request.
-    pub requested: bool,
+/// The baseline RT unit with its registers, cache and input bundle.
+#[derive(Debug, Clone)]
+struct Plain<'a> {
+    unit: RtUnit<BvhDatapath<'a>>,
+    regs: RtUnitRegs,
+    cache: RtCache,
+    /// Reused every step so feeding responses does not allocate.
+    inputs: RtUnitInputs,
+    /// SM warp slot held by each warp-buffer slot.
+    slot_warp: Vec<Option<usize>>,
+}
+
+/// The treelet RT unit with its registers, cache and surroundings.
+#[derive(Debug, Clone)]
+struct Treelet<'a> {
+    unit: TreeletRtUnit<BvhDatapath<'a>>,
+    regs: TreeletRtUnitRegs,
+    cache: TreeletRtUnitCache,
+    /// Records of rays waiting in the treelet queues.
+    store: RayStore,
+    /// The queue table's spill FIFO.
+    spill_fifo: SpillFifo,
+    /// Ray records that arrived, for the next step.
+    arrived: Vec<RayLoad>,
+    /// SM warp and lane of each ray id in use.
+    owners: Vec<Option<(usize, u32)>>,
+    /// SM warps with rays still traversing, by warp id.
+    pending: BTreeMap<usize, PendingWarp>,
+    /// SM warps whose rays have all finished, returned one per cycle.
+    completed: VecDeque<TracedWarp>,
+    /// A ray-record response the store could not answer (reported at the next step).
+    fault: Option<String>,
+    /// The statistics observer.
+    observer: QueueObserver,
+}
+
+/// Which hardware an [`RtPort`] steps.
+#[derive(Debug, Clone)]
+enum Hardware<'a> {
+    Plain(Plain<'a>),
+    Treelet(Box<Treelet<'a>>),
+}
+
+/// The queues design's treelet hardware for [`RtPort::new`]: the controller's feature switches
+/// and where this SM's ray records start.
+#[derive(Debug, Clone, Copy)]
+pub struct QueueSetup {
+    /// The controller's feature switches.
+    pub features: vtq_hdl::controller::ControllerFeatures,
+    /// Byte address of this SM's ray id 0's 32 B ray record.
+    pub ray_base: u64,
 }
 
 /// The RT unit of one SM with its memory queues.
 #[derive(Debug, Clone)]
 pub struct RtPort<'a> {
-    unit: RtUnit<BvhDatapath<'a>>,
-    regs: RtUnitRegs,
-    /// The RT unit's simulation cache (lane summaries of `regs`).
-    cache: RtCache,
-    /// The RT unit's statistics, summed from its per-cycle counts.
-    stats: RtStats,
+    hw: Hardware<'a>,
     bvh: &'a HwBvh,
     order: TraversalOrder,
-    /// SM warp slot held by each warp-buffer slot.
-    slot_warp: Vec<Option<usize>>,
     /// Memory access queue (requests not yet accepted by the L1), oldest first.
     requests: VecDeque<MemRequest>,
     /// First cycle the head of `requests` may be offered again after a stall.
     retry_at: u64,
     /// Load responses waiting to enter the response FIFO.
     responses: VecDeque<MemResponse>,
-    /// The RT unit's input bundle, reused every step so feeding responses does not allocate.
-    inputs: RtUnitInputs,
     /// The cycle the registers stand at (the next cycle to evaluate); cycles before it that
-    /// were not stepped were idle and are caught up lazily with [`RtUnit::skip`].
+    /// were not stepped were idle and are caught up lazily with `skip`.
     at: u64,
-    /// First cycle the RT unit has work again with idle inputs: `at + idle_cycles` (saturating),
-    /// recomputed after every step. Skipping idle cycles leaves it unchanged (each skipped
-    /// cycle advances `at` and lowers `idle_cycles` by one), so it is computed once per step
-    /// instead of once per query.
+    /// First cycle the hardware has work again with idle inputs: `at + idle_cycles`
+    /// (saturating), recomputed after every step. Skipping idle cycles leaves it unchanged.
     wake: u64,
     /// The treelet prefetcher (prefetch mode; in queues mode it serves the controller's
     /// preloads).
     prefetcher: Option<Prefetcher<'a>>,
-    /// The treelet controller and tables (queues mode only).
-    queues: Option<TreeletQueues>,
-    /// Queues mode: SM warps with rays still traversing, by warp id.
-    pending: BTreeMap<usize, PendingWarp>,
-    /// Queues mode: SM warps whose rays have all finished, returned one per cycle.
-    completed: VecDeque<TracedWarp>,
     /// Contents of this SM's stack spill area.
     spill: SpillMemory,
     /// `hw.address_bits`, for error messages.
     address_bits: u32,
+    /// The RT unit's statistics, summed from its per-cycle counts.
+    stats: RtStats,
     /// Most requests queued at once.
     pub max_queue: u64,
     /// Rays issued.
@@ -192,46 +197,80 @@ pub struct RtPort<'a> {
 }
 
 impl<'a> RtPort<'a> {
-    /// The RT unit of one SM: `hw` sizes, `params` timing (with this SM's hit-record base),
-    /// warps traversing in `order`.
+    /// The RT unit of one SM: `hw` sizes, `params` timing (with this SM's hit-record base and
+    /// stack spill area), SM warps traversing in `order`; with `queues`, the treelet RT unit of
+    /// the queues design.
     pub fn new(
         hw: &HwConfig,
         params: RtUnitParams,
         bvh: &'a HwBvh,
         order: TraversalOrder,
+        queues: Option<QueueSetup>,
     ) -> Result<Self, RtUnitError> {
-        let unit = RtUnit::new(hw.clone(), params, BvhDatapath::new(bvh))?;
-        let regs = unit.reset();
-        let cache = RtCache::of(&regs);
-        let wake = unit.idle_cycles(&regs, &cache);
-        let inputs = unit.idle_inputs();
+        let datapath = BvhDatapath::new(bvh);
+        let (hardware, wake) = match queues {
+            None => {
+                let unit = RtUnit::new(hw.clone(), params, datapath)?;
+                let regs = unit.reset();
+                let cache = RtCache::of(&regs);
+                let wake = unit.idle_cycles(&regs, &cache);
+                let inputs = unit.idle_inputs();
+                let plain = Plain {
+                    slot_warp: vec![None; hw.warp_buffer_size as usize],
+                    unit,
+                    regs,
+                    cache,
+                    inputs,
+                };
+                (Hardware::Plain(plain), wake)
+            }
+            Some(setup) => {
+                let params = TreeletRtUnitParams {
+                    rt: params,
+                    features: setup.features,
+                    ray_base: setup.ray_base,
+                };
+                let unit = TreeletRtUnit::new(hw.clone(), params, datapath)?;
+                let regs = unit.reset();
+                let cache = TreeletRtUnitCache::of(&regs);
+                let wake = unit.idle_cycles(&regs, &cache);
+                let treelet = Treelet {
+                    unit,
+                    regs,
+                    cache,
+                    store: RayStore::new(hw.max_rays),
+                    spill_fifo: SpillFifo::default(),
+                    arrived: Vec::new(),
+                    owners: vec![None; hw.max_rays as usize],
+                    pending: BTreeMap::new(),
+                    completed: VecDeque::new(),
+                    fault: None,
+                    observer: QueueObserver::default(),
+                };
+                (Hardware::Treelet(Box::new(treelet)), wake)
+            }
+        };
         Ok(RtPort {
-            slot_warp: vec![None; hw.warp_buffer_size as usize],
-            unit,
-            regs,
-            cache,
-            stats: RtStats::default(),
+            hw: hardware,
             bvh,
             order,
             requests: VecDeque::new(),
             retry_at: 0,
             responses: VecDeque::new(),
-            inputs,
             at: 0,
             wake,
             prefetcher: None,
-            queues: None,
-            pending: BTreeMap::new(),
-            completed: VecDeque::new(),
             spill: SpillMemory::default(),
             address_bits: hw.address_bits,
+            stats: RtStats::default(),
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
         })
     }
 
-    /// The same port with a treelet prefetcher beside the RT unit.
+    /// The same port with a treelet prefetcher beside the RT unit (prefetch mode), or serving
+    /// the treelet controller's preloads (queues mode).
     pub fn with_prefetcher(self, prefetcher: Prefetcher<'a>) -> Self {
         RtPort {
             prefetcher: Some(prefetcher),
@@ -239,18 +278,12 @@ impl<'a> RtPort<'a> {
         }
     }
 
-    /// The same port in queues mode: `queues` decides which rays the RT unit traverses; a
-    /// prefetcher (if any) preloads the treelets it names.
-    pub fn with_queues(self, queues: TreeletQueues) -> Self {
-        RtPort {
-            queues: Some(queues),
-            ..self
+    /// The statistics observer of the treelet hardware, if this port runs in queues mode.
+    pub fn queue_stats(&self) -> Option<&QueueObserver> {
+        match &self.hw {
+            Hardware::Treelet(t) => Some(&t.observer),
+            Hardware::Plain(_) => None,
         }
-    }
-
-    /// The treelet controller and tables, if this port runs in queues mode.
-    pub fn queues(&self) -> Option<&TreeletQueues> {
-        self.queues.as_ref()
     }
 
     /// The treelet prefetcher, if this port has one.
@@ -258,38 +291,40 @@ impl<'a> RtPort<'a> {
         self.prefetcher.as_ref()
     }
 
-    /// Whether a warp can be issued this cycle (queues mode: a slot may be given to an SM warp
+    /// Whether a warp can be offered this cycle (queues mode: a slot may be given to an SM warp
     /// and a warp's worth of ray ids is free; the controller may still reserve the slot).
     pub fn issue_ready(&self) -> bool {
-        match &self.queues {
-            Some(q) => q.sm_may_issue(&self.regs),
-            None => self.unit.issue_ready(&self.regs),
+        match &self.hw {
+            Hardware::Plain(p) => p.unit.issue_ready(&p.regs),
+            Hardware::Treelet(t) => t.unit.sm_ready(&t.regs),
         }
     }
 
-    /// The hardware statistics registers.
+    /// The RT unit's statistics.
     pub fn hw_stats(&self) -> &RtStats {
         &self.stats
     }
 
     /// Rays traversing in the warp buffer.
     pub fn active_rays(&self) -> u64 {
-        self.regs
-            .slots
-            .iter()
-            .filter(|s| s.valid)
-            .flat_map(|s| s.lanes.iter())
-            .filter(|l| l.status == vtq_hdl::rt_unit::LaneStatus::Traversing)
-            .count() as u64
+        match &self.hw {
+            Hardware::Plain(p) => p.unit.traversing_rays(&p.regs, &p.cache),
+            Hardware::Treelet(t) => t.unit.traversing_rays(&t.regs, &t.cache),
+        }
     }
 
-    /// The warp-buffer entry of `rays` (one per lane, `None` for idle lanes) of SM warp `warp`;
-    /// a ray that is not valid enters already finished (a miss, as in the functional tracer).
-    fn warp_issue(&self, slot: usize, rays: &[Option<Ray>]) -> WarpIssue {
-        let warp_size = self.unit.config().warp_size as usize;
+    /// The warp-buffer entry of `rays` (one per lane, `None` for idle lanes), ray ids from
+    /// warp-buffer slot `slot`'s lanes; a ray that is not valid enters already finished (a miss,
+    /// as in the functional tracer).
+    fn warp_lanes(
+        &self,
+        slot: usize,
+        rays: &[Option<Ray>],
+        warp_size: usize,
+    ) -> Vec<Option<RayRecord>> {
         let internal = self.bvh.params().internal_node_bytes();
         let root = node_entry(HEADER_ADDR, NodeKind::Header, internal);
-        let lanes = (0..warp_size)
+        (0..warp_size)
             .map(|lane| {
                 let ray = rays.get(lane).copied().flatten()?;
                 let id = (slot * warp_size + lane) as u32;
@@ -304,16 +339,13 @@ impl<'a> RtPort<'a> {
                     }
                 })
             })
-            .collect();
-        WarpIssue {
-            order: self.order,
-            lanes,
-            ..WarpIssue::default()
-        }
+            .collect()
     }
 
-    /// Moves SM `sm`'s load responses due by `now` from memory to the return queue. CTA-state
-    /// loads (ray virtualization) are the SM's, not the RT unit's: they go to `cta_state`.
+    /// Moves SM `sm`'s responses due by `now` from memory to the RT unit's return queue (node
+    /// chunks and stack fills) or, for ray-record loads, to the next step's inputs with the
+    /// record from the store. CTA-state loads (ray virtualization) are the SM's: they go to
+    /// `cta_state`.
     pub fn collect_responses(
         &mut self,
         now: u64,
@@ -325,67 +357,88 @@ impl<'a> RtPort<'a> {
             if r.store {
                 continue;
             }
-            if r.class == AccessClass::CtaState {
-                cta_state.push(r);
-                continue;
-            }
-            if r.class == AccessClass::RayRecord {
-                if let Some(q) = self.queues.as_mut() {
-                    q.ray_loaded(r.tag);
+            match r.class {
+                AccessClass::CtaState => cta_state.push(r),
+                AccessClass::RayRecord => {
+                    if let Hardware::Treelet(t) = &mut self.hw {
+                        let slot = (r.tag & 0xFFFF) as u32;
+                        let ray = ((r.tag & !RAY_LOAD_TAG) >> 16) as u32;
+                        match t.store.take(ray) {
+                            Some(record) => t.arrived.push(RayLoad { slot, ray, record }),
+                            None => {
+                                t.fault.get_or_insert(format!(
+                                    "the record of ray {ray} was loaded but the store holds none"
+                                ));
+                            }
+                        }
+                    }
                 }
-                continue;
+                AccessClass::Stack => self.responses.push_back(MemResponse {
+                    address: r.addr,
+                    tag: r.tag as u32,
+                    data: self.spill.load(r.addr),
+                }),
+                AccessClass::Bvh | AccessClass::HitRecord => {
+                    let mut data = [0u8; CHUNK_BYTES as usize];
+                    data.copy_from_slice(self.bvh.bytes_at(r.addr as u32, CHUNK_BYTES));
+                    self.responses.push_back(MemResponse {
+                        address: r.addr,
+                        tag: r.tag as u32,
+                        data,
+                    });
+                }
             }
-            let data = if r.class == AccessClass::Stack {
-                self.spill.load(r.addr)
-            } else {
-                let mut data = [0u8; CHUNK_BYTES as usize];
-                data.copy_from_slice(self.bvh.bytes_at(r.addr as u32, CHUNK_BYTES));
-                data
-            };
-            self.responses.push_back(MemResponse {
-                address: r.addr,
-                tag: r.tag as u32,
-                data,
-            });
         }
     }
 
-    /// Whether cycle `now` must be evaluated: a warp is offered (`offering`), responses are
-    /// waiting, or the RT unit's idle cycles end by `now`.
+    /// Whether cycle `now` must be evaluated: a warp is offered (`offering`), responses or
+    /// ray records are waiting, a finished SM warp is to return, or the hardware's idle cycles
+    /// end by `now`.
     pub fn busy_at(&self, now: u64, offering: bool) -> bool {
         debug_assert_eq!(
             self.wake,
-            self.at
-                .saturating_add(self.unit.idle_cycles(&self.regs, &self.cache)),
+            self.at.saturating_add(self.idle_cycles()),
             "stale wake cycle"
         );
         offering
             || !self.responses.is_empty()
             || self.wake <= now
-            || !self.completed.is_empty()
-            || self
-                .queues
-                .as_ref()
-                .is_some_and(|q| q.busy() || q.wake() <= now)
+            || match &self.hw {
+                Hardware::Plain(_) => false,
+                Hardware::Treelet(t) => !t.completed.is_empty() || !t.arrived.is_empty(),
+            }
+    }
+
+    /// The hardware's idle cycles from `at`.
+    fn idle_cycles(&self) -> u64 {
+        match &self.hw {
+            Hardware::Plain(p) => p.unit.idle_cycles(&p.regs, &p.cache),
+            Hardware::Treelet(t) => t.unit.idle_cycles(&t.regs, &t.cache),
+        }
     }
 
     /// Catches the registers up to the start of cycle `now` over idle cycles.
     pub fn catch_up(&mut self, now: u64) {
-        if now > self.at {
-            let counts = self
-                .unit
-                .skip(&mut self.regs, &mut self.cache, now - self.at);
-            self.stats.add(&counts);
-            if let Some(q) = self.queues.as_mut() {
-                q.skip(now - self.at);
-            }
-            self.at = now;
+        if now <= self.at {
+            return;
         }
+        let n = now - self.at;
+        match &mut self.hw {
+            Hardware::Plain(p) => {
+                let counts = p.unit.skip(&mut p.regs, &mut p.cache, n);
+                self.stats.add(&counts);
+            }
+            Hardware::Treelet(t) => {
+                let counts = t.unit.skip(&mut t.regs, &mut t.cache, n);
+                self.stats.add(&counts.rt);
+                t.observer.counts.add(&counts);
+            }
+        }
+        self.at = now;
     }
 
-    /// One cycle `now` of the RT unit (after catching up idle cycles): issues `warp` (SM warp
-    /// slot and its lanes' rays) if given and a slot is free, feeds responses, and queues its
-    /// memory request.
+    /// One cycle `now` of the RT unit (after catching up idle cycles): offers `warp` (SM warp
+    /// slot and its lanes' rays) if given, feeds responses, and queues its memory requests.
     pub fn step(
         &mut self,
         now: u64,
@@ -394,79 +447,103 @@ impl<'a> RtPort<'a> {
     ) -> Result<RtCycle, SimError> {
         self.catch_up(now);
         self.at = now + 1;
-        self.inputs.issue = None;
-        self.inputs.stop = None;
-        self.inputs.repack = None;
-        self.inputs.responses.clear();
-        let mut cycle = RtCycle::default();
-        if self.queues.is_some() {
-            cycle.accepted = self.queue_commands(sm, warp)?;
-        } else if let Some((idx, rays)) = warp {
-            if let Some(slot) = self.regs.slots.iter().position(|s| !s.valid) {
-                let issue = self.warp_issue(slot, rays);
-                self.unit
-                    .check_issue(&issue)
-                    .map_err(|e| SimError::Rt { sm, source: e })?;
-                self.rays_issued += issue.lanes.iter().flatten().count() as u64;
-                self.slot_warp[slot] = Some(idx);
-                self.inputs.issue = Some(issue);
-                cycle.accepted = Some(idx);
-            }
+        let cycle = if matches!(self.hw, Hardware::Plain(_)) {
+            self.step_plain(sm, warp)?
+        } else {
+            self.step_treelet(sm, warp)?
+        };
+        self.wake = self.at.saturating_add(self.idle_cycles());
+        self.max_queue = self.max_queue.max(self.requests.len() as u64);
+        Ok(cycle)
+    }
+
+    /// Queues the RT unit's memory request `req` (a stack spill's data goes to the spill area).
+    fn push_request(&mut self, req: &HwRequest) {
+        let class = match req.kind {
+            RequestKind::NodeLoad => AccessClass::Bvh,
+            RequestKind::HitStore => AccessClass::HitRecord,
+            RequestKind::StackSpill | RequestKind::StackFill => AccessClass::Stack,
+        };
+        if req.kind == RequestKind::StackSpill {
+            self.spill.store(req.address, req.data);
         }
-        let ports = self
-            .unit
-            .resp_free(&self.regs)
-            .min(self.unit.params().resp_ports);
+        self.requests.push_back(if req.is_store() {
+            MemRequest::store(req.address, CHUNK_BYTES, class, req.tag as u64)
+        } else {
+            MemRequest::load(req.address, CHUNK_BYTES, class, req.tag as u64)
+        });
+    }
+
+    /// A cycle of the baseline RT unit.
+    fn step_plain(
+        &mut self,
+        sm: usize,
+        warp: Option<(usize, &[Option<Ray>])>,
+    ) -> Result<RtCycle, SimError> {
+        let mut cycle = RtCycle::default();
+        let Hardware::Plain(p) = &self.hw else {
+            unreachable!("a plain port")
+        };
+        let warp_size = p.unit.config().warp_size as usize;
+        let free = (0..p.slot_warp.len() as u32).find(|&s| !p.unit.slot_valid(&p.regs, s));
+        let issue = match (warp, free) {
+            (Some((idx, rays)), Some(slot)) => Some((
+                idx,
+                slot,
+                WarpIssue {
+                    order: self.order,
+                    lanes: self.warp_lanes(slot as usize, rays, warp_size),
+                    ..WarpIssue::default()
+                },
+            )),
+            _ => None,
+        };
+        let Hardware::Plain(p) = &mut self.hw else {
+            unreachable!("a plain port")
+        };
+        p.inputs.issue = None;
+        if let Some((idx, slot, issue)) = issue {
+            p.unit
+                .check_issue(&issue)
+                .map_err(|e| SimError::Rt { sm, source: e })?;
+            self.rays_issued += issue.lanes.iter().flatten().count() as u64;
+            p.slot_warp[slot as usize] = Some(idx);
+            p.inputs.issue = Some(issue);
+            cycle.accepted = Some(idx);
+        }
+        let ports = p.unit.resp_free(&p.regs).min(p.unit.params().resp_ports);
         let n = (ports as usize).min(self.responses.len());
-        self.inputs.responses.extend(self.responses.drain(..n));
-        let out = self
-            .unit
-            .step_cached(&mut self.regs, &mut self.cache, &self.inputs);
+        p.inputs.responses.clear();
+        p.inputs.responses.extend(self.responses.drain(..n));
+        let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
         self.stats.add(&out.counts);
-        self.wake = self
-            .at
-            .saturating_add(self.unit.idle_cycles(&self.regs, &self.cache));
-        if let (Some(p), None) = (self.prefetcher.as_mut(), &self.queues) {
-            p.observe(self.unit.next_addresses(&self.regs, &self.cache));
+        if let Some(pf) = self.prefetcher.as_mut() {
+            pf.observe(p.unit.next_addresses(&p.regs, &p.cache));
         }
         if let Some(record) = out.first_error {
-            return Err(SimError::RtUnit {
-                sm,
-                fault: Box::new(self.fault(record)),
-            });
+            let owner = p
+                .slot_warp
+                .get(record.slot as usize)
+                .copied()
+                .flatten()
+                .map(|w| (w, record.lane));
+            return Err(rt_error(sm, record, owner, self.address_bits));
         }
+        let done = out.done.map(|done| {
+            let warp = p.slot_warp[done.slot as usize].take();
+            (warp, done)
+        });
         if let Some(req) = out.request {
-            let class = match req.kind {
-                RequestKind::NodeLoad => AccessClass::Bvh,
-                RequestKind::HitStore => AccessClass::HitRecord,
-                RequestKind::StackSpill | RequestKind::StackFill => AccessClass::Stack,
-            };
-            if req.kind == RequestKind::StackSpill {
-                self.spill.store(req.address, req.data);
-            }
-            let r = if req.is_store() {
-                MemRequest::store(req.address, CHUNK_BYTES, class, req.tag as u64)
-            } else {
-                MemRequest::load(req.address, CHUNK_BYTES, class, req.tag as u64)
-            };
-            self.requests.push_back(r);
-            self.max_queue = self.max_queue.max(self.requests.len() as u64);
-            cycle.requested = true;
+            self.push_request(&req);
         }
-        if self.queues.is_some() {
-            self.queue_results(sm, &out)?;
-            cycle.done = self.completed.pop_front();
-        } else if let Some(done) = out.done {
-            let warp =
-                self.slot_warp[done.slot as usize]
-                    .take()
-                    .ok_or_else(|| SimError::Queues {
-                        sm,
-                        reason: format!(
-                            "warp-buffer slot {} completed a warp it never got",
-                            done.slot
-                        ),
-                    })?;
+        if let Some((warp, done)) = done {
+            let warp = warp.ok_or_else(|| SimError::Queues {
+                sm,
+                reason: format!(
+                    "warp-buffer slot {} completed a warp it never got",
+                    done.slot
+                ),
+            })?;
             let hits: Vec<Option<Option<Hit>>> = done
                 .lanes
                 .iter()
@@ -478,127 +555,136 @@ impl<'a> RtPort<'a> {
         Ok(cycle)
     }
 
-    /// The fault of an RT-unit error `record`, with the SM warp and lane of its ray where
-    /// known (the pixel is the engine's to add).
-    fn fault(&self, record: ErrorRecord) -> RtFault {
-        let owner = match &self.queues {
-            Some(q) => q.owner(record.ray_id),
-            None => self
-                .slot_warp
-                .get(record.slot as usize)
-                .copied()
-                .flatten()
-                .map(|w| (w, record.lane)),
-        };
-        let owner = owner.filter(|_| {
-            !matches!(
-                record.kind,
-                ErrorKind::FifoOverflow | ErrorKind::UnmatchedResponse
-            )
-        });
-        RtFault {
-            record,
-            owner,
-            pixel: None,
-            address_bits: self.address_bits,
-        }
-    }
-
-    /// Queues mode, before the RT unit steps: runs the treelet controller and tables, turns their
-    /// commands into the RT unit's inputs and admits SM warp `warp` if it may enter; returns
-    /// the admitted warp.
-    fn queue_commands(
+    /// A cycle of the treelet RT unit.
+    fn step_treelet(
         &mut self,
         sm: usize,
         warp: Option<(usize, &[Option<Ray>])>,
-    ) -> Result<Option<usize>, SimError> {
-        let q = self.queues.as_mut().expect("queues mode");
-        let cmd = q.before_step(
-            &self.unit,
-            (&self.regs, &self.cache, &self.stats),
-            warp.is_some(),
-            &mut self.requests,
-        );
-        self.inputs.stop = cmd.stop;
-        self.inputs.repack = cmd.repack;
-        if let (Some(t), Some(p)) = (cmd.preload, self.prefetcher.as_mut()) {
-            p.queue_treelet(t);
-        }
-        let mut accepted = None;
-        let issue = match (cmd.issue, cmd.sm_slot, warp) {
-            (Some(issue), _, _) => Some(issue),
-            (None, Some(slot), Some((idx, rays))) => {
-                let lanes = self.warp_issue(0, rays).lanes;
-                let active = lanes.iter().flatten().count();
-                let q = self.queues.as_mut().expect("queues mode");
-                let issue = q.admit(idx, slot, lanes, &mut self.requests);
-                if issue.is_some() {
-                    accepted = Some(idx);
-                    self.rays_issued += active as u64;
-                    let lanes = self.unit.config().warp_size as usize;
-                    let hits = (0..lanes)
-                        .map(|l| rays.get(l).copied().flatten().map(|_| None))
-                        .collect::<Vec<_>>();
-                    if active == 0 {
-                        self.completed.push_back(TracedWarp { warp: idx, hits });
-                    } else {
-                        let left = active as u32;
-                        self.pending.insert(idx, PendingWarp { hits, left });
-                    }
-                }
-                issue
+    ) -> Result<RtCycle, SimError> {
+        let mut cycle = RtCycle::default();
+        let lanes = match (&self.hw, warp) {
+            (Hardware::Treelet(t), Some((_, rays))) => {
+                let warp_size = t.unit.config().warp_size as usize;
+                Some(self.warp_lanes(0, rays, warp_size))
             }
             _ => None,
         };
-        if let Some(issue) = &issue {
-            self.unit
-                .check_issue(issue)
-                .map_err(|e| SimError::Rt { sm, source: e })?;
+        let Hardware::Treelet(t) = &mut self.hw else {
+            unreachable!("a treelet port")
+        };
+        if let Some(reason) = t.fault.take() {
+            return Err(SimError::Queues { sm, reason });
         }
-        self.inputs.issue = issue;
-        self.max_queue = self.max_queue.max(self.requests.len() as u64);
-        Ok(accepted)
-    }
-
-    /// Queues mode, after the RT unit stepped: hands finished rays back to their SM warps
-    /// (a warp whose last ray finished joins `completed`).
-    fn queue_results(&mut self, sm: usize, out: &RtUnitOutputs) -> Result<(), SimError> {
-        let q = self.queues.as_mut().expect("queues mode");
-        let mut finished: Vec<FinishedRay> = Vec::new();
-        q.after_step(
-            &self.unit,
-            (&self.regs, &self.cache),
-            out,
-            self.at,
-            &mut finished,
-        );
-        if let Some(reason) = q.fault() {
+        let rt = t.unit.rt_unit();
+        let ports = t.unit.resp_free(&t.regs).min(rt.params().resp_ports);
+        let n = (ports as usize).min(self.responses.len());
+        let inputs = TreeletRtUnitInputs {
+            sm_warp: lanes,
+            responses: self.responses.drain(..n).collect(),
+            ray_records: std::mem::take(&mut t.arrived),
+            spill_head: t.spill_fifo.head(),
+            ..t.unit.idle_inputs()
+        };
+        let out = t.unit.step_cached(&mut t.regs, &mut t.cache, &inputs);
+        self.stats.add(&out.counts.rt);
+        let obs = &mut t.observer;
+        obs.counts.add(&out.counts);
+        let phase = match t.unit.mode(&t.regs) {
+            Mode::Initial | Mode::Done => 0,
+            Mode::TreeletStationary => 1,
+            Mode::FinalRayStationary => 2,
+        };
+        obs.tests[phase] += out.counts.rt.total_tests();
+        let (queues, above) = t.unit.queues(&t.regs);
+        obs.max_queues = obs.max_queues.max(queues as u64);
+        obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
+        if let Some(record) = out.first_error {
+            let owner = t.owners.get(record.ray_id as usize).copied().flatten();
+            return Err(rt_error(sm, record, owner, self.address_bits));
+        }
+        if let Some(fault) = &out.fault {
             return Err(SimError::Queues {
                 sm,
-                reason: reason.to_string(),
+                reason: fault.to_string(),
             });
         }
-        for f in finished {
-            let Some(PendingWarp { hits, left }) = self.pending.get_mut(&f.warp) else {
+        if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
+            let active = ids.iter().flatten().count();
+            self.rays_issued += active as u64;
+            for (lane, id) in ids.iter().enumerate() {
+                if let Some(id) = id {
+                    t.owners[*id as usize] = Some((idx, lane as u32));
+                }
+            }
+            let hits = (0..ids.len())
+                .map(|l| rays.get(l).copied().flatten().map(|_| None))
+                .collect::<Vec<_>>();
+            if active == 0 {
+                t.completed.push_back(TracedWarp { warp: idx, hits });
+            } else {
+                let left = active as u32;
+                t.pending.insert(idx, PendingWarp { hits, left });
+            }
+            cycle.accepted = Some(idx);
+        }
+        for r in &out.parked {
+            t.store.park(r.clone());
+        }
+        if let Some(entry) = out.spill_push {
+            t.spill_fifo.push(entry);
+        }
+        if out.spill_pop {
+            t.spill_fifo.pop();
+        }
+        if let (Some(treelet), Some(p)) = (out.preload, self.prefetcher.as_mut()) {
+            p.queue_treelet(treelet);
+        }
+        for f in &out.finished {
+            let Some((warp, lane)) = t.owners.get_mut(f.ray as usize).and_then(Option::take) else {
                 return Err(SimError::Queues {
                     sm,
-                    reason: format!("a ray of SM warp {} finished twice", f.warp),
+                    reason: format!("ray {} finished but no SM warp waits for it", f.ray),
                 });
             };
-            if let Some(h) = hits.get_mut(f.lane as usize) {
-                *h = Some(f.hit);
+            let Some(PendingWarp { hits, left }) = t.pending.get_mut(&warp) else {
+                return Err(SimError::Queues {
+                    sm,
+                    reason: format!("a ray of SM warp {warp} finished twice"),
+                });
+            };
+            if let Some(h) = hits.get_mut(lane as usize) {
+                *h = Some(f.hit.as_ref().map(hit_from_hw));
             }
             *left -= 1;
             self.rays_completed += 1;
             if *left == 0 {
-                let done = self.pending.remove(&f.warp).expect("present");
-                self.completed.push_back(TracedWarp {
-                    warp: f.warp,
+                let done = t.pending.remove(&warp).expect("present");
+                t.completed.push_back(TracedWarp {
+                    warp,
                     hits: done.hits,
                 });
             }
         }
-        Ok(())
+        cycle.done = t.completed.pop_front();
+        for r in &out.requests {
+            match *r {
+                TreeletRequest::RayLoad { slot, ray, address } => self.requests.push_back(
+                    MemRequest::load(
+                        address,
+                        CHUNK_BYTES,
+                        AccessClass::RayRecord,
+                        RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
+                    )
+                    .bypassing_l1(),
+                ),
+                TreeletRequest::RayStore { address, .. } => self.requests.push_back(
+                    MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
+                        .bypassing_l1(),
+                ),
+                TreeletRequest::Rt(req) => self.push_request(&req),
+            }
+        }
+        Ok(cycle)
     }
 
     /// Offers the head of the memory access queue to the L1 (one request per cycle); returns
@@ -628,7 +714,8 @@ impl<'a> RtPort<'a> {
     }
 
     /// The next cycle after `now` at which this port has work, assuming no new warp: a response
-    /// or request to move, a queued prefetch, or the end of the RT unit's idle cycles.
+    /// or request to move, a queued prefetch, ray records or a finished SM warp to hand on, or
+    /// the end of the hardware's idle cycles.
     pub fn next_event(&self, now: u64) -> Option<u64> {
         let mut next = None::<u64>;
         let mut at = |c: u64| next = Some(next.map_or(c, |n| n.min(c)));
@@ -644,63 +731,36 @@ impl<'a> RtPort<'a> {
         if let Some(c) = self.prefetcher.as_ref().and_then(|p| p.next_event(now)) {
             at(c);
         }
-        if let Some(q) = &self.queues {
-            if q.busy() || !self.completed.is_empty() {
+        if let Hardware::Treelet(t) = &self.hw {
+            if !t.completed.is_empty() || !t.arrived.is_empty() {
                 at(now + 1);
-            } else if q.wake() != u64::MAX {
-                at(q.wake().max(now + 1));
             }
         }
         next
     }
 
-    /// Queues mode: attributes the last intersection tests to their phase (call at the end).
-    pub fn finish(&mut self) {
-        if let Some(q) = self.queues.as_mut() {
-            q.finish(&self.stats);
-        }
-    }
-
     /// A summary of the registers and queues, for the watchdog.
     pub fn debug_state(&self) -> String {
-        let r = &self.regs;
-        let lanes: Vec<String> = r
-            .slots
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.valid)
-            .map(|(i, s)| {
-                let count = |st| s.lanes.iter().filter(|l| l.status == st).count();
-                use vtq_hdl::rt_unit::LaneStatus::*;
-                format!(
-                    "slot {i} (warp {:?}): {} traversing, {} done, {} in flight, {} delayed, {} stores pending",
-                    self.slot_warp[i],
-                    count(Traversing),
-                    count(Done),
-                    s.lanes.iter().filter(|l| l.in_flight.is_some()).count(),
-                    s.lanes.iter().filter(|l| l.delay > 0).count(),
-                    s.lanes.iter().filter(|l| l.store_pending).count()
-                )
-            })
-            .collect();
-        format!(
-            "RT unit: fifo {}, split {:?}, errors {:#x}, idle for {}; {}; access queue {} (retry at {}), return queue {}, prefetches queued {}",
-            r.fifo.len(),
-            r.split,
-            r.errors,
-            self.unit.idle_cycles(r, &self.cache),
-            if lanes.is_empty() { "no warps".to_string() } else { lanes.join("; ") },
+        let common = format!(
+            "access queue {} (retry at {}), return queue {}, prefetches queued {}",
             self.requests.len(),
             self.retry_at,
             self.responses.len(),
             self.prefetcher.as_ref().map_or(0, Prefetcher::pending)
-        ) + &self.queues.as_ref().map_or(String::new(), |q| {
-            format!(
-                "\n  {}; SM warps waiting for rays {}, returning {}",
-                q.debug_state(),
-                self.pending.len(),
-                self.completed.len()
-            )
-        })
+        );
+        match &self.hw {
+            Hardware::Plain(p) => format!(
+                "{}; warps {:?}; {common}",
+                p.unit.debug_state(&p.regs, &p.cache),
+                p.slot_warp
+            ),
+            Hardware::Treelet(t) => format!(
+                "{}; {common}; spill FIFO {}; SM warps waiting for rays {}, returning {}",
+                t.unit.debug_state(&t.regs),
+                t.spill_fifo.len(),
+                t.pending.len(),
+                t.completed.len()
+            ),
+        }
     }
 }

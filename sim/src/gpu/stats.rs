@@ -8,7 +8,6 @@ use std::path::Path;
 use serde::Serialize;
 use vtq_hdl::rt_unit::{NodeKind, RtStats};
 
-use crate::gpu::treelet_queues::QueueStats;
 use crate::memory::MemStats;
 
 /// Keys of [`SimStats`] that depend on the host or on the engine's stepping mode rather than on
@@ -40,8 +39,8 @@ pub struct Phases {
     pub ray_stationary: PhaseStats,
 }
 
-/// Treelet-controller and treelet-queue counters summed over all SMs (the controller's
-/// statistics registers and the queue glue's counters, `gpu::treelet_queues`).
+/// Treelet-controller and treelet-queue counters summed over all SMs (the events of each SM's
+/// treelet RT unit, summed by its observer).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
 pub struct QueueTotals {
     /// Initial-phase warps terminated into the queues (they diverged).
@@ -71,7 +70,8 @@ pub struct QueueTotals {
 
 impl QueueTotals {
     /// Adds one SM's counters.
-    pub fn add(&mut self, ctl: &vtq_hdl::controller::ControllerStats, q: &QueueStats) {
+    pub fn add(&mut self, q: &vtq_hdl::treelet_rt_unit::TreeletCounts) {
+        let ctl = &q.ctl;
         self.terminated_warps += ctl.terminated_warps;
         self.enqueued_rays += ctl.enqueued_rays;
         self.claims += ctl.claims;

@@ -1,26 +1,29 @@
 //! Built-in scenes: `wknd`, the "Ray Tracing in One Weekend" cover as LumiBench renders it (all
-//! procedural spheres), and `cornell`, the classic Cornell box as triangles.
+//! procedural spheres), `cornell`, the classic Cornell box as triangles, and the generated
+//! `city:N` family ([`super::city`]).
 
 use glam::Vec3;
 
-use super::{Camera, Material, Scene, Sphere};
+use super::{city, Camera, Material, Scene, SceneError, Sphere};
 use crate::workload::rng::{LCG_A, LCG_C};
 
-/// Names of the built-in scenes, in listing order.
-pub const BUILTIN_NAMES: [&str; 2] = ["wknd", "cornell"];
+/// Names of the built-in scenes, in listing order (`city` stands for the `city:N` family).
+pub const BUILTIN_NAMES: [&str; 3] = ["wknd", "cornell", "city"];
 
 /// Seed of the LCG that places the small spheres of [`wknd`]. Any constant gives a valid cover
 /// scene; this one is fixed so the scene is identical on every run and machine.
 pub const WKND_SEED: u32 = 1;
 
-/// The built-in scene called `name` (ASCII case-insensitive), or `None`.
-pub fn builtin(name: &str) -> Option<Scene> {
+/// The built-in scene called `name` (ASCII case-insensitive): `None` if `name` is not a
+/// built-in, else the scene, or for a malformed `city:N` spec a [`SceneError::Parse`] naming the
+/// spec and the problem (see [`city::parse_spec`]).
+pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
     if name.eq_ignore_ascii_case("wknd") {
-        Some(wknd())
+        Some(Ok(wknd()))
     } else if name.eq_ignore_ascii_case("cornell") {
-        Some(cornell())
+        Some(Ok(cornell()))
     } else {
-        None
+        city::parse_spec(name).map(|budget| budget.map(city::city))
     }
 }
 
@@ -30,9 +33,25 @@ pub fn builtin_title(name: &str) -> Option<&'static str> {
         Some("Ray Tracing in One Weekend cover (LumiBench WKND), procedural spheres")
     } else if name.eq_ignore_ascii_case("cornell") {
         Some("Cornell box with two rotated blocks, triangles")
+    } else if name.eq_ignore_ascii_case("city") {
+        Some(
+            "generated city of exactly N triangles: `city:N`, N = 1000..64M with suffix k or M \
+             (default 1M), triangles",
+        )
     } else {
         None
     }
+}
+
+/// Triangle and sphere counts of built-in `name` for listings, or `None` if there is no such
+/// scene. `city` is its default budget, known without generating it (a city has exactly its
+/// budget of triangles); the others are generated and counted.
+pub fn builtin_counts(name: &str) -> Option<(usize, usize)> {
+    if name.eq_ignore_ascii_case("city") {
+        return Some((city::DEFAULT_TRIANGLES as usize, 0));
+    }
+    let scene = builtin(name)?.ok()?;
+    Some((scene.triangles.len(), scene.spheres.len()))
 }
 
 /// The LCG of the path tracer (FACTS.md: multiplier 1664525, increment 1013904223), producing

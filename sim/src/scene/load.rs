@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::builtin::{builtin, builtin_title, BUILTIN_NAMES};
+use super::builtin::{builtin, builtin_counts, builtin_title, BUILTIN_NAMES};
 use super::manifest::Manifest;
 use super::obj::ObjGeometry;
 use super::{Camera, Scene, SceneError};
@@ -14,7 +14,8 @@ use super::{Camera, Scene, SceneError};
 pub const MANIFEST_FILE: &str = "scene.toml";
 
 /// Load the scene `spec` names, trying in order:
-/// 1. a built-in name (`wknd`, `cornell`; ASCII case-insensitive);
+/// 1. a built-in name (`wknd`, `cornell`, `city` or `city:N`; ASCII case-insensitive; a
+///    malformed `city:N` is a [`SceneError::Parse`] naming the spec);
 /// 2. an existing path: a `.obj` file (default camera framing its bounds, sky on), a scene
 ///    folder (every `.obj` in it, sorted by file name, in one world space, camera and sky from
 ///    its `scene.toml` if present, else the default camera and sky on) or a `scene.toml` file
@@ -30,7 +31,7 @@ pub const MANIFEST_FILE: &str = "scene.toml";
 /// to stderr and their faces use the default material. The scene passes [`Scene::validate`].
 pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
     if let Some(scene) = builtin(spec) {
-        return Ok(scene);
+        return scene;
     }
     if spec.is_empty() {
         return Err(SceneError::Unknown(String::new()));
@@ -289,7 +290,8 @@ pub enum SceneKind {
 /// How a listed scene's primitive counts were obtained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CountSource {
-    /// Counted from the generated scene.
+    /// Counted from the generated scene, or known exactly without generating it (a `city:N`
+    /// scene has exactly N triangles).
     Loaded,
     /// Read from the manifest's `triangles` field without loading the geometry.
     Manifest,
@@ -327,20 +329,21 @@ impl SceneInfo {
     }
 }
 
-/// The built-in scenes (counted by generating them) followed by the scene folders in
-/// [`shared_scenes_dir`] sorted by folder name (counted from their manifests, not loaded).
+/// The built-in scenes (counted by generating them; the `city` family as one row with its
+/// default budget, not generated) followed by the scene folders in [`shared_scenes_dir`] sorted
+/// by folder name (counted from their manifests, not loaded).
 pub fn list_scenes() -> Vec<SceneInfo> {
     let mut list: Vec<SceneInfo> = BUILTIN_NAMES
         .iter()
         .filter_map(|&name| {
-            let scene = builtin(name)?;
+            let (triangles, spheres) = builtin_counts(name)?;
             Some(SceneInfo {
                 name: name.to_string(),
                 label: name.to_string(),
                 title: builtin_title(name).unwrap_or_default().to_string(),
                 kind: SceneKind::BuiltIn,
-                triangles: Some(scene.triangles.len()),
-                spheres: scene.spheres.len(),
+                triangles: Some(triangles),
+                spheres,
                 counted: CountSource::Loaded,
                 complete: Some(true),
                 problem: None,

@@ -143,6 +143,7 @@ impl Scene {
 }
 
 pub mod builtin;
+pub mod city;
 pub mod load;
 pub mod manifest;
 pub mod obj;

@@ -1,0 +1,289 @@
+//! The treelet controller's registers: the mode and sequencer FSMs, the resident-treelet list,
+//! per-slot bookkeeping, the fill sequence, the spare buffer and a pending count-table remove,
+//! with their signals and their descriptions. Nothing else: its statistics are counted by an
+//! observer from its output ports ([`super::ControllerStats::observe`]).
+
+use serde::Serialize;
+
+use super::{ControllerWidths, FillKind, Seq};
+use crate::block::{Signal, Signals};
+use crate::describe::{reg, RegDesc};
+use crate::mode::Mode;
+
+/// One entry of the resident-treelet list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct ResidentEntry {
+    /// The entry holds a treelet.
+    pub valid: bool,
+    /// Treelet address.
+    pub treelet: u32,
+    /// Rays waiting in its queue as the count table counts them: the table's maximum when it
+    /// was claimed, plus later enqueues, minus pops; 0 once the table evicted it.
+    pub count: u32,
+    /// Its treelet warps still traversing.
+    pub warps: u32,
+}
+
+/// What the controller knows about one warp-buffer slot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct SlotState {
+    /// The slot holds an initial-phase warp the controller terminated, still sending its rays
+    /// to the queues (until its `warp_done`).
+    pub terminated: bool,
+    /// The slot holds a treelet warp the controller dispatched.
+    pub treelet_warp: bool,
+    /// The resident entry that warp belongs to (`None` for a naive untracked-queue warp).
+    pub resident: Option<u32>,
+}
+
+/// The fill sequence in progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct FillState {
+    /// What is being built.
+    pub kind: FillKind,
+    /// Target warp-buffer slot.
+    pub slot: u32,
+    /// Resident entry popped from (treelet warps of a resident treelet).
+    pub resident: Option<u32>,
+    /// Lanes still to fill.
+    pub need: u32,
+    /// Rays were already given to the slot (or it is a repack, opened by the repack command).
+    pub started: bool,
+}
+
+/// Every register of the controller.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ControllerRegs {
+    /// Widths of the fields (for [`Signals`]).
+    pub widths: ControllerWidths,
+    /// Traversal mode FSM.
+    pub mode: Mode,
+    /// Queue-table sequencer FSM.
+    pub seq: Seq,
+    /// Rays in the queue table (exact: +1 per insert, -n per pop).
+    pub queued_rays: u32,
+    /// Resident-treelet list, a circular buffer allocated at `res_tail`.
+    pub res: Vec<ResidentEntry>,
+    /// Oldest valid resident entry (the current treelet).
+    pub res_head: u32,
+    /// Next entry to allocate.
+    pub res_tail: u32,
+    /// Per warp-buffer slot bookkeeping.
+    pub slots: Vec<SlotState>,
+    /// Fill sequence in progress (meaningful outside `Seq::Idle`).
+    pub fill: FillState,
+    /// Spare buffer: rays popped in the final phase that did not fit the warp being filled
+    /// (fixed bank of warp_size - 1 ids; the first `spare_count` are valid).
+    pub spare_rays: Vec<u32>,
+    /// Valid spare rays.
+    pub spare_count: u32,
+    /// A count-table `Remove` still to issue for a popped untracked entry: (treelet, rays).
+    pub pending_remove: Option<(u32, u32)>,
+}
+
+impl ControllerRegs {
+    /// Resident entry indices in age order (oldest first).
+    pub(super) fn resident_order(&self) -> impl Iterator<Item = usize> + '_ {
+        let n = self.res.len();
+        (0..n)
+            .map(move |k| (self.res_head as usize + k) % n)
+            .filter(move |&i| self.res[i].valid)
+    }
+
+    /// Number of valid resident entries.
+    pub(super) fn resident_count(&self) -> u32 {
+        self.res.iter().filter(|e| e.valid).count() as u32
+    }
+
+    /// The resident entry holding `treelet`, if any.
+    pub(super) fn resident_of(&self, treelet: u32) -> Option<usize> {
+        self.res
+            .iter()
+            .position(|e| e.valid && e.treelet == treelet)
+    }
+}
+
+/// The register descriptions for widths `w`.
+pub(super) fn registers(w: &ControllerWidths) -> Vec<RegDesc> {
+    let n = w.resident_entries;
+    let slots = w.warp_slots;
+    vec![
+        reg("mode", Mode::BITS, 1, "Traversal mode FSM."),
+        reg("seq", Seq::BITS, 1, "Queue-table sequencer FSM."),
+        reg(
+            "queued_rays",
+            w.ray_total,
+            1,
+            "Rays in the queue table (exact).",
+        ),
+        reg("res_valid", 1, n, "Resident list: entry valid."),
+        reg(
+            "res_treelet",
+            w.treelet,
+            n,
+            "Resident list: treelet address.",
+        ),
+        reg(
+            "res_count",
+            w.ray_total,
+            n,
+            "Resident list: rays still queued for it.",
+        ),
+        reg(
+            "res_warps",
+            w.warps,
+            n,
+            "Resident list: its treelet warps in flight.",
+        ),
+        reg(
+            "res_head",
+            w.resident_index,
+            1,
+            "Oldest resident entry (current treelet).",
+        ),
+        reg(
+            "res_tail",
+            w.resident_index,
+            1,
+            "Next resident entry to allocate.",
+        ),
+        reg(
+            "slot_terminated",
+            1,
+            slots,
+            "Warp-buffer slot holds a terminated warp still sending its rays to the queues.",
+        ),
+        reg(
+            "slot_treelet_warp",
+            1,
+            slots,
+            "Warp-buffer slot holds a dispatched treelet warp.",
+        ),
+        reg(
+            "slot_res_valid",
+            1,
+            slots,
+            "That warp belongs to a resident entry.",
+        ),
+        reg("slot_res", w.resident_index, slots, "Which resident entry."),
+        reg(
+            "fill_kind",
+            FillKind::BITS,
+            1,
+            "Fill sequence: what is being built.",
+        ),
+        reg("fill_slot", w.slot, 1, "Fill sequence: target slot."),
+        reg(
+            "fill_res_valid",
+            1,
+            1,
+            "Fill sequence: popping a resident treelet.",
+        ),
+        reg(
+            "fill_res",
+            w.resident_index,
+            1,
+            "Fill sequence: which resident entry.",
+        ),
+        reg(
+            "fill_need",
+            w.lanes,
+            1,
+            "Fill sequence: lanes still to fill.",
+        ),
+        reg(
+            "fill_started",
+            1,
+            1,
+            "Fill sequence: the slot already received rays (or is a repack).",
+        ),
+        reg("spare_count", w.lane, 1, "Valid rays in the spare buffer."),
+        reg(
+            "spare_rays",
+            w.ray,
+            w.warp_size - 1,
+            "Spare buffer: popped rays that did not fit the warp being filled.",
+        ),
+        reg("prm_valid", 1, 1, "A count-table remove is pending."),
+        reg("prm_treelet", w.treelet, 1, "Its treelet."),
+        reg(
+            "prm_count",
+            w.ray_total,
+            1,
+            "Rays still to remove (a warp's worth per cycle).",
+        ),
+    ]
+}
+
+/// Appends `name_<i>` signals for a register bank of `count` entries.
+fn lanes(out: &mut Vec<Signal>, name: &str, width: u32, count: u32, value: impl Fn(usize) -> u64) {
+    for i in 0..count as usize {
+        out.push(Signal::new(format!("{name}_{i}"), width, value(i)));
+    }
+}
+
+impl Signals for ControllerRegs {
+    fn signals(&self) -> Vec<Signal> {
+        let w = &self.widths;
+        let b = |v: bool| v as u64;
+        let n = w.resident_entries;
+        let slots = w.warp_slots;
+        let prm = self.pending_remove;
+        let mut s = vec![
+            Signal::new("mode", Mode::BITS, self.mode.encoding()),
+            Signal::new("seq", Seq::BITS, self.seq as u64),
+            Signal::new("queued_rays", w.ray_total, self.queued_rays as u64),
+        ];
+        lanes(&mut s, "res_valid", 1, n, |i| b(self.res[i].valid));
+        lanes(&mut s, "res_treelet", w.treelet, n, |i| {
+            self.res[i].treelet as u64
+        });
+        lanes(&mut s, "res_count", w.ray_total, n, |i| {
+            self.res[i].count as u64
+        });
+        lanes(&mut s, "res_warps", w.warps, n, |i| {
+            self.res[i].warps as u64
+        });
+        s.push(Signal::new(
+            "res_head",
+            w.resident_index,
+            self.res_head as u64,
+        ));
+        s.push(Signal::new(
+            "res_tail",
+            w.resident_index,
+            self.res_tail as u64,
+        ));
+        lanes(&mut s, "slot_terminated", 1, slots, |i| {
+            b(self.slots[i].terminated)
+        });
+        lanes(&mut s, "slot_treelet_warp", 1, slots, |i| {
+            b(self.slots[i].treelet_warp)
+        });
+        lanes(&mut s, "slot_res_valid", 1, slots, |i| {
+            b(self.slots[i].resident.is_some())
+        });
+        lanes(&mut s, "slot_res", w.resident_index, slots, |i| {
+            self.slots[i].resident.unwrap_or(0) as u64
+        });
+        let f = &self.fill;
+        s.extend([
+            Signal::new("fill_kind", FillKind::BITS, f.kind as u64),
+            Signal::new("fill_slot", w.slot, f.slot as u64),
+            Signal::new("fill_res_valid", 1, b(f.resident.is_some())),
+            Signal::new("fill_res", w.resident_index, f.resident.unwrap_or(0) as u64),
+            Signal::new("fill_need", w.lanes, f.need as u64),
+            Signal::new("fill_started", 1, b(f.started)),
+            Signal::new("spare_count", w.lane, self.spare_count as u64),
+        ]);
+        lanes(&mut s, "spare_rays", w.ray, w.warp_size - 1, |i| {
+            self.spare_rays[i] as u64
+        });
+        s.extend([
+            Signal::new("prm_valid", 1, b(prm.is_some())),
+            Signal::new("prm_treelet", w.treelet, prm.map_or(0, |p| p.0) as u64),
+            Signal::new("prm_count", w.ray_total, prm.map_or(0, |p| p.1) as u64),
+        ]);
+        s
+    }
+}

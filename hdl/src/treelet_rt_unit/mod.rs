@@ -1,0 +1,343 @@
+//! The treelet RT unit (paper section 4.2, Figure 8): the RT unit with the treelet controller,
+//! the treelet count table and the treelet queue table beside it, composed as one block
+//! ([`crate::compose`]): four children and a wiring kernel ([`wiring`]) with a few registers of
+//! its own ([`GlueRegs`]).
+//!
+//! What the block leaves to its environment, through its ports ([`TreeletRtUnitInputs`],
+//! [`TreeletRtUnitOutputs`]): the SM's warps (offered with their rays, accepted with the ray ids
+//! the block gives them; finished rays come back with their hits), the memory (node chunks and
+//! stack fills for the RT unit; ray-record stores when an SM warp enters and loads when a warp is
+//! formed from the queues, answered with the record; the queue table's spill FIFO), the ray-record
+//! store (records of rays stopped at a treelet boundary, kept until a fill loads them) and the
+//! treelet preloads (prefetches into the L1).
+//!
+//! # One cycle (the wiring, in dependency order)
+//! 1. Ray records that arrived are placed in the fills being built.
+//! 2. The controller's inputs come from registers only: the count table's and queue table's
+//!    status ([`crate::count_table::CountTable::status`], [`crate::queue_table::QueueTable::status`]),
+//!    their answers of the previous cycle (registered here), the RT unit's slot summaries
+//!    ([`crate::rt_unit::RtUnit::slot_summary`]: the initial-phase warp with the most distinct next
+//!    treelets, ties to the lowest slot, and, for repacking, the final-phase warp with the fewest
+//!    busy lanes, skipping warps that complete this cycle), the first pending event (an
+//!    enqueue or a warp done) and whether the SM offers a warp (its waiting warps count as
+//!    initial-phase warps and keep `launch_done` low). A controller that is `done` restarts when
+//!    the SM offers a warp (its `restart` port): each wave of rays goes through the phases again.
+//! 3. The controller's ops go to the tables; their answers are registered for the next cycle; a
+//!    spilled queue-table entry goes to the spill FIFO, and the table's refill request is answered
+//!    from the FIFO's head.
+//! 4. Its commands go to the RT unit: `terminate` to `stop`, `repack` to `repack`, a `fill` loads
+//!    the records of its rays, a fill that is complete with every record in is issued into its
+//!    reserved slot (an append for a repack); otherwise an SM warp may take a slot nobody owns
+//!    when enough ray ids are free (not in the final ray-stationary phase, which finishes the
+//!    rays it grouped before new rays are fetched, section 4.4): its rays get the lowest free ids
+//!    and their 32 B records are stored.
+//! 5. The RT unit steps; a warp it completes is unpacked: finished rays leave with their hits
+//!    and free their ids, rays stopped at a boundary leave their records to the store and are
+//!    queued for enqueueing (one per cycle), then the slot's `warp_done`.
+//!
+//! # Definition and fast path
+//! [`Block::eval`] is the definition: the kernel ([`wiring`]) settled with the children's pure
+//! `eval`s ([`crate::compose::settle`]). [`TreeletRtUnit::step_cached`] evaluates the same kernel
+//! stages once in dependency order, in place, with the RT unit's lane cache and a dry run of
+//! the controller kept in a [`TreeletRtUnitCache`] by its owner: a cycle in which the dry run
+//! found the controller idle counts only in its mode, and tables with nothing to do are not
+//! stepped. Tests check the fast path against `eval`. [`TreeletRtUnit::idle_cycles`] and
+//! [`TreeletRtUnit::skip`] let a simulator jump over cycles in which nothing but counters and
+//! delays change.
+//!
+//! # Statistics
+//! No statistics registers: each cycle's events leave on [`TreeletRtUnitOutputs::counts`]
+//! ([`TreeletCounts`]), and [`TreeletRtUnit::skip`] returns those of skipped cycles.
+
+mod ports;
+mod wiring;
+
+pub use ports::{
+    FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnitInputs, TreeletRtUnitOutputs,
+    TreeletRtUnitWidths,
+};
+pub use wiring::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
+
+use crate::block::{Block, Signal, Signals};
+use crate::compose::settle;
+use crate::config::HwConfig;
+use crate::controller::{ControllerFeatures, ControllerInputs, ControllerRegs, TreeletController};
+use crate::count_table::{CountTable, CountTableRegs};
+use crate::describe::BlockDesc;
+use crate::queue_table::{QueueTable, QueueTableRegs};
+use crate::rt_unit::{NodeDatapath, RtCache, RtUnit, RtUnitError, RtUnitParams, RtUnitRegs};
+
+/// Parameters of a treelet RT unit beyond the hardware configuration.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TreeletRtUnitParams {
+    /// The RT unit's parameters (latencies, FIFO, hit records, stack spill area).
+    pub rt: RtUnitParams,
+    /// The controller's feature switches (the paper's design variants).
+    pub features: ControllerFeatures,
+    /// Byte address of ray id 0's 32 B ray record; ray `r`'s is at `ray_base + 32 r`.
+    pub ray_base: u64,
+}
+
+/// The treelet RT unit block, generic over the RT unit's intersection datapath `D`.
+#[derive(Debug, Clone)]
+pub struct TreeletRtUnit<D> {
+    cfg: HwConfig,
+    rt: RtUnit<D>,
+    ctl: TreeletController,
+    ct: CountTable,
+    qt: QueueTable,
+    ray_base: u64,
+    widths: TreeletRtUnitWidths,
+}
+
+/// The treelet RT unit's registers: its children's and the wiring's.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TreeletRtUnitRegs {
+    /// The RT unit's.
+    pub rt: RtUnitRegs,
+    /// The treelet controller's.
+    pub ctl: ControllerRegs,
+    /// The treelet count table's.
+    pub ct: CountTableRegs,
+    /// The treelet queue table's.
+    pub qt: QueueTableRegs,
+    /// The wiring's.
+    pub glue: GlueRegs,
+}
+
+/// A simulation cache of a treelet RT unit's registers, not hardware, owned beside the
+/// registers by whoever steps the block with [`TreeletRtUnit::step_cached`]: the RT unit's lane
+/// cache, and the controller's inputs and idleness found by a dry run at the end of the last
+/// step (valid for the next step if no cycle is skipped in between).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TreeletRtUnitCache {
+    rt: RtCache,
+    /// The controller inputs of the last dry run.
+    dry: Option<ControllerInputs>,
+    /// The dry run found the controller idle with `dry` (no output, registers unchanged).
+    idle: bool,
+    /// The controller would act in the next cycle even if nothing else changed.
+    awake: bool,
+}
+
+impl TreeletRtUnitCache {
+    /// The cache of `regs` (nothing known about the controller yet: the next step evaluates
+    /// it).
+    pub fn of(regs: &TreeletRtUnitRegs) -> Self {
+        TreeletRtUnitCache {
+            rt: RtCache::of(&regs.rt),
+            dry: None,
+            idle: false,
+            awake: true,
+        }
+    }
+}
+
+impl<D: NodeDatapath> TreeletRtUnit<D> {
+    /// A treelet RT unit for `cfg` and `params` testing nodes with `datapath`; checks both.
+    pub fn new(
+        cfg: HwConfig,
+        params: TreeletRtUnitParams,
+        datapath: D,
+    ) -> Result<Self, RtUnitError> {
+        let rt = RtUnit::new(cfg.clone(), params.rt, datapath)?;
+        let ctl = TreeletController::new(cfg.clone(), params.features)?;
+        let ct = CountTable::new(&cfg)?;
+        let qt = QueueTable::new(&cfg)?;
+        let widths = TreeletRtUnitWidths::new(&cfg, rt.widths());
+        Ok(TreeletRtUnit {
+            cfg,
+            rt,
+            ctl,
+            ct,
+            qt,
+            ray_base: params.ray_base,
+            widths,
+        })
+    }
+
+    /// The RT unit child (for its parameters and widths).
+    pub fn rt_unit(&self) -> &RtUnit<D> {
+        &self.rt
+    }
+
+    /// The hardware configuration.
+    pub fn config(&self) -> &HwConfig {
+        &self.cfg
+    }
+
+    /// Inputs with nothing offered and nothing arriving.
+    pub fn idle_inputs(&self) -> TreeletRtUnitInputs {
+        TreeletRtUnitInputs {
+            widths: self.widths,
+            sm_warp: None,
+            responses: Vec::new(),
+            ray_records: Vec::new(),
+            spill_head: None,
+        }
+    }
+
+    /// The `sm_ready` output for these registers: an SM warp may be offered (SM warps are
+    /// admitted in this mode, a slot nobody owns is free and a warp's worth of ray ids is free;
+    /// the controller may still reserve the slot in the cycle).
+    pub fn sm_ready(&self, regs: &TreeletRtUnitRegs) -> bool {
+        wiring::sm_ready(self, regs)
+    }
+
+    /// The `resp_free` output: free entries of the RT unit's response FIFO (memory delivers no
+    /// more than this, and no more than its response ports, per cycle).
+    pub fn resp_free(&self, regs: &TreeletRtUnitRegs) -> u32 {
+        self.rt.resp_free(&regs.rt)
+    }
+
+    /// Rays traversing in the warp buffer.
+    pub fn traversing_rays(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
+        self.rt.traversing_rays(&regs.rt, &cache.rt)
+    }
+
+    /// Cycles from now in which the block, with idle inputs, does nothing but count cycles, count
+    /// down intersection delays and advance a count-table scan (`u64::MAX`: it waits only for
+    /// inputs). 0 while the wiring has work: events to report, a complete fill to issue, or a
+    /// controller the last dry run found awake.
+    pub fn idle_cycles(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
+        if cache.awake || wiring::glue_busy(&regs.glue) {
+            return 0;
+        }
+        let rt = self.rt.idle_cycles(&regs.rt, &cache.rt);
+        let ct = self
+            .ct
+            .cycles_to_publish(&regs.ct)
+            .map_or(u64::MAX, |k| k as u64);
+        rt.min(ct)
+    }
+
+    /// Advances `n <= idle_cycles` idle cycles, as `n` cached steps with idle inputs would: the
+    /// RT unit's delays, the count table's scan (its `Nop` cycles) and the controller's cycle
+    /// counter. Returns the statistics increments of those cycles.
+    pub fn skip(
+        &self,
+        regs: &mut TreeletRtUnitRegs,
+        cache: &mut TreeletRtUnitCache,
+        n: u64,
+    ) -> TreeletCounts {
+        let mut counts = TreeletCounts::default();
+        if n == 0 {
+            return counts;
+        }
+        debug_assert!(
+            n <= self.idle_cycles(regs, cache),
+            "skip beyond the idle cycles"
+        );
+        cache.dry = None;
+        counts.rt = self.rt.skip(&mut regs.rt, &mut cache.rt, n);
+        let mut left = n;
+        while left > 0 && self.ct.busy(&regs.ct) {
+            self.ct.step(
+                &mut regs.ct,
+                &self.ct.input(crate::count_table::CountOp::Nop),
+            );
+            left -= 1;
+        }
+        counts.ctl.count_cycles(self.ctl.mode(&regs.ctl, false), n);
+        counts
+    }
+
+    /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
+    /// outputs and next registers as [`Block::eval`]. `cache` must belong to `regs` (debug builds
+    /// check the RT unit's part).
+    pub fn step_cached(
+        &self,
+        regs: &mut TreeletRtUnitRegs,
+        cache: &mut TreeletRtUnitCache,
+        inputs: &TreeletRtUnitInputs,
+    ) -> TreeletRtUnitOutputs {
+        wiring::step_in_place(self, regs, cache, inputs)
+    }
+
+    /// The controller's traversal mode (a register-only output: what an observer attributes the
+    /// cycle's intersection tests to).
+    pub fn mode(&self, regs: &TreeletRtUnitRegs) -> crate::mode::Mode {
+        self.ctl.mode(&regs.ctl, false)
+    }
+
+    /// The count table's occupancy and entries above the underpopulation threshold (register-only
+    /// outputs: what an observer keeps the largest number of queues from).
+    pub fn queues(&self, regs: &TreeletRtUnitRegs) -> (u32, u32) {
+        let s = self.ct.status(&regs.ct);
+        (s.occupancy, s.above_threshold)
+    }
+
+    /// A one-paragraph summary of the registers, for a watchdog's dump.
+    pub fn debug_state(&self, regs: &TreeletRtUnitRegs) -> String {
+        wiring::debug_state(self, regs)
+    }
+}
+
+impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
+    type Inputs = TreeletRtUnitInputs;
+    type Outputs = TreeletRtUnitOutputs;
+    type Regs = TreeletRtUnitRegs;
+
+    fn reset(&self) -> TreeletRtUnitRegs {
+        TreeletRtUnitRegs {
+            rt: self.rt.reset(),
+            ctl: self.ctl.reset(),
+            ct: self.ct.reset(),
+            qt: self.qt.reset(),
+            glue: GlueRegs::reset(&self.cfg),
+        }
+    }
+
+    /// The definition: the wiring kernel settled with the children's pure `eval`s.
+    fn eval(
+        &self,
+        regs: &TreeletRtUnitRegs,
+        inputs: &TreeletRtUnitInputs,
+    ) -> (TreeletRtUnitOutputs, TreeletRtUnitRegs) {
+        let rt_cache = RtCache::of(&regs.rt);
+        let peeks = wiring::Peeks::of(self, regs, &rt_cache);
+        let idle = wiring::ChildInputs::idle(self);
+        let q0 = wiring::eval_children(self, regs, &idle).0;
+        let settled = settle(
+            q0,
+            8,
+            |q| wiring::kernel(self, regs, &peeks, inputs, q),
+            |d| wiring::eval_children(self, regs, d),
+        );
+        let (_, (out, glue), _, (rt, ctl, ct, qt)) =
+            settled.expect("the treelet RT unit's wiring has no combinational cycle");
+        (
+            out,
+            TreeletRtUnitRegs {
+                rt,
+                ctl,
+                ct,
+                qt,
+                glue,
+            },
+        )
+    }
+
+    fn describe(&self) -> BlockDesc {
+        ports::describe(self)
+    }
+}
+
+impl Signals for TreeletRtUnitRegs {
+    fn signals(&self) -> Vec<Signal> {
+        let mut s = Vec::new();
+        for (prefix, child) in [
+            ("rt", self.rt.signals()),
+            ("ctl", self.ctl.signals()),
+            ("ct", self.ct.signals()),
+            ("qt", self.qt.signals()),
+            ("glue", self.glue.signals()),
+        ] {
+            s.extend(child.into_iter().map(|sig| Signal {
+                name: format!("{prefix}_{}", sig.name),
+                ..sig
+            }));
+        }
+        s
+    }
+}

@@ -1,0 +1,975 @@
+//! The treelet RT unit's wiring: its registers ([`GlueRegs`]) and its kernel, written as three
+//! stages in dependency order — the controller's inputs from registers
+//! ([`controller_inputs`]), the children's inputs from the controller's outputs
+//! ([`children_inputs`]), the block's outputs and next registers from the children's outputs
+//! ([`after_children`]). [`kernel`] chains them for [`crate::compose::settle`] (the block's
+//! `eval`); [`step_in_place`] runs them once with the children stepped in place (the fast path).
+
+use std::collections::VecDeque;
+use std::fmt;
+
+use super::{
+    FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
+    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs, TreeletRtUnitWidths,
+};
+use crate::bits::bits_for;
+use crate::block::{Block, Signal, Signals};
+use crate::config::HwConfig;
+use crate::controller::{
+    ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
+    FillKind, InitReport,
+};
+use crate::count_table::{CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus};
+use crate::describe::{reg, RegDesc};
+use crate::mode::Mode;
+use crate::queue_table::{
+    PopResult, QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus,
+};
+use crate::rt_unit::{
+    IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtCache, RtUnitInputs, RtUnitOutputs,
+    RtUnitRegs, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+};
+
+/// Who owns a warp-buffer slot, as the wiring sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlotUse {
+    /// Free for an SM warp or a controller fill (code 0).
+    Free,
+    /// An SM warp in its initial traversal phase, possibly terminated (code 1).
+    Initial,
+    /// A warp the controller filled (treelet or grouped), building or traversing (code 2).
+    Controller,
+    /// Its warp completed; enqueues and `warp_done` still to deliver (code 3).
+    Closing,
+}
+
+impl SlotUse {
+    /// The encoding.
+    fn code(self) -> u64 {
+        match self {
+            SlotUse::Free => 0,
+            SlotUse::Initial => 1,
+            SlotUse::Controller => 2,
+            SlotUse::Closing => 3,
+        }
+    }
+}
+
+/// A fill the controller is giving to a slot: its rays, and their records as they arrive.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Build {
+    /// What the fill builds.
+    pub kind: FillKind,
+    /// Ray ids, in the order they are placed in the slot's lanes.
+    pub rays: Vec<u32>,
+    /// The loaded record of each ray (`None` until it arrives).
+    pub records: Vec<Option<RayRecord>>,
+    /// Records not yet arrived.
+    pub loading: u32,
+    /// The controller closed the fill.
+    pub last: bool,
+}
+
+/// Something the RT unit reports to the controller after a warp completes, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Event {
+    /// A ray stopped at a treelet boundary: insert it into that treelet's queue.
+    Enqueue {
+        /// Ray id.
+        ray: u32,
+        /// The treelet it needs next.
+        treelet: u32,
+    },
+    /// The slot's warp has sent all its rays.
+    WarpDone(u32),
+}
+
+/// An inconsistency the wiring found (a modelling bug, reported rather than giving wrong
+/// numbers).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum GlueFault {
+    /// A ray left the RT unit with an id that is not in use.
+    UnknownRay(u32),
+    /// A table raised its error output for an op.
+    TableError(String),
+    /// A fill could not place all of its rays.
+    Unplaced {
+        /// The slot.
+        slot: u32,
+        /// Rays placed.
+        placed: usize,
+        /// Rays of the fill.
+        rays: usize,
+    },
+    /// A ray record arrived for a fill that did not ask for it.
+    UnexpectedRecord {
+        /// The slot named.
+        slot: u32,
+        /// The ray.
+        ray: u32,
+    },
+}
+
+impl fmt::Display for GlueFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GlueFault::UnknownRay(id) => {
+                write!(f, "ray id {id} left the RT unit but is not in use")
+            }
+            GlueFault::TableError(what) => write!(f, "{what}"),
+            GlueFault::Unplaced { slot, placed, rays } => write!(
+                f,
+                "a fill of slot {slot} placed {placed} of its {rays} rays"
+            ),
+            GlueFault::UnexpectedRecord { slot, ray } => {
+                write!(
+                    f,
+                    "a record of ray {ray} arrived for slot {slot}, which did not ask for it"
+                )
+            }
+        }
+    }
+}
+
+/// The ray-record slots of an SM (`max_rays` ray ids) as a bitmap of free ids; the lowest free
+/// id is given first (a priority encoder).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct IdPool {
+    free: Vec<u64>,
+    count: u32,
+}
+
+impl IdPool {
+    /// Every id below `n` free.
+    fn new(n: u32) -> Self {
+        let mut free = vec![u64::MAX; (n as usize).div_ceil(64)];
+        if n % 64 != 0 {
+            *free.last_mut().expect("at least one word") = (1u64 << (n % 64)) - 1;
+        }
+        IdPool { free, count: n }
+    }
+
+    /// Free ids.
+    pub fn len(&self) -> u32 {
+        self.count
+    }
+
+    /// Whether no id is free.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Whether `id` is in use.
+    fn in_use(&self, id: u32) -> bool {
+        self.free
+            .get(id as usize / 64)
+            .is_some_and(|w| w >> (id % 64) & 1 == 0)
+    }
+
+    /// Takes the lowest free id.
+    fn take(&mut self) -> Option<u32> {
+        let (i, w) = self.free.iter_mut().enumerate().find(|(_, w)| **w != 0)?;
+        let bit = w.trailing_zeros();
+        *w &= !(1 << bit);
+        self.count -= 1;
+        Some(i as u32 * 64 + bit)
+    }
+
+    /// Frees `id`.
+    fn give(&mut self, id: u32) {
+        if let Some(w) = self.free.get_mut(id as usize / 64) {
+            if *w >> (id % 64) & 1 == 0 {
+                *w |= 1 << (id % 64);
+                self.count += 1;
+            }
+        }
+    }
+}
+
+/// The wiring's registers.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GlueRegs {
+    /// Who owns each warp-buffer slot (`warp_buffer_size` entries).
+    pub uses: Vec<SlotUse>,
+    /// The fill being built in each slot (`warp_buffer_size` entries).
+    pub builds: Vec<Option<Build>>,
+    /// Events for the controller, oldest first (at most `warp_buffer_size x (warp_size + 1)`:
+    /// one enqueue per ray and one warp done per slot).
+    pub events: VecDeque<Event>,
+    /// The count table's eviction of the previous cycle.
+    pub ct_evict: Option<u32>,
+    /// The queue table's answer of the previous cycle.
+    pub qt_done: Option<PopResult>,
+    /// Free ray ids.
+    pub ids: IdPool,
+    /// The first inconsistency found (sticky).
+    pub fault: Option<GlueFault>,
+}
+
+impl GlueRegs {
+    /// The registers after reset.
+    pub fn reset(cfg: &HwConfig) -> Self {
+        let slots = cfg.warp_buffer_size as usize;
+        GlueRegs {
+            uses: vec![SlotUse::Free; slots],
+            builds: vec![None; slots],
+            events: VecDeque::new(),
+            ct_evict: None,
+            qt_done: None,
+            ids: IdPool::new(cfg.max_rays),
+            fault: None,
+        }
+    }
+
+    /// Records an inconsistency (the first one is kept).
+    fn set_fault(&mut self, fault: GlueFault) {
+        self.fault.get_or_insert(fault);
+    }
+}
+
+impl Signals for GlueRegs {
+    fn signals(&self) -> Vec<Signal> {
+        let mut s = Vec::new();
+        for (i, u) in self.uses.iter().enumerate() {
+            s.push(Signal::new(format!("use_{i}"), 2, u.code()));
+        }
+        for (i, b) in self.builds.iter().enumerate() {
+            s.push(Signal::new(
+                format!("build_valid_{i}"),
+                1,
+                b.is_some() as u64,
+            ));
+            s.push(Signal::new(
+                format!("build_loading_{i}"),
+                16,
+                b.as_ref().map_or(0, |b| b.loading as u64),
+            ));
+        }
+        s.push(Signal::new("events", 16, self.events.len() as u64));
+        s.push(Signal::new("free_ids", 32, self.ids.len() as u64));
+        s
+    }
+}
+
+/// The wiring's register descriptions.
+pub(super) fn register_descs(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<RegDesc> {
+    let slots = cfg.warp_buffer_size;
+    let lanes = bits_for(cfg.warp_size as u64);
+    let events = cfg.warp_buffer_size * (cfg.warp_size + 1);
+    vec![
+        reg(
+            "use",
+            2,
+            slots,
+            "per slot: free / initial-phase SM warp / controller fill / closing",
+        ),
+        reg(
+            "build_kind",
+            FillKind::BITS,
+            slots,
+            "per slot: what the fill builds",
+        ),
+        reg(
+            "build_rays",
+            w.ray,
+            slots * cfg.warp_size,
+            "per slot: the fill's ray ids",
+        ),
+        reg(
+            "build_records",
+            w.record,
+            slots * cfg.warp_size,
+            "per slot: the fill's loaded ray records",
+        ),
+        reg("build_count", lanes, slots, "per slot: the fill's rays"),
+        reg(
+            "build_loading",
+            lanes,
+            slots,
+            "per slot: records not yet arrived",
+        ),
+        reg("build_last", 1, slots, "per slot: the fill is closed"),
+        reg(
+            "event",
+            1 + w.ray + w.treelet,
+            events,
+            "events for the controller (FIFO): enqueue (ray, treelet) or warp done (slot)",
+        ),
+        reg(
+            "ct_evict",
+            1 + w.treelet,
+            1,
+            "the count table's eviction of the previous cycle",
+        ),
+        reg(
+            "qt_done",
+            1 + w.treelet + lanes + w.ray * cfg.warp_size,
+            1,
+            "the queue table's answer of the previous cycle",
+        ),
+        reg("free_ids", 1, cfg.max_rays, "free ray ids (lowest first)"),
+        reg("fault", 1, 1, "an inconsistency was found (sticky)"),
+    ]
+}
+
+/// The children's register-only outputs and the RT unit's lane cache, read by the kernel
+/// before the children's inputs are known.
+pub(super) struct Peeks<'a> {
+    rt: &'a RtUnitRegs,
+    rt_cache: &'a RtCache,
+    ct: CountTableStatus,
+    qt: QueueTableStatus,
+    /// The controller's mode register.
+    mode: Mode,
+}
+
+impl<'a> Peeks<'a> {
+    /// The peeks of the children's registers, with the RT unit's cache `rt_cache`.
+    pub(super) fn new<D: NodeDatapath>(
+        u: &TreeletRtUnit<D>,
+        (rt, rt_cache): (&'a RtUnitRegs, &'a RtCache),
+        ctl: &ControllerRegs,
+        ct: &CountTableRegs,
+        qt: &QueueTableRegs,
+    ) -> Self {
+        Peeks {
+            rt,
+            rt_cache,
+            ct: u.ct.status(ct),
+            qt: u.qt.status(qt),
+            mode: u.ctl.mode(ctl, false),
+        }
+    }
+
+    /// The peeks of `regs` with the RT unit's cache `rt_cache`.
+    pub(super) fn of<D: NodeDatapath>(
+        u: &TreeletRtUnit<D>,
+        regs: &'a TreeletRtUnitRegs,
+        rt_cache: &'a RtCache,
+    ) -> Self {
+        Peeks::new(u, (&regs.rt, rt_cache), &regs.ctl, &regs.ct, &regs.qt)
+    }
+}
+
+/// The children's inputs of one cycle.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct ChildInputs {
+    ctl: ControllerInputs,
+    ct: CountTableIn,
+    qt: QueueTableIn,
+    rt: RtUnitInputs,
+}
+
+impl ChildInputs {
+    /// Inputs with nothing happening.
+    pub(super) fn idle<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> Self {
+        ChildInputs {
+            ctl: u.ctl.idle_inputs(),
+            ct: u.ct.input(CountOp::Nop),
+            qt: u.qt.input(QueueOp::Nop),
+            rt: u.rt.idle_inputs(),
+        }
+    }
+}
+
+/// The children's outputs of one cycle.
+pub(super) type ChildOutputs = (
+    ControllerOutputs,
+    CountTableOut,
+    QueueTableOut,
+    RtUnitOutputs,
+);
+
+/// The children's next registers.
+pub(super) type ChildRegs = (RtUnitRegs, ControllerRegs, CountTableRegs, QueueTableRegs);
+
+/// The children evaluated on `d` (pure): their outputs and next registers.
+pub(super) fn eval_children<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+    d: &ChildInputs,
+) -> (ChildOutputs, ChildRegs) {
+    let (ctl_o, ctl_r) = u.ctl.eval(&regs.ctl, &d.ctl);
+    let (ct_o, ct_r) = u.ct.eval(&regs.ct, &d.ct);
+    let (qt_o, qt_r) = u.qt.eval(&regs.qt, &d.qt);
+    let (rt_o, rt_r) = u.rt.eval(&regs.rt, &d.rt);
+    ((ctl_o, ct_o, qt_o, rt_o), (rt_r, ctl_r, ct_r, qt_r))
+}
+
+/// The kernel: `(inputs, registers, children's outputs) -> (children's inputs, (outputs, next
+/// wiring registers))`, the three stages chained.
+pub(super) fn kernel<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+    peeks: &Peeks,
+    inputs: &TreeletRtUnitInputs,
+    q: &ChildOutputs,
+) -> (ChildInputs, (TreeletRtUnitOutputs, GlueRegs)) {
+    let mut g = regs.glue.clone();
+    let mut out = empty_outputs(u);
+    place_records(&mut g, &inputs.ray_records);
+    let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
+    out.counts.restarts += u64::from(restart);
+    out.counts.ctl.observe(&ctl_in, &q.0);
+    let (ct_in, qt_in, rt_in) = children_inputs(
+        u,
+        &mut g,
+        peeks,
+        inputs,
+        restart,
+        &ctl_in,
+        Some(&q.0),
+        &mut out,
+    );
+    after_children(&mut g, Some(&q.1), Some(&q.2), &q.3, &mut out);
+    let d = ChildInputs {
+        ctl: ctl_in,
+        ct: ct_in,
+        qt: qt_in,
+        rt: rt_in,
+    };
+    (d, (out, g))
+}
+
+/// Outputs with nothing happening.
+fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtUnitOutputs {
+    TreeletRtUnitOutputs {
+        widths: u.widths,
+        sm_accepted: None,
+        requests: Vec::new(),
+        finished: Vec::new(),
+        parked: Vec::new(),
+        preload: None,
+        spill_push: None,
+        spill_pop: false,
+        errors: 0,
+        first_error: None,
+        fault: None,
+        counts: TreeletCounts::default(),
+    }
+}
+
+/// Stage 0: ray records that arrived join their fills.
+fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
+    for load in records {
+        let placed = g
+            .builds
+            .get_mut(load.slot as usize)
+            .and_then(Option::as_mut)
+            .and_then(|b| {
+                let k = b
+                    .rays
+                    .iter()
+                    .zip(&b.records)
+                    .position(|(&r, rec)| r == load.ray && rec.is_none())?;
+                b.records[k] = Some(load.record.clone());
+                b.loading = b.loading.saturating_sub(1);
+                Some(())
+            });
+        if placed.is_none() {
+            g.set_fault(GlueFault::UnexpectedRecord {
+                slot: load.slot,
+                ray: load.ray,
+            });
+        }
+    }
+}
+
+/// Whether SM warps are admitted in controller mode `mode`: not in the final ray-stationary
+/// phase, which traverses the rays it grouped "until all of them have finished traversal
+/// completely before fetching new rays to process" (section 4.4).
+fn admitting(mode: Mode) -> bool {
+    mode != Mode::FinalRayStationary
+}
+
+/// The `sm_ready` output (see [`TreeletRtUnit::sm_ready`]).
+pub(super) fn sm_ready<D: NodeDatapath>(u: &TreeletRtUnit<D>, regs: &TreeletRtUnitRegs) -> bool {
+    let g = &regs.glue;
+    admitting(u.ctl.mode(&regs.ctl, false))
+        && g.ids.len() >= u.cfg.warp_size
+        && (0..g.uses.len() as u32)
+            .any(|s| g.uses[s as usize] == SlotUse::Free && !u.rt.slot_valid(&regs.rt, s))
+}
+
+/// Whether the wiring has work in the next cycle whatever the children do: events to report
+/// or a complete fill to issue.
+pub(super) fn glue_busy(g: &GlueRegs) -> bool {
+    !g.events.is_empty() || g.builds.iter().flatten().any(|b| b.last && b.loading == 0)
+}
+
+/// Sets the controller inputs that depend on whether the SM offers a warp: its waiting warps
+/// count as initial-phase warps and keep `launch_done` low while SM warps are admitted.
+fn set_offering(g: &GlueRegs, mode: Mode, inp: &mut ControllerInputs, offering: bool) {
+    let waiting = offering && admitting(mode);
+    inp.launch_done = !waiting;
+    inp.initial_warps = g.uses.contains(&SlotUse::Initial) || waiting;
+    inp.restart = offering;
+}
+
+/// Stage 1: the controller's inputs, from registers only, and whether it restarts (a
+/// controller that is `done` restarts when the SM offers a warp).
+fn controller_inputs<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &GlueRegs,
+    p: &Peeks,
+    offering: bool,
+) -> (ControllerInputs, bool) {
+    let restart = p.mode == Mode::Done && offering;
+    let mode = if restart { Mode::Initial } else { p.mode };
+    let mut inp = u.ctl.idle_inputs();
+    set_offering(g, mode, &mut inp, offering);
+    inp.rt_idle =
+        u.rt.is_empty(p.rt) && g.builds.iter().all(Option::is_none) && g.events.is_empty();
+    inp.wb_free_slot = (0..g.uses.len() as u32)
+        .find(|&s| g.uses[s as usize] == SlotUse::Free && !u.rt.slot_valid(p.rt, s));
+    let mut best_init: Option<InitReport> = None;
+    let mut best_active: Option<ActiveReport> = None;
+    for (s, use_) in g.uses.iter().enumerate() {
+        let slot = s as u32;
+        let Some(view) = u.rt.slot_peek(p.rt, p.rt_cache, slot, false) else {
+            continue;
+        };
+        let initial = *use_ == SlotUse::Initial
+            && view.order != TraversalOrder::TreeletStop
+            && mode.terminates_divergent_warps();
+        let sum = if initial {
+            u.rt.slot_peek(p.rt, p.rt_cache, slot, true)
+                .map_or(view.summary, |v| v.summary)
+        } else {
+            view.summary
+        };
+        if sum.quiescent && !view.held {
+            continue; // completes this cycle
+        }
+        if initial {
+            let r = InitReport {
+                slot,
+                active: sum.traversing,
+                distinct: sum.distinct_next_treelets,
+            };
+            if best_init.is_none_or(|b| r.distinct > b.distinct) {
+                best_init = Some(r);
+            }
+        }
+        if mode == Mode::FinalRayStationary
+            && !view.held
+            && g.builds[s].is_none()
+            && view.order != TraversalOrder::TreeletStop
+        {
+            let r = ActiveReport {
+                slot,
+                active: sum.busy,
+            };
+            if best_active.is_none_or(|b| r.active < b.active) {
+                best_active = Some(r);
+            }
+        }
+    }
+    inp.init_report = best_init;
+    inp.active_report = best_active;
+    match g.events.front() {
+        Some(Event::WarpDone(s)) => inp.warp_done = Some(*s),
+        Some(&Event::Enqueue { ray, treelet }) => {
+            inp.enqueue = Some(EnqueueRequest { ray, treelet })
+        }
+        None => {}
+    }
+    inp.ct = p.ct;
+    inp.ct_evict = g.ct_evict;
+    inp.qt = p.qt;
+    inp.qt_done = g.qt_done.clone();
+    (inp, restart)
+}
+
+/// Stage 2: from the controller's outputs (`None`: it did nothing but wait this cycle), the
+/// tables' and the RT unit's inputs; fills start loading their records, a complete fill is
+/// issued, or else an offered SM warp may enter.
+#[allow(clippy::too_many_arguments)]
+fn children_inputs<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &mut GlueRegs,
+    p: &Peeks,
+    inputs: &TreeletRtUnitInputs,
+    restart: bool,
+    ctl_in: &ControllerInputs,
+    ctl_out: Option<&ControllerOutputs>,
+    out: &mut TreeletRtUnitOutputs,
+) -> (CountTableIn, QueueTableIn, RtUnitInputs) {
+    let mode = if restart { Mode::Initial } else { p.mode };
+    if ctl_in.warp_done.is_some() || ctl_out.is_some_and(|o| o.enq_ready) {
+        if let Some(Event::WarpDone(s)) = g.events.pop_front() {
+            g.uses[s as usize] = SlotUse::Free;
+        }
+    }
+    let ct_in = u.ct.input(ctl_out.map_or(CountOp::Nop, |o| o.ct_op));
+    let qt_op = ctl_out.map_or(QueueOp::Nop, |o| o.qt_op);
+    let qt_in = match inputs.spill_head {
+        Some((t, r)) if p.qt.refill_waiting => {
+            out.spill_pop = true;
+            out.counts.refills += 1;
+            u.qt.refill_answer(t, r)
+        }
+        _ => u.qt.input(qt_op),
+    };
+    out.preload = ctl_out.and_then(|o| o.preload);
+    if let Some(fill) = ctl_out.and_then(|o| o.fill.as_ref()) {
+        start_fill(u, g, fill, out);
+    }
+    let mut rt_in = u.rt.idle_inputs();
+    rt_in.responses = inputs.responses.clone();
+    rt_in.stop = ctl_out.and_then(|o| o.terminate);
+    rt_in.repack = ctl_out.and_then(|o| o.repack);
+    rt_in.issue = finished_build(u, g, p);
+    let reserve = ctl_out.and_then(|o| o.reserve);
+    if rt_in.issue.is_none() && admitting(mode) {
+        let slot = (0..g.uses.len() as u32).find(|&s| {
+            g.uses[s as usize] == SlotUse::Free && !u.rt.slot_valid(p.rt, s) && reserve != Some(s)
+        });
+        if let (Some(slot), Some(lanes)) = (slot, inputs.sm_warp.as_ref()) {
+            rt_in.issue = admit(u, g, slot, lanes, out);
+        }
+    }
+    (ct_in, qt_in, rt_in)
+}
+
+/// Starts loading the records of a fill's rays.
+fn start_fill<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &mut GlueRegs,
+    fill: &FillCommand,
+    out: &mut TreeletRtUnitOutputs,
+) {
+    let s = fill.slot as usize;
+    let build = g.builds[s].get_or_insert_with(|| Build {
+        kind: fill.kind,
+        rays: Vec::new(),
+        records: Vec::new(),
+        loading: 0,
+        last: false,
+    });
+    build.rays.extend_from_slice(&fill.rays);
+    build.records.resize(build.rays.len(), None);
+    build.loading += fill.rays.len() as u32;
+    build.last |= fill.last;
+    if fill.kind != FillKind::Repack {
+        g.uses[s] = SlotUse::Controller;
+    }
+    for &ray in &fill.rays {
+        out.requests.push(TreeletRequest::RayLoad {
+            slot: fill.slot,
+            ray,
+            address: u.ray_base + ray as u64 * CHUNK_BYTES as u64,
+        });
+        out.counts.ray_loads += 1;
+    }
+}
+
+/// The warp issue of the first fill whose rays have all arrived and which is complete.
+fn finished_build<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &mut GlueRegs,
+    p: &Peeks,
+) -> Option<WarpIssue> {
+    let s = g
+        .builds
+        .iter()
+        .position(|b| b.as_ref().is_some_and(|b| b.last && b.loading == 0))?;
+    let build = g.builds[s].take()?;
+    let slot = s as u32;
+    let rays = build.rays.len();
+    let warp_size = u.cfg.warp_size as usize;
+    let mut lanes: Vec<Option<RayRecord>> = vec![None; warp_size];
+    let (order, target, free) = match build.kind {
+        FillKind::Treelet => (
+            TraversalOrder::TreeletStop,
+            IssueTarget::Slot(slot),
+            u64::MAX,
+        ),
+        FillKind::Grouped => (
+            TraversalOrder::TreeletContinue,
+            IssueTarget::Slot(slot),
+            u64::MAX,
+        ),
+        FillKind::Repack => (
+            u.rt.slot_peek(p.rt, p.rt_cache, slot, false)
+                .map_or(TraversalOrder::RayStationary, |v| v.order),
+            IssueTarget::Append { slot, last: true },
+            u.rt.inactive_lanes(p.rt, slot),
+        ),
+    };
+    let mut free_lanes = (0..warp_size).filter(|&l| free >> l & 1 == 1);
+    let mut placed = 0;
+    for record in build.records {
+        let Some(lane) = free_lanes.next() else {
+            break;
+        };
+        placed += usize::from(record.is_some());
+        lanes[lane] = record;
+    }
+    if placed != rays {
+        g.set_fault(GlueFault::Unplaced { slot, placed, rays });
+    }
+    Some(WarpIssue {
+        order,
+        lanes,
+        target,
+    })
+}
+
+/// Takes an offered SM warp into `slot` if enough ray ids are free: gives its rays the lowest
+/// free ids, stores their records and returns the warp issue.
+fn admit<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &mut GlueRegs,
+    slot: u32,
+    offered: &[Option<RayRecord>],
+    out: &mut TreeletRtUnitOutputs,
+) -> Option<WarpIssue> {
+    let need = offered.iter().flatten().count();
+    if (g.ids.len() as usize) < need {
+        return None;
+    }
+    let mut lanes: Vec<Option<RayRecord>> = offered.to_vec();
+    lanes.resize(u.cfg.warp_size as usize, None);
+    let mut ids = vec![None; lanes.len()];
+    for (rec, id_out) in lanes.iter_mut().zip(&mut ids) {
+        let Some(rec) = rec.as_mut() else { continue };
+        let id = g.ids.take()?;
+        rec.ray_id = id;
+        *id_out = Some(id);
+        out.requests.push(TreeletRequest::RayStore {
+            ray: id,
+            address: u.ray_base + id as u64 * CHUNK_BYTES as u64,
+        });
+        out.counts.ray_stores += 1;
+    }
+    g.uses[slot as usize] = SlotUse::Initial;
+    out.sm_accepted = Some(ids);
+    Some(WarpIssue {
+        order: TraversalOrder::TreeletContinue,
+        lanes,
+        target: IssueTarget::Slot(slot),
+    })
+}
+
+/// Stage 3: the tables' answers are registered for the next cycle, a spilled entry goes to the
+/// spill FIFO, and the RT unit's completed warp is unpacked: finished rays leave with their
+/// hits and free their ids, rays stopped at a boundary leave their records to the store and are
+/// queued for enqueueing, then the slot's `warp_done`.
+/// A table that was not stepped (`None`: no op and nothing in progress) answers nothing.
+fn after_children(
+    g: &mut GlueRegs,
+    ct: Option<&CountTableOut>,
+    qt: Option<&QueueTableOut>,
+    rt: &RtUnitOutputs,
+    out: &mut TreeletRtUnitOutputs,
+) {
+    g.ct_evict = ct.filter(|o| o.evict_valid).map(|o| o.evict_treelet as u32);
+    if ct.is_some_and(|o| o.error) {
+        g.set_fault(GlueFault::TableError(
+            "the count table rejected an op".into(),
+        ));
+    }
+    if qt.is_some_and(|o| o.error) {
+        g.set_fault(GlueFault::TableError(
+            "the queue table rejected an op".into(),
+        ));
+    }
+    if let Some(o) = qt.filter(|o| o.spill_valid) {
+        out.spill_push = Some((o.spill_treelet, o.spill_ray));
+        out.counts.spills += 1;
+    }
+    g.qt_done = qt.and_then(QueueTableOut::popped);
+    if let Some(req) = rt.request {
+        out.requests.push(TreeletRequest::Rt(req));
+    }
+    out.counts.rt = rt.counts;
+    out.errors = rt.errors;
+    out.first_error = rt.first_error;
+    if let Some(done) = &rt.released {
+        unpack(g, done, out);
+    }
+    if let Some(done) = &rt.done {
+        unpack(g, done, out);
+        g.uses[done.slot as usize] = SlotUse::Closing;
+        g.events.push_back(Event::WarpDone(done.slot));
+    }
+    out.fault = g.fault.clone();
+}
+
+/// Returns finished rays and parks stopped ones.
+fn unpack(g: &mut GlueRegs, done: &WarpDone, out: &mut TreeletRtUnitOutputs) {
+    for (rec, outcome) in done.lanes.iter().flatten() {
+        let id = rec.ray_id;
+        if !g.ids.in_use(id) {
+            g.set_fault(GlueFault::UnknownRay(id));
+            continue;
+        }
+        match *outcome {
+            RayOutcome::Finished => {
+                out.finished.push(FinishedRay {
+                    ray: id,
+                    hit: rec.hit,
+                });
+                g.ids.give(id);
+            }
+            RayOutcome::AtBoundary { treelet } => {
+                out.parked.push(rec.clone());
+                g.events.push_back(Event::Enqueue {
+                    ray: id,
+                    treelet: treelet as u32,
+                });
+            }
+        }
+    }
+}
+
+/// Whether a controller cycle did anything: an output other than its mode, or a register
+/// change (`regs` before, `next` after).
+fn acts(out: &ControllerOutputs, next: &ControllerRegs, regs: &ControllerRegs) -> bool {
+    out.ct_op != CountOp::Nop
+        || out.qt_op != QueueOp::Nop
+        || out.fill.is_some()
+        || out.terminate.is_some()
+        || out.repack.is_some()
+        || out.preload.is_some()
+        || out.reserve.is_some()
+        || out.enq_ready
+        || out.claim
+        || next != regs
+}
+
+/// The fast path: the kernel's stages once, in dependency order, with the children stepped in
+/// place (the RT unit with its lane cache, tables with nothing to do not at all, a controller
+/// the last dry run found idle only counted in its mode).
+pub(super) fn step_in_place<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &mut TreeletRtUnitRegs,
+    cache: &mut TreeletRtUnitCache,
+    inputs: &TreeletRtUnitInputs,
+) -> TreeletRtUnitOutputs {
+    debug_assert!(
+        cache.rt.consistent(&regs.rt),
+        "stale RT-unit cache: it must follow every change of the registers"
+    );
+    let mut out = empty_outputs(u);
+    let TreeletRtUnitRegs {
+        rt,
+        ctl,
+        ct,
+        qt,
+        glue: g,
+    } = regs;
+    place_records(g, &inputs.ray_records);
+    let offering = inputs.sm_warp.is_some();
+    let peeks = Peeks::new(u, (rt, &cache.rt), ctl, ct, qt);
+    let restart = peeks.mode == Mode::Done && offering;
+    // The dry run of the last step computed the controller's inputs from these registers,
+    // unless cycles were skipped since (they change the RT unit's delays) or it restarts.
+    let (ctl_in, reused) = match cache.dry.take() {
+        Some(mut inp) if !restart => {
+            set_offering(g, peeks.mode, &mut inp, offering);
+            debug_assert_eq!(
+                inp,
+                controller_inputs(u, g, &peeks, offering).0,
+                "stale cached controller inputs"
+            );
+            (inp, true)
+        }
+        _ => (controller_inputs(u, g, &peeks, offering).0, false),
+    };
+    let mode = if restart { Mode::Initial } else { peeks.mode };
+    let idle = reused && cache.idle && !(offering && admitting(mode));
+    let ctl_out = if idle {
+        debug_assert!(
+            {
+                let (o, n) = u.ctl.eval(ctl, &ctl_in);
+                !acts(&o, &n, ctl)
+            },
+            "the controller was not idle"
+        );
+        out.counts.ctl.count_cycles(mode, 1);
+        None
+    } else {
+        let o = u.ctl.step(ctl, &ctl_in);
+        out.counts.ctl.observe(&ctl_in, &o);
+        Some(o)
+    };
+    out.counts.restarts += u64::from(restart);
+    let (ct_in, qt_in, rt_in) = children_inputs(
+        u,
+        g,
+        &peeks,
+        inputs,
+        restart,
+        &ctl_in,
+        ctl_out.as_ref(),
+        &mut out,
+    );
+    let qt_busy = !peeks.qt.ready;
+    drop(peeks);
+    // Tables with no op and nothing in progress are not stepped: their registers would not
+    // change and their outputs would carry nothing.
+    let ct_out = (ct_in.op != CountOp::Nop || u.ct.busy(ct)).then(|| u.ct.step(ct, &ct_in));
+    let qt_out =
+        (qt_in.op != QueueOp::Nop || qt_in.refill_valid || qt_busy).then(|| u.qt.step(qt, &qt_in));
+    let rt_out = u.rt.step_cached(rt, &mut cache.rt, &rt_in);
+    after_children(g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, &mut out);
+    dry_run(u, regs, cache);
+    out
+}
+
+/// After a step: whether the controller, evaluated on the new registers with no SM warp
+/// offered, would act (so the next cycle may not be skipped), keeping its inputs for the next
+/// step. A count-table scan does not wake it: while the scan runs the controller's inputs do
+/// not change (the pointers stay stale); the scan's `Nop` cycles are stepped by `skip` and its
+/// end bounds `idle_cycles`.
+fn dry_run<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+    cache: &mut TreeletRtUnitCache,
+) {
+    cache.idle = false;
+    cache.dry = None;
+    let g = &regs.glue;
+    if !u.qt.status(&regs.qt).ready
+        || g.qt_done.is_some()
+        || g.ct_evict.is_some()
+        || !g.events.is_empty()
+    {
+        cache.awake = true;
+        return;
+    }
+    let peeks = Peeks::of(u, regs, &cache.rt);
+    let inp = controller_inputs(u, g, &peeks, false).0;
+    let (o, n) = u.ctl.eval(&regs.ctl, &inp);
+    let acts = acts(&o, &n, &regs.ctl);
+    cache.dry = Some(inp);
+    cache.idle = !acts;
+    cache.awake = acts;
+}
+
+/// A summary of the registers for a watchdog's dump.
+pub(super) fn debug_state<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+) -> String {
+    let g = &regs.glue;
+    format!(
+        "{}\n  treelet controller: {}; queue table {}; count table {} entries; events {}; slots \
+         {:?}; fills {:?}; {} ray ids in use",
+        u.rt.debug_state(&regs.rt, &RtCache::of(&regs.rt)),
+        u.ctl.debug_state(&regs.ctl),
+        u.qt.debug_state(&regs.qt),
+        u.ct.status(&regs.ct).occupancy,
+        g.events.len(),
+        g.uses,
+        g.builds
+            .iter()
+            .map(|b| b
+                .as_ref()
+                .map(|b| (b.kind, b.rays.len(), b.loading, b.last)))
+            .collect::<Vec<_>>(),
+        u.cfg.max_rays - g.ids.len()
+    )
+}
