@@ -3,6 +3,7 @@
 //! - [`verilog`]: a readable Verilog-2005 module from a block's [`vtq_hdl::BlockDesc`]
 //!   (header, ports, storage, state encodings and a lint-clean skeleton body).
 //! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
+//! - [`compose`]: the top module of a composed block (its children and a wiring module).
 //! - [`area`]: the analytical storage and area model of the paper's section 6.5.
 //! - [`rtl`]: complete RTL of the treelet count table and treelet queue table.
 //! - [`stimulus`]: seeded random stimulus and reactive test benches for the two tables.
@@ -11,6 +12,7 @@
 //!   [`error`]: the crate's error type.
 
 pub mod area;
+pub mod compose;
 pub mod cosim;
 pub mod emit;
 pub mod error;

@@ -3,6 +3,8 @@
 //! configuration and a scaled one.
 
 use std::path::PathBuf;
+use vtq_gen::compose::{composite_modules, Instance};
+use vtq_gen::rtl::table_modules;
 use vtq_gen::synth::{lint, synthesize};
 use vtq_gen::tools::or_skip;
 use vtq_gen::verilog::MAX_WIDTH;
@@ -10,17 +12,9 @@ use vtq_gen::{emit_module, write_module};
 use vtq_hdl::controller::{ControllerFeatures, TreeletController};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
-use vtq_hdl::rt_unit::{Hit, NodeDatapath, NodeEntry, RayWords, RtUnit, RtUnitParams, TestResult};
+use vtq_hdl::rt_unit::{NoDatapath as NoHits, NodeEntry, RtUnit, RtUnitParams};
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
 use vtq_hdl::{Block, BlockDesc, HwConfig};
-
-/// An intersection datapath for describing the RT unit (the description does not depend on it).
-struct NoHits;
-
-impl NodeDatapath for NoHits {
-    fn test(&self, _: &RayWords, _: Option<&Hit>, _: &NodeEntry, _: &[u8]) -> TestResult {
-        TestResult::default()
-    }
-}
 
 fn descs(cfg: &HwConfig) -> Vec<BlockDesc> {
     vec![
@@ -120,4 +114,57 @@ fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
     };
     assert_eq!(synth.latches, 0, "{}: {synth:?}", d.name);
     assert!(synth.warnings.is_empty(), "{}: {synth:?}", d.name);
+}
+
+/// The composed treelet RT unit's top module instantiates the tables' complete RTL, the
+/// controller's and the RT unit's skeletons and its wiring module (a skeleton), connected
+/// port by port; all of it lints clean under `verilator --lint-only -Wall`.
+#[test]
+fn the_composed_treelet_rt_unit_lints_clean() {
+    let cfg = HwConfig::default();
+    let params = TreeletRtUnitParams {
+        rt: RtUnitParams::default(),
+        features: ControllerFeatures::FULL,
+        ray_base: 0,
+    };
+    let unit = TreeletRtUnit::new(cfg.clone(), params, NoHits).unwrap();
+    let children: Vec<Instance> = unit
+        .children()
+        .into_iter()
+        .map(|(name, desc)| Instance {
+            name: name.into(),
+            desc,
+        })
+        .collect();
+    let mut modules = table_modules(&cfg).unwrap();
+    for c in children
+        .iter()
+        .filter(|c| c.name == "rt" || c.name == "ctl")
+    {
+        modules.push((c.desc.name.clone(), emit_module(&c.desc).unwrap()));
+    }
+    let top = composite_modules(&unit.describe(), &children).unwrap();
+    let top_text = &top[0].1;
+    for c in &children {
+        assert!(
+            top_text.contains(&format!("{} {} (", c.desc.name, c.name)),
+            "the top instantiates {}",
+            c.name
+        );
+    }
+    modules.extend(top);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-composed");
+    std::fs::create_dir_all(&dir).unwrap();
+    let files: Vec<PathBuf> = modules
+        .iter()
+        .map(|(name, text)| {
+            let path = dir.join(format!("{name}.v"));
+            std::fs::write(&path, text).unwrap();
+            path
+        })
+        .collect();
+    let Some(report) = or_skip(lint(&files, "treelet_rt_unit", &dir)).unwrap() else {
+        return;
+    };
+    assert!(report.is_clean(), "{report}");
 }

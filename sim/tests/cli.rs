@@ -445,14 +445,16 @@ fn area_follows_the_overrides() {
 }
 
 #[test]
-fn verilog_writes_four_modules_that_lint_clean() {
+fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
     let dir = temp_dir("verilog");
     let text = vtq_ok(&["verilog", "--out", dir.to_str().unwrap()]);
     let modules = [
         "treelet_count_table",
         "treelet_queue_table",
-        "treelet_controller",
         "rt_unit",
+        "treelet_controller",
+        "treelet_rt_unit",
+        "treelet_rt_unit_wiring",
     ];
     for module in modules {
         let path = dir.join(format!("{module}.v"));
@@ -461,16 +463,24 @@ fn verilog_writes_four_modules_that_lint_clean() {
         assert!(source.contains(&format!("module {module}")), "{module}");
     }
     let written = std::fs::read_dir(&dir).unwrap().count();
-    assert_eq!(written, modules.len(), "only the four modules are written");
-    for module in modules {
-        let file = dir.join(format!("{module}.v"));
+    assert_eq!(written, modules.len(), "only the six modules are written");
+    let files: Vec<_> = modules.iter().map(|m| dir.join(format!("{m}.v"))).collect();
+    // Each block alone, then the top with everything it instantiates.
+    for (module, file) in modules.iter().zip(&files).take(4) {
         let lint_dir = dir.join(format!("lint-{module}"));
         std::fs::create_dir_all(&lint_dir).unwrap();
-        let Some(report) = or_skip(lint(&[file], module, &lint_dir)).unwrap() else {
+        let Some(report) = or_skip(lint(std::slice::from_ref(file), module, &lint_dir)).unwrap()
+        else {
             return;
         };
         assert!(report.is_clean(), "{module}:\n{report}");
     }
+    let lint_dir = dir.join("lint-top");
+    std::fs::create_dir_all(&lint_dir).unwrap();
+    let Some(report) = or_skip(lint(&files, "treelet_rt_unit", &lint_dir)).unwrap() else {
+        return;
+    };
+    assert!(report.is_clean(), "treelet_rt_unit:\n{report}");
 }
 
 #[test]

@@ -85,8 +85,8 @@ pub use bundles::{
     WarpSlot, Widths,
 };
 pub use node::{
-    pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NodeDatapath, NodeEntry, NodeKind,
-    RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
+    pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NoDatapath, NodeDatapath, NodeEntry,
+    NodeKind, RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
     STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
 

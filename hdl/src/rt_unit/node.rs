@@ -300,6 +300,17 @@ pub trait NodeDatapath {
         -> TestResult;
 }
 
+/// A datapath that visits nothing and hits nothing: for building blocks only to describe them
+/// (the datapath is outside the RT unit and not part of its description).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NoDatapath;
+
+impl NodeDatapath for NoDatapath {
+    fn test(&self, _: &RayWords, _: Option<&Hit>, _: &NodeEntry, _: &[u8]) -> TestResult {
+        TestResult::default()
+    }
+}
+
 impl<T: NodeDatapath + ?Sized> NodeDatapath for &T {
     fn test(
         &self,

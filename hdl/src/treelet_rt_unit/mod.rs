@@ -62,9 +62,9 @@ use crate::block::{Block, Signal, Signals};
 use crate::compose::settle;
 use crate::config::HwConfig;
 use crate::controller::{ControllerFeatures, ControllerInputs, ControllerRegs, TreeletController};
-use crate::count_table::{CountTable, CountTableRegs};
+use crate::count_table::{CountTable, CountTableIn, CountTableRegs};
 use crate::describe::BlockDesc;
-use crate::queue_table::{QueueTable, QueueTableRegs};
+use crate::queue_table::{QueueTable, QueueTableIn, QueueTableRegs};
 use crate::rt_unit::{NodeDatapath, RtCache, RtUnit, RtUnitError, RtUnitParams, RtUnitRegs};
 
 /// Parameters of a treelet RT unit beyond the hardware configuration.
@@ -108,8 +108,9 @@ pub struct TreeletRtUnitRegs {
 /// A simulation cache of a treelet RT unit's registers, not hardware, owned beside the
 /// registers by whoever steps the block with [`TreeletRtUnit::step_cached`]: the RT unit's lane
 /// cache, and the controller's inputs and idleness found by a dry run at the end of the last
-/// step (valid for the next step if no cycle is skipped in between).
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// step (valid for the next step if no cycle is skipped in between). It can also keep a probe
+/// of the tables' input ports ([`TreeletRtUnitCache::record_tables`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct TreeletRtUnitCache {
     rt: RtCache,
     /// The controller inputs of the last dry run.
@@ -118,6 +119,26 @@ pub struct TreeletRtUnitCache {
     idle: bool,
     /// The controller would act in the next cycle even if nothing else changed.
     awake: bool,
+    /// The tables' inputs of every cycle so far, while recording.
+    tables: Option<TableLog>,
+}
+
+/// The treelet count table's and queue table's input ports, cycle by cycle (a `Nop` in every
+/// cycle a table was not stepped or skipped): real traffic to replay against their RTL. It
+/// starts at the first cycle in which either table gets an op: until then both get only `Nop`s
+/// from reset, which leave them in their reset state, so a replay from reset is exact.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TableLog {
+    /// Cycles to record at most.
+    pub limit: usize,
+    /// The cycle of the first recorded input.
+    pub first_cycle: u64,
+    /// Cycles seen before the first op (not recorded).
+    pub skipped: u64,
+    /// The count table's inputs.
+    pub count: Vec<CountTableIn>,
+    /// The queue table's inputs.
+    pub queue: Vec<QueueTableIn>,
 }
 
 impl TreeletRtUnitCache {
@@ -129,6 +150,40 @@ impl TreeletRtUnitCache {
             dry: None,
             idle: false,
             awake: true,
+            tables: None,
+        }
+    }
+
+    /// Starts recording the tables' inputs of the next `cycles` cycles (from reset: start
+    /// before the first step).
+    pub fn record_tables(&mut self, cycles: usize) {
+        self.tables = Some(TableLog {
+            limit: cycles,
+            ..TableLog::default()
+        });
+    }
+
+    /// The tables' inputs recorded so far.
+    pub fn take_table_log(&mut self) -> Option<TableLog> {
+        self.tables.take()
+    }
+
+    /// Records one cycle's table inputs.
+    fn log_tables(&mut self, ct: &CountTableIn, qt: &QueueTableIn) {
+        let Some(log) = self.tables.as_mut() else {
+            return;
+        };
+        let idle = ct.op == crate::count_table::CountOp::Nop
+            && qt.op == crate::queue_table::QueueOp::Nop
+            && !qt.refill_valid;
+        if log.count.is_empty() && idle {
+            log.skipped += 1;
+            log.first_cycle = log.skipped;
+            return;
+        }
+        if log.count.len() < log.limit {
+            log.count.push(*ct);
+            log.queue.push(*qt);
         }
     }
 }
@@ -229,6 +284,15 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             "skip beyond the idle cycles"
         );
         cache.dry = None;
+        if cache.tables.is_some() {
+            let (ct, qt) = (
+                self.ct.input(crate::count_table::CountOp::Nop),
+                self.qt.input(crate::queue_table::QueueOp::Nop),
+            );
+            for _ in 0..n {
+                cache.log_tables(&ct, &qt);
+            }
+        }
         counts.rt = self.rt.skip(&mut regs.rt, &mut cache.rt, n);
         let mut left = n;
         while left > 0 && self.ct.busy(&regs.ct) {
@@ -252,6 +316,17 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         inputs: &TreeletRtUnitInputs,
     ) -> TreeletRtUnitOutputs {
         wiring::step_in_place(self, regs, cache, inputs)
+    }
+
+    /// The children's instance names and descriptions, for a Verilog top module that
+    /// instantiates them (`rt`, `ctl`, `ct`, `qt`).
+    pub fn children(&self) -> Vec<(&'static str, BlockDesc)> {
+        vec![
+            ("rt", self.rt.describe()),
+            ("ctl", self.ctl.describe()),
+            ("ct", self.ct.describe()),
+            ("qt", self.qt.describe()),
+        ]
     }
 
     /// The controller's traversal mode (a register-only output: what an observer attributes the

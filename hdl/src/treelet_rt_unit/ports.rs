@@ -174,10 +174,10 @@ crate::bundle! {
         lanes resp_tag (w.tag, w.resp_ports) = |i: usize| this.responses.get(i).map_or(0, |r| r.tag as u64);
         /// Per response port: its 256 bits.
         bulk resp_data (256 * w.resp_ports);
-        /// Ray records returning this cycle.
+        /// Ray records returning this cycle (up to a warp's worth).
         sig ray_count (w.lanes) = this.ray_records.len() as u64;
         /// The returning records with their slots and ray ids.
-        bulk ray_records (w.lanes * (w.slot + w.ray + w.record));
+        bulk ray_records (w.warp_size * (w.slot + w.ray + w.record));
         /// The spill FIFO is not empty.
         sig spill_head_valid (1) = this.spill_head.is_some() as u64;
         /// Treelet of its oldest ray.
@@ -226,26 +226,26 @@ crate::bundle! {
         sig ray_load_count (w.lanes) = this.requests.iter().filter(|r| matches!(r, TreeletRequest::RayLoad { .. })).count() as u64;
         /// Ray-record stores issued this cycle.
         sig ray_store_count (w.lanes) = this.requests.iter().filter(|r| matches!(r, TreeletRequest::RayStore { .. })).count() as u64;
-        /// Their ray ids and addresses, in issue order.
-        bulk ray_requests (w.lanes * (w.ray + w.address));
+        /// Their ray ids and addresses, in issue order (up to two warps' worth).
+        bulk ray_requests (2 * w.warp_size * (w.ray + w.address));
         /// The RT unit requests a 32 B access.
-        sig rt_req_valid (1) = this.rt_request().is_some() as u64;
+        sig mem_req_valid (1) = this.rt_request().is_some() as u64;
         /// Its byte address.
-        sig rt_req_address (w.address) = this.rt_request().map_or(0, |r| r.address);
+        sig mem_req_address (w.address) = this.rt_request().map_or(0, |r| r.address);
         /// 0 node-chunk load, 1 hit-record store, 2 stack spill, 3 stack fill.
-        sig rt_req_kind (RequestKind::BITS) = this.rt_request().map_or(0, |r| r.kind.code());
+        sig mem_req_kind (RequestKind::BITS) = this.rt_request().map_or(0, |r| r.kind.code());
         /// Its tag.
-        sig rt_req_tag (w.tag) = this.rt_request().map_or(0, |r| r.tag as u64);
+        sig mem_req_tag (w.tag) = this.rt_request().map_or(0, |r| r.tag as u64);
         /// Store data.
-        bulk rt_req_data (256);
+        bulk mem_req_data (256);
         /// Rays finishing this cycle.
         sig finished_count (w.lanes) = this.finished.len() as u64;
-        /// Their ray ids and closest hits.
-        bulk finished (w.lanes * (w.ray + 1 + 4 * 32));
+        /// Their ray ids and closest hits (up to two warps' worth: a repack's released lanes and a completed warp).
+        bulk finished (2 * w.warp_size * (w.ray + 1 + 4 * 32));
         /// Rays parked at a treelet boundary this cycle.
         sig parked_count (w.lanes) = this.parked.len() as u64;
-        /// Their records, for the ray-record store.
-        bulk parked (w.lanes * w.record);
+        /// Their records, for the ray-record store (up to a warp's worth).
+        bulk parked (w.warp_size * w.record);
         /// Preload a treelet into the L1 (section 4.3).
         sig preload_valid (1) = this.preload.is_some() as u64;
         /// The treelet.

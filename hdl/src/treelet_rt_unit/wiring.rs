@@ -231,7 +231,7 @@ impl Signals for GlueRegs {
     fn signals(&self) -> Vec<Signal> {
         let mut s = Vec::new();
         for (i, u) in self.uses.iter().enumerate() {
-            s.push(Signal::new(format!("use_{i}"), 2, u.code()));
+            s.push(Signal::new(format!("slot_use_{i}"), 2, u.code()));
         }
         for (i, b) in self.builds.iter().enumerate() {
             s.push(Signal::new(
@@ -245,7 +245,7 @@ impl Signals for GlueRegs {
                 b.as_ref().map_or(0, |b| b.loading as u64),
             ));
         }
-        s.push(Signal::new("events", 16, self.events.len() as u64));
+        s.push(Signal::new("event_count", 16, self.events.len() as u64));
         s.push(Signal::new("free_ids", 32, self.ids.len() as u64));
         s
     }
@@ -258,7 +258,7 @@ pub(super) fn register_descs(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<Reg
     let events = cfg.warp_buffer_size * (cfg.warp_size + 1);
     vec![
         reg(
-            "use",
+            "slot_use",
             2,
             slots,
             "per slot: free / initial-phase SM warp / controller fill / closing",
@@ -290,19 +290,19 @@ pub(super) fn register_descs(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<Reg
         ),
         reg("build_last", 1, slots, "per slot: the fill is closed"),
         reg(
-            "event",
+            "events",
             1 + w.ray + w.treelet,
             events,
             "events for the controller (FIFO): enqueue (ray, treelet) or warp done (slot)",
         ),
         reg(
-            "ct_evict",
+            "last_ct_evict",
             1 + w.treelet,
             1,
             "the count table's eviction of the previous cycle",
         ),
         reg(
-            "qt_done",
+            "last_qt_done",
             1 + w.treelet + lanes + w.ray * cfg.warp_size,
             1,
             "the queue table's answer of the previous cycle",
@@ -908,6 +908,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     );
     let qt_busy = !peeks.qt.ready;
     drop(peeks);
+    cache.log_tables(&ct_in, &qt_in);
     // Tables with no op and nothing in progress are not stepped: their registers would not
     // change and their outputs would carry nothing.
     let ct_out = (ct_in.op != CountOp::Nop || u.ct.busy(ct)).then(|| u.ct.step(ct, &ct_in));

@@ -1,13 +1,16 @@
 //! `vtq verilog`: Verilog-2005 for every hardware block at the configured sizes — complete RTL
 //! for the treelet count table and the treelet queue table, skeletons with every port, register
-//! and state for the treelet controller and the RT unit.
+//! and state for the treelet controller and the RT unit, and the composed treelet RT unit: a top
+//! module instantiating the four with its wiring module (a skeleton).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use vtq_hdl::controller::{ControllerFeatures, TreeletController};
-use vtq_hdl::rt_unit::describe_rt_unit;
+use vtq_gen::compose::{composite_modules, Instance};
+use vtq_hdl::controller::ControllerFeatures;
+use vtq_hdl::rt_unit::NoDatapath;
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
 use vtq_hdl::Block;
 
 use super::options::ConfigArgs;
@@ -23,21 +26,32 @@ pub struct VerilogArgs {
     pub out: PathBuf,
 }
 
-/// Every block's module as (module name, Verilog text), tables first.
+/// Every block's module as (module name, Verilog text): the tables, the controller and the RT
+/// unit, then the composed treelet RT unit's top and wiring modules.
 pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
     let mut out = vtq_gen::rtl::table_modules(&cfg.hw)?;
-    let controller = TreeletController::new(cfg.hw.clone(), ControllerFeatures::FULL)?;
-    let rt = describe_rt_unit(
-        &cfg.hw,
-        &cfg.rt_unit_params(
+    let params = TreeletRtUnitParams {
+        rt: cfg.rt_unit_params(
             0,
             None,
             vtq_hdl::rt_unit::RtUnitParams::default().stack_spill_chunks,
         ),
-    )?;
-    for desc in [controller.describe(), rt] {
-        out.push((desc.name.clone(), vtq_gen::emit_module(&desc)?));
+        features: ControllerFeatures::FULL,
+        ray_base: 0,
+    };
+    let unit = TreeletRtUnit::new(cfg.hw.clone(), params, NoDatapath)?;
+    let children: Vec<Instance> = unit
+        .children()
+        .into_iter()
+        .map(|(name, desc)| Instance {
+            name: name.to_string(),
+            desc,
+        })
+        .collect();
+    for child in &children[..2] {
+        out.push((child.desc.name.clone(), vtq_gen::emit_module(&child.desc)?));
     }
+    out.extend(composite_modules(&unit.describe(), &children)?);
     Ok(out)
 }
 

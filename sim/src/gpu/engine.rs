@@ -53,6 +53,9 @@ const HIT_RECORD_ALIGN: u64 = 4096;
 pub struct SimOptions {
     /// Record every traced ray with its closest hit ([`SimOutput::ray_log`]), for tests.
     pub record_rays: bool,
+    /// Queues mode: record the input ports of SM `.0`'s treelet count and queue tables for the
+    /// first `.1` cycles ([`SimOutput::table_log`]), to replay real traffic against their RTL.
+    pub record_tables: Option<(usize, usize)>,
 }
 
 /// One traced ray and the closest hit the RT unit found.
@@ -79,6 +82,8 @@ pub struct SimOutput {
     pub time_series: Vec<Sample>,
     /// Every traced ray in completion order (only with [`SimOptions::record_rays`]).
     pub ray_log: Vec<TracedRay>,
+    /// The recorded table inputs (only with [`SimOptions::record_tables`] in queues mode).
+    pub table_log: Option<vtq_hdl::treelet_rt_unit::TableLog>,
 }
 
 /// The whole simulated GPU.
@@ -202,6 +207,15 @@ pub fn simulate(
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    let mut rts = rts;
+    if let Some((sm, cycles)) = options.record_tables {
+        if !rts.get_mut(sm).is_some_and(|rt| rt.record_tables(cycles)) {
+            return Err(SimError::Setup(format!(
+                "cannot record the tables of SM {sm}: it needs mode.kind = \"queues\" and an SM \
+                 below gpu.sms = {nsms}"
+            )));
+        }
+    }
     let sm = |_| {
         let sm = Sm::new(cta_slots, warps_per_cta);
         if cfg.mode.virtualization {
@@ -241,7 +255,12 @@ pub fn simulate(
     let start = Instant::now();
     let cycles = gpu.run(progress)?;
     let wall = start.elapsed().as_secs_f64();
-    Ok(gpu.finish(cycles, wall, config_toml, bvh, spill.chunks))
+    let table_log = options
+        .record_tables
+        .and_then(|(sm, _)| gpu.rts[sm].take_table_log());
+    let mut out = gpu.finish(cycles, wall, config_toml, bvh, spill.chunks);
+    out.table_log = table_log;
+    Ok(out)
 }
 
 /// Where the RT units' traversal stacks spill: each SM's area holds `chunks` 32 B chunks for
@@ -752,6 +771,7 @@ impl Gpu<'_> {
             nonfinite_samples: self.nonfinite,
             time_series: self.time_series,
             ray_log: self.ray_log,
+            table_log: None,
         }
     }
 }

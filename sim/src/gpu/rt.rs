@@ -286,6 +286,26 @@ impl<'a> RtPort<'a> {
         }
     }
 
+    /// Queues mode: records the treelet tables' input ports of the next `cycles` cycles (call
+    /// before the first step); returns false outside queues mode.
+    pub fn record_tables(&mut self, cycles: usize) -> bool {
+        match &mut self.hw {
+            Hardware::Treelet(t) => {
+                t.cache.record_tables(cycles);
+                true
+            }
+            Hardware::Plain(_) => false,
+        }
+    }
+
+    /// The tables' inputs recorded so far ([`RtPort::record_tables`]).
+    pub fn take_table_log(&mut self) -> Option<vtq_hdl::treelet_rt_unit::TableLog> {
+        match &mut self.hw {
+            Hardware::Treelet(t) => t.cache.take_table_log(),
+            Hardware::Plain(_) => None,
+        }
+    }
+
     /// The treelet prefetcher, if this port has one.
     pub fn prefetcher(&self) -> Option<&Prefetcher<'a>> {
         self.prefetcher.as_ref()

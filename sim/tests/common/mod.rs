@@ -43,7 +43,17 @@ pub fn setup(name: &str, cfg: &SimConfig) -> (Scene, HwBvh) {
 
 /// A simulation that records every ray and its hit.
 pub fn run(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> SimOutput {
-    simulate(scene, bvh, cfg, SimOptions { record_rays: true }, None).expect("simulation runs")
+    simulate(
+        scene,
+        bvh,
+        cfg,
+        SimOptions {
+            record_rays: true,
+            ..SimOptions::default()
+        },
+        None,
+    )
+    .expect("simulation runs")
 }
 
 /// A hit as bits, so comparisons are exact (and NaN-proof).
