@@ -2,8 +2,28 @@
 //! rays fall below the repack threshold is terminated as a unit and its idle lanes are refilled
 //! with rays from the underpopulated treelet queues; its remaining active rays keep their lanes.
 //! The paper's best threshold is 22 of 32 lanes (+95%), 16 gives +84%; 0 turns repacking off.
+//!
+//! The whole rule is here: which lanes a repack releases ([`releases`]) and so which count as
+//! the warp's active rays ([`kept_lanes`]), when the controller repacks ([`should_repack`]), how
+//! many rays it asks for ([`lanes_to_refill`]) and how popped rays are split ([`split_refill`]).
+//! The RT unit releases the lanes and takes the fill into them; the controller decides.
 
 use crate::mode::Mode;
+use crate::rt_unit::{Lane, LaneStatus};
+
+/// Whether a repack releases `lane`: its ray is done and nothing of it (a node or stack fill
+/// in flight, an intersection delay, a hit-record store) is outstanding.
+pub fn releases(lane: &Lane) -> bool {
+    lane.status == LaneStatus::Done && lane.quiescent()
+}
+
+/// The lanes a repack keeps, from a slot's lane predicate masks (bit `l` for lane `l`): the
+/// traversing and parked ones and the done ones with something outstanding (`busy`). Their
+/// number is the warp's active rays in the controller's repacking report; the complement of
+/// [`releases`] among the lanes holding a ray.
+pub fn kept_lanes(traversing: u64, parked: u64, done: u64, busy: u64) -> u64 {
+    traversing | parked | (done & busy)
+}
 
 /// Whether repacking is enabled at all (a threshold of 0 disables it).
 pub fn repack_enabled(repack_threshold: u32) -> bool {

@@ -11,7 +11,6 @@ pub mod memory;
 pub mod rays_csv;
 pub mod scene;
 pub mod traversal;
-pub mod treelet;
 pub mod workload;
 
 pub use geometry::{Hit, Ray};

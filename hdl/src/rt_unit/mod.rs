@@ -378,8 +378,8 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
         Some(SlotSummary {
             traversing: m.traversing.count_ones(),
-            // Traversing, parked, or done with something outstanding.
-            busy: (m.traversing | m.parked | (m.done & not_quiet)).count_ones(),
+            busy: crate::warp_repacking::kept_lanes(m.traversing, m.parked, m.done, not_quiet)
+                .count_ones(),
             distinct_next_treelets: found as u32,
             quiescent: not_quiet == 0,
         })
@@ -769,7 +769,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             .lanes
             .iter_mut()
             .map(|lane| {
-                (lane.status == LaneStatus::Done && lane.quiescent()).then(|| {
+                crate::warp_repacking::releases(lane).then(|| {
                     lane.status = LaneStatus::Inactive;
                     (std::mem::take(&mut lane.ray), RayOutcome::Finished)
                 })

@@ -2,7 +2,7 @@
 //!
 //! All values are little-endian; every node is 64-byte aligned; addresses are 32-bit byte
 //! addresses. Treelet `i` occupies the slot `[i * treelet_bytes, (i + 1) * treelet_bytes)`
-//! (see [`crate::treelet`]); the image stores only the used bytes of each slot.
+//! (see [`super::treelet`]); the image stores only the used bytes of each slot.
 //!
 //! **Header** (64 B, address 0):
 //! | offset | field |
@@ -44,14 +44,11 @@
 use glam::Vec3;
 
 use super::build::{build_wide_tree, WideNode, WideTree};
+use super::treelet::{self, TreeletInfo, Unit};
 use super::{BvhError, BvhParams};
+pub use super::{HEADER_BYTES, LEAF_BYTES};
 use crate::scene::Scene;
-use crate::treelet::{self, TreeletInfo, Unit};
 
-/// Size of the BVH header.
-pub const HEADER_BYTES: u32 = 64;
-/// Size of a triangle or procedural leaf.
-pub const LEAF_BYTES: u32 = 64;
 /// Address of the BVH header.
 pub const HEADER_ADDR: u32 = 0;
 

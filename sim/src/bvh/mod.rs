@@ -1,10 +1,16 @@
 //! The hardware BVH: built with `obvhs`, collapsed to the configured width and laid out in a
 //! byte-addressed memory image in the Intel/Vulkan-Sim style (see `layout`), partitioned into
-//! treelets (see [`crate::treelet`]) and cached on disk (see `cache`).
+//! treelets (see [`treelet`]) and cached on disk (see `cache`).
 
 pub mod build;
 pub mod cache;
 pub mod layout;
+pub mod treelet;
+
+/// Size of the BVH header.
+pub const HEADER_BYTES: u32 = 64;
+/// Size of a triangle or procedural leaf.
+pub const LEAF_BYTES: u32 = 64;
 
 pub use build::{sphere_bounds, sphere_is_usable, triangle_bounds, triangle_is_usable, BvhParams};
 pub use cache::{build_cached, default_cache_dir, CacheOutcome};

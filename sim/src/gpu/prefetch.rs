@@ -17,7 +17,7 @@ use std::collections::VecDeque;
 use vtq_hdl::rt_unit::CHUNK_BYTES;
 
 use crate::bvh::HwBvh;
-use crate::gpu::SimError;
+use crate::gpu::error::SimError;
 use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem};
 
 /// How many recently queued treelets are remembered (and not queued again).

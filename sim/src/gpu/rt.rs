@@ -27,10 +27,10 @@ use crate::bvh::layout::HEADER_ADDR;
 use crate::bvh::{HwBvh, NodeKind};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
+use crate::gpu::error::SimError;
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::gpu::rt_fault::RtFault;
-use crate::gpu::SimError;
 use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem, Response};
 
 /// Tag bit marking a ray-record load's response; below it, the ray id (bits 16 and up) and the

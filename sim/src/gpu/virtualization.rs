@@ -17,8 +17,8 @@ use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::rt_unit::CHUNK_BYTES;
 
+use crate::gpu::error::SimError;
 use crate::gpu::sm::CtaRef;
-use crate::gpu::SimError;
 use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem, Response};
 
 /// One queued CTA-state access.

@@ -15,7 +15,8 @@
 
 use std::collections::VecDeque;
 
-use crate::bvh::build::{WideNode, WideTree};
+use super::build::{WideNode, WideTree};
+use super::{HEADER_BYTES, LEAF_BYTES};
 
 /// One treelet of a laid-out BVH.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -43,7 +44,7 @@ pub(crate) enum Unit {
 pub(crate) fn node_size(node: &WideNode, internal_bytes: u32) -> u32 {
     match node {
         WideNode::Internal { .. } => internal_bytes,
-        WideNode::Triangle { .. } | WideNode::Sphere { .. } => crate::bvh::layout::LEAF_BYTES,
+        WideNode::Triangle { .. } | WideNode::Sphere { .. } => LEAF_BYTES,
     }
 }
 
@@ -66,8 +67,8 @@ fn internal_nodes_of(tree: &WideTree, unit: Unit) -> Vec<u32> {
 /// Byte size of a unit.
 pub(crate) fn unit_size(tree: &WideTree, unit: Unit, internal_bytes: u32) -> u32 {
     match unit {
-        Unit::Root if tree.nodes.is_empty() => crate::bvh::layout::HEADER_BYTES,
-        Unit::Root => crate::bvh::layout::HEADER_BYTES + internal_bytes,
+        Unit::Root if tree.nodes.is_empty() => HEADER_BYTES,
+        Unit::Root => HEADER_BYTES + internal_bytes,
         Unit::Children(n) => match &tree.nodes[n as usize] {
             WideNode::Internal { children, .. } => children
                 .iter()
