@@ -6,6 +6,7 @@
 
 pub mod bits;
 pub mod block;
+pub mod bounded;
 pub mod bundle;
 pub mod compose;
 pub mod config;

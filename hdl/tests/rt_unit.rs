@@ -430,7 +430,7 @@ fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
         node(0x600, NodeKind::Internal, 32),
     );
     // Slot 1 is the older warp.
-    regs.age = vec![1, 0];
+    regs.age = vtq_hdl::bounded::BoundedVec::with(regs.age.capacity(), [1, 0]).unwrap();
     regs.slots[0].valid = true;
     regs.slots[0].lanes[0] = ready_lane(0, r0);
     regs.slots[0].lanes[2] = storing_lane(2);

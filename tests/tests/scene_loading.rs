@@ -572,7 +572,7 @@ fn shared_scenes_load_with_manifest_triangle_counts() {
 
     let list = list_scenes();
     let names: Vec<&str> = list.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(&names[..2], ["wknd", "cornell"]);
+    assert_eq!(&names[..3], ["wknd", "cornell", "city"]);
     for folder in ["bath", "bunny", "fox", "lands", "ship", "sponza", "spring"] {
         let info = list
             .iter()
@@ -585,13 +585,18 @@ fn shared_scenes_load_with_manifest_triangle_counts() {
             "{info:?}"
         );
     }
-    assert_eq!(list.len(), 2 + 7);
+    assert_eq!(list.len(), 3 + 7);
     let wknd = &list[0];
     assert_eq!(
         (wknd.triangles, wknd.spheres, wknd.counted),
         (Some(0), wknd_sphere_count(), CountSource::Loaded)
     );
     assert_eq!(list[1].prims(), Some(36));
+    // The city family is one row with its default budget, counted without generating it.
+    assert_eq!(
+        (list[2].triangles, list[2].spheres, list[2].counted),
+        (Some(1_000_000), 0, CountSource::Loaded)
+    );
 }
 
 /// Sphere count of the built-in WKND scene.

@@ -2,8 +2,8 @@
 //! that enter and leave the warp buffer.
 
 use super::node::{Hit, NodeEntry, RayWords, CHUNK_BYTES, MAX_NODE_CHUNKS};
+use crate::bounded::{BoundedDeque, BoundedVec};
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 
 /// Sticky error flags of the RT unit (the `errors` register and output). A set flag means the
 /// environment broke the block's protocol, the datapath returned something the hardware cannot
@@ -602,7 +602,7 @@ pub struct WarpSlot {
     /// Held by a repack: the warp does not complete until the repack fill's last append.
     pub held: bool,
     /// `warp_size` lanes.
-    pub lanes: Vec<Lane>,
+    pub lanes: Box<[Lane]>,
 }
 
 /// Per-lane predicates of one slot's lanes as bit masks (bit `l` for lane `l`; `warp_size` is
@@ -775,12 +775,13 @@ impl RtStats {
 pub struct RtUnitRegs {
     /// Field widths (constant, for traces).
     pub widths: Widths,
-    /// The warp buffer.
-    pub slots: Vec<WarpSlot>,
-    /// Valid slots, oldest first (the age order of the memory scheduler and of completion).
-    pub age: Vec<u32>,
-    /// The response FIFO.
-    pub fifo: VecDeque<MemResponse>,
+    /// The warp buffer (`warp_buffer_size` slots).
+    pub slots: Box<[WarpSlot]>,
+    /// Valid slots, oldest first (the age order of the memory scheduler and of completion; at
+    /// most `warp_buffer_size`).
+    pub age: BoundedVec<u32>,
+    /// The response FIFO (`resp_fifo_depth` entries).
+    pub fifo: BoundedDeque<MemResponse>,
     /// Remaining chunks of the node being requested.
     pub split: Option<Split>,
     /// Sticky error flags ([`errors`]).

@@ -92,10 +92,10 @@ pub use node::{
 
 use crate::bits::{bits_for, clog2};
 use crate::block::Block;
+use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::BlockDesc;
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 
 /// Bad configuration, parameter, node or issued warp for the RT unit.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -612,11 +612,8 @@ impl<D: NodeDatapath> RtUnit<D> {
             self.deliver(r, c, &resp, &mut boundary, &mut counts);
         }
         for (k, resp) in inp.responses.iter().enumerate() {
-            if k < self.params.resp_ports as usize
-                && r.fifo.len() < self.params.resp_fifo_depth as usize
-            {
-                r.fifo.push_back(*resp);
-            } else {
+            let accepted = k < self.params.resp_ports as usize && r.fifo.push_back(*resp).is_ok();
+            if !accepted {
                 let limit = (self.params.resp_ports as usize).min(resp_free as usize);
                 raise(
                     &mut r.errors,
@@ -1237,7 +1234,9 @@ impl<D: NodeDatapath> RtUnit<D> {
             *lane = ray.as_ref().map_or_else(Lane::default, Self::lane_for);
         }
         c.masks[s] = LaneMasks::of(&slot.lanes);
-        r.age.push(s as u32);
+        // A slot enters only when free, so the age list never holds more than every slot.
+        let entered = r.age.push(s as u32);
+        debug_assert!(entered.is_ok(), "age list full");
     }
 }
 
@@ -1361,13 +1360,13 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
             valid: false,
             held: false,
             order: TraversalOrder::RayStationary,
-            lanes,
+            lanes: lanes.into_boxed_slice(),
         };
         RtUnitRegs {
             widths: self.widths,
-            slots: vec![slot; self.cfg.warp_buffer_size as usize],
-            age: Vec::new(),
-            fifo: VecDeque::with_capacity(self.params.resp_fifo_depth as usize),
+            slots: vec![slot; self.cfg.warp_buffer_size as usize].into_boxed_slice(),
+            age: BoundedVec::new(self.cfg.warp_buffer_size as usize),
+            fifo: BoundedDeque::new(self.params.resp_fifo_depth as usize),
             split: None,
             errors: 0,
             first_error: None,

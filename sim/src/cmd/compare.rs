@@ -57,8 +57,8 @@ const BASELINE: &str = "baseline";
 /// Options of `vtq compare`.
 #[derive(Debug, Args)]
 pub struct CompareArgs {
-    /// Scene: a built-in name (`wknd`, `cornell`), a folder under ../shared/scenes, a scene
-    /// folder path or a `.obj` file (see `vtq scenes`).
+    /// Scene: a built-in name (`wknd`, `cornell`, `city:N` e.g. `city:250k`), a folder under
+    /// ../shared/scenes, a scene folder path or a `.obj` file (see `vtq scenes`).
     #[arg(long)]
     pub scene: String,
     /// Designs to simulate, in table order: `baseline`, `prefetch` and `vtq` (built in: the

@@ -15,8 +15,8 @@ use crate::workload::pathtracer::render;
 /// Options of `vtq render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Scene: a built-in name (`wknd`, `cornell`), a folder under ../shared/scenes, a scene
-    /// folder path or a `.obj` file (see `vtq scenes`).
+    /// Scene: a built-in name (`wknd`, `cornell`, `city:N` e.g. `city:250k`), a folder under
+    /// ../shared/scenes, a scene folder path or a `.obj` file (see `vtq scenes`).
     #[arg(long)]
     pub scene: String,
     /// Output PNG file [default: `<scene name>.png` in the current directory].

@@ -14,8 +14,8 @@ use crate::workload::image::write_png;
 /// Options of `vtq sim`.
 #[derive(Debug, Args)]
 pub struct SimArgs {
-    /// Scene: a built-in name (`wknd`, `cornell`), a folder under ../shared/scenes, a scene
-    /// folder path or a `.obj` file (see `vtq scenes`).
+    /// Scene: a built-in name (`wknd`, `cornell`, `city:N` e.g. `city:250k`), a folder under
+    /// ../shared/scenes, a scene folder path or a `.obj` file (see `vtq scenes`).
     #[arg(long)]
     pub scene: String,
     /// Configuration file (TOML, see docs/config.md) [default: the baseline GPU].

@@ -36,7 +36,7 @@ pub fn builtin_title(name: &str) -> Option<&'static str> {
     } else if name.eq_ignore_ascii_case("city") {
         Some(
             "generated city of exactly N triangles: `city:N`, N = 1000..64M with suffix k or M \
-             (default 1M), triangles",
+             (default 1M; BVHs fit the 32-bit address space up to about 4.9M)",
         )
     } else {
         None
