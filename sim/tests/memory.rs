@@ -3,9 +3,10 @@
 
 use std::collections::VecDeque;
 
+use vtq_sim::memory::l1::RETRY_BASE;
 use vtq_sim::memory::{
-    AccessClass, AccessError, MemConfig, MemConfigError, MemRequest, MemStats, MemorySystem,
-    Response, SectorState, Source, StallReason,
+    Acceptance, AccessClass, AccessError, L1Port, MemConfig, MemConfigError, MemRequest, MemStats,
+    MemorySystem, Response, SectorState, Source, StallReason,
 };
 
 const LINE: u64 = 128;
@@ -546,6 +547,7 @@ enum Event {
         now: u64,
         sm: usize,
         reason: StallReason,
+        retry_at: u64,
     },
     Delivered {
         now: u64,
@@ -633,6 +635,7 @@ fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
                             now,
                             sm,
                             reason: stall.reason,
+                            retry_at: stall.retry_at,
                         });
                         r.wake = Some(now + 1);
                     }
@@ -651,6 +654,158 @@ fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
         assert!(now < 1_000_000, "run did not finish");
     }
     (log, mem.stats())
+}
+
+/// [`run`] stepping every cycle, but with the L1 ports on their own: each SM's L2 operations
+/// wait until the end of a window of one L2 round trip and are then applied in
+/// (cycle, phase, SM, sequence) order and settled, as the simulator's engine does.
+fn run_windowed(seed: u64, sms: usize) -> (Vec<Event>, MemStats, usize) {
+    let cfg = stress_config();
+    let (mut ports, mut l2) = system(&cfg, sms).into_parts();
+    let window = L1Port::round_trip(&cfg);
+    let mut reqs: Vec<Requester> = (0..sms)
+        .map(|sm| Requester {
+            rng: Rng(0x9e37_79b9_7f4a_7c15 ^ (seed * 1000 + sm as u64 + 1)),
+            wake: Some(sm as u64),
+            pending: None,
+            outstanding: 0,
+            issued: 0,
+        })
+        .collect();
+    let mut log = Vec::new();
+    // Log entries to complete when their window settles: (entry, SM, operation, merge).
+    let mut unsettled: Vec<(usize, usize, usize, bool)> = Vec::new();
+    let mut deferred_retries = 0;
+    let mut next_tag = 0;
+    let mut now = 0;
+    let mut end = window;
+    for port in &mut ports {
+        port.set_window_end(end);
+    }
+    loop {
+        if now == end {
+            let mut order: Vec<_> = ports
+                .iter()
+                .enumerate()
+                .flat_map(|(i, p)| {
+                    p.ops()
+                        .iter()
+                        .enumerate()
+                        .map(move |(k, op)| (op.key(), i, k))
+                })
+                .collect();
+            order.sort_unstable_by_key(|&(key, _, _)| key);
+            for (_, i, k) in order {
+                let result = l2.apply(&ports[i].ops()[k]);
+                ports[i].set_result(k, result);
+            }
+            for (entry, sm, op, merge) in unsettled.drain(..) {
+                let (done, source) = ports[sm].result(op).unwrap();
+                if let Event::Accepted {
+                    done: d, source: s, ..
+                } = &mut log[entry]
+                {
+                    *d = done;
+                    *s = if merge { Source::L1Merge } else { source };
+                }
+            }
+            for port in &mut ports {
+                port.settle();
+            }
+            for event in &mut log {
+                if let Event::Stalled { sm, retry_at, .. } = event {
+                    *retry_at = ports[*sm].resolve_retry(*retry_at);
+                }
+            }
+            end += window;
+            for port in &mut ports {
+                port.set_window_end(end);
+            }
+        }
+        for (sm, r) in reqs.iter_mut().enumerate() {
+            for response in ports[sm].pop_ready(now) {
+                log.push(Event::Delivered { now, sm, response });
+                r.outstanding -= 1;
+                if r.wake.is_none() && r.issued < BUDGET {
+                    r.wake = Some(now + 1 + r.rng.below(6));
+                }
+            }
+            if r.wake.is_some_and(|w| w <= now) && r.issued < BUDGET {
+                let req = *r.pending.get_or_insert_with(|| {
+                    next_tag += 1;
+                    random_request(&mut r.rng, next_tag)
+                });
+                match ports[sm].access(now, 0, req) {
+                    Ok(a) => {
+                        let (done, source) = match a {
+                            Acceptance::Known(a) => (a.done, a.source),
+                            Acceptance::Pending { op, merge } => {
+                                unsettled.push((log.len(), sm, op, merge));
+                                (0, Source::L2Write)
+                            }
+                        };
+                        log.push(Event::Accepted {
+                            now,
+                            sm,
+                            tag: req.tag,
+                            done,
+                            source,
+                        });
+                        r.pending = None;
+                        r.issued += 1;
+                        r.outstanding += usize::from(!req.prefetch);
+                        r.wake = (r.outstanding < WINDOW && r.issued < BUDGET)
+                            .then(|| now + 1 + r.rng.below(6));
+                    }
+                    Err(e) => {
+                        let stall = e.stall().expect("generated requests are valid");
+                        deferred_retries += usize::from(stall.retry_at >= RETRY_BASE);
+                        log.push(Event::Stalled {
+                            now,
+                            sm,
+                            reason: stall.reason,
+                            retry_at: stall.retry_at,
+                        });
+                        r.wake = Some(now + 1);
+                    }
+                }
+            }
+        }
+        let busy = reqs.iter().any(|r| r.issued < BUDGET)
+            || ports
+                .iter()
+                .any(|p| p.next_response().is_some() || !p.ops().is_empty());
+        if !busy {
+            break;
+        }
+        now += 1;
+        assert!(now < 1_000_000, "run did not finish");
+    }
+    let mut stats = *l2.stats();
+    for port in &ports {
+        stats.add(port.stats());
+    }
+    (log, stats, deferred_retries)
+}
+
+/// Deferring every L2 operation to the end of its window and settling it then gives exactly
+/// the accesses, stalls (with their retry cycles), responses and counters of applying each
+/// operation as it is accepted.
+#[test]
+fn windowed_l1_ports_match_the_immediate_memory_system() {
+    let mut deferred = 0;
+    for seed in 0..6 {
+        let (immediate, immediate_stats) = run(seed, 4, false);
+        let (windowed, windowed_stats, retries) = run_windowed(seed, 4);
+        assert_eq!(windowed, immediate, "seed {seed}");
+        assert_eq!(windowed_stats, immediate_stats, "seed {seed}");
+        assert!(immediate_stats.mshr_stalls + immediate_stats.set_stalls > 0);
+        deferred += retries;
+    }
+    assert!(
+        deferred > 0,
+        "some stalls had to wait for the settle to know their retry cycle"
+    );
 }
 
 #[test]

@@ -6,8 +6,8 @@
 mod common;
 
 use common::{
-    check_against_functional, check_deterministic, check_skip_matches_lockstep, setup,
-    small_config, STARVED_MEMORY,
+    check_against_functional, check_deterministic, check_scene_skip_matches_lockstep,
+    check_skip_matches_lockstep, setup, small_config, STARVED_MEMORY,
 };
 use vtq_sim::gpu::{simulate, SimError, SimOptions};
 
@@ -46,7 +46,34 @@ fn skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    check_deterministic(&small_config("baseline", 2, 8, &["bounces=2"]));
+    check_deterministic(&small_config("baseline", 4, 16, &["bounces=2"]));
+}
+
+/// With an L2 round trip of 3 cycles (windows of 3 cycles), one MSHR and slow DRAM, L1 misses
+/// stall on fills whose cycle is not known yet within a window (deferred retries) and merge with
+/// them: every design still traces every ray exactly, equals lockstep and gives identical
+/// results on any number of threads.
+#[test]
+fn short_round_trip_and_one_mshr_are_exact_on_any_thread_count() {
+    let fast = [
+        "memory.l1_latency=1",
+        "memory.l2_latency=2",
+        "memory.dram_latency=3",
+        "memory.dram_bytes_per_cycle=4",
+        "memory.l1_mshrs=1",
+        "bounces=2",
+    ];
+    for mode in ["baseline", "prefetch"] {
+        let cfg = small_config(mode, 4, 16, &fast);
+        let out = check_against_functional("cornell", &cfg);
+        assert!(
+            out.stats.memory.mshr_stalls > 0,
+            "{mode}: MSHR stalls happen"
+        );
+        check_deterministic(&cfg);
+        let (scene, bvh) = setup("cornell", &cfg);
+        check_scene_skip_matches_lockstep(&scene, &bvh, &cfg);
+    }
 }
 
 /// With one MSHR, one-cycle latencies and a DRAM moving one byte per cycle, every miss keeps

@@ -48,7 +48,7 @@ fn skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    check_deterministic(&small_config("prefetch", 2, 16, &["bounces=2"]));
+    check_deterministic(&small_config("prefetch", 4, 16, &["bounces=2"]));
 }
 
 /// The prefetcher changes the timing (cycles, L1 behaviour) but not what is traced: the same

@@ -157,7 +157,7 @@ fn skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    let out = check_deterministic(&cfg(VTQ, 2, 16, &["bounces=2"]));
+    let out = check_deterministic(&cfg(VTQ, 4, 16, &["bounces=2"]));
     assert!(out.stats.queues.enqueued_rays > 0);
 }
 

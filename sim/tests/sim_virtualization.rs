@@ -120,7 +120,12 @@ fn prefetch_skipping_idle_cycles_matches_lockstep() {
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {
-    let out = check_deterministic(&virt_config("prefetch", 32, &["bounces=2"]));
+    let out = check_deterministic(&small_config(
+        "prefetch",
+        3,
+        32,
+        &["mode.virtualization=true", "bounces=2"],
+    ));
     assert!(out.stats.cta_suspends > 0);
 }
 

@@ -5,8 +5,8 @@
 //!
 //! The three paper configurations (`configs/{baseline,prefetch,vtq}.toml`) are embedded in the
 //! binary, so the command works from any directory; other configuration files are named by
-//! path. Designs run concurrently (`--jobs`), each simulation single-threaded, so every
-//! statistic except wall time is deterministic.
+//! path. Designs run concurrently (`--jobs`), each simulation on `--threads` threads (1 by
+//! default); every statistic except wall time is deterministic and independent of both.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -19,7 +19,7 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::bvh::HwBvh;
-use crate::cmd::options::{build_bvh, load_scene, CacheArgs};
+use crate::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::config::SimConfig;
 use crate::gpu::{simulate, SimOptions, SimStats};
 use crate::scene::Scene;
@@ -89,10 +89,12 @@ pub struct CompareArgs {
     /// Write every design's statistics (docs/stats.md) to this JSON file.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Simulate up to this many designs at once, one thread each [default: the available
-    /// cores].
+    /// Simulate up to this many designs at once [default: the available cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub jobs: Option<u32>,
+    /// Threads simulating each design's SMs (results are identical for every count).
+    #[arg(long, default_value_t = 1, value_parser = parse_threads)]
+    pub threads: usize,
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
@@ -173,11 +175,13 @@ struct Outcome {
     wall_seconds: f64,
 }
 
-/// Simulates every design (each with its BVH) on `jobs` threads; outcomes in design order.
+/// Simulates every design (each with its BVH), `jobs` at a time on `threads` threads each;
+/// outcomes in design order.
 fn simulate_all(
     scene: &Scene,
     runs: &[(&Design, &HwBvh)],
     jobs: usize,
+    threads: usize,
     bars: &[Option<indicatif::ProgressBar>],
 ) -> Vec<Outcome> {
     let next = AtomicUsize::new(0);
@@ -192,7 +196,10 @@ fn simulate_all(
             scene,
             bvh,
             &design.config,
-            SimOptions::default(),
+            SimOptions {
+                threads,
+                ..SimOptions::default()
+            },
             bars[i].as_ref(),
         )
         .map(|out| (out.stats, out.image))
@@ -347,7 +354,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         jobs.min(designs.len())
     );
     let bars = progress_bars(&designs, settings.pixels() as u64);
-    let outcomes = simulate_all(&scene, &runs, jobs, &bars);
+    let outcomes = simulate_all(&scene, &runs, jobs, args.threads, &bars);
     for bar in bars.iter().flatten() {
         bar.finish_and_clear();
     }

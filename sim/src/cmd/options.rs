@@ -175,12 +175,13 @@ impl ConfigArgs {
     }
 }
 
-/// Simulates `cfg`'s workload on `scene` (cycle-exact), with a progress bar of finished pixels
-/// while stderr is a terminal.
+/// Simulates `cfg`'s workload on `scene` (cycle-exact) on `threads` threads, with a progress
+/// bar of finished pixels while stderr is a terminal.
 pub fn simulate_with_progress(
     scene: &Scene,
     bvh: &HwBvh,
     cfg: &crate::config::SimConfig,
+    threads: usize,
 ) -> anyhow::Result<crate::gpu::SimOutput> {
     use std::io::IsTerminal;
     let pixels = cfg.render_settings().pixels() as u64;
@@ -198,7 +199,10 @@ pub fn simulate_with_progress(
         scene,
         bvh,
         cfg,
-        crate::gpu::SimOptions::default(),
+        crate::gpu::SimOptions {
+            threads,
+            ..crate::gpu::SimOptions::default()
+        },
         progress.as_ref(),
     )
     .with_context(|| format!("simulating scene '{}'", scene.name))?;
@@ -206,4 +210,12 @@ pub fn simulate_with_progress(
         bar.finish_and_clear();
     }
     Ok(out)
+}
+
+/// Parses a thread count of at least 1 (`--threads`).
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=1024).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}` is not a thread count (1..=1024)")),
+    }
 }

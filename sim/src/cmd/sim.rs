@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 
-use crate::cmd::options::{build_bvh, load_scene, simulate_with_progress, CacheArgs};
+use crate::cmd::options::{
+    build_bvh, load_scene, parse_threads, simulate_with_progress, CacheArgs,
+};
 use crate::config::SimConfig;
 use crate::gpu::stats::write_time_series;
 use crate::workload::image::write_png;
@@ -33,6 +35,9 @@ pub struct SimArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
+    /// Threads simulating the SMs (results are identical for every count).
+    #[arg(long, default_value_t = 1, value_parser = parse_threads)]
+    pub threads: usize,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -51,7 +56,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     }
     let scene = load_scene(&args.scene)?;
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
-    let out = simulate_with_progress(&scene, &bvh, &cfg)?;
+    let out = simulate_with_progress(&scene, &bvh, &cfg, args.threads)?;
     let s = &out.stats;
     let json = serde_json::to_string_pretty(s).context("serializing the statistics")?;
     std::fs::write(&args.out, json + "\n")

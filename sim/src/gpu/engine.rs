@@ -1,24 +1,32 @@
-//! The cycle loop. Each cycle, in this order: time-series samples due, shader timers (warps
-//! become ready to trace or end; CTAs retire or, with ray virtualization, start suspending),
-//! CTA dispatch to free slots (CTAs ready to resume first, then new ones), memory responses into
-//! the RT units' return queues (CTA-state loads to their SMs: a CTA whose state is back shades
-//! the hits its warps received while suspended), one step of every RT unit (issue, responses,
-//! completion) with its memory request to the L1, and one CTA-state access per SM. SMs are
-//! visited in index order, so runs are deterministic.
+//! The cycle loop. The GPU is a set of SM nodes ([`SmNode`]: an SM with its RT unit, CTA-state
+//! port and L1) around what they share: the CTA scheduler and the L2 with DRAM.
 //!
-//! Idle cycles are skipped in SST's declocking style, per SM: after visiting an SM the engine
-//! records the next cycle that SM has work (its shader timers [`Sm::next_timer`], a warp it can
-//! offer its RT unit, [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`,
-//! [`CtaStatePort::next_event`], its next memory response
-//! [`MemorySystem::next_response`], room for the CTA dispatch), jumps to the earliest such
-//! cycle over all SMs, and there visits only the SMs whose wake cycle has come (all of them
-//! when the CTA dispatch ran). This is exact because an SM's wake cycle changes only when the
-//! SM itself is visited or the dispatch gives it a CTA: its memory responses come from its own
-//! accesses, and visiting it earlier would do nothing (each of its components reports no work
-//! before that cycle). Within a visited SM, an RT unit with nothing to do is not stepped
-//! either; it catches up its warp-cycle statistics and delay counters with `skip` when next
-//! stepped (and at the end). With `sim.lockstep` every SM is visited and every RT unit stepped
-//! every cycle; results are identical (tested).
+//! # Windows
+//! An SM affects another only through the L2 and the CTA scheduler. Every access reaches the L2
+//! `l1_latency` cycles after its SM accepted it, in acceptance order, and no L2 result is needed
+//! before one L2 round trip (`l1_latency + l2_latency`, 226 cycles by Table 1) after its
+//! acceptance ([`crate::memory::l1`]). So the engine runs time in *windows* of at most one
+//! round trip: within a window every node visits its own cycles independently — on any of
+//! `threads` threads — while its L2 operations wait; at the end of the window the operations of
+//! all nodes are applied to the L2 in a fixed order (cycle, phase, SM, sequence:
+//! [`crate::memory::L2Op::key`]), exactly the order in which one loop visiting every SM each
+//! cycle would have applied them, and their results are settled into the nodes. The next window
+//! starts at the earliest cycle any node has work (idle stretches are skipped whole).
+//!
+//! Within a window a node stops ([`crate::gpu::node::Halt`]) where it needs the engine: when it
+//! could take a new CTA (the scheduler hands CTAs out round-robin over the SMs with room in the
+//! same cycle, so the engine serves such stops in cycle order once every node has reached that
+//! cycle), and, once it holds no CTA and none is pending, before each further visit (made only
+//! if the run has not ended by then: it ends after the cycle in which the last SM fell idle).
+//!
+//! Within a node, idle cycles are skipped in SST's declocking style: after a visit the node
+//! records the next cycle it has work (its shader timers, a warp it can offer its RT unit,
+//! [`RtPort::next_event`], which uses the RT unit's exact `idle_cycles`,
+//! [`CtaStatePort::next_event`], its next memory response, room for a CTA), and an RT unit with
+//! nothing to do is not stepped; it catches up its warp-cycle statistics and delay counters with
+//! `skip` when next stepped (and at the end). With `sim.lockstep` every node visits every cycle
+//! and steps its RT unit every cycle; results are identical (tested), as they are for every
+//! number of threads (tested).
 
 use std::time::Instant;
 
@@ -30,17 +38,19 @@ use crate::config::{ModeKind, SimConfig};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::error::SimError;
+use crate::gpu::finish::{finish, Finished};
+use crate::gpu::node::{Ctx, HaltKind, SmNode};
 use crate::gpu::prefetch::Prefetcher;
-use crate::gpu::rt::{QueueObserver, QueueSetup, RtPort, TracedWarp};
-use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
+use crate::gpu::rt::{QueueSetup, RtPort};
+use crate::gpu::shader::{PathThread, ShaderTiming};
 use crate::gpu::sm::Sm;
-use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
-use crate::gpu::virtualization::{CtaStatePort, StateSend};
+use crate::gpu::stats::{Sample, SimStats};
+use crate::gpu::virtualization::CtaStatePort;
 use crate::gpu::watchdog::Watchdog;
-use crate::memory::{AccessClass, MemorySystem, Response};
+use crate::gpu::workers::Workers;
+use crate::memory::{L1Port, L2Side, MemorySystem};
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
-use crate::workload::pathtracer::RenderSettings;
 
 /// Bytes of one hit record.
 const HIT_RECORD_BYTES: u64 = 32;
@@ -56,6 +66,9 @@ pub struct SimOptions {
     /// Queues mode: record the input ports of SM `.0`'s treelet count and queue tables for the
     /// first `.1` cycles ([`SimOutput::table_log`]), to replay real traffic against their RTL.
     pub record_tables: Option<(usize, usize)>,
+    /// Threads simulating the SMs (0 or 1: the calling thread alone). Results are identical
+    /// for every value.
+    pub threads: usize,
 }
 
 /// One traced ray and the closest hit the RT unit found.
@@ -84,38 +97,6 @@ pub struct SimOutput {
     pub ray_log: Vec<TracedRay>,
     /// The recorded table inputs (only with [`SimOptions::record_tables`] in queues mode).
     pub table_log: Option<vtq_hdl::treelet_rt_unit::TableLog>,
-}
-
-/// The whole simulated GPU.
-struct Gpu<'a> {
-    scene: &'a Scene,
-    cfg: &'a SimConfig,
-    settings: RenderSettings,
-    frame: CameraFrame,
-    timing: ShaderTiming,
-    options: SimOptions,
-    scheduler: CtaScheduler,
-    sms: Vec<Sm>,
-    rts: Vec<RtPort<'a>>,
-    /// Each SM's CTA-state traffic (ray virtualization; idle without it).
-    states: Vec<CtaStatePort>,
-    /// CTA-state load responses of the SM being visited (reused buffer).
-    state_loads: Vec<Response>,
-    mem: MemorySystem,
-    /// Per SM: the next cycle it has work (it is visited when this cycle has come).
-    wake: Vec<u64>,
-    /// The SMs visited in the current cycle, in index order (reused buffer).
-    awake: Vec<usize>,
-    watchdog: Watchdog,
-    image: Vec<Vec3>,
-    nonfinite: u64,
-    ray_log: Vec<TracedRay>,
-    rays_hit: u64,
-    time_series: Vec<Sample>,
-    next_sample: u64,
-    last_sample_loads: (u64, u64),
-    pixels_done: u64,
-    stepped: u64,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
@@ -176,89 +157,92 @@ pub fn simulate(
     let state_end = state_base
         + scheduler.total() as u64 * cfg.cta_state_bytes().next_multiple_of(CHUNK_BYTES as u64);
     let spill = SpillLayout::new(cfg, bvh, state_end.next_multiple_of(HIT_RECORD_ALIGN))?;
-    let rts = (0..nsms)
-        .map(|sm| {
-            let params = cfg.rt_unit_params(
-                records + sm as u64 * per_sm,
-                Some(spill.base(sm)),
-                spill.chunks,
-            );
-            let queues = (cfg.mode.kind == ModeKind::Queues).then(|| QueueSetup {
-                features: cfg.controller_features(),
-                ray_base: records + (nsms + sm) as u64 * per_sm,
-            });
-            let port = RtPort::new(
-                &cfg.hw,
-                params,
-                bvh,
-                TraversalOrder::TreeletContinue,
-                queues,
-            )
-            .map_err(|source| SimError::Rt { sm, source })?;
-            let prefetch = match cfg.mode.kind {
-                ModeKind::Baseline => false,
-                ModeKind::Prefetch => true,
-                ModeKind::Queues => cfg.mode.preload,
-            };
-            Ok::<_, SimError>(if prefetch {
-                port.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold))
-            } else {
-                port
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut rts = rts;
-    if let Some((sm, cycles)) = options.record_tables {
-        if !rts.get_mut(sm).is_some_and(|rt| rt.record_tables(cycles)) {
+    let (ports, l2) = MemorySystem::new(&cfg.memory, nsms)?.into_parts();
+    let mut nodes = Vec::with_capacity(nsms);
+    for (sm, port) in ports.into_iter().enumerate() {
+        let params = cfg.rt_unit_params(
+            records + sm as u64 * per_sm,
+            Some(spill.base(sm)),
+            spill.chunks,
+        );
+        let queues = (cfg.mode.kind == ModeKind::Queues).then(|| QueueSetup {
+            features: cfg.controller_features(),
+            ray_base: records + (nsms + sm) as u64 * per_sm,
+        });
+        let mut rt = RtPort::new(
+            &cfg.hw,
+            params,
+            bvh,
+            TraversalOrder::TreeletContinue,
+            queues,
+        )
+        .map_err(|source| SimError::Rt { sm, source })?;
+        let prefetch = match cfg.mode.kind {
+            ModeKind::Baseline => false,
+            ModeKind::Prefetch => true,
+            ModeKind::Queues => cfg.mode.preload,
+        };
+        if prefetch {
+            rt = rt.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold));
+        }
+        if let Some((record, cycles)) = options.record_tables {
+            if record == sm && !rt.record_tables(cycles) {
+                return Err(SimError::Setup(format!(
+                    "cannot record the tables of SM {sm}: it needs mode.kind = \"queues\""
+                )));
+            }
+        }
+        let mut s = Sm::new(cta_slots, warps_per_cta);
+        if cfg.mode.virtualization {
+            s = s.with_virtualization(cfg.hw.max_rays as u64, cfg.gpu.threads_per_cta as u64);
+        }
+        let states = CtaStatePort::new(state_base, cfg.cta_state_bytes());
+        nodes.push(SmNode::new(sm, s, rt, states, port));
+    }
+    if let Some((sm, _)) = options.record_tables {
+        if sm >= nsms {
             return Err(SimError::Setup(format!(
-                "cannot record the tables of SM {sm}: it needs mode.kind = \"queues\" and an SM \
-                 below gpu.sms = {nsms}"
+                "cannot record the tables of SM {sm}: the GPU has gpu.sms = {nsms}"
             )));
         }
     }
-    let sm = |_| {
-        let sm = Sm::new(cta_slots, warps_per_cta);
-        if cfg.mode.virtualization {
-            sm.with_virtualization(cfg.hw.max_rays as u64, cfg.gpu.threads_per_cta as u64)
-        } else {
-            sm
-        }
-    };
-    let mut gpu = Gpu {
+    let ctx = Ctx {
         scene,
         cfg,
         settings,
         frame,
         timing: ShaderTiming::new(&cfg.gpu),
-        options,
-        scheduler,
-        sms: (0..nsms).map(sm).collect(),
-        rts,
-        states: (0..nsms)
-            .map(|_| CtaStatePort::new(state_base, cfg.cta_state_bytes()))
-            .collect(),
-        state_loads: Vec::new(),
-        mem: MemorySystem::new(&cfg.memory, nsms)?,
-        wake: vec![0; nsms],
-        awake: Vec::with_capacity(nsms),
-        watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
-        image: vec![Vec3::ZERO; settings.pixels()],
-        nonfinite: 0,
-        ray_log: Vec::new(),
-        rays_hit: 0,
-        time_series: Vec::new(),
-        next_sample: cfg.sim.sample_interval,
-        last_sample_loads: (0, 0),
-        pixels_done: 0,
-        stepped: 0,
+        record_rays: options.record_rays,
     };
     let start = Instant::now();
-    let cycles = gpu.run(progress)?;
+    let mut engine = Engine {
+        ctx: &ctx,
+        scheduler,
+        l2,
+        watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
+        progress,
+    };
+    let step = |node: &mut SmNode, p: &Round| node.run(&ctx, p.end, p.pending);
+    let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));
+    let cycles = cycles?;
+    for node in &mut nodes {
+        node.rt.catch_up(cycles);
+        node.finish_samples(cfg, cycles - 1);
+    }
     let wall = start.elapsed().as_secs_f64();
     let table_log = options
         .record_tables
-        .and_then(|(sm, _)| gpu.rts[sm].take_table_log());
-    let mut out = gpu.finish(cycles, wall, config_toml, bvh, spill.chunks);
+        .and_then(|(sm, _)| nodes[sm].rt.take_table_log());
+    let mut out = finish(Finished {
+        ctx: &ctx,
+        nodes: &nodes,
+        l2: &engine.l2,
+        cycles,
+        wall,
+        config: config_toml,
+        bvh,
+        stack_spill_chunks: spill.chunks,
+    });
     out.table_log = table_log;
     Ok(out)
 }
@@ -312,182 +296,157 @@ impl SpillLayout {
     }
 }
 
-impl Gpu<'_> {
-    /// Runs to the end; returns the cycle count.
-    fn run(&mut self, progress: Option<&indicatif::ProgressBar>) -> Result<u64, SimError> {
-        let mut now = 0u64;
+/// The parameter of a round of node visits.
+#[derive(Debug, Clone, Copy)]
+struct Round {
+    /// The end of the window (exclusive).
+    end: u64,
+    /// Whether CTAs are pending at the CTA scheduler.
+    pending: bool,
+}
+
+/// What the nodes share, and the loop over windows.
+struct Engine<'r, 'a> {
+    ctx: &'r Ctx<'a>,
+    scheduler: CtaScheduler,
+    l2: L2Side,
+    watchdog: Watchdog,
+    progress: Option<&'r indicatif::ProgressBar>,
+}
+
+/// The engine's view of the nodes between rounds.
+type Nodes<'w, 'a, F> = Workers<'w, SmNode<'a>, Round, F>;
+
+impl<'a> Engine<'_, 'a> {
+    /// Runs windows until the last SM falls idle with no CTA pending; returns the cycle count.
+    fn run<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+        &mut self,
+        nodes: &mut Nodes<'_, 'a, F>,
+    ) -> Result<u64, SimError> {
+        let cfg = self.ctx.cfg;
+        let window = L1Port::round_trip(&cfg.memory);
+        let mut start = 0u64;
         loop {
-            self.cycle(now)?;
-            self.stepped += 1;
-            if let Some(bar) = progress {
-                bar.set_position(self.pixels_done);
+            let end = start.saturating_add(window);
+            let pending = self.scheduler.pending() > 0;
+            for i in 0..nodes.len() {
+                nodes.item(i).mem.set_window_end(end);
             }
-            if self.finished() {
-                for rt in &mut self.rts {
-                    rt.catch_up(now + 1);
+            let due: Vec<bool> = (0..nodes.len()).map(|i| nodes.item(i).next < end).collect();
+            nodes.round(|i| due[i], Round { end, pending });
+            let ended = self.serve_halts(nodes, end)?;
+            self.settle(nodes, end);
+            if let Some(cycles) = ended {
+                return Ok(cycles);
+            }
+            if let Some(bar) = self.progress {
+                let done: usize = (0..nodes.len()).map(|i| nodes.item(i).pixels.len()).sum();
+                bar.set_position(done as u64);
+            }
+            let progress = (0..nodes.len())
+                .map(|i| nodes.item(i).last_progress)
+                .max()
+                .unwrap_or(0);
+            self.watchdog.progress(progress);
+            let next = (0..nodes.len())
+                .map(|i| nodes.item(i).next)
+                .min()
+                .unwrap_or(u64::MAX)
+                .max(end);
+            let deadline = self.watchdog.deadline();
+            if next >= deadline || end > deadline {
+                return Err(self.watchdog_error(nodes, deadline));
+            }
+            start = next;
+        }
+    }
+
+    /// Serves the nodes' halts of the window ending at `end` in cycle order, letting the
+    /// halted nodes go on after each, until every node has reached `end`. Returns the cycle
+    /// count when the run has ended.
+    fn serve_halts<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+        &mut self,
+        nodes: &mut Nodes<'_, 'a, F>,
+        end: u64,
+    ) -> Result<Option<u64>, SimError> {
+        loop {
+            // The first error in (cycle, SM) order among the nodes that ran.
+            let mut first: Option<(u64, usize)> = None;
+            for i in 0..nodes.len() {
+                if let Some((c, _)) = &nodes.item(i).error {
+                    if first.is_none_or(|(fc, _)| *c < fc) {
+                        first = Some((*c, i));
+                    }
                 }
-                return Ok(now + 1);
             }
-            let next = if self.cfg.sim.lockstep {
-                now + 1
-            } else {
-                self.next_event().unwrap_or(u64::MAX)
+            if let Some((_, i)) = first {
+                let (_, e) = nodes.item(i).error.take().expect("found above");
+                return Err(e);
+            }
+            let halts: Vec<Option<(u64, HaltKind)>> = (0..nodes.len())
+                .map(|i| nodes.item(i).halt.map(|h| (h.cycle, h.kind)))
+                .collect();
+            let Some(t) = halts.iter().flatten().map(|h| h.0).min() else {
+                return Ok(self.ended(nodes));
             };
-            let next = next.min(self.watchdog.deadline());
-            if self.watchdog.expired(next) {
-                return Err(self.watchdog_error(next));
+            // Every node is at cycle t or later: serve the CTA dispatch of cycle t.
+            let at = |i: usize, kind| halts[i] == Some((t, kind));
+            let dispatch: Vec<usize> = (0..nodes.len())
+                .filter(|&i| at(i, HaltKind::Dispatch))
+                .collect();
+            if !dispatch.is_empty() {
+                self.dispatch(nodes, t, &dispatch);
             }
-            now = next;
-        }
-    }
-
-    /// Whether every CTA has run and retired. (The SMs visited last are checked first: while
-    /// CTAs run, one of them is usually busy.)
-    fn finished(&self) -> bool {
-        self.scheduler.pending() == 0
-            && self.awake.iter().all(|&i| self.sms[i].is_idle())
-            && self.sms.iter().all(Sm::is_idle)
-    }
-
-    /// One cycle: visits the SMs whose wake cycle has come (every SM in lockstep, or when the
-    /// CTA dispatch runs), in index order, phase by phase, then records their next wake cycles.
-    fn cycle(&mut self, now: u64) -> Result<(), SimError> {
-        self.sample(now);
-        let lockstep = self.cfg.sim.lockstep;
-        // Which SMs are awake follows no pattern, so they are collected without a branch.
-        let mut awake = std::mem::take(&mut self.awake);
-        awake.resize(self.sms.len(), 0);
-        let mut len = 0;
-        for (i, &wake) in self.wake.iter().enumerate() {
-            awake[len] = i;
-            len += usize::from(lockstep || wake <= now);
-        }
-        awake.truncate(len);
-        for &i in &awake {
-            for cta in self.sms[i].run_timers(now) {
-                self.states[i].save(cta);
-            }
-        }
-        // An SM not visited could not dispatch after its last visit (its wake cycle would be
-        // the next one), and nothing but a visit or the dispatch changes that.
-        let pending = self.scheduler.pending() > 0;
-        if awake.iter().any(|&i| self.sms[i].can_dispatch(pending)) {
-            self.dispatch(now);
-            // It may have launched or resumed a CTA on any SM.
-            awake.clear();
-            awake.extend(0..self.sms.len());
-        }
-        for &i in &awake {
-            self.rts[i].collect_responses(now, i, &mut self.mem, &mut self.state_loads);
-            self.resume_loaded(now, i);
-        }
-        for &i in &awake {
-            self.step_rt(now, i, lockstep)?;
-        }
-        for &i in &awake {
-            match self.states[i].send(now, i, &mut self.mem)? {
-                StateSend::Idle => {}
-                StateSend::Accepted => self.watchdog.progress(now),
-                StateSend::Saved(id) => {
-                    self.watchdog.progress(now);
-                    self.sms[i].state_saved(id);
+            let pending = self.scheduler.pending() > 0;
+            // Visits of nodes idle for good happen only if the run goes on past cycle t: some
+            // CTA is pending, or some SM holds CTAs or fell idle at t or later.
+            let goes_on = pending
+                || (0..nodes.len()).any(|i| {
+                    let n = nodes.item(i);
+                    n.idle_since.is_none_or(|c| c >= t)
+                });
+            let mut go = vec![false; nodes.len()];
+            for i in 0..nodes.len() {
+                let mut n = nodes.item(i);
+                if halts[i].is_none_or(|(c, _)| c != t) {
+                    continue;
+                }
+                let idle = n.sm.is_idle() && !pending;
+                if goes_on || !idle {
+                    go[i] = true;
+                } else {
+                    // Beyond the end of the run: the visit never happens.
+                    n.halt = None;
+                    n.next = u64::MAX;
                 }
             }
+            nodes.round(|i| go[i], Round { end, pending });
         }
-        let pending = self.scheduler.pending() > 0;
-        for &i in &awake {
-            self.wake[i] = self.wake_cycle(now, i, pending);
-        }
-        debug_assert!(
-            (0..self.sms.len())
-                .all(|i| self.wake[i] <= now + 1 || self.quiet(self.wake[i] - 1, i, pending)),
-            "after cycle {now}, an SM has work before its wake cycle"
-        );
-        self.awake = awake;
-        Ok(())
     }
 
-    /// SM `sm`'s RT unit in cycle `now`: offered the SM's first ready warp, stepped if it has
-    /// work (always in `lockstep`), and its memory request offered to the L1.
-    fn step_rt(&mut self, now: u64, sm: usize, lockstep: bool) -> Result<(), SimError> {
-        let head = if self.rts[sm].issue_ready() {
-            self.sms[sm].peek_ready()
-        } else {
-            None
-        };
-        if lockstep || self.rts[sm].busy_at(now, head.is_some()) {
-            let rays: Vec<Option<Ray>> = head
-                .and_then(|w| self.sms[sm].warp(w))
-                .map(|w| {
-                    w.threads
-                        .iter()
-                        .map(|t| t.as_ref().map(PathThread::ray))
-                        .collect()
-                })
-                .unwrap_or_default();
-            let out = self.rts[sm]
-                .step(now, sm, head.map(|w| (w, rays.as_slice())))
-                .map_err(|e| self.locate(sm, e))?;
-            if out.accepted.is_some() {
-                self.sms[sm].issue_ready();
-            }
-            if let Some(done) = out.done {
-                self.watchdog.progress(now);
-                if let Some(done) = self.sms[sm].traversal_done(done) {
-                    self.shade(now, sm, done);
-                }
-            }
+    /// When every node has reached the end of the window: the cycle count if the run has ended
+    /// (no CTA pending and every SM idle: it ends after the cycle the last one fell idle).
+    fn ended<F>(&self, nodes: &Nodes<'_, 'a, F>) -> Option<u64> {
+        if self.scheduler.pending() > 0 {
+            return None;
         }
-        // Idle RT units are caught up lazily when next stepped.
-        if self.rts[sm].send(now, sm, &mut self.mem)? {
-            self.watchdog.progress(now);
+        let mut last = 0;
+        for i in 0..nodes.len() {
+            last = last.max(nodes.item(i).idle_since?);
         }
-        Ok(())
+        Some(last + 1)
     }
 
-    /// Adds the pixel of the ray an RT-unit error of SM `sm` names (from its SM warp and lane).
-    fn locate(&self, sm: usize, mut e: SimError) -> SimError {
-        if let SimError::RtUnit { fault, .. } = &mut e {
-            if let Some((w, l)) = fault.owner {
-                let thread = self.sms[sm]
-                    .warp(w)
-                    .and_then(|warp| warp.threads.get(l as usize))
-                    .and_then(|t| t.as_ref());
-                let width = self.settings.width.max(1);
-                fault.pixel = thread.map(|t| (t.pixel() % width, t.pixel() / width));
-            }
+    /// Hands pending CTAs out at cycle `t` to the nodes halted for them (`halted`, in index
+    /// order), round-robin over the SMs; new CTAs' warps trace after launch and raygen.
+    fn dispatch<F>(&mut self, nodes: &Nodes<'_, 'a, F>, t: u64, halted: &[usize]) {
+        let ctx = self.ctx;
+        let mut free = vec![0; nodes.len()];
+        for &i in halted {
+            free[i] = nodes.item(i).sm.launchable();
         }
-        e
-    }
-
-    /// Takes SM `sm`'s CTA-state load responses; a CTA whose state is back runs again and
-    /// shades the traversals its warps completed while it was suspended.
-    fn resume_loaded(&mut self, now: u64, sm: usize) {
-        let mut loads = std::mem::take(&mut self.state_loads);
-        for r in loads.drain(..) {
-            if let Some(id) = self.states[sm].loaded(&r) {
-                for done in self.sms[sm].state_restored(id) {
-                    self.shade(now, sm, done);
-                }
-            }
-        }
-        self.state_loads = loads;
-    }
-
-    /// Resumes CTAs ready to resume (their state loads are queued), then hands pending CTAs to
-    /// the slots left; new CTAs' warps trace after launch and raygen.
-    fn dispatch(&mut self, now: u64) {
-        for (sm, states) in self.sms.iter_mut().zip(&mut self.states) {
-            for cta in sm.resume() {
-                states.restore(cta);
-            }
-        }
-        if self.scheduler.pending() == 0 {
-            return;
-        }
-        let mut free: Vec<u32> = self.sms.iter().map(Sm::launchable).collect();
-        let start = now + self.cfg.gpu.cta_launch_cycles as u64 + self.timing.raygen;
-        let warp_size = self.cfg.gpu.warp_size as usize;
+        let start = t + ctx.cfg.gpu.cta_launch_cycles as u64 + ctx.timing.raygen;
+        let warp_size = ctx.cfg.gpu.warp_size as usize;
         for (sm, cta) in self.scheduler.dispatch(&mut free) {
             let pixels = self.scheduler.pixels(cta);
             let warps = pixels
@@ -495,292 +454,57 @@ impl Gpu<'_> {
                 .map(|chunk| {
                     chunk
                         .iter()
-                        .map(|p| p.map(|p| PathThread::new(&self.frame, &self.settings, p)))
+                        .map(|p| p.map(|p| PathThread::new(&ctx.frame, &ctx.settings, p)))
                         .collect()
                 })
                 .collect();
-            self.sms[sm].launch(cta, warps, start);
+            nodes.item(sm).sm.launch(cta, warps, start);
         }
     }
 
-    /// Runs the hit / miss shaders of a traced warp (of a running CTA) and schedules its next
-    /// trace or its end.
-    fn shade(&mut self, now: u64, sm: usize, done: TracedWarp) {
-        let Some(warp) = self.sms[sm].warp_mut(done.warp) else {
-            return;
-        };
-        let (mut any_hit, mut any_miss, mut again) = (false, false, false);
-        let mut finished = 0;
-        for (thread, hit) in warp.threads.iter_mut().zip(&done.hits) {
-            let (Some(t), Some(hit)) = (thread.as_mut(), hit) else {
-                continue;
-            };
-            if self.options.record_rays {
-                self.ray_log.push(TracedRay {
-                    pixel: t.pixel(),
-                    ray: t.ray(),
-                    hit: *hit,
-                });
-            }
-            any_hit |= hit.is_some();
-            any_miss |= hit.is_none();
-            self.rays_hit += u64::from(hit.is_some());
-            match t.on_hit(self.scene, &self.frame, &self.settings, *hit) {
-                ThreadStep::Trace => again = true,
-                ThreadStep::Finished {
-                    pixel,
-                    color,
-                    nonfinite,
-                } => {
-                    self.image[pixel as usize] = color;
-                    self.nonfinite += nonfinite;
-                    self.pixels_done += 1;
-                    finished += 1;
-                    *thread = None;
-                }
-            }
-        }
-        let until = now + self.timing.after_trace(any_hit, any_miss, again);
-        self.sms[sm].start_shading(done.warp, until, !again, finished);
-    }
-
-    /// The next cycle with work for some SM (every SM's wake cycle is after the current one).
-    fn next_event(&self) -> Option<u64> {
-        self.wake.iter().copied().min().filter(|&c| c != u64::MAX)
-    }
-
-    /// The next cycle after `now` at which SM `sm` has work if nothing but its own visits
-    /// changes it (`u64::MAX`: none): room for the CTA dispatch (with CTAs `pending` or ready
-    /// to resume) or a warp it can offer its RT unit (the next cycle), a shader timer, a memory
-    /// response, or work of its RT unit or CTA-state port.
-    fn wake_cycle(&self, now: u64, sm: usize, pending: bool) -> u64 {
-        let soon = now + 1;
-        let (s, rt) = (&self.sms[sm], &self.rts[sm]);
-        if s.can_dispatch(pending) || (s.peek_ready().is_some() && rt.issue_ready()) {
-            return soon;
-        }
-        let mut wake = u64::MAX;
-        if let Some(c) = s.next_timer() {
-            wake = c;
-        }
-        if let Some(c) = self.mem.next_response(sm) {
-            wake = wake.min(c);
-        }
-        wake = wake.max(soon);
-        if let Some(c) = rt.next_event(now) {
-            wake = wake.min(c);
-        }
-        if let Some(c) = self.states[sm].next_event(now) {
-            wake = wake.min(c);
-        }
-        wake
-    }
-
-    /// Whether visiting SM `sm` in cycle `now` (`now > 0`; CTAs `pending`) would do nothing if
-    /// nothing changes it meanwhile. Debug builds check after every cycle that each SM is quiet
-    /// until its wake cycle (the components' answers only grow with `now`, so checking the
-    /// cycle before it suffices).
-    fn quiet(&self, now: u64, sm: usize, pending: bool) -> bool {
-        let (s, rt) = (&self.sms[sm], &self.rts[sm]);
-        let before = now.saturating_sub(1);
-        s.next_timer().is_none_or(|c| c > now)
-            && self.mem.next_response(sm).is_none_or(|c| c > now)
-            && !s.can_dispatch(pending)
-            && !(s.peek_ready().is_some() && rt.issue_ready())
-            && !rt.busy_at(now, false)
-            && rt.next_event(before).is_none_or(|c| c > now)
-            && self.states[sm].next_event(before).is_none_or(|c| c > now)
-    }
-
-    /// Records the time-series samples due at the start of cycle `now`.
-    fn sample(&mut self, now: u64) {
-        let interval = self.cfg.sim.sample_interval;
-        if interval == 0 {
-            return;
-        }
-        while self.next_sample <= now {
-            let bvh = self.mem.stats().bvh;
-            let (loads, misses) = (
-                bvh.l1_loads - self.last_sample_loads.0,
-                bvh.l1_misses - self.last_sample_loads.1,
+    /// Applies the window's L2 operations of every node in (cycle, phase, SM, sequence) order
+    /// and settles their results into the nodes, which then know their next wake cycles.
+    fn settle<F>(&mut self, nodes: &Nodes<'_, 'a, F>, end: u64) {
+        let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
+        let mut order: Vec<((u64, u8, u32, u64), usize, usize)> = Vec::new();
+        for (i, g) in guards.iter().enumerate() {
+            order.extend(
+                g.mem
+                    .ops()
+                    .iter()
+                    .enumerate()
+                    .map(|(k, op)| (op.key(), i, k)),
             );
-            self.last_sample_loads = (bvh.l1_loads, bvh.l1_misses);
-            self.time_series.push(Sample {
-                cycle: self.next_sample,
-                bvh_l1_accesses: loads,
-                bvh_l1_misses: misses,
-                bvh_l1_miss_rate: ratio(misses, loads),
-                active_rays: self.rts.iter().map(RtPort::active_rays).sum(),
-            });
-            self.next_sample += interval;
+        }
+        order.sort_unstable_by_key(|&(key, _, _)| key);
+        for (_, i, k) in order {
+            let result = self.l2.apply(&guards[i].mem.ops()[k]);
+            guards[i].mem.set_result(k, result);
+        }
+        let pending = self.scheduler.pending() > 0;
+        let lockstep = self.ctx.cfg.sim.lockstep;
+        for g in &mut guards {
+            g.mem.settle();
+            g.settled(end, lockstep, pending);
         }
     }
 
-    /// The watchdog's error with every component's state.
-    fn watchdog_error(&self, cycle: u64) -> SimError {
+    /// The watchdog's error at cycle `cycle` with every component's state.
+    fn watchdog_error<F>(&self, nodes: &Nodes<'_, 'a, F>, cycle: u64) -> SimError {
         let mut dump = format!(
             "CTA scheduler: {} of {} CTAs not dispatched\n",
             self.scheduler.pending(),
             self.scheduler.total()
         );
-        for (i, ((sm, rt), states)) in self.sms.iter().zip(&self.rts).zip(&self.states).enumerate()
-        {
-            dump += &format!("SM {i}: {}\n  {}\n", sm.debug_state(), rt.debug_state());
-            if self.cfg.mode.virtualization {
-                dump += &format!("  {}\n", states.debug_state());
-            }
+        let virtualization = self.ctx.cfg.mode.virtualization;
+        for i in 0..nodes.len() {
+            dump += &nodes.item(i).debug_state(virtualization, cycle);
         }
-        dump += &self.mem.debug_state(cycle);
+        dump += &format!("memory: {}\n", self.l2.debug_state(cycle));
         SimError::Watchdog {
             cycle,
             last_progress: self.watchdog.last_progress(),
             dump,
         }
-    }
-
-    /// The statistics and image of a finished run.
-    fn finish(
-        self,
-        cycles: u64,
-        wall: f64,
-        config: String,
-        bvh: &HwBvh,
-        stack_spill_chunks: u32,
-    ) -> SimOutput {
-        let mut rt = RtTotals::default();
-        for port in &self.rts {
-            rt.add(port.hw_stats());
-        }
-        let mem = self.mem.stats();
-        let rays_issued: u64 = self.rts.iter().map(|r| r.rays_issued).sum();
-        let rays_completed: u64 = self.rts.iter().map(|r| r.rays_completed).sum();
-        let l2_misses = AccessClass::ALL
-            .iter()
-            .map(|&c| mem.class(c).l2_misses)
-            .sum();
-        let mut units = vec![
-            "cta_scheduler",
-            "sm",
-            "shader",
-            "rt_unit",
-            "rt_datapath.box",
-        ];
-        if bvh.header().triangle_leaves > 0 {
-            units.push("rt_datapath.triangle");
-        }
-        if bvh.has_procedural() {
-            units.push("rt_datapath.procedural");
-        }
-        match self.cfg.mode.kind {
-            ModeKind::Baseline => {}
-            ModeKind::Prefetch => units.push("prefetcher"),
-            ModeKind::Queues => {
-                units.extend([
-                    "treelet_controller",
-                    "treelet_count_table",
-                    "treelet_queue_table",
-                ]);
-                if self.cfg.mode.preload {
-                    units.push("treelet_preloader");
-                }
-            }
-        }
-        if self.cfg.mode.virtualization {
-            units.push("virtualization");
-        }
-        units.extend(["memory.l1", "memory.l2", "memory.dram"]);
-        let warp_size = self.cfg.hw.warp_size;
-        let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
-        let queues: Vec<&QueueObserver> = self.rts.iter().filter_map(RtPort::queue_stats).collect();
-        let phases = if queues.is_empty() {
-            Phases {
-                ray_stationary: PhaseStats {
-                    cycles,
-                    intersection_tests: rt.total_tests(),
-                },
-                ..Phases::default()
-            }
-        } else {
-            // Cycles: each SM's controller time per mode, averaged over the SMs.
-            let n = queues.len() as u64;
-            let phase = |f: &dyn Fn(&QueueObserver) -> (u64, u64)| {
-                let (c, t) = queues
-                    .iter()
-                    .map(|q| f(q))
-                    .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-                PhaseStats {
-                    cycles: c / n,
-                    intersection_tests: t,
-                }
-            };
-            Phases {
-                initial: phase(&|q| (q.counts.ctl.cycles_initial, q.tests[0])),
-                treelet_stationary: phase(&|q| (q.counts.ctl.cycles_treelet, q.tests[1])),
-                ray_stationary: phase(&|q| (q.counts.ctl.cycles_final, q.tests[2])),
-            }
-        };
-        let stats = SimStats {
-            scene: self.scene.name.clone(),
-            mode: self.cfg.mode.kind.name().to_string(),
-            cycles,
-            rays: rays_completed,
-            rays_issued,
-            rays_completed,
-            rays_hit: self.rays_hit,
-            ctas: self.sms.iter().map(|s| s.ctas_done).sum(),
-            simt_efficiency: simt,
-            bvh_l1_accesses: mem.bvh.l1_loads,
-            bvh_l1_misses: mem.bvh.l1_misses,
-            bvh_l1_merges: mem.bvh.l1_merges,
-            bvh_l1_miss_rate: ratio(mem.bvh.l1_misses, mem.bvh.l1_loads),
-            l2_misses,
-            dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
-            phases,
-            max_queues: queues.iter().map(|q| q.max_queues).max().unwrap_or(0),
-            max_queues_above_threshold: queues
-                .iter()
-                .map(|q| q.max_queues_above_threshold)
-                .max()
-                .unwrap_or(0),
-            count_table_evictions: queues.iter().map(|q| q.counts.ctl.evictions).sum(),
-            queue_table_spills: queues.iter().map(|q| q.counts.spills).sum(),
-            cta_suspends: self.sms.iter().map(|s| s.suspends).sum(),
-            cta_resumes: self.sms.iter().map(|s| s.resumes).sum(),
-            max_rays_in_flight: self.sms.iter().map(|s| s.max_in_flight).max().unwrap_or(0),
-            stack_spill_chunks: stack_spill_chunks as u64,
-            rt,
-            max_access_queue: self.rts.iter().map(|r| r.max_queue).max().unwrap_or(0),
-            queues: queues.iter().fold(QueueTotals::default(), |mut t, q| {
-                t.add(&q.counts);
-                t
-            }),
-            prefetches_issued: mem.prefetch.issued,
-            prefetches_used: mem.prefetch.used,
-            prefetches_unused_evicted: mem.prefetch.evicted_unused,
-            memory: mem,
-            time_series_samples: self.time_series.len() as u64,
-            active_units: units.into_iter().map(String::from).collect(),
-            config,
-            stepped_cycles: self.stepped,
-            sim_wall_seconds: wall,
-            simulated_rays_per_second: rays_completed as f64 / wall.max(1e-9),
-        };
-        SimOutput {
-            stats,
-            image: self.image,
-            nonfinite_samples: self.nonfinite,
-            time_series: self.time_series,
-            ray_log: self.ray_log,
-            table_log: None,
-        }
-    }
-}
-
-/// `num / den`, 0 when `den` is 0.
-fn ratio(num: u64, den: u64) -> f64 {
-    if den == 0 {
-        0.0
-    } else {
-        num as f64 / den as f64
     }
 }

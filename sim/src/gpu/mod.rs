@@ -17,6 +17,8 @@ pub mod cta_scheduler;
 pub mod datapath;
 pub mod engine;
 pub mod error;
+pub mod finish;
+pub mod node;
 pub mod prefetch;
 pub mod ray_memory;
 pub mod rt;
@@ -26,6 +28,7 @@ pub mod sm;
 pub mod stats;
 pub mod virtualization;
 pub mod watchdog;
+pub mod workers;
 
 pub use engine::{simulate, SimOptions, SimOutput, TracedRay};
 pub use stats::{SimStats, HOST_DEPENDENT_KEYS};

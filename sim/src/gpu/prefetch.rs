@@ -18,7 +18,7 @@ use vtq_hdl::rt_unit::CHUNK_BYTES;
 
 use crate::bvh::HwBvh;
 use crate::gpu::error::SimError;
-use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem};
+use crate::memory::{AccessClass, AccessError, L1Port, MemRequest};
 
 /// How many recently queued treelets are remembered (and not queued again).
 pub const HISTORY: usize = 4;
@@ -113,14 +113,14 @@ impl<'a> Prefetcher<'a> {
             .extend((base..end.next_multiple_of(step)).step_by(step as usize));
     }
 
-    /// Offers the next queued sector not already in SM `sm`'s L1 as a prefetch at cycle `now`
-    /// (the caller checks that no demand request goes to the L1 this cycle).
-    pub fn issue(&mut self, now: u64, sm: usize, mem: &mut MemorySystem) -> Result<(), SimError> {
+    /// Offers the next queued sector not already in the SM's L1 as a prefetch in phase `phase`
+    /// of cycle `now` (the caller checks that no demand request goes to the L1 this cycle).
+    pub fn issue(&mut self, now: u64, phase: u8, mem: &mut L1Port) -> Result<(), SimError> {
         if now < self.retry_at {
             return Ok(());
         }
         while let Some(&addr) = self.queue.front() {
-            if !mem.l1_contains(sm, addr) {
+            if !mem.l1_contains(addr) {
                 break;
             }
             self.queue.pop_front();
@@ -128,7 +128,7 @@ impl<'a> Prefetcher<'a> {
         let Some(&addr) = self.queue.front() else {
             return Ok(());
         };
-        match mem.access(now, sm, MemRequest::prefetch(addr, AccessClass::Bvh)) {
+        match mem.access(now, phase, MemRequest::prefetch(addr, AccessClass::Bvh)) {
             Ok(_) => {
                 self.queue.pop_front();
                 Ok(())
@@ -139,6 +139,11 @@ impl<'a> Prefetcher<'a> {
             }
             Err(e) => Err(SimError::Memory(e)),
         }
+    }
+
+    /// After the L1's window was settled: makes a deferred stall's retry cycle real.
+    pub fn settle_retry(&mut self, mem: &L1Port) {
+        self.retry_at = mem.resolve_retry(self.retry_at);
     }
 
     /// The next cycle after `now` at which a queued prefetch may be offered, if any.

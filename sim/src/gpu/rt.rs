@@ -31,7 +31,7 @@ use crate::gpu::error::SimError;
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::gpu::rt_fault::RtFault;
-use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem, Response};
+use crate::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
 
 /// Tag bit marking a ray-record load's response; below it, the ray id (bits 16 and up) and the
 /// warp-buffer slot of the fill (bits 0-15).
@@ -366,14 +366,8 @@ impl<'a> RtPort<'a> {
     /// chunks and stack fills) or, for ray-record loads, to the next step's inputs with the
     /// record from the store. CTA-state loads (ray virtualization) are the SM's: they go to
     /// `cta_state`.
-    pub fn collect_responses(
-        &mut self,
-        now: u64,
-        sm: usize,
-        mem: &mut MemorySystem,
-        cta_state: &mut Vec<Response>,
-    ) {
-        for r in mem.pop_ready(sm, now) {
+    pub fn collect_responses(&mut self, now: u64, mem: &mut L1Port, cta_state: &mut Vec<Response>) {
+        for r in mem.pop_ready(now) {
             if r.store {
                 continue;
             }
@@ -707,20 +701,21 @@ impl<'a> RtPort<'a> {
         Ok(cycle)
     }
 
-    /// Offers the head of the memory access queue to the L1 (one request per cycle); returns
-    /// whether one was accepted. With the queue empty (no demand request this cycle) the
-    /// prefetcher, if any, may offer one prefetch instead (not counted as accepted).
-    pub fn send(&mut self, now: u64, sm: usize, mem: &mut MemorySystem) -> Result<bool, SimError> {
+    /// Offers the head of the memory access queue to the SM's L1 in phase `phase` of cycle
+    /// `now` (one request per cycle); returns whether one was accepted. With the queue empty
+    /// (no demand request this cycle) the prefetcher, if any, may offer one prefetch instead
+    /// (not counted as accepted).
+    pub fn send(&mut self, now: u64, phase: u8, mem: &mut L1Port) -> Result<bool, SimError> {
         let Some(&req) = self.requests.front() else {
             if let Some(p) = self.prefetcher.as_mut() {
-                p.issue(now, sm, mem)?;
+                p.issue(now, phase, mem)?;
             }
             return Ok(false);
         };
         if now < self.retry_at {
             return Ok(false);
         }
-        match mem.access(now, sm, req) {
+        match mem.access(now, phase, req) {
             Ok(_) => {
                 self.requests.pop_front();
                 Ok(true)
@@ -730,6 +725,15 @@ impl<'a> RtPort<'a> {
                 Ok(false)
             }
             Err(e) => Err(SimError::Memory(e)),
+        }
+    }
+
+    /// After the L1's window was settled: makes a deferred stall's retry cycle real (here and
+    /// in the prefetcher).
+    pub fn settle_retries(&mut self, mem: &L1Port) {
+        self.retry_at = mem.resolve_retry(self.retry_at);
+        if let Some(p) = self.prefetcher.as_mut() {
+            p.settle_retry(mem);
         }
     }
 

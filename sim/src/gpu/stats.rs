@@ -12,11 +12,8 @@ use crate::memory::MemStats;
 
 /// Keys of [`SimStats`] that depend on the host or on the engine's stepping mode rather than on
 /// the simulated machine; runs of one configuration agree on every other key.
-pub const HOST_DEPENDENT_KEYS: [&str; 3] = [
-    "sim_wall_seconds",
-    "simulated_rays_per_second",
-    "stepped_cycles",
-];
+pub const HOST_DEPENDENT_KEYS: [&str; 3] =
+    ["sim_wall_seconds", "simulated_rays_per_second", "sm_visits"];
 
 /// Cycles and intersection tests of one traversal phase (paper section 6.4).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -244,9 +241,10 @@ pub struct SimStats {
     pub active_units: Vec<String>,
     /// The effective configuration (TOML).
     pub config: String,
-    /// Cycles the engine evaluated (all of them in lockstep mode; fewer when idle cycles are
-    /// skipped). Host dependent: see [`HOST_DEPENDENT_KEYS`].
-    pub stepped_cycles: u64,
+    /// (SM, cycle) pairs the engine evaluated (every cycle of every SM holding work in lockstep
+    /// mode; far fewer when idle cycles are skipped). Engine dependent: see
+    /// [`HOST_DEPENDENT_KEYS`].
+    pub sm_visits: u64,
     /// Wall-clock seconds of the simulation loop. Host dependent.
     pub sim_wall_seconds: f64,
     /// `rays / sim_wall_seconds`. Host dependent.

@@ -19,7 +19,7 @@ use vtq_hdl::rt_unit::CHUNK_BYTES;
 
 use crate::gpu::error::SimError;
 use crate::gpu::sm::CtaRef;
-use crate::memory::{AccessClass, AccessError, MemRequest, MemorySystem, Response};
+use crate::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
 
 /// One queued CTA-state access.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,20 +116,15 @@ impl CtaStatePort {
         self.loads_left.insert(r.id, n);
     }
 
-    /// Offers the head of the queue to SM `sm`'s L1 at cycle `now`.
-    pub fn send(
-        &mut self,
-        now: u64,
-        sm: usize,
-        mem: &mut MemorySystem,
-    ) -> Result<StateSend, SimError> {
+    /// Offers the head of the queue to the SM's L1 in phase `phase` of cycle `now`.
+    pub fn send(&mut self, now: u64, phase: u8, mem: &mut L1Port) -> Result<StateSend, SimError> {
         let Some(&head) = self.queue.front() else {
             return Ok(StateSend::Idle);
         };
         if now < self.retry_at {
             return Ok(StateSend::Idle);
         }
-        match mem.access(now, sm, head.req) {
+        match mem.access(now, phase, head.req) {
             Ok(_) => {
                 self.queue.pop_front();
                 Ok(if head.last_store {
@@ -180,7 +175,7 @@ impl CtaStatePort {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::memory::MemConfig;
+    use crate::memory::{MemConfig, MemorySystem};
 
     #[test]
     fn a_cta_state_moves_as_32_byte_accesses_covering_its_bytes() {
@@ -198,22 +193,27 @@ mod tests {
 
     #[test]
     fn saves_report_the_last_store_and_restores_the_last_load() {
-        let mut mem = MemorySystem::new(&MemConfig::default(), 1).unwrap();
+        let (mut ports, mut l2) = MemorySystem::new(&MemConfig::default(), 1)
+            .unwrap()
+            .into_parts();
+        let mem = &mut ports[0];
         let mut port = CtaStatePort::new(0, 40);
         let r = CtaRef { id: 1, cta: 0 };
         port.save(r);
         port.restore(r);
         assert_eq!(port.next_event(5), Some(6));
-        assert_eq!(port.send(0, 0, &mut mem).unwrap(), StateSend::Accepted);
-        assert_eq!(port.send(1, 0, &mut mem).unwrap(), StateSend::Saved(1));
-        assert_eq!(port.send(2, 0, &mut mem).unwrap(), StateSend::Accepted);
-        assert_eq!(port.send(3, 0, &mut mem).unwrap(), StateSend::Accepted);
-        assert_eq!(port.send(4, 0, &mut mem).unwrap(), StateSend::Idle);
+        assert_eq!(port.send(0, 0, mem).unwrap(), StateSend::Accepted);
+        assert_eq!(port.send(1, 0, mem).unwrap(), StateSend::Saved(1));
+        assert_eq!(port.send(2, 0, mem).unwrap(), StateSend::Accepted);
+        assert_eq!(port.send(3, 0, mem).unwrap(), StateSend::Accepted);
+        assert_eq!(port.send(4, 0, mem).unwrap(), StateSend::Idle);
         assert_eq!(port.next_event(4), None);
-        let loads: Vec<Response> = mem
-            .pop_ready(0, u64::MAX >> 4)
-            .filter(|r| !r.store)
-            .collect();
+        for k in 0..mem.ops().len() {
+            let result = l2.apply(&mem.ops()[k]);
+            mem.set_result(k, result);
+        }
+        mem.settle();
+        let loads: Vec<Response> = mem.pop_ready(u64::MAX >> 4).filter(|r| !r.store).collect();
         assert_eq!(loads.len(), 2);
         assert_eq!(port.loaded(&loads[0]), None);
         assert_eq!(port.loaded(&loads[1]), Some(1));

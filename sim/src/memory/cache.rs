@@ -321,6 +321,44 @@ impl SectorCache {
         evicted
     }
 
+    /// Sets the fill cycle of sector `sector` of `line` to `ready_at` if it is `placeholder`
+    /// (a fill installed before its cycle was known), and the line's reservation to the latest
+    /// fill of its valid sectors. A line being filled is never evicted, so it is still there.
+    pub fn settle_fill(&mut self, line: u64, sector: u32, placeholder: u64, ready_at: u64) {
+        let Some(Slot(s)) = self.lookup(line) else {
+            debug_assert!(false, "a line being filled was evicted");
+            return;
+        };
+        let sectors = self.sectors;
+        let ready = &mut self.ready[s * sectors..(s + 1) * sectors];
+        if ready[sector as usize] == placeholder {
+            ready[sector as usize] = ready_at;
+        }
+        let valid = self.slots[s].valid;
+        self.slots[s].pending_until = (0..sectors)
+            .filter(|&k| valid & (1 << k) != 0)
+            .map(|k| ready[k])
+            .max()
+            .unwrap_or(0);
+    }
+
+    /// For each line of `line`'s set in the allowed `ways` (all present: called when
+    /// [`find_slot`](Self::find_slot) found every candidate being filled), the fill cycles of
+    /// its valid sectors: the line is free once all have passed.
+    pub fn candidate_fills(&self, line: u64, ways: Range<u32>) -> Vec<Vec<u64>> {
+        let set = (line % u64::from(self.geometry.sets)) as usize;
+        let base = set * self.ways;
+        ((base + ways.start as usize)..(base + ways.end as usize))
+            .map(|s| {
+                let valid = self.slots[s].valid;
+                (0..self.sectors)
+                    .filter(|&k| valid & (1 << k) != 0)
+                    .map(|k| self.ready[s * self.sectors + k])
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Marks sector `sector` of the line in `slot` dirty if it is valid.
     #[inline]
     pub fn mark_dirty(&mut self, slot: Slot, sector: u32) {

@@ -6,7 +6,12 @@
 //! - [`cache`]: [`SectorCache`], the tag store of one cache: lines of `line_bytes` (128) with
 //!   valid bits per `sector_bytes` (32) sector, LRU, lines being filled never evicted.
 //! - [`dram`]: [`DramChannel`], fixed latency plus a byte-exact bandwidth limit.
-//! - [`system`]: [`MemorySystem`], which composes them and queues responses per SM.
+//! - [`l1`]: [`L1Port`], one SM's L1, MSHRs and responses, whose L2 operations may be applied
+//!   later in a fixed order ([`L2Op::key`]) so SMs can be simulated independently between
+//!   synchronisation points.
+//! - [`l2`]: [`L2Side`], the shared L2 and DRAM channel.
+//! - [`system`]: [`MemorySystem`], the ports and the L2 with every L2 operation applied as it
+//!   is accepted.
 //! - [`responses`]: [`ResponseQueue`], one SM's undelivered responses in delivery order.
 //! - [`request`] and [`stats`]: requests, responses, stalls, errors and counters.
 //!
@@ -67,6 +72,8 @@
 pub mod cache;
 pub mod config;
 pub mod dram;
+pub mod l1;
+pub mod l2;
 pub mod request;
 pub mod responses;
 pub mod stats;
@@ -75,6 +82,8 @@ pub mod system;
 pub use cache::{SectorCache, SectorState};
 pub use config::{MemConfig, MemConfigError};
 pub use dram::DramChannel;
+pub use l1::{Acceptance, L1Port};
+pub use l2::{L2Op, L2Side};
 pub use request::{
     Accepted, AccessClass, AccessError, MemRequest, Response, Source, Stall, StallReason,
 };

@@ -117,3 +117,39 @@ impl MemStats {
         }
     }
 }
+
+impl MemStats {
+    /// Adds `other`'s counters to these (an L1 port's and the L2's make the whole system's).
+    pub fn add(&mut self, other: &MemStats) {
+        for class in AccessClass::ALL {
+            let (a, b) = (self.class_mut(class), other.class(class));
+            a.l1_loads += b.l1_loads;
+            a.l1_hits += b.l1_hits;
+            a.l1_merges += b.l1_merges;
+            a.l1_misses += b.l1_misses;
+            a.l1_stores += b.l1_stores;
+            a.l1_store_hits += b.l1_store_hits;
+            a.l1_bypasses += b.l1_bypasses;
+            a.l2_accesses += b.l2_accesses;
+            a.l2_hits += b.l2_hits;
+            a.l2_merges += b.l2_merges;
+            a.l2_misses += b.l2_misses;
+            a.dram_reads += b.dram_reads;
+        }
+        let (p, q) = (&mut self.prefetch, &other.prefetch);
+        p.requests += q.requests;
+        p.dropped += q.dropped;
+        p.issued += q.issued;
+        p.used += q.used;
+        p.evicted_unused += q.evicted_unused;
+        let (d, e) = (&mut self.dram, &other.dram);
+        d.reads += e.reads;
+        d.writes += e.writes;
+        d.read_bytes += e.read_bytes;
+        d.write_bytes += e.write_bytes;
+        d.queue_cycles += e.queue_cycles;
+        self.mshr_stalls += other.mshr_stalls;
+        self.set_stalls += other.set_stalls;
+        self.l2_no_allocate += other.l2_no_allocate;
+    }
+}

@@ -43,18 +43,28 @@ pub fn setup(name: &str, cfg: &SimConfig) -> (Scene, HwBvh) {
 
 /// A simulation that records every ray and its hit.
 pub fn run(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> SimOutput {
+    run_threads(scene, bvh, cfg, 1)
+}
+
+/// [`run`] on `threads` threads.
+pub fn run_threads(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig, threads: usize) -> SimOutput {
     simulate(
         scene,
         bvh,
         cfg,
         SimOptions {
             record_rays: true,
+            threads,
             ..SimOptions::default()
         },
         None,
     )
     .expect("simulation runs")
 }
+
+/// Thread counts every design is checked with: one, the machine's two cores, an odd count and
+/// more threads than SMs.
+pub const THREAD_COUNTS: [usize; 4] = [1, 2, 3, 16];
 
 /// A hit as bits, so comparisons are exact (and NaN-proof).
 pub fn hit_bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
@@ -109,17 +119,30 @@ pub fn check_scene_against_functional(scene: &Scene, bvh: &HwBvh, cfg: &SimConfi
     out
 }
 
-/// Runs the cornell box twice with `cfg` and checks both runs give identical statistics (but
-/// for host-dependent keys), time series, ray logs and images. Returns the first run.
+/// Runs the cornell box twice with `cfg` on one thread, then on each of [`THREAD_COUNTS`], and
+/// checks every run gives identical statistics (but for host-dependent keys), time series, ray
+/// logs and images. Returns the first run.
 pub fn check_deterministic(cfg: &SimConfig) -> SimOutput {
     let (scene, bvh) = setup("cornell", cfg);
     let a = run(&scene, &bvh, cfg);
-    let b = run(&scene, &bvh, cfg);
-    assert_eq!(comparable_json(&a.stats), comparable_json(&b.stats));
-    assert_eq!(a.time_series, b.time_series);
-    assert_eq!(a.ray_log, b.ray_log);
-    assert_eq!(image_bits(&a.image), image_bits(&b.image));
+    for threads in [1].into_iter().chain(THREAD_COUNTS) {
+        let b = run_threads(&scene, &bvh, cfg, threads);
+        check_identical(&a, &b, &format!("{threads} thread(s)"));
+    }
     a
+}
+
+/// Checks two runs gave identical statistics (but for host-dependent keys), time series, ray
+/// logs and images.
+pub fn check_identical(a: &SimOutput, b: &SimOutput, what: &str) {
+    assert_eq!(
+        comparable_json(&a.stats),
+        comparable_json(&b.stats),
+        "statistics, {what}"
+    );
+    assert_eq!(a.time_series, b.time_series, "time series, {what}");
+    assert!(a.ray_log == b.ray_log, "ray log, {what}");
+    assert_eq!(image_bits(&a.image), image_bits(&b.image), "image, {what}");
 }
 
 /// Checks that two runs of one workload on different designs (or timing settings) traced the
@@ -179,9 +202,12 @@ pub fn check_scene_skip_matches_lockstep(
     assert_eq!(strip(&skip), strip(&lock));
     assert_eq!(skip.time_series, lock.time_series);
     assert!(!skip.time_series.is_empty());
-    assert_eq!(lock.stats.stepped_cycles, lock.stats.cycles);
     assert!(
-        skip.stats.stepped_cycles < skip.stats.cycles,
+        lock.stats.sm_visits >= lock.stats.cycles,
+        "lockstep visits every cycle"
+    );
+    assert!(
+        skip.stats.sm_visits < lock.stats.sm_visits,
         "idle cycles were skipped"
     );
     (skip, lock)

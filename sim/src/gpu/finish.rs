@@ -1,0 +1,223 @@
+//! The end of a run: the statistics ([`SimStats`]), image, time series and ray log of the
+//! whole GPU, summed over its SM nodes and the L2.
+
+use glam::Vec3;
+
+use crate::bvh::HwBvh;
+use crate::config::ModeKind;
+use crate::gpu::engine::SimOutput;
+use crate::gpu::node::{Ctx, SmNode};
+use crate::gpu::rt::QueueObserver;
+use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
+use crate::memory::{AccessClass, L2Side};
+
+/// What [`finish`] needs of a run that ended.
+pub struct Finished<'r, 'a> {
+    /// The run's shared context.
+    pub ctx: &'r Ctx<'a>,
+    /// The SM nodes, by index.
+    pub nodes: &'r [SmNode<'a>],
+    /// The L2 and DRAM.
+    pub l2: &'r L2Side,
+    /// Cycles the run took.
+    pub cycles: u64,
+    /// Wall-clock seconds of the simulation loop.
+    pub wall: f64,
+    /// The configuration as TOML.
+    pub config: String,
+    /// The BVH.
+    pub bvh: &'r HwBvh,
+    /// Chunks of each ray stack's spill area.
+    pub stack_spill_chunks: u32,
+}
+
+/// The statistics, image, time series and ray log of a run that ended after `cycles` cycles
+/// (`wall` seconds), from its nodes and the L2 (`config`: the configuration as TOML).
+pub fn finish(run: Finished<'_, '_>) -> SimOutput {
+    let Finished {
+        ctx,
+        nodes,
+        l2,
+        cycles,
+        wall,
+        config,
+        bvh,
+        stack_spill_chunks,
+    } = run;
+    let cfg = ctx.cfg;
+    let mut rt = RtTotals::default();
+    let mut mem = *l2.stats();
+    for node in nodes {
+        rt.add(node.rt.hw_stats());
+        mem.add(node.mem.stats());
+    }
+    let rays_issued: u64 = nodes.iter().map(|n| n.rt.rays_issued).sum();
+    let rays_completed: u64 = nodes.iter().map(|n| n.rt.rays_completed).sum();
+    let l2_misses = AccessClass::ALL
+        .iter()
+        .map(|&c| mem.class(c).l2_misses)
+        .sum();
+    let mut units = vec![
+        "cta_scheduler",
+        "sm",
+        "shader",
+        "rt_unit",
+        "rt_datapath.box",
+    ];
+    if bvh.header().triangle_leaves > 0 {
+        units.push("rt_datapath.triangle");
+    }
+    if bvh.has_procedural() {
+        units.push("rt_datapath.procedural");
+    }
+    match cfg.mode.kind {
+        ModeKind::Baseline => {}
+        ModeKind::Prefetch => units.push("prefetcher"),
+        ModeKind::Queues => {
+            units.extend([
+                "treelet_controller",
+                "treelet_count_table",
+                "treelet_queue_table",
+            ]);
+            if cfg.mode.preload {
+                units.push("treelet_preloader");
+            }
+        }
+    }
+    if cfg.mode.virtualization {
+        units.push("virtualization");
+    }
+    units.extend(["memory.l1", "memory.l2", "memory.dram"]);
+    let warp_size = cfg.hw.warp_size;
+    let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
+    let queues: Vec<&QueueObserver> = nodes.iter().filter_map(|n| n.rt.queue_stats()).collect();
+    let phases = if queues.is_empty() {
+        Phases {
+            ray_stationary: PhaseStats {
+                cycles,
+                intersection_tests: rt.total_tests(),
+            },
+            ..Phases::default()
+        }
+    } else {
+        // Cycles: each SM's controller time per mode, averaged over the SMs.
+        let n = queues.len() as u64;
+        let phase = |f: &dyn Fn(&QueueObserver) -> (u64, u64)| {
+            let (c, t) = queues
+                .iter()
+                .map(|q| f(q))
+                .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+            PhaseStats {
+                cycles: c / n,
+                intersection_tests: t,
+            }
+        };
+        Phases {
+            initial: phase(&|q| (q.counts.ctl.cycles_initial, q.tests[0])),
+            treelet_stationary: phase(&|q| (q.counts.ctl.cycles_treelet, q.tests[1])),
+            ray_stationary: phase(&|q| (q.counts.ctl.cycles_final, q.tests[2])),
+        }
+    };
+    let mut image = vec![Vec3::ZERO; ctx.settings.pixels()];
+    for node in nodes {
+        for &(pixel, color) in &node.pixels {
+            image[pixel as usize] = color;
+        }
+    }
+    let time_series = time_series(cfg.sim.sample_interval, cycles, nodes);
+    let mut log: Vec<_> = nodes
+        .iter()
+        .flat_map(|n| n.ray_log.iter().copied())
+        .collect();
+    log.sort_by_key(|&(key, _)| key);
+    let ray_log = log.into_iter().map(|(_, ray)| ray).collect();
+    let stats = SimStats {
+        scene: ctx.scene.name.clone(),
+        mode: cfg.mode.kind.name().to_string(),
+        cycles,
+        rays: rays_completed,
+        rays_issued,
+        rays_completed,
+        rays_hit: nodes.iter().map(|n| n.rays_hit).sum(),
+        ctas: nodes.iter().map(|n| n.sm.ctas_done).sum(),
+        simt_efficiency: simt,
+        bvh_l1_accesses: mem.bvh.l1_loads,
+        bvh_l1_misses: mem.bvh.l1_misses,
+        bvh_l1_merges: mem.bvh.l1_merges,
+        bvh_l1_miss_rate: ratio(mem.bvh.l1_misses, mem.bvh.l1_loads),
+        l2_misses,
+        dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
+        phases,
+        max_queues: queues.iter().map(|q| q.max_queues).max().unwrap_or(0),
+        max_queues_above_threshold: queues
+            .iter()
+            .map(|q| q.max_queues_above_threshold)
+            .max()
+            .unwrap_or(0),
+        count_table_evictions: queues.iter().map(|q| q.counts.ctl.evictions).sum(),
+        queue_table_spills: queues.iter().map(|q| q.counts.spills).sum(),
+        cta_suspends: nodes.iter().map(|n| n.sm.suspends).sum(),
+        cta_resumes: nodes.iter().map(|n| n.sm.resumes).sum(),
+        max_rays_in_flight: nodes.iter().map(|n| n.sm.max_in_flight).max().unwrap_or(0),
+        stack_spill_chunks: stack_spill_chunks as u64,
+        rt,
+        max_access_queue: nodes.iter().map(|n| n.rt.max_queue).max().unwrap_or(0),
+        queues: queues.iter().fold(QueueTotals::default(), |mut t, q| {
+            t.add(&q.counts);
+            t
+        }),
+        prefetches_issued: mem.prefetch.issued,
+        prefetches_used: mem.prefetch.used,
+        prefetches_unused_evicted: mem.prefetch.evicted_unused,
+        memory: mem,
+        time_series_samples: time_series.len() as u64,
+        active_units: units.into_iter().map(String::from).collect(),
+        config,
+        sm_visits: nodes.iter().map(|n| n.visits).sum(),
+        sim_wall_seconds: wall,
+        simulated_rays_per_second: rays_completed as f64 / wall.max(1e-9),
+    };
+    SimOutput {
+        stats,
+        image,
+        nonfinite_samples: nodes.iter().map(|n| n.nonfinite).sum(),
+        time_series,
+        ray_log,
+        table_log: None,
+    }
+}
+
+/// The time series: at every multiple of `interval` before `cycles`, the BVH L1 accesses and
+/// misses since the previous sample and the rays traversing, summed over the nodes.
+fn time_series(interval: u64, cycles: u64, nodes: &[SmNode]) -> Vec<Sample> {
+    if interval == 0 {
+        return Vec::new();
+    }
+    let n = ((cycles - 1) / interval) as usize;
+    let mut out = Vec::with_capacity(n);
+    let (mut loads, mut misses) = (0u64, 0u64);
+    for k in 0..n {
+        let (l, m, active) = nodes.iter().fold((0, 0, 0), |(l, m, a), node| {
+            let s = node.samples[k];
+            (l + s.bvh_l1_loads, m + s.bvh_l1_misses, a + s.active_rays)
+        });
+        out.push(Sample {
+            cycle: (k as u64 + 1) * interval,
+            bvh_l1_accesses: l - loads,
+            bvh_l1_misses: m - misses,
+            bvh_l1_miss_rate: ratio(m - misses, l - loads),
+            active_rays: active,
+        });
+        (loads, misses) = (l, m);
+    }
+    out
+}
+
+/// `num / den`, 0 when `den` is 0.
+fn ratio(num: u64, den: u64) -> f64 {
+    if den == 0 {
+        0.0
+    } else {
+        num as f64 / den as f64
+    }
+}
