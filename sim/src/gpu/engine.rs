@@ -222,7 +222,7 @@ pub fn simulate(
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         progress,
     };
-    let step = |node: &mut SmNode, p: &Round| node.run(&ctx, p.end, p.pending);
+    let step = |node: &mut SmNode, round: &Round| step_node(&ctx, node, round);
     let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));
     let cycles = cycles?;
     for node in &mut nodes {
@@ -303,6 +303,8 @@ struct Round {
     end: u64,
     /// Whether CTAs are pending at the CTA scheduler.
     pending: bool,
+    /// The first round of the window: nodes settle the last window and begin this one.
+    begin: bool,
 }
 
 /// What the nodes share, and the loop over windows.
@@ -317,42 +319,38 @@ struct Engine<'r, 'a> {
 /// The engine's view of the nodes between rounds.
 type Nodes<'w, 'a, F> = Workers<'w, SmNode<'a>, Round, F>;
 
+/// One round of node visits (run on any thread).
+fn step_node(ctx: &Ctx, node: &mut SmNode, round: &Round) {
+    if round.begin {
+        node.begin_window(ctx, round.end, round.pending);
+    }
+    node.run(ctx, round.end, round.pending);
+}
+
 impl<'a> Engine<'_, 'a> {
     /// Runs windows until the last SM falls idle with no CTA pending; returns the cycle count.
     fn run<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
         &mut self,
         nodes: &mut Nodes<'_, 'a, F>,
     ) -> Result<u64, SimError> {
-        let cfg = self.ctx.cfg;
-        let window = L1Port::round_trip(&cfg.memory);
+        let window = L1Port::round_trip(&self.ctx.cfg.memory);
         let mut start = 0u64;
         loop {
             let end = start.saturating_add(window);
             let pending = self.scheduler.pending() > 0;
-            for i in 0..nodes.len() {
-                nodes.item(i).mem.set_window_end(end);
-            }
-            let due: Vec<bool> = (0..nodes.len()).map(|i| nodes.item(i).next < end).collect();
-            nodes.round(|i| due[i], Round { end, pending });
+            nodes.round(
+                |_| true,
+                Round {
+                    end,
+                    pending,
+                    begin: true,
+                },
+            );
             let ended = self.serve_halts(nodes, end)?;
-            self.settle(nodes, end);
+            let next = self.apply_l2(nodes, end);
             if let Some(cycles) = ended {
                 return Ok(cycles);
             }
-            if let Some(bar) = self.progress {
-                let done: usize = (0..nodes.len()).map(|i| nodes.item(i).pixels.len()).sum();
-                bar.set_position(done as u64);
-            }
-            let progress = (0..nodes.len())
-                .map(|i| nodes.item(i).last_progress)
-                .max()
-                .unwrap_or(0);
-            self.watchdog.progress(progress);
-            let next = (0..nodes.len())
-                .map(|i| nodes.item(i).next)
-                .min()
-                .unwrap_or(u64::MAX)
-                .max(end);
             let deadline = self.watchdog.deadline();
             if next >= deadline || end > deadline {
                 return Err(self.watchdog_error(nodes, deadline));
@@ -420,7 +418,14 @@ impl<'a> Engine<'_, 'a> {
                     n.next = u64::MAX;
                 }
             }
-            nodes.round(|i| go[i], Round { end, pending });
+            nodes.round(
+                |i| go[i],
+                Round {
+                    end,
+                    pending,
+                    begin: false,
+                },
+            );
         }
     }
 
@@ -463,30 +468,40 @@ impl<'a> Engine<'_, 'a> {
     }
 
     /// Applies the window's L2 operations of every node in (cycle, phase, SM, sequence) order
-    /// and settles their results into the nodes, which then know their next wake cycles.
-    fn settle<F>(&mut self, nodes: &Nodes<'_, 'a, F>, end: u64) {
+    /// (the nodes settle the results when the next window begins), advances the progress bar
+    /// and the watchdog, and returns the earliest cycle at which a node may have work: its
+    /// next visit or a response from this window (the window end if a stall's retry cycle is
+    /// still unknown).
+    fn apply_l2<F>(&mut self, nodes: &Nodes<'_, 'a, F>, end: u64) -> u64 {
         let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
         let mut order: Vec<((u64, u8, u32, u64), usize, usize)> = Vec::new();
         for (i, g) in guards.iter().enumerate() {
-            order.extend(
-                g.mem
-                    .ops()
-                    .iter()
-                    .enumerate()
-                    .map(|(k, op)| (op.key(), i, k)),
-            );
+            order.extend(g.mem.ops().iter().enumerate().map(|(k, op)| (op.key(), i, k)));
         }
         order.sort_unstable_by_key(|&(key, _, _)| key);
         for (_, i, k) in order {
             let result = self.l2.apply(&guards[i].mem.ops()[k]);
             guards[i].mem.set_result(k, result);
         }
-        let pending = self.scheduler.pending() > 0;
-        let lockstep = self.ctx.cfg.sim.lockstep;
+        let mut next = u64::MAX;
+        let (mut pixels, mut progress) = (0, 0);
         for g in &mut guards {
-            g.mem.settle();
-            g.settled(end, lockstep, pending);
+            g.unsettled = Some(end);
+            next = next.min(g.next);
+            if let Some(c) = g.mem.earliest_result() {
+                next = next.min(c);
+            }
+            if g.mem.has_deferred_stall() {
+                next = end;
+            }
+            pixels += g.pixels.len();
+            progress = progress.max(g.last_progress);
         }
+        if let Some(bar) = self.progress {
+            bar.set_position(pixels as u64);
+        }
+        self.watchdog.progress(progress);
+        next.max(end)
     }
 
     /// The watchdog's error at cycle `cycle` with every component's state.

@@ -104,6 +104,9 @@ pub struct SmNode<'a> {
     pub next: u64,
     /// Where it stopped before the end of the window, if it did.
     pub halt: Option<Halt>,
+    /// The end of the window whose L2 results the engine applied but the node has not
+    /// settled yet.
+    pub unsettled: Option<u64>,
     /// The cycle of the visit after which it held no CTA (resident or suspended), while it
     /// holds none.
     pub idle_since: Option<u64>,
@@ -139,6 +142,7 @@ impl<'a> SmNode<'a> {
             wake: 0,
             next: 0,
             halt: None,
+            unsettled: None,
             idle_since: Some(0),
             error: None,
             visits: 0,
@@ -250,16 +254,20 @@ impl<'a> SmNode<'a> {
         true
     }
 
-    /// The engine gave the node CTAs (or found none for it) at cycle `t`: its next visit
-    /// finishes the halted one.
-    pub fn wake_at(&mut self, t: u64) {
-        self.next = self.next.min(t);
+    /// Starts a window ending at `end`: settles the last window's L2 results, if the engine
+    /// applied them ([`SmNode::unsettled`]), and declares the window to the L1 port.
+    pub fn begin_window(&mut self, ctx: &Ctx, end: u64, pending: bool) {
+        if let Some(last) = self.unsettled.take() {
+            self.settle(last, ctx.cfg.sim.lockstep, pending);
+        }
+        self.mem.set_window_end(end);
     }
 
-    /// After the L2 operations of the window were settled: settles the retry cycles of
-    /// deferred stalls and recomputes the wake cycle (its responses are queued now) as of the
-    /// end of the window `end`.
-    pub fn settled(&mut self, end: u64, lockstep: bool, pending: bool) {
+    /// Settles the L2 results of the window that ended at `end` (every operation has its
+    /// result): the L1 port's placeholders, deferred stalls' retry cycles, and the wake cycle
+    /// as of the end of that window (its responses are queued now).
+    pub fn settle(&mut self, end: u64, lockstep: bool, pending: bool) {
+        self.mem.settle();
         self.rt.settle_retries(&self.mem);
         self.wake = self.wake_cycle(end.saturating_sub(1), pending);
         self.next = if lockstep && !self.retired(pending) {

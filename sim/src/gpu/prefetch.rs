@@ -41,6 +41,10 @@ pub struct Prefetcher<'a> {
     retry_at: u64,
     /// Treelets queued for prefetching.
     pub treelets_queued: u64,
+    /// The next accesses of the last observation (debug builds check that skipped
+    /// observations saw the same).
+    #[cfg(debug_assertions)]
+    last: Vec<u64>,
 }
 
 impl<'a> Prefetcher<'a> {
@@ -56,7 +60,23 @@ impl<'a> Prefetcher<'a> {
             queue: VecDeque::new(),
             retry_at: 0,
             treelets_queued: 0,
+            #[cfg(debug_assertions)]
+            last: Vec::new(),
         }
+    }
+
+    /// The RT unit stepped without changing any ray's next access: observing `next` again
+    /// would change nothing (the counts are the same, and a winning treelet was queued by the
+    /// last observation and is in the history, which only observations change). Debug builds
+    /// check that `next` is what the last observation saw.
+    pub fn unchanged(&mut self, next: impl Iterator<Item = u64>) {
+        #[cfg(debug_assertions)]
+        assert!(
+            next.eq(self.last.iter().copied()),
+            "a skipped prefetcher observation would have seen other accesses"
+        );
+        #[cfg(not(debug_assertions))]
+        let _ = next;
     }
 
     /// Counts the treelets of the next accesses `next` of the RT unit's traversing rays
@@ -64,7 +84,11 @@ impl<'a> Prefetcher<'a> {
     /// sectors if it holds enough of them and was not queued recently.
     pub fn observe(&mut self, next: impl Iterator<Item = u64>) {
         let mut total = 0u32;
+        #[cfg(debug_assertions)]
+        self.last.clear();
         for address in next {
+            #[cfg(debug_assertions)]
+            self.last.push(address);
             let Ok(addr) = u32::try_from(address) else {
                 continue;
             };

@@ -525,14 +525,23 @@ impl<'a> RtPort<'a> {
             p.inputs.issue = Some(issue);
             cycle.accepted = Some(idx);
         }
-        let ports = p.unit.resp_free(&p.regs).min(p.unit.params().resp_ports);
+        let free = p.unit.resp_free(&p.regs);
+        // The rays' next nodes change only when a response is delivered (the FIFO held one),
+        // a request pops a stack, or a warp enters or completes.
+        let delivers = free < p.unit.params().resp_fifo_depth || p.inputs.issue.is_some();
+        let ports = free.min(p.unit.params().resp_ports);
         let n = (ports as usize).min(self.responses.len());
         p.inputs.responses.clear();
         p.inputs.responses.extend(self.responses.drain(..n));
         let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
         self.stats.add(&out.counts);
         if let Some(pf) = self.prefetcher.as_mut() {
-            pf.observe(p.unit.next_addresses(&p.regs, &p.cache));
+            let next = p.unit.next_addresses(&p.regs, &p.cache);
+            if delivers || out.request.is_some() || out.done.is_some() {
+                pf.observe(next);
+            } else {
+                pf.unchanged(next);
+            }
         }
         if let Some(record) = out.first_error {
             let owner = p
