@@ -361,6 +361,17 @@ fn bad_sweeps_fail_before_running() {
         );
         assert!(!dir.join("r").exists(), "{args:?} ran something");
     }
+    // A partial definition (a grid without scenes) is an error, not silently ignored.
+    let out = run(
+        &dir,
+        &["sweep", "--collect", "r", "--grid", "gpu.sms=1,2"].map(String::from),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("the sweep has no scenes"),
+        "{}",
+        text(&out)
+    );
     let out = run(
         &dir,
         &["sweep".into(), "--collect".into(), "nothing".into()],

@@ -101,9 +101,13 @@ impl SweepArgs {
         Ok(spec)
     }
 
-    /// Whether a sweep is defined on the command line or by a file.
+    /// Whether a sweep is defined (or begun) on the command line or by a file.
     fn has_sweep(&self) -> bool {
-        self.spec.is_some() || !self.scenes.is_empty()
+        self.spec.is_some()
+            || !self.scenes.is_empty()
+            || !self.configs.is_empty()
+            || !self.set.is_empty()
+            || !self.grids.is_empty()
     }
 }
 
@@ -202,12 +206,16 @@ fn sweep(args: &SweepArgs, spec: &SweepSpec, results: &Path) -> anyhow::Result<(
         Some(shard) => format!(", shard {shard}: {} of them", selected.len()),
         None => String::new(),
     };
+    let at_a_time = match pending.len() {
+        0 => String::new(),
+        n => format!(", {} at a time", jobs.min(n)),
+    };
     println!(
-        "sweep: {total} points{slice}; {done} already done, {} failed earlier (skipped; \
-         --retry-failed runs them again), {} to run, {} at a time; results in {}",
+        "sweep: {total} point{}{slice}; {done} already done, {} failed earlier (skipped; \
+         --retry-failed runs them again), {} to run{at_a_time}; results in {}",
+        if total == 1 { "" } else { "s" },
         failed_before.len(),
         pending.len(),
-        jobs.min(pending.len().max(1)),
         store.runs_dir().display()
     );
 
@@ -257,7 +265,7 @@ fn sweep(args: &SweepArgs, spec: &SweepSpec, results: &Path) -> anyhow::Result<(
         match &bar {
             Some(bar) => {
                 bar.println(line);
-                bar.set_message(pending[i].label.clone());
+                bar.set_message(format!("last: {}", pending[i].label));
                 bar.inc(1);
             }
             None => println!("{line}"),
@@ -320,6 +328,9 @@ fn slurm(
     let script = absolute(script)?;
     let (collect_script, spec_file) = SlurmJob::companions(&script);
     let mut vtq_args = Vec::new();
+    if args.retry_failed {
+        vtq_args.push("--retry-failed".to_string());
+    }
     if args.cache.no_cache {
         vtq_args.push("--no-cache".to_string());
     } else if let Some(dir) = &args.cache.cache_dir {

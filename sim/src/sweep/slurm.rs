@@ -34,7 +34,7 @@ pub struct SlurmJob {
     pub vtq: PathBuf,
     /// The folder the jobs run in (relative scene paths resolve there).
     pub workdir: PathBuf,
-    /// Further `vtq sweep` options of the shard runs (the BVH cache).
+    /// Further `vtq sweep` options of the shard runs (the BVH cache, `--retry-failed`).
     pub vtq_args: Vec<String>,
     /// Extra `#SBATCH` options of both jobs (partition, time limit, account, ...).
     pub sbatch_args: Vec<String>,
