@@ -433,6 +433,17 @@ impl SimConfig {
         Ok(config)
     }
 
+    /// Reads a configuration as [`SimConfig::load_str`] does (`file` is the path and text of a
+    /// configuration file, `None` for the defaults alone; unknown keys and values of the wrong
+    /// type are still errors) but does not [validate](SimConfig::validate) it: `vtq sweep`
+    /// records a point whose configuration is out of range as a failed run instead of stopping.
+    pub fn load_unvalidated(
+        file: Option<(&Path, &str)>,
+        overrides: &[String],
+    ) -> Result<SimConfig, ConfigError> {
+        SimConfig::parse_text(file, overrides)
+    }
+
     /// The defaults, then the file, then the overrides, not validated.
     fn parse(path: Option<&Path>, overrides: &[String]) -> Result<SimConfig, ConfigError> {
         let text = path
@@ -936,6 +947,24 @@ fn memory_error(e: MemConfigError) -> ConfigError {
     invalid(&format!("memory.{key}"), value, e.to_string())
 }
 
+/// Reads the value of a `--set key=value` override (or of a `vtq sweep --grid` list): TOML
+/// (`16`, `0.75`, `true`, `"queues"`), or a bare word starting with a letter, taken as a string
+/// (`queues`). The error says why the text is neither.
+pub fn parse_override_value(raw: &str) -> Result<Value, String> {
+    let raw = raw.trim();
+    match raw.parse::<Value>() {
+        Ok(value) => Ok(value),
+        Err(_) if raw.starts_with(|c: char| c.is_ascii_alphabetic()) => {
+            Ok(Value::String(raw.to_string()))
+        }
+        Err(e) => Err(format!(
+            "`{raw}` is not a TOML value: {} (a string that does not start with a letter \
+             must be quoted)",
+            e.message().trim()
+        )),
+    }
+}
+
 /// Applies one `--set key=value` override to `merged`.
 fn apply_override(defaults: &Table, merged: &mut Table, text: &str) -> Result<(), ConfigError> {
     let bad = |reason: &str| ConfigError::Override {
@@ -949,21 +978,7 @@ fn apply_override(defaults: &Table, merged: &mut Table, text: &str) -> Result<()
     if key.is_empty() {
         return Err(bad("the key before '=' is empty"));
     }
-    let raw = raw.trim();
-    // A bare word that is not TOML (such as `queues`) is a string; anything else must be TOML.
-    let value = match raw.parse::<Value>() {
-        Ok(value) => value,
-        Err(_) if raw.starts_with(|c: char| c.is_ascii_alphabetic()) => {
-            Value::String(raw.to_string())
-        }
-        Err(e) => {
-            return Err(bad(&format!(
-                "`{raw}` is not a TOML value: {} (a string that does not start with a letter \
-                 must be quoted)",
-                e.message().trim()
-            )))
-        }
-    };
+    let value = parse_override_value(raw).map_err(|reason| bad(&reason))?;
     let full = if BARE_KEYS.contains(&key) {
         format!("workload.{key}")
     } else {

@@ -1,6 +1,7 @@
 //! vtq's simulator crate: scenes, the hardware BVH layout and treelets, robust traversal, the
 //! path-traced workload, and the `vtq` command line.
 
+pub mod atomic_file;
 pub mod bvh;
 pub mod cmd;
 pub mod config;
@@ -10,6 +11,7 @@ pub mod intersect;
 pub mod memory;
 pub mod rays_csv;
 pub mod scene;
+pub mod sweep;
 pub mod traversal;
 pub mod workload;
 

@@ -6,7 +6,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{area, bench, compare, cosim, render, scenes, sim, trace, verilog};
+use vtq_sim::cmd::{area, bench, compare, cosim, render, scenes, sim, sweep, trace, verilog};
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
 #[derive(Debug, Parser)]
@@ -33,6 +33,10 @@ enum Command {
     /// Simulate one scene on several designs (baseline, prefetch, vtq, or configuration files)
     /// and print cycles, speedups, miss rates, SIMT efficiency and the phase split side by side.
     Compare(compare::CompareArgs),
+    /// Run a grid or list of configurations over scenes into a results folder (one file per
+    /// run, so a rerun resumes), locally, as one shard or as a Slurm job array; or collect the
+    /// results into one CSV table (--collect).
+    Sweep(sweep::SweepArgs),
     /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
     /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
@@ -64,6 +68,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Sim(args) => sim::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Sweep(args) => sweep::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),

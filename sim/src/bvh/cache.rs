@@ -18,9 +18,9 @@
 //! the image, so a corrupt or truncated file is never trusted: it is rebuilt and replaced.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::{BvhError, BvhParams, HwBvh};
+use crate::atomic_file::write_atomic;
 use crate::scene::Scene;
 
 /// Version of the serialized format and of the build algorithm; part of the cache key. Bump it
@@ -46,14 +46,22 @@ pub enum CacheOutcome {
     NotStored(String),
 }
 
-/// The cache key: blake3 over the format version, the scene geometry (positions, triangles,
-/// spheres) and the build parameters.
+/// The cache key: blake3 over the format version, the build parameters and the scene geometry
+/// ([`hash_geometry`]).
 pub fn cache_key(scene: &Scene, params: &BvhParams) -> blake3::Hash {
     let mut h = blake3::Hasher::new();
     h.update(b"vtq-bvh-cache");
     h.update(&FORMAT_VERSION.to_le_bytes());
     h.update(&params.width.to_le_bytes());
     h.update(&params.treelet_bytes.to_le_bytes());
+    hash_geometry(&mut h, scene);
+    h.finalize()
+}
+
+/// Feeds the scene geometry a BVH is built from into `h`: vertex positions, triangles and
+/// spheres (centres and radii), each list preceded by its length. Shared by the BVH cache key
+/// and the scene content hash of the sweep result store.
+pub fn hash_geometry(h: &mut blake3::Hasher, scene: &Scene) {
     h.update(&(scene.positions.len() as u64).to_le_bytes());
     for p in &scene.positions {
         for x in p.to_array() {
@@ -73,7 +81,6 @@ pub fn cache_key(scene: &Scene, params: &BvhParams) -> blake3::Hash {
         }
         h.update(&s.radius.to_le_bytes());
     }
-    h.finalize()
 }
 
 /// The default cache folder: `$VTQ_CACHE_DIR`, else `$XDG_CACHE_HOME/vtq`, else
@@ -121,7 +128,7 @@ pub fn build_cached(
         Err(e) => stale = Some(format!("unreadable: {e}")),
     }
     let bvh = HwBvh::build(scene, params)?;
-    let outcome = match write_atomic(&dir, &path, &bvh.to_bytes()) {
+    let outcome = match write_atomic(&path, &bvh.to_bytes()) {
         Err(reason) => CacheOutcome::NotStored(reason),
         Ok(()) => match stale {
             Some(reason) => CacheOutcome::Rebuilt(reason),
@@ -129,28 +136,6 @@ pub fn build_cached(
         },
     };
     Ok((bvh, outcome))
-}
-
-/// Writes `bytes` to `path` through a unique temporary file in `dir` and a rename.
-fn write_atomic(dir: &Path, path: &Path, bytes: &[u8]) -> Result<(), String> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let tmp = path.with_extension(format!(
-        "{EXTENSION}.tmp.{}.{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let result = std::fs::write(&tmp, bytes)
-        .map_err(|e| format!("cannot write {}: {e}", tmp.display()))
-        .and_then(|()| {
-            std::fs::rename(&tmp, path)
-                .map_err(|e| format!("cannot rename to {}: {e}", path.display()))
-        });
-    if result.is_err() {
-        // Best effort: the temporary file may not exist.
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
 }
 
 impl HwBvh {

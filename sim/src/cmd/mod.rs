@@ -8,5 +8,6 @@ pub mod options;
 pub mod render;
 pub mod scenes;
 pub mod sim;
+pub mod sweep;
 pub mod trace;
 pub mod verilog;

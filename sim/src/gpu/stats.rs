@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use vtq_hdl::rt_unit::{NodeKind, RtStats};
 
 use crate::memory::MemStats;
@@ -137,7 +137,7 @@ impl RtTotals {
 
 /// One point of the time series, taken at the start of cycle `cycle` and describing the
 /// interval since the previous point.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Sample {
     /// Cycle of the sample (a multiple of `sim.sample_interval`).
     pub cycle: u64,

@@ -144,6 +144,7 @@ impl Scene {
 
 pub mod builtin;
 pub mod city;
+mod content_hash;
 pub mod load;
 pub mod manifest;
 pub mod obj;
