@@ -29,6 +29,7 @@ use vtq_hdl::HwConfig;
 use crate::bvh::build::WIDTH_RANGE;
 use crate::bvh::BvhParams;
 use crate::memory::{MemConfig, MemConfigError};
+use crate::sample::SampleConfig;
 use crate::workload::pathtracer::RenderSettings;
 
 /// Workload keys that `--set` also accepts without their `workload.` prefix (`--set width=64`).
@@ -166,6 +167,8 @@ pub struct SimConfig {
     pub bvh: BvhConfig,
     /// `[sim]`: the simulation engine (watchdog, lockstep verification, time series).
     pub sim: EngineConfig,
+    /// `[sample]`: the sampled tier's settings (used only when sampling is asked for).
+    pub sample: SampleConfig,
 }
 
 /// `[gpu]`: the simulated GPU's SMs (paper Table 1) and the timing of the shaders run on them.
@@ -509,7 +512,8 @@ impl SimConfig {
         self.validate_mode()?;
         self.validate_workload()?;
         self.validate_bvh()?;
-        self.validate_engine()
+        self.validate_engine()?;
+        self.sample.validate_ranges()
     }
 
     /// Checks the sections the hardware is generated from: `[hw]` (every value's range),
@@ -943,6 +947,13 @@ fn memory_error(e: MemConfigError) -> ConfigError {
         MemConfigError::WaysDoNotDivide { key, ways, .. } => (*key, *ways),
         MemConfigError::RayWays { ray_ways, .. } => ("l2_ray_ways", *ray_ways),
         MemConfigError::NoSms => return invalid("gpu.sms", 0, e.to_string()),
+        MemConfigError::DramShare { num, den } => {
+            return invalid(
+                "memory.dram_share",
+                format!("[{num}, {den}]"),
+                e.to_string(),
+            )
+        }
     };
     invalid(&format!("memory.{key}"), value, e.to_string())
 }

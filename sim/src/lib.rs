@@ -10,6 +10,7 @@ pub mod gpu;
 pub mod intersect;
 pub mod memory;
 pub mod rays_csv;
+pub mod sample;
 pub mod scene;
 pub mod sweep;
 pub mod traversal;

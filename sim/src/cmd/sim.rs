@@ -11,6 +11,7 @@ use crate::cmd::options::{
 };
 use crate::config::SimConfig;
 use crate::gpu::stats::write_time_series;
+use crate::sample::{simulate_sampled, Profile};
 use crate::workload::image::write_png;
 
 /// Options of `vtq sim`.
@@ -35,9 +36,15 @@ pub struct SimArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
-    /// Threads simulating the SMs (results are identical for every count).
+    /// Threads simulating the SMs (results are identical for every count); with --sample,
+    /// replicates simulated at once.
     #[arg(long, default_value_t = 1, value_parser = parse_threads)]
     pub threads: usize,
+    /// The sampled tier instead of full detail: estimates with 95% intervals from scale models
+    /// on stratified samples of the frame (docs/accuracy.md). `FRACTION[xREPLICATES]`, e.g.
+    /// `1/8x4`; without a value the `[sample]` section's settings.
+    #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
+    pub sample: Option<String>,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -55,6 +62,12 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         cfg.sim.lockstep = true;
     }
     let scene = load_scene(&args.scene)?;
+    if let Some(spec) = &args.sample {
+        cfg.sample.apply_spec(spec).map_err(anyhow::Error::msg)?;
+        cfg.sample.validate(&cfg)?;
+        let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
+        return run_sampled(args, &scene, &bvh, &cfg);
+    }
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
     let out = simulate_with_progress(&scene, &bvh, &cfg, args.threads)?;
     let s = &out.stats;
@@ -80,5 +93,36 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             .context("writing the image")?;
         println!("wrote {}", path.display());
     }
+    Ok(())
+}
+
+/// `vtq sim --sample`: the sampled tier's estimates, written as JSON (docs/accuracy.md).
+fn run_sampled(
+    args: &SimArgs,
+    scene: &crate::scene::Scene,
+    bvh: &crate::bvh::HwBvh,
+    cfg: &SimConfig,
+) -> anyhow::Result<()> {
+    let profile = Profile::new(scene, bvh, cfg)
+        .with_context(|| format!("profiling scene '{}'", scene.name))?;
+    let s = simulate_sampled(scene, bvh, cfg, &profile, args.threads)
+        .with_context(|| format!("simulating scene '{}' (sampled)", scene.name))?;
+    let json = serde_json::to_string_pretty(&s).context("serializing the estimates")?;
+    std::fs::write(&args.out, json + "\n")
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "sim (sampled: {} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals): cycles \
+         {}, {} rays, SIMT efficiency {}, BVH L1 miss rate {}; {:.2} s wall ({:.2} s profile)",
+        s.replicates,
+        s.scale_sms,
+        1.0 / s.fraction,
+        s.cycles.display(0),
+        s.rays,
+        s.simt_efficiency.display(3),
+        s.bvh_l1_miss_rate.display(3),
+        s.profile_seconds + s.sim_seconds,
+        s.profile_seconds
+    );
+    println!("wrote {}", args.out.display());
     Ok(())
 }

@@ -1,5 +1,7 @@
 //! The CTA scheduler: cuts the image into pixel tiles, one raygen CTA each, and hands them out
-//! in pixel order (tiles row-major) to SMs with a free CTA slot, round-robin over the SMs.
+//! in pixel order (tiles row-major) to SMs with a free CTA slot, round-robin over the SMs. A
+//! run may dispatch only a subset of the CTAs ([`CtaScheduler::with_subset`]: the sampled
+//! tier's scale models), still in pixel order.
 //! With ray virtualization, CTAs ready to resume take free slots of their SM first (paper
 //! section 3.1: resuming CTAs have priority), and an SM takes a new CTA only while its ray
 //! budget allows ([`crate::gpu::sm::Sm::launchable`]); the engine passes what is left here.
@@ -13,6 +15,9 @@ pub struct CtaScheduler {
     tile_h: u32,
     tiles_x: u32,
     total: u32,
+    /// The CTAs to dispatch, in order (`None`: all of them, `0..total`).
+    subset: Option<Vec<u32>>,
+    /// CTAs handed out so far.
     next: u32,
     /// SM to try first in the next round-robin pass.
     rr: usize,
@@ -38,8 +43,18 @@ impl CtaScheduler {
             tile_h,
             tiles_x,
             total: tiles_x * tiles_y,
+            subset: None,
             next: 0,
             rr: 0,
+        }
+    }
+
+    /// The same scheduler dispatching only `ctas` (sorted, distinct, each below
+    /// [`total`](Self::total); checked by the caller), in that order.
+    pub fn with_subset(self, ctas: Vec<u32>) -> Self {
+        CtaScheduler {
+            subset: Some(ctas),
+            ..self
         }
     }
 
@@ -48,9 +63,14 @@ impl CtaScheduler {
         self.total
     }
 
+    /// CTAs this run dispatches.
+    pub fn dispatched(&self) -> u32 {
+        self.subset.as_ref().map_or(self.total, |s| s.len() as u32)
+    }
+
     /// CTAs not handed out yet.
     pub fn pending(&self) -> u32 {
-        self.total - self.next
+        self.dispatched() - self.next
     }
 
     /// The pixel of every thread of CTA `cta` (row-major within the tile); `None` for threads
@@ -71,12 +91,16 @@ impl CtaScheduler {
     pub fn dispatch(&mut self, free: &mut [u32]) -> Vec<(usize, u32)> {
         let mut out = Vec::new();
         let n = free.len();
-        while self.next < self.total {
+        while self.next < self.dispatched() {
             let Some(sm) = (0..n).map(|k| (self.rr + k) % n).find(|&s| free[s] > 0) else {
                 break;
             };
             free[sm] -= 1;
-            out.push((sm, self.next));
+            let cta = self
+                .subset
+                .as_ref()
+                .map_or(self.next, |s| s[self.next as usize]);
+            out.push((sm, cta));
             self.next += 1;
             self.rr = (sm + 1) % n;
         }
@@ -109,5 +133,16 @@ mod tests {
         assert_eq!(s.dispatch(&mut free), vec![(0, 0), (2, 1), (0, 2)]);
         let mut free = vec![1, 1, 1];
         assert_eq!(s.dispatch(&mut free), vec![(1, 3), (2, 4), (0, 5)]);
+    }
+
+    #[test]
+    fn a_subset_is_dispatched_in_its_order() {
+        let mut s = CtaScheduler::new(64, 64, 64).with_subset(vec![2, 7, 9]);
+        assert_eq!((s.total(), s.dispatched(), s.pending()), (64, 3, 3));
+        let mut free = vec![1, 1];
+        assert_eq!(s.dispatch(&mut free), vec![(0, 2), (1, 7)]);
+        let mut free = vec![5, 5];
+        assert_eq!(s.dispatch(&mut free), vec![(0, 9)]);
+        assert_eq!(s.pending(), 0);
     }
 }

@@ -59,7 +59,7 @@ const HIT_RECORD_BYTES: u64 = 32;
 const HIT_RECORD_ALIGN: u64 = 4096;
 
 /// Options of a simulation that are not part of the configuration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct SimOptions {
     /// Record every traced ray with its closest hit ([`SimOutput::ray_log`]), for tests.
     pub record_rays: bool,
@@ -69,6 +69,9 @@ pub struct SimOptions {
     /// Threads simulating the SMs (0 or 1: the calling thread alone). Results are identical
     /// for every value.
     pub threads: usize,
+    /// Dispatch only these CTAs (sorted, distinct; `None`: the whole image). The pixels of the
+    /// other CTAs stay black and trace nothing (the sampled tier's scale models).
+    pub ctas: Option<Vec<u32>>,
 }
 
 /// One traced ray and the closest hit the RT unit found.
@@ -153,7 +156,17 @@ pub fn simulate(
     // Hit records, then (queues mode) ray records, then suspended CTAs' state, then the
     // traversal stacks' spill areas.
     let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
-    let scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
+    let mut scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
+    if let Some(ctas) = &options.ctas {
+        let sorted = ctas.windows(2).all(|w| w[0] < w[1]);
+        if !sorted || ctas.last().is_some_and(|&c| c >= scheduler.total()) {
+            return Err(SimError::Setup(format!(
+                "the CTA subset must be sorted, distinct and below the image's {} CTAs",
+                scheduler.total()
+            )));
+        }
+        scheduler = scheduler.with_subset(ctas.clone());
+    }
     let state_end = state_base
         + scheduler.total() as u64 * cfg.cta_state_bytes().next_multiple_of(CHUNK_BYTES as u64);
     let spill = SpillLayout::new(cfg, bvh, state_end.next_multiple_of(HIT_RECORD_ALIGN))?;
@@ -476,7 +489,13 @@ impl<'a> Engine<'_, 'a> {
         let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
         let mut order: Vec<((u64, u8, u32, u64), usize, usize)> = Vec::new();
         for (i, g) in guards.iter().enumerate() {
-            order.extend(g.mem.ops().iter().enumerate().map(|(k, op)| (op.key(), i, k)));
+            order.extend(
+                g.mem
+                    .ops()
+                    .iter()
+                    .enumerate()
+                    .map(|(k, op)| (op.key(), i, k)),
+            );
         }
         order.sort_unstable_by_key(|&(key, _, _)| key);
         for (_, i, k) in order {

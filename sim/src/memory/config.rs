@@ -12,6 +12,9 @@ pub const MAX_LATENCY: u32 = 1 << 20;
 pub const MAX_SECTORS_PER_LINE: u32 = 64;
 /// Largest number of L1 MSHRs accepted by [`MemConfig::validate`].
 pub const MAX_MSHRS: u32 = 1 << 16;
+
+/// Largest `l2_private_mirrors`.
+pub const MAX_MIRRORS: u32 = 1024;
 /// Largest DRAM bandwidth (bytes per core cycle) accepted by [`MemConfig::validate`].
 pub const MAX_DRAM_BYTES_PER_CYCLE: u32 = 1 << 20;
 
@@ -49,6 +52,13 @@ pub struct MemConfig {
     /// lookups search the whole set. The paper does not give the size; the default 0 disables
     /// the partition (all classes share the L2), which is the Table 1 baseline.
     pub l2_ray_ways: u32,
+    /// Copies of every per-SM (private) L2 access — ray records, CTA state, stack spills, hit
+    /// records; not BVH nodes, which all SMs share — that the L2 also takes in, at mirrored
+    /// addresses that no real access uses, without DRAM traffic or statistics (default 1: the
+    /// access alone). The sampled tier's scale models of `k` of `sms` SMs set it to `sms / k`,
+    /// so the private data of the SMs not simulated takes its room in the L2 as the simulated
+    /// SMs' does (docs/accuracy.md).
+    pub l2_private_mirrors: u32,
     /// DRAM access latency in cycles after the request leaves the L2 (254 in the public
     /// RTX 3070 configuration that supplied the 39/187 figures).
     pub dram_latency: u32,
@@ -56,6 +66,11 @@ pub struct MemConfig {
     /// 3500 MHz memory clock as in Table 1, 14 Gb/s per pin = 448 GB/s) divided by the
     /// 1365 MHz core clock: 448e9 / 1.365e9 = 328.2, rounded down.
     pub dram_bytes_per_cycle: u32,
+    /// The share of that bandwidth this GPU gets, `[numerator, denominator]` (default
+    /// `[1, 1]`: all of it). The sampled tier's scale models, which simulate `k` of the GPU's
+    /// SMs, give them `[k, sms]` of the channel (docs/accuracy.md); bandwidth is then exactly
+    /// `dram_bytes_per_cycle * numerator / denominator` bytes per cycle.
+    pub dram_share: [u32; 2],
     /// Sector size in bytes: the unit of valid bits, fills and DRAM transfers (32).
     pub sector_bytes: u32,
     /// Line size in bytes: the unit of tags and replacement (128), as in GPGPU-Sim/Accel-Sim.
@@ -73,8 +88,10 @@ impl Default for MemConfig {
             l2_ways: 16,
             l2_latency: 187,
             l2_ray_ways: 0,
+            l2_private_mirrors: 1,
             dram_latency: 254,
             dram_bytes_per_cycle: 328,
+            dram_share: [1, 1],
             sector_bytes: 32,
             line_bytes: 128,
         }
@@ -151,6 +168,17 @@ pub enum MemConfigError {
         /// Lines per L2 set.
         ways: u32,
     },
+    /// `dram_share` is not a fraction in (0, 1].
+    #[error(
+        "memory config `dram_share` = [{num}, {den}] must be [numerator, denominator] with \
+         0 < numerator <= denominator"
+    )]
+    DramShare {
+        /// Numerator.
+        num: u32,
+        /// Denominator.
+        den: u32,
+    },
     /// A memory system needs at least one SM.
     #[error("a memory system needs at least one SM (got 0)")]
     NoSms,
@@ -162,6 +190,7 @@ impl MemConfig {
         for (key, value) in [
             ("l1_bytes", self.l1_bytes),
             ("l2_bytes", self.l2_bytes),
+            ("l2_private_mirrors", self.l2_private_mirrors),
             ("l1_latency", self.l1_latency),
             ("l2_latency", self.l2_latency),
             ("dram_latency", self.dram_latency),
@@ -181,6 +210,7 @@ impl MemConfig {
             ("l2_latency", self.l2_latency, MAX_LATENCY),
             ("dram_latency", self.dram_latency, MAX_LATENCY),
             ("l1_mshrs", self.l1_mshrs, MAX_MSHRS),
+            ("l2_private_mirrors", self.l2_private_mirrors, MAX_MIRRORS),
             (
                 "dram_bytes_per_cycle",
                 self.dram_bytes_per_cycle,
@@ -229,6 +259,10 @@ impl MemConfig {
                     lines,
                 });
             }
+        }
+        let [num, den] = self.dram_share;
+        if num == 0 || num > den {
+            return Err(MemConfigError::DramShare { num, den });
         }
         let l2_set_ways = self.l2_geometry().ways;
         if self.l2_ray_ways >= l2_set_ways {

@@ -24,8 +24,12 @@ pub struct DramGrant {
 #[derive(Debug, Clone)]
 pub struct DramChannel {
     latency: u64,
+    /// Slots per cycle.
     bytes_per_cycle: u64,
-    /// First free byte slot.
+    /// Slots per byte (a slot is `1 / slot_divisor` of a byte, so a share of the bandwidth
+    /// stays exact).
+    slot_divisor: u64,
+    /// First free slot.
     next_free: u128,
 }
 
@@ -33,9 +37,17 @@ impl DramChannel {
     /// An idle channel. `bytes_per_cycle` must be positive (checked by
     /// [`MemConfig::validate`](super::MemConfig::validate)).
     pub fn new(latency: u32, bytes_per_cycle: u32) -> Self {
+        DramChannel::with_share(latency, bytes_per_cycle, [1, 1])
+    }
+
+    /// An idle channel of `bytes_per_cycle * share[0] / share[1]` bytes per cycle (`share`
+    /// validated: `0 < share[0] <= share[1]`): time is counted in slots of `1 / share[1]` byte,
+    /// `bytes_per_cycle * share[0]` of them per cycle.
+    pub fn with_share(latency: u32, bytes_per_cycle: u32, share: [u32; 2]) -> Self {
         DramChannel {
             latency: u64::from(latency),
-            bytes_per_cycle: u64::from(bytes_per_cycle.max(1)),
+            bytes_per_cycle: u64::from(bytes_per_cycle.max(1)) * u64::from(share[0].max(1)),
+            slot_divisor: u64::from(share[1].max(1)),
             next_free: 0,
         }
     }
@@ -45,7 +57,7 @@ impl DramChannel {
     pub fn schedule(&mut self, arrival: u64, bytes: u32) -> DramGrant {
         let bpc = u128::from(self.bytes_per_cycle);
         let slot = (u128::from(arrival) * bpc).max(self.next_free);
-        self.next_free = slot + u128::from(bytes);
+        self.next_free = slot + u128::from(bytes) * u128::from(self.slot_divisor);
         // slot / bpc <= max(arrival, previous end / bpc): fits in u64 for any reachable cycle.
         let start = u64::try_from(slot / bpc).unwrap_or(u64::MAX);
         DramGrant {
@@ -106,5 +118,24 @@ mod tests {
         }
         // 12 sectors = 384 B = exactly 32 cycles of bandwidth.
         assert_eq!(d.next_free_cycle(), 7 + 32);
+    }
+
+    #[test]
+    fn a_share_of_the_bandwidth_is_exact() {
+        // 328 B/cycle, 1/16 of it: 20.5 B/cycle; sector i starts at floor(32 i / 20.5).
+        let mut d = DramChannel::with_share(1, 328, [1, 16]);
+        for i in 0..41u64 {
+            assert_eq!(d.schedule(0, 32).start, 32 * 2 * i / 41);
+        }
+        // 41 sectors = 1312 B = exactly 64 cycles at 20.5 B/cycle.
+        assert_eq!(d.next_free_cycle(), 64);
+        // The whole share is the plain channel.
+        let (mut a, mut b) = (
+            DramChannel::new(5, 12),
+            DramChannel::with_share(5, 12, [3, 3]),
+        );
+        for t in [0u64, 0, 3, 3, 3, 40, 41] {
+            assert_eq!(a.schedule(t, 32), b.schedule(t, 32));
+        }
     }
 }

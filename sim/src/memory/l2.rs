@@ -46,6 +46,10 @@ impl L2Op {
     }
 }
 
+/// Mirrored lines are at `line + (j << MIRROR_SHIFT)` for mirror `j` (line addresses of real
+/// data stay far below: 2^40 lines is 2^47 bytes).
+const MIRROR_SHIFT: u32 = 40;
+
 /// The L2 and DRAM with their counters.
 #[derive(Debug, Clone)]
 pub struct L2Side {
@@ -58,6 +62,8 @@ pub struct L2Side {
     l1_latency: u64,
     l2_latency: u64,
     sector_bytes: u32,
+    /// Copies of each private access the L2 takes in (`l2_private_mirrors`).
+    mirrors: u32,
     /// Operations applied.
     applied: u64,
     stats: MemStats,
@@ -68,12 +74,17 @@ impl L2Side {
     pub fn new(cfg: &MemConfig) -> Self {
         L2Side {
             l2: SectorCache::new(cfg.l2_geometry()),
-            dram: DramChannel::new(cfg.dram_latency, cfg.dram_bytes_per_cycle),
+            dram: DramChannel::with_share(
+                cfg.dram_latency,
+                cfg.dram_bytes_per_cycle,
+                cfg.dram_share,
+            ),
             set_ways: cfg.l2_geometry().ways,
             ray_ways: cfg.l2_ray_ways,
             l1_latency: u64::from(cfg.l1_latency),
             l2_latency: u64::from(cfg.l2_latency),
             sector_bytes: cfg.sector_bytes,
+            mirrors: cfg.l2_private_mirrors.max(1),
             applied: 0,
             stats: MemStats::default(),
         }
@@ -89,11 +100,41 @@ impl L2Side {
     pub fn apply(&mut self, op: &L2Op) -> (u64, Source) {
         self.applied += 1;
         let at = op.cycle + self.l1_latency;
-        if op.write {
+        let result = if op.write {
             self.write(at, op.line, op.sector, op.class);
             (at + self.l2_latency, Source::L2Write)
         } else {
             self.read(at, op.line, op.sector, op.class)
+        };
+        if op.class != AccessClass::Bvh {
+            for j in 1..self.mirrors {
+                self.mirror(
+                    at,
+                    op.line + (u64::from(j) << MIRROR_SHIFT),
+                    op.sector,
+                    op.class,
+                );
+            }
+        }
+        result
+    }
+
+    /// A mirrored copy of a private access reaching the L2 at `at`: it takes room in the L2 like
+    /// the access (as if filled from DRAM) but moves no DRAM data, counts nowhere, and its line
+    /// leaves without a write-back. A real line it evicts is written back as usual.
+    fn mirror(&mut self, at: u64, line: u64, sector: u32, class: AccessClass) {
+        if let Some(slot) = self.l2.lookup(line) {
+            if self.l2.sector_state(slot, sector, at) == SectorState::Absent {
+                self.l2.install(slot, line, sector, at);
+            } else {
+                self.l2.touch(slot);
+            }
+            return;
+        }
+        if let Ok(slot) = self.l2.find_slot(line, at, self.ways(class)) {
+            // Mirrored lines are never dirty: only an evicted real line is written back.
+            let evicted = self.l2.install(slot, line, sector, at);
+            self.write_back(at + self.l2_latency, evicted);
         }
     }
 

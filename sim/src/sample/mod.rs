@@ -1,0 +1,21 @@
+//! The sampled tier (docs/accuracy.md): estimates of a design's cycles and headline statistics
+//! from simulating less — scale models of the GPU (a fraction of its SMs with that share of the
+//! L2 and DRAM bandwidth) running stratified samples of the frame's CTAs, chosen by a functional
+//! profile of each CTA's work, in independent replicates whose spread gives 95% intervals.
+//!
+//! - [`settings`]: the `[sample]` configuration section and the scale model it makes.
+//! - [`profile`]: the functional profile (rays and node fetches per CTA).
+//! - [`strata`]: stratified CTA samples.
+//! - [`estimate`]: estimates with Student's t intervals.
+//! - [`run`]: simulating the replicates and combining them.
+
+pub mod estimate;
+pub mod profile;
+pub mod run;
+pub mod settings;
+pub mod strata;
+
+pub use estimate::Estimate;
+pub use profile::Profile;
+pub use run::{paired_speedup, simulate_sampled, SampledStats};
+pub use settings::SampleConfig;

@@ -1,0 +1,223 @@
+//! `[sample]`: the settings of the sampled tier ([`SampleConfig`]) and the scale model they
+//! make of a configuration ([`SampleConfig::scale_model`]).
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{ConfigError, SimConfig};
+
+/// Largest number of replicates.
+pub const MAX_REPLICATES: u32 = 256;
+
+/// `[sample]`: how the sampled tier simulates less (docs/accuracy.md). Used only when a command
+/// is asked to sample (`vtq sim --sample`, `vtq compare --sample`); full detail ignores it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SampleConfig {
+    /// Fraction of the GPU each replicate simulates — its SMs, L2 capacity and DRAM bandwidth —
+    /// and of the frame's CTAs it runs (0 < fraction <= 1; `fraction * gpu.sms` must be a whole
+    /// number of SMs). 1 is full detail.
+    pub fraction: f64,
+    /// Independent replicates, each a scale model on its own stratified sample of CTAs; the 95%
+    /// confidence intervals come from their spread (at least 2 for an interval).
+    pub replicates: u32,
+    /// Seed of the CTA samples (replicate `r` uses a stream derived from it and `r`).
+    pub seed: u64,
+}
+
+impl Default for SampleConfig {
+    fn default() -> Self {
+        SampleConfig {
+            fraction: 0.125,
+            replicates: 4,
+            seed: 1,
+        }
+    }
+}
+
+/// A `[sample]` value out of range, as the configuration's error naming its key.
+fn invalid(key: &str, value: impl ToString, reason: impl Into<String>) -> ConfigError {
+    ConfigError::Invalid {
+        key: format!("sample.{key}"),
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+impl SampleConfig {
+    /// Applies a command-line sample setting `FRACTION[xREPLICATES]`, e.g. `1/8x4`, `0.25`,
+    /// `1/16x8` (an empty text keeps the section's settings). The values are checked later with
+    /// the configuration ([`validate`](Self::validate)).
+    pub fn apply_spec(&mut self, spec: &str) -> Result<(), String> {
+        let spec = spec.trim();
+        if spec.is_empty() {
+            return Ok(());
+        }
+        let bad = || {
+            format!(
+                "--sample `{spec}`: expected FRACTION[xREPLICATES], e.g. `1/8x4` or `0.25` \
+                 (FRACTION a number or a/b in (0, 1])"
+            )
+        };
+        let (fraction, replicates) = match spec.split_once(['x', 'X']) {
+            Some((f, r)) => (f, Some(r)),
+            None => (spec, None),
+        };
+        let fraction = match fraction.split_once('/') {
+            Some((a, b)) => {
+                let (a, b): (f64, f64) = (
+                    a.trim().parse().map_err(|_| bad())?,
+                    b.trim().parse().map_err(|_| bad())?,
+                );
+                a / b
+            }
+            None => fraction.trim().parse().map_err(|_| bad())?,
+        };
+        self.fraction = fraction;
+        if let Some(r) = replicates {
+            self.replicates = r.trim().parse().map_err(|_| bad())?;
+        }
+        Ok(())
+    }
+
+    /// SMs of the scale model for a GPU of `sms` SMs, if `fraction` gives a whole number.
+    pub fn scale_sms(&self, sms: u32) -> Option<u32> {
+        let k = self.fraction * sms as f64;
+        let r = k.round();
+        ((k - r).abs() < 1e-9 && r >= 1.0 && r <= sms as f64).then_some(r as u32)
+    }
+
+    /// Checks each value's own range (part of every configuration's validation).
+    pub fn validate_ranges(&self) -> Result<(), ConfigError> {
+        let f = self.fraction;
+        if !(f > 0.0 && f <= 1.0) {
+            return Err(invalid(
+                "fraction",
+                f,
+                "must be in (0, 1]: the share of the GPU and of the frame simulated",
+            ));
+        }
+        if !(1..=MAX_REPLICATES).contains(&self.replicates) {
+            return Err(invalid(
+                "replicates",
+                self.replicates,
+                format!("must be 1..={MAX_REPLICATES}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the settings against the configuration `cfg` they sample (a whole number of SMs,
+    /// a valid scale model); called when sampling.
+    pub fn validate(&self, cfg: &SimConfig) -> Result<(), ConfigError> {
+        self.validate_ranges()?;
+        let f = self.fraction;
+        if self.scale_sms(cfg.gpu.sms).is_none() {
+            return Err(invalid(
+                "fraction",
+                f,
+                format!(
+                    "fraction x gpu.sms = {} is not a whole number of SMs (gpu.sms = {}: use \
+                     k/{} for k = 1..={})",
+                    f * cfg.gpu.sms as f64,
+                    cfg.gpu.sms,
+                    cfg.gpu.sms,
+                    cfg.gpu.sms
+                ),
+            ));
+        }
+        self.scale_model(cfg).validate()
+    }
+
+    /// The scale model of `cfg`: `fraction` of its SMs with that share of the L2 capacity and
+    /// of the DRAM bandwidth; everything per SM (L1, RT unit, CTA slots) unchanged. Call after
+    /// [`validate`](Self::validate) (an unvalidated fraction gives at least one SM).
+    pub fn scale_model(&self, cfg: &SimConfig) -> SimConfig {
+        let sms = cfg.gpu.sms;
+        let k = self.scale_sms(sms).unwrap_or(1);
+        let mut m = cfg.clone();
+        m.gpu.sms = k;
+        m.memory.l2_private_mirrors = cfg.memory.l2_private_mirrors * (sms / k).max(1);
+        let [num, den] = cfg.memory.dram_share;
+        let (num, den) = (
+            u64::from(num) * u64::from(k),
+            u64::from(den) * u64::from(sms),
+        );
+        let g = gcd(num, den);
+        m.memory.dram_share = [(num / g) as u32, (den / g) as u32];
+        m
+    }
+}
+
+/// Greatest common divisor.
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a.max(1)
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_scale_model_shares_the_gpu() {
+        let cfg = SimConfig::default();
+        let s = SampleConfig {
+            fraction: 0.125,
+            ..SampleConfig::default()
+        };
+        s.validate(&cfg).unwrap();
+        let m = s.scale_model(&cfg);
+        assert_eq!(m.gpu.sms, 2);
+        assert_eq!(m.memory.l2_bytes, 16 * 1024);
+        assert_eq!(m.memory.dram_share, [1, 8]);
+        assert_eq!(m.memory.l1_bytes, cfg.memory.l1_bytes);
+        let whole = SampleConfig {
+            fraction: 1.0,
+            ..SampleConfig::default()
+        };
+        assert_eq!(whole.scale_model(&cfg), cfg);
+    }
+
+    #[test]
+    fn command_line_specs() {
+        let mut s = SampleConfig::default();
+        s.apply_spec("1/16x8").unwrap();
+        assert_eq!((s.fraction, s.replicates), (0.0625, 8));
+        s.apply_spec("0.5").unwrap();
+        assert_eq!((s.fraction, s.replicates), (0.5, 8));
+        s.apply_spec("").unwrap();
+        assert_eq!(s.fraction, 0.5);
+        for bad in ["x4", "1/", "a/b", "0.5x", "0.5x-1", "half"] {
+            assert!(s.apply_spec(bad).unwrap_err().contains(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn bad_settings_name_their_key() {
+        let cfg = SimConfig::default();
+        for (fraction, replicates, key) in [
+            (0.0, 4, "sample.fraction"),
+            (1.5, 4, "sample.fraction"),
+            (0.1, 4, "sample.fraction"),
+            (f64::NAN, 4, "sample.fraction"),
+            (0.5, 0, "sample.replicates"),
+        ] {
+            let s = SampleConfig {
+                fraction,
+                replicates,
+                seed: 1,
+            };
+            let e = s.validate(&cfg).unwrap_err();
+            assert_eq!(e.key(), Some(key), "{e}");
+        }
+        // 3/16 of the GPU has a 24 KB L2, which is not a power of two.
+        let s = SampleConfig {
+            fraction: 3.0 / 16.0,
+            ..SampleConfig::default()
+        };
+        assert_eq!(s.validate(&cfg).unwrap_err().key(), Some("memory.l2_bytes"));
+    }
+}
