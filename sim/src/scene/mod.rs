@@ -146,7 +146,10 @@ pub mod builtin;
 pub mod city;
 pub mod load;
 pub mod manifest;
+pub mod mtl;
 pub mod obj;
+pub mod report;
+pub mod text;
 
 impl Camera {
     /// Check that the camera defines a usable view: finite vectors, `eye != look_at`, `up` not
