@@ -495,3 +495,26 @@ fn builtin_scenes_have_an_empty_report() {
     assert_eq!(loaded.report, LoadReport::default());
     assert!(loaded.report.ignored_line().is_none() && loaded.report.left_out_line().is_none());
 }
+
+#[test]
+fn huge_finite_coordinates_still_get_a_default_camera() {
+    // Found by `vtq fuzz`: a vertex at 1e30 made the framing camera's distance overflow, so a
+    // valid file failed with "camera: eye, look_at and up must be finite".
+    let dir = temp_dir("huge");
+    let scene = load(&write(
+        &dir,
+        "huge.obj",
+        "v -1e30 0 0\nv 1e30 0 0\nv 0 3e37 -2e37\nf 1 2 3\n",
+    ))
+    .scene;
+    assert!(scene.camera.check().is_ok(), "{:?}", scene.camera);
+    assert_eq!(scene.camera.look_at, Vec3::new(0.0, 1.5e37, -1e37));
+    // Ordinary bounds are framed exactly as before.
+    let small = vtq_sim::Camera::framing(Vec3::ZERO, Vec3::splat(2.0));
+    assert_eq!(small.look_at, Vec3::ONE);
+    assert_eq!(
+        small.eye,
+        Vec3::new(1.0, 1.0, 1.0 + 3.0f32.sqrt() / 22.5f32.to_radians().sin())
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

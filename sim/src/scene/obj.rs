@@ -45,7 +45,7 @@
 //! few statements vtq uses does all of that, and loads the shared scenes faster; its result is
 //! bit-identical to what the tobj-based loader built.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -73,7 +73,7 @@ pub struct ObjFile {
     pub ignored: StatementCounts,
     /// Number of `v` statements whose position is not finite.
     pub nonfinite_vertices: u64,
-    /// Library names (as written after `mtllib`) that the resolver did not find.
+    /// Library names (as written after `mtllib`) that the resolver did not find, once each.
     pub missing_mtl: Vec<String>,
     /// Distinct names that `usemtl` selected but no loaded library defined, in order met.
     pub undefined_materials: Vec<String>,
@@ -95,6 +95,8 @@ pub fn parse_obj(
     let (mut n_vt, mut n_vn) = (0usize, 0usize);
     let mut slot = NO_MATERIAL;
     let mut slots_by_name: HashMap<String, u32> = HashMap::new();
+    let mut undefined: HashSet<String> = HashSet::new();
+    let mut missing_seen: HashSet<String> = HashSet::new();
     let mut corners: Vec<u32> = Vec::new();
     for (number, line) in logical_lines(text) {
         let at_line = |reason: String| SceneError::Parse {
@@ -176,7 +178,7 @@ pub fn parse_obj(
                 } else if let Some(&s) = slots_by_name.get(name) {
                     s
                 } else {
-                    if !file.undefined_materials.iter().any(|u| u == name) {
+                    if undefined.insert(name.to_string()) {
                         file.undefined_materials.push(name.to_string());
                     }
                     NO_MATERIAL
@@ -204,8 +206,11 @@ pub fn parse_obj(
                         if libraries.is_empty() {
                             missing = vec![name];
                         }
-                        file.missing_mtl
-                            .extend(missing.into_iter().map(str::to_string));
+                        for name in missing {
+                            if missing_seen.insert(name.to_string()) {
+                                file.missing_mtl.push(name.to_string());
+                            }
+                        }
                     }
                 }
                 for library in libraries {
@@ -315,6 +320,10 @@ pub struct ObjGeometry {
     pub nonfinite_triangles: u64,
     /// Position bit patterns to vertex ids, for sharing.
     vertex_ids: HashMap<[u32; 3], u32>,
+    /// Material values (see [`material_key`]) to their index in `materials`.
+    material_ids: HashMap<[u32; 5], u32>,
+    /// The entries of `missing_mtl` and `undefined_materials`, for finding them fast.
+    reported: (HashSet<PathBuf>, HashSet<String>),
     /// Libraries read so far by path (`None`: no such file).
     libraries: HashMap<PathBuf, Option<Arc<MtlLibrary>>>,
 }
@@ -340,6 +349,8 @@ impl ObjGeometry {
             nonfinite_vertices: 0,
             nonfinite_triangles: 0,
             vertex_ids: HashMap::new(),
+            material_ids: HashMap::from([(material_key(&Material::DEFAULT), 0)]),
+            reported: (HashSet::new(), HashSet::new()),
             libraries: HashMap::new(),
         }
     }
@@ -397,12 +408,12 @@ impl ObjGeometry {
                 self.ignored.merge(&file.ignored);
                 for name in file.missing_mtl {
                     let path = dir.join(name);
-                    if !self.missing_mtl.contains(&path) {
+                    if self.reported.0.insert(path.clone()) {
                         self.missing_mtl.push(path);
                     }
                 }
                 for name in file.undefined_materials {
-                    if !self.undefined_materials.contains(&name) {
+                    if self.reported.1.insert(name.clone()) {
                         self.undefined_materials.push(name);
                     }
                 }
@@ -415,7 +426,9 @@ impl ObjGeometry {
                 }
                 self.triangles.truncate(mark.1);
                 self.tri_material.truncate(mark.1);
-                self.materials.truncate(mark.2);
+                for m in self.materials.drain(mark.2..) {
+                    self.material_ids.remove(&material_key(&m));
+                }
                 Err(err)
             }
         }
@@ -467,14 +480,30 @@ impl ObjGeometry {
 
     /// The index of `m` in `materials`, adding it if it is new.
     fn intern_material(&mut self, m: Material) -> u32 {
-        let id = match self.materials.iter().position(|&x| x == m) {
-            Some(i) => i,
-            None => {
-                self.materials.push(m);
-                self.materials.len() - 1
-            }
-        };
-        id as u32
+        let next = self.materials.len() as u32;
+        let id = *self.material_ids.entry(material_key(&m)).or_insert(next);
+        if id == next {
+            self.materials.push(m);
+        }
+        id
+    }
+}
+
+/// A material's kind and parameters as bits, equal exactly when the materials compare equal
+/// (`-0` counts as `0`; parameters are finite).
+fn material_key(m: &Material) -> [u32; 5] {
+    let bits = |x: f32| (x + 0.0).to_bits();
+    match *m {
+        Material::Lambertian { albedo } => [0, bits(albedo.x), bits(albedo.y), bits(albedo.z), 0],
+        Material::Metal { albedo, fuzz } => [
+            1,
+            bits(albedo.x),
+            bits(albedo.y),
+            bits(albedo.z),
+            bits(fuzz),
+        ],
+        Material::Dielectric { ior } => [2, bits(ior), 0, 0, 0],
+        Material::Light { emit } => [3, bits(emit.x), bits(emit.y), bits(emit.z), 0],
     }
 }
 
