@@ -1,10 +1,11 @@
 //! vtq's simulator crate: scenes, the hardware BVH layout and treelets, robust traversal, the
-//! path-traced workload, and the `vtq` command line.
+//! path-traced workload, the `vtq` command line, and the fuzzing of its parsers.
 
 pub mod atomic_file;
 pub mod bvh;
 pub mod cmd;
 pub mod config;
+pub mod fuzz;
 pub mod geometry;
 pub mod gpu;
 pub mod intersect;

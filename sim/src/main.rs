@@ -1,12 +1,14 @@
 //! `vtq`: list scenes, render the LumiBench path-tracing workload, trace ray files, benchmark
 //! the traversal against `obvhs`, simulate and compare designs on the cycle-exact GPU model,
-//! generate Verilog and area reports for the hardware and co-simulate the tables' RTL against
-//! the Rust blocks.
+//! generate Verilog and area reports for the hardware, co-simulate the tables' RTL against
+//! the Rust blocks, and fuzz the parsers of user input.
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{area, bench, compare, cosim, render, scenes, sim, sweep, trace, verilog};
+use vtq_sim::cmd::{
+    area, bench, compare, cosim, fuzz, render, scenes, sim, sweep, trace, verilog,
+};
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
 #[derive(Debug, Parser)]
@@ -46,6 +48,9 @@ enum Command {
     /// Co-simulate the count and queue tables' RTL against the Rust blocks on random stimulus
     /// (checks only the [hw], [gpu] and [memory] sections).
     Cosim(cosim::CosimArgs),
+    /// Fuzz the parsers of user input (OBJ, MTL, scene.toml, configuration, --set, rays CSV,
+    /// BVH cache files) with mutated and random inputs; report panics, hangs and the slowest case.
+    Fuzz(fuzz::FuzzArgs),
 }
 
 /// Lets a closed output pipe (`vtq area --json | head`) end the process quietly, as for other
@@ -72,6 +77,7 @@ fn main() -> ExitCode {
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),
+        Command::Fuzz(args) => fuzz::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

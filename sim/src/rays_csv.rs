@@ -127,7 +127,8 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>, CsvError> {
     parse_rays(&name, BufReader::new(file))
 }
 
-/// Write `rays` as CSV text (floats in shortest round-trip form, so reading gives the same bits).
+/// Write `rays` as CSV text (floats in shortest round-trip form, so reading gives the same bits;
+/// a NaN is written `NaN` and reads back as a NaN, without its sign or payload).
 pub fn format_rays(out: &mut impl Write, rays: &[Ray]) -> std::io::Result<()> {
     writeln!(out, "{RAYS_HEADER}")?;
     for r in rays {
@@ -204,6 +205,18 @@ mod tests {
         assert_eq!(back[1].dir.z, f32::NEG_INFINITY);
         assert_eq!(back[1].tmax, f32::INFINITY);
         assert!(!back[1].is_valid());
+    }
+
+    #[test]
+    fn negative_nan_reads_back_as_nan() {
+        // Found by `vtq fuzz`: `-nan` parses to a NaN with the sign bit set, written as `NaN`.
+        let rays = parse("ox,oy,oz,dx,dy,dz,tmin,tmax\n-nan,0,0,0,0,-1,0,1\n").unwrap();
+        assert!(rays[0].origin.x.is_nan() && rays[0].origin.x.is_sign_negative());
+        let mut text = Vec::new();
+        format_rays(&mut text, &rays).unwrap();
+        let back = parse_rays("x", text.as_slice()).unwrap();
+        assert!(back[0].origin.x.is_nan() && !back[0].is_valid());
+        assert_eq!(back[0].dir, rays[0].dir);
     }
 
     #[test]

@@ -286,6 +286,60 @@ fn malformed_obj_is_a_one_line_error() {
 }
 
 #[test]
+fn render_prints_ignored_statements_and_left_out_triangles() {
+    let dir = temp_dir("ignored");
+    std::fs::write(
+        dir.join("looks.mtl"),
+        "newmtl red\nKa 1 1 1\nKd 1 0 0\nmap_Kd red.png\nmap_Kd again.png\n",
+    )
+    .unwrap();
+    let obj = dir.join("quirky.obj");
+    std::fs::write(
+        &obj,
+        "\u{FEFF}mtllib looks.mtl\r\nmtllib gone.mtl\r\no\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\n\
+         v nan 0 0\r\nvp 0.5\r\nl 1 2\r\nl 2 3\r\nusemtl red\r\nf 1 2 3\r\nusemtl \r\n\
+         f 1 2 4\r\nusemtl nothing\r\nf 3 2 1\r\n",
+    )
+    .unwrap();
+    let out = vtq(&[
+        "render",
+        "--scene",
+        obj.to_str().unwrap(),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--out",
+        dir.join("q.png").to_str().unwrap(),
+        "--no-cache",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(
+        stdout.contains("scene quirky: 2 triangles, 0 spheres, 2 materials"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(
+            "scene quirky: ignored: o x1, vp x1, l x2; in .mtl files: Ka x1, map_Kd x2\n"
+        ),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("scene quirky: left out: 1 triangle using 1 non-finite vertex"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("warning: scene quirky: 1 material library not found")
+            && stderr.contains("gone.mtl")
+            && stderr.contains("(first: 'nothing')"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn malformed_csv_is_a_one_line_error() {
     let dir = temp_dir("bad-csv");
     let csv = dir.join("rays.csv");

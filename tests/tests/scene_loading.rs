@@ -470,12 +470,12 @@ fn errors_name_the_file_and_do_not_panic() {
         (
             "nan.obj",
             "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n",
-            "line 2",
+            "all 1 triangles use non-finite vertices",
         ),
         (
-            "inf.obj",
-            "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n",
-            "line 2",
+            "short_vertex.obj",
+            "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n",
+            "line 2: a vertex needs x y z",
         ),
         (
             "bad_vt.obj",
@@ -491,8 +491,8 @@ fn errors_name_the_file_and_do_not_panic() {
         assert!(!msg.contains('\n'), "one-line message: {msg}");
     }
 
-    // tobj would panic on a colour with fewer than three numbers.
-    write(&dir, "short.mtl", "newmtl a\nKd 0.5\n");
+    // A colour is one number (grey) or three.
+    write(&dir, "short.mtl", "newmtl a\nKd 0.5 0.5\n");
     let path = write(
         &dir,
         "short_kd.obj",

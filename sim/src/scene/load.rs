@@ -8,10 +8,25 @@ use glam::Vec3;
 use super::builtin::{builtin, builtin_counts, builtin_title, BUILTIN_NAMES};
 use super::manifest::Manifest;
 use super::obj::ObjGeometry;
+use super::report::LoadReport;
 use super::{Camera, Scene, SceneError};
 
 /// File name of a scene folder's manifest.
 pub const MANIFEST_FILE: &str = "scene.toml";
+
+/// A loaded scene and its [`LoadReport`].
+#[derive(Debug, Clone)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// What loading read but did not use, left out or could not find.
+    pub report: LoadReport,
+}
+
+/// Load the scene `spec` names (see [`load_scene_with_report`]) without its report.
+pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+    load_scene_with_report(spec).map(|loaded| loaded.scene)
+}
 
 /// Load the scene `spec` names, trying in order:
 /// 1. a built-in name (`wknd`, `cornell`, `city` or `city:N`; ASCII case-insensitive; a
@@ -27,11 +42,16 @@ pub const MANIFEST_FILE: &str = "scene.toml";
 /// Errors name the file: [`SceneError::Io`] for a path that does not exist or cannot be read,
 /// [`SceneError::Parse`] for malformed OBJ/MTL/manifest contents (with a line number where
 /// known), a folder without `.obj` files or a scene without faces, [`SceneError::Unknown`] for a
-/// bare name nothing matches. Missing `.mtl` libraries are not errors: one warning per load goes
-/// to stderr and their faces use the default material. The scene passes [`Scene::validate`].
-pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+/// bare name nothing matches. Loading does not print: statements read but not used, triangles
+/// left out for non-finite vertices, missing `.mtl` libraries (their faces use the default
+/// material), undefined material names and a manifest triangle count that differs from the
+/// files are in the [`LoadReport`]. The scene passes [`Scene::validate`].
+pub fn load_scene_with_report(spec: &str) -> Result<LoadedScene, SceneError> {
     if let Some(scene) = builtin(spec) {
-        return scene;
+        return scene.map(|scene| LoadedScene {
+            scene,
+            report: LoadReport::default(),
+        });
     }
     if spec.is_empty() {
         return Err(SceneError::Unknown(String::new()));
@@ -59,7 +79,7 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
 }
 
 /// Load an existing path: a folder, a `scene.toml` (its folder) or a `.obj` file.
-fn load_path(path: &Path) -> Result<Scene, SceneError> {
+fn load_path(path: &Path) -> Result<LoadedScene, SceneError> {
     if path.is_dir() {
         return load_folder(path);
     }
@@ -77,20 +97,20 @@ fn load_path(path: &Path) -> Result<Scene, SceneError> {
 
 /// Load one `.obj` file (and its `.mtl` libraries) as a scene named after the file stem, with a
 /// camera framing its bounds ([`Camera::framing`]) and sky on.
-pub fn load_obj_file(path: &Path) -> Result<Scene, SceneError> {
+pub fn load_obj_file(path: &Path) -> Result<LoadedScene, SceneError> {
     let mut geometry = ObjGeometry::new();
     geometry.load_file(path)?;
     let name = path
         .file_stem()
         .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    finish(geometry, path, name, None)
+    scene_from_geometry(geometry, path, name, None)
 }
 
 /// Load a scene folder: every `.obj` file in it (not recursive; extension ASCII
 /// case-insensitive), sorted by file name, appended in that order, with camera, sky and name
-/// from `scene.toml` when present. A manifest `triangles` count that differs from the loaded
-/// count gives a warning on stderr.
-pub fn load_folder(dir: &Path) -> Result<Scene, SceneError> {
+/// from `scene.toml` when present. A manifest `triangles` count that differs from the files'
+/// is reported in [`LoadReport::manifest_mismatch`].
+pub fn load_folder(dir: &Path) -> Result<LoadedScene, SceneError> {
     let manifest_path = dir.join(MANIFEST_FILE);
     let manifest = if manifest_path.is_file() {
         Some(Manifest::read(&manifest_path)?)
@@ -108,47 +128,49 @@ pub fn load_folder(dir: &Path) -> Result<Scene, SceneError> {
     for part in &parts {
         geometry.load_file(part)?;
     }
-    if let Some(expected) = manifest.as_ref().and_then(|m| m.triangles) {
-        let loaded = geometry.triangles.len();
-        if expected != loaded as u64 {
-            eprintln!(
-                "warning: {} says {expected} triangles but {loaded} were loaded from {}",
-                manifest_path.display(),
-                dir.display()
-            );
-        }
-    }
+    let in_files = geometry.triangles.len() as u64 + geometry.nonfinite_triangles;
+    let mismatch = manifest
+        .as_ref()
+        .and_then(|m| m.triangles)
+        .filter(|&expected| expected != in_files)
+        .map(|expected| (manifest_path.clone(), expected));
     let name = manifest
         .as_ref()
         .and_then(|m| m.name.clone())
         .unwrap_or_else(|| folder_name(dir));
-    finish(geometry, dir, name, manifest.as_ref())
+    let mut loaded = scene_from_geometry(geometry, dir, name, manifest.as_ref())?;
+    loaded.report.manifest_mismatch = mismatch;
+    Ok(loaded)
 }
 
-/// Build and check the scene from loaded geometry; warn once about missing material libraries.
-fn finish(
+/// Build and check the scene loaded from `origin` (a file or folder, named in errors) from its
+/// geometry, with the manifest's camera and sky when given (else a camera framing the
+/// geometry, sky on), and its load report.
+///
+/// Errors ([`SceneError::Parse`] naming `origin`): no triangles, or a scene that fails
+/// [`Scene::validate`].
+pub fn scene_from_geometry(
     geometry: ObjGeometry,
     origin: &Path,
     name: String,
     manifest: Option<&Manifest>,
-) -> Result<Scene, SceneError> {
-    if let Some(first) = geometry.missing_mtl.first() {
-        let n = geometry.missing_mtl.len();
-        eprintln!(
-            "warning: {n} material librar{} not found while loading {} (first: {}); \
-             their faces use the default grey material",
-            if n == 1 { "y" } else { "ies" },
-            origin.display(),
-            first.display()
-        );
-    }
+) -> Result<LoadedScene, SceneError> {
     if geometry.triangles.is_empty() {
+        let reason = if geometry.nonfinite_triangles > 0 {
+            format!(
+                "no faces: all {} triangles use non-finite vertices",
+                geometry.nonfinite_triangles
+            )
+        } else {
+            "no faces: the scene has nothing to render".into()
+        };
         return Err(SceneError::Parse {
             path: origin.display().to_string(),
-            reason: "no faces: the scene has nothing to render".into(),
+            reason,
         });
     }
-    // Every stored position is used by a face, so their bounds are the scene's.
+    let report = LoadReport::from_geometry(&geometry);
+    // Every stored position is used by a triangle, so their bounds are the scene's.
     let camera = match manifest {
         Some(m) => m.camera.camera(),
         None => {
@@ -176,7 +198,7 @@ fn finish(
         },
         other => other,
     })?;
-    Ok(scene)
+    Ok(LoadedScene { scene, report })
 }
 
 /// The `.obj` files directly in `dir`, sorted by file name.

@@ -147,7 +147,10 @@ pub mod city;
 mod content_hash;
 pub mod load;
 pub mod manifest;
+pub mod mtl;
 pub mod obj;
+pub mod report;
+pub mod text;
 
 impl Camera {
     /// Check that the camera defines a usable view: finite vectors, `eye != look_at`, `up` not
@@ -175,11 +178,21 @@ impl Camera {
 
     /// A camera that frames the box `[min, max]`: looking along -Z at the box centre from a
     /// distance at which the box's bounding sphere fills the 45-degree vertical field of view,
-    /// with +Y up. Used for a `.obj` file or a folder without a `scene.toml`.
+    /// with +Y up. Used for a `.obj` file or a folder without a `scene.toml`. Bounds so large
+    /// that the plain sums overflow (coordinates near 1e19 and beyond) are framed with scaled
+    /// arithmetic, so the camera stays finite for boxes up to about 1e37.
     pub fn framing(min: Vec3, max: Vec3) -> Camera {
         let fov_y_deg = 45.0_f32;
-        let center = (min + max) * 0.5;
-        let radius = (max - min).length() * 0.5;
+        let mut center = (min + max) * 0.5;
+        if !center.is_finite() {
+            center = min * 0.5 + max * 0.5;
+        }
+        let mut radius = (max - min).length() * 0.5;
+        if !radius.is_finite() {
+            let half = max * 0.5 - min * 0.5;
+            let scale = half.abs().max_element();
+            radius = scale * (half / scale).length();
+        }
         let radius = if radius > 0.0 { radius } else { 1.0 };
         let distance = radius / (fov_y_deg.to_radians() * 0.5).sin();
         Camera {
