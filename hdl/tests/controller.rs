@@ -185,7 +185,11 @@ impl Harness {
         let out = self.ctl.step(&mut self.regs, inputs);
         assert_eq!(out, expect_out);
         assert_eq!(self.regs, expect_regs);
-        for s in out.signals().iter().chain(self.regs.signals().iter()) {
+        for s in out
+            .signals()
+            .iter()
+            .chain(self.ctl.reg_signals(&self.regs).iter())
+        {
             assert!(
                 s.width >= 64 || s.value >> s.width == 0,
                 "{} = {} overflows {} bits",
@@ -800,7 +804,7 @@ fn signals_match_the_description() {
     };
     let ins = covered(&ctl.idle_inputs().signals(), port(Dir::In));
     let outs = covered(&out.signals(), port(Dir::Out));
-    let regs_seen = covered(&regs.signals(), |n: &str| {
+    let regs_seen = covered(&ctl.reg_signals(&regs), |n: &str| {
         d.registers
             .iter()
             .find(|r| r.name == n)

@@ -950,7 +950,7 @@ fn run_deep(
         assert_eq!(sim.regs.errors, 0, "{:?}", sim.regs.first_error);
     }
     let reqs = sim.mem.log.iter().map(|(_, r)| *r).collect();
-    (finished.into_values().collect(), sim.stats.clone(), reqs)
+    (finished.into_values().collect(), sim.stats, reqs)
 }
 
 /// Per ray id, the node addresses it fetched, in order (first chunks only).
@@ -1123,7 +1123,12 @@ fn signals_are_stable_fit_their_widths_and_name_described_items() {
         vec![None, ray(1, 0, node(0, NodeKind::Internal, 32))],
     ));
     assert_eq!(empty, shape(inputs.signals()));
-    let all = [inputs.signals(), busy.signals(), sim.regs.signals()].concat();
+    let all = [
+        inputs.signals(),
+        busy.signals(),
+        sim.unit.reg_signals(&sim.regs),
+    ]
+    .concat();
     for s in all {
         assert!(
             s.width >= 64 || s.value >> s.width == 0,

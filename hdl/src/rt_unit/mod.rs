@@ -68,30 +68,31 @@
 //! [`RtUnitOutputs::counts`] ([`RtUnit::skip`] returns those of skipped idle cycles) and the
 //! observer beside it sums them ([`RtStats::add`]).
 //!
-//! # Signals
-//! Per-lane fields of a bus port appear in traces as `<port>_<lane>`, the 256-bit data buses as
-//! `<port>_<k>` 64-bit words (`k` = 0 for the lowest bytes). Ray words and stack contents are
-//! bulk data and are not traced.
+//! # Files
+//! `ports` (the port bundles, declared once, and their widths), `bundles` (the registers and the
+//! records that enter and leave the warp buffer), `node` (node references and the datapath
+//! interface), `desc` (the description and the registers' trace signals).
 
 mod bundles;
 mod desc;
 mod node;
+mod ports;
 
 use bundles::{bits, LaneMasks};
 pub use bundles::{
     errors, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane, LaneStatus,
-    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats, RtUnitInputs,
-    RtUnitOutputs, RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue,
-    WarpSlot, Widths,
+    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats, RtUnitRegs,
+    SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
 };
 pub use node::{
     pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NoDatapath, NodeDatapath, NodeEntry,
     NodeKind, RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
     STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
+pub use ports::{RtUnitInputs, RtUnitOutputs, Widths};
 
 use crate::bits::{bits_for, clog2};
-use crate::block::Block;
+use crate::block::{Block, Signal};
 use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::BlockDesc;
@@ -244,6 +245,8 @@ fn checked_widths(cfg: &HwConfig, params: &RtUnitParams) -> Result<Widths, RtUni
         fifo_count: bits_for(params.resp_fifo_depth as u64),
         delay: bits_for(params.latencies.max() as u64),
         spilled: bits_for(params.stack_spill_chunks as u64),
+        stack_depth: cfg.stack_depth,
+        stack_pointer: bits_for(cfg.stack_depth as u64),
     })
 }
 
@@ -1363,7 +1366,6 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
             lanes: lanes.into_boxed_slice(),
         };
         RtUnitRegs {
-            widths: self.widths,
             slots: vec![slot; self.cfg.warp_buffer_size as usize].into_boxed_slice(),
             age: BoundedVec::new(self.cfg.warp_buffer_size as usize),
             fifo: BoundedDeque::new(self.params.resp_fifo_depth as usize),
@@ -1379,6 +1381,10 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
         let mut cache = RtCache::of(regs);
         let out = self.update(&mut next, &mut cache, inputs);
         (out, next)
+    }
+
+    fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {
+        desc::reg_signals(regs, &self.widths)
     }
 
     fn describe(&self) -> BlockDesc {

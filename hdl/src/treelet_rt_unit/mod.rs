@@ -58,7 +58,7 @@ pub use ports::{
 };
 pub use wiring::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Block, Signal};
 use crate::compose::settle;
 use crate::config::HwConfig;
 use crate::controller::{ControllerFeatures, ControllerInputs, ControllerRegs, TreeletController};
@@ -393,20 +393,16 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         )
     }
 
-    fn describe(&self) -> BlockDesc {
-        ports::describe(self)
-    }
-}
-
-impl Signals for TreeletRtUnitRegs {
-    fn signals(&self) -> Vec<Signal> {
+    /// The children's register signals (prefixed `rt_`, `ctl_`, `ct_`, `qt_`) and the wiring's
+    /// (prefixed `glue_`).
+    fn reg_signals(&self, regs: &TreeletRtUnitRegs) -> Vec<Signal> {
         let mut s = Vec::new();
         for (prefix, child) in [
-            ("rt", self.rt.signals()),
-            ("ctl", self.ctl.signals()),
-            ("ct", self.ct.signals()),
-            ("qt", self.qt.signals()),
-            ("glue", self.glue.signals()),
+            ("rt", self.rt.reg_signals(&regs.rt)),
+            ("ctl", self.ctl.reg_signals(&regs.ctl)),
+            ("ct", self.ct.reg_signals(&regs.ct)),
+            ("qt", self.qt.reg_signals(&regs.qt)),
+            ("glue", wiring::glue_signals(&regs.glue)),
         ] {
             s.extend(child.into_iter().map(|sig| Signal {
                 name: format!("{prefix}_{}", sig.name),
@@ -414,5 +410,9 @@ impl Signals for TreeletRtUnitRegs {
             }));
         }
         s
+    }
+
+    fn describe(&self) -> BlockDesc {
+        ports::describe(self)
     }
 }

@@ -13,7 +13,7 @@ use super::{
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs, TreeletRtUnitWidths,
 };
 use crate::bits::bits_for;
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Block, Signal};
 use crate::config::HwConfig;
 use crate::controller::{
     ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
@@ -143,7 +143,7 @@ impl IdPool {
     /// Every id below `n` free.
     fn new(n: u32) -> Self {
         let mut free = vec![u64::MAX; (n as usize).div_ceil(64)];
-        if n % 64 != 0 {
+        if !n.is_multiple_of(64) {
             *free.last_mut().expect("at least one word") = (1u64 << (n % 64)) - 1;
         }
         IdPool { free, count: n }
@@ -227,28 +227,27 @@ impl GlueRegs {
     }
 }
 
-impl Signals for GlueRegs {
-    fn signals(&self) -> Vec<Signal> {
-        let mut s = Vec::new();
-        for (i, u) in self.uses.iter().enumerate() {
-            s.push(Signal::new(format!("slot_use_{i}"), 2, u.code()));
-        }
-        for (i, b) in self.builds.iter().enumerate() {
-            s.push(Signal::new(
-                format!("build_valid_{i}"),
-                1,
-                b.is_some() as u64,
-            ));
-            s.push(Signal::new(
-                format!("build_loading_{i}"),
-                16,
-                b.as_ref().map_or(0, |b| b.loading as u64),
-            ));
-        }
-        s.push(Signal::new("event_count", 16, self.events.len() as u64));
-        s.push(Signal::new("free_ids", 32, self.ids.len() as u64));
-        s
+/// The wiring's registers `g` as trace signals.
+pub(super) fn glue_signals(g: &GlueRegs) -> Vec<Signal> {
+    let mut s = Vec::new();
+    for (i, u) in g.uses.iter().enumerate() {
+        s.push(Signal::new(format!("slot_use_{i}"), 2, u.code()));
     }
+    for (i, b) in g.builds.iter().enumerate() {
+        s.push(Signal::new(
+            format!("build_valid_{i}"),
+            1,
+            b.is_some() as u64,
+        ));
+        s.push(Signal::new(
+            format!("build_loading_{i}"),
+            16,
+            b.as_ref().map_or(0, |b| b.loading as u64),
+        ));
+    }
+    s.push(Signal::new("event_count", 16, g.events.len() as u64));
+    s.push(Signal::new("free_ids", 32, g.ids.len() as u64));
+    s
 }
 
 /// The wiring's register descriptions.
@@ -907,7 +906,6 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         &mut out,
     );
     let qt_busy = !peeks.qt.ready;
-    drop(peeks);
     cache.log_tables(&ct_in, &qt_in);
     // Tables with no op and nothing in progress are not stepped: their registers would not
     // change and their outputs would carry nothing.
