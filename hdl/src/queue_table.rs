@@ -44,6 +44,7 @@
 
 use crate::bits::{bits_for, clog2};
 use crate::block::{Block, Signal};
+use crate::bounded::BoundedVec;
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::{reg, BlockDesc, FsmDesc};
 use crate::memory::{MemCycle, MemPorts, Memory};
@@ -190,8 +191,10 @@ crate::bundle! {
         pub free_entries: u32,
         /// Rays handed to the spill store and not yet refilled.
         pub spilled: u32,
-        /// Longest chain walk so far (entries read in one op), a statistic.
-        pub max_chain: u32,
+        /// Entries read so far by the current op's chain walk, this cycle's read included (0 in
+        /// a cycle without a walk step): a statistics event, whose maximum over a run (the
+        /// longest chain walk) an observer keeps.
+        pub walk_len: u32,
     }
     ports {
         /// an op is accepted this cycle (IDLE)
@@ -220,8 +223,8 @@ crate::bundle! {
         sig free_entries (w.entries) = this.free_entries as u64;
         /// rays spilled and not yet refilled
         sig spilled (w.spilled) = this.spilled as u64;
-        /// longest chain walk so far (statistic)
-        sig max_chain (w.entries) = this.max_chain as u64;
+        /// entries read so far by this op's chain walk, this cycle's included (0 without a walk step; statistics event)
+        sig walk_len (w.entries) = this.walk_len as u64;
     }
 }
 
@@ -314,8 +317,6 @@ pub struct QueueCtl {
     pub free_count: u32,
     /// Rays spilled and not refilled.
     pub spilled: u32,
-    /// Longest walk so far.
-    pub max_chain: u32,
 }
 
 /// Registers of the queue table.
@@ -325,10 +326,10 @@ pub struct QueueTableRegs {
     pub heads: Memory<HeadWord>,
     /// Entry metadata.
     pub meta: Memory<MetaWord>,
-    /// Entry ray ids.
-    pub rays: Memory<Vec<u32>>,
+    /// Entry ray ids (`warp_size` lanes per entry).
+    pub rays: Memory<Box<[u32]>>,
     /// Entry valid bits (the free list is their complement).
-    pub valid: Vec<bool>,
+    pub valid: Box<[bool]>,
     /// Scalar registers.
     pub ctl: QueueCtl,
 }
@@ -345,7 +346,7 @@ pub struct QueueTable {
 struct Cycle<'a> {
     heads: MemCycle<'a, HeadWord>,
     meta: MemCycle<'a, MetaWord>,
-    rays: MemCycle<'a, Vec<u32>>,
+    rays: MemCycle<'a, Box<[u32]>>,
     /// Priority encoder: lowest free entry.
     first_free: Option<usize>,
     /// Priority encoder: lowest valid entry.
@@ -515,7 +516,7 @@ impl QueueTable {
         let m = *cx.meta.rdata(0);
         let walked = c.walked + 1;
         cx.nx.walked = walked;
-        cx.nx.max_chain = c.max_chain.max(walked);
+        cx.out.walk_len = walked;
         let matched = match c.walk_op {
             WalkOp::PopAny => c.cur == c.target,
             _ => m.treelet == c.key_treelet,
@@ -619,8 +620,8 @@ impl Block for QueueTable {
         QueueTableRegs {
             heads: Memory::new(self.buckets as usize, HeadWord::default(), flops),
             meta: Memory::new(e, MetaWord::default(), sram),
-            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize], sram),
-            valid: vec![false; e],
+            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize].into(), sram),
+            valid: vec![false; e].into(),
             ctl: QueueCtl {
                 free_count: e as u32,
                 ..QueueCtl::default()
@@ -663,7 +664,7 @@ impl Block for QueueTable {
                 refill_req: false,
                 free_entries: c.free_count,
                 spilled: c.spilled,
-                max_chain: c.max_chain,
+                walk_len: 0,
                 widths: self.widths,
             },
             set_valid: None,
@@ -764,7 +765,6 @@ impl Block for QueueTable {
             Signal::new("pop_treelet", w.treelet, c.pop_treelet),
             Signal::new("free_count", w.entries, c.free_count as u64),
             Signal::new("spilled", w.spilled, c.spilled as u64),
-            Signal::new("max_chain", w.entries, c.max_chain as u64),
         ];
         // The valid bits as 64-bit words, entry 0 in bit 0 of `valid_0`.
         for (k, chunk) in r.valid.chunks(64).enumerate() {
@@ -812,7 +812,6 @@ impl Block for QueueTable {
             reg("pop_treelet", w.treelet, 1, "popped entry's treelet"),
             reg("free_count", w.entries, 1, "free entries"),
             reg("spilled", w.spilled, 1, "rays spilled and not refilled"),
-            reg("max_chain", w.entries, 1, "longest walk so far"),
             reg(
                 "valid",
                 1,
@@ -909,13 +908,13 @@ pub struct QueueTableStatus {
 }
 
 /// The answer to a `Pop`/`PopAny` (the popped entry), or the end of any other op.
-#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct PopResult {
     /// Treelet address of the popped entry.
     pub treelet: u32,
-    /// Ray ids of the entry (at most warp_size; empty when the queue was empty or the op was not
-    /// a pop).
-    pub rays: Vec<u32>,
+    /// Ray ids of the entry (a list of depth warp_size; empty when the queue was empty or the op
+    /// was not a pop).
+    pub rays: BoundedVec<u32>,
 }
 
 impl QueueTable {
@@ -941,9 +940,11 @@ impl QueueTable {
 impl QueueTableOut {
     /// The op that ends this cycle with its popped entry, if one ends.
     pub fn popped(&self) -> Option<PopResult> {
+        let n = (self.pop_count as usize).min(self.pop_rays.len());
         self.done.then(|| PopResult {
             treelet: self.pop_treelet as u32,
-            rays: self.pop_rays[..self.pop_count as usize].to_vec(),
+            rays: BoundedVec::with(self.pop_rays.len(), self.pop_rays[..n].iter().copied())
+                .unwrap_or_default(),
         })
     }
 }

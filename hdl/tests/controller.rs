@@ -4,6 +4,7 @@
 //! small reference models of the tables and the RT unit that checks every ray is traced once.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::controller::{
     ActiveReport, ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs,
     ControllerStats, EnqueueRequest, FillKind, InitReport, Seq, TreeletController,
@@ -96,9 +97,10 @@ impl RefQueueTable {
             }
             return;
         }
+        let lanes = self.warp_size;
         let pop = |q: &mut VecDeque<Vec<u32>>, t: u32| PopResult {
             treelet: t,
-            rays: q.pop_front().unwrap_or_default(),
+            rays: BoundedVec::with(lanes, q.pop_front().unwrap_or_default()).expect("a warp"),
         };
         let result = match op {
             QueueOp::Nop | QueueOp::Count { .. } => return,
@@ -675,7 +677,7 @@ fn an_empty_pop_of_a_resident_queue_removes_its_whole_count() {
     let mut i = h.quiet();
     i.qt_done = Some(PopResult {
         treelet: A,
-        rays: vec![],
+        rays: BoundedVec::default(),
     });
     let o = h.step(&i);
     assert_eq!(o.fill, None);

@@ -1,6 +1,7 @@
 //! Tests of the RT unit control block with a toy datapath and a fixed-latency memory.
 
 use std::collections::BTreeMap;
+use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
     errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
     LaneStatus, MemRequest, MemResponse, NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord,
@@ -632,8 +633,8 @@ fn two_stack_order_puts_other_treelets_on_the_other_stack() {
     }
     let rec = &sim.regs.slots[0].lanes[0].ray;
     assert_eq!(rec.current_treelet, 0);
-    assert_eq!(rec.current_stack, vec![c2]);
-    assert_eq!(rec.other_stack, vec![c1]);
+    assert_eq!(*rec.current_stack, [c2]);
+    assert_eq!(*rec.other_stack, [c1]);
     while sim.done.is_empty() {
         sim.step(None);
     }
@@ -667,7 +668,7 @@ fn treelet_stop_parks_the_ray_and_it_resumes_in_a_new_warp() {
     assert_eq!(sim.events.len(), 1);
     assert_eq!(sim.events[0].1.treelet, 2);
     assert!(rec.current_stack.is_empty());
-    assert_eq!(rec.other_stack, vec![c1, c3]);
+    assert_eq!(*rec.other_stack, [c1, c3]);
     // Resume the ray in a treelet warp: it switches to treelet 2, tests c3 and stops again.
     let mut lanes = vec![None; 4];
     lanes[2] = Some(rec);
@@ -680,7 +681,7 @@ fn treelet_stop_parks_the_ray_and_it_resumes_in_a_new_warp() {
     let (rec, outcome) = sim.done[1].1.lanes[2].clone().unwrap();
     assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 1 });
     assert_eq!(rec.current_treelet, 2);
-    assert_eq!(rec.other_stack, vec![c1]);
+    assert_eq!(*rec.other_stack, [c1]);
     assert_eq!(sim.events.last().unwrap().1.lane, 2);
 }
 
@@ -847,7 +848,7 @@ fn bad_parameters_and_issues_are_rejected_with_reasons() {
         .unwrap_err();
     assert!(e.to_string().contains("max_rays"), "{e}");
     let mut deep = RayRecord::new(1, words(0), r);
-    deep.other_stack = vec![r; 17];
+    deep.other_stack = BoundedVec::with(17, vec![r; 17]).unwrap();
     let e = unit
         .check_issue(&warp(
             TraversalOrder::RayStationary,
@@ -1302,11 +1303,7 @@ fn stop_makes_a_continuing_warp_park_at_its_next_treelet_boundary() {
         let (rec, outcome) = sim.done[0].1.lanes[0].clone().unwrap();
         if stop {
             assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 1 });
-            assert_eq!(
-                rec.other_stack,
-                vec![c],
-                "C waits on the other-treelet stack"
-            );
+            assert_eq!(*rec.other_stack, [c], "C waits on the other-treelet stack");
             assert!(rec.hit.is_none());
         } else {
             assert_eq!(outcome, RayOutcome::Finished);

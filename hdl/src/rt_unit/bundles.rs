@@ -181,7 +181,9 @@ impl StackSel {
 /// Each stack is split between the lane's on-chip stack (at most `stack_depth` entries, its
 /// top) and 32 B chunks of older entries spilled to the ray's spill area in memory (the chunks
 /// stay there while the ray waits outside the RT unit; their number travels with the record).
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+/// The on-chip parts are bounded lists: in a warp-buffer lane their depth is `stack_depth` (a
+/// record issued to the RT unit is loaded into stacks of that depth).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct RayRecord {
     /// Ray id (below `max_rays`).
     pub ray_id: u32,
@@ -192,10 +194,10 @@ pub struct RayRecord {
     /// Treelet (address >> log2(treelet_bytes)) the current stack belongs to.
     pub current_treelet: u64,
     /// On-chip part of the current-treelet stack, bottom first (the last entry is popped next).
-    pub current_stack: Vec<NodeEntry>,
+    pub current_stack: BoundedVec<NodeEntry>,
     /// On-chip part of the other-treelet stack, bottom first; when the current stack is empty
     /// its top is popped and its treelet becomes the current treelet.
-    pub other_stack: Vec<NodeEntry>,
+    pub other_stack: BoundedVec<NodeEntry>,
     /// Chunks of the current-treelet stack spilled to memory (entries below `current_stack`).
     pub current_spilled: u32,
     /// Chunks of the other-treelet stack spilled to memory (entries below `other_stack`).
@@ -211,8 +213,8 @@ impl RayRecord {
             words,
             hit: None,
             current_treelet: 0,
-            current_stack: Vec::new(),
-            other_stack: vec![root],
+            current_stack: BoundedVec::new(0),
+            other_stack: BoundedVec::with(1, [root]).unwrap_or_default(),
             current_spilled: 0,
             other_spilled: 0,
         }
@@ -243,7 +245,7 @@ impl RayRecord {
     }
 
     /// The on-chip part of stack `s`.
-    pub fn stack(&self, s: StackSel) -> &Vec<NodeEntry> {
+    pub fn stack(&self, s: StackSel) -> &BoundedVec<NodeEntry> {
         match s {
             StackSel::Current => &self.current_stack,
             StackSel::Other => &self.other_stack,
@@ -251,7 +253,7 @@ impl RayRecord {
     }
 
     /// The on-chip part of stack `s`, writable.
-    pub fn stack_mut(&mut self, s: StackSel) -> &mut Vec<NodeEntry> {
+    pub fn stack_mut(&mut self, s: StackSel) -> &mut BoundedVec<NodeEntry> {
         match s {
             StackSel::Current => &mut self.current_stack,
             StackSel::Other => &mut self.other_stack,

@@ -721,7 +721,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 let slot = &mut r.slots[s as usize];
                 for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
                     if let Some(ray) = ray {
-                        *lane = Self::lane_for(ray);
+                        *lane = self.lane_for(ray);
                     }
                 }
                 c.masks[s as usize] = LaneMasks::of(&slot.lanes);
@@ -779,15 +779,28 @@ impl<D: NodeDatapath> RtUnit<D> {
         Some(WarpDone { slot: s, lanes })
     }
 
-    /// A fresh lane holding `ray` (already finished rays enter done).
-    fn lane_for(ray: &RayRecord) -> Lane {
+    /// A fresh lane holding `ray` (already finished rays enter done), its on-chip stacks of
+    /// depth `stack_depth` ([`RtUnit::check_issue`] checked that they fit).
+    fn lane_for(&self, ray: &RayRecord) -> Lane {
+        let depth = self.cfg.stack_depth as usize;
+        let stacks = (
+            ray.current_stack.with_capacity_of(depth),
+            ray.other_stack.with_capacity_of(depth),
+        );
+        let (Ok(current_stack), Ok(other_stack)) = stacks else {
+            unreachable!("check_issue bounds the stacks by stack_depth");
+        };
         Lane {
             status: if ray.finished() {
                 LaneStatus::Done
             } else {
                 LaneStatus::Traversing
             },
-            ray: ray.clone(),
+            ray: RayRecord {
+                current_stack,
+                other_stack,
+                ..ray.clone()
+            },
             ..Lane::default()
         }
     }
@@ -889,7 +902,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                         raise(&mut r.errors, &mut r.first_error, failure);
                         return None;
                     }
-                    let entries: Vec<NodeEntry> = lane.ray.stack_mut(stack).drain(..k).collect();
+                    let entries = lane.ray.stack_mut(stack).take_front(k);
                     *lane.ray.spilled_mut(stack) += 1;
                     m.set(leader, lane);
                     counts.stack_spills += 1;
@@ -1132,6 +1145,9 @@ impl<D: NodeDatapath> RtUnit<D> {
         {
             return false;
         }
+        let Ok(entries) = BoundedVec::with(self.cfg.stack_depth as usize, entries) else {
+            return false;
+        };
         *lane.ray.stack_mut(stack) = entries;
         *lane.ray.spilled_mut(stack) -= 1;
         lane.filling = None;
@@ -1210,8 +1226,8 @@ impl<D: NodeDatapath> RtUnit<D> {
             } else {
                 &mut ray.other_stack
             };
-            debug_assert!(stack.len() < self.cfg.stack_depth as usize, "stack room");
-            stack.push(*child);
+            let pushed = stack.push(*child);
+            debug_assert!(pushed.is_ok(), "stack room");
         }
         if ray.finished() {
             lane.status = LaneStatus::Done;
@@ -1234,7 +1250,9 @@ impl<D: NodeDatapath> RtUnit<D> {
         slot.held = false;
         slot.order = issue.order;
         for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
-            *lane = ray.as_ref().map_or_else(Lane::default, Self::lane_for);
+            *lane = ray
+                .as_ref()
+                .map_or_else(Lane::default, |ray| self.lane_for(ray));
         }
         c.masks[s] = LaneMasks::of(&slot.lanes);
         // A slot enters only when free, so the age list never holds more than every slot.
