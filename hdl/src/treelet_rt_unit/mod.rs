@@ -268,7 +268,8 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
 
     /// Advances `n <= idle_cycles` idle cycles, as `n` cached steps with idle inputs would: the
     /// RT unit's delays, the count table's scan (its `Nop` cycles) and the controller's cycle
-    /// counter. Returns the statistics increments of those cycles.
+    /// counter. Returns the statistics increments of those cycles. Afterwards `idle_cycles`
+    /// counts from the new cycle (0 if the skip reached the end of the idle period).
     pub fn skip(
         &self,
         regs: &mut TreeletRtUnitRegs,
@@ -293,8 +294,12 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
                 cache.log_tables(&ct, &qt);
             }
         }
+        // A skip to the RT unit's bound ends a delay, which may change the slot summaries the
+        // controller reads.
+        let delay_ends = n >= self.rt.idle_cycles(&regs.rt, &cache.rt);
         counts.rt = self.rt.skip(&mut regs.rt, &mut cache.rt, n);
         let mut left = n;
+        let scanning = self.ct.busy(&regs.ct);
         while left > 0 && self.ct.busy(&regs.ct) {
             self.ct.step(
                 &mut regs.ct,
@@ -302,6 +307,9 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             );
             left -= 1;
         }
+        // So does a scan that published its pointers: the next cycle evaluates the controller
+        // (no more idle cycles until then).
+        cache.awake |= delay_ends || (scanning && !self.ct.busy(&regs.ct));
         counts.ctl.count_cycles(self.ctl.mode(&regs.ctl, false), n);
         counts
     }
