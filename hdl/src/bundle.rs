@@ -36,6 +36,8 @@
 //!         each tag (3, 2) = |i: usize| i as u64;
 //!         /// a wide word, described but not traced
 //!         bulk blob (512);
+//!         /// a record's fields, described but not traced
+//!         bulks rec ([("a", 3, "field a"), ("b", 5, "field b")]);
 //!         group resp (k < 2) {
 //!             /// the response port carries data
 //!             sig valid (1) = this.data[k].is_some() as u64;
@@ -57,7 +59,8 @@
 //! assert_eq!(
 //!     ports.iter().map(|p| (p.name.as_str(), p.width)).collect::<Vec<_>>(),
 //!     [("valid", 1), ("address", 16), ("enable", 4), ("tag_0", 3), ("tag_1", 3), ("blob", 512),
-//!      ("resp0_valid", 1), ("resp0_data", 8), ("resp1_valid", 1), ("resp1_data", 8)]
+//!      ("rec_a", 3), ("rec_b", 5), ("resp0_valid", 1), ("resp0_data", 8), ("resp1_valid", 1),
+//!      ("resp1_data", 8)]
 //! );
 //! let names: Vec<String> = b.signals().into_iter().map(|s| s.name).collect();
 //! assert_eq!(
@@ -75,6 +78,9 @@
 //! - `each name (width, count) = |i| value;` `count` ports `name_<i>` of `width` bits each;
 //! - `bulk name (width);` a port that is described but not traced (bulk data such as whole ray
 //!   records, whose value needs no trace);
+//! - `bulks prefix (table);` a family of bulk ports `<prefix>_<field>` from a table of
+//!   `(field, width, doc)` (one table for the fields of a record that enters and leaves a
+//!   block by two families of ports; the row's own documentation names the family);
 //! - `group prefix (k < count) { rows }` the rows (of the kinds above) once per `k` in
 //!   `0..count`, named `<prefix><k>_<name>`, in the order `k` = 0 first; `k` is a `usize` the
 //!   rows' values may use.
@@ -231,6 +237,13 @@ macro_rules! __bundle_rows {
                 ($width) ($($doc),+)]] $($rest)*
         }
     };
+    (@munch $ctx:tt (fixed $d:ident $nm:tt $st:tt) [$($acc:tt)*] $(#[doc = $doc:tt])+
+        bulks $name:ident ($table:expr) ; $($rest:tt)*) => {
+        $crate::__bundle_rows! {
+            @munch $ctx (fixed $d $nm $st) [$($acc)* [$d bulks ($crate::__bundle_name!($nm $name))
+                ($table)]] $($rest)*
+        }
+    };
     // One row of each kind, naming its own direction.
     (@munch $ctx:tt (free) [$($acc:tt)*] $(#[doc = $doc:tt])+
         $rd:ident sig $name:ident ($width:expr) = $value:expr ; $($rest:tt)*) => {
@@ -258,6 +271,13 @@ macro_rules! __bundle_rows {
         $crate::__bundle_rows! {
             @munch $ctx (free) [$($acc)* [$rd bulk ($crate::__bundle_name!((stringify) $name))
                 ($width) ($($doc),+)]] $($rest)*
+        }
+    };
+    (@munch $ctx:tt (free) [$($acc:tt)*] $(#[doc = $doc:tt])+
+        $rd:ident bulks $name:ident ($table:expr) ; $($rest:tt)*) => {
+        $crate::__bundle_rows! {
+            @munch $ctx (free) [$($acc)* [$rd bulks ($crate::__bundle_name!((stringify) $name))
+                ($table)]] $($rest)*
         }
     };
 }
@@ -380,6 +400,17 @@ macro_rules! __bundle_port {
     (@row $v:ident, $rd:ident, [bulk ($name:expr) ($width:expr) ($($doc:tt),+)]) => {
         $v.push($crate::bundle::port_desc(&$name, $crate::describe::Dir::$rd, $width, &[$($doc),+]));
     };
+    (@row $v:ident, $rd:ident, [bulks ($name:expr) ($table:expr)]) => {
+        let prefix = $name;
+        for (field, width, doc) in $table {
+            $v.push($crate::bundle::port_desc(
+                &format!("{}_{}", prefix, field),
+                $crate::describe::Dir::$rd,
+                width,
+                &[doc],
+            ));
+        }
+    };
     (@row $v:ident, $rd:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_port!(@row $v, $ird, [$($inner)*]); )*
@@ -410,6 +441,7 @@ macro_rules! __bundle_signal {
         $crate::__bundle_signal!(@lanes $v, ($name) ($width) ($count) ($value));
     };
     (@row $v:ident, [bulk ($name:expr) ($width:expr) ($($doc:tt),+)]) => {};
+    (@row $v:ident, [bulks ($name:expr) ($table:expr)]) => {};
     (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_signal!(@row $v, [$($inner)*]); )*

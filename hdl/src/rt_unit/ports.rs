@@ -137,26 +137,8 @@ crate::bundle! {
         In lanes issue_ray_id (w.ray_id, w.warp_size) = |i: usize| {
             this.issue_lane(i).map_or(0, |r| r.ray_id as u64)
         };
-        /// per lane: origin, direction, tmin, tmax (f32 bits)
-        In bulk issue_ray_words (w.warp_size * WORD_BITS);
-        /// per lane: the ray has a hit
-        In bulk issue_hit_valid (w.warp_size);
-        /// per lane: closest hit t, hit id, two attributes
-        In bulk issue_hit (w.warp_size * HIT_BITS);
-        /// per lane: current treelet
-        In bulk issue_cur_treelet (w.warp_size * w.treelet);
-        /// per lane: current-treelet stack depth
-        In bulk issue_cur_sp (w.warp_size * w.stack_pointer);
-        /// per lane: other-treelet stack depth
-        In bulk issue_other_sp (w.warp_size * w.stack_pointer);
-        /// per lane: current-treelet stack chunks in the spill area
-        In bulk issue_cur_spilled (w.warp_size * w.spilled);
-        /// per lane: other-treelet stack chunks in the spill area
-        In bulk issue_other_spilled (w.warp_size * w.spilled);
-        /// per lane: current-treelet stack entries, bottom first (parallel load of the ray state)
-        In bulk issue_cur_stack (w.warp_size * w.stack_depth * w.entry());
-        /// per lane: other-treelet stack entries, bottom first
-        In bulk issue_other_stack (w.warp_size * w.stack_depth * w.entry());
+        /// per lane: the rest of the ray state loaded at issue (words, hit, current treelet, both on-chip stacks and their pointers and spilled-chunk counts)
+        In bulks issue (ray_state(w));
         /// a 32 B memory request is issued (at most one per cycle)
         Out sig req_valid (1) = this.request.is_some() as u64;
         /// byte address of the request (32 B aligned)
@@ -197,26 +179,8 @@ crate::bundle! {
         Out lanes done_ray_id (w.ray_id, w.warp_size) = |i: usize| {
             this.done_lane(i).map_or(0, |(r, _)| r.ray_id as u64)
         };
-        /// per lane: origin, direction, tmin, tmax (f32 bits)
-        Out bulk done_ray_words (w.warp_size * WORD_BITS);
-        /// per lane: the ray has a hit
-        Out bulk done_hit_valid (w.warp_size);
-        /// per lane: closest hit t, hit id, two attributes
-        Out bulk done_hit (w.warp_size * HIT_BITS);
-        /// per lane: current treelet
-        Out bulk done_cur_treelet (w.warp_size * w.treelet);
-        /// per lane: current-treelet stack depth
-        Out bulk done_cur_sp (w.warp_size * w.stack_pointer);
-        /// per lane: other-treelet stack depth
-        Out bulk done_other_sp (w.warp_size * w.stack_pointer);
-        /// per lane: current-treelet stack chunks in the spill area
-        Out bulk done_cur_spilled (w.warp_size * w.spilled);
-        /// per lane: other-treelet stack chunks in the spill area
-        Out bulk done_other_spilled (w.warp_size * w.spilled);
-        /// per lane: current-treelet stack entries, bottom first (parallel load of the ray state)
-        Out bulk done_cur_stack (w.warp_size * w.stack_depth * w.entry());
-        /// per lane: other-treelet stack entries, bottom first
-        Out bulk done_other_stack (w.warp_size * w.stack_depth * w.entry());
+        /// per lane: the rest of the ray state written back at completion
+        Out bulks done (ray_state(w));
         /// per lane: the ray reached a treelet boundary this cycle
         Out sig boundary_valid (w.warp_size) = mask(w.warp_size, |i| this.boundary_at(i).is_some());
         /// slot of the rays reaching a boundary (the slot whose response was popped)
@@ -303,6 +267,26 @@ impl RtUnitOutputs {
     fn boundary_at(&self, i: usize) -> Option<&BoundaryEvent> {
         self.boundary.iter().find(|e| e.lane as usize == i)
     }
+}
+
+/// The bulk fields of every lane's ray state, as `(field, width, doc)`: what the ray-state
+/// ports carry beside the traced `active` and `ray_id` (loaded at issue, written back at
+/// completion).
+fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
+    let n = w.warp_size;
+    let stack = n * w.stack_depth * w.entry();
+    [
+        ("ray_words", n * WORD_BITS, "per lane: origin, direction, tmin, tmax (f32 bits)"),
+        ("hit_valid", n, "per lane: the ray has a hit"),
+        ("hit", n * HIT_BITS, "per lane: closest hit t, hit id, two attributes"),
+        ("cur_treelet", n * w.treelet, "per lane: current treelet"),
+        ("cur_sp", n * w.stack_pointer, "per lane: current-treelet stack depth"),
+        ("other_sp", n * w.stack_pointer, "per lane: other-treelet stack depth"),
+        ("cur_spilled", n * w.spilled, "per lane: current-treelet stack chunks in the spill area"),
+        ("other_spilled", n * w.spilled, "per lane: other-treelet stack chunks in the spill area"),
+        ("cur_stack", stack, "per lane: current-treelet stack entries, bottom first (parallel load of the ray state)"),
+        ("other_stack", stack, "per lane: other-treelet stack entries, bottom first"),
+    ]
 }
 
 /// A mask of `n` lanes, bit `i` set where `on(i)`.
