@@ -48,7 +48,7 @@ pub struct Coverage {
     pub pops: u64,
     /// Queue table: Count ops that found rays (`count_result` > 0).
     pub counts: u64,
-    /// Queue table: the longest chain walk at the end of the run (`max_chain`).
+    /// Queue table: the longest chain walk of the run (the largest `walk_len`).
     pub max_chain: u64,
 }
 
@@ -308,7 +308,7 @@ pub fn queue_table_inputs(
         cov.refills += o.refill_req as u64;
         cov.pops += (o.pop_count != 0) as u64;
         cov.counts += (o.count_result != 0) as u64;
-        cov.max_chain = o.max_chain as u64;
+        cov.max_chain = cov.max_chain.max(o.walk_len as u64);
         out.push(input);
     }
     Ok((t, out, cov))

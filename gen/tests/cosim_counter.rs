@@ -7,8 +7,7 @@ use vtq_gen::cosim::{cosim_block, record, run_cosim, write_testbench, CosimOptio
 use vtq_gen::synth::lint;
 use vtq_gen::tools::or_skip;
 use vtq_gen::GenError;
-use vtq_hdl::describe::port;
-use vtq_hdl::{Block, BlockDesc, Dir, Signal, Signals};
+use vtq_hdl::{Block, BlockDesc, Signal};
 
 /// The counter: `count` is the register (a Moore output); `wrap` is high in a cycle where the
 /// counter is enabled at 15 (a Mealy output, combinational in the inputs). `load` wins over
@@ -18,47 +17,37 @@ struct Counter {
     skip_ten: bool,
 }
 
-#[derive(Clone)]
-struct CounterIn {
-    en: bool,
-    load: bool,
-    value: u64,
-}
-
-#[derive(Clone)]
-struct CounterOut {
-    count: u64,
-    wrap: bool,
+vtq_hdl::bundle! {
+    /// The counter's inputs.
+    #[derive(Clone)]
+    struct CounterIn (In, w: (), this) {
+        en: bool,
+        load: bool,
+        value: u64,
+    }
+    /// The counter's outputs.
+    #[derive(Clone)]
+    struct CounterOut (Out, w: (), this) {
+        count: u64,
+        wrap: bool,
+    }
+    ports {
+        /// count up
+        In sig en (1) = this.en as u64;
+        /// load value
+        In sig load (1) = this.load as u64;
+        /// value to load
+        In sig value (4) = this.value;
+        /// current count
+        Out sig count (4) = this.count;
+        /// counting up from 15 this cycle
+        Out sig wrap (1) = this.wrap as u64;
+    }
 }
 
 #[derive(Clone)]
 struct CounterRegs {
     count: u64,
-}
-
-impl Signals for CounterIn {
-    fn signals(&self) -> Vec<Signal> {
-        vec![
-            Signal::new("en", 1, self.en as u64),
-            Signal::new("load", 1, self.load as u64),
-            Signal::new("value", 4, self.value),
-        ]
-    }
-}
-
-impl Signals for CounterOut {
-    fn signals(&self) -> Vec<Signal> {
-        vec![
-            Signal::new("count", 4, self.count),
-            Signal::new("wrap", 1, self.wrap as u64),
-        ]
-    }
-}
-
-impl Signals for CounterRegs {
-    fn signals(&self) -> Vec<Signal> {
-        vec![Signal::new("count", 4, self.count)]
-    }
 }
 
 impl Block for Counter {
@@ -72,6 +61,7 @@ impl Block for Counter {
 
     fn eval(&self, regs: &CounterRegs, i: &CounterIn) -> (CounterOut, CounterRegs) {
         let out = CounterOut {
+            widths: (),
             count: regs.count,
             wrap: i.en && regs.count == 15,
         };
@@ -89,18 +79,16 @@ impl Block for Counter {
         (out, CounterRegs { count: next })
     }
 
+    fn reg_signals(&self, regs: &CounterRegs) -> Vec<Signal> {
+        vec![Signal::new("count", 4, regs.count)]
+    }
+
     fn describe(&self) -> BlockDesc {
         BlockDesc {
             name: "counter4".to_string(),
             doc: "4-bit counter for testing the co-simulation harness".to_string(),
             params: vec![],
-            ports: vec![
-                port("en", Dir::In, 1, "count up"),
-                port("load", Dir::In, 1, "load value"),
-                port("value", Dir::In, 4, "value to load"),
-                port("count", Dir::Out, 4, "current count"),
-                port("wrap", Dir::Out, 1, "counting up from 15 this cycle"),
-            ],
+            ports: CounterIn::block_ports(&()),
             registers: vec![],
             memories: vec![],
             fsms: vec![],
@@ -149,6 +137,7 @@ fn inputs(cycles: usize, seed: u64) -> Vec<CounterIn> {
             s ^= s >> 27;
             let r = s.wrapping_mul(0x2545_f491_4f6c_dd1d);
             CounterIn {
+                widths: (),
                 en: r & 7 != 0,
                 load: (r >> 3) & 31 == 0,
                 value: (r >> 8) & 15,
@@ -280,6 +269,9 @@ fn record_rejects_signals_that_do_not_match_the_ports() {
         }
         fn eval(&self, r: &CounterRegs, i: &CounterIn) -> (CounterOut, CounterRegs) {
             Counter { skip_ten: false }.eval(r, i)
+        }
+        fn reg_signals(&self, r: &CounterRegs) -> Vec<Signal> {
+            Counter { skip_ten: false }.reg_signals(r)
         }
         fn describe(&self) -> BlockDesc {
             let mut d = Counter { skip_ten: false }.describe();

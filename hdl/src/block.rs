@@ -30,7 +30,9 @@ impl Signal {
     }
 }
 
-/// A bundle of signals (ports or scalar registers) that can be flattened for traces.
+/// A port bundle that can be flattened into signals for traces and co-simulation. Register
+/// bundles are not `Signals`: they hold only registers, so the block, which knows their widths,
+/// lists them ([`Block::reg_signals`]).
 pub trait Signals {
     /// The bundle's signals in a fixed order (the same order every cycle).
     fn signals(&self) -> Vec<Signal>;
@@ -42,8 +44,9 @@ pub trait Block {
     type Inputs: Clone + Signals;
     /// Output port bundle (what the block drives this cycle).
     type Outputs: Clone + Signals;
-    /// Register bundle: the only state of the block.
-    type Regs: Clone + Signals;
+    /// Register bundle: the only state of the block (registers only: no widths, statistics or
+    /// simulation caches).
+    type Regs: Clone;
 
     /// Register values after reset.
     fn reset(&self) -> Self::Regs;
@@ -57,6 +60,10 @@ pub trait Block {
         *regs = next;
         out
     }
+
+    /// The registers `regs` as trace signals, in a fixed order (the same names and widths every
+    /// cycle; the widths come from the block's configuration).
+    fn reg_signals(&self, regs: &Self::Regs) -> Vec<Signal>;
 
     /// The block's ports, registers, memories and state machines for this configuration.
     fn describe(&self) -> BlockDesc;

@@ -2,7 +2,8 @@
 //! of at most `capacity` entries) and [`BoundedDeque`] (a FIFO of at most `capacity` entries).
 //! A register bundle holds these instead of growable collections, so its storage is the
 //! declared depth x the entry width whatever happens; a push beyond the depth is refused (the
-//! block raises its error or the caller's protocol forbids it).
+//! block raises its error or the caller's protocol forbids it). Two arrays are equal when they
+//! hold the same entries (whatever their depths).
 
 use std::collections::VecDeque;
 use std::ops::Deref;
@@ -15,12 +16,21 @@ pub struct Full {
     pub capacity: usize,
 }
 
-/// An ordered register list of at most `capacity` entries.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// An ordered register list of at most `capacity` entries (the default is an empty list of
+/// depth 0).
+#[derive(Debug, Clone, Default)]
 pub struct BoundedVec<T> {
     items: Vec<T>,
     capacity: usize,
 }
+
+impl<T: PartialEq> PartialEq for BoundedVec<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.items == other.items
+    }
+}
+
+impl<T: Eq> Eq for BoundedVec<T> {}
 
 impl<T> BoundedVec<T> {
     /// An empty list of depth `capacity`.
@@ -70,6 +80,28 @@ impl<T> BoundedVec<T> {
     pub fn remove(&mut self, index: usize) -> T {
         self.items.remove(index)
     }
+
+    /// Removes and returns the last entry.
+    pub fn pop(&mut self) -> Option<T> {
+        self.items.pop()
+    }
+
+    /// Removes and returns the first `n` entries (at most all of them; later entries move up).
+    pub fn take_front(&mut self, n: usize) -> Vec<T> {
+        self.items.drain(..n.min(self.items.len())).collect()
+    }
+
+    /// Removes every entry.
+    pub fn clear(&mut self) {
+        self.items.clear()
+    }
+}
+
+impl<T: Clone> BoundedVec<T> {
+    /// The same entries in a list of depth `capacity`, or `Full` if they do not fit.
+    pub fn with_capacity_of(&self, capacity: usize) -> Result<Self, Full> {
+        BoundedVec::with(capacity, self.items.iter().cloned())
+    }
 }
 
 impl<'a, T> IntoIterator for &'a BoundedVec<T> {
@@ -90,11 +122,19 @@ impl<T> Deref for BoundedVec<T> {
 }
 
 /// A register FIFO of at most `capacity` entries.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, Default)]
 pub struct BoundedDeque<T> {
     items: VecDeque<T>,
     capacity: usize,
 }
+
+impl<T: PartialEq> PartialEq for BoundedDeque<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.items == other.items
+    }
+}
+
+impl<T: Eq> Eq for BoundedDeque<T> {}
 
 impl<T> BoundedDeque<T> {
     /// An empty FIFO of depth `capacity`.
@@ -158,6 +198,10 @@ mod tests {
         assert_eq!(v.push(3), Err(Full { capacity: 2 }));
         assert_eq!(&*v, &[1, 2]);
         assert_eq!(v.remove(0), 1);
+        v.push(4).unwrap();
+        assert_eq!((v.take_front(1), &*v), (vec![2], &[4][..]));
+        assert_eq!(v.with_capacity_of(0), Err(Full { capacity: 0 }));
+        assert_eq!(v.pop(), Some(4));
         let mut q = BoundedDeque::new(1);
         assert_eq!(q.push_back('a'), Ok(()));
         assert!(q.push_back('b').is_err());

@@ -34,9 +34,9 @@
 //! `ceil(entries / scan_width)` cycles, and `max_valid` rises in the following cycle.
 
 use crate::bits::bits_for;
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Block, Signal};
 use crate::config::{ConfigError, HwConfig};
-use crate::describe::{port, reg, BlockDesc, Dir, FsmDesc};
+use crate::describe::{reg, BlockDesc, FsmDesc};
 use crate::memory::{MemPorts, Memory};
 
 /// Entries the scan engine reads per cycle unless configured otherwise.
@@ -105,41 +105,71 @@ impl CountTableWidths {
     }
 }
 
-/// Input ports of the count table.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct CountTableIn {
-    /// This cycle's operation (flattened as `op_kind`, `op_treelet`, `op_n`).
-    pub op: CountOp,
-    /// Signal widths (from [`CountTable::widths`]).
-    pub widths: CountTableWidths,
+crate::bundle! {
+    /// Input ports of the count table.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct CountTableIn (In, w: CountTableWidths, this) {
+        /// This cycle's operation.
+        pub op: CountOp,
+    }
+    ports {
+        /// operation: 0 Nop, 1 Add, 2 Remove
+        sig op_kind (CountOp::BITS) = this.op.kind_code();
+        /// treelet address of the op
+        sig op_treelet (w.treelet) = this.op.fields().0;
+        /// rays added or removed (1..=warp_size)
+        sig op_n (w.n) = this.op.fields().1 as u64;
+    }
 }
 
-/// Output ports of the count table.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct CountTableOut {
-    /// The presented op is accepted this cycle (low only for a full-table Add while the minimum
-    /// is stale; hold the op until high).
-    pub ready: bool,
-    /// The accepted op was invalid and ignored.
-    pub error: bool,
-    /// An entry was evicted this cycle (its rays go to ray-stationary processing later).
-    pub evict_valid: bool,
-    /// Treelet of the evicted entry (0 when `evict_valid` is low).
-    pub evict_treelet: u64,
-    /// Ray count of the evicted entry (0 when `evict_valid` is low).
-    pub evict_count: u32,
-    /// The max pointer is current and the table is not empty.
-    pub max_valid: bool,
-    /// The treelet with the most rays (lowest index on ties); 0 when `max_valid` is low.
-    pub max_treelet: u64,
-    /// Its ray count; 0 when `max_valid` is low.
-    pub max_count: u32,
-    /// Valid entries.
-    pub occupancy: u32,
-    /// Entries whose count is at least the underpopulation threshold.
-    pub above_threshold: u32,
-    /// Signal widths.
-    pub widths: CountTableWidths,
+crate::bundle! {
+    /// Output ports of the count table.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct CountTableOut (Out, w: CountTableWidths, this) {
+        /// The presented op is accepted this cycle (low only for a full-table Add while the
+        /// minimum is stale; hold the op until high).
+        pub ready: bool,
+        /// The accepted op was invalid and ignored.
+        pub error: bool,
+        /// An entry was evicted this cycle (its rays go to ray-stationary processing later).
+        pub evict_valid: bool,
+        /// Treelet of the evicted entry (0 when `evict_valid` is low).
+        pub evict_treelet: u64,
+        /// Ray count of the evicted entry (0 when `evict_valid` is low).
+        pub evict_count: u32,
+        /// The max pointer is current and the table is not empty.
+        pub max_valid: bool,
+        /// The treelet with the most rays (lowest index on ties); 0 when `max_valid` is low.
+        pub max_treelet: u64,
+        /// Its ray count; 0 when `max_valid` is low.
+        pub max_count: u32,
+        /// Valid entries.
+        pub occupancy: u32,
+        /// Entries whose count is at least the underpopulation threshold.
+        pub above_threshold: u32,
+    }
+    ports {
+        /// op accepted this cycle (low: full-table Add waits for the minimum)
+        sig ready (1) = this.ready as u64;
+        /// op invalid (unknown treelet, too many rays, n out of range) and ignored
+        sig error (1) = this.error as u64;
+        /// an entry was evicted: process its rays ray-stationary later
+        sig evict_valid (1) = this.evict_valid as u64;
+        /// evicted treelet
+        sig evict_treelet (w.treelet) = this.evict_treelet;
+        /// rays of the evicted treelet
+        sig evict_count (w.count) = this.evict_count as u64;
+        /// max_treelet/max_count are current and the table is not empty
+        sig max_valid (1) = this.max_valid as u64;
+        /// treelet with the most rays (largest treelet queue)
+        sig max_treelet (w.treelet) = this.max_treelet;
+        /// its ray count
+        sig max_count (w.count) = this.max_count as u64;
+        /// valid entries
+        sig occupancy (w.entries) = this.occupancy as u64;
+        /// entries with count >= underpopulation threshold
+        sig above_threshold (w.entries) = this.above_threshold as u64;
+    }
 }
 
 /// One word of the entry array.
@@ -208,8 +238,6 @@ pub struct CountTableRegs {
     pub occupancy: u32,
     /// Entries with count >= the underpopulation threshold.
     pub above: u32,
-    /// Signal widths.
-    pub widths: CountTableWidths,
 }
 
 /// The treelet count table block (see the module documentation).
@@ -401,7 +429,6 @@ impl Block for CountTable {
             run_min: Extreme::default(),
             occupancy: 0,
             above: 0,
-            widths: self.widths,
         }
     }
 
@@ -608,70 +635,38 @@ impl Block for CountTable {
         out
     }
 
+    fn reg_signals(&self, r: &CountTableRegs) -> Vec<Signal> {
+        let w = self.widths;
+        let mut s = vec![
+            Signal::new("state", 1, r.scanning as u64),
+            Signal::new("scan_pos", w.index, r.scan_pos as u64),
+        ];
+        for (p, x) in [
+            ("max", &r.max),
+            ("min", &r.min),
+            ("run_max", &r.run_max),
+            ("run_min", &r.run_min),
+        ] {
+            s.push(Signal::new(format!("{p}_valid"), 1, x.valid as u64));
+            s.push(Signal::new(format!("{p}_idx"), w.index, x.idx as u64));
+            s.push(Signal::new(format!("{p}_treelet"), w.treelet, x.treelet));
+            s.push(Signal::new(
+                format!("{p}_count_m1"),
+                w.count_m1,
+                x.count_m1 as u64,
+            ));
+        }
+        s.push(Signal::new("occupancy", w.entries, r.occupancy as u64));
+        s.push(Signal::new("above", w.entries, r.above as u64));
+        s
+    }
+
     fn describe(&self) -> BlockDesc {
         let w = self.widths;
         let c = &self.cfg;
         let regs = self.reset();
-        let ports = vec![
-            port("op_kind", Dir::In, 2, "operation: 0 Nop, 1 Add, 2 Remove"),
-            port(
-                "op_treelet",
-                Dir::In,
-                w.treelet,
-                "treelet address of the op",
-            ),
-            port(
-                "op_n",
-                Dir::In,
-                w.n,
-                "rays added or removed (1..=warp_size)",
-            ),
-            port(
-                "ready",
-                Dir::Out,
-                1,
-                "op accepted this cycle (low: full-table Add waits for the minimum)",
-            ),
-            port(
-                "error",
-                Dir::Out,
-                1,
-                "op invalid (unknown treelet, too many rays, n out of range) and ignored",
-            ),
-            port(
-                "evict_valid",
-                Dir::Out,
-                1,
-                "an entry was evicted: process its rays ray-stationary later",
-            ),
-            port("evict_treelet", Dir::Out, w.treelet, "evicted treelet"),
-            port(
-                "evict_count",
-                Dir::Out,
-                w.count,
-                "rays of the evicted treelet",
-            ),
-            port(
-                "max_valid",
-                Dir::Out,
-                1,
-                "max_treelet/max_count are current and the table is not empty",
-            ),
-            port(
-                "max_treelet",
-                Dir::Out,
-                w.treelet,
-                "treelet with the most rays (largest treelet queue)",
-            ),
-            port("max_count", Dir::Out, w.count, "its ray count"),
-            port("occupancy", Dir::Out, w.entries, "valid entries"),
-            port(
-                "above_threshold",
-                Dir::Out,
-                w.entries,
-                "entries with count >= underpopulation threshold",
-            ),
-        ];
+        let mut ports = CountTableIn::ports(&w);
+        ports.extend(CountTableOut::ports(&w));
         let mut registers = vec![
             reg("state", 1, 1, "FSM state (IDLE/SCAN)"),
             reg(
@@ -770,67 +765,6 @@ impl Block for CountTable {
     }
 }
 
-impl Signals for CountTableIn {
-    fn signals(&self) -> Vec<Signal> {
-        let w = self.widths;
-        let (treelet, n) = match self.op {
-            CountOp::Nop => (0, 0),
-            CountOp::Add { treelet, n } | CountOp::Remove { treelet, n } => (treelet, n),
-        };
-        vec![
-            Signal::new("op_kind", 2, self.op.kind_code()),
-            Signal::new("op_treelet", w.treelet, treelet),
-            Signal::new("op_n", w.n, n as u64),
-        ]
-    }
-}
-
-impl Signals for CountTableOut {
-    fn signals(&self) -> Vec<Signal> {
-        let w = self.widths;
-        vec![
-            Signal::new("ready", 1, self.ready as u64),
-            Signal::new("error", 1, self.error as u64),
-            Signal::new("evict_valid", 1, self.evict_valid as u64),
-            Signal::new("evict_treelet", w.treelet, self.evict_treelet),
-            Signal::new("evict_count", w.count, self.evict_count as u64),
-            Signal::new("max_valid", 1, self.max_valid as u64),
-            Signal::new("max_treelet", w.treelet, self.max_treelet),
-            Signal::new("max_count", w.count, self.max_count as u64),
-            Signal::new("occupancy", w.entries, self.occupancy as u64),
-            Signal::new("above_threshold", w.entries, self.above_threshold as u64),
-        ]
-    }
-}
-
-impl Signals for CountTableRegs {
-    fn signals(&self) -> Vec<Signal> {
-        let w = self.widths;
-        let mut s = vec![
-            Signal::new("state", 1, self.scanning as u64),
-            Signal::new("scan_pos", w.index, self.scan_pos as u64),
-        ];
-        for (p, x) in [
-            ("max", &self.max),
-            ("min", &self.min),
-            ("run_max", &self.run_max),
-            ("run_min", &self.run_min),
-        ] {
-            s.push(Signal::new(format!("{p}_valid"), 1, x.valid as u64));
-            s.push(Signal::new(format!("{p}_idx"), w.index, x.idx as u64));
-            s.push(Signal::new(format!("{p}_treelet"), w.treelet, x.treelet));
-            s.push(Signal::new(
-                format!("{p}_count_m1"),
-                w.count_m1,
-                x.count_m1 as u64,
-            ));
-        }
-        s.push(Signal::new("occupancy", w.entries, self.occupancy as u64));
-        s.push(Signal::new("above", w.entries, self.above as u64));
-        s
-    }
-}
-
 /// A treelet and its queued rays, as the count table reports its largest entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct QueueCount {
@@ -860,7 +794,7 @@ impl CountTable {
     /// The register-only outputs for these registers.
     pub fn status(&self, r: &CountTableRegs) -> CountTableStatus {
         CountTableStatus {
-            ready: !(r.occupancy == self.entries() && !r.min.valid),
+            ready: r.occupancy != self.entries() || r.min.valid,
             max: r.max.valid.then_some(QueueCount {
                 treelet: r.max.treelet as u32,
                 count: r.max.count_m1 + 1,
@@ -874,6 +808,14 @@ impl CountTable {
 impl CountOp {
     /// Width of the op-kind code.
     pub const BITS: u32 = 2;
+
+    /// `(treelet, n)` as driven on the wires (zeros for `Nop`).
+    pub fn fields(&self) -> (u64, u32) {
+        match *self {
+            CountOp::Nop => (0, 0),
+            CountOp::Add { treelet, n } | CountOp::Remove { treelet, n } => (treelet, n),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -31,11 +31,12 @@ pub struct MemPorts {
     pub read_latency: u32,
 }
 
-/// A memory array of `depth` words of type `T` with declared ports.
+/// A memory array of `depth` words of type `T` with declared ports (a fixed array sized at
+/// reset, and one read-data register per read port).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Memory<T> {
-    words: Vec<T>,
-    rdata: Vec<T>,
+    words: Box<[T]>,
+    rdata: Box<[T]>,
     ports: MemPorts,
 }
 
@@ -45,8 +46,8 @@ impl<T: Clone> Memory<T> {
     pub fn new(depth: usize, init: T, ports: MemPorts) -> Self {
         debug_assert!(ports.read_latency <= 1, "read latency must be 0 or 1");
         Memory {
-            words: vec![init.clone(); depth],
-            rdata: vec![init; ports.read as usize],
+            words: vec![init.clone(); depth].into_boxed_slice(),
+            rdata: vec![init; ports.read as usize].into_boxed_slice(),
             ports,
         }
     }
@@ -185,7 +186,7 @@ impl<T: Clone> MemCycle<'_, T> {
     }
 }
 
-impl<E: Clone> MemCycle<'_, Vec<E>> {
+impl<E: Clone> MemCycle<'_, Box<[E]>> {
     /// Writes one lane of a word made of lanes (a write with a per-lane write enable), leaving
     /// the other lanes unchanged.
     pub fn write_lane(&mut self, addr: usize, lane: usize, value: E) {
@@ -263,16 +264,16 @@ mod tests {
 
     #[test]
     fn lane_write_keeps_other_lanes() {
-        let mut m: Memory<Vec<u16>> = Memory::new(2, vec![0; 3], SRAM);
+        let mut m: Memory<Box<[u16]>> = Memory::new(2, vec![0; 3].into(), SRAM);
         {
             let mut c = m.cycle();
-            c.write(1, vec![1, 2, 3]);
+            c.write(1, vec![1, 2, 3].into());
         }
         {
             let mut c = m.cycle();
             c.write_lane(1, 2, 30);
         }
-        assert_eq!(m.words()[1], vec![1, 2, 30]);
+        assert_eq!(&*m.words()[1], &[1, 2, 30]);
     }
 
     #[test]

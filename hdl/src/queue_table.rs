@@ -43,9 +43,10 @@
 //!   ignored.
 
 use crate::bits::{bits_for, clog2};
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Block, Signal};
+use crate::bounded::BoundedVec;
 use crate::config::{ConfigError, HwConfig};
-use crate::describe::{port, reg, BlockDesc, Dir, FsmDesc};
+use crate::describe::{reg, BlockDesc, FsmDesc};
 use crate::memory::{MemCycle, MemPorts, Memory};
 
 /// Operation presented to the queue table.
@@ -129,55 +130,102 @@ pub struct QueueTableWidths {
     pub bucket: u32,
 }
 
-/// Input ports of the queue table.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct QueueTableIn {
-    /// This cycle's operation (flattened as `op_kind`, `op_treelet`, `op_ray`).
-    pub op: QueueOp,
-    /// The environment answers a `refill_req` with a spilled ray.
-    pub refill_valid: bool,
-    /// Treelet of the refilled ray.
-    pub refill_treelet: u64,
-    /// Id of the refilled ray.
-    pub refill_ray: u32,
-    /// Signal widths (from [`QueueTable::widths`]).
-    pub widths: QueueTableWidths,
+crate::bundle! {
+    /// Input ports of the queue table.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct QueueTableIn (In, w: QueueTableWidths, this) {
+        /// This cycle's operation.
+        pub op: QueueOp,
+        /// The environment answers a `refill_req` with a spilled ray.
+        pub refill_valid: bool,
+        /// Treelet of the refilled ray.
+        pub refill_treelet: u64,
+        /// Id of the refilled ray.
+        pub refill_ray: u32,
+    }
+    ports {
+        /// operation: 0 Nop, 1 Insert, 2 Pop, 3 PopAny, 4 Count, 5 Refill
+        sig op_kind (QueueOp::BITS) = this.op.kind_code();
+        /// treelet address of Insert/Pop/Count
+        sig op_treelet (w.treelet) = this.op.fields().0;
+        /// ray id of Insert
+        sig op_ray (w.ray) = this.op.fields().1 as u64;
+        /// the spill store answers a refill request
+        sig refill_valid (1) = this.refill_valid as u64;
+        /// treelet of the refilled ray
+        sig refill_treelet (w.treelet) = this.refill_treelet;
+        /// id of the refilled ray
+        sig refill_ray (w.ray) = this.refill_ray as u64;
+    }
 }
 
-/// Output ports of the queue table.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct QueueTableOut {
-    /// An op presented this cycle is accepted.
-    pub ready: bool,
-    /// The current op finishes this cycle; its results are on the outputs.
-    pub done: bool,
-    /// Protocol violation or inconsistent table (unexpected `refill_valid`, PopAny entry not
-    /// found in its chain).
-    pub error: bool,
-    /// Rays popped (0: nothing found); nonzero only with `done` of Pop/PopAny.
-    pub pop_count: u32,
-    /// Treelet of the popped entry.
-    pub pop_treelet: u64,
-    /// Popped ray ids in insertion order; lanes at or beyond `pop_count` are 0.
-    pub pop_rays: Vec<u32>,
-    /// Rays of the treelet in the table (with `done` of Count; 0 otherwise).
-    pub count_result: u32,
-    /// A ray spills to memory this cycle; the environment must store it.
-    pub spill_valid: bool,
-    /// Treelet of the spilled ray.
-    pub spill_treelet: u64,
-    /// Id of the spilled ray.
-    pub spill_ray: u32,
-    /// Request for one spilled ray (answer on `refill_*`).
-    pub refill_req: bool,
-    /// Free entries.
-    pub free_entries: u32,
-    /// Rays handed to the spill store and not yet refilled.
-    pub spilled: u32,
-    /// Longest chain walk so far (entries read in one op), a statistic.
-    pub max_chain: u32,
-    /// Signal widths.
-    pub widths: QueueTableWidths,
+crate::bundle! {
+    /// Output ports of the queue table.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    pub struct QueueTableOut (Out, w: QueueTableWidths, this) {
+        /// An op presented this cycle is accepted.
+        pub ready: bool,
+        /// The current op finishes this cycle; its results are on the outputs.
+        pub done: bool,
+        /// Protocol violation or inconsistent table (unexpected `refill_valid`, PopAny entry
+        /// not found in its chain).
+        pub error: bool,
+        /// Rays popped (0: nothing found); nonzero only with `done` of Pop/PopAny.
+        pub pop_count: u32,
+        /// Treelet of the popped entry.
+        pub pop_treelet: u64,
+        /// Popped ray ids in insertion order (`warp_size` lanes); lanes at or beyond
+        /// `pop_count` are 0.
+        pub pop_rays: Vec<u32>,
+        /// Rays of the treelet in the table (with `done` of Count; 0 otherwise).
+        pub count_result: u32,
+        /// A ray spills to memory this cycle; the environment must store it.
+        pub spill_valid: bool,
+        /// Treelet of the spilled ray.
+        pub spill_treelet: u64,
+        /// Id of the spilled ray.
+        pub spill_ray: u32,
+        /// Request for one spilled ray (answer on `refill_*`).
+        pub refill_req: bool,
+        /// Free entries.
+        pub free_entries: u32,
+        /// Rays handed to the spill store and not yet refilled.
+        pub spilled: u32,
+        /// Entries read so far by the current op's chain walk, this cycle's read included (0 in
+        /// a cycle without a walk step): a statistics event, whose maximum over a run (the
+        /// longest chain walk) an observer keeps.
+        pub walk_len: u32,
+    }
+    ports {
+        /// an op is accepted this cycle (IDLE)
+        sig ready (1) = this.ready as u64;
+        /// the current op finishes; results are valid
+        sig done (1) = this.done as u64;
+        /// unexpected refill_valid or inconsistent chain
+        sig error (1) = this.error as u64;
+        /// rays popped (0 = none found)
+        sig pop_count (w.pop_count) = this.pop_count as u64;
+        /// treelet of the popped entry
+        sig pop_treelet (w.treelet) = this.pop_treelet;
+        /// popped ray id (0 beyond pop_count)
+        each pop_ray (w.ray, w.lanes) = |i: usize| this.pop_rays.get(i).copied().unwrap_or(0) as u64;
+        /// rays of the treelet in the table (Count)
+        sig count_result (w.total) = this.count_result as u64;
+        /// a ray spills to memory: the environment stores it
+        sig spill_valid (1) = this.spill_valid as u64;
+        /// treelet of the spilled ray
+        sig spill_treelet (w.treelet) = this.spill_treelet;
+        /// id of the spilled ray
+        sig spill_ray (w.ray) = this.spill_ray as u64;
+        /// request one spilled ray (answer on refill_*)
+        sig refill_req (1) = this.refill_req as u64;
+        /// free table entries
+        sig free_entries (w.entries) = this.free_entries as u64;
+        /// rays spilled and not yet refilled
+        sig spilled (w.spilled) = this.spilled as u64;
+        /// entries read so far by this op's chain walk, this cycle's included (0 without a walk step; statistics event)
+        sig walk_len (w.entries) = this.walk_len as u64;
+    }
 }
 
 /// A bucket's chain head.
@@ -269,8 +317,6 @@ pub struct QueueCtl {
     pub free_count: u32,
     /// Rays spilled and not refilled.
     pub spilled: u32,
-    /// Longest walk so far.
-    pub max_chain: u32,
 }
 
 /// Registers of the queue table.
@@ -280,14 +326,12 @@ pub struct QueueTableRegs {
     pub heads: Memory<HeadWord>,
     /// Entry metadata.
     pub meta: Memory<MetaWord>,
-    /// Entry ray ids.
-    pub rays: Memory<Vec<u32>>,
+    /// Entry ray ids (`warp_size` lanes per entry).
+    pub rays: Memory<Box<[u32]>>,
     /// Entry valid bits (the free list is their complement).
-    pub valid: Vec<bool>,
+    pub valid: Box<[bool]>,
     /// Scalar registers.
     pub ctl: QueueCtl,
-    /// Signal widths.
-    pub widths: QueueTableWidths,
 }
 
 /// The treelet queue table block (see the module documentation).
@@ -302,7 +346,7 @@ pub struct QueueTable {
 struct Cycle<'a> {
     heads: MemCycle<'a, HeadWord>,
     meta: MemCycle<'a, MetaWord>,
-    rays: MemCycle<'a, Vec<u32>>,
+    rays: MemCycle<'a, Box<[u32]>>,
     /// Priority encoder: lowest free entry.
     first_free: Option<usize>,
     /// Priority encoder: lowest valid entry.
@@ -472,7 +516,7 @@ impl QueueTable {
         let m = *cx.meta.rdata(0);
         let walked = c.walked + 1;
         cx.nx.walked = walked;
-        cx.nx.max_chain = c.max_chain.max(walked);
+        cx.out.walk_len = walked;
         let matched = match c.walk_op {
             WalkOp::PopAny => c.cur == c.target,
             _ => m.treelet == c.key_treelet,
@@ -576,13 +620,12 @@ impl Block for QueueTable {
         QueueTableRegs {
             heads: Memory::new(self.buckets as usize, HeadWord::default(), flops),
             meta: Memory::new(e, MetaWord::default(), sram),
-            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize], sram),
-            valid: vec![false; e],
+            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize].into(), sram),
+            valid: vec![false; e].into(),
             ctl: QueueCtl {
                 free_count: e as u32,
                 ..QueueCtl::default()
             },
-            widths: self.widths,
         }
     }
 
@@ -621,7 +664,7 @@ impl Block for QueueTable {
                 refill_req: false,
                 free_entries: c.free_count,
                 spilled: c.spilled,
-                max_chain: c.max_chain,
+                walk_len: 0,
                 widths: self.widths,
             },
             set_valid: None,
@@ -700,111 +743,46 @@ impl Block for QueueTable {
         out
     }
 
+    fn reg_signals(&self, r: &QueueTableRegs) -> Vec<Signal> {
+        let w = self.widths;
+        let c = &r.ctl;
+        let mut s = vec![
+            Signal::new("state", 3, c.state as u64),
+            Signal::new("walk_op", 2, c.walk_op as u64),
+            Signal::new("key_treelet", w.treelet, c.key_treelet),
+            Signal::new("key_ray", w.ray, c.key_ray as u64),
+            Signal::new("head_valid", 1, c.head.valid as u64),
+            Signal::new("head_idx", w.index, c.head.idx as u64),
+            Signal::new("cur", w.index, c.cur as u64),
+            Signal::new("prev_valid", 1, c.prev_valid as u64),
+            Signal::new("prev", w.index, c.prev as u64),
+            Signal::new("prev_treelet", w.treelet, c.prev_treelet),
+            Signal::new("prev_count_m1", w.count_m1, c.prev_count_m1 as u64),
+            Signal::new("target", w.index, c.target as u64),
+            Signal::new("acc", w.total, c.acc as u64),
+            Signal::new("walked", w.entries, c.walked as u64),
+            Signal::new("pop_count_m1", w.count_m1, c.pop_count_m1 as u64),
+            Signal::new("pop_treelet", w.treelet, c.pop_treelet),
+            Signal::new("free_count", w.entries, c.free_count as u64),
+            Signal::new("spilled", w.spilled, c.spilled as u64),
+        ];
+        // The valid bits as 64-bit words, entry 0 in bit 0 of `valid_0`.
+        for (k, chunk) in r.valid.chunks(64).enumerate() {
+            let word = chunk
+                .iter()
+                .enumerate()
+                .fold(0u64, |acc, (i, &v)| acc | ((v as u64) << i));
+            s.push(Signal::new(format!("valid_{k}"), chunk.len() as u32, word));
+        }
+        s
+    }
+
     fn describe(&self) -> BlockDesc {
         let w = self.widths;
         let c = &self.cfg;
         let regs = self.reset();
-        let mut ports = vec![
-            port(
-                "op_kind",
-                Dir::In,
-                3,
-                "operation: 0 Nop, 1 Insert, 2 Pop, 3 PopAny, 4 Count, 5 Refill",
-            ),
-            port(
-                "op_treelet",
-                Dir::In,
-                w.treelet,
-                "treelet address of Insert/Pop/Count",
-            ),
-            port("op_ray", Dir::In, w.ray, "ray id of Insert"),
-            port(
-                "refill_valid",
-                Dir::In,
-                1,
-                "the spill store answers a refill request",
-            ),
-            port(
-                "refill_treelet",
-                Dir::In,
-                w.treelet,
-                "treelet of the refilled ray",
-            ),
-            port("refill_ray", Dir::In, w.ray, "id of the refilled ray"),
-            port("ready", Dir::Out, 1, "an op is accepted this cycle (IDLE)"),
-            port(
-                "done",
-                Dir::Out,
-                1,
-                "the current op finishes; results are valid",
-            ),
-            port(
-                "error",
-                Dir::Out,
-                1,
-                "unexpected refill_valid or inconsistent chain",
-            ),
-            port(
-                "pop_count",
-                Dir::Out,
-                w.pop_count,
-                "rays popped (0 = none found)",
-            ),
-            port(
-                "pop_treelet",
-                Dir::Out,
-                w.treelet,
-                "treelet of the popped entry",
-            ),
-        ];
-        for i in 0..w.lanes {
-            ports.push(port(
-                &format!("pop_ray_{i}"),
-                Dir::Out,
-                w.ray,
-                "popped ray id (0 beyond pop_count)",
-            ));
-        }
-        ports.extend([
-            port(
-                "count_result",
-                Dir::Out,
-                w.total,
-                "rays of the treelet in the table (Count)",
-            ),
-            port(
-                "spill_valid",
-                Dir::Out,
-                1,
-                "a ray spills to memory: the environment stores it",
-            ),
-            port(
-                "spill_treelet",
-                Dir::Out,
-                w.treelet,
-                "treelet of the spilled ray",
-            ),
-            port("spill_ray", Dir::Out, w.ray, "id of the spilled ray"),
-            port(
-                "refill_req",
-                Dir::Out,
-                1,
-                "request one spilled ray (answer on refill_*)",
-            ),
-            port("free_entries", Dir::Out, w.entries, "free table entries"),
-            port(
-                "spilled",
-                Dir::Out,
-                w.spilled,
-                "rays spilled and not yet refilled",
-            ),
-            port(
-                "max_chain",
-                Dir::Out,
-                w.entries,
-                "longest chain walk so far (statistic)",
-            ),
-        ]);
+        let mut ports = QueueTableIn::ports(&w);
+        ports.extend(QueueTableOut::ports(&w));
         let registers = vec![
             reg("state", 3, 1, "FSM state"),
             reg(
@@ -834,7 +812,6 @@ impl Block for QueueTable {
             reg("pop_treelet", w.treelet, 1, "popped entry's treelet"),
             reg("free_count", w.entries, 1, "free entries"),
             reg("spilled", w.spilled, 1, "rays spilled and not refilled"),
-            reg("max_chain", w.entries, 1, "longest walk so far"),
             reg(
                 "valid",
                 1,
@@ -915,89 +892,6 @@ impl Block for QueueTable {
     }
 }
 
-impl Signals for QueueTableIn {
-    fn signals(&self) -> Vec<Signal> {
-        let w = self.widths;
-        let (treelet, ray) = match self.op {
-            QueueOp::Insert { treelet, ray } => (treelet, ray),
-            QueueOp::Pop { treelet } | QueueOp::Count { treelet } => (treelet, 0),
-            QueueOp::Nop | QueueOp::PopAny | QueueOp::Refill => (0, 0),
-        };
-        vec![
-            Signal::new("op_kind", 3, self.op.kind_code()),
-            Signal::new("op_treelet", w.treelet, treelet),
-            Signal::new("op_ray", w.ray, ray as u64),
-            Signal::new("refill_valid", 1, self.refill_valid as u64),
-            Signal::new("refill_treelet", w.treelet, self.refill_treelet),
-            Signal::new("refill_ray", w.ray, self.refill_ray as u64),
-        ]
-    }
-}
-
-impl Signals for QueueTableOut {
-    fn signals(&self) -> Vec<Signal> {
-        let w = self.widths;
-        let mut s = vec![
-            Signal::new("ready", 1, self.ready as u64),
-            Signal::new("done", 1, self.done as u64),
-            Signal::new("error", 1, self.error as u64),
-            Signal::new("pop_count", w.pop_count, self.pop_count as u64),
-            Signal::new("pop_treelet", w.treelet, self.pop_treelet),
-        ];
-        for (i, &ray) in self.pop_rays.iter().enumerate() {
-            s.push(Signal::new(format!("pop_ray_{i}"), w.ray, ray as u64));
-        }
-        s.extend([
-            Signal::new("count_result", w.total, self.count_result as u64),
-            Signal::new("spill_valid", 1, self.spill_valid as u64),
-            Signal::new("spill_treelet", w.treelet, self.spill_treelet),
-            Signal::new("spill_ray", w.ray, self.spill_ray as u64),
-            Signal::new("refill_req", 1, self.refill_req as u64),
-            Signal::new("free_entries", w.entries, self.free_entries as u64),
-            Signal::new("spilled", w.spilled, self.spilled as u64),
-            Signal::new("max_chain", w.entries, self.max_chain as u64),
-        ]);
-        s
-    }
-}
-
-impl Signals for QueueTableRegs {
-    fn signals(&self) -> Vec<Signal> {
-        let w = self.widths;
-        let c = &self.ctl;
-        let mut s = vec![
-            Signal::new("state", 3, c.state as u64),
-            Signal::new("walk_op", 2, c.walk_op as u64),
-            Signal::new("key_treelet", w.treelet, c.key_treelet),
-            Signal::new("key_ray", w.ray, c.key_ray as u64),
-            Signal::new("head_valid", 1, c.head.valid as u64),
-            Signal::new("head_idx", w.index, c.head.idx as u64),
-            Signal::new("cur", w.index, c.cur as u64),
-            Signal::new("prev_valid", 1, c.prev_valid as u64),
-            Signal::new("prev", w.index, c.prev as u64),
-            Signal::new("prev_treelet", w.treelet, c.prev_treelet),
-            Signal::new("prev_count_m1", w.count_m1, c.prev_count_m1 as u64),
-            Signal::new("target", w.index, c.target as u64),
-            Signal::new("acc", w.total, c.acc as u64),
-            Signal::new("walked", w.entries, c.walked as u64),
-            Signal::new("pop_count_m1", w.count_m1, c.pop_count_m1 as u64),
-            Signal::new("pop_treelet", w.treelet, c.pop_treelet),
-            Signal::new("free_count", w.entries, c.free_count as u64),
-            Signal::new("spilled", w.spilled, c.spilled as u64),
-            Signal::new("max_chain", w.entries, c.max_chain as u64),
-        ];
-        // The valid bits as 64-bit words, entry 0 in bit 0 of `valid_0`.
-        for (k, chunk) in self.valid.chunks(64).enumerate() {
-            let word = chunk
-                .iter()
-                .enumerate()
-                .fold(0u64, |acc, (i, &v)| acc | ((v as u64) << i));
-            s.push(Signal::new(format!("valid_{k}"), chunk.len() as u32, word));
-        }
-        s
-    }
-}
-
 /// The queue table's register-only outputs: what a controller may read before it drives an op
 /// in the same cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -1014,13 +908,13 @@ pub struct QueueTableStatus {
 }
 
 /// The answer to a `Pop`/`PopAny` (the popped entry), or the end of any other op.
-#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct PopResult {
     /// Treelet address of the popped entry.
     pub treelet: u32,
-    /// Ray ids of the entry (at most warp_size; empty when the queue was empty or the op was not
-    /// a pop).
-    pub rays: Vec<u32>,
+    /// Ray ids of the entry (a list of depth warp_size; empty when the queue was empty or the op
+    /// was not a pop).
+    pub rays: BoundedVec<u32>,
 }
 
 impl QueueTable {
@@ -1046,9 +940,11 @@ impl QueueTable {
 impl QueueTableOut {
     /// The op that ends this cycle with its popped entry, if one ends.
     pub fn popped(&self) -> Option<PopResult> {
+        let n = (self.pop_count as usize).min(self.pop_rays.len());
         self.done.then(|| PopResult {
             treelet: self.pop_treelet as u32,
-            rays: self.pop_rays[..self.pop_count as usize].to_vec(),
+            rays: BoundedVec::with(self.pop_rays.len(), self.pop_rays[..n].iter().copied())
+                .unwrap_or_default(),
         })
     }
 }
@@ -1056,6 +952,15 @@ impl QueueTableOut {
 impl QueueOp {
     /// Width of the op-kind code.
     pub const BITS: u32 = 3;
+
+    /// `(treelet, ray)` as driven on the wires (zeros where unused).
+    pub fn fields(&self) -> (u64, u32) {
+        match *self {
+            QueueOp::Insert { treelet, ray } => (treelet, ray),
+            QueueOp::Pop { treelet } | QueueOp::Count { treelet } => (treelet, 0),
+            QueueOp::Nop | QueueOp::PopAny | QueueOp::Refill => (0, 0),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,8 @@
 //! Cycle traces of blocks as VCD files (readable in GTKWave), and reading them back.
 //!
-//! A [`Tracer`] records, every cycle, the flattened [`Signals`] of a block's inputs, outputs and
-//! registers (registers as they are at the start of the cycle, before the clock edge). The VCD
+//! A [`Tracer`] records, every cycle, the flattened [`Signals`] of a block's inputs and outputs
+//! and its registers as the block lists them ([`Block::reg_signals`], as they are at the start of
+//! the cycle, before the clock edge). The VCD
 //! has one module named after the block with scopes `inputs`, `outputs` and `regs`, plus a `clk`
 //! wire: cycle `t` occupies times `[10 t, 10 t + 10)` ns, with `clk` high from `10 t` and low
 //! from `10 t + 5`, and a final timestamp `10 N` marks the end of `N` cycles.
@@ -77,16 +78,16 @@ impl Tracer {
         self.cycles.len()
     }
 
-    /// Records one cycle: the inputs presented, the outputs driven and the registers at the
-    /// start of the cycle.
+    /// Records one cycle: the inputs presented, the outputs driven and the registers' signals at
+    /// the start of the cycle.
     pub fn record(
         &mut self,
         inputs: &impl Signals,
         outputs: &impl Signals,
-        regs: &impl Signals,
+        regs: Vec<Signal>,
     ) -> Result<(), TraceError> {
         let cycle = self.cycles.len();
-        let groups: [Vec<Signal>; 3] = [inputs.signals(), outputs.signals(), regs.signals()];
+        let groups: [Vec<Signal>; 3] = [inputs.signals(), outputs.signals(), regs];
         let flat: Vec<(usize, Signal)> = groups
             .into_iter()
             .enumerate()
@@ -137,7 +138,7 @@ impl Tracer {
         inputs: &B::Inputs,
     ) -> Result<B::Outputs, TraceError> {
         let (out, next) = block.eval(regs, inputs);
-        self.record(inputs, &out, regs)?;
+        self.record(inputs, &out, block.reg_signals(regs))?;
         *regs = next;
         Ok(out)
     }

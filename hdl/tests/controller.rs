@@ -1,9 +1,11 @@
-//! Cycle-by-cycle tests of the treelet controller: each mode transition and the cycle it
-//! happens on, dispatch of the largest queue, preloading, grouping vs the naive design, warp
-//! repacking, completion, widths and the block description; plus an end-to-end run against
-//! small reference models of the tables and the RT unit that checks every ray is traced once.
+//! Cycle-by-cycle tests of the treelet controller alone, its inputs driven by the test and its
+//! table ops answered by small reference models of the tables: each mode transition and the
+//! cycle it happens on, dispatch of the largest queue, preloading, grouping vs the naive design,
+//! warp repacking, completion, widths and the block description. The controller wired to the
+//! real tables and RT unit is tested end to end in `treelet_rt_unit.rs` (the composed block).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::controller::{
     ActiveReport, ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs,
     ControllerStats, EnqueueRequest, FillKind, InitReport, Seq, TreeletController,
@@ -96,9 +98,10 @@ impl RefQueueTable {
             }
             return;
         }
+        let lanes = self.warp_size;
         let pop = |q: &mut VecDeque<Vec<u32>>, t: u32| PopResult {
             treelet: t,
-            rays: q.pop_front().unwrap_or_default(),
+            rays: BoundedVec::with(lanes, q.pop_front().unwrap_or_default()).expect("a warp"),
         };
         let result = match op {
             QueueOp::Nop | QueueOp::Count { .. } => return,
@@ -185,7 +188,11 @@ impl Harness {
         let out = self.ctl.step(&mut self.regs, inputs);
         assert_eq!(out, expect_out);
         assert_eq!(self.regs, expect_regs);
-        for s in out.signals().iter().chain(self.regs.signals().iter()) {
+        for s in out
+            .signals()
+            .iter()
+            .chain(self.ctl.reg_signals(&self.regs).iter())
+        {
             assert!(
                 s.width >= 64 || s.value >> s.width == 0,
                 "{} = {} overflows {} bits",
@@ -671,7 +678,7 @@ fn an_empty_pop_of_a_resident_queue_removes_its_whole_count() {
     let mut i = h.quiet();
     i.qt_done = Some(PopResult {
         treelet: A,
-        rays: vec![],
+        rays: BoundedVec::default(),
     });
     let o = h.step(&i);
     assert_eq!(o.fill, None);
@@ -800,7 +807,7 @@ fn signals_match_the_description() {
     };
     let ins = covered(&ctl.idle_inputs().signals(), port(Dir::In));
     let outs = covered(&out.signals(), port(Dir::Out));
-    let regs_seen = covered(&regs.signals(), |n: &str| {
+    let regs_seen = covered(&ctl.reg_signals(&regs), |n: &str| {
         d.registers
             .iter()
             .find(|r| r.name == n)
@@ -850,349 +857,6 @@ fn bad_inputs_are_reported_not_panics() {
 fn describe_snapshot() {
     let ctl = TreeletController::new(HwConfig::default(), ControllerFeatures::FULL).unwrap();
     insta::assert_yaml_snapshot!("treelet_controller_describe", ctl.describe());
-}
-
-/// What the RT-unit model holds in one warp-buffer slot.
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum SlotSim {
-    /// Free.
-    Free,
-    /// Reserved by the controller (a fill sequence is under way): (ray, work) lanes so far.
-    Forming(Vec<(u32, u32)>),
-    /// A new warp in its initial phase; it reports its divergence when `wait` reaches 0.
-    Initial { rays: Vec<u32>, wait: u32 },
-    /// A warp sending its rays to the queues, then reported done.
-    Draining(VecDeque<EnqueueRequest>),
-    /// A treelet warp: after `wait` cycles each ray moves on to its next treelet or finishes.
-    Treelet {
-        treelet: u32,
-        rays: Vec<u32>,
-        wait: u32,
-    },
-    /// A ray-stationary warp: lanes of (ray, cycles of work left); `held` while repacking.
-    RayStationary { lanes: Vec<(u32, u32)>, held: bool },
-}
-
-/// A small RT-unit model around the controller and the reference tables: `rays` rays launched
-/// by warps of 32, each with a scripted list of treelets to visit.
-struct Run {
-    h: Harness,
-    slots: Vec<SlotSim>,
-    paths: Vec<Vec<u32>>,
-    pos: Vec<usize>,
-    finished: Vec<u32>,
-    launched: u32,
-    rr: usize,
-    modes: Vec<(u64, Mode)>,
-}
-
-impl Run {
-    fn new(cfg: HwConfig, features: ControllerFeatures, rays: u32, qt_latency: u32) -> Self {
-        let mut h = Harness::new(cfg, features);
-        h.qt = RefQueueTable::new(32, qt_latency);
-        let mut seed = 0x2545_f491u64;
-        let mut next = move |m: u32| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 33) % m as u64) as u32
-        };
-        let paths = (0..rays)
-            .map(|r| {
-                // The first warp is coherent (it stays ray-stationary); later warps need five
-                // treelets next (divergent at the default threshold of 4) and then wander over
-                // twenty small ones.
-                let first = if r < 32 { 1 } else { 1 + r % 5 };
-                let len = 1 + next(4) as usize;
-                let mut p = vec![first];
-                p.extend((1..len).map(|_| 4 + next(20)));
-                p
-            })
-            .collect();
-        let slots = vec![SlotSim::Free; h.ctl.config().warp_buffer_size as usize];
-        Run {
-            h,
-            slots,
-            paths,
-            pos: vec![0; rays as usize],
-            finished: vec![0; rays as usize],
-            launched: 0,
-            rr: 0,
-            modes: Vec::new(),
-        }
-    }
-
-    fn work(&self, ray: u32) -> u32 {
-        let r = ray as usize;
-        (self.paths[r].len() - self.pos[r]) as u32 * 3 + ray % 5
-    }
-
-    fn finish(&mut self, ray: u32) {
-        self.pos[ray as usize] = self.paths[ray as usize].len();
-        self.finished[ray as usize] += 1;
-    }
-
-    /// One cycle of the whole model. Returns the controller's mode.
-    fn cycle(&mut self) -> Mode {
-        let mut i = self.h.quiet();
-        let n = self.slots.len();
-        let total = self.paths.len() as u32;
-        i.launch_done = self.launched == total;
-        i.rt_idle = self.slots.iter().all(|s| *s == SlotSim::Free);
-        i.initial_warps = self
-            .slots
-            .iter()
-            .any(|s| matches!(s, SlotSim::Initial { .. }));
-        i.wb_free_slot = self
-            .slots
-            .iter()
-            .position(|s| *s == SlotSim::Free)
-            .map(|s| s as u32);
-        let mut done_slot = None;
-        for (s, slot) in self.slots.iter().enumerate() {
-            match slot {
-                SlotSim::Initial { rays, wait: 0 } if i.init_report.is_none() => {
-                    let distinct: BTreeSet<u32> =
-                        rays.iter().map(|&r| self.paths[r as usize][0]).collect();
-                    i.init_report = Some(InitReport {
-                        slot: s as u32,
-                        active: rays.len() as u32,
-                        distinct: distinct.len() as u32,
-                    });
-                }
-                SlotSim::Draining(q) if q.is_empty() && done_slot.is_none() => done_slot = Some(s),
-                SlotSim::Draining(q) if i.enqueue.is_none() => i.enqueue = q.front().copied(),
-                SlotSim::RayStationary { lanes, held: false }
-                    if lanes.is_empty() && done_slot.is_none() =>
-                {
-                    done_slot = Some(s)
-                }
-                _ => {}
-            }
-        }
-        i.warp_done = done_slot.map(|s| s as u32);
-        // Active-ray reports go round the ray-stationary warps, one a cycle.
-        for k in 0..n {
-            let s = (self.rr + k) % n;
-            if let SlotSim::RayStationary { lanes, held: false } = &self.slots[s] {
-                if !lanes.is_empty() {
-                    i.active_report = Some(ActiveReport {
-                        slot: s as u32,
-                        active: lanes.len() as u32,
-                    });
-                    self.rr = s + 1;
-                    break;
-                }
-            }
-        }
-
-        let o = self.h.step(&i);
-        if self.modes.last().map(|m| m.1) != Some(o.mode) {
-            self.modes.push((self.h.cycle - 1, o.mode));
-        }
-
-        // Apply the controller's commands.
-        if let Some(s) = done_slot {
-            self.slots[s] = SlotSim::Free;
-        }
-        if o.enq_ready {
-            let e = i.enqueue.expect("enq_ready without a request");
-            for slot in &mut self.slots {
-                if let SlotSim::Draining(q) = slot {
-                    if q.front() == Some(&e) {
-                        q.pop_front();
-                        break;
-                    }
-                }
-            }
-        }
-        if let Some(s) = o.terminate {
-            let SlotSim::Initial { rays, .. } = &self.slots[s as usize] else {
-                panic!("terminate of slot {s} not in its initial phase");
-            };
-            let q = rays
-                .iter()
-                .map(|&ray| EnqueueRequest {
-                    ray,
-                    treelet: self.paths[ray as usize][0],
-                })
-                .collect();
-            self.slots[s as usize] = SlotSim::Draining(q);
-        } else if let Some(r) = i.init_report {
-            // Not divergent (or the final phase): it keeps traversing ray-stationary.
-            let SlotSim::Initial { rays, .. } = self.slots[r.slot as usize].clone() else {
-                unreachable!()
-            };
-            let lanes = rays.iter().map(|&ray| (ray, self.work(ray))).collect();
-            self.slots[r.slot as usize] = SlotSim::RayStationary { lanes, held: false };
-        }
-        if let Some(s) = o.repack {
-            let SlotSim::RayStationary { held, .. } = &mut self.slots[s as usize] else {
-                panic!("repack of slot {s} that is not ray-stationary");
-            };
-            *held = true;
-        }
-        if let Some(s) = o.reserve {
-            if self.slots[s as usize] == SlotSim::Free {
-                self.slots[s as usize] = SlotSim::Forming(Vec::new());
-            }
-        }
-        if let Some(f) = o.fill {
-            let work: Vec<(u32, u32)> = f.rays.iter().map(|&r| (r, self.work(r))).collect();
-            let slot = &mut self.slots[f.slot as usize];
-            match f.kind {
-                FillKind::Treelet => {
-                    assert!(matches!(slot, SlotSim::Forming(v) if v.is_empty()));
-                    for &r in &f.rays {
-                        assert_eq!(self.paths[r as usize][self.pos[r as usize]], f.treelet);
-                    }
-                    *slot = SlotSim::Treelet {
-                        treelet: f.treelet,
-                        rays: f.rays,
-                        wait: 6,
-                    };
-                }
-                FillKind::Grouped => {
-                    let SlotSim::Forming(v) = slot else {
-                        panic!("grouped fill into {slot:?}")
-                    };
-                    assert_eq!(f.first, v.is_empty());
-                    v.extend(work);
-                    assert!(v.len() <= 32);
-                    if f.last {
-                        let lanes = std::mem::take(v);
-                        *slot = SlotSim::RayStationary { lanes, held: false };
-                    }
-                }
-                FillKind::Repack => {
-                    let SlotSim::RayStationary { lanes, held } = slot else {
-                        panic!("repack fill into {slot:?}")
-                    };
-                    assert!(*held);
-                    lanes.extend(work);
-                    assert!(lanes.len() <= 32);
-                    *held = !f.last;
-                }
-            }
-        }
-
-        // Time passes.
-        let mut moved = Vec::new();
-        for (s, slot) in self.slots.iter_mut().enumerate() {
-            match slot {
-                SlotSim::Initial { wait, .. } if *wait > 0 => *wait -= 1,
-                SlotSim::Treelet { wait, .. } if *wait > 0 => *wait -= 1,
-                SlotSim::Treelet { rays, .. } => moved.push((s, std::mem::take(rays))),
-                SlotSim::RayStationary { lanes, .. } => {
-                    for (_, w) in lanes.iter_mut() {
-                        *w = w.saturating_sub(1);
-                    }
-                }
-                _ => {}
-            }
-        }
-        for (s, rays) in moved {
-            let mut q = VecDeque::new();
-            for ray in rays {
-                self.pos[ray as usize] += 1;
-                match self.paths[ray as usize].get(self.pos[ray as usize]) {
-                    Some(&treelet) => q.push_back(EnqueueRequest { ray, treelet }),
-                    None => self.finished[ray as usize] += 1,
-                }
-            }
-            self.slots[s] = SlotSim::Draining(q);
-        }
-        for s in 0..n {
-            if let SlotSim::RayStationary { lanes, .. } = &self.slots[s] {
-                let done: Vec<u32> = lanes.iter().filter(|l| l.1 == 0).map(|l| l.0).collect();
-                for r in done {
-                    self.finish(r);
-                }
-                if let SlotSim::RayStationary { lanes, .. } = &mut self.slots[s] {
-                    lanes.retain(|l| l.1 > 0);
-                }
-            }
-        }
-        // The SM launches a new warp into a free slot the controller does not own.
-        if self.launched < total {
-            if let Some(s) = self.slots.iter().position(|s| *s == SlotSim::Free) {
-                let rays = (self.launched..(self.launched + 32).min(total)).collect();
-                self.launched = (self.launched + 32).min(total);
-                self.slots[s] = SlotSim::Initial { rays, wait: 3 };
-            }
-        }
-        o.mode
-    }
-}
-
-#[test]
-fn every_ray_is_traced_exactly_once_in_every_variant() {
-    let grouping_no_repack = HwConfig {
-        repack_threshold: 0,
-        ..HwConfig::default()
-    };
-    let wide = HwConfig {
-        warp_buffer_size: 4,
-        max_resident_treelets: 3,
-        ..HwConfig::default()
-    };
-    let small_threshold = HwConfig {
-        underpopulation_threshold: 16,
-        repack_threshold: 16,
-        ..HwConfig::default()
-    };
-    let no_preload = ControllerFeatures {
-        preload: false,
-        ..ControllerFeatures::FULL
-    };
-    let variants = [
-        ("full", HwConfig::default(), ControllerFeatures::FULL, 1),
-        ("naive", HwConfig::default(), ControllerFeatures::NAIVE, 1),
-        ("no repack", grouping_no_repack, ControllerFeatures::FULL, 1),
-        ("no preload", HwConfig::default(), no_preload, 1),
-        ("4 warps", wide.clone(), ControllerFeatures::FULL, 1),
-        ("4 warps naive", wide, ControllerFeatures::NAIVE, 2),
-        ("slow table", small_threshold, ControllerFeatures::FULL, 4),
-    ];
-    for (name, cfg, features, latency) in variants {
-        let mut run = Run::new(cfg, features, 1024, latency);
-        let mut cycles = 0u64;
-        while run.cycle() != Mode::Done {
-            cycles += 1;
-            assert!(
-                cycles < 100_000,
-                "{name}: no Done after {cycles} cycles: {:?}",
-                run.modes
-            );
-        }
-        assert!(
-            run.finished.iter().all(|&f| f == 1),
-            "{name}: rays not traced exactly once"
-        );
-        assert_eq!(run.h.qt.rays(), 0, "{name}");
-        let r = &run.h.regs;
-        assert_eq!((r.queued_rays, r.spare_count), (0, 0), "{name}");
-        // Modes only move forward, and the stats account for every cycle before Done.
-        let order: Vec<Mode> = run.modes.iter().map(|m| m.1).collect();
-        let mut sorted = order.clone();
-        sorted.sort_by_key(|m| m.encoding());
-        assert_eq!(order, sorted, "{name}");
-        let s = run.h.stats;
-        let done_cycle = run.modes.last().unwrap().0;
-        assert_eq!(
-            s.cycles_initial + s.cycles_treelet + s.cycles_final,
-            done_cycle,
-            "{name}"
-        );
-        assert!(s.treelet_warps > 0, "{name}: the treelet phase ran");
-        if features.group_underpopulated {
-            assert!(order.contains(&Mode::FinalRayStationary), "{name}");
-            assert!(s.grouped_warps > 0, "{name}");
-        } else {
-            assert_eq!(s.cycles_final, 0, "{name}");
-        }
-        println!("{name}: {order:?} {s:?}");
-    }
 }
 
 /// While a repacked warp is being filled, spilled rays are refilled before the next pop (a

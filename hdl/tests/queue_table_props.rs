@@ -289,6 +289,8 @@ struct QueueSut {
     regs: QueueTableRegs,
     /// The memory system's spill store.
     spill: VecDeque<(u64, u32)>,
+    /// The statistics observer: the longest chain walk seen (the largest `walk_len`).
+    max_chain: u32,
 }
 
 /// What the bench saw while one op ran.
@@ -321,6 +323,7 @@ impl QueueSut {
                 }
             }
             let o = t.step(&mut self.regs, &input);
+            self.max_chain = self.max_chain.max(o.walk_len);
             assert_eq!(o.ready, cycle == 0, "ready in cycle {cycle} of {op:?}");
             assert!(!o.error, "error in cycle {cycle} of {op:?}");
             if o.spill_valid {
@@ -417,7 +420,7 @@ fn check_structure(sut: &QueueSut, s: &RefState) {
         longest = longest.max(len);
     }
     assert_eq!(
-        seen, r.valid,
+        *seen, *r.valid,
         "a valid entry is unreachable from its bucket"
     );
     for (i, slot) in s.slots.iter().enumerate() {
@@ -438,8 +441,8 @@ fn check_structure(sut: &QueueSut, s: &RefState) {
     assert_eq!(r.ctl.spilled as usize, s.spill.len(), "spilled count");
     assert_eq!(sut.spill, s.spill, "spill store differs from the reference");
     assert!(
-        r.ctl.max_chain as usize <= e,
-        "max_chain beyond the table size"
+        sut.max_chain as usize <= e,
+        "a chain walk beyond the table size"
     );
     // No ray lost or duplicated: table + spill store + unused ids = all ids, disjointly.
     let mut all: Vec<u32> = s
@@ -469,6 +472,7 @@ impl StateMachineTest for QueueSut {
             table,
             regs,
             spill: VecDeque::new(),
+            max_chain: 0,
         };
         for &op in &s.prefill {
             sut.run(op, QueueOp::Nop, 1);
@@ -490,6 +494,7 @@ impl StateMachineTest for QueueSut {
                 .table
                 .step(&mut sut.regs, &sut.table.input(QueueOp::Nop));
             assert!(o.ready && !o.done && !o.spill_valid && !o.refill_req && !o.error);
+            assert_eq!(o.walk_len, 0, "no walk step while idle");
         }
         sut
     }

@@ -1,89 +1,21 @@
 //! Tests of the RT unit control block with a toy datapath and a fixed-latency memory.
 
 use std::collections::BTreeMap;
+use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
     errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
-    LaneStatus, MemRequest, MemResponse, NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord,
-    RayWords, RequestKind, RtCache, RtStats, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams,
-    RtUnitRegs, SlotSummary, Split, TestResult, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    LaneStatus, MemRequest, MemResponse, NodeEntry, NodeKind, RayOutcome, RayRecord, RequestKind,
+    RtCache, RtStats, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams, RtUnitRegs, SlotSummary,
+    Split, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::{Block, HwConfig, Signals};
 
-/// Last byte of every toy node; a node assembled from wrong or missing chunks lacks it.
-const MAGIC: u8 = 0xA5;
-/// Child mask selecting every ray.
-const ALL: u8 = 0xFF;
+mod common;
+use common::{node, words, ToyDatapath, Tree, ALL};
+
 /// Default test latencies (FACTS.md): internal node and triangle leaf / hit.
 const L_INTERNAL: u64 = 4;
 const L_TRIANGLE: u64 = 4;
-
-/// Toy node format: byte 0 child count, byte 1 hit flag, children from byte 4 as 8 bytes each
-/// (address u32 LE, kind code, size in chunks, lane mask, 0), last byte [`MAGIC`]. A child is
-/// visited by a ray when bit `ray[0]` of its mask is set; a hit reports t = 0.5 and the node's
-/// address as hit id.
-#[derive(Debug)]
-struct ToyDatapath;
-
-impl NodeDatapath for ToyDatapath {
-    fn test(
-        &self,
-        ray: &RayWords,
-        _best: Option<&Hit>,
-        node: &NodeEntry,
-        data: &[u8],
-    ) -> TestResult {
-        if data.len() != node.bytes() as usize || data.last() != Some(&MAGIC) {
-            return TestResult::default();
-        }
-        let select = 1u8 << (ray[0] & 7);
-        let children = (0..data[0] as usize)
-            .map(|i| &data[4 + 8 * i..12 + 8 * i])
-            .filter(|c| c[6] & select != 0)
-            .map(|c| NodeEntry {
-                address: u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as u64,
-                kind: NodeKind::ALL[c[4] as usize],
-                chunks: c[5],
-            })
-            .collect();
-        let hit = (data[1] != 0).then(|| Hit {
-            t: 0.5f32.to_bits(),
-            hit_id: node.address as u32,
-            attribs: [1, 2],
-        });
-        TestResult { children, hit }
-    }
-}
-
-fn node(address: u64, kind: NodeKind, bytes: u32) -> NodeEntry {
-    NodeEntry::new(address, kind, bytes).unwrap()
-}
-
-/// BVH memory of toy nodes, by 32 B chunk address.
-#[derive(Default)]
-struct Tree {
-    chunks: BTreeMap<u64, [u8; 32]>,
-}
-
-impl Tree {
-    fn add(&mut self, n: NodeEntry, hit: bool, children: &[(NodeEntry, u8)]) -> &mut Self {
-        let mut bytes = vec![0u8; n.bytes() as usize];
-        bytes[0] = children.len() as u8;
-        bytes[1] = hit as u8;
-        for (i, (c, mask)) in children.iter().enumerate() {
-            let at = 4 + 8 * i;
-            bytes[at..at + 4].copy_from_slice(&(c.address as u32).to_le_bytes());
-            bytes[at + 4] = c.kind.code() as u8;
-            bytes[at + 5] = c.chunks;
-            bytes[at + 6] = *mask;
-        }
-        *bytes.last_mut().unwrap() = MAGIC;
-        for (k, chunk) in bytes.chunks_exact(32).enumerate() {
-            self.chunks
-                .insert(n.address + 32 * k as u64, chunk.try_into().unwrap());
-        }
-        self
-    }
-}
 
 /// Memory returning each load's chunk `latency` cycles after the request (plus a per-address
 /// extra delay), never before `hold_until`, as many per cycle as the RT unit accepts.
@@ -266,14 +198,6 @@ fn small() -> HwConfig {
         stack_depth: 16,
         ..HwConfig::default()
     }
-}
-
-/// Ray words selecting child-mask bit `select`.
-fn words(select: u32) -> RayWords {
-    let mut w = [0u32; 8];
-    w[0] = select;
-    w[7] = 1000f32.to_bits();
-    w
 }
 
 /// A warp of `lanes` (`None` inactive) padded to `warp_size` lanes.
@@ -632,8 +556,8 @@ fn two_stack_order_puts_other_treelets_on_the_other_stack() {
     }
     let rec = &sim.regs.slots[0].lanes[0].ray;
     assert_eq!(rec.current_treelet, 0);
-    assert_eq!(rec.current_stack, vec![c2]);
-    assert_eq!(rec.other_stack, vec![c1]);
+    assert_eq!(*rec.current_stack, [c2]);
+    assert_eq!(*rec.other_stack, [c1]);
     while sim.done.is_empty() {
         sim.step(None);
     }
@@ -667,7 +591,7 @@ fn treelet_stop_parks_the_ray_and_it_resumes_in_a_new_warp() {
     assert_eq!(sim.events.len(), 1);
     assert_eq!(sim.events[0].1.treelet, 2);
     assert!(rec.current_stack.is_empty());
-    assert_eq!(rec.other_stack, vec![c1, c3]);
+    assert_eq!(*rec.other_stack, [c1, c3]);
     // Resume the ray in a treelet warp: it switches to treelet 2, tests c3 and stops again.
     let mut lanes = vec![None; 4];
     lanes[2] = Some(rec);
@@ -680,7 +604,7 @@ fn treelet_stop_parks_the_ray_and_it_resumes_in_a_new_warp() {
     let (rec, outcome) = sim.done[1].1.lanes[2].clone().unwrap();
     assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 1 });
     assert_eq!(rec.current_treelet, 2);
-    assert_eq!(rec.other_stack, vec![c1]);
+    assert_eq!(*rec.other_stack, [c1]);
     assert_eq!(sim.events.last().unwrap().1.lane, 2);
 }
 
@@ -847,7 +771,7 @@ fn bad_parameters_and_issues_are_rejected_with_reasons() {
         .unwrap_err();
     assert!(e.to_string().contains("max_rays"), "{e}");
     let mut deep = RayRecord::new(1, words(0), r);
-    deep.other_stack = vec![r; 17];
+    deep.other_stack = BoundedVec::with(17, vec![r; 17]).unwrap();
     let e = unit
         .check_issue(&warp(
             TraversalOrder::RayStationary,
@@ -950,7 +874,7 @@ fn run_deep(
         assert_eq!(sim.regs.errors, 0, "{:?}", sim.regs.first_error);
     }
     let reqs = sim.mem.log.iter().map(|(_, r)| *r).collect();
-    (finished.into_values().collect(), sim.stats.clone(), reqs)
+    (finished.into_values().collect(), sim.stats, reqs)
 }
 
 /// Per ray id, the node addresses it fetched, in order (first chunks only).
@@ -1123,7 +1047,12 @@ fn signals_are_stable_fit_their_widths_and_name_described_items() {
         vec![None, ray(1, 0, node(0, NodeKind::Internal, 32))],
     ));
     assert_eq!(empty, shape(inputs.signals()));
-    let all = [inputs.signals(), busy.signals(), sim.regs.signals()].concat();
+    let all = [
+        inputs.signals(),
+        busy.signals(),
+        sim.unit.reg_signals(&sim.regs),
+    ]
+    .concat();
     for s in all {
         assert!(
             s.width >= 64 || s.value >> s.width == 0,
@@ -1297,11 +1226,7 @@ fn stop_makes_a_continuing_warp_park_at_its_next_treelet_boundary() {
         let (rec, outcome) = sim.done[0].1.lanes[0].clone().unwrap();
         if stop {
             assert_eq!(outcome, RayOutcome::AtBoundary { treelet: 1 });
-            assert_eq!(
-                rec.other_stack,
-                vec![c],
-                "C waits on the other-treelet stack"
-            );
+            assert_eq!(*rec.other_stack, [c], "C waits on the other-treelet stack");
             assert!(rec.hit.is_none());
         } else {
             assert_eq!(outcome, RayOutcome::Finished);

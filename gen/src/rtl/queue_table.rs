@@ -342,6 +342,7 @@ reg          spill_valid_o;
 reg [${TWM1}:0] spill_treelet_o;
 reg [${RWM1}:0] spill_ray_o;
 reg          refill_req_o;
+reg [${ENM1}:0]  walk_len_o;
 always @* begin : p_fsm
     reg          start_insert;     // begin an Insert (op or refill answer): read the bucket head
     reg [${TWM1}:0] ins_treelet;
@@ -377,7 +378,6 @@ always @* begin : p_fsm
     pop_count_m1_d = pop_count_m1_q;
     pop_treelet_d = pop_treelet_q;
     free_count_d = free_count_q;
-    max_chain_d = max_chain_q;
     valid_d = valid_q;
     done_o = 1'b0;
     error_o = refill_valid && (state_q != ${REFILL_WAIT}); // unexpected refill answer: ignored
@@ -386,6 +386,7 @@ always @* begin : p_fsm
     spill_treelet_o = ${ZERO_TW};
     spill_ray_o = ${ZERO_RW};
     refill_req_o = 1'b0;
+    walk_len_o = ${ZERO_EN};
     heads_we = 1'b0;
     heads_waddr = ${ZERO_B};
     heads_wdata = ${ZERO_HW};
@@ -459,7 +460,7 @@ always @* begin : p_fsm
         end
         ${WALK}: begin
             walked_d = walked_inc;
-            if (walked_inc > max_chain_q) max_chain_d = walked_inc;
+            walk_len_o = walked_inc;
             case (walk_op_q)
                 WALK_INSERT: begin
                     if (matched && !m_full) begin
@@ -629,7 +630,7 @@ assign spill_ray = spill_ray_o;
 assign refill_req = refill_req_o;
 assign free_entries = free_count_q;
 assign spilled = spilled_q;
-assign max_chain = max_chain_q;"#;
+assign walk_len = walk_len_o;"#;
 
 #[cfg(test)]
 mod tests {

@@ -64,7 +64,7 @@ pub use ports::{ControllerInputs, ControllerOutputs, PortError};
 pub use regs::{ControllerRegs, FillState, ResidentEntry, SlotState};
 
 use crate::bits::{bits_for, clog2};
-use crate::block::Block;
+use crate::block::{Block, Signal};
 use crate::config::{ConfigError, HwConfig};
 use crate::count_table::CountOp;
 use crate::describe::BlockDesc;
@@ -405,16 +405,15 @@ impl Block for TreeletController {
 
     fn reset(&self) -> ControllerRegs {
         ControllerRegs {
-            widths: self.widths,
             mode: Mode::Initial,
             seq: Seq::Idle,
             queued_rays: 0,
-            res: vec![ResidentEntry::default(); self.cfg.max_resident_treelets as usize],
+            res: vec![ResidentEntry::default(); self.cfg.max_resident_treelets as usize].into(),
             res_head: 0,
             res_tail: 0,
-            slots: vec![SlotState::default(); self.cfg.warp_buffer_size as usize],
+            slots: vec![SlotState::default(); self.cfg.warp_buffer_size as usize].into(),
             fill: FillState::default(),
-            spare_rays: vec![0; self.cfg.warp_size as usize - 1],
+            spare_rays: vec![0; self.cfg.warp_size as usize - 1].into(),
             spare_count: 0,
             pending_remove: None,
         }
@@ -568,6 +567,10 @@ impl Block for TreeletController {
         );
         (out, n)
     }
+    fn reg_signals(&self, regs: &ControllerRegs) -> Vec<Signal> {
+        regs::signals(regs, &self.widths)
+    }
+
     fn describe(&self) -> BlockDesc {
         desc::describe(&self.cfg, self.features, &self.widths)
     }

@@ -290,15 +290,15 @@ crate::bundle! {
         /// Count-table op: 0 nop, 1 add, 2 remove.
         sig ct_op (CountOp::BITS) = this.ct_op.kind_code();
         /// Its treelet.
-        sig ct_treelet (w.treelet) = count_fields(&this.ct_op).0;
+        sig ct_treelet (w.treelet) = this.ct_op.fields().0;
         /// Its ray count (1..=warp_size).
-        sig ct_n (w.lanes) = count_fields(&this.ct_op).1;
+        sig ct_n (w.lanes) = this.ct_op.fields().1 as u64;
         /// Queue-table op: 0 nop, 1 insert, 2 pop, 3 pop_any, 4 count (unused), 5 refill.
         sig qt_op (QueueOp::BITS) = this.qt_op.kind_code();
         /// Its treelet (insert, pop).
-        sig qt_treelet (w.treelet) = queue_fields(&this.qt_op).0;
+        sig qt_treelet (w.treelet) = this.qt_op.fields().0;
         /// Its ray id (insert).
-        sig qt_ray (w.ray) = queue_fields(&this.qt_op).1;
+        sig qt_ray (w.ray) = this.qt_op.fields().1 as u64;
         /// Bit i: resident treelet i is valid, oldest (current) first (traced as resident_valid_<i>).
         lanes resident_valid (1, w.resident_entries) = |i: usize| (i < this.resident.len()) as u64;
         /// Resident treelet addresses, oldest first (traced as resident_treelet_<i>).
@@ -307,22 +307,5 @@ crate::bundle! {
         };
         /// A treelet is made resident (claimed from the count table) this cycle (an event for the statistics observer).
         sig claim (1) = this.claim as u64;
-    }
-}
-
-/// `(treelet, n)` of a count-table op as driven on the wires (zeros for `Nop`).
-fn count_fields(op: &CountOp) -> (u64, u64) {
-    match *op {
-        CountOp::Nop => (0, 0),
-        CountOp::Add { treelet, n } | CountOp::Remove { treelet, n } => (treelet, n as u64),
-    }
-}
-
-/// `(treelet, ray)` of a queue-table op as driven on the wires (zeros where unused).
-fn queue_fields(op: &QueueOp) -> (u64, u64) {
-    match *op {
-        QueueOp::Insert { treelet, ray } => (treelet, ray as u64),
-        QueueOp::Pop { treelet } | QueueOp::Count { treelet } => (treelet, 0),
-        QueueOp::Nop | QueueOp::PopAny | QueueOp::Refill => (0, 0),
     }
 }

@@ -6,7 +6,7 @@
 use serde::Serialize;
 
 use super::{ControllerWidths, FillKind, Seq};
-use crate::block::{Signal, Signals};
+use crate::block::Signal;
 use crate::describe::{reg, RegDesc};
 use crate::mode::Mode;
 
@@ -54,27 +54,26 @@ pub struct FillState {
 /// Every register of the controller.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct ControllerRegs {
-    /// Widths of the fields (for [`Signals`]).
-    pub widths: ControllerWidths,
     /// Traversal mode FSM.
     pub mode: Mode,
     /// Queue-table sequencer FSM.
     pub seq: Seq,
     /// Rays in the queue table (exact: +1 per insert, -n per pop).
     pub queued_rays: u32,
-    /// Resident-treelet list, a circular buffer allocated at `res_tail`.
-    pub res: Vec<ResidentEntry>,
+    /// Resident-treelet list (`max_resident_treelets` entries), a circular buffer allocated at
+    /// `res_tail`.
+    pub res: Box<[ResidentEntry]>,
     /// Oldest valid resident entry (the current treelet).
     pub res_head: u32,
     /// Next entry to allocate.
     pub res_tail: u32,
-    /// Per warp-buffer slot bookkeeping.
-    pub slots: Vec<SlotState>,
+    /// Per warp-buffer slot bookkeeping (`warp_buffer_size` entries).
+    pub slots: Box<[SlotState]>,
     /// Fill sequence in progress (meaningful outside `Seq::Idle`).
     pub fill: FillState,
     /// Spare buffer: rays popped in the final phase that did not fit the warp being filled
     /// (fixed bank of warp_size - 1 ids; the first `spare_count` are valid).
-    pub spare_rays: Vec<u32>,
+    pub spare_rays: Box<[u32]>,
     /// Valid spare rays.
     pub spare_count: u32,
     /// A count-table `Remove` still to issue for a popped untracked entry: (treelet, rays).
@@ -222,68 +221,56 @@ fn lanes(out: &mut Vec<Signal>, name: &str, width: u32, count: u32, value: impl 
     }
 }
 
-impl Signals for ControllerRegs {
-    fn signals(&self) -> Vec<Signal> {
-        let w = &self.widths;
-        let b = |v: bool| v as u64;
-        let n = w.resident_entries;
-        let slots = w.warp_slots;
-        let prm = self.pending_remove;
-        let mut s = vec![
-            Signal::new("mode", Mode::BITS, self.mode.encoding()),
-            Signal::new("seq", Seq::BITS, self.seq as u64),
-            Signal::new("queued_rays", w.ray_total, self.queued_rays as u64),
-        ];
-        lanes(&mut s, "res_valid", 1, n, |i| b(self.res[i].valid));
-        lanes(&mut s, "res_treelet", w.treelet, n, |i| {
-            self.res[i].treelet as u64
-        });
-        lanes(&mut s, "res_count", w.ray_total, n, |i| {
-            self.res[i].count as u64
-        });
-        lanes(&mut s, "res_warps", w.warps, n, |i| {
-            self.res[i].warps as u64
-        });
-        s.push(Signal::new(
-            "res_head",
-            w.resident_index,
-            self.res_head as u64,
-        ));
-        s.push(Signal::new(
-            "res_tail",
-            w.resident_index,
-            self.res_tail as u64,
-        ));
-        lanes(&mut s, "slot_terminated", 1, slots, |i| {
-            b(self.slots[i].terminated)
-        });
-        lanes(&mut s, "slot_treelet_warp", 1, slots, |i| {
-            b(self.slots[i].treelet_warp)
-        });
-        lanes(&mut s, "slot_res_valid", 1, slots, |i| {
-            b(self.slots[i].resident.is_some())
-        });
-        lanes(&mut s, "slot_res", w.resident_index, slots, |i| {
-            self.slots[i].resident.unwrap_or(0) as u64
-        });
-        let f = &self.fill;
-        s.extend([
-            Signal::new("fill_kind", FillKind::BITS, f.kind as u64),
-            Signal::new("fill_slot", w.slot, f.slot as u64),
-            Signal::new("fill_res_valid", 1, b(f.resident.is_some())),
-            Signal::new("fill_res", w.resident_index, f.resident.unwrap_or(0) as u64),
-            Signal::new("fill_need", w.lanes, f.need as u64),
-            Signal::new("fill_started", 1, b(f.started)),
-            Signal::new("spare_count", w.lane, self.spare_count as u64),
-        ]);
-        lanes(&mut s, "spare_rays", w.ray, w.warp_size - 1, |i| {
-            self.spare_rays[i] as u64
-        });
-        s.extend([
-            Signal::new("prm_valid", 1, b(prm.is_some())),
-            Signal::new("prm_treelet", w.treelet, prm.map_or(0, |p| p.0) as u64),
-            Signal::new("prm_count", w.ray_total, prm.map_or(0, |p| p.1) as u64),
-        ]);
-        s
-    }
+/// The registers `r` as trace signals, for widths `w`.
+pub(super) fn signals(r: &ControllerRegs, w: &ControllerWidths) -> Vec<Signal> {
+    let b = |v: bool| v as u64;
+    let n = w.resident_entries;
+    let slots = w.warp_slots;
+    let prm = r.pending_remove;
+    let mut s = vec![
+        Signal::new("mode", Mode::BITS, r.mode.encoding()),
+        Signal::new("seq", Seq::BITS, r.seq as u64),
+        Signal::new("queued_rays", w.ray_total, r.queued_rays as u64),
+    ];
+    lanes(&mut s, "res_valid", 1, n, |i| b(r.res[i].valid));
+    lanes(&mut s, "res_treelet", w.treelet, n, |i| {
+        r.res[i].treelet as u64
+    });
+    lanes(&mut s, "res_count", w.ray_total, n, |i| {
+        r.res[i].count as u64
+    });
+    lanes(&mut s, "res_warps", w.warps, n, |i| r.res[i].warps as u64);
+    s.push(Signal::new("res_head", w.resident_index, r.res_head as u64));
+    s.push(Signal::new("res_tail", w.resident_index, r.res_tail as u64));
+    lanes(&mut s, "slot_terminated", 1, slots, |i| {
+        b(r.slots[i].terminated)
+    });
+    lanes(&mut s, "slot_treelet_warp", 1, slots, |i| {
+        b(r.slots[i].treelet_warp)
+    });
+    lanes(&mut s, "slot_res_valid", 1, slots, |i| {
+        b(r.slots[i].resident.is_some())
+    });
+    lanes(&mut s, "slot_res", w.resident_index, slots, |i| {
+        r.slots[i].resident.unwrap_or(0) as u64
+    });
+    let f = &r.fill;
+    s.extend([
+        Signal::new("fill_kind", FillKind::BITS, f.kind as u64),
+        Signal::new("fill_slot", w.slot, f.slot as u64),
+        Signal::new("fill_res_valid", 1, b(f.resident.is_some())),
+        Signal::new("fill_res", w.resident_index, f.resident.unwrap_or(0) as u64),
+        Signal::new("fill_need", w.lanes, f.need as u64),
+        Signal::new("fill_started", 1, b(f.started)),
+        Signal::new("spare_count", w.lane, r.spare_count as u64),
+    ]);
+    lanes(&mut s, "spare_rays", w.ray, w.warp_size - 1, |i| {
+        r.spare_rays[i] as u64
+    });
+    s.extend([
+        Signal::new("prm_valid", 1, b(prm.is_some())),
+        Signal::new("prm_treelet", w.treelet, prm.map_or(0, |p| p.0) as u64),
+        Signal::new("prm_count", w.ray_total, prm.map_or(0, |p| p.1) as u64),
+    ]);
+    s
 }

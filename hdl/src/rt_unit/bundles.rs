@@ -181,7 +181,9 @@ impl StackSel {
 /// Each stack is split between the lane's on-chip stack (at most `stack_depth` entries, its
 /// top) and 32 B chunks of older entries spilled to the ray's spill area in memory (the chunks
 /// stay there while the ray waits outside the RT unit; their number travels with the record).
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+/// The on-chip parts are bounded lists: in a warp-buffer lane their depth is `stack_depth` (a
+/// record issued to the RT unit is loaded into stacks of that depth).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct RayRecord {
     /// Ray id (below `max_rays`).
     pub ray_id: u32,
@@ -192,10 +194,10 @@ pub struct RayRecord {
     /// Treelet (address >> log2(treelet_bytes)) the current stack belongs to.
     pub current_treelet: u64,
     /// On-chip part of the current-treelet stack, bottom first (the last entry is popped next).
-    pub current_stack: Vec<NodeEntry>,
+    pub current_stack: BoundedVec<NodeEntry>,
     /// On-chip part of the other-treelet stack, bottom first; when the current stack is empty
     /// its top is popped and its treelet becomes the current treelet.
-    pub other_stack: Vec<NodeEntry>,
+    pub other_stack: BoundedVec<NodeEntry>,
     /// Chunks of the current-treelet stack spilled to memory (entries below `current_stack`).
     pub current_spilled: u32,
     /// Chunks of the other-treelet stack spilled to memory (entries below `other_stack`).
@@ -211,8 +213,8 @@ impl RayRecord {
             words,
             hit: None,
             current_treelet: 0,
-            current_stack: Vec::new(),
-            other_stack: vec![root],
+            current_stack: BoundedVec::new(0),
+            other_stack: BoundedVec::with(1, [root]).unwrap_or_default(),
             current_spilled: 0,
             other_spilled: 0,
         }
@@ -243,7 +245,7 @@ impl RayRecord {
     }
 
     /// The on-chip part of stack `s`.
-    pub fn stack(&self, s: StackSel) -> &Vec<NodeEntry> {
+    pub fn stack(&self, s: StackSel) -> &BoundedVec<NodeEntry> {
         match s {
             StackSel::Current => &self.current_stack,
             StackSel::Other => &self.other_stack,
@@ -251,7 +253,7 @@ impl RayRecord {
     }
 
     /// The on-chip part of stack `s`, writable.
-    pub fn stack_mut(&mut self, s: StackSel) -> &mut Vec<NodeEntry> {
+    pub fn stack_mut(&mut self, s: StackSel) -> &mut BoundedVec<NodeEntry> {
         match s {
             StackSel::Current => &mut self.current_stack,
             StackSel::Other => &mut self.other_stack,
@@ -428,86 +430,6 @@ pub struct BoundaryEvent {
     pub ray_id: u32,
     /// Treelet the ray needs next.
     pub treelet: u64,
-}
-
-/// Widths of the fields of the port and register bundles, fixed by the configuration; they let a
-/// bundle list its signals with the same names and widths every cycle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Widths {
-    /// Lanes per warp.
-    pub warp_size: u32,
-    /// Warp-buffer slots.
-    pub slots: u32,
-    /// Response ports (responses accepted per cycle).
-    pub resp_ports: u32,
-    /// Bits of a ray id.
-    pub ray_id: u32,
-    /// Bits of a byte address.
-    pub address: u32,
-    /// Bits of a treelet number.
-    pub treelet: u32,
-    /// Bits of a lane index.
-    pub lane: u32,
-    /// Bits of a slot index.
-    pub slot: u32,
-    /// Bits of a request tag (slot and lane).
-    pub tag: u32,
-    /// Bits of the response-FIFO occupancy and free count.
-    pub fifo_count: u32,
-    /// Bits of an intersection-delay counter.
-    pub delay: u32,
-    /// Bits of a stack's spilled-chunk count.
-    pub spilled: u32,
-}
-
-/// The RT unit's inputs for one cycle. Build an idle bundle with
-/// [`super::RtUnit::idle_inputs`].
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct RtUnitInputs {
-    /// Field widths (constant).
-    pub widths: Widths,
-    /// A warp to load into a free slot (only when `issue_ready`).
-    pub issue: Option<WarpIssue>,
-    /// Responses from memory this cycle, at most `resp_ports` and at most `resp_free`.
-    pub responses: Vec<MemResponse>,
-    /// Terminate this slot's warp into the treelet queues (treelet controller `terminate`): its
-    /// order becomes [`TraversalOrder::TreeletStop`], so each ray stops at its next treelet
-    /// boundary; a ray already between treelets (current stack empty, nothing in flight)
-    /// parks at once.
-    pub stop: Option<u32>,
-    /// Repack this slot's warp (treelet controller `repack`): its finished, quiescent lanes are
-    /// released on [`RtUnitOutputs::released`] and the slot is held (it does not complete) until
-    /// an [`IssueTarget::Append`] with `last` arrives.
-    pub repack: Option<u32>,
-}
-
-/// The RT unit's outputs for one cycle.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct RtUnitOutputs {
-    /// Field widths (constant).
-    pub widths: Widths,
-    /// A warp slot is free: a warp may be issued this cycle (depends on registers only).
-    pub issue_ready: bool,
-    /// Free response-FIFO entries at the start of the cycle (depends on registers only).
-    pub resp_free: u32,
-    /// The one 32 B memory request of this cycle.
-    pub request: Option<MemRequest>,
-    /// The one warp completing this cycle.
-    pub done: Option<WarpDone>,
-    /// Rays that reached a treelet boundary this cycle (all from the slot whose response was
-    /// popped).
-    pub boundary: Vec<BoundaryEvent>,
-    /// Finished lanes released by this cycle's repack (slot and per-lane final records; their
-    /// hit records are already stored), freeing the lanes for the repack fill.
-    pub released: Option<WarpDone>,
-    /// Sticky error flags ([`errors`]), including any raised this cycle.
-    pub errors: u8,
-    /// The first error raised so far, with its details (sticky, like `errors`).
-    pub first_error: Option<ErrorRecord>,
-    /// This cycle's events for the statistics counters outside the block (warp cycles,
-    /// active lanes, requests, tests...): one cycle's increments, summed by whoever keeps
-    /// the statistics ([`RtStats::add`]).
-    pub counts: RtStats,
 }
 
 /// Traversal status of a warp-buffer lane (the lane state machine).
@@ -712,7 +634,7 @@ pub struct Split {
 }
 
 /// Statistics counters of an RT unit. Not registers of the block: each cycle's increments leave
-/// it on [`RtUnitOutputs::counts`] (and [`super::RtUnit::skip`] returns those of skipped idle
+/// it on [`super::RtUnitOutputs::counts`] (and [`super::RtUnit::skip`] returns those of skipped idle
 /// cycles), and an observer beside the block sums them with [`RtStats::add`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct RtStats {
@@ -773,8 +695,6 @@ impl RtStats {
 /// All registers of the RT unit's control.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RtUnitRegs {
-    /// Field widths (constant, for traces).
-    pub widths: Widths,
     /// The warp buffer (`warp_buffer_size` slots).
     pub slots: Box<[WarpSlot]>,
     /// Valid slots, oldest first (the age order of the memory scheduler and of completion; at

@@ -68,30 +68,31 @@
 //! [`RtUnitOutputs::counts`] ([`RtUnit::skip`] returns those of skipped idle cycles) and the
 //! observer beside it sums them ([`RtStats::add`]).
 //!
-//! # Signals
-//! Per-lane fields of a bus port appear in traces as `<port>_<lane>`, the 256-bit data buses as
-//! `<port>_<k>` 64-bit words (`k` = 0 for the lowest bytes). Ray words and stack contents are
-//! bulk data and are not traced.
+//! # Files
+//! `ports` (the port bundles, declared once, and their widths), `bundles` (the registers and the
+//! records that enter and leave the warp buffer), `node` (node references and the datapath
+//! interface), `desc` (the description and the registers' trace signals).
 
 mod bundles;
 mod desc;
 mod node;
+mod ports;
 
 use bundles::{bits, LaneMasks};
 pub use bundles::{
     errors, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane, LaneStatus,
-    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats, RtUnitInputs,
-    RtUnitOutputs, RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue,
-    WarpSlot, Widths,
+    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats, RtUnitRegs,
+    SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
 };
 pub use node::{
     pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NoDatapath, NodeDatapath, NodeEntry,
     NodeKind, RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
     STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
+pub use ports::{RtUnitInputs, RtUnitOutputs, Widths};
 
 use crate::bits::{bits_for, clog2};
-use crate::block::Block;
+use crate::block::{Block, Signal};
 use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::BlockDesc;
@@ -244,6 +245,8 @@ fn checked_widths(cfg: &HwConfig, params: &RtUnitParams) -> Result<Widths, RtUni
         fifo_count: bits_for(params.resp_fifo_depth as u64),
         delay: bits_for(params.latencies.max() as u64),
         spilled: bits_for(params.stack_spill_chunks as u64),
+        stack_depth: cfg.stack_depth,
+        stack_pointer: bits_for(cfg.stack_depth as u64),
     })
 }
 
@@ -718,7 +721,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 let slot = &mut r.slots[s as usize];
                 for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
                     if let Some(ray) = ray {
-                        *lane = Self::lane_for(ray);
+                        *lane = self.lane_for(ray);
                     }
                 }
                 c.masks[s as usize] = LaneMasks::of(&slot.lanes);
@@ -776,15 +779,28 @@ impl<D: NodeDatapath> RtUnit<D> {
         Some(WarpDone { slot: s, lanes })
     }
 
-    /// A fresh lane holding `ray` (already finished rays enter done).
-    fn lane_for(ray: &RayRecord) -> Lane {
+    /// A fresh lane holding `ray` (already finished rays enter done), its on-chip stacks of
+    /// depth `stack_depth` ([`RtUnit::check_issue`] checked that they fit).
+    fn lane_for(&self, ray: &RayRecord) -> Lane {
+        let depth = self.cfg.stack_depth as usize;
+        let stacks = (
+            ray.current_stack.with_capacity_of(depth),
+            ray.other_stack.with_capacity_of(depth),
+        );
+        let (Ok(current_stack), Ok(other_stack)) = stacks else {
+            unreachable!("check_issue bounds the stacks by stack_depth");
+        };
         Lane {
             status: if ray.finished() {
                 LaneStatus::Done
             } else {
                 LaneStatus::Traversing
             },
-            ray: ray.clone(),
+            ray: RayRecord {
+                current_stack,
+                other_stack,
+                ..ray.clone()
+            },
             ..Lane::default()
         }
     }
@@ -886,7 +902,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                         raise(&mut r.errors, &mut r.first_error, failure);
                         return None;
                     }
-                    let entries: Vec<NodeEntry> = lane.ray.stack_mut(stack).drain(..k).collect();
+                    let entries = lane.ray.stack_mut(stack).take_front(k);
                     *lane.ray.spilled_mut(stack) += 1;
                     m.set(leader, lane);
                     counts.stack_spills += 1;
@@ -1129,6 +1145,9 @@ impl<D: NodeDatapath> RtUnit<D> {
         {
             return false;
         }
+        let Ok(entries) = BoundedVec::with(self.cfg.stack_depth as usize, entries) else {
+            return false;
+        };
         *lane.ray.stack_mut(stack) = entries;
         *lane.ray.spilled_mut(stack) -= 1;
         lane.filling = None;
@@ -1207,8 +1226,8 @@ impl<D: NodeDatapath> RtUnit<D> {
             } else {
                 &mut ray.other_stack
             };
-            debug_assert!(stack.len() < self.cfg.stack_depth as usize, "stack room");
-            stack.push(*child);
+            let pushed = stack.push(*child);
+            debug_assert!(pushed.is_ok(), "stack room");
         }
         if ray.finished() {
             lane.status = LaneStatus::Done;
@@ -1231,7 +1250,9 @@ impl<D: NodeDatapath> RtUnit<D> {
         slot.held = false;
         slot.order = issue.order;
         for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
-            *lane = ray.as_ref().map_or_else(Lane::default, Self::lane_for);
+            *lane = ray
+                .as_ref()
+                .map_or_else(Lane::default, |ray| self.lane_for(ray));
         }
         c.masks[s] = LaneMasks::of(&slot.lanes);
         // A slot enters only when free, so the age list never holds more than every slot.
@@ -1363,7 +1384,6 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
             lanes: lanes.into_boxed_slice(),
         };
         RtUnitRegs {
-            widths: self.widths,
             slots: vec![slot; self.cfg.warp_buffer_size as usize].into_boxed_slice(),
             age: BoundedVec::new(self.cfg.warp_buffer_size as usize),
             fifo: BoundedDeque::new(self.params.resp_fifo_depth as usize),
@@ -1379,6 +1399,10 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
         let mut cache = RtCache::of(regs);
         let out = self.update(&mut next, &mut cache, inputs);
         (out, next)
+    }
+
+    fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {
+        desc::reg_signals(regs, &self.widths)
     }
 
     fn describe(&self) -> BlockDesc {

@@ -58,7 +58,7 @@ pub use ports::{
 };
 pub use wiring::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Block, Signal};
 use crate::compose::settle;
 use crate::config::HwConfig;
 use crate::controller::{ControllerFeatures, ControllerInputs, ControllerRegs, TreeletController};
@@ -268,7 +268,8 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
 
     /// Advances `n <= idle_cycles` idle cycles, as `n` cached steps with idle inputs would: the
     /// RT unit's delays, the count table's scan (its `Nop` cycles) and the controller's cycle
-    /// counter. Returns the statistics increments of those cycles.
+    /// counter. Returns the statistics increments of those cycles. Afterwards `idle_cycles`
+    /// counts from the new cycle (0 if the skip reached the end of the idle period).
     pub fn skip(
         &self,
         regs: &mut TreeletRtUnitRegs,
@@ -293,8 +294,12 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
                 cache.log_tables(&ct, &qt);
             }
         }
+        // A skip to the RT unit's bound ends a delay, which may change the slot summaries the
+        // controller reads.
+        let delay_ends = n >= self.rt.idle_cycles(&regs.rt, &cache.rt);
         counts.rt = self.rt.skip(&mut regs.rt, &mut cache.rt, n);
         let mut left = n;
+        let scanning = self.ct.busy(&regs.ct);
         while left > 0 && self.ct.busy(&regs.ct) {
             self.ct.step(
                 &mut regs.ct,
@@ -302,6 +307,9 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             );
             left -= 1;
         }
+        // So does a scan that published its pointers: the next cycle evaluates the controller
+        // (no more idle cycles until then).
+        cache.awake |= delay_ends || (scanning && !self.ct.busy(&regs.ct));
         counts.ctl.count_cycles(self.ctl.mode(&regs.ctl, false), n);
         counts
     }
@@ -393,20 +401,16 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         )
     }
 
-    fn describe(&self) -> BlockDesc {
-        ports::describe(self)
-    }
-}
-
-impl Signals for TreeletRtUnitRegs {
-    fn signals(&self) -> Vec<Signal> {
+    /// The children's register signals (prefixed `rt_`, `ctl_`, `ct_`, `qt_`) and the wiring's
+    /// (prefixed `glue_`).
+    fn reg_signals(&self, regs: &TreeletRtUnitRegs) -> Vec<Signal> {
         let mut s = Vec::new();
         for (prefix, child) in [
-            ("rt", self.rt.signals()),
-            ("ctl", self.ctl.signals()),
-            ("ct", self.ct.signals()),
-            ("qt", self.qt.signals()),
-            ("glue", self.glue.signals()),
+            ("rt", self.rt.reg_signals(&regs.rt)),
+            ("ctl", self.ctl.reg_signals(&regs.ctl)),
+            ("ct", self.ct.reg_signals(&regs.ct)),
+            ("qt", self.qt.reg_signals(&regs.qt)),
+            ("glue", wiring::glue_signals(&regs.glue)),
         ] {
             s.extend(child.into_iter().map(|sig| Signal {
                 name: format!("{prefix}_{}", sig.name),
@@ -414,5 +418,9 @@ impl Signals for TreeletRtUnitRegs {
             }));
         }
         s
+    }
+
+    fn describe(&self) -> BlockDesc {
+        ports::describe(self)
     }
 }

@@ -5,7 +5,6 @@
 //! ([`after_children`]). [`kernel`] chains them for [`crate::compose::settle`] (the block's
 //! `eval`); [`step_in_place`] runs them once with the children stepped in place (the fast path).
 
-use std::collections::VecDeque;
 use std::fmt;
 
 use super::{
@@ -13,7 +12,8 @@ use super::{
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs, TreeletRtUnitWidths,
 };
 use crate::bits::bits_for;
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Block, Signal};
+use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::HwConfig;
 use crate::controller::{
     ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
@@ -60,10 +60,10 @@ impl SlotUse {
 pub struct Build {
     /// What the fill builds.
     pub kind: FillKind,
-    /// Ray ids, in the order they are placed in the slot's lanes.
-    pub rays: Vec<u32>,
-    /// The loaded record of each ray (`None` until it arrives).
-    pub records: Vec<Option<RayRecord>>,
+    /// Ray ids, in the order they are placed in the slot's lanes (at most `warp_size`).
+    pub rays: BoundedVec<u32>,
+    /// The loaded record of each ray (`None` until it arrives; at most `warp_size`).
+    pub records: BoundedVec<Option<RayRecord>>,
     /// Records not yet arrived.
     pub loading: u32,
     /// The controller closed the fill.
@@ -91,7 +91,7 @@ pub enum GlueFault {
     /// A ray left the RT unit with an id that is not in use.
     UnknownRay(u32),
     /// A table raised its error output for an op.
-    TableError(String),
+    TableError(&'static str),
     /// A fill could not place all of its rays.
     Unplaced {
         /// The slot.
@@ -107,6 +107,13 @@ pub enum GlueFault {
         slot: u32,
         /// The ray.
         ray: u32,
+    },
+    /// A register array of the wiring was full (its depth is too small for the protocol).
+    Full {
+        /// The array.
+        what: &'static str,
+        /// Its depth.
+        depth: usize,
     },
 }
 
@@ -127,6 +134,9 @@ impl fmt::Display for GlueFault {
                     "a record of ray {ray} arrived for slot {slot}, which did not ask for it"
                 )
             }
+            GlueFault::Full { what, depth } => {
+                write!(f, "the wiring's {what} ({depth} entries) overflowed")
+            }
         }
     }
 }
@@ -135,7 +145,7 @@ impl fmt::Display for GlueFault {
 /// id is given first (a priority encoder).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct IdPool {
-    free: Vec<u64>,
+    free: Box<[u64]>,
     count: u32,
 }
 
@@ -143,10 +153,13 @@ impl IdPool {
     /// Every id below `n` free.
     fn new(n: u32) -> Self {
         let mut free = vec![u64::MAX; (n as usize).div_ceil(64)];
-        if n % 64 != 0 {
+        if !n.is_multiple_of(64) {
             *free.last_mut().expect("at least one word") = (1u64 << (n % 64)) - 1;
         }
-        IdPool { free, count: n }
+        IdPool {
+            free: free.into(),
+            count: n,
+        }
     }
 
     /// Free ids.
@@ -190,12 +203,13 @@ impl IdPool {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct GlueRegs {
     /// Who owns each warp-buffer slot (`warp_buffer_size` entries).
-    pub uses: Vec<SlotUse>,
+    pub uses: Box<[SlotUse]>,
     /// The fill being built in each slot (`warp_buffer_size` entries).
-    pub builds: Vec<Option<Build>>,
-    /// Events for the controller, oldest first (at most `warp_buffer_size x (warp_size + 1)`:
-    /// one enqueue per ray and one warp done per slot).
-    pub events: VecDeque<Event>,
+    pub builds: Box<[Option<Build>]>,
+    /// Events for the controller, oldest first: a FIFO of depth
+    /// [`event_depth`]` = warp_buffer_size x (warp_size + 1)` (one enqueue per ray and one warp
+    /// done per slot).
+    pub events: BoundedDeque<Event>,
     /// The count table's eviction of the previous cycle.
     pub ct_evict: Option<u32>,
     /// The queue table's answer of the previous cycle.
@@ -211,9 +225,9 @@ impl GlueRegs {
     pub fn reset(cfg: &HwConfig) -> Self {
         let slots = cfg.warp_buffer_size as usize;
         GlueRegs {
-            uses: vec![SlotUse::Free; slots],
-            builds: vec![None; slots],
-            events: VecDeque::new(),
+            uses: vec![SlotUse::Free; slots].into(),
+            builds: vec![None; slots].into(),
+            events: BoundedDeque::new(event_depth(cfg)),
             ct_evict: None,
             qt_done: None,
             ids: IdPool::new(cfg.max_rays),
@@ -225,37 +239,52 @@ impl GlueRegs {
     fn set_fault(&mut self, fault: GlueFault) {
         self.fault.get_or_insert(fault);
     }
+
+    /// Appends an event for the controller (a fault if the FIFO is full).
+    fn push_event(&mut self, event: Event) {
+        if let Err(full) = self.events.push_back(event) {
+            self.set_fault(GlueFault::Full {
+                what: "event FIFO",
+                depth: full.capacity,
+            });
+        }
+    }
 }
 
-impl Signals for GlueRegs {
-    fn signals(&self) -> Vec<Signal> {
-        let mut s = Vec::new();
-        for (i, u) in self.uses.iter().enumerate() {
-            s.push(Signal::new(format!("slot_use_{i}"), 2, u.code()));
-        }
-        for (i, b) in self.builds.iter().enumerate() {
-            s.push(Signal::new(
-                format!("build_valid_{i}"),
-                1,
-                b.is_some() as u64,
-            ));
-            s.push(Signal::new(
-                format!("build_loading_{i}"),
-                16,
-                b.as_ref().map_or(0, |b| b.loading as u64),
-            ));
-        }
-        s.push(Signal::new("event_count", 16, self.events.len() as u64));
-        s.push(Signal::new("free_ids", 32, self.ids.len() as u64));
-        s
+/// Depth of the wiring's event FIFO: one enqueue per ray and one warp done per warp-buffer
+/// slot (`warp_buffer_size x (warp_size + 1)`).
+pub fn event_depth(cfg: &HwConfig) -> usize {
+    cfg.warp_buffer_size as usize * (cfg.warp_size as usize + 1)
+}
+
+/// The wiring's registers `g` as trace signals.
+pub(super) fn glue_signals(g: &GlueRegs) -> Vec<Signal> {
+    let mut s = Vec::new();
+    for (i, u) in g.uses.iter().enumerate() {
+        s.push(Signal::new(format!("slot_use_{i}"), 2, u.code()));
     }
+    for (i, b) in g.builds.iter().enumerate() {
+        s.push(Signal::new(
+            format!("build_valid_{i}"),
+            1,
+            b.is_some() as u64,
+        ));
+        s.push(Signal::new(
+            format!("build_loading_{i}"),
+            16,
+            b.as_ref().map_or(0, |b| b.loading as u64),
+        ));
+    }
+    s.push(Signal::new("event_count", 16, g.events.len() as u64));
+    s.push(Signal::new("free_ids", 32, g.ids.len() as u64));
+    s
 }
 
 /// The wiring's register descriptions.
 pub(super) fn register_descs(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<RegDesc> {
     let slots = cfg.warp_buffer_size;
     let lanes = bits_for(cfg.warp_size as u64);
-    let events = cfg.warp_buffer_size * (cfg.warp_size + 1);
+    let events = event_depth(cfg) as u32;
     vec![
         reg(
             "slot_use",
@@ -462,7 +491,7 @@ fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
                     .iter()
                     .zip(&b.records)
                     .position(|(&r, rec)| r == load.ray && rec.is_none())?;
-                b.records[k] = Some(load.record.clone());
+                b.records.as_mut_slice()[k] = Some(load.record.clone());
                 b.loading = b.loading.saturating_sub(1);
                 Some(())
             });
@@ -640,17 +669,28 @@ fn start_fill<D: NodeDatapath>(
     out: &mut TreeletRtUnitOutputs,
 ) {
     let s = fill.slot as usize;
+    let lanes = u.cfg.warp_size as usize;
     let build = g.builds[s].get_or_insert_with(|| Build {
         kind: fill.kind,
-        rays: Vec::new(),
-        records: Vec::new(),
+        rays: BoundedVec::new(lanes),
+        records: BoundedVec::new(lanes),
         loading: 0,
         last: false,
     });
-    build.rays.extend_from_slice(&fill.rays);
-    build.records.resize(build.rays.len(), None);
-    build.loading += fill.rays.len() as u32;
+    let mut full = None;
+    for &ray in &fill.rays {
+        match build.rays.push(ray).and_then(|()| build.records.push(None)) {
+            Ok(()) => build.loading += 1,
+            Err(f) => full = Some(f),
+        }
+    }
     build.last |= fill.last;
+    if let Some(f) = full {
+        g.set_fault(GlueFault::Full {
+            what: "fill of a slot",
+            depth: f.capacity,
+        });
+    }
     if fill.kind != FillKind::Repack {
         g.uses[s] = SlotUse::Controller;
     }
@@ -699,7 +739,7 @@ fn finished_build<D: NodeDatapath>(
     };
     let mut free_lanes = (0..warp_size).filter(|&l| free >> l & 1 == 1);
     let mut placed = 0;
-    for record in build.records {
+    for record in build.records.into_vec() {
         let Some(lane) = free_lanes.next() else {
             break;
         };
@@ -766,14 +806,10 @@ fn after_children(
 ) {
     g.ct_evict = ct.filter(|o| o.evict_valid).map(|o| o.evict_treelet as u32);
     if ct.is_some_and(|o| o.error) {
-        g.set_fault(GlueFault::TableError(
-            "the count table rejected an op".into(),
-        ));
+        g.set_fault(GlueFault::TableError("the count table rejected an op"));
     }
     if qt.is_some_and(|o| o.error) {
-        g.set_fault(GlueFault::TableError(
-            "the queue table rejected an op".into(),
-        ));
+        g.set_fault(GlueFault::TableError("the queue table rejected an op"));
     }
     if let Some(o) = qt.filter(|o| o.spill_valid) {
         out.spill_push = Some((o.spill_treelet, o.spill_ray));
@@ -792,7 +828,7 @@ fn after_children(
     if let Some(done) = &rt.done {
         unpack(g, done, out);
         g.uses[done.slot as usize] = SlotUse::Closing;
-        g.events.push_back(Event::WarpDone(done.slot));
+        g.push_event(Event::WarpDone(done.slot));
     }
     out.fault = g.fault.clone();
 }
@@ -815,7 +851,7 @@ fn unpack(g: &mut GlueRegs, done: &WarpDone, out: &mut TreeletRtUnitOutputs) {
             }
             RayOutcome::AtBoundary { treelet } => {
                 out.parked.push(rec.clone());
-                g.events.push_back(Event::Enqueue {
+                g.push_event(Event::Enqueue {
                     ray: id,
                     treelet: treelet as u32,
                 });
@@ -907,7 +943,6 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         &mut out,
     );
     let qt_busy = !peeks.qt.ready;
-    drop(peeks);
     cache.log_tables(&ct_in, &qt_in);
     // Tables with no op and nothing in progress are not stepped: their registers would not
     // change and their outputs would carry nothing.

@@ -1,0 +1,304 @@
+//! The RT unit's port bundles, declared once with [`crate::bundle!`] (both in one declaration:
+//! its description lists each request's ports beside their answer), and the widths of its
+//! fields.
+//!
+//! Per-lane fields of a bus port appear in traces as `<port>_<lane>`, the 256-bit data buses as
+//! `<port>_<k>` 64-bit words (`k` = 0 for the lowest bytes). Ray words, hits and stack contents
+//! are bulk data: described, not traced.
+
+use super::bundles::{
+    errors, BoundaryEvent, ErrorRecord, IssueTarget, MemRequest, MemResponse, RayOutcome,
+    RayRecord, RequestKind, RtStats, TraversalOrder, WarpDone, WarpIssue,
+};
+use super::node::{NodeEntry, CHUNK_BYTES, RAY_WORDS};
+use crate::bits::bits_for;
+
+/// Bits of a memory data chunk (32 B).
+pub(super) const DATA_BITS: u32 = CHUNK_BYTES * 8;
+/// Bits of a hit: t, hit id and two attributes.
+pub(super) const HIT_BITS: u32 = 4 * 32;
+/// Bits of a request's size field (bytes, always 32).
+const SIZE_BITS: u32 = 6;
+/// Bits of the ray words (origin, direction, tmin, tmax).
+const WORD_BITS: u32 = RAY_WORDS as u32 * 32;
+
+/// Widths of the fields of the port bundles, fixed by the configuration; they let a bundle list
+/// its signals with the same names and widths every cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Widths {
+    /// Lanes per warp.
+    pub warp_size: u32,
+    /// Warp-buffer slots.
+    pub slots: u32,
+    /// Response ports (responses accepted per cycle).
+    pub resp_ports: u32,
+    /// Bits of a ray id.
+    pub ray_id: u32,
+    /// Bits of a byte address.
+    pub address: u32,
+    /// Bits of a treelet number.
+    pub treelet: u32,
+    /// Bits of a lane index.
+    pub lane: u32,
+    /// Bits of a slot index.
+    pub slot: u32,
+    /// Bits of a request tag (slot and lane).
+    pub tag: u32,
+    /// Bits of the response-FIFO occupancy and free count.
+    pub fifo_count: u32,
+    /// Bits of an intersection-delay counter.
+    pub delay: u32,
+    /// Bits of a stack's spilled-chunk count.
+    pub spilled: u32,
+    /// Entries of a lane's on-chip stack (`stack_depth`).
+    pub stack_depth: u32,
+    /// Bits of an on-chip stack's depth (0..=stack_depth).
+    pub stack_pointer: u32,
+}
+
+impl Widths {
+    /// Bits of a stack entry (a node reference).
+    pub fn entry(&self) -> u32 {
+        NodeEntry::bits(self.address)
+    }
+}
+
+crate::bundle! {
+    /// The RT unit's inputs for one cycle. Build an idle bundle with
+    /// [`super::RtUnit::idle_inputs`].
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    pub struct RtUnitInputs (In, w: Widths, this) {
+        /// A warp to load into a free slot (only when `issue_ready`).
+        pub issue: Option<WarpIssue>,
+        /// Responses from memory this cycle, at most `resp_ports` and at most `resp_free`.
+        pub responses: Vec<MemResponse>,
+        /// Terminate this slot's warp into the treelet queues (treelet controller `terminate`):
+        /// its order becomes [`TraversalOrder::TreeletStop`], so each ray stops at its next
+        /// treelet boundary; a ray already between treelets (current stack empty, nothing in
+        /// flight) parks at once.
+        pub stop: Option<u32>,
+        /// Repack this slot's warp (treelet controller `repack`): its finished, quiescent lanes
+        /// are released on [`RtUnitOutputs::released`] and the slot is held (it does not
+        /// complete) until an [`IssueTarget::Append`] with `last` arrives.
+        pub repack: Option<u32>,
+    }
+    /// The RT unit's outputs for one cycle.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    pub struct RtUnitOutputs (Out, w: Widths, this) {
+        /// A warp slot is free: a warp may be issued this cycle (depends on registers only).
+        pub issue_ready: bool,
+        /// Free response-FIFO entries at the start of the cycle (depends on registers only).
+        pub resp_free: u32,
+        /// The one 32 B memory request of this cycle.
+        pub request: Option<MemRequest>,
+        /// The one warp completing this cycle.
+        pub done: Option<WarpDone>,
+        /// Rays that reached a treelet boundary this cycle (all from the slot whose response was
+        /// popped).
+        pub boundary: Vec<BoundaryEvent>,
+        /// Finished lanes released by this cycle's repack (slot and per-lane final records;
+        /// their hit records are already stored), freeing the lanes for the repack fill.
+        pub released: Option<WarpDone>,
+        /// Sticky error flags ([`errors`]), including any raised this cycle.
+        pub errors: u8,
+        /// The first error raised so far, with its details (sticky, like `errors`).
+        pub first_error: Option<ErrorRecord>,
+        /// This cycle's events for the statistics counters outside the block (warp cycles,
+        /// active lanes, requests, tests...): one cycle's increments, summed by whoever keeps
+        /// the statistics ([`RtStats::add`]).
+        pub counts: RtStats,
+    }
+    ports {
+        /// a warp is issued to the warp buffer this cycle
+        In sig issue_valid (1) = this.issue.is_some() as u64;
+        /// a warp-buffer slot is free (registers only)
+        Out sig issue_ready (1) = this.issue_ready as u64;
+        /// traversal order: 0 ray-stationary single stack, 1 treelet two-stack continuing across boundaries, 2 treelet two-stack stopping at a boundary
+        In sig issue_order (TraversalOrder::BITS) = this.issue.as_ref().map_or(0, |i| i.order.code());
+        /// 0 a new warp in the lowest free slot, 1 a new warp in issue_slot (reserved by the treelet controller), 2 append the active lanes into inactive lanes of held slot issue_slot (repack fill)
+        In sig issue_target (IssueTarget::BITS) = this.issue.as_ref().map_or(0, |i| i.target.code());
+        /// slot of issue_target 1 and 2
+        In sig issue_slot (w.slot) = this.issue.as_ref().map_or(0, |i| i.target.slot() as u64);
+        /// with issue_target 2: the repack fill is complete, release the hold
+        In sig issue_last (1) = this.issue.as_ref().is_some_and(|i| {
+            matches!(i.target, IssueTarget::Append { last: true, .. })
+        }) as u64;
+        /// treelet controller terminate: stop_slot's rays stop at their next treelet boundary (order becomes treelet-stop)
+        In sig stop_valid (1) = this.stop.is_some() as u64;
+        /// the terminated slot
+        In sig stop_slot (w.slot) = this.stop.unwrap_or(0) as u64;
+        /// treelet controller repack: release repack_slot's finished lanes and hold the slot until a fill with issue_last
+        In sig repack_valid (1) = this.repack.is_some() as u64;
+        /// the repacked slot
+        In sig repack_slot (w.slot) = this.repack.unwrap_or(0) as u64;
+        /// per lane: the lane holds a ray
+        In sig issue_active (w.warp_size) = mask(w.warp_size, |i| this.issue_lane(i).is_some());
+        /// per lane: ray id
+        In lanes issue_ray_id (w.ray_id, w.warp_size) = |i: usize| {
+            this.issue_lane(i).map_or(0, |r| r.ray_id as u64)
+        };
+        /// per lane: the rest of the ray state loaded at issue (words, hit, current treelet, both on-chip stacks and their pointers and spilled-chunk counts)
+        In bulks issue (ray_state(w));
+        /// a 32 B memory request is issued (at most one per cycle)
+        Out sig req_valid (1) = this.request.is_some() as u64;
+        /// byte address of the request (32 B aligned)
+        Out sig req_address (w.address) = this.request.map_or(0, |r| r.address);
+        /// request size in bytes (always 32; a 64 B node takes two requests)
+        Out sig req_size (SIZE_BITS) = this.request.map_or(0, |_| CHUNK_BYTES as u64);
+        /// 0 node-chunk load, 1 hit-record store (no response), 2 stack spill store (no response), 3 stack fill load
+        Out sig req_kind (RequestKind::BITS) = this.request.map_or(0, |r| r.kind.code());
+        /// requesting slot and lane (slot << lane_bits | lane), returned with the response
+        Out sig req_tag (w.tag) = this.request.map_or(0, |r| r.tag as u64);
+        /// store data: hit record (t, hit id, two attributes, ray id) or up to four spilled stack entries (64-bit slots, valid bit 63, bottom first)
+        Out lanes req_data (64, 4) = |k: usize| {
+            data_word(this.request.as_ref().filter(|r| r.is_store()).map(|r| &r.data), k)
+        };
+        /// free response-FIFO entries (registers only); memory delivers no more than this
+        Out sig resp_free (w.fifo_count) = this.resp_free as u64;
+        In group resp (k < w.resp_ports) {
+            /// a 32 B chunk returns from memory on this response port
+            sig valid (1) = (k < this.responses.len()) as u64;
+            /// byte address of the returned chunk
+            sig address (w.address) = this.responses.get(k).map_or(0, |r| r.address);
+            /// tag of the request the chunk answers
+            sig tag (w.tag) = this.responses.get(k).map_or(0, |r| r.tag as u64);
+            /// the chunk's 256 bits
+            lanes data (64, 4) = |j: usize| data_word(this.responses.get(k).map(|r| &r.data), j);
+        }
+        /// a warp completes this cycle (at most one)
+        Out sig done_valid (1) = this.done.is_some() as u64;
+        /// warp-buffer slot of the completed warp
+        Out sig done_slot (w.slot) = this.done.as_ref().map_or(0, |d| d.slot as u64);
+        /// per lane: the ray stopped at a treelet boundary rather than finishing
+        Out sig done_parked (w.warp_size) = mask(w.warp_size, |i| {
+            this.done_lane(i).is_some_and(|(_, o)| *o != RayOutcome::Finished)
+        });
+        /// per lane: the lane holds a ray
+        Out sig done_active (w.warp_size) = mask(w.warp_size, |i| this.done_lane(i).is_some());
+        /// per lane: ray id
+        Out lanes done_ray_id (w.ray_id, w.warp_size) = |i: usize| {
+            this.done_lane(i).map_or(0, |(r, _)| r.ray_id as u64)
+        };
+        /// per lane: the rest of the ray state written back at completion
+        Out bulks done (ray_state(w));
+        /// per lane: the ray reached a treelet boundary this cycle
+        Out sig boundary_valid (w.warp_size) = mask(w.warp_size, |i| this.boundary_at(i).is_some());
+        /// slot of the rays reaching a boundary (the slot whose response was popped)
+        Out sig boundary_slot (w.slot) = this.boundary.first().map_or(0, |e| e.slot as u64);
+        /// per lane: ray id
+        Out lanes boundary_ray_id (w.ray_id, w.warp_size) = |i: usize| {
+            this.boundary_at(i).map_or(0, |e| e.ray_id as u64)
+        };
+        /// per lane: treelet the ray needs next
+        Out lanes boundary_treelet (w.treelet, w.warp_size) = |i: usize| {
+            this.boundary_at(i).map_or(0, |e| e.treelet)
+        };
+        /// a repack released finished lanes this cycle (their hit records are already stored)
+        Out sig released_valid (1) = this.released.is_some() as u64;
+        /// slot of the released lanes
+        Out sig released_slot (w.slot) = this.released.as_ref().map_or(0, |d| d.slot as u64);
+        /// per lane: released
+        Out sig released_mask (w.warp_size) = mask(w.warp_size, |i| {
+            this.released.as_ref().is_some_and(|d| d.lanes.get(i).is_some_and(Option::is_some))
+        });
+        /// sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack spill area full, bad child, bad controller command
+        Out sig errors (errors::BITS) = this.errors as u64;
+        /// an error was captured (first error, sticky)
+        Out sig error_valid (1) = this.first_error.is_some() as u64;
+        /// first error: bit index of its flag in errors
+        Out sig error_kind (3) = this.first_error.map_or(0, |e| e.kind.code());
+        /// first error: warp-buffer slot
+        Out sig error_slot (w.slot) = this.first_error.map_or(0, |e| e.slot as u64);
+        /// first error: lane
+        Out sig error_lane (w.lane) = this.first_error.map_or(0, |e| e.lane as u64);
+        /// first error: ray id
+        Out sig error_ray_id (w.ray_id) = this.first_error.map_or(0, |e| e.ray_id as u64);
+        /// first error: the value needed or seen
+        Out sig error_value (64) = this.first_error.map_or(0, |e| e.value);
+        /// first error: the limit it broke
+        Out sig error_limit (64) = this.first_error.map_or(0, |e| e.limit);
+        /// valid warps this cycle (warp cycles)
+        Out sig count_warps (bits_for(w.slots as u64)) = this.counts.warp_cycles;
+        /// traversing lanes of the valid warps this cycle (active-thread cycles)
+        Out sig count_active (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.active_thread_cycles;
+        /// a node-chunk load was requested
+        Out sig count_request (1) = this.counts.requests;
+        /// a hit-record store was requested
+        Out sig count_store (1) = this.counts.stores;
+        /// a stack spill was requested
+        Out sig count_spill (1) = this.counts.stack_spills;
+        /// a stack fill was requested
+        Out sig count_fill (1) = this.counts.stack_fills;
+        /// lanes served by the leader's request (merged)
+        Out sig count_merged (bits_for(w.warp_size as u64)) = this.counts.merged;
+        /// header tests completed
+        Out sig count_tests_header (bits_for(w.warp_size as u64)) = this.counts.tests[0];
+        /// internal-node tests completed
+        Out sig count_tests_internal (bits_for(w.warp_size as u64)) = this.counts.tests[1];
+        /// instance-leaf tests completed
+        Out sig count_tests_instance_leaf (bits_for(w.warp_size as u64)) = this.counts.tests[2];
+        /// primitive-descriptor tests completed
+        Out sig count_tests_primitive_descriptor (bits_for(w.warp_size as u64)) = this.counts.tests[3];
+        /// triangle-leaf tests completed
+        Out sig count_tests_triangle_leaf (bits_for(w.warp_size as u64)) = this.counts.tests[4];
+        /// procedural tests completed
+        Out sig count_tests_procedural (bits_for(w.warp_size as u64)) = this.counts.tests[5];
+        /// triangle tests that produced a new closest hit
+        Out sig count_hits (bits_for(w.warp_size as u64)) = this.counts.hits;
+        /// a warp completed
+        Out sig count_warp_done (1) = this.counts.warps_done;
+    }
+}
+
+impl RtUnitInputs {
+    /// The ray issued into lane `i`, if any.
+    fn issue_lane(&self, i: usize) -> Option<&RayRecord> {
+        self.issue.as_ref()?.lanes.get(i)?.as_ref()
+    }
+}
+
+impl RtUnitOutputs {
+    /// The completed warp's lane `i`, if it held a ray.
+    fn done_lane(&self, i: usize) -> Option<&(RayRecord, RayOutcome)> {
+        self.done.as_ref()?.lanes.get(i)?.as_ref()
+    }
+
+    /// The boundary event of lane `i`, if any.
+    fn boundary_at(&self, i: usize) -> Option<&BoundaryEvent> {
+        self.boundary.iter().find(|e| e.lane as usize == i)
+    }
+}
+
+/// The bulk fields of every lane's ray state, as `(field, width, doc)`: what the ray-state
+/// ports carry beside the traced `active` and `ray_id` (loaded at issue, written back at
+/// completion).
+fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
+    let n = w.warp_size;
+    let stack = n * w.stack_depth * w.entry();
+    [
+        ("ray_words", n * WORD_BITS, "per lane: origin, direction, tmin, tmax (f32 bits)"),
+        ("hit_valid", n, "per lane: the ray has a hit"),
+        ("hit", n * HIT_BITS, "per lane: closest hit t, hit id, two attributes"),
+        ("cur_treelet", n * w.treelet, "per lane: current treelet"),
+        ("cur_sp", n * w.stack_pointer, "per lane: current-treelet stack depth"),
+        ("other_sp", n * w.stack_pointer, "per lane: other-treelet stack depth"),
+        ("cur_spilled", n * w.spilled, "per lane: current-treelet stack chunks in the spill area"),
+        ("other_spilled", n * w.spilled, "per lane: other-treelet stack chunks in the spill area"),
+        ("cur_stack", stack, "per lane: current-treelet stack entries, bottom first (parallel load of the ray state)"),
+        ("other_stack", stack, "per lane: other-treelet stack entries, bottom first"),
+    ]
+}
+
+/// A mask of `n` lanes, bit `i` set where `on(i)`.
+fn mask(n: u32, on: impl Fn(usize) -> bool) -> u64 {
+    (0..n as usize).fold(0, |m, i| m | (u64::from(on(i)) << i))
+}
+
+/// 64-bit word `k` of a 32 B chunk (word 0 holds the lowest bytes; 0 without a chunk).
+fn data_word(data: Option<&[u8; CHUNK_BYTES as usize]>, k: usize) -> u64 {
+    data.map_or(0, |d| {
+        let mut bytes = [0u8; 8];
+        bytes.copy_from_slice(&d[8 * k..8 * k + 8]);
+        u64::from_le_bytes(bytes)
+    })
+}

@@ -1,0 +1,410 @@
+//! The composed treelet RT unit (RT unit + treelet controller + count table + queue table and
+//! their wiring) run end to end against an environment of its own ports only: an SM offering
+//! warps of rays, a memory with per-request latencies, the ray-record store and the queue
+//! table's spill FIFO. Every cycle the fast path (`step_cached`, and `skip` over idle cycles)
+//! is checked against the definition (`eval`, the wiring settled with the children's pure
+//! `eval`s); every ray must come back exactly once with its hit, through all of the
+//! controller's phases, in every design variant.
+
+use std::collections::{BTreeMap, VecDeque};
+use vtq_hdl::controller::ControllerFeatures;
+use vtq_hdl::mode::Mode;
+use vtq_hdl::rt_unit::{
+    MemResponse, NodeEntry, NodeKind, RayRecord, RequestKind, RtUnitParams, CHUNK_BYTES,
+};
+use vtq_hdl::treelet_rt_unit::{
+    RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
+    TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
+};
+use vtq_hdl::{Block, HwConfig};
+
+mod common;
+use common::{node, words, ToyDatapath, Tree, ALL};
+
+/// Ray classes (the toy datapath's child masks select on the ray's class, 0..8).
+const CLASSES: u32 = 8;
+
+/// A BVH over eleven 256 B treelets: the root (treelet 0) has one child in each of treelets
+/// 1..=7, each class of rays visiting two of them; each of those holds a hit leaf and, for odd
+/// classes, leads on into one of treelets 8..=10, each with a hit leaf of its own. Every ray
+/// crosses one to four treelet boundaries and ends with a hit.
+fn forest() -> (Tree, NodeEntry) {
+    let root = node(0x000, NodeKind::Internal, 64);
+    let mut tree = Tree::default();
+    let deep: Vec<NodeEntry> = (0..3)
+        .map(|k| node(0x100 * (8 + k), NodeKind::Internal, 64))
+        .collect();
+    for &d in &deep {
+        let leaf = node(d.address + 0x40, NodeKind::TriangleLeaf, 32);
+        tree.add(d, false, &[(leaf, ALL)]).add(leaf, true, &[]);
+    }
+    let mut children = Vec::new();
+    for t in 1..=7u64 {
+        let x = node(0x100 * t, NodeKind::Internal, 64);
+        let leaf = node(x.address + 0x40, NodeKind::TriangleLeaf, 32);
+        let odd = 0b1010_1010;
+        tree.add(x, false, &[(leaf, ALL), (deep[t as usize % 3], odd)])
+            .add(leaf, true, &[]);
+        // Class c visits treelets 1 + c % 7 and 1 + (c + 3) % 7.
+        let mask = (0..CLASSES as u64)
+            .filter(|c| 1 + c % 7 == t || 1 + (c + 3) % 7 == t)
+            .fold(0u8, |m, c| m | 1 << c);
+        children.push((x, mask));
+    }
+    tree.add(root, false, &children);
+    (tree, root)
+}
+
+/// A small treelet RT unit: 4-lane warps, 16-bit addresses, 256 B treelets, tables of four
+/// entries (so the queue table spills and the count table evicts).
+fn small() -> HwConfig {
+    HwConfig {
+        max_rays: 32,
+        warp_size: 4,
+        address_bits: 16,
+        treelet_bytes: 256,
+        count_table_entries: 4,
+        queue_table_entries: 4,
+        underpopulation_threshold: 3,
+        repack_threshold: 2,
+        divergence_threshold: 2,
+        warp_buffer_size: 2,
+        max_resident_treelets: 2,
+        preload_threshold_warps: 1,
+        stack_depth: 8,
+    }
+}
+
+/// Deterministic pseudo-random numbers (a 64-bit LCG).
+struct Lcg(u64);
+
+impl Lcg {
+    fn below(&mut self, n: u64) -> u64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 33) % n
+    }
+}
+
+/// Everything outside the treelet RT unit: the SM's rays, the memory (node chunks, stack spill
+/// chunks, ray records in flight) and the spill FIFO.
+struct Env {
+    tree: Tree,
+    root: NodeEntry,
+    rng: Lcg,
+    /// Rays still to offer (their classes), a warp at a time.
+    to_offer: VecDeque<u32>,
+    /// Responses in flight: (due cycle, response).
+    responses: Vec<(u64, MemResponse)>,
+    /// Ray-record loads in flight: (due cycle, slot, ray id).
+    loads: Vec<(u64, u32, u32)>,
+    /// Records of rays parked at a treelet boundary, by ray id.
+    store: BTreeMap<u32, RayRecord>,
+    spill_fifo: VecDeque<(u64, u32)>,
+    /// Per SM ray (by offer order) the class it was given and how often it finished.
+    classes: Vec<u32>,
+    finished: Vec<u32>,
+    /// Ray id -> SM ray, while in flight.
+    owner: BTreeMap<u32, usize>,
+}
+
+impl Env {
+    fn new(rays: u32, seed: u64) -> Self {
+        let (tree, root) = forest();
+        Env {
+            tree,
+            root,
+            rng: Lcg(seed),
+            to_offer: (0..rays).map(|r| (r * 5 + r / 3) % CLASSES).collect(),
+            responses: Vec::new(),
+            loads: Vec::new(),
+            store: BTreeMap::new(),
+            spill_fifo: VecDeque::new(),
+            classes: Vec::new(),
+            finished: Vec::new(),
+            owner: BTreeMap::new(),
+        }
+    }
+
+    /// The warp the SM offers this cycle, if rays are left and the unit is ready.
+    fn offer(&self, ready: bool, warp_size: usize) -> Option<Vec<Option<RayRecord>>> {
+        if !ready || self.to_offer.is_empty() {
+            return None;
+        }
+        let lanes = self
+            .to_offer
+            .iter()
+            .take(warp_size)
+            .map(|&class| Some(RayRecord::new(0, words(class), self.root)))
+            .collect();
+        Some(lanes)
+    }
+
+    /// This cycle's inputs (with `offer`): due responses (at most `resp_max`) and ray records.
+    fn inputs(
+        &mut self,
+        now: u64,
+        idle: TreeletRtUnitInputs,
+        offer: Option<Vec<Option<RayRecord>>>,
+        resp_max: usize,
+    ) -> TreeletRtUnitInputs {
+        let mut responses = Vec::new();
+        self.responses.retain(|&(due, r)| {
+            let take = due <= now && responses.len() < resp_max;
+            if take {
+                responses.push(r);
+            }
+            !take
+        });
+        let mut ray_records = Vec::new();
+        let store = &mut self.store;
+        self.loads.retain(|&(due, slot, ray)| {
+            if due > now {
+                return true;
+            }
+            let record = store.remove(&ray).expect("a load of a parked ray");
+            ray_records.push(RayLoad { slot, ray, record });
+            false
+        });
+        TreeletRtUnitInputs {
+            sm_warp: offer,
+            responses,
+            ray_records,
+            spill_head: self.spill_fifo.front().copied(),
+            ..idle
+        }
+    }
+
+    /// Whether cycle `now` has nothing for the unit (no response or record due).
+    fn quiet(&self, now: u64) -> bool {
+        self.responses.iter().all(|r| r.0 > now) && self.loads.iter().all(|l| l.0 > now)
+    }
+
+    /// The first cycle after `now` at which something arrives.
+    fn next_arrival(&self) -> u64 {
+        let r = self.responses.iter().map(|r| r.0);
+        r.chain(self.loads.iter().map(|l| l.0))
+            .min()
+            .unwrap_or(u64::MAX)
+    }
+
+    /// Takes in the unit's outputs of cycle `now`.
+    fn absorb(&mut self, now: u64, out: &TreeletRtUnitOutputs, offered: usize) {
+        assert_eq!(
+            out.errors, 0,
+            "RT unit errors at cycle {now}: {:?}",
+            out.first_error
+        );
+        assert!(
+            out.fault.is_none(),
+            "wiring fault at cycle {now}: {:?}",
+            out.fault
+        );
+        if let Some(ids) = &out.sm_accepted {
+            for id in ids.iter().take(offered) {
+                let class = self.to_offer.pop_front().expect("an offered ray");
+                let id = id.expect("an offered ray gets an id");
+                self.owner.insert(id, self.classes.len());
+                self.classes.push(class);
+                self.finished.push(0);
+            }
+        }
+        for f in &out.finished {
+            let sm_ray = self
+                .owner
+                .remove(&f.ray)
+                .expect("a finished ray is in flight");
+            self.finished[sm_ray] += 1;
+            assert!(f.hit.is_some(), "every ray of the forest ends with a hit");
+        }
+        for r in &out.parked {
+            assert!(self.store.insert(r.ray_id, r.clone()).is_none());
+        }
+        if let Some(e) = out.spill_push {
+            self.spill_fifo.push_back(e);
+        }
+        if out.spill_pop {
+            self.spill_fifo
+                .pop_front()
+                .expect("a pop of the spill FIFO");
+        }
+        for r in &out.requests {
+            let due = now + 3 + self.rng.below(10);
+            match *r {
+                TreeletRequest::RayLoad { slot, ray, .. } => self.loads.push((due, slot, ray)),
+                TreeletRequest::RayStore { .. } => {}
+                TreeletRequest::Rt(req) => {
+                    if req.kind == RequestKind::StackSpill {
+                        self.tree.chunks.insert(req.address, req.data);
+                    }
+                    if !req.is_store() {
+                        let data = self.tree.chunks.get(&req.address).copied();
+                        let data = data.unwrap_or([0; CHUNK_BYTES as usize]);
+                        let response = MemResponse {
+                            address: req.address,
+                            tag: req.tag,
+                            data,
+                        };
+                        self.responses.push((due, response));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// What a run saw.
+struct Outcome {
+    counts: TreeletCounts,
+    modes: Vec<Mode>,
+    cycles: u64,
+    skipped: u64,
+}
+
+/// Runs `rays` rays through a treelet RT unit of `cfg` with `features`: a reference copy steps
+/// with `eval` every cycle; the fast copy steps with `step_cached` and skips the cycles its
+/// `idle_cycles` allows when nothing arrives, and must match the reference throughout.
+fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64) -> Outcome {
+    let params = TreeletRtUnitParams {
+        rt: RtUnitParams {
+            hit_record_base: 0x8000,
+            stack_spill_chunks: 4,
+            ..RtUnitParams::default()
+        },
+        features,
+        ray_base: 0x9000,
+    };
+    let u = TreeletRtUnit::new(cfg.clone(), params, ToyDatapath).expect("valid unit");
+    let mut reference: TreeletRtUnitRegs = u.reset();
+    let mut fast = reference.clone();
+    let mut cache = TreeletRtUnitCache::of(&fast);
+    let mut env = Env::new(rays, seed);
+    let mut counts = TreeletCounts::default();
+    let mut modes = vec![u.mode(&reference)];
+    let resp_ports = u.rt_unit().params().resp_ports;
+    let (mut now, mut skipped) = (0u64, 0u64);
+    while env.finished.len() < rays as usize || !env.owner.is_empty() || u.mode(&fast) != Mode::Done
+    {
+        assert!(
+            now < 200_000,
+            "no end after {now} cycles: {}",
+            u.debug_state(&fast)
+        );
+        let offer = env.offer(u.sm_ready(&fast), cfg.warp_size as usize);
+        // Cycles with nothing arriving and nothing offered may be skipped by the fast copy.
+        let idle = u.idle_cycles(&fast, &cache);
+        if offer.is_none() && env.quiet(now) && idle > 0 {
+            let n = idle.min(env.next_arrival() - now).min(1000);
+            let got = u.skip(&mut fast, &mut cache, n);
+            let mut want = TreeletCounts::default();
+            for _ in 0..n {
+                let inputs = env.inputs(now, u.idle_inputs(), None, 0);
+                let (out, next) = u.eval(&reference, &inputs);
+                assert_eq!(
+                    out.requests.len() + out.finished.len() + out.parked.len(),
+                    0,
+                    "a skipped cycle did something (cycle {now}, skip {n} of {idle})"
+                );
+                want.add(&out.counts);
+                reference = next;
+                now += 1;
+            }
+            assert_eq!(got, want, "skip({n}) counts, up to cycle {now}");
+            assert_eq!(fast, reference, "registers after skip({n}), cycle {now}");
+            counts.add(&got);
+            skipped += n;
+            continue;
+        }
+        let offered = offer.as_ref().map_or(0, |o| o.len());
+        let resp_max = u.resp_free(&fast).min(resp_ports) as usize;
+        let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max);
+        let (want, next) = u.eval(&reference, &inputs);
+        let out = u.step_cached(&mut fast, &mut cache, &inputs);
+        assert_eq!(out, want, "step_cached outputs, cycle {now}");
+        assert_eq!(fast, next, "step_cached registers, cycle {now}");
+        reference = next;
+        counts.add(&out.counts);
+        env.absorb(now, &out, offered);
+        if modes.last() != Some(&u.mode(&fast)) {
+            modes.push(u.mode(&fast));
+        }
+        now += 1;
+    }
+    assert!(
+        env.finished.iter().all(|&f| f == 1),
+        "rays not traced exactly once: {:?}",
+        env.finished
+    );
+    assert!(env.spill_fifo.is_empty() && env.store.is_empty());
+    assert_eq!((fast.ctl.queued_rays, fast.ctl.spare_count), (0, 0));
+    assert_eq!(counts.spills, counts.refills, "every spilled ray came back");
+    Outcome {
+        counts,
+        modes,
+        cycles: now,
+        skipped,
+    }
+}
+
+#[test]
+fn every_ray_is_traced_exactly_once_in_every_variant_and_the_fast_path_is_the_definition() {
+    let wide = HwConfig {
+        warp_buffer_size: 4,
+        max_resident_treelets: 3,
+        ..small()
+    };
+    let no_repack = HwConfig {
+        repack_threshold: 0,
+        ..small()
+    };
+    let no_preload = ControllerFeatures {
+        preload: false,
+        ..ControllerFeatures::FULL
+    };
+    let variants = [
+        ("full", small(), ControllerFeatures::FULL),
+        ("naive", small(), ControllerFeatures::NAIVE),
+        ("no preload", small(), no_preload),
+        ("no repack", no_repack, ControllerFeatures::FULL),
+        ("4 warps", wide, ControllerFeatures::FULL),
+    ];
+    let mut spilled = false;
+    for (name, cfg, features) in variants {
+        let o = run(cfg.clone(), features, 96, 7);
+        let c = &o.counts;
+        println!(
+            "{name}: {} cycles ({} skipped), modes {:?}, {:?}",
+            o.cycles, o.skipped, o.modes, c.ctl
+        );
+        assert!(
+            o.modes.contains(&Mode::TreeletStationary),
+            "{name}: {:?}",
+            o.modes
+        );
+        assert!(c.ctl.treelet_warps > 0, "{name}: treelet warps");
+        if features.group_underpopulated {
+            assert!(
+                o.modes.contains(&Mode::FinalRayStationary),
+                "{name}: {:?}",
+                o.modes
+            );
+            assert!(c.ctl.grouped_warps > 0, "{name}: grouped warps");
+            assert_eq!(
+                c.ctl.repacks > 0,
+                cfg.repack_threshold > 0,
+                "{name}: repacks"
+            );
+        } else {
+            assert!(!o.modes.contains(&Mode::FinalRayStationary), "{name}");
+        }
+        assert_eq!(
+            c.ray_stores, 96,
+            "{name}: every SM ray's record is stored once"
+        );
+        assert!(o.skipped > 0, "{name}: no idle cycle was skipped");
+        spilled |= c.spills > 0;
+    }
+    assert!(spilled, "the queue table never spilled");
+}
