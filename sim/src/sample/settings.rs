@@ -79,11 +79,13 @@ impl SampleConfig {
         Ok(())
     }
 
-    /// SMs of the scale model for a GPU of `sms` SMs, if `fraction` gives a whole number.
+    /// SMs of the scale model for a GPU of `sms` SMs, if `fraction` gives a whole number of
+    /// them that divides `sms` (each simulated SM stands for `sms / k` real ones).
     pub fn scale_sms(&self, sms: u32) -> Option<u32> {
         let k = self.fraction * sms as f64;
         let r = k.round();
-        ((k - r).abs() < 1e-9 && r >= 1.0 && r <= sms as f64).then_some(r as u32)
+        let whole = (k - r).abs() < 1e-9 && r >= 1.0 && r <= sms as f64;
+        (whole && sms.is_multiple_of(r as u32)).then_some(r as u32)
     }
 
     /// Checks each value's own range (part of every configuration's validation).
@@ -116,10 +118,9 @@ impl SampleConfig {
                 "fraction",
                 f,
                 format!(
-                    "fraction x gpu.sms = {} is not a whole number of SMs (gpu.sms = {}: use \
-                     k/{} for k = 1..={})",
+                    "fraction x gpu.sms = {} must be a whole number of SMs k dividing gpu.sms = \
+                     {} (use 1/m for m dividing {})",
                     f * cfg.gpu.sms as f64,
-                    cfg.gpu.sms,
                     cfg.gpu.sms,
                     cfg.gpu.sms
                 ),
@@ -128,9 +129,12 @@ impl SampleConfig {
         self.scale_model(cfg).validate()
     }
 
-    /// The scale model of `cfg`: `fraction` of its SMs with that share of the L2 capacity and
-    /// of the DRAM bandwidth; everything per SM (L1, RT unit, CTA slots) unchanged. Call after
-    /// [`validate`](Self::validate) (an unvalidated fraction gives at least one SM).
+    /// The scale model of `cfg`: `k = fraction x gpu.sms` of its SMs, with that share of the
+    /// DRAM bandwidth and the whole L2, in which the private data (ray records, CTA state,
+    /// stacks, hit records) of every simulated SM also stands for that of the `sms / k - 1` SMs
+    /// not simulated (`memory.l2_private_mirrors`), while BVH nodes, which all SMs share, are
+    /// cached once; everything per SM (L1, RT unit, CTA slots) unchanged. Call after
+    /// [`validate`](Self::validate) (an unvalidated fraction gives one SM).
     pub fn scale_model(&self, cfg: &SimConfig) -> SimConfig {
         let sms = cfg.gpu.sms;
         let k = self.scale_sms(sms).unwrap_or(1);
@@ -171,7 +175,8 @@ mod tests {
         s.validate(&cfg).unwrap();
         let m = s.scale_model(&cfg);
         assert_eq!(m.gpu.sms, 2);
-        assert_eq!(m.memory.l2_bytes, 16 * 1024);
+        assert_eq!(m.memory.l2_bytes, cfg.memory.l2_bytes);
+        assert_eq!(m.memory.l2_private_mirrors, 8);
         assert_eq!(m.memory.dram_share, [1, 8]);
         assert_eq!(m.memory.l1_bytes, cfg.memory.l1_bytes);
         let whole = SampleConfig {
