@@ -218,11 +218,11 @@ mod tests {
             let e = s.validate(&cfg).unwrap_err();
             assert_eq!(e.key(), Some(key), "{e}");
         }
-        // 3/16 of the GPU has a 24 KB L2, which is not a power of two.
+        // 3 of 16 SMs cannot each stand for the same number of SMs.
         let s = SampleConfig {
             fraction: 3.0 / 16.0,
             ..SampleConfig::default()
         };
-        assert_eq!(s.validate(&cfg).unwrap_err().key(), Some("memory.l2_bytes"));
+        assert_eq!(s.validate(&cfg).unwrap_err().key(), Some("sample.fraction"));
     }
 }
