@@ -1,6 +1,8 @@
 //! vtq's simulator crate: scenes, the hardware BVH layout and treelets, robust traversal, the
 //! path-traced workload, the `vtq` command line, and the fuzzing of its parsers.
 
+pub mod accuracy;
+pub mod analytic;
 pub mod atomic_file;
 pub mod bvh;
 pub mod cmd;
@@ -10,6 +12,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod intersect;
 pub mod memory;
+pub mod plot;
 pub mod rays_csv;
 pub mod sample;
 pub mod scene;

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use vtq_sim::cmd::{
-    area, bench, compare, cosim, fuzz, render, scenes, sim, sweep, trace, verilog,
+    accuracy, area, bench, compare, cosim, fuzz, render, scenes, sim, sweep, trace, verilog,
 };
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
@@ -39,6 +39,9 @@ enum Command {
     /// run, so a rerun resumes), locally, as one shard or as a Slurm job array; or collect the
     /// results into one CSV table (--collect).
     Sweep(sweep::SweepArgs),
+    /// Run time against error: full detail, the sampled tier at several settings and the
+    /// analytical tier on each scene and design, with a CSV and a plot (docs/accuracy.md).
+    Accuracy(accuracy::AccuracyArgs),
     /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
     /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
@@ -74,6 +77,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Sweep(args) => sweep::run(args),
+        Command::Accuracy(args) => accuracy::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),

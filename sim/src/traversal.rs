@@ -104,6 +104,13 @@ pub enum Order {
     RayStationary,
     /// Two stacks: current treelet first, other treelets in FIFO order.
     Treelet,
+    /// The simulated RT unit's order (`TraversalOrder::TreeletContinue` of `vtq-hdl`): two
+    /// LIFO stacks, a node's hit children pushed closest on top onto the current-treelet stack
+    /// or the other-treelet stack by their treelet; when the current stack is empty the top of
+    /// the other becomes the next node and its treelet the current one. Stack entries carry no
+    /// distance, so nothing is culled when popped (the box tests of the popped node's children
+    /// use the best hit). Visits exactly the nodes the RT unit fetches, in its order.
+    Hardware,
 }
 
 /// One node fetch of a ray.
@@ -143,10 +150,12 @@ struct Entry {
 /// Reusable stack storage of one traversal.
 #[derive(Debug, Default)]
 struct Stacks {
-    /// The stack (ray-stationary) or current-treelet stack (treelet order).
+    /// The stack (ray-stationary) or current-treelet stack (treelet and hardware orders).
     stack: Vec<Entry>,
     /// The other-treelet FIFO (treelet order only).
     other: VecDeque<Entry>,
+    /// The other-treelet stack (hardware order only).
+    other_stack: Vec<Entry>,
 }
 
 /// The traversal of one ray, advanced one node at a time.
@@ -313,6 +322,7 @@ impl TraversalState {
     fn with_stacks(bvh: &HwBvh, ray: &Ray, order: Order, mut stacks: Stacks) -> Self {
         stacks.stack.clear();
         stacks.other.clear();
+        stacks.other_stack.clear();
         let valid = ray.is_valid();
         let slack_base = if valid {
             slack_base_of(bvh.header(), ray)
@@ -428,11 +438,16 @@ impl TraversalState {
             NodeKind::Header => {
                 let root = Header::decode(bytes).root;
                 if root != 0 {
-                    self.stacks.stack.push(Entry {
+                    let entry = Entry {
                         addr: root,
                         kind: NodeKind::Internal,
                         t: self.lo_bound,
-                    });
+                    };
+                    if self.order == Order::Hardware && Some(root >> self.shift) != self.current {
+                        self.stacks.other_stack.push(entry);
+                    } else {
+                        self.stacks.stack.push(entry);
+                    }
                 }
             }
             NodeKind::Internal => {
@@ -489,6 +504,16 @@ impl TraversalState {
                     .other
                     .extend(hits.iter().filter(|h| Some(h.addr >> shift) != cur));
             }
+            Order::Hardware => {
+                let (cur, shift) = (self.current, self.shift);
+                for h in hits.iter().rev() {
+                    if Some(h.addr >> shift) == cur {
+                        self.stacks.stack.push(*h);
+                    } else {
+                        self.stacks.other_stack.push(*h);
+                    }
+                }
+            }
         }
         tests
     }
@@ -520,6 +545,18 @@ impl TraversalState {
     /// other-treelet FIFO, skipping entries the best hit has culled.
     #[inline(always)]
     fn advance(&mut self) {
+        if self.order == Order::Hardware {
+            // No culling on pop: the RT unit's stack entries carry no distance.
+            self.next = self
+                .stacks
+                .stack
+                .pop()
+                .or_else(|| self.stacks.other_stack.pop());
+            if self.next.is_none() {
+                self.current = None;
+            }
+            return;
+        }
         while let Some(e) = self.stacks.stack.pop() {
             if e.t <= self.cull_bound {
                 self.next = Some(e);

@@ -13,7 +13,6 @@ use glam::Vec3;
 use vtq_sim::bvh::HwBvh;
 use vtq_sim::config::SimConfig;
 use vtq_sim::gpu::SimOutput;
-use vtq_sim::scene::builtin::cornell;
 use vtq_sim::{Material, Scene};
 
 /// Nested open boxes around the camera: shell `k` is a cube of half-size `1.35^k` (five faces
@@ -68,7 +67,6 @@ fn nested_shells(shells: u32) -> Scene {
             fov_y_deg: 100.0,
         },
         sky: false,
-        ..cornell()
     }
 }
 

@@ -22,6 +22,7 @@ use crate::bvh::HwBvh;
 use crate::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::config::SimConfig;
 use crate::gpu::{simulate, SimOptions, SimStats};
+use crate::sample::{paired_speedup, simulate_sampled, Profile};
 use crate::scene::Scene;
 
 /// A configuration compiled into the binary: its design name, the file it was read from
@@ -98,6 +99,12 @@ pub struct CompareArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
+    /// Estimate with the sampled tier instead of full detail (docs/accuracy.md):
+    /// `FRACTION[xREPLICATES]`, e.g. `1/16x4`; without a value the `[sample]` settings. Every
+    /// design runs the same CTA samples, so speedups are paired per replicate; rows are
+    /// estimates with 95% intervals.
+    #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
+    pub sample: Option<String>,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -122,13 +129,13 @@ impl CompareArgs {
 }
 
 /// One design to simulate.
-struct Design {
+pub(crate) struct Design {
     /// Its name in the table and the JSON (`baseline`, or a configuration file's stem).
-    label: String,
+    pub(crate) label: String,
     /// Where its configuration came from.
-    source: String,
+    pub(crate) source: String,
     /// The configuration, overrides applied.
-    config: SimConfig,
+    pub(crate) config: SimConfig,
 }
 
 /// A built-in configuration with `overrides` applied, read as [`SimConfig::load`] reads its file.
@@ -138,7 +145,7 @@ fn built_in_config(built_in: &BuiltIn, overrides: &[String]) -> anyhow::Result<S
 }
 
 /// Resolves one `--designs` entry: a built-in name, or else a configuration file path.
-fn resolve_design(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
+pub(crate) fn resolve_design(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
     let spec = spec.trim();
     let context = || format!("design '{spec}'");
     if let Some(built_in) = BUILT_INS.iter().find(|b| b.name == spec) {
@@ -310,13 +317,25 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             other.config.render_settings()
         );
     }
-    let designs: Vec<Design> = designs
+    let mut designs: Vec<Design> = designs
         .into_iter()
         .map(|mut d| {
             d.config.sim.lockstep |= args.lockstep;
             d
         })
         .collect();
+    if let Some(spec) = &args.sample {
+        for d in &mut designs {
+            d.config
+                .sample
+                .apply_spec(spec)
+                .map_err(anyhow::Error::msg)?;
+            d.config
+                .sample
+                .validate(&d.config)
+                .with_context(|| format!("design '{}'", d.label))?;
+        }
+    }
 
     let scene = load_scene(&args.scene)?;
     // One BVH per distinct build parameters, shared by every design that uses them.
@@ -343,6 +362,9 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         Some(n) => n as usize,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
+    if args.sample.is_some() {
+        return compare_sampled(args, &scene, &designs, &runs, jobs);
+    }
     println!(
         "compare: {} designs on scene {}, {}x{}, {} spp, {} bounces, {} at a time",
         designs.len(),
@@ -496,6 +518,121 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     }
     if !problems.is_empty() {
         bail!("{}", problems.join("; "));
+    }
+    Ok(())
+}
+
+/// `vtq compare --sample`: every design estimated by the sampled tier on the same CTA samples
+/// (replicates `jobs` at a time), speedups paired per replicate.
+fn compare_sampled(
+    args: &CompareArgs,
+    scene: &Scene,
+    designs: &[Design],
+    runs: &[(&Design, &HwBvh)],
+    jobs: usize,
+) -> anyhow::Result<()> {
+    let first = &designs[0].config;
+    let s = &first.sample;
+    println!(
+        "compare (sampled): {} designs on scene {}, each estimated from {} replicates of {} SM(s) \
+         on stratified 1/{:.0} samples of the frame (seed {}); estimates with 95% intervals",
+        designs.len(),
+        scene.name,
+        s.replicates,
+        s.scale_sms(first.gpu.sms).unwrap_or(1),
+        1.0 / s.fraction,
+        s.seed
+    );
+    let mut profiles: Vec<(*const HwBvh, Profile)> = Vec::new();
+    let mut results = Vec::with_capacity(runs.len());
+    for (design, bvh) in runs {
+        let key: *const HwBvh = *bvh;
+        if !profiles.iter().any(|(k, _)| *k == key) {
+            let profile = Profile::new(scene, bvh, &design.config)
+                .with_context(|| format!("profiling scene '{}'", scene.name))?;
+            profiles.push((key, profile));
+        }
+        let profile = &profiles.iter().find(|(k, _)| *k == key).expect("added").1;
+        let start = Instant::now();
+        let result =
+            simulate_sampled(scene, bvh, &design.config, profile, jobs).map_err(|e| e.to_string());
+        results.push((result, start.elapsed().as_secs_f64()));
+    }
+    let reference = designs
+        .iter()
+        .position(|d| d.label == BASELINE)
+        .unwrap_or(0);
+    let width = designs
+        .iter()
+        .map(|d| d.label.len())
+        .max()
+        .unwrap_or(0)
+        .max("design".len());
+    println!(
+        "{:<width$}  {:>24}  {:>15}  {:>13}  {:>13}  {:>8}",
+        "design", "cycles (est.)", "speedup (est.)", "BVH L1 miss", "SIMT eff.", "wall s"
+    );
+    let mut failures = Vec::new();
+    let mut entries = Vec::new();
+    for (design, (result, wall)) in designs.iter().zip(&results) {
+        match result {
+            Ok(est) => {
+                let speedup = match &results[reference].0 {
+                    Ok(base) => Some(paired_speedup(base, est)),
+                    Err(_) => None,
+                };
+                println!(
+                    "{:<width$}  {:>24}  {:>15}  {:>13}  {:>13}  {:>8.2}",
+                    design.label,
+                    est.cycles.display(0),
+                    speedup.map_or_else(|| "-".into(), |s| s.display(3)),
+                    est.bvh_l1_miss_rate.display(3),
+                    est.simt_efficiency.display(3),
+                    wall
+                );
+                entries.push(serde_json::json!({
+                    "design": design.label,
+                    "source": design.source,
+                    "estimate": true,
+                    "speedup": speedup,
+                    "wall_seconds": wall,
+                    "sampled": est,
+                }));
+            }
+            Err(e) => {
+                println!("{:<width$}  error: {e}", design.label);
+                failures.push(format!("{}: {e}", design.label));
+                entries.push(serde_json::json!({
+                    "design": design.label,
+                    "source": design.source,
+                    "error": e,
+                }));
+            }
+        }
+    }
+    println!(
+        "estimates (sampled tier, not full detail): value ± half-width of the 95% interval; \
+         speedup = {} cycles / design cycles, paired per replicate",
+        designs[reference].label
+    );
+    if let Some(path) = &args.json {
+        let doc = serde_json::json!({
+            "scene": scene.name,
+            "speedup_reference": designs[reference].label,
+            "sampled": true,
+            "designs": entries,
+        });
+        let text = serde_json::to_string_pretty(&doc).context("serializing the estimates")?;
+        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    if !failures.is_empty() {
+        bail!(
+            "{} of {} designs failed: {}",
+            failures.len(),
+            designs.len(),
+            failures.join("; ")
+        );
     }
     Ok(())
 }

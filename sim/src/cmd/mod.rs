@@ -1,5 +1,6 @@
 //! The `vtq` subcommands, one module each.
 
+pub mod accuracy;
 pub mod area;
 pub mod bench;
 pub mod compare;

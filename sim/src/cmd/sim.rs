@@ -45,6 +45,10 @@ pub struct SimArgs {
     /// `1/8x4`; without a value the `[sample]` section's settings.
     #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
     pub sample: Option<String>,
+    /// The analytical tier instead of full detail: cycles estimated from the functional trace
+    /// with a timing model and a functional cache model (docs/accuracy.md; no interval).
+    #[arg(long, conflicts_with = "sample")]
+    pub analytic: bool,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -69,6 +73,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         return run_sampled(args, &scene, &bvh, &cfg);
     }
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
+    if args.analytic {
+        return run_analytic(args, &scene, &bvh, &cfg);
+    }
     let out = simulate_with_progress(&scene, &bvh, &cfg, args.threads)?;
     let s = &out.stats;
     let json = serde_json::to_string_pretty(s).context("serializing the statistics")?;
@@ -122,6 +129,41 @@ fn run_sampled(
         s.bvh_l1_miss_rate.display(3),
         s.profile_seconds + s.sim_seconds,
         s.profile_seconds
+    );
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// `vtq sim --analytic`: the analytical tier's estimate, written as JSON (docs/accuracy.md).
+fn run_analytic(
+    args: &SimArgs,
+    scene: &crate::scene::Scene,
+    bvh: &crate::bvh::HwBvh,
+    cfg: &SimConfig,
+) -> anyhow::Result<()> {
+    let (a, traced) = crate::analytic::trace_and_estimate(scene, bvh, cfg)
+        .with_context(|| format!("tracing scene '{}'", scene.name))?;
+    let doc = serde_json::json!({
+        "scene": scene.name,
+        "mode": cfg.mode.kind.name(),
+        "estimate": "analytical",
+        "cycles": a.timing.cycles,
+        "bvh_l1_miss_rate": a.timing.bvh_l1_miss_rate,
+        "simt_efficiency": a.timing.simt_efficiency,
+        "trace_seconds": traced,
+        "model_seconds": a.model_seconds,
+    });
+    let json = serde_json::to_string_pretty(&doc).context("serializing the estimate")?;
+    std::fs::write(&args.out, json + "\n")
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "sim (analytical estimate, no interval): cycles {:.0}, SIMT efficiency {:.3}, BVH L1 miss \
+         rate {:.3}; {:.2} s wall ({:.2} s trace)",
+        a.timing.cycles,
+        a.timing.simt_efficiency,
+        a.timing.bvh_l1_miss_rate,
+        traced + a.model_seconds,
+        traced
     );
     println!("wrote {}", args.out.display());
     Ok(())

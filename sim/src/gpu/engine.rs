@@ -329,6 +329,9 @@ struct Engine<'r, 'a> {
     progress: Option<&'r indicatif::ProgressBar>,
 }
 
+/// The order in which L2 operations apply ([`crate::memory::L2Op::key`]).
+type OpKey = (u64, u8, u32, u64);
+
 /// The engine's view of the nodes between rounds.
 type Nodes<'w, 'a, F> = Workers<'w, SmNode<'a>, Round, F>;
 
@@ -487,7 +490,7 @@ impl<'a> Engine<'_, 'a> {
     /// still unknown).
     fn apply_l2<F>(&mut self, nodes: &Nodes<'_, 'a, F>, end: u64) -> u64 {
         let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
-        let mut order: Vec<((u64, u8, u32, u64), usize, usize)> = Vec::new();
+        let mut order: Vec<(OpKey, usize, usize)> = Vec::new();
         for (i, g) in guards.iter().enumerate() {
             order.extend(
                 g.mem

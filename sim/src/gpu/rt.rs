@@ -147,7 +147,7 @@ struct Treelet<'a> {
 /// Which hardware an [`RtPort`] steps.
 #[derive(Debug, Clone)]
 enum Hardware<'a> {
-    Plain(Plain<'a>),
+    Plain(Box<Plain<'a>>),
     Treelet(Box<Treelet<'a>>),
 }
 
@@ -222,7 +222,7 @@ impl<'a> RtPort<'a> {
                     cache,
                     inputs,
                 };
-                (Hardware::Plain(plain), wake)
+                (Hardware::Plain(Box::new(plain)), wake)
             }
             Some(setup) => {
                 let params = TreeletRtUnitParams {

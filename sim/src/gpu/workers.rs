@@ -210,12 +210,12 @@ mod tests {
             let add = |x: &mut u64, by: &u64| *x += by;
             let ((), items) = Workers::with(threads, items, add, |w| {
                 for round in 0..50u64 {
-                    w.round(|i| (i as u64 + round) % 3 != 0, 1);
+                    w.round(|i| !(i as u64 + round).is_multiple_of(3), 1);
                 }
                 assert_eq!(w.len(), 10);
             });
             let want: Vec<u64> = (0..10u64)
-                .map(|i| (0..50u64).filter(|r| (i + r) % 3 != 0).count() as u64)
+                .map(|i| (0..50u64).filter(|r| !(i + r).is_multiple_of(3)).count() as u64)
                 .collect();
             assert_eq!(items, want, "{threads} threads");
         }

@@ -50,7 +50,7 @@ impl Profile {
                         let (mut path, mut ray) = PathState::new(&frame, &settings, pixel, sample);
                         loop {
                             fetches.clear();
-                            let hit = trace_with_fetches(bvh, &ray, Order::Treelet, fetches);
+                            let hit = trace_with_fetches(bvh, &ray, Order::Hardware, fetches);
                             work.rays += 1;
                             work.fetches += fetches.len() as u64;
                             match path.on_hit(scene, hit) {
