@@ -9,7 +9,10 @@ use common::{
     check_against_functional, check_deterministic, check_scene_skip_matches_lockstep,
     check_skip_matches_lockstep, setup, small_config, STARVED_MEMORY,
 };
+use std::collections::BTreeMap;
+
 use vtq_sim::gpu::{simulate, SimError, SimOptions};
+use vtq_sim::traversal::{trace_with_fetches, Order};
 
 /// Hits and image equal the functional tracer's; the RT units' requests and stores all
 /// reached the L1, and every 8x8 tile ran as one CTA.
@@ -35,6 +38,50 @@ fn wknd_hits_and_image_equal_the_functional_tracer() {
 #[test]
 fn cornell_hits_and_image_equal_the_functional_tracer() {
     check_baseline("cornell", 1, 32);
+}
+
+/// The functional tracer's hardware order visits exactly the nodes the RT units test: over
+/// every traced ray, its fetches per node kind sum to the simulation's test counts (so the
+/// sampled tier's profile and the analytical tier's trace count the simulated work).
+#[test]
+fn hardware_order_visits_the_rt_units_nodes() {
+    for scene in ["wknd", "cornell"] {
+        let cfg = small_config("baseline", 2, 24, &[]);
+        let (s, bvh) = setup(scene, &cfg);
+        let out = common::run(&s, &bvh, &cfg);
+        let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+        let mut fetches = Vec::new();
+        for r in &out.ray_log {
+            fetches.clear();
+            let hit = trace_with_fetches(&bvh, &r.ray, Order::Hardware, &mut fetches);
+            assert_eq!(common::hit_bits(hit), common::hit_bits(r.hit));
+            for f in &fetches {
+                *counts.entry(format!("{:?}", f.kind)).or_default() += 1;
+            }
+        }
+        let simulated = |k: &str| out.stats.rt.tests.get(k).copied().unwrap_or(0);
+        assert_eq!(
+            counts.get("Header").copied().unwrap_or(0),
+            simulated("header"),
+            "{scene}"
+        );
+        assert_eq!(
+            counts.get("Internal").copied().unwrap_or(0),
+            simulated("internal"),
+            "{scene}"
+        );
+        assert_eq!(
+            counts.get("TriangleLeaf").copied().unwrap_or(0),
+            simulated("triangle_leaf"),
+            "{scene}"
+        );
+        assert_eq!(
+            counts.get("ProceduralLeaf").copied().unwrap_or(0),
+            simulated("procedural"),
+            "{scene}"
+        );
+        assert!(out.stats.rt.total_tests() > 0);
+    }
 }
 
 /// Skipping idle cycles gives the same statistics and time series as stepping every cycle.

@@ -1,0 +1,239 @@
+//! The sampled tier (docs/accuracy.md): deterministic for a seed, exactly full detail when the
+//! sample is the whole workload, skipping idle cycles equal to lockstep inside its replicates,
+//! a paired speedup from the same CTA samples, and one-line errors for bad settings; and the
+//! analytical tier's estimate is deterministic and positive.
+
+mod common;
+
+use std::process::Command;
+
+use common::{setup, small_config};
+use vtq_sim::analytic;
+use vtq_sim::config::SimConfig;
+use vtq_sim::gpu::stats::comparable_json;
+use vtq_sim::gpu::{simulate, SimOptions};
+use vtq_sim::sample::{paired_speedup, simulate_sampled, Profile, SampledStats};
+
+/// A sampled configuration: `mode` on 4 SMs, 24x24, `spec` (FRACTIONxREPLICATES).
+fn sampled_config(mode: &str, spec: &str, extra: &[&str]) -> SimConfig {
+    let mut cfg = small_config(mode, 4, 24, extra);
+    cfg.sample.apply_spec(spec).unwrap();
+    cfg.sample.validate(&cfg).unwrap();
+    cfg
+}
+
+/// The estimates without host-dependent times, for comparing runs.
+fn comparable(s: &SampledStats) -> serde_json::Value {
+    let mut v = serde_json::to_value(s).unwrap();
+    let o = v.as_object_mut().unwrap();
+    o.remove("profile_seconds");
+    o.remove("sim_seconds");
+    for r in o["replicate_runs"].as_array_mut().unwrap() {
+        let stats = r["stats"].as_object_mut().unwrap();
+        for k in vtq_sim::gpu::HOST_DEPENDENT_KEYS {
+            stats.remove(k);
+        }
+    }
+    v
+}
+
+fn sampled(name: &str, cfg: &SimConfig, threads: usize) -> SampledStats {
+    let (scene, bvh) = setup(name, cfg);
+    let profile = Profile::new(&scene, &bvh, cfg).unwrap();
+    simulate_sampled(&scene, &bvh, cfg, &profile, threads).unwrap()
+}
+
+#[test]
+fn sampled_runs_are_deterministic_on_any_thread_count() {
+    let cfg = sampled_config("baseline", "1/4x3", &[]);
+    let a = sampled("cornell", &cfg, 1);
+    let b = sampled("cornell", &cfg, 2);
+    assert_eq!(comparable(&a), comparable(&b));
+    assert_eq!(a.replicate_runs.len(), 3);
+    assert!(a.cycles.half_width.is_some());
+    // Another seed draws other samples.
+    let mut other = cfg.clone();
+    other.sample.seed = 99;
+    let c = sampled("cornell", &other, 1);
+    assert_ne!(a.replicate_cycles(), c.replicate_cycles());
+}
+
+#[test]
+fn the_whole_workload_is_exactly_full_detail() {
+    for mode in ["baseline", "queues"] {
+        let extra: &[&str] = if mode == "queues" {
+            &[
+                "mode.virtualization=true",
+                "mode.grouping=true",
+                "hw.max_rays=2048",
+            ]
+        } else {
+            &[]
+        };
+        let cfg = sampled_config(mode, "1x1", extra);
+        let (scene, bvh) = setup("cornell", &cfg);
+        let full = simulate(&scene, &bvh, &cfg, SimOptions::default(), None).unwrap();
+        let s = sampled("cornell", &cfg, 1);
+        assert_eq!(s.scale_sms, 4);
+        assert_eq!(s.cycles.value, full.stats.cycles as f64, "{mode}");
+        assert_eq!(s.cycles.half_width, None);
+        assert_eq!(
+            comparable_json(&s.replicate_runs[0].stats),
+            comparable_json(&full.stats),
+            "{mode}"
+        );
+    }
+}
+
+#[test]
+fn skipping_equals_lockstep_in_sampled_runs() {
+    let cfg = sampled_config("prefetch", "1/4x2", &[]);
+    let mut lock = cfg.clone();
+    lock.sim.lockstep = true;
+    let a = sampled("wknd", &cfg, 1);
+    let b = sampled("wknd", &lock, 1);
+    for (x, y) in a.replicate_runs.iter().zip(&b.replicate_runs) {
+        let strip = |s: &vtq_sim::gpu::SimStats| {
+            let mut v = comparable_json(s);
+            v.as_object_mut().unwrap().remove("config");
+            v
+        };
+        assert_eq!(strip(&x.stats), strip(&y.stats));
+    }
+    assert_eq!(a.cycles, b.cycles);
+}
+
+#[test]
+fn speedups_pair_the_replicates() {
+    let base = sampled("cornell", &sampled_config("baseline", "1/2x2", &[]), 1);
+    let pre = sampled("cornell", &sampled_config("prefetch", "1/2x2", &[]), 1);
+    let s = paired_speedup(&base, &pre);
+    let ratios: Vec<f64> = base
+        .replicate_runs
+        .iter()
+        .zip(&pre.replicate_runs)
+        .map(|(b, p)| b.stats.cycles as f64 / p.stats.cycles as f64)
+        .collect();
+    assert_eq!(s.value, (ratios[0] + ratios[1]) / 2.0);
+    // The same CTAs ran on both designs: the same rays.
+    for (b, p) in base.replicate_runs.iter().zip(&pre.replicate_runs) {
+        assert_eq!(b.stats.rays, p.stats.rays);
+        assert_eq!(b.ctas, p.ctas);
+    }
+}
+
+#[test]
+fn analytical_estimates_are_deterministic() {
+    for (mode, extra) in [
+        ("baseline", &[][..]),
+        ("prefetch", &[][..]),
+        (
+            "queues",
+            &["mode.grouping=true", "mode.virtualization=true"][..],
+        ),
+    ] {
+        let cfg = small_config(mode, 4, 24, extra);
+        let (scene, bvh) = setup("cornell", &cfg);
+        let (a, _) = analytic::trace_and_estimate(&scene, &bvh, &cfg).unwrap();
+        let (b, _) = analytic::trace_and_estimate(&scene, &bvh, &cfg).unwrap();
+        assert_eq!(a.timing, b.timing, "{mode}");
+        assert!(a.timing.cycles > 0.0, "{mode}");
+        assert!((0.0..=1.0).contains(&a.timing.bvh_l1_miss_rate));
+    }
+}
+
+/// Bad sample settings are one-line errors naming the problem.
+#[test]
+fn bad_sample_settings_are_one_line_errors() {
+    let dir = std::env::temp_dir().join(format!("vtq-sampled-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("s.json");
+    for (spec, needle) in [
+        ("0", "sample.fraction"),
+        ("1.5", "sample.fraction"),
+        ("32/16", "sample.fraction"),
+        ("3/16", "whole number of SMs"),
+        ("1/4x0", "sample.replicates"),
+        ("quarter", "--sample `quarter`"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
+            .args(["sim", "--scene", "cornell", "--sample", spec, "--out"])
+            .arg(&out)
+            .args(["--set", "width=8", "--set", "height=8", "--no-cache"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{spec}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{spec}: {stderr}");
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(errors.len(), 1, "{spec}: {stderr}");
+        assert!(errors[0].contains(needle), "{spec}: {}", errors[0]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `vtq accuracy` measures every tier and writes the table, the summary and the plot;
+/// `vtq compare --sample` labels its rows as estimates with intervals.
+#[test]
+fn accuracy_and_sampled_compare_commands() {
+    let dir = std::env::temp_dir().join(format!("vtq-accuracy-cli-{}", std::process::id()));
+    let small = [
+        "--set",
+        "width=16",
+        "--set",
+        "height=16",
+        "--set",
+        "gpu.sms=4",
+        "--no-cache",
+    ];
+    let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args([
+            "accuracy",
+            "--scene",
+            "cornell",
+            "--settings",
+            "1/2x2",
+            "--threads",
+            "2",
+        ])
+        .args(small)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for needle in ["sampled 1/2x2", "analytical", "cyc err avg", "in 95%"] {
+        assert!(stdout.contains(needle), "'{needle}' in {stdout}");
+    }
+    let csv = std::fs::read_to_string(dir.join("accuracy.csv")).unwrap();
+    // A header, then 3 designs x (full, one setting, analytical).
+    assert_eq!(csv.lines().count(), 1 + 3 * 3, "{csv}");
+    assert!(
+        csv.lines().skip(1).all(|l| l.starts_with("cornell,")),
+        "{csv}"
+    );
+    let png = std::fs::read(dir.join("accuracy.png")).unwrap();
+    assert_eq!(&png[..4], b"\x89PNG");
+    assert!(std::fs::read_to_string(dir.join("accuracy.svg"))
+        .unwrap()
+        .contains("<svg"));
+    let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args(["compare", "--scene", "cornell", "--sample", "1/2x2"])
+        .args(small)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}");
+    assert!(stdout.contains("compare (sampled)"), "{stdout}");
+    assert!(stdout.contains(" ± "), "{stdout}");
+    assert!(
+        stdout.contains("estimates (sampled tier, not full detail)"),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
