@@ -398,32 +398,16 @@ impl TreeletController {
     }
 }
 
-impl Block for TreeletController {
-    type Inputs = ControllerInputs;
-    type Outputs = ControllerOutputs;
-    type Regs = ControllerRegs;
-
-    fn reset(&self) -> ControllerRegs {
-        ControllerRegs {
-            mode: Mode::Initial,
-            seq: Seq::Idle,
-            queued_rays: 0,
-            res: vec![ResidentEntry::default(); self.cfg.max_resident_treelets as usize].into(),
-            res_head: 0,
-            res_tail: 0,
-            slots: vec![SlotState::default(); self.cfg.warp_buffer_size as usize].into(),
-            fill: FillState::default(),
-            spare_rays: vec![0; self.cfg.warp_size as usize - 1].into(),
-            spare_count: 0,
-            pending_remove: None,
-        }
-    }
-
-    fn eval(
+impl TreeletController {
+    /// The next-state function ([`Block::eval`]'s body) writing the next registers into `n`,
+    /// whose storage is reused (it need not hold anything in particular): `eval` runs it on a
+    /// fresh copy, a simulator on a scratch bundle it keeps, so a cycle allocates nothing.
+    pub fn next_into(
         &self,
         regs: &ControllerRegs,
         inputs: &ControllerInputs,
-    ) -> (ControllerOutputs, ControllerRegs) {
+        n: &mut ControllerRegs,
+    ) -> ControllerOutputs {
         // A restart in mode done starts this cycle from the reset state.
         let reset;
         let regs = if inputs.restart && regs.mode == Mode::Done {
@@ -432,7 +416,7 @@ impl Block for TreeletController {
         } else {
             regs
         };
-        let mut n = regs.clone();
+        n.copy_from(regs);
         let mut out = ControllerOutputs {
             widths: self.widths,
             mode: regs.mode,
@@ -493,14 +477,14 @@ impl Block for TreeletController {
         }
 
         match regs.seq {
-            Seq::Idle => self.idle_step(regs, inputs, ct_port_free, &mut n, &mut out),
+            Seq::Idle => self.idle_step(regs, inputs, ct_port_free, n, &mut out),
             Seq::PopWait => {
                 out.reserve = Some(regs.fill.slot);
                 if let Some(pop) = &inputs.qt_done {
-                    self.pop_done(regs, pop, &mut n, &mut out);
+                    self.pop_done(regs, pop, n, &mut out);
                 }
             }
-            Seq::FillNext => self.fill_next(regs, inputs, &mut n, &mut out),
+            Seq::FillNext => self.fill_next(regs, inputs, n, &mut out),
             Seq::RefillWait => {
                 if inputs.qt_done.is_some() {
                     n.seq = Seq::Idle;
@@ -565,6 +549,38 @@ impl Block for TreeletController {
                 drained: all_drained,
             },
         );
+        out
+    }
+}
+
+impl Block for TreeletController {
+    type Inputs = ControllerInputs;
+    type Outputs = ControllerOutputs;
+    type Regs = ControllerRegs;
+
+    fn reset(&self) -> ControllerRegs {
+        ControllerRegs {
+            mode: Mode::Initial,
+            seq: Seq::Idle,
+            queued_rays: 0,
+            res: vec![ResidentEntry::default(); self.cfg.max_resident_treelets as usize].into(),
+            res_head: 0,
+            res_tail: 0,
+            slots: vec![SlotState::default(); self.cfg.warp_buffer_size as usize].into(),
+            fill: FillState::default(),
+            spare_rays: vec![0; self.cfg.warp_size as usize - 1].into(),
+            spare_count: 0,
+            pending_remove: None,
+        }
+    }
+
+    fn eval(
+        &self,
+        regs: &ControllerRegs,
+        inputs: &ControllerInputs,
+    ) -> (ControllerOutputs, ControllerRegs) {
+        let mut n = regs.clone();
+        let out = self.next_into(regs, inputs, &mut n);
         (out, n)
     }
     fn reg_signals(&self, regs: &ControllerRegs) -> Vec<Signal> {

@@ -81,6 +81,35 @@ pub struct ControllerRegs {
 }
 
 impl ControllerRegs {
+    /// Makes these registers equal to `other`, reusing their storage (same sizes: the same
+    /// controller's registers).
+    pub fn copy_from(&mut self, other: &ControllerRegs) {
+        let ControllerRegs {
+            mode,
+            seq,
+            queued_rays,
+            res,
+            res_head,
+            res_tail,
+            slots,
+            fill,
+            spare_rays,
+            spare_count,
+            pending_remove,
+        } = other;
+        self.mode = *mode;
+        self.seq = *seq;
+        self.queued_rays = *queued_rays;
+        self.res.clone_from(res);
+        self.res_head = *res_head;
+        self.res_tail = *res_tail;
+        self.slots.clone_from(slots);
+        self.fill = *fill;
+        self.spare_rays.clone_from(spare_rays);
+        self.spare_count = *spare_count;
+        self.pending_remove = *pending_remove;
+    }
+
     /// Resident entry indices in age order (oldest first).
     pub(super) fn resident_order(&self) -> impl Iterator<Item = usize> + '_ {
         let n = self.res.len();

@@ -121,6 +121,9 @@ pub struct TreeletRtUnitCache {
     awake: bool,
     /// The tables' inputs of every cycle so far, while recording.
     tables: Option<TableLog>,
+    /// Storage the controller's next registers are computed into (its contents mean nothing
+    /// between steps), so a step allocates nothing.
+    scratch: Option<Box<ControllerRegs>>,
 }
 
 /// The treelet count table's and queue table's input ports, cycle by cycle (a `Nop` in every
@@ -151,6 +154,7 @@ impl TreeletRtUnitCache {
             idle: false,
             awake: true,
             tables: None,
+            scratch: None,
         }
     }
 

@@ -927,7 +927,11 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         out.counts.ctl.count_cycles(mode, 1);
         None
     } else {
-        let o = u.ctl.step(ctl, &ctl_in);
+        // The next-state function into the scratch registers, then the clock edge (a swap):
+        // `eval` without copying the registers' storage.
+        let scratch = cache.scratch.get_or_insert_with(|| Box::new(ctl.clone()));
+        let o = u.ctl.next_into(ctl, &ctl_in, scratch);
+        std::mem::swap(ctl, &mut **scratch);
         out.counts.ctl.observe(&ctl_in, &o);
         Some(o)
     };
@@ -978,8 +982,11 @@ fn dry_run<D: NodeDatapath>(
     }
     let peeks = Peeks::of(u, regs, &cache.rt);
     let inp = controller_inputs(u, g, &peeks, false).0;
-    let (o, n) = u.ctl.eval(&regs.ctl, &inp);
-    let acts = acts(&o, &n, &regs.ctl);
+    let scratch = cache
+        .scratch
+        .get_or_insert_with(|| Box::new(regs.ctl.clone()));
+    let o = u.ctl.next_into(&regs.ctl, &inp, scratch);
+    let acts = acts(&o, scratch, &regs.ctl);
     cache.dry = Some(inp);
     cache.idle = !acts;
     cache.awake = acts;

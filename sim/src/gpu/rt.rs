@@ -132,6 +132,8 @@ struct Treelet<'a> {
     spill_fifo: SpillFifo,
     /// Ray records that arrived, for the next step.
     arrived: Vec<RayLoad>,
+    /// The input bundle, reused every step.
+    inputs: TreeletRtUnitInputs,
     /// SM warp and lane of each ray id in use.
     owners: Vec<Option<(usize, u32)>>,
     /// SM warps with rays still traversing, by warp id.
@@ -234,7 +236,9 @@ impl<'a> RtPort<'a> {
                 let regs = unit.reset();
                 let cache = TreeletRtUnitCache::of(&regs);
                 let wake = unit.idle_cycles(&regs, &cache);
+                let inputs = unit.idle_inputs();
                 let treelet = Treelet {
+                    inputs,
                     unit,
                     regs,
                     cache,
@@ -601,14 +605,15 @@ impl<'a> RtPort<'a> {
         let rt = t.unit.rt_unit();
         let ports = t.unit.resp_free(&t.regs).min(rt.params().resp_ports);
         let n = (ports as usize).min(self.responses.len());
-        let inputs = TreeletRtUnitInputs {
-            sm_warp: lanes,
-            responses: self.responses.drain(..n).collect(),
-            ray_records: std::mem::take(&mut t.arrived),
-            spill_head: t.spill_fifo.head(),
-            ..t.unit.idle_inputs()
-        };
-        let out = t.unit.step_cached(&mut t.regs, &mut t.cache, &inputs);
+        // The input bundle is reused every cycle, so feeding it does not allocate.
+        let inputs = &mut t.inputs;
+        inputs.sm_warp = lanes;
+        inputs.responses.clear();
+        inputs.responses.extend(self.responses.drain(..n));
+        inputs.ray_records.clear();
+        std::mem::swap(&mut inputs.ray_records, &mut t.arrived);
+        inputs.spill_head = t.spill_fifo.head();
+        let out = t.unit.step_cached(&mut t.regs, &mut t.cache, inputs);
         self.stats.add(&out.counts.rt);
         let obs = &mut t.observer;
         obs.counts.add(&out.counts);
