@@ -7,31 +7,34 @@
 //! reads and writes (node bytes from the BVH image, stack spills, ray records, the queue table's
 //! spill FIFO; [`crate::gpu::ray_memory`]), the SM warps waiting for their rays, and the
 //! statistics observers beside the blocks. It reads no register of any block: only the blocks'
-//! outputs and their register-only output functions.
+//! outputs and their register-only output functions. The cycle of each kind of hardware is in
+//! its own file: [`plain`] (baseline and prefetch) and [`treelet`] (queues).
 
 use std::collections::{BTreeMap, VecDeque};
 
-use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{
     ErrorRecord, MemRequest as HwRequest, MemResponse, RayRecord, RequestKind, RtCache, RtStats,
-    RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue,
-    CHUNK_BYTES,
+    RtUnit, RtUnitError, RtUnitParams, TraversalOrder, CHUNK_BYTES,
 };
-use vtq_hdl::treelet_rt_unit::{
-    RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
-    TreeletRtUnitParams, TreeletRtUnitRegs,
-};
+use vtq_hdl::treelet_rt_unit::{RayLoad, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitParams};
 use vtq_hdl::{Block, HwConfig};
 
 use crate::bvh::layout::HEADER_ADDR;
 use crate::bvh::{HwBvh, NodeKind};
 use crate::geometry::{Hit, Ray};
-use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
+use crate::gpu::datapath::{node_entry, ray_words, BvhDatapath};
 use crate::gpu::error::SimError;
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::gpu::rt_fault::RtFault;
 use crate::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
+
+mod plain;
+mod treelet;
+
+use plain::Plain;
+use treelet::Treelet;
+pub use treelet::{QueueObserver, QueueSetup};
 
 /// Tag bit marking a ray-record load's response; below it, the ray id (bits 16 and up) and the
 /// warp-buffer slot of the fill (bits 0-15).
@@ -54,21 +57,6 @@ pub struct RtCycle {
     pub accepted: Option<usize>,
     /// The warp completed this cycle.
     pub done: Option<TracedWarp>,
-}
-
-/// The statistics observer beside one SM's treelet RT unit: its summed events, its tests per
-/// traversal phase and the largest number of queues.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct QueueObserver {
-    /// The treelet RT unit's events, summed (the RT unit's part is also in [`RtPort::hw_stats`]).
-    pub counts: TreeletCounts,
-    /// Intersection tests per phase (the controller's mode after the cycle of the test):
-    /// initial, treelet stationary, final ray stationary.
-    pub tests: [u64; 3],
-    /// Most treelet queues tracked by the count table at once.
-    pub max_queues: u64,
-    /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
-    pub max_queues_above_threshold: u64,
 }
 
 /// The error of an RT-unit error record of SM `sm`, with its ray's SM warp and lane where known
@@ -98,69 +86,11 @@ fn rt_error(
     }
 }
 
-/// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
-#[derive(Debug, Clone, PartialEq)]
-struct PendingWarp {
-    /// Per lane that carried a ray: `Some(closest hit)` (`Some(None)`, a miss, until the ray
-    /// finishes); `None` for idle lanes.
-    hits: Vec<Option<Option<Hit>>>,
-    /// Rays still out.
-    left: u32,
-}
-
-/// The baseline RT unit with its registers, cache and input bundle.
-#[derive(Debug, Clone)]
-struct Plain<'a> {
-    unit: RtUnit<BvhDatapath<'a>>,
-    regs: RtUnitRegs,
-    cache: RtCache,
-    /// Reused every step so feeding responses does not allocate.
-    inputs: RtUnitInputs,
-    /// SM warp slot held by each warp-buffer slot.
-    slot_warp: Vec<Option<usize>>,
-}
-
-/// The treelet RT unit with its registers, cache and surroundings.
-#[derive(Debug, Clone)]
-struct Treelet<'a> {
-    unit: TreeletRtUnit<BvhDatapath<'a>>,
-    regs: TreeletRtUnitRegs,
-    cache: TreeletRtUnitCache,
-    /// Records of rays waiting in the treelet queues.
-    store: RayStore,
-    /// The queue table's spill FIFO.
-    spill_fifo: SpillFifo,
-    /// Ray records that arrived, for the next step.
-    arrived: Vec<RayLoad>,
-    /// The input bundle, reused every step.
-    inputs: TreeletRtUnitInputs,
-    /// SM warp and lane of each ray id in use.
-    owners: Vec<Option<(usize, u32)>>,
-    /// SM warps with rays still traversing, by warp id.
-    pending: BTreeMap<usize, PendingWarp>,
-    /// SM warps whose rays have all finished, returned one per cycle.
-    completed: VecDeque<TracedWarp>,
-    /// A ray-record response the store could not answer (reported at the next step).
-    fault: Option<String>,
-    /// The statistics observer.
-    observer: QueueObserver,
-}
-
 /// Which hardware an [`RtPort`] steps.
 #[derive(Debug, Clone)]
 enum Hardware<'a> {
     Plain(Box<Plain<'a>>),
     Treelet(Box<Treelet<'a>>),
-}
-
-/// The queues design's treelet hardware for [`RtPort::new`]: the controller's feature switches
-/// and where this SM's ray records start.
-#[derive(Debug, Clone, Copy)]
-pub struct QueueSetup {
-    /// The controller's feature switches.
-    pub features: vtq_hdl::controller::ControllerFeatures,
-    /// Byte address of this SM's ray id 0's 32 B ray record.
-    pub ray_base: u64,
 }
 
 /// The RT unit of one SM with its memory queues.
@@ -490,229 +420,6 @@ impl<'a> RtPort<'a> {
         } else {
             MemRequest::load(req.address, CHUNK_BYTES, class, req.tag as u64)
         });
-    }
-
-    /// A cycle of the baseline RT unit.
-    fn step_plain(
-        &mut self,
-        sm: usize,
-        warp: Option<(usize, &[Option<Ray>])>,
-    ) -> Result<RtCycle, SimError> {
-        let mut cycle = RtCycle::default();
-        let Hardware::Plain(p) = &self.hw else {
-            unreachable!("a plain port")
-        };
-        let warp_size = p.unit.config().warp_size as usize;
-        let free = (0..p.slot_warp.len() as u32).find(|&s| !p.unit.slot_valid(&p.regs, s));
-        let issue = match (warp, free) {
-            (Some((idx, rays)), Some(slot)) => Some((
-                idx,
-                slot,
-                WarpIssue {
-                    order: self.order,
-                    lanes: self.warp_lanes(slot as usize, rays, warp_size),
-                    ..WarpIssue::default()
-                },
-            )),
-            _ => None,
-        };
-        let Hardware::Plain(p) = &mut self.hw else {
-            unreachable!("a plain port")
-        };
-        p.inputs.issue = None;
-        if let Some((idx, slot, issue)) = issue {
-            p.unit
-                .check_issue(&issue)
-                .map_err(|e| SimError::Rt { sm, source: e })?;
-            self.rays_issued += issue.lanes.iter().flatten().count() as u64;
-            p.slot_warp[slot as usize] = Some(idx);
-            p.inputs.issue = Some(issue);
-            cycle.accepted = Some(idx);
-        }
-        let free = p.unit.resp_free(&p.regs);
-        // The rays' next nodes change only when a response is delivered (the FIFO held one),
-        // a request pops a stack, or a warp enters or completes.
-        let delivers = free < p.unit.params().resp_fifo_depth || p.inputs.issue.is_some();
-        let ports = free.min(p.unit.params().resp_ports);
-        let n = (ports as usize).min(self.responses.len());
-        p.inputs.responses.clear();
-        p.inputs.responses.extend(self.responses.drain(..n));
-        let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
-        self.stats.add(&out.counts);
-        if let Some(pf) = self.prefetcher.as_mut() {
-            let next = p.unit.next_addresses(&p.regs, &p.cache);
-            if delivers || out.request.is_some() || out.done.is_some() {
-                pf.observe(next);
-            } else {
-                pf.unchanged(next);
-            }
-        }
-        if let Some(record) = out.first_error {
-            let owner = p
-                .slot_warp
-                .get(record.slot as usize)
-                .copied()
-                .flatten()
-                .map(|w| (w, record.lane));
-            return Err(rt_error(sm, record, owner, self.address_bits));
-        }
-        let done = out.done.map(|done| {
-            let warp = p.slot_warp[done.slot as usize].take();
-            (warp, done)
-        });
-        if let Some(req) = out.request {
-            self.push_request(&req);
-        }
-        if let Some((warp, done)) = done {
-            let warp = warp.ok_or_else(|| SimError::Queues {
-                sm,
-                reason: format!(
-                    "warp-buffer slot {} completed a warp it never got",
-                    done.slot
-                ),
-            })?;
-            let hits: Vec<Option<Option<Hit>>> = done
-                .lanes
-                .iter()
-                .map(|l| l.as_ref().map(|(rec, _)| rec.hit.as_ref().map(hit_from_hw)))
-                .collect();
-            self.rays_completed += hits.iter().flatten().count() as u64;
-            cycle.done = Some(TracedWarp { warp, hits });
-        }
-        Ok(cycle)
-    }
-
-    /// A cycle of the treelet RT unit.
-    fn step_treelet(
-        &mut self,
-        sm: usize,
-        warp: Option<(usize, &[Option<Ray>])>,
-    ) -> Result<RtCycle, SimError> {
-        let mut cycle = RtCycle::default();
-        let lanes = match (&self.hw, warp) {
-            (Hardware::Treelet(t), Some((_, rays))) => {
-                let warp_size = t.unit.config().warp_size as usize;
-                Some(self.warp_lanes(0, rays, warp_size))
-            }
-            _ => None,
-        };
-        let Hardware::Treelet(t) = &mut self.hw else {
-            unreachable!("a treelet port")
-        };
-        if let Some(reason) = t.fault.take() {
-            return Err(SimError::Queues { sm, reason });
-        }
-        let rt = t.unit.rt_unit();
-        let ports = t.unit.resp_free(&t.regs).min(rt.params().resp_ports);
-        let n = (ports as usize).min(self.responses.len());
-        // The input bundle is reused every cycle, so feeding it does not allocate.
-        let inputs = &mut t.inputs;
-        inputs.sm_warp = lanes;
-        inputs.responses.clear();
-        inputs.responses.extend(self.responses.drain(..n));
-        inputs.ray_records.clear();
-        std::mem::swap(&mut inputs.ray_records, &mut t.arrived);
-        inputs.spill_head = t.spill_fifo.head();
-        let out = t.unit.step_cached(&mut t.regs, &mut t.cache, inputs);
-        self.stats.add(&out.counts.rt);
-        let obs = &mut t.observer;
-        obs.counts.add(&out.counts);
-        let phase = match t.unit.mode(&t.regs) {
-            Mode::Initial | Mode::Done => 0,
-            Mode::TreeletStationary => 1,
-            Mode::FinalRayStationary => 2,
-        };
-        obs.tests[phase] += out.counts.rt.total_tests();
-        let (queues, above) = t.unit.queues(&t.regs);
-        obs.max_queues = obs.max_queues.max(queues as u64);
-        obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
-        if let Some(record) = out.first_error {
-            let owner = t.owners.get(record.ray_id as usize).copied().flatten();
-            return Err(rt_error(sm, record, owner, self.address_bits));
-        }
-        if let Some(fault) = &out.fault {
-            return Err(SimError::Queues {
-                sm,
-                reason: fault.to_string(),
-            });
-        }
-        if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
-            let active = ids.iter().flatten().count();
-            self.rays_issued += active as u64;
-            for (lane, id) in ids.iter().enumerate() {
-                if let Some(id) = id {
-                    t.owners[*id as usize] = Some((idx, lane as u32));
-                }
-            }
-            let hits = (0..ids.len())
-                .map(|l| rays.get(l).copied().flatten().map(|_| None))
-                .collect::<Vec<_>>();
-            if active == 0 {
-                t.completed.push_back(TracedWarp { warp: idx, hits });
-            } else {
-                let left = active as u32;
-                t.pending.insert(idx, PendingWarp { hits, left });
-            }
-            cycle.accepted = Some(idx);
-        }
-        for r in &out.parked {
-            t.store.park(r.clone());
-        }
-        if let Some(entry) = out.spill_push {
-            t.spill_fifo.push(entry);
-        }
-        if out.spill_pop {
-            t.spill_fifo.pop();
-        }
-        if let (Some(treelet), Some(p)) = (out.preload, self.prefetcher.as_mut()) {
-            p.queue_treelet(treelet);
-        }
-        for f in &out.finished {
-            let Some((warp, lane)) = t.owners.get_mut(f.ray as usize).and_then(Option::take) else {
-                return Err(SimError::Queues {
-                    sm,
-                    reason: format!("ray {} finished but no SM warp waits for it", f.ray),
-                });
-            };
-            let Some(PendingWarp { hits, left }) = t.pending.get_mut(&warp) else {
-                return Err(SimError::Queues {
-                    sm,
-                    reason: format!("a ray of SM warp {warp} finished twice"),
-                });
-            };
-            if let Some(h) = hits.get_mut(lane as usize) {
-                *h = Some(f.hit.as_ref().map(hit_from_hw));
-            }
-            *left -= 1;
-            self.rays_completed += 1;
-            if *left == 0 {
-                let done = t.pending.remove(&warp).expect("present");
-                t.completed.push_back(TracedWarp {
-                    warp,
-                    hits: done.hits,
-                });
-            }
-        }
-        cycle.done = t.completed.pop_front();
-        for r in &out.requests {
-            match *r {
-                TreeletRequest::RayLoad { slot, ray, address } => self.requests.push_back(
-                    MemRequest::load(
-                        address,
-                        CHUNK_BYTES,
-                        AccessClass::RayRecord,
-                        RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
-                    )
-                    .bypassing_l1(),
-                ),
-                TreeletRequest::RayStore { address, .. } => self.requests.push_back(
-                    MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
-                        .bypassing_l1(),
-                ),
-                TreeletRequest::Rt(req) => self.push_request(&req),
-            }
-        }
-        Ok(cycle)
     }
 
     /// Offers the head of the memory access queue to the SM's L1 in phase `phase` of cycle
