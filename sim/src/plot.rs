@@ -1,6 +1,8 @@
 //! Charts as SVG and PNG with `plotters`: scatter plots of labelled points in series (color per
-//! series, marker shape per label), with linear or logarithmic axes. Text in the PNG needs a
-//! system font (fontconfig; Debian's `fonts-dejavu-core`); the SVG names the font family only.
+//! series, marker shape per label) with linear or logarithmic axes ([`Scatter`]), grouped or
+//! stacked bar charts over categories with reference lines such as a paper's published values
+//! ([`Bars`]), and line charts ([`Lines`]). Text in the PNG needs a system font (fontconfig;
+//! Debian's `fonts-dejavu-core`); the SVG names the font family only.
 
 use std::path::{Path, PathBuf};
 
@@ -194,8 +196,12 @@ fn draw<DB: DrawingBackend>(
     area.present().map_err(|e| e.to_string())
 }
 
-/// Writes `chart` as `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
-pub fn write_scatter(stem: &Path, chart: &Scatter) -> Result<(PathBuf, PathBuf), PlotError> {
+/// Draws with `draw_on` into `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
+fn write_both(
+    stem: &Path,
+    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<(), String>,
+    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, plotters::coord::Shift>) -> Result<(), String>,
+) -> Result<(PathBuf, PathBuf), PlotError> {
     let svg = stem.with_extension("svg");
     let png = stem.with_extension("png");
     let err = |path: &Path| {
@@ -204,13 +210,250 @@ pub fn write_scatter(stem: &Path, chart: &Scatter) -> Result<(PathBuf, PathBuf),
     };
     {
         let area = SVGBackend::new(&svg, (900, 600)).into_drawing_area();
-        draw(&area, chart).map_err(err(&svg))?;
+        draw_svg(&area).map_err(err(&svg))?;
     }
     {
         let area = BitMapBackend::new(&png, (900, 600)).into_drawing_area();
-        draw(&area, chart).map_err(err(&png))?;
+        draw_png(&area).map_err(err(&png))?;
     }
     Ok((svg, png))
+}
+
+/// Writes `chart` as `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
+pub fn write_scatter(stem: &Path, chart: &Scatter) -> Result<(PathBuf, PathBuf), PlotError> {
+    write_both(stem, |a| draw(a, chart), |a| draw(a, chart))
+}
+
+/// A value series of a bar chart: one value per category (`None`: no bar).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarSeries {
+    /// Legend name.
+    pub name: String,
+    /// Per category.
+    pub values: Vec<Option<f64>>,
+}
+
+/// A horizontal reference line (e.g. a paper's published value) across a bar chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reference {
+    /// Legend name.
+    pub name: String,
+    /// Its value.
+    pub value: f64,
+}
+
+/// A bar chart over categories: series side by side per category, or stacked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bars {
+    /// Title above the plot.
+    pub title: String,
+    /// y axis caption.
+    pub y_label: String,
+    /// Category names along x.
+    pub categories: Vec<String>,
+    /// The series.
+    pub series: Vec<BarSeries>,
+    /// Reference lines, dashed.
+    pub references: Vec<Reference>,
+    /// Stack the series instead of placing them side by side.
+    pub stacked: bool,
+}
+
+/// Draws `chart` on `area`.
+fn draw_bars<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Bars,
+) -> Result<(), String> {
+    area.fill(&WHITE).map_err(|e| e.to_string())?;
+    let n = chart.categories.len().max(1);
+    let top = if chart.stacked {
+        (0..n)
+            .map(|i| {
+                chart
+                    .series
+                    .iter()
+                    .filter_map(|s| s.values.get(i).copied().flatten())
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max)
+    } else {
+        chart
+            .series
+            .iter()
+            .flat_map(|s| s.values.iter().flatten().copied())
+            .fold(0.0, f64::max)
+    };
+    let top = chart
+        .references
+        .iter()
+        .map(|r| r.value)
+        .fold(top, f64::max)
+        .max(1e-9)
+        * 1.15;
+    let cats = chart.categories.clone();
+    let mut ctx = ChartBuilder::on(area)
+        .caption(&chart.title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..n as f64, 0f64..top)
+        .map_err(|e| e.to_string())?;
+    ctx.configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n)
+        .x_label_formatter(&|x: &f64| {
+            let i = (*x - 0.5).round();
+            if (x - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
+                cats.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        })
+        .y_desc(chart.y_label.as_str())
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let k = chart.series.len().max(1) as f64;
+    for (j, s) in chart.series.iter().enumerate() {
+        let color = COLORS[j % COLORS.len()];
+        let bars = s.values.iter().enumerate().filter_map(|(i, v)| {
+            let v = (*v)?;
+            let (x0, x1, y0) = if chart.stacked {
+                let below: f64 = chart.series[..j]
+                    .iter()
+                    .filter_map(|t| t.values.get(i).copied().flatten())
+                    .sum();
+                (i as f64 + 0.15, i as f64 + 0.85, below)
+            } else {
+                let w = 0.8 / k;
+                let x = i as f64 + 0.1 + w * j as f64;
+                (x, x + w * 0.92, 0.0)
+            };
+            Some(Rectangle::new([(x0, y0), (x1, y0 + v)], color.filled()))
+        });
+        ctx.draw_series(bars)
+            .map_err(|e| e.to_string())?
+            .label(s.name.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
+    }
+    for (j, r) in chart.references.iter().enumerate() {
+        let color = COLORS[(j + chart.series.len()) % COLORS.len()];
+        let dashes = (0..(4 * n)).map(|q| {
+            let x = q as f64 / 4.0;
+            PathElement::new(
+                vec![(x, r.value), (x + 0.15, r.value)],
+                color.stroke_width(2),
+            )
+        });
+        ctx.draw_series(dashes)
+            .map_err(|e| e.to_string())?
+            .label(r.name.as_str())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2))
+            });
+    }
+    ctx.configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    area.present().map_err(|e| e.to_string())
+}
+
+/// Writes the bar chart as `<stem>.svg` and `<stem>.png`; returns both paths.
+pub fn write_bars(stem: &Path, chart: &Bars) -> Result<(PathBuf, PathBuf), PlotError> {
+    write_both(stem, |a| draw_bars(a, chart), |a| draw_bars(a, chart))
+}
+
+/// A line of a line chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Line {
+    /// Legend name.
+    pub name: String,
+    /// Its points, by x.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A line chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lines {
+    /// Title above the plot.
+    pub title: String,
+    /// x axis caption.
+    pub x_label: String,
+    /// y axis caption.
+    pub y_label: String,
+    /// The lines.
+    pub lines: Vec<Line>,
+    /// Reference lines, dashed.
+    pub references: Vec<Reference>,
+}
+
+/// Draws `chart` on `area`.
+fn draw_lines<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Lines,
+) -> Result<(), String> {
+    area.fill(&WHITE).map_err(|e| e.to_string())?;
+    let points = || chart.lines.iter().flat_map(|l| l.points.iter());
+    let (x0, x1) = range(points().map(|p| p.0), false);
+    let (y0, y1) = range(
+        points()
+            .map(|p| p.1)
+            .chain(chart.references.iter().map(|r| r.value)),
+        false,
+    );
+    let mut ctx = ChartBuilder::on(area)
+        .caption(&chart.title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    ctx.configure_mesh()
+        .x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (j, l) in chart.lines.iter().enumerate() {
+        let color = COLORS[j % COLORS.len()];
+        ctx.draw_series(LineSeries::new(
+            l.points.iter().copied(),
+            color.stroke_width(2),
+        ))
+        .map_err(|e| e.to_string())?
+        .label(l.name.as_str())
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2)));
+    }
+    for (j, r) in chart.references.iter().enumerate() {
+        let color = COLORS[(j + chart.lines.len()) % COLORS.len()];
+        let step = (x1 - x0) / 60.0;
+        let dashes = (0..60).step_by(2).map(|q| {
+            let x = x0 + q as f64 * step;
+            PathElement::new(
+                vec![(x, r.value), (x + step, r.value)],
+                color.stroke_width(2),
+            )
+        });
+        ctx.draw_series(dashes)
+            .map_err(|e| e.to_string())?
+            .label(r.name.as_str())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2))
+            });
+    }
+    ctx.configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    area.present().map_err(|e| e.to_string())
+}
+
+/// Writes the line chart as `<stem>.svg` and `<stem>.png`; returns both paths.
+pub fn write_lines(stem: &Path, chart: &Lines) -> Result<(PathBuf, PathBuf), PlotError> {
+    write_both(stem, |a| draw_lines(a, chart), |a| draw_lines(a, chart))
 }
 
 #[cfg(test)]
@@ -258,6 +501,40 @@ mod tests {
         assert!(text.contains("<svg") && text.contains("run time against error"));
         let bytes = std::fs::read(&png).unwrap();
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        let bars = Bars {
+            title: "speedup".into(),
+            y_label: "x".into(),
+            categories: vec!["a".into(), "b".into()],
+            series: vec![
+                BarSeries {
+                    name: "vtq".into(),
+                    values: vec![Some(1.5), Some(2.0)],
+                },
+                BarSeries {
+                    name: "prefetch".into(),
+                    values: vec![Some(1.1), None],
+                },
+            ],
+            references: vec![Reference {
+                name: "paper".into(),
+                value: 1.95,
+            }],
+            stacked: false,
+        };
+        let (svg, _) = write_bars(&dir.join("bars"), &bars).unwrap();
+        assert!(std::fs::read_to_string(svg).unwrap().contains("paper"));
+        let lines = Lines {
+            title: "miss rate over time".into(),
+            x_label: "cycle".into(),
+            y_label: "rate".into(),
+            lines: vec![Line {
+                name: "baseline".into(),
+                points: vec![(0.0, 0.6), (1.0, 0.62)],
+            }],
+            references: vec![],
+        };
+        let (_, png) = write_lines(&dir.join("lines"), &lines).unwrap();
+        assert!(std::fs::metadata(png).unwrap().len() > 1000);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
