@@ -9,6 +9,8 @@
 //! statistics observers beside the blocks. It reads no register of any block: only the blocks'
 //! outputs and their register-only output functions.
 
+pub mod waveform;
+
 use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::mode::Mode;
@@ -17,6 +19,7 @@ use vtq_hdl::rt_unit::{
     RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs, TraversalOrder, WarpIssue,
     CHUNK_BYTES,
 };
+use vtq_hdl::trace::BlockCycle;
 use vtq_hdl::treelet_rt_unit::{
     RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
     TreeletRtUnitParams, TreeletRtUnitRegs,
@@ -162,7 +165,7 @@ pub struct QueueSetup {
 }
 
 /// The RT unit of one SM with its memory queues.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct RtPort<'a> {
     hw: Hardware<'a>,
     bvh: &'a HwBvh,
@@ -194,6 +197,8 @@ pub struct RtPort<'a> {
     pub rays_issued: u64,
     /// Rays completed.
     pub rays_completed: u64,
+    /// The waveform recorded over a window of cycles, if any (`vtq sim --vcd`).
+    waveform: Option<Box<waveform::Waveform>>,
 }
 
 impl<'a> RtPort<'a> {
@@ -266,6 +271,7 @@ impl<'a> RtPort<'a> {
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
+            waveform: None,
         })
     }
 
@@ -431,12 +437,25 @@ impl<'a> RtPort<'a> {
         }
     }
 
-    /// Catches the registers up to the start of cycle `now` over idle cycles.
+    /// Catches the registers up to the start of cycle `now` over idle cycles (recording those
+    /// in a waveform's window).
     pub fn catch_up(&mut self, now: u64) {
         if now <= self.at {
             return;
         }
+        if self.waveform.is_some() {
+            self.catch_up_recorded(now);
+        } else {
+            self.skip_to(now);
+        }
+    }
+
+    /// Skips the registers to the start of cycle `now` (`now >= at`) over idle cycles.
+    fn skip_to(&mut self, now: u64) {
         let n = now - self.at;
+        if n == 0 {
+            return;
+        }
         match &mut self.hw {
             Hardware::Plain(p) => {
                 let counts = p.unit.skip(&mut p.regs, &mut p.cache, n);
@@ -462,9 +481,9 @@ impl<'a> RtPort<'a> {
         self.catch_up(now);
         self.at = now + 1;
         let cycle = if matches!(self.hw, Hardware::Plain(_)) {
-            self.step_plain(sm, warp)?
+            self.step_plain(now, sm, warp)?
         } else {
-            self.step_treelet(sm, warp)?
+            self.step_treelet(now, sm, warp)?
         };
         self.wake = self.at.saturating_add(self.idle_cycles());
         self.max_queue = self.max_queue.max(self.requests.len() as u64);
@@ -488,13 +507,15 @@ impl<'a> RtPort<'a> {
         });
     }
 
-    /// A cycle of the baseline RT unit.
+    /// A cycle `now` of the baseline RT unit.
     fn step_plain(
         &mut self,
+        now: u64,
         sm: usize,
         warp: Option<(usize, &[Option<Ray>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
+        let record = self.recording(now);
         let Hardware::Plain(p) = &self.hw else {
             unreachable!("a plain port")
         };
@@ -526,6 +547,7 @@ impl<'a> RtPort<'a> {
             cycle.accepted = Some(idx);
         }
         let free = p.unit.resp_free(&p.regs);
+        let regs_before = record.then(|| waveform::rt_unit_regs(&p.unit, &p.regs));
         // The rays' next nodes change only when a response is delivered (the FIFO held one),
         // a request pops a stack, or a warp enters or completes.
         let delivers = free < p.unit.params().resp_fifo_depth || p.inputs.issue.is_some();
@@ -534,6 +556,9 @@ impl<'a> RtPort<'a> {
         p.inputs.responses.clear();
         p.inputs.responses.extend(self.responses.drain(..n));
         let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
+        if let (Some(regs), Some(w)) = (regs_before, self.waveform.as_mut()) {
+            w.record_rt_unit(BlockCycle::new(&p.inputs, &out, regs));
+        }
         self.stats.add(&out.counts);
         if let Some(pf) = self.prefetcher.as_mut() {
             let next = p.unit.next_addresses(&p.regs, &p.cache);
@@ -578,13 +603,17 @@ impl<'a> RtPort<'a> {
         Ok(cycle)
     }
 
-    /// A cycle of the treelet RT unit.
+    /// A cycle `now` of the treelet RT unit (out of line: the plain RT unit's step stays small
+    /// enough to inline into the node's visit).
+    #[inline(never)]
     fn step_treelet(
         &mut self,
+        now: u64,
         sm: usize,
         warp: Option<(usize, &[Option<Ray>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
+        let record = self.recording(now);
         let lanes = match (&self.hw, warp) {
             (Hardware::Treelet(t), Some((_, rays))) => {
                 let warp_size = t.unit.config().warp_size as usize;
@@ -608,7 +637,14 @@ impl<'a> RtPort<'a> {
             spill_head: t.spill_fifo.head(),
             ..t.unit.idle_inputs()
         };
+        if record {
+            t.cache.probe(true);
+        }
         let out = t.unit.step_cached(&mut t.regs, &mut t.cache, &inputs);
+        if let (true, Some(w)) = (record, self.waveform.as_mut()) {
+            w.record_treelet(&inputs, &out, t.cache.take_probe());
+            t.cache.probe(false);
+        }
         self.stats.add(&out.counts.rt);
         let obs = &mut t.observer;
         obs.counts.add(&out.counts);
