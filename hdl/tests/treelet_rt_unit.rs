@@ -13,10 +13,10 @@ use vtq_hdl::rt_unit::{
     MemResponse, NodeEntry, NodeKind, RayRecord, RequestKind, RtUnitParams, CHUNK_BYTES,
 };
 use vtq_hdl::treelet_rt_unit::{
-    RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
-    TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
+    ProbeCycle, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
+    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
 };
-use vtq_hdl::{Block, HwConfig};
+use vtq_hdl::{Block, HwConfig, Signal};
 
 mod common;
 use common::{node, words, ToyDatapath, Tree, ALL};
@@ -265,8 +265,10 @@ struct Outcome {
 
 /// Runs `rays` rays through a treelet RT unit of `cfg` with `features`: a reference copy steps
 /// with `eval` every cycle; the fast copy steps with `step_cached` and skips the cycles its
-/// `idle_cycles` allows when nothing arrives, and must match the reference throughout.
-fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64) -> Outcome {
+/// `idle_cycles` allows when nothing arrives, and must match the reference throughout. With
+/// `probe`, the fast copy is probed ([`TreeletRtUnitCache::probe`]) and every step's probe is
+/// checked against the reference ([`check_probe`]).
+fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe: bool) -> Outcome {
     let params = TreeletRtUnitParams {
         rt: RtUnitParams {
             hit_record_base: 0x8000,
@@ -280,6 +282,7 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64) -> Out
     let mut reference: TreeletRtUnitRegs = u.reset();
     let mut fast = reference.clone();
     let mut cache = TreeletRtUnitCache::of(&fast);
+    cache.probe(probe);
     let mut env = Env::new(rays, seed);
     let mut counts = TreeletCounts::default();
     let mut modes = vec![u.mode(&reference)];
@@ -312,6 +315,7 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64) -> Out
                 now += 1;
             }
             assert_eq!(got, want, "skip({n}) counts, up to cycle {now}");
+            assert_eq!(cache.take_probe(), None, "a skip leaves no probe");
             assert_eq!(fast, reference, "registers after skip({n}), cycle {now}");
             counts.add(&got);
             skipped += n;
@@ -324,6 +328,10 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64) -> Out
         let out = u.step_cached(&mut fast, &mut cache, &inputs);
         assert_eq!(out, want, "step_cached outputs, cycle {now}");
         assert_eq!(fast, next, "step_cached registers, cycle {now}");
+        match cache.take_probe() {
+            Some(p) => check_probe(&u, &reference, &inputs, &out, &p, now),
+            None => assert!(!probe, "no probe of cycle {now}"),
+        }
         reference = next;
         counts.add(&out.counts);
         env.absorb(now, &out, offered);
@@ -348,6 +356,72 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64) -> Out
     }
 }
 
+/// A probe's cycle against the definition: the children's registers and the wiring's, as the
+/// probe saw them at the start of the cycle, are the composed block's (`regs`, named `<child>_`
+/// and `glue_` by [`Block::reg_signals`]); the RT unit child received the block's responses and
+/// drove its request; the controller's inputs show whether the SM offered a warp, and its
+/// outputs the mode register.
+fn check_probe<D: vtq_hdl::rt_unit::NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+    inputs: &TreeletRtUnitInputs,
+    out: &TreeletRtUnitOutputs,
+    p: &ProbeCycle,
+    now: u64,
+) {
+    let names: Vec<&str> = p.children.iter().map(|c| c.0).collect();
+    assert_eq!(names, ["rt", "ctl", "ct", "qt"]);
+    let prefixed = |prefix: &str, sigs: &[Signal]| {
+        sigs.iter()
+            .map(|s| Signal::new(format!("{prefix}_{}", s.name), s.width, s.value))
+            .collect::<Vec<_>>()
+    };
+    let mut seen = Vec::new();
+    for (name, c) in &p.children {
+        seen.extend(prefixed(name, &c.regs));
+    }
+    seen.extend(prefixed("glue", &p.glue));
+    assert_eq!(seen, u.reg_signals(regs), "probed registers, cycle {now}");
+    let value = |group: &[Signal], name: &str| {
+        group
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap_or_else(|| panic!("no signal {name}"))
+            .value
+    };
+    let rt = &p.children[0].1;
+    assert_eq!(
+        value(&rt.inputs, "resp0_valid"),
+        u64::from(!inputs.responses.is_empty()),
+        "cycle {now}"
+    );
+    assert_eq!(
+        value(&rt.outputs, "req_valid"),
+        u64::from(out.rt_request().is_some()),
+        "cycle {now}"
+    );
+    if let Some(r) = out.rt_request() {
+        assert_eq!(value(&rt.outputs, "req_address"), r.address);
+    }
+    let ctl = &p.children[1].1;
+    assert_eq!(
+        value(&ctl.inputs, "restart"),
+        u64::from(inputs.sm_warp.is_some()),
+        "cycle {now}"
+    );
+    assert_eq!(
+        value(&ctl.regs, "mode"),
+        u.mode(regs).encoding(),
+        "cycle {now}"
+    );
+    for (name, c) in &p.children {
+        assert!(
+            !c.inputs.is_empty() && !c.outputs.is_empty(),
+            "{name} has ports"
+        );
+    }
+}
+
 #[test]
 fn every_ray_is_traced_exactly_once_in_every_variant_and_the_fast_path_is_the_definition() {
     let wide = HwConfig {
@@ -363,16 +437,18 @@ fn every_ray_is_traced_exactly_once_in_every_variant_and_the_fast_path_is_the_de
         preload: false,
         ..ControllerFeatures::FULL
     };
+    // Some variants run probed: the probe changes nothing (the fast path still is the
+    // definition) and sees what the children saw.
     let variants = [
-        ("full", small(), ControllerFeatures::FULL),
-        ("naive", small(), ControllerFeatures::NAIVE),
-        ("no preload", small(), no_preload),
-        ("no repack", no_repack, ControllerFeatures::FULL),
-        ("4 warps", wide, ControllerFeatures::FULL),
+        ("full", small(), ControllerFeatures::FULL, true),
+        ("naive", small(), ControllerFeatures::NAIVE, true),
+        ("no preload", small(), no_preload, false),
+        ("no repack", no_repack, ControllerFeatures::FULL, false),
+        ("4 warps", wide, ControllerFeatures::FULL, true),
     ];
     let mut spilled = false;
-    for (name, cfg, features) in variants {
-        let o = run(cfg.clone(), features, 96, 7);
+    for (name, cfg, features, probe) in variants {
+        let o = run(cfg.clone(), features, 96, 7, probe);
         let c = &o.counts;
         println!(
             "{name}: {} cycles ({} skipped), modes {:?}, {:?}",

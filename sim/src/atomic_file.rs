@@ -1,6 +1,6 @@
 //! Writing a file atomically: the bytes go to a unique temporary file beside the target, which
 //! is then renamed over it, so a reader (or a run killed mid-write) never sees a partial file.
-//! Used by the BVH cache and the sweep result store.
+//! Used by the BVH cache, the sweep result store and waveforms (`vtq sim --vcd`).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -8,8 +8,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// The marker in temporary file names: `<target file name>.tmp.<pid>.<counter>`.
 pub const TEMP_MARKER: &str = ".tmp.";
 
-/// A temporary path beside `path`, unique to this process and call.
-fn temp_path(path: &Path) -> PathBuf {
+/// A temporary path beside `path`, unique to this process and call (for a file written in a
+/// stream and renamed to `path` when complete).
+pub fn temp_path(path: &Path) -> PathBuf {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(format!(

@@ -50,12 +50,14 @@
 //! ([`TreeletCounts`]), and [`TreeletRtUnit::skip`] returns those of skipped cycles.
 
 mod ports;
+mod probe;
 mod wiring;
 
 pub use ports::{
     FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnitInputs, TreeletRtUnitOutputs,
     TreeletRtUnitWidths,
 };
+pub use probe::ProbeCycle;
 pub use wiring::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 
 use crate::block::{Block, Signal};
@@ -109,7 +111,8 @@ pub struct TreeletRtUnitRegs {
 /// registers by whoever steps the block with [`TreeletRtUnit::step_cached`]: the RT unit's lane
 /// cache, and the controller's inputs and idleness found by a dry run at the end of the last
 /// step (valid for the next step if no cycle is skipped in between). It can also keep a probe
-/// of the tables' input ports ([`TreeletRtUnitCache::record_tables`]).
+/// of the tables' input ports ([`TreeletRtUnitCache::record_tables`]) and a probe of the
+/// children's ports and registers ([`TreeletRtUnitCache::probe`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TreeletRtUnitCache {
     rt: RtCache,
@@ -124,6 +127,10 @@ pub struct TreeletRtUnitCache {
     /// Storage the controller's next registers are computed into (its contents mean nothing
     /// between steps), so a step allocates nothing.
     scratch: Option<Box<ControllerRegs>>,
+    /// Each step keeps its cycle's [`ProbeCycle`] in `probed`.
+    probe: bool,
+    /// The last step's cycle, while probing.
+    probed: Option<ProbeCycle>,
 }
 
 /// The treelet count table's and queue table's input ports, cycle by cycle (a `Nop` in every
@@ -155,7 +162,22 @@ impl TreeletRtUnitCache {
             awake: true,
             tables: None,
             scratch: None,
+            probe: false,
+            probed: None,
         }
+    }
+
+    /// Starts (`on`) or stops probing: while on, each [`TreeletRtUnit::step_cached`] keeps its
+    /// cycle's children's ports and registers for [`TreeletRtUnitCache::take_probe`]. It changes
+    /// no result; off (the default), it costs nothing.
+    pub fn probe(&mut self, on: bool) {
+        self.probe = on;
+        self.probed = None;
+    }
+
+    /// The last step's [`ProbeCycle`], while probing (`None` after a [`TreeletRtUnit::skip`]).
+    pub fn take_probe(&mut self) -> Option<ProbeCycle> {
+        self.probed.take()
     }
 
     /// Starts recording the tables' inputs of the next `cycles` cycles (from reset: start
@@ -289,6 +311,7 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             "skip beyond the idle cycles"
         );
         cache.dry = None;
+        cache.probed = None;
         if cache.tables.is_some() {
             let (ct, qt) = (
                 self.ct.input(crate::count_table::CountOp::Nop),

@@ -8,7 +8,7 @@
 use std::fmt;
 
 use super::{
-    FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
+    probe, FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs, TreeletRtUnitWidths,
 };
 use crate::bits::bits_for;
@@ -896,6 +896,10 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         qt,
         glue: g,
     } = regs;
+    // The probe's registers, as they are at the start of the cycle.
+    let probe_regs = cache
+        .probe
+        .then(|| probe::start_regs(u, (rt, ctl, ct, qt), g));
     place_records(g, &inputs.ray_records);
     let offering = inputs.sm_warp.is_some();
     let peeks = Peeks::new(u, (rt, &cache.rt), ctl, ct, qt);
@@ -955,6 +959,11 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         (qt_in.op != QueueOp::Nop || qt_in.refill_valid || qt_busy).then(|| u.qt.step(qt, &qt_in));
     let rt_out = u.rt.step_cached(rt, &mut cache.rt, &rt_in);
     after_children(g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, &mut out);
+    if let Some(start) = probe_regs {
+        let ins = (&ctl_in, &ct_in, &qt_in, &rt_in);
+        let outs = (ctl_out.as_ref(), ct_out.as_ref(), qt_out.as_ref(), &rt_out);
+        cache.probed = Some(probe::cycle(u, (ctl, ct, qt), start, ins, outs));
+    }
     dry_run(u, regs, cache);
     out
 }

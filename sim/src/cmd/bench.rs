@@ -348,7 +348,11 @@ fn run_sim(args: &BenchArgs) -> anyhow::Result<()> {
     );
     let mut runs = Vec::new();
     for &threads in &args.threads {
-        let out = simulate_with_progress(&scene, &bvh, &cfg, threads)?;
+        let options = crate::gpu::SimOptions {
+            threads,
+            ..crate::gpu::SimOptions::default()
+        };
+        let out = simulate_with_progress(&scene, &bvh, &cfg, options)?;
         let s = &out.stats;
         if s.rays != functional.stats.rays_traced {
             anyhow::bail!(

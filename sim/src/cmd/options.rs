@@ -188,13 +188,13 @@ impl ConfigArgs {
     }
 }
 
-/// Simulates `cfg`'s workload on `scene` (cycle-exact) on `threads` threads, with a progress
-/// bar of finished pixels while stderr is a terminal.
+/// Simulates `cfg`'s workload on `scene` (cycle-exact) with `options` (threads, a waveform),
+/// with a progress bar of finished pixels while stderr is a terminal.
 pub fn simulate_with_progress(
     scene: &Scene,
     bvh: &HwBvh,
     cfg: &crate::config::SimConfig,
-    threads: usize,
+    options: crate::gpu::SimOptions,
 ) -> anyhow::Result<crate::gpu::SimOutput> {
     use std::io::IsTerminal;
     let pixels = cfg.render_settings().pixels() as u64;
@@ -208,17 +208,8 @@ pub fn simulate_with_progress(
         );
         bar
     });
-    let out = crate::gpu::simulate(
-        scene,
-        bvh,
-        cfg,
-        crate::gpu::SimOptions {
-            threads,
-            ..crate::gpu::SimOptions::default()
-        },
-        progress.as_ref(),
-    )
-    .with_context(|| format!("simulating scene '{}'", scene.name))?;
+    let out = crate::gpu::simulate(scene, bvh, cfg, options, progress.as_ref())
+        .with_context(|| format!("simulating scene '{}'", scene.name))?;
     if let Some(bar) = &progress {
         bar.finish_and_clear();
     }

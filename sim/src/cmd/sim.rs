@@ -1,6 +1,7 @@
 //! `vtq sim`: simulate the path-traced workload on the cycle-exact GPU model and write its
 //! statistics (JSON), time series (CSV beside the JSON) and, if asked, the image.
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -10,7 +11,9 @@ use crate::cmd::options::{
     build_bvh, load_scene, parse_threads, simulate_with_progress, CacheArgs,
 };
 use crate::config::SimConfig;
+use crate::gpu::rt::waveform::parse_cycles;
 use crate::gpu::stats::write_time_series;
+use crate::gpu::{SimOptions, VcdWindow};
 use crate::sample::{simulate_sampled, Profile};
 use crate::workload::image::write_png;
 
@@ -49,6 +52,17 @@ pub struct SimArgs {
     /// with a timing model and a functional cache model (docs/accuracy.md; no interval).
     #[arg(long, conflicts_with = "sample")]
     pub analytic: bool,
+    /// Also write a waveform (VCD, for GTKWave) of the RT unit hardware of SM --vcd-sm over
+    /// the cycles --vcd-cycles: each block's ports and registers, every cycle (docs/hardware.md).
+    /// The statistics do not change.
+    #[arg(long, value_name = "FILE", requires = "vcd_cycles")]
+    pub vcd: Option<PathBuf>,
+    /// The SM whose RT unit --vcd records [default: 0].
+    #[arg(long, value_name = "K", requires = "vcd")]
+    pub vcd_sm: Option<usize>,
+    /// The cycles --vcd records: `A..B`, B exclusive (at most 1,000,000 cycles), inside the run.
+    #[arg(long, value_name = "A..B", requires = "vcd", value_parser = parse_cycles)]
+    pub vcd_cycles: Option<Range<u64>>,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -65,6 +79,17 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     if args.lockstep {
         cfg.sim.lockstep = true;
     }
+    let vcd = match (&args.vcd, &args.vcd_cycles) {
+        (Some(path), Some(cycles)) => Some(VcdWindow {
+            path: path.clone(),
+            sm: args.vcd_sm.unwrap_or(0),
+            cycles: cycles.clone(),
+        }),
+        _ => None,
+    };
+    if vcd.is_some() && args.sample.is_some() {
+        anyhow::bail!("--vcd records a full-detail run: it cannot be combined with --sample");
+    }
     let scene = load_scene(&args.scene)?;
     if let Some(spec) = &args.sample {
         cfg.sample.apply_spec(spec).map_err(anyhow::Error::msg)?;
@@ -76,7 +101,12 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     if args.analytic {
         return run_analytic(args, &scene, &bvh, &cfg);
     }
-    let out = simulate_with_progress(&scene, &bvh, &cfg, args.threads)?;
+    let options = SimOptions {
+        threads: args.threads,
+        vcd,
+        ..SimOptions::default()
+    };
+    let out = simulate_with_progress(&scene, &bvh, &cfg, options)?;
     let s = &out.stats;
     let json = serde_json::to_string_pretty(s).context("serializing the statistics")?;
     std::fs::write(&args.out, json + "\n")
@@ -95,6 +125,17 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.simulated_rays_per_second
     );
     println!("wrote {} and {}", args.out.display(), csv.display());
+    if let Some(w) = &out.waveform {
+        println!(
+            "wrote {} (the RT unit of SM {} over cycles {}..{}; {} of them idle, stepped only \
+             for the waveform)",
+            w.path.display(),
+            w.sm,
+            w.cycles.start,
+            w.cycles.end,
+            w.idle_steps
+        );
+    }
     if let Some(path) = &args.image {
         write_png(path, cfg.workload.width, cfg.workload.height, &out.image)
             .context("writing the image")?;

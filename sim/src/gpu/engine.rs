@@ -26,7 +26,9 @@
 //! nothing to do is not stepped; it catches up its warp-cycle statistics and delay counters with
 //! `skip` when next stepped (and at the end). With `sim.lockstep` every node visits every cycle
 //! and steps its RT unit every cycle; results are identical (tested), as they are for every
-//! number of threads (tested).
+//! number of threads (tested). A waveform ([`SimOptions::vcd`]) changes none of this: inside its
+//! window the recorded RT unit steps the cycles it would have skipped one by one
+//! ([`crate::gpu::rt::waveform`]).
 
 use std::time::Instant;
 
@@ -41,6 +43,7 @@ use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
 use crate::gpu::node::{Ctx, HaltKind, SmNode};
 use crate::gpu::prefetch::Prefetcher;
+use crate::gpu::rt::waveform::{VcdWindow, Waveform, WaveformSummary, MAX_WINDOW_CYCLES};
 use crate::gpu::rt::{QueueSetup, RtPort};
 use crate::gpu::shader::{PathThread, ShaderTiming};
 use crate::gpu::sm::Sm;
@@ -72,6 +75,9 @@ pub struct SimOptions {
     /// Dispatch only these CTAs (sorted, distinct; `None`: the whole image). The pixels of the
     /// other CTAs stay black and trace nothing (the sampled tier's scale models).
     pub ctas: Option<Vec<u32>>,
+    /// Write the waveform of one SM's RT unit over a window of cycles as VCD
+    /// ([`crate::gpu::rt::waveform`]); the results do not change.
+    pub vcd: Option<VcdWindow>,
 }
 
 /// One traced ray and the closest hit the RT unit found.
@@ -100,6 +106,8 @@ pub struct SimOutput {
     pub ray_log: Vec<TracedRay>,
     /// The recorded table inputs (only with [`SimOptions::record_tables`] in queues mode).
     pub table_log: Option<vtq_hdl::treelet_rt_unit::TableLog>,
+    /// The waveform written (only with [`SimOptions::vcd`]).
+    pub waveform: Option<WaveformSummary>,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
@@ -219,6 +227,35 @@ pub fn simulate(
             )));
         }
     }
+    if let Some(w) = &options.vcd {
+        let (a, b) = (w.cycles.start, w.cycles.end);
+        if w.sm >= nsms {
+            return Err(SimError::Waveform(format!(
+                "SM {} does not exist: the GPU has gpu.sms = {nsms} (SMs 0..{})",
+                w.sm,
+                nsms - 1
+            )));
+        }
+        if a >= b || b - a > MAX_WINDOW_CYCLES {
+            return Err(SimError::Waveform(format!(
+                "the window {a}..{b} must hold 1 to {MAX_WINDOW_CYCLES} cycles (end exclusive)"
+            )));
+        }
+        let comment = format!(
+            "vtq {}: the RT unit of SM {} (of {nsms}), scene {}, mode {}, cycles {a}..{b} (end \
+             exclusive). Cycle c starts at time {} c ns (clk high in its first half); each \
+             block's scope holds its inputs and outputs of the cycle and its registers at the \
+             start of the cycle.",
+            env!("CARGO_PKG_VERSION"),
+            w.sm,
+            scene.name,
+            cfg.mode.kind.name(),
+            vtq_hdl::trace::CYCLE_NS
+        );
+        nodes[w.sm]
+            .rt
+            .attach_waveform(Waveform::create(w, &comment)?);
+    }
     let ctx = Ctx {
         scene,
         cfg,
@@ -237,11 +274,24 @@ pub fn simulate(
     };
     let step = |node: &mut SmNode, round: &Round| step_node(&ctx, node, round);
     let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));
-    let cycles = cycles?;
+    let waveform_sm = options.vcd.as_ref().map(|w| w.sm);
+    let cycles = match cycles {
+        Ok(c) => c,
+        Err(e) => {
+            if let Some(w) = waveform_sm.and_then(|sm| nodes[sm].rt.take_waveform()) {
+                w.abandon();
+            }
+            return Err(e);
+        }
+    };
     for node in &mut nodes {
         node.rt.catch_up(cycles);
         node.finish_samples(cfg, cycles - 1);
     }
+    let waveform = match waveform_sm.and_then(|sm| nodes[sm].rt.take_waveform()) {
+        Some(w) => Some(w.finish(cycles)?),
+        None => None,
+    };
     let wall = start.elapsed().as_secs_f64();
     let table_log = options
         .record_tables
@@ -257,6 +307,7 @@ pub fn simulate(
         stack_spill_chunks: spill.chunks,
     });
     out.table_log = table_log;
+    out.waveform = waveform;
     Ok(out)
 }
 

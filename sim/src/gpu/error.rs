@@ -44,6 +44,9 @@ pub enum SimError {
     /// The memory system rejected its configuration.
     #[error("memory: {0}")]
     MemoryConfig(#[from] crate::memory::MemConfigError),
+    /// A waveform (`vtq sim --vcd`) could not be written as asked.
+    #[error("waveform (--vcd): {0}")]
+    Waveform(String),
     /// Nothing progressed for `sim.watchdog_cycles` cycles.
     #[error("watchdog: no ray completed and no request issued from cycle {last_progress} to cycle {cycle}; state:\n{dump}")]
     Watchdog {

@@ -184,6 +184,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         time_series,
         ray_log,
         table_log: None,
+        waveform: None,
     }
 }
 

@@ -4,7 +4,8 @@
 //!
 //! One file per concept: [`datapath`] (the RT unit's intersection tests over the BVH image),
 //! [`rt`] (an SM's RT unit — the plain one, or the `queues` mode's treelet RT unit of `vtq-hdl`
-//! — stepped through its ports, with its memory queues), [`ray_memory`] (the memory contents
+//! — stepped through its ports, with its memory queues, and [`rt::waveform`], the VCD of its
+//! blocks over a window of cycles), [`ray_memory`] (the memory contents
 //! the treelet hardware reads and writes), [`rt_fault`] (RT-unit errors in words), [`sm`] (CTA
 //! and warp slots), [`shader`] (raygen threads and shader timing), [`cta_scheduler`],
 //! [`engine`] (the cycle loop), [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of
@@ -31,6 +32,7 @@ pub mod watchdog;
 pub mod workers;
 
 pub use engine::{simulate, SimOptions, SimOutput, TracedRay};
+pub use rt::waveform::VcdWindow;
 pub use stats::{SimStats, HOST_DEPENDENT_KEYS};
 
 pub use error::SimError;

@@ -10,6 +10,8 @@
 //! outputs and their register-only output functions. The cycle of each kind of hardware is in
 //! its own file: [`plain`] (baseline and prefetch) and [`treelet`] (queues).
 
+pub mod waveform;
+
 use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::rt_unit::{
@@ -94,7 +96,7 @@ enum Hardware<'a> {
 }
 
 /// The RT unit of one SM with its memory queues.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct RtPort<'a> {
     hw: Hardware<'a>,
     bvh: &'a HwBvh,
@@ -126,6 +128,8 @@ pub struct RtPort<'a> {
     pub rays_issued: u64,
     /// Rays completed.
     pub rays_completed: u64,
+    /// The waveform recorded over a window of cycles, if any (`vtq sim --vcd`).
+    waveform: Option<Box<waveform::Waveform>>,
 }
 
 impl<'a> RtPort<'a> {
@@ -200,6 +204,7 @@ impl<'a> RtPort<'a> {
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
+            waveform: None,
         })
     }
 
@@ -365,12 +370,25 @@ impl<'a> RtPort<'a> {
         }
     }
 
-    /// Catches the registers up to the start of cycle `now` over idle cycles.
+    /// Catches the registers up to the start of cycle `now` over idle cycles (recording those
+    /// in a waveform's window).
     pub fn catch_up(&mut self, now: u64) {
         if now <= self.at {
             return;
         }
+        if self.waveform.is_some() {
+            self.catch_up_recorded(now);
+        } else {
+            self.skip_to(now);
+        }
+    }
+
+    /// Skips the registers to the start of cycle `now` (`now >= at`) over idle cycles.
+    fn skip_to(&mut self, now: u64) {
         let n = now - self.at;
+        if n == 0 {
+            return;
+        }
         match &mut self.hw {
             Hardware::Plain(p) => {
                 let counts = p.unit.skip(&mut p.regs, &mut p.cache, n);
@@ -396,9 +414,9 @@ impl<'a> RtPort<'a> {
         self.catch_up(now);
         self.at = now + 1;
         let cycle = if matches!(self.hw, Hardware::Plain(_)) {
-            self.step_plain(sm, warp)?
+            self.step_plain(now, sm, warp)?
         } else {
-            self.step_treelet(sm, warp)?
+            self.step_treelet(now, sm, warp)?
         };
         self.wake = self.at.saturating_add(self.idle_cycles());
         self.max_queue = self.max_queue.max(self.requests.len() as u64);

@@ -3,8 +3,9 @@
 //! treelet prefetcher (prefetch mode) observes it.
 
 use vtq_hdl::rt_unit::{RtCache, RtUnit, RtUnitInputs, RtUnitRegs, WarpIssue};
+use vtq_hdl::trace::BlockCycle;
 
-use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp};
+use super::{rt_error, waveform, Hardware, RtCycle, RtPort, TracedWarp};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::gpu::error::SimError;
@@ -22,13 +23,15 @@ pub(super) struct Plain<'a> {
 }
 
 impl<'a> RtPort<'a> {
-    /// A cycle of the baseline RT unit.
+    /// A cycle `now` of the baseline RT unit.
     pub(super) fn step_plain(
         &mut self,
+        now: u64,
         sm: usize,
         warp: Option<(usize, &[Option<Ray>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
+        let record = self.recording(now);
         let Hardware::Plain(p) = &self.hw else {
             unreachable!("a plain port")
         };
@@ -60,6 +63,7 @@ impl<'a> RtPort<'a> {
             cycle.accepted = Some(idx);
         }
         let free = p.unit.resp_free(&p.regs);
+        let regs_before = record.then(|| waveform::rt_unit_regs(&p.unit, &p.regs));
         // The rays' next nodes change only when a response is delivered (the FIFO held one),
         // a request pops a stack, or a warp enters or completes.
         let delivers = free < p.unit.params().resp_fifo_depth || p.inputs.issue.is_some();
@@ -68,6 +72,9 @@ impl<'a> RtPort<'a> {
         p.inputs.responses.clear();
         p.inputs.responses.extend(self.responses.drain(..n));
         let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
+        if let (Some(regs), Some(w)) = (regs_before, self.waveform.as_mut()) {
+            w.record_rt_unit(BlockCycle::new(&p.inputs, &out, regs));
+        }
         self.stats.add(&out.counts);
         if let Some(pf) = self.prefetcher.as_mut() {
             let next = p.unit.next_addresses(&p.regs, &p.cache);

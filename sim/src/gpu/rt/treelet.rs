@@ -80,13 +80,17 @@ pub(super) struct Treelet<'a> {
 }
 
 impl<'a> RtPort<'a> {
-    /// A cycle of the treelet RT unit.
+    /// A cycle `now` of the treelet RT unit (out of line: the plain RT unit's step stays small
+    /// enough to inline into the node's visit).
+    #[inline(never)]
     pub(super) fn step_treelet(
         &mut self,
+        now: u64,
         sm: usize,
         warp: Option<(usize, &[Option<Ray>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
+        let record = self.recording(now);
         let lanes = match (&self.hw, warp) {
             (Hardware::Treelet(t), Some((_, rays))) => {
                 let warp_size = t.unit.config().warp_size as usize;
@@ -111,7 +115,14 @@ impl<'a> RtPort<'a> {
         inputs.ray_records.clear();
         std::mem::swap(&mut inputs.ray_records, &mut t.arrived);
         inputs.spill_head = t.spill_fifo.head();
+        if record {
+            t.cache.probe(true);
+        }
         let out = t.unit.step_cached(&mut t.regs, &mut t.cache, inputs);
+        if let (true, Some(w)) = (record, self.waveform.as_mut()) {
+            w.record_treelet(inputs, &out, t.cache.take_probe());
+            t.cache.probe(false);
+        }
         self.stats.add(&out.counts.rt);
         let obs = &mut t.observer;
         obs.counts.add(&out.counts);
