@@ -127,6 +127,9 @@ pub struct TreeletRtUnitCache {
     /// Storage the controller's next registers are computed into (its contents mean nothing
     /// between steps), so a step allocates nothing.
     scratch: Option<Box<ControllerRegs>>,
+    /// The RT unit's input bundle of the last step, kept for its storage (its contents mean
+    /// nothing between steps).
+    rt_inputs: Option<crate::rt_unit::RtUnitInputs>,
     /// Each step keeps its cycle's [`ProbeCycle`] in `probed`.
     probe: bool,
     /// The last step's cycle, while probing.
@@ -162,6 +165,7 @@ impl TreeletRtUnitCache {
             awake: true,
             tables: None,
             scratch: None,
+            rt_inputs: None,
             probe: false,
             probed: None,
         }

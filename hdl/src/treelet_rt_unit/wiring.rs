@@ -440,7 +440,8 @@ pub(super) fn kernel<D: NodeDatapath>(
     let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
     out.counts.restarts += u64::from(restart);
     out.counts.ctl.observe(&ctl_in, &q.0);
-    let (ct_in, qt_in, rt_in) = children_inputs(
+    let mut rt_in = u.rt.idle_inputs();
+    let (ct_in, qt_in) = children_inputs(
         u,
         &mut g,
         peeks,
@@ -449,6 +450,7 @@ pub(super) fn kernel<D: NodeDatapath>(
         &ctl_in,
         Some(&q.0),
         &mut out,
+        &mut rt_in,
     );
     after_children(&mut g, Some(&q.1), Some(&q.2), &q.3, &mut out);
     let d = ChildInputs {
@@ -611,7 +613,8 @@ fn controller_inputs<D: NodeDatapath>(
 }
 
 /// Stage 2: from the controller's outputs (`None`: it did nothing but wait this cycle), the
-/// tables' and the RT unit's inputs; fills start loading their records, a complete fill is
+/// tables' inputs (returned) and the RT unit's (written into `rt_in`, whatever it held, so a
+/// caller may reuse its storage); fills start loading their records, a complete fill is
 /// issued, or else an offered SM warp may enter.
 #[allow(clippy::too_many_arguments)]
 fn children_inputs<D: NodeDatapath>(
@@ -623,7 +626,8 @@ fn children_inputs<D: NodeDatapath>(
     ctl_in: &ControllerInputs,
     ctl_out: Option<&ControllerOutputs>,
     out: &mut TreeletRtUnitOutputs,
-) -> (CountTableIn, QueueTableIn, RtUnitInputs) {
+    rt_in: &mut RtUnitInputs,
+) -> (CountTableIn, QueueTableIn) {
     let mode = if restart { Mode::Initial } else { p.mode };
     if ctl_in.warp_done.is_some() || ctl_out.is_some_and(|o| o.enq_ready) {
         if let Some(Event::WarpDone(s)) = g.events.pop_front() {
@@ -644,8 +648,8 @@ fn children_inputs<D: NodeDatapath>(
     if let Some(fill) = ctl_out.and_then(|o| o.fill.as_ref()) {
         start_fill(u, g, fill, out);
     }
-    let mut rt_in = u.rt.idle_inputs();
-    rt_in.responses = inputs.responses.clone();
+    rt_in.responses.clear();
+    rt_in.responses.extend_from_slice(&inputs.responses);
     rt_in.stop = ctl_out.and_then(|o| o.terminate);
     rt_in.repack = ctl_out.and_then(|o| o.repack);
     rt_in.issue = finished_build(u, g, p);
@@ -658,7 +662,7 @@ fn children_inputs<D: NodeDatapath>(
             rt_in.issue = admit(u, g, slot, lanes, out);
         }
     }
-    (ct_in, qt_in, rt_in)
+    (ct_in, qt_in)
 }
 
 /// Starts loading the records of a fill's rays.
@@ -940,7 +944,9 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         Some(o)
     };
     out.counts.restarts += u64::from(restart);
-    let (ct_in, qt_in, rt_in) = children_inputs(
+    // The RT unit's input bundle lives in the cache so its storage is reused every cycle.
+    let mut rt_in = cache.rt_inputs.take().unwrap_or_else(|| u.rt.idle_inputs());
+    let (ct_in, qt_in) = children_inputs(
         u,
         g,
         &peeks,
@@ -949,6 +955,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         &ctl_in,
         ctl_out.as_ref(),
         &mut out,
+        &mut rt_in,
     );
     let qt_busy = !peeks.qt.ready;
     cache.log_tables(&ct_in, &qt_in);
@@ -964,6 +971,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         let outs = (ctl_out.as_ref(), ct_out.as_ref(), qt_out.as_ref(), &rt_out);
         cache.probed = Some(probe::cycle(u, (ctl, ct, qt), start, ins, outs));
     }
+    cache.rt_inputs = Some(rt_in);
     dry_run(u, regs, cache);
     out
 }
