@@ -335,12 +335,36 @@ fn draw_bars<DB: DrawingBackend>(
             .label(s.name.as_str())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
     }
-    for (j, r) in chart.references.iter().enumerate() {
-        let color = COLORS[(j + chart.series.len()) % COLORS.len()];
-        let dashes = (0..(4 * n)).map(|q| {
-            let x = q as f64 / 4.0;
+    references(
+        &mut ctx,
+        &chart.references,
+        chart.series.len(),
+        (0.0, n as f64),
+    )?;
+    finish_legend(&mut ctx)?;
+    area.present().map_err(|e| e.to_string())
+}
+
+/// Writes the bar chart as `<stem>.svg` and `<stem>.png`; returns both paths.
+pub fn write_bars(stem: &Path, chart: &Bars) -> Result<(PathBuf, PathBuf), PlotError> {
+    write_both(stem, |a| draw_bars(a, chart), |a| draw_bars(a, chart))
+}
+
+/// Draws `refs` as dashed horizontal lines across `x` (colors after the `series` series'),
+/// each with its legend entry.
+fn references<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
+    ctx: &mut ChartContext<'_, DB, CT>,
+    refs: &[Reference],
+    series: usize,
+    (x0, x1): (f64, f64),
+) -> Result<(), String> {
+    for (j, r) in refs.iter().enumerate() {
+        let color = COLORS[(j + series) % COLORS.len()];
+        let step = (x1 - x0) / 60.0;
+        let dashes = (0..60).step_by(2).map(|q| {
+            let x = x0 + q as f64 * step;
             PathElement::new(
-                vec![(x, r.value), (x + 0.15, r.value)],
+                vec![(x, r.value), (x + step, r.value)],
                 color.stroke_width(2),
             )
         });
@@ -351,18 +375,19 @@ fn draw_bars<DB: DrawingBackend>(
                 PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2))
             });
     }
+    Ok(())
+}
+
+/// Draws the legend of the series labelled so far, in the upper right corner.
+fn finish_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate<From = (f64, f64)>>(
+    ctx: &mut ChartContext<'a, DB, CT>,
+) -> Result<(), String> {
     ctx.configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .position(SeriesLabelPosition::UpperRight)
         .draw()
-        .map_err(|e| e.to_string())?;
-    area.present().map_err(|e| e.to_string())
-}
-
-/// Writes the bar chart as `<stem>.svg` and `<stem>.png`; returns both paths.
-pub fn write_bars(stem: &Path, chart: &Bars) -> Result<(PathBuf, PathBuf), PlotError> {
-    write_both(stem, |a| draw_bars(a, chart), |a| draw_bars(a, chart))
+        .map_err(|e| e.to_string())
 }
 
 /// A line of a line chart.
@@ -425,29 +450,8 @@ fn draw_lines<DB: DrawingBackend>(
         .label(l.name.as_str())
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2)));
     }
-    for (j, r) in chart.references.iter().enumerate() {
-        let color = COLORS[(j + chart.lines.len()) % COLORS.len()];
-        let step = (x1 - x0) / 60.0;
-        let dashes = (0..60).step_by(2).map(|q| {
-            let x = x0 + q as f64 * step;
-            PathElement::new(
-                vec![(x, r.value), (x + step, r.value)],
-                color.stroke_width(2),
-            )
-        });
-        ctx.draw_series(dashes)
-            .map_err(|e| e.to_string())?
-            .label(r.name.as_str())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2))
-            });
-    }
-    ctx.configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| e.to_string())?;
+    references(&mut ctx, &chart.references, chart.lines.len(), (x0, x1))?;
+    finish_legend(&mut ctx)?;
     area.present().map_err(|e| e.to_string())
 }
 
