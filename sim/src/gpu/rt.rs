@@ -29,6 +29,7 @@ use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, node_entry, ray_words, BvhDatapath};
 use crate::gpu::error::SimError;
 use crate::gpu::prefetch::Prefetcher;
+use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::gpu::rt_fault::RtFault;
 use crate::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
@@ -140,6 +141,8 @@ struct Treelet<'a> {
     completed: VecDeque<TracedWarp>,
     /// A ray-record response the store could not answer (reported at the next step).
     fault: Option<String>,
+    /// The traffic of queued rays' stacks (`rt.queued_stack_traffic`; `None`: free).
+    stacks: Option<QueuedStacks>,
     /// The statistics observer.
     observer: QueueObserver,
 }
@@ -159,6 +162,9 @@ pub struct QueueSetup {
     pub features: vtq_hdl::controller::ControllerFeatures,
     /// Byte address of this SM's ray id 0's 32 B ray record.
     pub ray_base: u64,
+    /// Where queued rays' stacks go, when they move through memory
+    /// (`rt.queued_stack_traffic`): the address of this SM's area ([`QueuedStacks`]).
+    pub stack_base: Option<u64>,
 }
 
 /// The RT unit of one SM with its memory queues.
@@ -245,6 +251,9 @@ impl<'a> RtPort<'a> {
                     pending: BTreeMap::new(),
                     completed: VecDeque::new(),
                     fault: None,
+                    stacks: setup
+                        .stack_base
+                        .map(|base| QueuedStacks::new(base, hw.max_rays, hw.stack_depth)),
                     observer: QueueObserver::default(),
                 };
                 (Hardware::Treelet(Box::new(treelet)), wake)
@@ -283,6 +292,15 @@ impl<'a> RtPort<'a> {
         match &self.hw {
             Hardware::Treelet(t) => Some(&t.observer),
             Hardware::Plain(_) => None,
+        }
+    }
+
+    /// Queues mode with `rt.queued_stack_traffic`: the queued-stack chunk stores and loads
+    /// issued, (0, 0) otherwise.
+    pub fn queued_stack_chunks(&self) -> (u64, u64) {
+        match &self.hw {
+            Hardware::Treelet(t) => t.stacks.as_ref().map_or((0, 0), |q| (q.stores, q.loads)),
+            Hardware::Plain(_) => (0, 0),
         }
     }
 
@@ -378,12 +396,26 @@ impl<'a> RtPort<'a> {
                         let slot = (r.tag & 0xFFFF) as u32;
                         let ray = ((r.tag & !RAY_LOAD_TAG) >> 16) as u32;
                         match t.store.take(ray) {
-                            Some(record) => t.arrived.push(RayLoad { slot, ray, record }),
+                            Some(record) => {
+                                let load = RayLoad { slot, ray, record };
+                                let ready = match t.stacks.as_mut() {
+                                    Some(q) => q.record_arrived(load),
+                                    None => Some(load),
+                                };
+                                t.arrived.extend(ready);
+                            }
                             None => {
                                 t.fault.get_or_insert(format!(
                                     "the record of ray {ray} was loaded but the store holds none"
                                 ));
                             }
+                        }
+                    }
+                }
+                AccessClass::RayStack => {
+                    if let Hardware::Treelet(t) = &mut self.hw {
+                        if let Some(load) = t.stacks.as_mut().and_then(|q| q.chunk_arrived(r.tag)) {
+                            t.arrived.push(load);
                         }
                     }
                 }
@@ -651,6 +683,9 @@ impl<'a> RtPort<'a> {
             cycle.accepted = Some(idx);
         }
         for r in &out.parked {
+            if let Some(q) = t.stacks.as_mut() {
+                self.requests.extend(q.park(r));
+            }
             t.store.park(r.clone());
         }
         if let Some(entry) = out.spill_push {
@@ -689,23 +724,33 @@ impl<'a> RtPort<'a> {
             }
         }
         cycle.done = t.completed.pop_front();
+        // Taken out while the requests are queued (queueing borrows the port), put back after.
+        let mut stacks = t.stacks.take();
         for r in &out.requests {
             match *r {
-                TreeletRequest::RayLoad { slot, ray, address } => self.requests.push_back(
-                    MemRequest::load(
-                        address,
-                        CHUNK_BYTES,
-                        AccessClass::RayRecord,
-                        RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
-                    )
-                    .bypassing_l1(),
-                ),
+                TreeletRequest::RayLoad { slot, ray, address } => {
+                    self.requests.push_back(
+                        MemRequest::load(
+                            address,
+                            CHUNK_BYTES,
+                            AccessClass::RayRecord,
+                            RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
+                        )
+                        .bypassing_l1(),
+                    );
+                    if let Some(q) = stacks.as_mut() {
+                        self.requests.extend(q.load(ray));
+                    }
+                }
                 TreeletRequest::RayStore { address, .. } => self.requests.push_back(
                     MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
                         .bypassing_l1(),
                 ),
                 TreeletRequest::Rt(req) => self.push_request(&req),
             }
+        }
+        if let Hardware::Treelet(t) = &mut self.hw {
+            t.stacks = stacks;
         }
         Ok(cycle)
     }
