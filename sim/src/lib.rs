@@ -5,6 +5,7 @@ pub mod atomic_file;
 pub mod bvh;
 pub mod cmd;
 pub mod config;
+pub mod figure5;
 pub mod geometry;
 pub mod gpu;
 pub mod intersect;

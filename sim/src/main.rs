@@ -6,7 +6,9 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{area, bench, compare, cosim, render, scenes, sim, sweep, trace, verilog};
+use vtq_sim::cmd::{
+    area, bench, compare, cosim, figure5, render, scenes, sim, sweep, trace, verilog,
+};
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
 #[derive(Debug, Parser)]
@@ -37,6 +39,9 @@ enum Command {
     /// run, so a rerun resumes), locally, as one shard or as a Slurm job array; or collect the
     /// results into one CSV table (--collect).
     Sweep(sweep::SweepArgs),
+    /// The paper's Figure 5 analytical model: potential treelet speedup against concurrent rays,
+    /// from the functional node-fetch traces of the workload's rays.
+    Figure5(figure5::Figure5Args),
     /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
     /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
@@ -69,6 +74,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Sweep(args) => sweep::run(args),
+        Command::Figure5(args) => figure5::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),

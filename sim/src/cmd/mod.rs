@@ -4,6 +4,7 @@ pub mod area;
 pub mod bench;
 pub mod compare;
 pub mod cosim;
+pub mod figure5;
 pub mod options;
 pub mod render;
 pub mod scenes;
