@@ -232,6 +232,16 @@ fn packed_treelets_are_fuller_and_change_no_result() {
         assert_eq!(packed.bvh_params().formation, TreeletFormation::Packed);
         check_against_functional("wknd", &packed);
         let (a, b) = same_results("wknd", &bf, &packed);
+        if mode == "vtq" {
+            // Treelet preloads are prefetches: counted, they change the miss rate.
+            let m = &a.stats.memory.prefetch;
+            assert!(m.requests > 0);
+            let s = &a.stats;
+            let with =
+                (s.bvh_l1_misses + m.issued) as f64 / (s.bvh_l1_accesses + m.requests) as f64;
+            assert_eq!(s.bvh_l1_miss_rate_with_prefetches, with);
+            assert_eq!(s.bvh_l1_miss_rate_deciles_with_prefetches.len(), 10);
+        }
         assert!(b.stats.bvh.treelets < a.stats.bvh.treelets, "{mode}");
         assert!(
             b.stats.bvh.treelet_fill > a.stats.bvh.treelet_fill,
@@ -301,6 +311,12 @@ fn fidelity_statistics_are_consistent() {
         (m + t.bvh_l1_misses, a + t.bvh_l1_accesses)
     });
     assert_eq!(s.bvh_l1_miss_rate_deciles[0], m as f64 / a as f64);
+    // Without prefetches, counting them changes nothing.
+    assert_eq!(s.bvh_l1_miss_rate_with_prefetches, s.bvh_l1_miss_rate);
+    assert_eq!(
+        s.bvh_l1_miss_rate_deciles_with_prefetches,
+        s.bvh_l1_miss_rate_deciles
+    );
     // The BVH summary is the BVH's.
     assert_eq!(s.bvh, bvh.stats());
     // Without a time series there are no deciles; without virtualization no suspend timing.

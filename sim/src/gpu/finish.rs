@@ -126,7 +126,9 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         }
     }
     let time_series = time_series(cfg.sim.sample_interval, cycles, nodes);
-    let deciles = miss_rate_deciles(&time_series, cycles);
+    let interval = cfg.sim.sample_interval;
+    let deciles = miss_rate_deciles(interval, cycles, nodes, false);
+    let deciles_preloads = miss_rate_deciles(interval, cycles, nodes, true);
     let mut virt = VirtTiming::default();
     for node in nodes {
         let t = node.sm.timing;
@@ -155,6 +157,11 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         bvh_l1_merges: mem.bvh.l1_merges,
         bvh_l1_miss_rate: ratio(mem.bvh.l1_misses, mem.bvh.l1_loads),
         bvh_l1_miss_rate_deciles: deciles,
+        bvh_l1_miss_rate_deciles_with_prefetches: deciles_preloads,
+        bvh_l1_miss_rate_with_prefetches: ratio(
+            mem.bvh.l1_misses + mem.prefetch.issued,
+            mem.bvh.l1_loads + mem.prefetch.requests,
+        ),
         l2_misses,
         dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
         phases,
@@ -237,20 +244,42 @@ fn time_series(interval: u64, cycles: u64, nodes: &[SmNode]) -> Vec<Sample> {
     out
 }
 
-/// The BVH L1 miss rate in each tenth of a run of `cycles` cycles: decile `d` sums the samples
-/// whose interval (the `sample_interval` cycles before the sample's cycle) starts in
-/// `[d x cycles / 10, (d + 1) x cycles / 10)`. Empty without samples.
-fn miss_rate_deciles(samples: &[Sample], cycles: u64) -> Vec<f64> {
-    let Some(first) = samples.first() else {
+/// The BVH L1 miss rate in each tenth of a run of `cycles` cycles sampled every `interval`
+/// cycles: decile `d` sums the nodes' samples whose interval (the `interval` cycles before the
+/// sample's cycle) starts in `[d x cycles / 10, (d + 1) x cycles / 10)`; `with_prefetches`
+/// counts L1 prefetches (treelet preloads) as accesses and those that fetched a sector as
+/// misses. Empty without samples.
+fn miss_rate_deciles(
+    interval: u64,
+    cycles: u64,
+    nodes: &[SmNode],
+    with_prefetches: bool,
+) -> Vec<f64> {
+    if interval == 0 {
         return Vec::new();
-    };
-    let interval = first.cycle;
+    }
+    let n = ((cycles - 1) / interval) as usize;
+    if n == 0 {
+        return Vec::new();
+    }
     let mut sums = [(0u64, 0u64); 10];
-    for s in samples {
-        let start = s.cycle - interval;
-        let d = ((start as u128 * 10 / cycles.max(1) as u128) as usize).min(9);
-        sums[d].0 += s.bvh_l1_misses;
-        sums[d].1 += s.bvh_l1_accesses;
+    let mut last = (0u64, 0u64);
+    for k in 0..n {
+        let (mut misses, mut accesses) = (0, 0);
+        for node in nodes {
+            let s = node.samples[k];
+            misses += s.bvh_l1_misses;
+            accesses += s.bvh_l1_loads;
+            if with_prefetches {
+                misses += s.prefetch_misses;
+                accesses += s.prefetches;
+            }
+        }
+        let start = k as u64 * interval;
+        let d = ((start as u128 * 10 / cycles as u128) as usize).min(9);
+        sums[d].0 += misses - last.0;
+        sums[d].1 += accesses - last.1;
+        last = (misses, accesses);
     }
     sums.iter().map(|&(m, a)| ratio(m, a)).collect()
 }

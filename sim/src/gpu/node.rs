@@ -81,6 +81,10 @@ pub struct NodeSample {
     pub bvh_l1_misses: u64,
     /// Rays traversing in its RT unit.
     pub active_rays: u64,
+    /// L1 prefetches (treelet preloads and prefetcher requests) accepted so far.
+    pub prefetches: u64,
+    /// ... that missed the L1 and fetched their sector.
+    pub prefetch_misses: u64,
 }
 
 /// One SM with its RT unit, CTA-state port and L1, and what it produced.
@@ -313,11 +317,13 @@ impl<'a> SmNode<'a> {
         if self.samples.len() as u64 >= due {
             return;
         }
-        let bvh = self.mem.stats().bvh;
+        let stats = self.mem.stats();
         let sample = NodeSample {
-            bvh_l1_loads: bvh.l1_loads,
-            bvh_l1_misses: bvh.l1_misses,
+            bvh_l1_loads: stats.bvh.l1_loads,
+            bvh_l1_misses: stats.bvh.l1_misses,
             active_rays: self.rt.active_rays(),
+            prefetches: stats.prefetch.requests,
+            prefetch_misses: stats.prefetch.issued,
         };
         self.samples.resize(due as usize, sample);
     }

@@ -206,6 +206,11 @@ pub struct SimStats {
     /// `[d x cycles / 10, (d + 1) x cycles / 10)`; 0 for a decile without BVH accesses; empty
     /// without a time series.
     pub bvh_l1_miss_rate_deciles: Vec<f64>,
+    /// `bvh_l1_miss_rate` counting L1 prefetches (treelet preloads, prefetcher requests) as BVH
+    /// accesses and those that fetched their sector as misses.
+    pub bvh_l1_miss_rate_with_prefetches: f64,
+    /// `bvh_l1_miss_rate_deciles` counting prefetches likewise.
+    pub bvh_l1_miss_rate_deciles_with_prefetches: Vec<f64>,
     /// L2 misses of all classes.
     pub l2_misses: u64,
     /// Bytes moved to and from DRAM.

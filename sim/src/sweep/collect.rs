@@ -18,7 +18,7 @@ use super::spec::value_text;
 pub const MISSING: &str = "missing";
 
 /// Headline statistics read directly from the statistics JSON: (column, JSON pointer).
-const DIRECT: [(&str, &str); 32] = [
+const DIRECT: [(&str, &str); 33] = [
     ("cycles", "/cycles"),
     ("rays", "/rays"),
     ("rays_hit", "/rays_hit"),
@@ -26,6 +26,10 @@ const DIRECT: [(&str, &str); 32] = [
     ("bvh_l1_accesses", "/bvh_l1_accesses"),
     ("bvh_l1_misses", "/bvh_l1_misses"),
     ("bvh_l1_miss_rate", "/bvh_l1_miss_rate"),
+    (
+        "bvh_l1_miss_rate_with_prefetches",
+        "/bvh_l1_miss_rate_with_prefetches",
+    ),
     ("l2_misses", "/l2_misses"),
     ("dram_bytes", "/dram_bytes"),
     ("max_queues", "/max_queues"),
@@ -60,7 +64,8 @@ const DIRECT: [(&str, &str); 32] = [
 /// and whose shares of the intersection tests are columns `<phase>_test_share`.
 const PHASES: [&str; 3] = ["initial", "treelet_stationary", "ray_stationary"];
 
-/// Deciles of the run whose BVH L1 miss rates are columns `miss_rate_d<1..=10>`.
+/// Deciles of the run whose BVH L1 miss rates are columns `miss_rate_d<1..=10>` (and, with
+/// prefetches counted, `miss_rate_pf_d<1..=10>`).
 const DECILES: usize = 10;
 
 /// One row before the columns are chosen.
@@ -196,6 +201,7 @@ fn stat_columns() -> Vec<String> {
     names.extend(PHASES.iter().map(|p| format!("{p}_share")));
     names.extend(PHASES.iter().map(|p| format!("{p}_test_share")));
     names.extend((1..=DECILES).map(|d| format!("miss_rate_d{d}")));
+    names.extend((1..=DECILES).map(|d| format!("miss_rate_pf_d{d}")));
     names
 }
 
@@ -241,11 +247,14 @@ fn stat_cells(stats: &Json) -> Vec<String> {
     cells.push(tests.map_or_else(String::new, |t| t.to_string()));
     cells.extend(phase_shares(stats, "cycles"));
     cells.extend(phase_shares(stats, "intersection_tests"));
-    let deciles = stats
-        .pointer("/bvh_l1_miss_rate_deciles")
-        .and_then(Json::as_array);
-    for d in 0..DECILES {
-        cells.push(json_cell(deciles.and_then(|v| v.get(d))));
+    for key in [
+        "/bvh_l1_miss_rate_deciles",
+        "/bvh_l1_miss_rate_deciles_with_prefetches",
+    ] {
+        let deciles = stats.pointer(key).and_then(Json::as_array);
+        for d in 0..DECILES {
+            cells.push(json_cell(deciles.and_then(|v| v.get(d))));
+        }
     }
     cells
 }
