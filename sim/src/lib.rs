@@ -7,6 +7,7 @@ pub mod atomic_file;
 pub mod bvh;
 pub mod cmd;
 pub mod config;
+pub mod figure5;
 pub mod fuzz;
 pub mod geometry;
 pub mod gpu;

@@ -7,7 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use vtq_sim::cmd::{
-    accuracy, area, bench, compare, cosim, fuzz, render, scenes, sim, sweep, trace, verilog,
+    accuracy, area, bench, compare, cosim, figure5, fuzz, render, scenes, sim, sweep, trace,
+    verilog,
 };
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
@@ -42,6 +43,9 @@ enum Command {
     /// Run time against error: full detail, the sampled tier at several settings and the
     /// analytical tier on each scene and design, with a CSV and a plot (docs/accuracy.md).
     Accuracy(accuracy::AccuracyArgs),
+    /// The paper's Figure 5 analytical model: potential treelet speedup against concurrent rays,
+    /// from the functional node-fetch traces of the workload's rays.
+    Figure5(figure5::Figure5Args),
     /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
     /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
@@ -78,6 +82,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::Accuracy(args) => accuracy::run(args),
+        Command::Figure5(args) => figure5::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),

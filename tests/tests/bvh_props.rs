@@ -9,7 +9,7 @@ use proptest::prelude::*;
 use vtq_sim::bvh::layout::{decode_sphere, decode_triangle, InternalView};
 use vtq_sim::bvh::{
     build_cached, sphere_bounds, sphere_is_usable, triangle_bounds, triangle_is_usable, BvhParams,
-    CacheOutcome, HwBvh, NodeKind,
+    CacheOutcome, HwBvh, NodeKind, TreeletFormation,
 };
 use vtq_sim::intersect::{ray_sphere, ray_triangle, RayPrecomp};
 use vtq_sim::traversal::{trace, trace_with_fetches, Order, TraversalState};
@@ -284,15 +284,20 @@ fn scene() -> impl Strategy<Value = Scene> {
         })
 }
 
-/// Width and treelet size: the smallest valid, 1 KB or the default 8 KB.
+/// Width, treelet size (the smallest valid, 1 KB or the default 8 KB) and treelet formation.
 fn params() -> impl Strategy<Value = BvhParams> {
-    (2u32..=8, 0u8..3).prop_map(|(width, t)| {
+    (2u32..=8, 0u8..3, any::<bool>()).prop_map(|(width, t, packed)| {
         let node = if width <= 6 { 64 } else { 128 };
         let min = (width * node).max(128).next_power_of_two();
         let treelet_bytes = [min, min.max(1024), 8192][t as usize];
         BvhParams {
             width,
             treelet_bytes,
+            formation: if packed {
+                TreeletFormation::Packed
+            } else {
+                TreeletFormation::BreadthFirst
+            },
         }
     })
 }
@@ -394,6 +399,7 @@ fn every_width_builds_and_traces_like_brute_force() {
             let params = BvhParams {
                 width,
                 treelet_bytes,
+                ..BvhParams::default()
             };
             let bvh = HwBvh::build(&scene, &params).expect("build");
             check_layout(&scene, &bvh).expect("layout");
@@ -434,6 +440,7 @@ fn invalid_params_are_rejected_with_clear_errors() {
             BvhParams {
                 width: 1,
                 treelet_bytes: 8192,
+                ..BvhParams::default()
             },
             "width",
         ),
@@ -441,6 +448,7 @@ fn invalid_params_are_rejected_with_clear_errors() {
             BvhParams {
                 width: 9,
                 treelet_bytes: 8192,
+                ..BvhParams::default()
             },
             "width",
         ),
@@ -448,6 +456,7 @@ fn invalid_params_are_rejected_with_clear_errors() {
             BvhParams {
                 width: 6,
                 treelet_bytes: 6000,
+                ..BvhParams::default()
             },
             "power of two",
         ),
@@ -455,6 +464,7 @@ fn invalid_params_are_rejected_with_clear_errors() {
             BvhParams {
                 width: 8,
                 treelet_bytes: 512,
+                ..BvhParams::default()
             },
             "child group",
         ),
@@ -462,6 +472,7 @@ fn invalid_params_are_rejected_with_clear_errors() {
             BvhParams {
                 width: 2,
                 treelet_bytes: 64,
+                ..BvhParams::default()
             },
             "child group",
         ),
@@ -512,6 +523,7 @@ fn cache_round_trip_and_corruption_recovery() {
     let params = BvhParams {
         width: 4,
         treelet_bytes: 2048,
+        ..BvhParams::default()
     };
     let dir = temp_dir("cache");
     let fresh = HwBvh::build(&scene, &params).expect("build").to_bytes();
@@ -557,9 +569,20 @@ fn cache_round_trip_and_corruption_recovery() {
     let other = BvhParams {
         width: 6,
         treelet_bytes: 2048,
+        ..BvhParams::default()
     };
     let (_, outcome) = build_cached(&scene, &other, Some(&dir)).expect("other params");
     assert_eq!(outcome, CacheOutcome::Built);
+    // So does another treelet formation, and it loads back as that formation.
+    let packed = BvhParams {
+        formation: TreeletFormation::Packed,
+        ..params
+    };
+    let (p, outcome) = build_cached(&scene, &packed, Some(&dir)).expect("packed");
+    assert_eq!(outcome, CacheOutcome::Built);
+    let (q, outcome) = build_cached(&scene, &packed, Some(&dir)).expect("packed again");
+    assert_eq!(outcome, CacheOutcome::Hit);
+    assert_eq!((p.params(), q.to_bytes()), (&packed, p.to_bytes()));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -19,6 +19,7 @@ fn rays_at_vertices_and_edge_midpoints_never_miss() {
             let params = BvhParams {
                 width,
                 treelet_bytes: 2048,
+                ..BvhParams::default()
             };
             let bvh = HwBvh::build(&scene, &params).expect("build");
             assert_eq!(bvh.stats().excluded_prims, 0);

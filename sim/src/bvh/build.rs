@@ -8,6 +8,7 @@ use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 
+use super::treelet::TreeletFormation;
 use super::BvhError;
 use crate::scene::{Scene, Sphere};
 
@@ -27,6 +28,9 @@ pub struct BvhParams {
     /// Maximum treelet size in bytes: a power of two, at least one full child group
     /// (`width` x internal node size) and at least 128 (default 8192, half the L1).
     pub treelet_bytes: u32,
+    /// How the BVH is partitioned into treelets (default: the treelet-prefetching code's
+    /// greedy breadth-first rule).
+    pub formation: TreeletFormation,
 }
 
 impl Default for BvhParams {
@@ -34,6 +38,7 @@ impl Default for BvhParams {
         BvhParams {
             width: 6,
             treelet_bytes: 8192,
+            formation: TreeletFormation::BreadthFirst,
         }
     }
 }

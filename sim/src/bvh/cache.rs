@@ -8,10 +8,11 @@
 //! | 8  | format version ([`FORMAT_VERSION`], u32) |
 //! | 12 | width (u32) |
 //! | 16 | treelet size in bytes (u32) |
-//! | 20 | treelet count `n` (u32) |
-//! | 24 | image length in bytes (u64) |
-//! | 32 | used bytes of each treelet (`n` x u32) |
-//! | 32+4n | the compact image |
+//! | 20 | treelet formation (u32: 0 breadth first, 1 packed) |
+//! | 24 | treelet count `n` (u32) |
+//! | 28 | image length in bytes (u64) |
+//! | 36 | used bytes of each treelet (`n` x u32) |
+//! | 36+4n | the compact image |
 //! | end-32 | blake3 hash of everything before it (32 bytes) |
 //!
 //! Loading verifies the length, magic, version and checksum, then re-validates every node of
@@ -19,13 +20,16 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{BvhError, BvhParams, HwBvh};
+use super::{BvhError, BvhParams, HwBvh, TreeletFormation};
 use crate::atomic_file::write_atomic;
 use crate::scene::Scene;
 
 /// Version of the serialized format and of the build algorithm; part of the cache key. Bump it
 /// whenever the layout, the builder or its settings change.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
+
+/// Bytes of the fixed part of a serialized BVH, before the treelet sizes.
+const HEAD: usize = 36;
 
 /// Magic bytes opening a serialized BVH.
 const MAGIC: &[u8; 8] = b"VTQBVH\0\0";
@@ -54,6 +58,7 @@ pub fn cache_key(scene: &Scene, params: &BvhParams) -> blake3::Hash {
     h.update(&FORMAT_VERSION.to_le_bytes());
     h.update(&params.width.to_le_bytes());
     h.update(&params.treelet_bytes.to_le_bytes());
+    h.update(&params.formation.code().to_le_bytes());
     hash_geometry(&mut h, scene);
     h.finalize()
 }
@@ -143,11 +148,12 @@ impl HwBvh {
     pub fn to_bytes(&self) -> Vec<u8> {
         let sizes = self.treelet_sizes();
         let image = self.image();
-        let mut out = Vec::with_capacity(32 + 4 * sizes.len() + image.len() + 32);
+        let mut out = Vec::with_capacity(HEAD + 4 * sizes.len() + image.len() + 32);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
         out.extend_from_slice(&self.params().width.to_le_bytes());
         out.extend_from_slice(&self.params().treelet_bytes.to_le_bytes());
+        out.extend_from_slice(&self.params().formation.code().to_le_bytes());
         out.extend_from_slice(&(sizes.len() as u32).to_le_bytes());
         out.extend_from_slice(&(image.len() as u64).to_le_bytes());
         for s in sizes {
@@ -162,7 +168,7 @@ impl HwBvh {
     /// Deserializes and fully validates a BVH written by [`HwBvh::to_bytes`].
     pub fn from_bytes(bytes: &[u8]) -> Result<HwBvh, BvhError> {
         let bad = |m: String| Err(BvhError::Corrupt(m));
-        if bytes.len() < 64 {
+        if bytes.len() < HEAD + 32 {
             return bad(format!(
                 "{} bytes is too short for a serialized BVH",
                 bytes.len()
@@ -183,15 +189,19 @@ impl HwBvh {
                 "format version {version}, expected {FORMAT_VERSION}"
             ));
         }
+        let formation = TreeletFormation::from_code(u32_at(20)).ok_or_else(|| {
+            BvhError::Corrupt(format!("unknown treelet formation {}", u32_at(20)))
+        })?;
         let params = BvhParams {
             width: u32_at(12),
             treelet_bytes: u32_at(16),
+            formation,
         };
-        let count = u32_at(20) as u64;
+        let count = u32_at(24) as u64;
         let mut len8 = [0u8; 8];
-        len8.copy_from_slice(&body[24..32]);
+        len8.copy_from_slice(&body[28..HEAD]);
         let image_len = u64::from_le_bytes(len8);
-        let expected = 32u64
+        let expected = (HEAD as u64)
             .checked_add(4 * count)
             .and_then(|x| x.checked_add(image_len));
         if expected != Some(body.len() as u64) {
@@ -200,8 +210,8 @@ impl HwBvh {
                 body.len()
             ));
         }
-        let sizes: Vec<u32> = (0..count as usize).map(|i| u32_at(32 + 4 * i)).collect();
-        let image = body[32 + 4 * count as usize..].to_vec();
+        let sizes: Vec<u32> = (0..count as usize).map(|i| u32_at(HEAD + 4 * i)).collect();
+        let image = body[HEAD + 4 * count as usize..].to_vec();
         if image.len() < 64 {
             return bad("image is shorter than the BVH header".into());
         }

@@ -762,7 +762,7 @@ fn encode_sphere(center: Vec3, radius: f32, prim: u32) -> Vec<u8> {
 fn lay_out(tree: &WideTree, params: &BvhParams) -> Result<(Vec<u32>, Vec<u8>), BvhError> {
     let ib = params.internal_node_bytes();
     let tb = params.treelet_bytes;
-    let parts = treelet::partition(tree, ib, tb);
+    let parts = treelet::partition(tree, ib, tb, params.formation);
     if parts.len() as u64 * tb as u64 > 1u64 << 32 {
         return Err(BvhError::TooLarge(format!(
             "{} treelets of {tb} bytes exceed the 32-bit address space",

@@ -15,6 +15,7 @@ pub const LEAF_BYTES: u32 = 64;
 pub use build::{sphere_bounds, sphere_is_usable, triangle_bounds, triangle_is_usable, BvhParams};
 pub use cache::{build_cached, default_cache_dir, CacheOutcome};
 pub use layout::{BvhStats, HwBvh, NodeInfo, NodeKind};
+pub use treelet::TreeletFormation;
 
 /// Why a BVH could not be built, loaded or cached.
 #[derive(Debug, thiserror::Error)]

@@ -8,6 +8,15 @@
 //! front does not fit in the remaining space, the treelet is closed and every unit still in the
 //! frontier becomes the root of a pending treelet (FIFO order).
 //!
+//! That rule ([`TreeletFormation::BreadthFirst`], the treelet-prefetching code's) leaves most
+//! slots nearly empty: the frontier of a closed treelet is wide, and the subtrees near the leaves
+//! that its units root are small (the shared scenes' treelets are 6-11% full).
+//! [`TreeletFormation::Packed`] forms the same treelets, then packs consecutive ones (in
+//! formation order, so siblings share a slot) into one slot while their bytes fit (next fit).
+//! A slot then holds several subtrees; a ray still enters each slot at most once, because every
+//! treelet formed between two treelets of a slot is in that slot too, so no path leaves a slot
+//! and comes back to it.
+//!
 //! Treelet `i` occupies the `treelet_bytes`-aligned slot starting at address
 //! `i * treelet_bytes`, so a node's treelet is `addr / treelet_bytes` (the paper's 19-bit
 //! treelet addresses for 8 KB treelets and 32-bit addresses). Only the used bytes of each slot
@@ -15,8 +24,51 @@
 
 use std::collections::VecDeque;
 
+use serde::{Deserialize, Serialize};
+
 use super::build::{WideNode, WideTree};
 use super::{HEADER_BYTES, LEAF_BYTES};
+
+/// How the BVH is partitioned into treelets (`bvh.treelet_formation`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TreeletFormation {
+    /// Greedy breadth-first fill, every unit left in the frontier of a closed treelet rooting a
+    /// treelet of its own (the treelet-prefetching code of Chou et al., MICRO 2023, which the
+    /// paper used).
+    #[default]
+    BreadthFirst,
+    /// The breadth-first treelets, consecutive ones packed into one slot while they fit (next
+    /// fit in formation order): fuller treelets, fewer of them.
+    Packed,
+}
+
+impl TreeletFormation {
+    /// The name used in configuration files.
+    pub fn name(self) -> &'static str {
+        match self {
+            TreeletFormation::BreadthFirst => "breadth_first",
+            TreeletFormation::Packed => "packed",
+        }
+    }
+
+    /// Its code in the BVH cache file and key.
+    pub fn code(self) -> u32 {
+        match self {
+            TreeletFormation::BreadthFirst => 0,
+            TreeletFormation::Packed => 1,
+        }
+    }
+
+    /// The formation with cache code `code`.
+    pub fn from_code(code: u32) -> Option<TreeletFormation> {
+        match code {
+            0 => Some(TreeletFormation::BreadthFirst),
+            1 => Some(TreeletFormation::Packed),
+            _ => None,
+        }
+    }
+}
 
 /// One treelet of a laid-out BVH.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -79,10 +131,52 @@ pub(crate) fn unit_size(tree: &WideTree, unit: Unit, internal_bytes: u32) -> u32
     }
 }
 
-/// Partitions the tree into treelets of at most `max_bytes` bytes: the units of each treelet in
-/// placement order. Every unit must fit in an empty treelet (guaranteed by
+/// Partitions the tree into treelets of at most `max_bytes` bytes by `formation`: the units of
+/// each treelet in placement order. Every unit must fit in an empty treelet (guaranteed by
 /// [`crate::bvh::BvhParams::validate`]).
-pub(crate) fn partition(tree: &WideTree, internal_bytes: u32, max_bytes: u32) -> Vec<Vec<Unit>> {
+pub(crate) fn partition(
+    tree: &WideTree,
+    internal_bytes: u32,
+    max_bytes: u32,
+    formation: TreeletFormation,
+) -> Vec<Vec<Unit>> {
+    let treelets = breadth_first(tree, internal_bytes, max_bytes);
+    match formation {
+        TreeletFormation::BreadthFirst => treelets,
+        TreeletFormation::Packed => pack(tree, internal_bytes, max_bytes, treelets),
+    }
+}
+
+/// Packs consecutive treelets into one slot while their bytes fit (next fit).
+fn pack(
+    tree: &WideTree,
+    internal_bytes: u32,
+    max_bytes: u32,
+    treelets: Vec<Vec<Unit>>,
+) -> Vec<Vec<Unit>> {
+    let mut slots: Vec<Vec<Unit>> = Vec::new();
+    let mut used = 0u32;
+    for units in treelets {
+        let bytes: u32 = units
+            .iter()
+            .map(|&u| unit_size(tree, u, internal_bytes))
+            .sum();
+        match slots.last_mut() {
+            Some(slot) if used + bytes <= max_bytes => {
+                slot.extend(units);
+                used += bytes;
+            }
+            _ => {
+                slots.push(units);
+                used = bytes;
+            }
+        }
+    }
+    slots
+}
+
+/// The greedy breadth-first treelets (module documentation).
+fn breadth_first(tree: &WideTree, internal_bytes: u32, max_bytes: u32) -> Vec<Vec<Unit>> {
     let mut treelets = Vec::new();
     let mut pending: VecDeque<Unit> = VecDeque::from([Unit::Root]);
     while let Some(root) = pending.pop_front() {
@@ -150,9 +244,10 @@ mod tests {
         let params = BvhParams {
             width: 4,
             treelet_bytes: 512,
+            ..BvhParams::default()
         };
         let tree = build_wide_tree(&row(200), &params).expect("tree");
-        let parts = partition(&tree, 64, 512);
+        let parts = partition(&tree, 64, 512, TreeletFormation::BreadthFirst);
         let mut seen = std::collections::BTreeSet::new();
         for (i, units) in parts.iter().enumerate() {
             let bytes: u32 = units.iter().map(|&u| unit_size(&tree, u, 64)).sum();
@@ -180,9 +275,46 @@ mod tests {
     }
 
     #[test]
+    fn packing_merges_consecutive_treelets_in_order_and_fills_slots() {
+        let params = BvhParams {
+            width: 4,
+            treelet_bytes: 512,
+            ..BvhParams::default()
+        };
+        let tree = build_wide_tree(&row(200), &params).expect("tree");
+        let size = |units: &[Unit]| -> u32 { units.iter().map(|&u| unit_size(&tree, u, 64)).sum() };
+        let bf = partition(&tree, 64, 512, TreeletFormation::BreadthFirst);
+        let packed = partition(&tree, 64, 512, TreeletFormation::Packed);
+        // The same units in the same order, fewer slots, none over the size.
+        let flat = |p: &[Vec<Unit>]| p.concat();
+        assert_eq!(flat(&bf), flat(&packed));
+        assert!(packed.len() < bf.len(), "{} vs {}", packed.len(), bf.len());
+        assert!(packed.iter().all(|s| size(s) <= 512));
+        // Next fit: a slot is closed only when the next breadth-first treelet does not fit.
+        let mut k = 0;
+        for (i, slot) in packed.iter().enumerate() {
+            let mut n = 0;
+            while n < slot.len() {
+                n += bf[k].len();
+                k += 1;
+            }
+            assert_eq!(n, slot.len(), "slot {i} holds whole treelets");
+            if let Some(next) = bf.get(k) {
+                assert!(
+                    size(slot) + size(next) > 512,
+                    "slot {i} could take the next treelet"
+                );
+            }
+        }
+        assert_eq!(k, bf.len());
+    }
+
+    #[test]
     fn empty_tree_is_one_header_treelet() {
         let tree = build_wide_tree(&row(0), &BvhParams::default()).expect("tree");
-        assert_eq!(partition(&tree, 64, 8192), vec![vec![Unit::Root]]);
+        for f in [TreeletFormation::BreadthFirst, TreeletFormation::Packed] {
+            assert_eq!(partition(&tree, 64, 8192, f), vec![vec![Unit::Root]]);
+        }
         assert_eq!(unit_size(&tree, Unit::Root, 64), 64);
     }
 }

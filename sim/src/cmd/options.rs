@@ -75,6 +75,7 @@ impl BvhArgs {
         BvhParams {
             width: self.bvh_width,
             treelet_bytes: self.treelet_bytes,
+            ..BvhParams::default()
         }
     }
 }

@@ -8,7 +8,7 @@ use toml::{Table, Value};
 
 use super::mutate::Rng;
 use super::Parser;
-use crate::bvh::{BvhParams, HwBvh};
+use crate::bvh::{BvhParams, HwBvh, TreeletFormation};
 use crate::config::SimConfig;
 use crate::geometry::Ray;
 use crate::rays_csv::format_rays;
@@ -294,18 +294,20 @@ fn rays(rng: &mut Rng) -> Vec<u8> {
 fn bvh_files(rng: &mut Rng) -> Vec<Vec<u8>> {
     let soup = soup(rng);
     let mut files = Vec::new();
-    for (scene, width, treelet_bytes) in [
-        (cornell(), 2, 256),
-        (cornell(), 4, 512),
-        (cornell(), 6, 8192),
-        (cornell(), 8, 2048),
-        (soup.clone(), 2, 512),
-        (soup.clone(), 6, 1024),
-        (soup, 8, 8192),
+    let (bfs, packed) = (TreeletFormation::BreadthFirst, TreeletFormation::Packed);
+    for (scene, width, treelet_bytes, formation) in [
+        (cornell(), 2, 256, bfs),
+        (cornell(), 4, 512, packed),
+        (cornell(), 6, 8192, bfs),
+        (cornell(), 8, 2048, bfs),
+        (soup.clone(), 2, 512, bfs),
+        (soup.clone(), 6, 1024, packed),
+        (soup, 8, 8192, bfs),
     ] {
         let params = BvhParams {
             width,
             treelet_bytes,
+            formation,
         };
         let bvh = HwBvh::build(&scene, &params).expect("the seed scenes build");
         files.push(bvh.to_bytes());

@@ -43,10 +43,11 @@ use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
 use crate::gpu::node::{Ctx, HaltKind, SmNode};
 use crate::gpu::prefetch::Prefetcher;
+use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::rt::waveform::{VcdWindow, Waveform, WaveformSummary, MAX_WINDOW_CYCLES};
 use crate::gpu::rt::{QueueSetup, RtPort};
 use crate::gpu::shader::{PathThread, ShaderTiming};
-use crate::gpu::sm::Sm;
+use crate::gpu::sm::{RayBudget, Sm};
 use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
 use crate::gpu::watchdog::Watchdog;
@@ -161,8 +162,8 @@ pub fn simulate(
     let bvh_end = bvh.treelets().len() as u64 * bvh.params().treelet_bytes as u64;
     let records = bvh_end.div_ceil(HIT_RECORD_ALIGN) * HIT_RECORD_ALIGN;
     let per_sm = cfg.hw.max_rays as u64 * HIT_RECORD_BYTES;
-    // Hit records, then (queues mode) ray records, then suspended CTAs' state, then the
-    // traversal stacks' spill areas.
+    // Hit records, then (queues mode) ray records, then suspended CTAs' state, then (queued
+    // stacks' traffic) queued rays' stacks, then the traversal stacks' spill areas.
     let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
     let mut scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
     if let Some(ctas) = &options.ctas {
@@ -177,7 +178,15 @@ pub fn simulate(
     }
     let state_end = state_base
         + scheduler.total() as u64 * cfg.cta_state_bytes().next_multiple_of(CHUNK_BYTES as u64);
-    let spill = SpillLayout::new(cfg, bvh, state_end.next_multiple_of(HIT_RECORD_ALIGN))?;
+    // Then, with `rt.queued_stack_traffic`, queued rays' stacks (one area per SM).
+    let queued_stacks_base = state_end.next_multiple_of(HIT_RECORD_ALIGN);
+    let queued_stacks_bytes = if cfg.rt.queued_stack_traffic {
+        QueuedStacks::area_bytes(cfg.hw.max_rays, cfg.hw.stack_depth)
+    } else {
+        0
+    };
+    let spill_start = queued_stacks_base + nsms as u64 * queued_stacks_bytes;
+    let spill = SpillLayout::new(cfg, bvh, spill_start.next_multiple_of(HIT_RECORD_ALIGN))?;
     let (ports, l2) = MemorySystem::new(&cfg.memory, nsms)?.into_parts();
     let mut nodes = Vec::with_capacity(nsms);
     for (sm, port) in ports.into_iter().enumerate() {
@@ -189,6 +198,10 @@ pub fn simulate(
         let queues = (cfg.mode.kind == ModeKind::Queues).then(|| QueueSetup {
             features: cfg.controller_features(),
             ray_base: records + (nsms + sm) as u64 * per_sm,
+            stack_base: cfg
+                .rt
+                .queued_stack_traffic
+                .then(|| queued_stacks_base + sm as u64 * queued_stacks_bytes),
         });
         let mut rt = RtPort::new(
             &cfg.hw,
@@ -215,7 +228,11 @@ pub fn simulate(
         }
         let mut s = Sm::new(cta_slots, warps_per_cta);
         if cfg.mode.virtualization {
-            s = s.with_virtualization(cfg.hw.max_rays as u64, cfg.gpu.threads_per_cta as u64);
+            s = s.with_virtualization(RayBudget {
+                max_rays: cfg.hw.max_rays as u64,
+                cta_threads: cfg.gpu.threads_per_cta as u64,
+                policy: cfg.virtualization,
+            });
         }
         let states = CtaStatePort::new(state_base, cfg.cta_state_bytes());
         nodes.push(SmNode::new(sm, s, rt, states, port));

@@ -8,6 +8,7 @@ use crate::config::ModeKind;
 use crate::gpu::engine::SimOutput;
 use crate::gpu::node::{Ctx, SmNode};
 use crate::gpu::rt::QueueObserver;
+use crate::gpu::sm::VirtTiming;
 use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
 use crate::memory::{AccessClass, L2Side};
 
@@ -125,6 +126,16 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         }
     }
     let time_series = time_series(cfg.sim.sample_interval, cycles, nodes);
+    let interval = cfg.sim.sample_interval;
+    let deciles = miss_rate_deciles(interval, cycles, nodes, false);
+    let deciles_preloads = miss_rate_deciles(interval, cycles, nodes, true);
+    let mut virt = VirtTiming::default();
+    for node in nodes {
+        let t = node.sm.timing;
+        virt.save_cycles += t.save_cycles;
+        virt.resume_wait_cycles += t.resume_wait_cycles;
+        virt.restore_cycles += t.restore_cycles;
+    }
     let mut log: Vec<_> = nodes
         .iter()
         .flat_map(|n| n.ray_log.iter().copied())
@@ -145,6 +156,12 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         bvh_l1_misses: mem.bvh.l1_misses,
         bvh_l1_merges: mem.bvh.l1_merges,
         bvh_l1_miss_rate: ratio(mem.bvh.l1_misses, mem.bvh.l1_loads),
+        bvh_l1_miss_rate_deciles: deciles,
+        bvh_l1_miss_rate_deciles_with_prefetches: deciles_preloads,
+        bvh_l1_miss_rate_with_prefetches: ratio(
+            mem.bvh.l1_misses + mem.prefetch.issued,
+            mem.bvh.l1_loads + mem.prefetch.requests,
+        ),
         l2_misses,
         dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
         phases,
@@ -158,20 +175,34 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         queue_table_spills: queues.iter().map(|q| q.counts.spills).sum(),
         cta_suspends: nodes.iter().map(|n| n.sm.suspends).sum(),
         cta_resumes: nodes.iter().map(|n| n.sm.resumes).sum(),
+        virtualization: virt,
+        sm_finish_cycles: nodes
+            .iter()
+            .map(|n| n.idle_since.map_or(cycles, |c| c + 1))
+            .collect(),
         max_rays_in_flight: nodes.iter().map(|n| n.sm.max_in_flight).max().unwrap_or(0),
         stack_spill_chunks: stack_spill_chunks as u64,
         rt,
         max_access_queue: nodes.iter().map(|n| n.rt.max_queue).max().unwrap_or(0),
-        queues: queues.iter().fold(QueueTotals::default(), |mut t, q| {
-            t.add(&q.counts);
+        queues: {
+            let mut t = queues.iter().fold(QueueTotals::default(), |mut t, q| {
+                t.add(&q.counts);
+                t
+            });
+            for n in nodes {
+                let (stores, loads) = n.rt.queued_stack_chunks();
+                t.stack_stores += stores;
+                t.stack_loads += loads;
+            }
             t
-        }),
+        },
         prefetches_issued: mem.prefetch.issued,
         prefetches_used: mem.prefetch.used,
         prefetches_unused_evicted: mem.prefetch.evicted_unused,
         memory: mem,
         time_series_samples: time_series.len() as u64,
         active_units: units.into_iter().map(String::from).collect(),
+        bvh: bvh.stats(),
         config,
         sm_visits: nodes.iter().map(|n| n.visits).sum(),
         sim_wall_seconds: wall,
@@ -212,6 +243,46 @@ fn time_series(interval: u64, cycles: u64, nodes: &[SmNode]) -> Vec<Sample> {
         (loads, misses) = (l, m);
     }
     out
+}
+
+/// The BVH L1 miss rate in each tenth of a run of `cycles` cycles sampled every `interval`
+/// cycles: decile `d` sums the nodes' samples whose interval (the `interval` cycles before the
+/// sample's cycle) starts in `[d x cycles / 10, (d + 1) x cycles / 10)`; `with_prefetches`
+/// counts L1 prefetches (treelet preloads) as accesses and those that fetched a sector as
+/// misses. Empty without samples.
+fn miss_rate_deciles(
+    interval: u64,
+    cycles: u64,
+    nodes: &[SmNode],
+    with_prefetches: bool,
+) -> Vec<f64> {
+    if interval == 0 {
+        return Vec::new();
+    }
+    let n = ((cycles - 1) / interval) as usize;
+    if n == 0 {
+        return Vec::new();
+    }
+    let mut sums = [(0u64, 0u64); 10];
+    let mut last = (0u64, 0u64);
+    for k in 0..n {
+        let (mut misses, mut accesses) = (0, 0);
+        for node in nodes {
+            let s = node.samples[k];
+            misses += s.bvh_l1_misses;
+            accesses += s.bvh_l1_loads;
+            if with_prefetches {
+                misses += s.prefetch_misses;
+                accesses += s.prefetches;
+            }
+        }
+        let start = k as u64 * interval;
+        let d = ((start as u128 * 10 / cycles as u128) as usize).min(9);
+        sums[d].0 += misses - last.0;
+        sums[d].1 += accesses - last.1;
+        last = (misses, accesses);
+    }
+    sums.iter().map(|&(m, a)| ratio(m, a)).collect()
 }
 
 /// `num / den`, 0 when `den` is 0.

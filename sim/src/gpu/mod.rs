@@ -9,7 +9,8 @@
 //! the treelet hardware reads and writes), [`rt_fault`] (RT-unit errors in words), [`sm`] (CTA
 //! and warp slots), [`shader`] (raygen threads and shader timing), [`cta_scheduler`],
 //! [`engine`] (the cycle loop), [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of
-//! the `prefetch` mode, which also serves the controller's preloads) and [`virtualization`] (ray
+//! the `prefetch` mode, which also serves the controller's preloads), [`queued_stacks`] (the
+//! traffic of queued rays' stacks, a modelling switch) and [`virtualization`] (ray
 //! virtualization's CTA-state traffic; suspending and resuming CTAs is in [`sm`]); [`error`]
 //! holds the error every component returns. Every design runs with or without ray
 //! virtualization.
@@ -21,6 +22,7 @@ pub mod error;
 pub mod finish;
 pub mod node;
 pub mod prefetch;
+pub mod queued_stacks;
 pub mod ray_memory;
 pub mod rt;
 pub mod rt_fault;

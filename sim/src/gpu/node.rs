@@ -21,7 +21,7 @@ use crate::geometry::Ray;
 use crate::gpu::error::SimError;
 use crate::gpu::rt::{RtPort, TracedWarp};
 use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
-use crate::gpu::sm::Sm;
+use crate::gpu::sm::{CtaRef, Resumed, Sm};
 use crate::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::gpu::TracedRay;
 use crate::memory::{L1Port, Response};
@@ -81,6 +81,10 @@ pub struct NodeSample {
     pub bvh_l1_misses: u64,
     /// Rays traversing in its RT unit.
     pub active_rays: u64,
+    /// L1 prefetches (treelet preloads and prefetcher requests) accepted so far.
+    pub prefetches: u64,
+    /// ... that missed the L1 and fetched their sector.
+    pub prefetch_misses: u64,
 }
 
 /// One SM with its RT unit, CTA-state port and L1, and what it produced.
@@ -197,12 +201,20 @@ impl<'a> SmNode<'a> {
         self.visits += 1;
         self.record_samples(ctx.cfg, t);
         for cta in self.sm.run_timers(t) {
-            self.states.save(cta);
+            self.suspend(ctx, cta, t);
         }
-        for cta in self.sm.resume() {
-            self.states.restore(cta);
+        for r in self.sm.resume(t) {
+            match r {
+                Resumed::Load(cta) => self.states.restore(cta),
+                Resumed::Loading(_) => {}
+                Resumed::Run(warps) => {
+                    for done in warps {
+                        self.shade(ctx, t, 0, done);
+                    }
+                }
+            }
         }
-        if pending && self.sm.launchable() > 0 {
+        if pending && (self.sm.launchable() > 0 || self.sm.suspend_wanted(true)) {
             self.halt = Some(Halt {
                 cycle: t,
                 kind: HaltKind::Dispatch,
@@ -212,9 +224,23 @@ impl<'a> SmNode<'a> {
         self.back(ctx, t, pending)
     }
 
-    /// The rest of the visit at cycle `t` after the CTA dispatch: responses, the RT unit, the
-    /// CTA-state port, the next wake cycle. False when it failed.
+    /// CTA `cta` starts suspending at cycle `t`: its state is queued for storing, or, without
+    /// state traffic, it leaves its slot at once.
+    fn suspend(&mut self, ctx: &Ctx, cta: CtaRef, t: u64) {
+        if ctx.cfg.virtualization.state_traffic {
+            self.states.save(cta);
+        } else {
+            self.sm.state_saved(cta.id, t);
+        }
+    }
+
+    /// The rest of the visit at cycle `t` after the CTA dispatch (`pending` is exact here):
+    /// CTAs suspended for wanted slots, responses, the RT unit, the CTA-state port, the next
+    /// wake cycle. False when it failed.
     fn back(&mut self, ctx: &Ctx, t: u64, pending: bool) -> bool {
+        for cta in self.sm.suspend_on_demand(pending, t) {
+            self.suspend(ctx, cta, t);
+        }
         self.rt
             .collect_responses(t, &mut self.mem, &mut self.state_loads);
         self.resume_loaded(ctx, t);
@@ -227,12 +253,15 @@ impl<'a> SmNode<'a> {
             Ok(StateSend::Accepted) => self.last_progress = t,
             Ok(StateSend::Saved(id)) => {
                 self.last_progress = t;
-                self.sm.state_saved(id);
+                self.sm.state_saved(id, t);
             }
             Err(e) => {
                 self.error = Some((t, e));
                 return false;
             }
+        }
+        for cta in self.sm.take_to_load() {
+            self.states.restore(cta);
         }
         self.wake = self.wake_cycle(t, pending);
         debug_assert!(
@@ -288,11 +317,13 @@ impl<'a> SmNode<'a> {
         if self.samples.len() as u64 >= due {
             return;
         }
-        let bvh = self.mem.stats().bvh;
+        let stats = self.mem.stats();
         let sample = NodeSample {
-            bvh_l1_loads: bvh.l1_loads,
-            bvh_l1_misses: bvh.l1_misses,
+            bvh_l1_loads: stats.bvh.l1_loads,
+            bvh_l1_misses: stats.bvh.l1_misses,
             active_rays: self.rt.active_rays(),
+            prefetches: stats.prefetch.requests,
+            prefetch_misses: stats.prefetch.issued,
         };
         self.samples.resize(due as usize, sample);
     }
@@ -329,7 +360,7 @@ impl<'a> SmNode<'a> {
             }
             if let Some(done) = out.done {
                 self.last_progress = now;
-                if let Some(done) = self.sm.traversal_done(done) {
+                if let Some(done) = self.sm.traversal_done(done, now) {
                     self.shade(ctx, now, 1, done);
                 }
             }
@@ -363,7 +394,7 @@ impl<'a> SmNode<'a> {
         let mut loads = std::mem::take(&mut self.state_loads);
         for r in loads.drain(..) {
             if let Some(id) = self.states.loaded(&r) {
-                for done in self.sm.state_restored(id) {
+                for done in self.sm.state_restored(id, now) {
                     self.shade(ctx, now, 0, done);
                 }
             }

@@ -16,11 +16,19 @@
 //! to resume, takes a free slot before any new CTA, loads its state back, and only then shades
 //! the hits its warps received meanwhile. The table grows as CTAs are suspended; its size is
 //! bounded by the ray budget, since every CTA reserves its live threads.
+//!
+//! The `[virtualization]` switches change when this happens ([`VirtualizationConfig`]): a CTA
+//! may be suspended only when its slot is wanted (`on_demand`), load its state as soon as it is
+//! ready rather than when it gets a slot (`on_ready`), or move no state at all
+//! (`state_traffic = false`, an idealisation).
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 use std::fmt::Write as _;
 
+use serde::Serialize;
+
+use crate::config::{RestorePolicy, SuspendPolicy, VirtualizationConfig};
 use crate::gpu::rt::TracedWarp;
 use crate::gpu::shader::PathThread;
 
@@ -82,6 +90,14 @@ struct Cta {
     tracing_warps: u32,
     /// Threads not finished: the rays this CTA may still have in flight.
     live_threads: u64,
+    /// Its saved state is back (or was never moved): it may run once it holds a slot.
+    state_loaded: bool,
+    /// Cycle it started suspending.
+    suspended_at: u64,
+    /// Cycle it became ready to resume.
+    ready_at: u64,
+    /// Cycle it got a slot to resume in.
+    slot_at: u64,
 }
 
 /// A CTA named by its virtual id on the SM and its CTA number (which places its saved state).
@@ -93,13 +109,40 @@ pub struct CtaRef {
     pub cta: u32,
 }
 
-/// The ray budget of ray virtualization.
+/// Ray virtualization on one SM: the ray budget and the `[virtualization]` switches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct RayBudget {
+pub struct RayBudget {
     /// Rays in flight per SM at most (`hw.max_rays`).
-    max_rays: u64,
+    pub max_rays: u64,
     /// Threads of one CTA: what a new CTA needs from the budget.
-    cta_threads: u64,
+    pub cta_threads: u64,
+    /// When CTAs suspend and restore, and whether their state moves through memory.
+    pub policy: VirtualizationConfig,
+}
+
+/// Where the time of suspended CTAs went, summed over suspends and resumes (cycles).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct VirtTiming {
+    /// From the start of a suspend to the CTA leaving its slot (its last state store accepted):
+    /// the slot is held while the state is stored.
+    pub save_cycles: u64,
+    /// From a suspended CTA being ready to resume (all its rays traced) to its getting a slot.
+    pub resume_wait_cycles: u64,
+    /// From getting a slot to running again (its last state load back): the restore latency a
+    /// resumed CTA waits for while holding its slot. 0 for a CTA whose state came back before
+    /// it got a slot (`virtualization.restore = "on_ready"`).
+    pub restore_cycles: u64,
+}
+
+/// What [`Sm::resume`] did with a CTA it put into a slot.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Resumed {
+    /// Its state must be loaded now (`restore = "on_slot"`).
+    Load(CtaRef),
+    /// Its state is being loaded already (`restore = "on_ready"`).
+    Loading(CtaRef),
+    /// Its state is back: it runs now; shade its warps' traversals (in warp order).
+    Run(Vec<TracedWarp>),
 }
 
 /// One SM.
@@ -122,6 +165,11 @@ pub struct Sm {
     timers: BinaryHeap<Reverse<(u64, usize)>>,
     /// Suspended CTAs whose rays have all completed, in the order they became ready.
     resumable: VecDeque<usize>,
+    /// CTAs that became ready to resume whose state is to be loaded at once
+    /// (`restore = "on_ready"`), in that order.
+    to_load: Vec<CtaRef>,
+    /// CTAs suspending (still holding their slots).
+    suspending: usize,
     /// Live threads of all CTAs on the SM (each may still trace a ray).
     reserved: u64,
     /// Rays issued or waiting to issue whose traversal has not completed.
@@ -134,6 +182,8 @@ pub struct Sm {
     pub suspends: u64,
     /// CTAs resumed.
     pub resumes: u64,
+    /// Where suspended CTAs' time went.
+    pub timing: VirtTiming,
 }
 
 impl Sm {
@@ -149,24 +199,38 @@ impl Sm {
             ready: VecDeque::new(),
             timers: BinaryHeap::new(),
             resumable: VecDeque::new(),
+            to_load: Vec::new(),
+            suspending: 0,
             reserved: 0,
             in_flight: 0,
             max_in_flight: 0,
             ctas_done: 0,
             suspends: 0,
             resumes: 0,
+            timing: VirtTiming::default(),
         }
     }
 
-    /// The same SM with ray virtualization: at most `max_rays` rays in flight, a new CTA (of
-    /// `cta_threads` threads) launched only if its threads fit.
-    pub fn with_virtualization(self, max_rays: u64, cta_threads: u64) -> Self {
+    /// The same SM with ray virtualization: at most `budget.max_rays` rays in flight, a new CTA
+    /// (of `budget.cta_threads` threads) launched only if its threads fit.
+    pub fn with_virtualization(self, budget: RayBudget) -> Self {
         Sm {
-            budget: Some(RayBudget {
-                max_rays,
-                cta_threads,
-            }),
+            budget: Some(budget),
             ..self
+        }
+    }
+
+    /// The switches of ray virtualization, if it is on.
+    fn policy(&self) -> Option<VirtualizationConfig> {
+        self.budget.map(|b| b.policy)
+    }
+
+    /// New CTAs the ray budget admits besides the live threads of the CTAs the SM holds
+    /// (unlimited without virtualization).
+    fn budget_fit(&self) -> u64 {
+        match self.budget {
+            None => u64::MAX,
+            Some(b) => b.max_rays.saturating_sub(self.reserved) / b.cta_threads.max(1),
         }
     }
 
@@ -179,20 +243,61 @@ impl Sm {
     /// as fit the ray budget besides the live threads of the CTAs it already holds.
     pub fn launchable(&self) -> u32 {
         let free = self.free_slots();
-        match self.budget {
-            None => free,
-            Some(b) => {
-                let fit = b.max_rays.saturating_sub(self.reserved) / b.cta_threads.max(1);
-                free.min(fit.min(u32::MAX as u64) as u32)
-            }
-        }
+        free.min(self.budget_fit().min(u32::MAX as u64) as u32)
     }
 
     /// Whether the CTA dispatch has something to do on this SM: a CTA ready to resume and a
-    /// free slot, or (when CTAs are `pending`) room for a new CTA.
+    /// free slot, (when CTAs are `pending`) room for a new CTA, or (`suspend = "on_demand"`) a
+    /// CTA to suspend for a slot that is wanted.
     pub fn can_dispatch(&self, pending: bool) -> bool {
         let free = self.free_slots() > 0;
-        (free && !self.resumable.is_empty()) || (pending && self.launchable() > 0)
+        (free && !self.resumable.is_empty())
+            || (pending && self.launchable() > 0)
+            || self.suspend_wanted(pending)
+    }
+
+    /// `suspend = "on_demand"`: how many more slots are wanted than are free or being freed by
+    /// suspending CTAs — one per CTA still `pending` at the CTA scheduler that fits the ray
+    /// budget, and one per suspended CTA of this SM ready to resume (0 with another policy).
+    fn slots_wanted(&self, pending: bool) -> usize {
+        if self.policy().map(|p| p.suspend) != Some(SuspendPolicy::OnDemand) {
+            return 0;
+        }
+        let new = if pending {
+            self.budget_fit().min(self.slots as u64) as usize
+        } else {
+            0
+        };
+        let have = self.slots - self.resident + self.suspending;
+        (new + self.resumable.len()).saturating_sub(have)
+    }
+
+    /// Running CTAs whose live warps all wait for or are in the RT unit, by virtual id.
+    fn suspendable(&self) -> impl Iterator<Item = usize> + '_ {
+        self.ctas.iter().enumerate().filter_map(|(id, c)| {
+            let c = c.as_ref()?;
+            (c.phase == CtaPhase::Running && c.tracing_warps == c.live_warps).then_some(id)
+        })
+    }
+
+    /// `suspend = "on_demand"`: whether a CTA should be suspended now (with CTAs `pending` at the
+    /// CTA scheduler or not) to free a wanted slot.
+    pub fn suspend_wanted(&self, pending: bool) -> bool {
+        self.slots_wanted(pending) > 0 && self.suspendable().next().is_some()
+    }
+
+    /// `suspend = "on_demand"`: suspends, at cycle `now`, as many suspendable CTAs (lowest
+    /// virtual id first) as slots are wanted ([`Sm::suspend_wanted`]); returns them: their state
+    /// is to be stored. `pending` must be exact (after the CTA dispatch of `now`).
+    pub fn suspend_on_demand(&mut self, pending: bool, now: u64) -> Vec<CtaRef> {
+        let wanted = self.slots_wanted(pending);
+        if wanted == 0 {
+            return Vec::new();
+        }
+        let ids: Vec<usize> = self.suspendable().take(wanted).collect();
+        ids.into_iter()
+            .map(|id| self.start_suspend(id, now))
+            .collect()
     }
 
     /// Whether no CTA is on the SM (resident or suspended).
@@ -241,6 +346,10 @@ impl Sm {
             live_warps: live,
             tracing_warps: 0,
             live_threads: threads_live,
+            state_loaded: true,
+            suspended_at: 0,
+            ready_at: 0,
+            slot_at: 0,
         });
         self.resident += 1;
         self.reserved += threads_live;
@@ -288,24 +397,58 @@ impl Sm {
                 }
                 WarpState::WaitingRt | WarpState::InRt | WarpState::Traced => continue,
             }
-            if let Some(s) = self.try_suspend(id) {
+            if let Some(s) = self.try_suspend(id, now) {
                 suspended.push(s);
             }
         }
         suspended
     }
 
-    /// Suspends CTA `id` if ray virtualization is on, it runs, and every live warp traces.
-    fn try_suspend(&mut self, id: usize) -> Option<CtaRef> {
-        self.budget?;
+    /// Suspends CTA `id` at cycle `now` if ray virtualization is on with `suspend = "eager"`,
+    /// the CTA runs, and every live warp traces.
+    fn try_suspend(&mut self, id: usize, now: u64) -> Option<CtaRef> {
+        if self.policy()?.suspend != SuspendPolicy::Eager {
+            return None;
+        }
         let cta = self.cta_mut(id);
         if cta.phase != CtaPhase::Running || cta.tracing_warps != cta.live_warps {
             return None;
         }
+        Some(self.start_suspend(id, now))
+    }
+
+    /// CTA `id` (running, every live warp tracing) starts suspending at cycle `now`.
+    fn start_suspend(&mut self, id: usize, now: u64) -> CtaRef {
+        let traffic = self.policy().is_none_or(|p| p.state_traffic);
+        let cta = self.cta_mut(id);
         cta.phase = CtaPhase::Suspending;
+        cta.suspended_at = now;
+        cta.state_loaded = !traffic;
         let r = CtaRef { id, cta: cta.cta };
         self.suspends += 1;
-        Some(r)
+        self.suspending += 1;
+        r
+    }
+
+    /// Suspended CTA `id` became ready to resume at cycle `now` (all its rays traced, its state
+    /// saved).
+    fn became_ready(&mut self, id: usize, now: u64) {
+        let policy = self.policy();
+        let cta = self.cta_mut(id);
+        cta.ready_at = now;
+        let r = CtaRef { id, cta: cta.cta };
+        let load_now =
+            !cta.state_loaded && policy.is_some_and(|p| p.restore == RestorePolicy::OnReady);
+        self.resumable.push_back(id);
+        if load_now {
+            self.to_load.push(r);
+        }
+    }
+
+    /// `restore = "on_ready"`: the CTAs that became ready to resume since the last call, whose
+    /// state is to be loaded now, in that order.
+    pub fn take_to_load(&mut self) -> Vec<CtaRef> {
+        std::mem::take(&mut self.to_load)
     }
 
     /// The CTA with virtual id `id` (it exists: warps name only CTAs on the SM).
@@ -337,10 +480,10 @@ impl Sm {
         self.warps.get_mut(idx)?.as_mut()
     }
 
-    /// The RT unit completed warp `done.warp`'s traversal. Returns it when its CTA runs (shade
-    /// it now); while the CTA is suspended the hits stay with the warp until it has resumed,
-    /// and the CTA becomes ready to resume once all its traversals have completed.
-    pub fn traversal_done(&mut self, done: TracedWarp) -> Option<TracedWarp> {
+    /// The RT unit completed warp `done.warp`'s traversal at cycle `now`. Returns it when its
+    /// CTA runs (shade it now); while the CTA is suspended the hits stay with the warp until it
+    /// has resumed, and the CTA becomes ready to resume once all its traversals have completed.
+    pub fn traversal_done(&mut self, done: TracedWarp, now: u64) -> Option<TracedWarp> {
         let id = self.warps.get(done.warp)?.as_ref()?.cta_id;
         self.in_flight -= done.hits.iter().flatten().count() as u64;
         let cta = self.cta_mut(id);
@@ -350,7 +493,7 @@ impl Sm {
             return Some(done);
         }
         if phase == CtaPhase::Suspended && tracing == 0 {
-            self.resumable.push_back(id);
+            self.became_ready(id, now);
         }
         if let Some(w) = self.warps[done.warp].as_mut() {
             w.state = WarpState::Traced;
@@ -372,39 +515,71 @@ impl Sm {
         self.reserved -= finished;
     }
 
-    /// The last store of suspending CTA `id`'s state was accepted: it leaves its slot, and is
-    /// ready to resume at once if its rays have all completed meanwhile.
-    pub fn state_saved(&mut self, id: usize) {
+    /// At cycle `now` the last store of suspending CTA `id`'s state was accepted (or, without
+    /// state traffic, it started suspending): it leaves its slot, and is ready to resume at
+    /// once if its rays have all completed meanwhile.
+    pub fn state_saved(&mut self, id: usize, now: u64) {
         let cta = self.cta_mut(id);
         cta.phase = CtaPhase::Suspended;
         let ready = cta.tracing_warps == 0;
+        let saved = now - cta.suspended_at;
+        self.timing.save_cycles += saved;
         self.resident -= 1;
+        self.suspending -= 1;
         if ready {
-            self.resumable.push_back(id);
+            self.became_ready(id, now);
         }
     }
 
-    /// Puts CTAs ready to resume into free slots, in the order they became ready (before any
-    /// new CTA is launched); returns them: their state is to be loaded.
-    pub fn resume(&mut self) -> Vec<CtaRef> {
+    /// Puts CTAs ready to resume into free slots at cycle `now`, in the order they became ready
+    /// (before any new CTA is launched); returns what is to be done with each.
+    pub fn resume(&mut self, now: u64) -> Vec<Resumed> {
         let mut out = Vec::new();
+        let on_ready = self
+            .policy()
+            .is_some_and(|p| p.restore == RestorePolicy::OnReady);
         while self.resident < self.slots {
             let Some(id) = self.resumable.pop_front() else {
                 break;
             };
             let cta = self.cta_mut(id);
             cta.phase = CtaPhase::Resuming;
-            let r = CtaRef { id, cta: cta.cta };
+            cta.slot_at = now;
+            let (r, loaded, waited) = (
+                CtaRef { id, cta: cta.cta },
+                cta.state_loaded,
+                now - cta.ready_at,
+            );
+            self.timing.resume_wait_cycles += waited;
             self.resident += 1;
             self.resumes += 1;
-            out.push(r);
+            out.push(if loaded {
+                Resumed::Run(self.run_again(id))
+            } else if on_ready {
+                Resumed::Loading(r)
+            } else {
+                Resumed::Load(r)
+            });
         }
         out
     }
 
-    /// The last load of resuming CTA `id`'s state returned: it runs again. Returns its warps'
-    /// completed traversals, in warp order, to be shaded now.
-    pub fn state_restored(&mut self, id: usize) -> Vec<TracedWarp> {
+    /// At cycle `now` the last load of suspended CTA `id`'s state returned. A CTA holding a slot
+    /// runs again: returns its warps' completed traversals, in warp order, to be shaded now. A
+    /// CTA still waiting for a slot (`restore = "on_ready"`) runs as soon as it gets one.
+    pub fn state_restored(&mut self, id: usize, now: u64) -> Vec<TracedWarp> {
+        let cta = self.cta_mut(id);
+        cta.state_loaded = true;
+        if cta.phase != CtaPhase::Resuming {
+            return Vec::new();
+        }
+        let restore = now - cta.slot_at;
+        self.timing.restore_cycles += restore;
+        self.run_again(id)
+    }
+
+    /// Resuming CTA `id` runs again: returns its warps' completed traversals, in warp order.
+    fn run_again(&mut self, id: usize) -> Vec<TracedWarp> {
         self.cta_mut(id).phase = CtaPhase::Running;
         let range = id * self.warps_per_cta..(id + 1) * self.warps_per_cta;
         self.warps[range]
@@ -489,7 +664,11 @@ mod tests {
 
     #[test]
     fn launchable_respects_the_ray_budget() {
-        let sm = Sm::new(4, 2).with_virtualization(128, 64);
+        let sm = Sm::new(4, 2).with_virtualization(RayBudget {
+            max_rays: 128,
+            cta_threads: 64,
+            policy: VirtualizationConfig::default(),
+        });
         assert_eq!(sm.launchable(), 2);
         assert!(sm.can_dispatch(true));
         assert!(!sm.can_dispatch(false));

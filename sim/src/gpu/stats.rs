@@ -8,6 +8,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use vtq_hdl::rt_unit::{NodeKind, RtStats};
 
+use crate::bvh::BvhStats;
+use crate::gpu::sm::VirtTiming;
 use crate::memory::MemStats;
 
 /// Keys of [`SimStats`] that depend on the host or on the engine's stepping mode rather than on
@@ -63,6 +65,11 @@ pub struct QueueTotals {
     /// Controller restarts from `done` when new warps arrive (an idle controller is `done`, so
     /// the first warp of a run counts too; then one per wave of rays).
     pub restarts: u64,
+    /// 32 B chunks of queued rays' stacks stored when they were parked
+    /// (`rt.queued_stack_traffic`; 0 otherwise).
+    pub stack_stores: u64,
+    /// ... loaded back with their ray records (equal to `stack_stores` at the end).
+    pub stack_loads: u64,
 }
 
 impl QueueTotals {
@@ -194,6 +201,16 @@ pub struct SimStats {
     pub bvh_l1_merges: u64,
     /// `bvh_l1_misses / bvh_l1_accesses`.
     pub bvh_l1_miss_rate: f64,
+    /// The BVH L1 miss rate in each tenth of the run (paper Figure 11's early and late miss
+    /// rates), from the time series: decile `d` holds the samples whose interval starts in
+    /// `[d x cycles / 10, (d + 1) x cycles / 10)`; 0 for a decile without BVH accesses; empty
+    /// without a time series.
+    pub bvh_l1_miss_rate_deciles: Vec<f64>,
+    /// `bvh_l1_miss_rate` counting L1 prefetches (treelet preloads, prefetcher requests) as BVH
+    /// accesses and those that fetched their sector as misses.
+    pub bvh_l1_miss_rate_with_prefetches: f64,
+    /// `bvh_l1_miss_rate_deciles` counting prefetches likewise.
+    pub bvh_l1_miss_rate_deciles_with_prefetches: Vec<f64>,
     /// L2 misses of all classes.
     pub l2_misses: u64,
     /// Bytes moved to and from DRAM.
@@ -212,6 +229,11 @@ pub struct SimStats {
     pub cta_suspends: u64,
     /// Suspended CTAs resumed (0 in the baseline).
     pub cta_resumes: u64,
+    /// Where suspended CTAs' time went, summed over the SMs (zeros without virtualization).
+    pub virtualization: VirtTiming,
+    /// Per SM, the cycle after which it held no CTA for good (its last CTA retired): how evenly
+    /// the CTA scheduler spread the work. `cycles` is their maximum.
+    pub sm_finish_cycles: Vec<u64>,
     /// Most rays in flight in one SM at once (issued or waiting to issue, traversal not
     /// completed, rays of suspended CTAs included); at most `hw.max_rays` with virtualization.
     pub max_rays_in_flight: u64,
@@ -239,6 +261,8 @@ pub struct SimStats {
     pub time_series_samples: u64,
     /// The units modelled in this run.
     pub active_units: Vec<String>,
+    /// The hardware BVH: node counts, bytes, treelets and their fill.
+    pub bvh: BvhStats,
     /// The effective configuration (TOML).
     pub config: String,
     /// (SM, cycle) pairs the engine evaluated (every cycle of every SM holding work in lockstep

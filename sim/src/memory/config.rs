@@ -17,6 +17,10 @@ pub const MAX_MSHRS: u32 = 1 << 16;
 pub const MAX_MIRRORS: u32 = 1024;
 /// Largest DRAM bandwidth (bytes per core cycle) accepted by [`MemConfig::validate`].
 pub const MAX_DRAM_BYTES_PER_CYCLE: u32 = 1 << 20;
+/// Largest number of DRAM channels accepted by [`MemConfig::validate`].
+pub const MAX_DRAM_CHANNELS: u32 = 1024;
+/// Largest DRAM interleaving granularity (bytes) accepted by [`MemConfig::validate`].
+pub const MAX_DRAM_INTERLEAVE: u32 = 1 << 30;
 
 /// The memory hierarchy of the simulated GPU: one L1 per SM, a unified L2, one DRAM channel.
 ///
@@ -71,6 +75,16 @@ pub struct MemConfig {
     /// SMs, give them `[k, sms]` of the channel (docs/accuracy.md); bandwidth is then exactly
     /// `dram_bytes_per_cycle * numerator / denominator` bytes per cycle.
     pub dram_share: [u32; 2],
+    /// DRAM channels sharing `dram_bytes_per_cycle` equally, each first come first served.
+    /// Default 1: the whole bandwidth as one channel (a modelling simplification). Vulkan-Sim's
+    /// RTX 3070 configuration, which supplied the paper's latencies, has 16 (`-gpgpu_n_mem 16`,
+    /// each with FR-FCFS scheduling over 16 banks, which is not modelled here).
+    pub dram_channels: u32,
+    /// Bytes of consecutive addresses in one channel before the next channel's (a power of two,
+    /// at least `line_bytes`, so a line lives in one channel); used when `dram_channels > 1`.
+    /// Default 256: Vulkan-Sim's RTX 3070 address mapping (`dramid@8`); consecutive chunks go
+    /// to consecutive channels (its IPOLY index hashing is not modelled).
+    pub dram_interleave_bytes: u32,
     /// Sector size in bytes: the unit of valid bits, fills and DRAM transfers (32).
     pub sector_bytes: u32,
     /// Line size in bytes: the unit of tags and replacement (128), as in GPGPU-Sim/Accel-Sim.
@@ -92,6 +106,8 @@ impl Default for MemConfig {
             dram_latency: 254,
             dram_bytes_per_cycle: 328,
             dram_share: [1, 1],
+            dram_channels: 1,
+            dram_interleave_bytes: 256,
             sector_bytes: 32,
             line_bytes: 128,
         }
@@ -196,6 +212,8 @@ impl MemConfig {
             ("dram_latency", self.dram_latency),
             ("l1_mshrs", self.l1_mshrs),
             ("dram_bytes_per_cycle", self.dram_bytes_per_cycle),
+            ("dram_channels", self.dram_channels),
+            ("dram_interleave_bytes", self.dram_interleave_bytes),
             ("sector_bytes", self.sector_bytes),
             ("line_bytes", self.line_bytes),
         ] {
@@ -216,6 +234,12 @@ impl MemConfig {
                 self.dram_bytes_per_cycle,
                 MAX_DRAM_BYTES_PER_CYCLE,
             ),
+            ("dram_channels", self.dram_channels, MAX_DRAM_CHANNELS),
+            (
+                "dram_interleave_bytes",
+                self.dram_interleave_bytes,
+                MAX_DRAM_INTERLEAVE,
+            ),
         ] {
             if value > max {
                 return Err(MemConfigError::TooLarge { key, value, max });
@@ -226,6 +250,7 @@ impl MemConfig {
             ("l2_bytes", self.l2_bytes),
             ("sector_bytes", self.sector_bytes),
             ("line_bytes", self.line_bytes),
+            ("dram_interleave_bytes", self.dram_interleave_bytes),
         ] {
             if !value.is_power_of_two() {
                 return Err(MemConfigError::NotPowerOfTwo { key, value });
@@ -263,6 +288,13 @@ impl MemConfig {
         let [num, den] = self.dram_share;
         if num == 0 || num > den {
             return Err(MemConfigError::DramShare { num, den });
+        }
+        if self.dram_interleave_bytes < self.line_bytes {
+            return Err(MemConfigError::SmallerThanLine {
+                key: "dram_interleave_bytes",
+                bytes: self.dram_interleave_bytes,
+                line: self.line_bytes,
+            });
         }
         let l2_set_ways = self.l2_geometry().ways;
         if self.l2_ray_ways >= l2_set_ways {
@@ -381,6 +413,16 @@ mod tests {
             (err(|c| c.l2_ray_ways = 16), "`l2_ray_ways`"),
             (err(|c| c.dram_latency = MAX_LATENCY + 1), "`dram_latency`"),
             (err(|c| c.l2_bytes = 1 << 30), "`l2_bytes`"),
+            (err(|c| c.dram_channels = 0), "`dram_channels`"),
+            (err(|c| c.dram_channels = 2000), "`dram_channels`"),
+            (
+                err(|c| c.dram_interleave_bytes = 300),
+                "`dram_interleave_bytes`",
+            ),
+            (
+                err(|c| c.dram_interleave_bytes = 64),
+                "`dram_interleave_bytes`",
+            ),
         ];
         for (e, key) in cases {
             assert!(e.to_string().contains(key), "{e} should name {key}");

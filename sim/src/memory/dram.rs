@@ -1,4 +1,6 @@
-//! [`DramChannel`]: DRAM as one channel with a fixed latency and a byte-exact bandwidth limit.
+//! [`Dram`]: DRAM as `dram_channels` channels (addresses interleaved by
+//! `dram_interleave_bytes`), each a [`DramChannel`] with a fixed latency and a byte-exact share
+//! of the bandwidth. One channel (the default) is the whole bandwidth, first come first served.
 //!
 //! The channel moves `bytes_per_cycle` bytes per core cycle. Its time is counted in byte slots
 //! (`cycle * bytes_per_cycle + offset`), so bandwidths that are not a multiple of the transfer
@@ -21,33 +23,36 @@ pub struct DramGrant {
 }
 
 /// One DRAM channel: fixed latency, bandwidth-limited, first come first served.
+///
+/// A channel with a `num / den` share of a `bytes_per_cycle` bandwidth counts time in slots of
+/// `1 / (bytes_per_cycle x num)` cycle and a transfer of `b` bytes takes `b x den` of them,
+/// which is exact for any share.
 #[derive(Debug, Clone)]
 pub struct DramChannel {
     latency: u64,
-    /// Slots per cycle.
+    /// Slots per cycle (`bytes_per_cycle x num`).
     bytes_per_cycle: u64,
-    /// Slots per byte (a slot is `1 / slot_divisor` of a byte, so a share of the bandwidth
-    /// stays exact).
+    /// Slots a byte takes (`den`).
     slot_divisor: u64,
     /// First free slot.
     next_free: u128,
 }
 
 impl DramChannel {
-    /// An idle channel. `bytes_per_cycle` must be positive (checked by
-    /// [`MemConfig::validate`](super::MemConfig::validate)).
+    /// An idle channel with all of `bytes_per_cycle`. `bytes_per_cycle` must be positive
+    /// (checked by [`MemConfig::validate`](super::MemConfig::validate)).
     pub fn new(latency: u32, bytes_per_cycle: u32) -> Self {
         DramChannel::with_share(latency, bytes_per_cycle, [1, 1])
     }
 
     /// An idle channel of `bytes_per_cycle * share[0] / share[1]` bytes per cycle (`share`
-    /// validated: `0 < share[0] <= share[1]`): time is counted in slots of `1 / share[1]` byte,
-    /// `bytes_per_cycle * share[0]` of them per cycle.
-    pub fn with_share(latency: u32, bytes_per_cycle: u32, share: [u32; 2]) -> Self {
+    /// validated: `0 < share[0] <= share[1]` for a scale model's part of the GPU, or
+    /// `[1, channels]` for one of several channels).
+    pub fn with_share(latency: u32, bytes_per_cycle: u32, share: [u64; 2]) -> Self {
         DramChannel {
             latency: u64::from(latency),
-            bytes_per_cycle: u64::from(bytes_per_cycle.max(1)) * u64::from(share[0].max(1)),
-            slot_divisor: u64::from(share[1].max(1)),
+            bytes_per_cycle: u64::from(bytes_per_cycle.max(1)) * share[0].max(1),
+            slot_divisor: share[1].max(1),
             next_free: 0,
         }
     }
@@ -73,9 +78,84 @@ impl DramChannel {
     }
 }
 
+/// DRAM: its channels and how addresses map onto them.
+#[derive(Debug, Clone)]
+pub struct Dram {
+    channels: Vec<DramChannel>,
+    /// log2 of the interleaving granularity in bytes.
+    interleave_shift: u32,
+}
+
+impl Dram {
+    /// Idle DRAM of `channels` channels sharing `bytes_per_cycle x share[0] / share[1]` (the
+    /// GPU's share of the bandwidth, `[1, 1]` unless a scale model) equally, consecutive
+    /// `interleave_bytes` (a power of two) of the address space in consecutive channels.
+    pub fn new(
+        latency: u32,
+        bytes_per_cycle: u32,
+        share: [u32; 2],
+        channels: u32,
+        interleave_bytes: u32,
+    ) -> Self {
+        let n = channels.max(1);
+        let channel_share = [
+            u64::from(share[0].max(1)),
+            u64::from(share[1].max(1)) * u64::from(n),
+        ];
+        Dram {
+            channels: (0..n)
+                .map(|_| DramChannel::with_share(latency, bytes_per_cycle, channel_share))
+                .collect(),
+            interleave_shift: interleave_bytes.max(1).trailing_zeros(),
+        }
+    }
+
+    /// Queues a transfer of `bytes` at byte address `addr` arriving at cycle `arrival` on its
+    /// channel; arrivals must not decrease from call to call.
+    pub fn schedule(&mut self, arrival: u64, addr: u64, bytes: u32) -> DramGrant {
+        let n = self.channels.len() as u64;
+        let channel = ((addr >> self.interleave_shift) % n) as usize;
+        self.channels[channel].schedule(arrival, bytes)
+    }
+
+    /// First cycle in which every channel could start a new transfer without queueing.
+    pub fn next_free_cycle(&self) -> u64 {
+        self.channels
+            .iter()
+            .map(DramChannel::next_free_cycle)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_channel_dram_is_the_channel() {
+        let mut a = DramChannel::new(10, 12);
+        let mut d = Dram::new(10, 12, [1, 1], 1, 256);
+        for (i, addr) in [0u64, 256, 512, 0, 4096, 100].into_iter().enumerate() {
+            let at = 5 + i as u64 / 2;
+            assert_eq!(d.schedule(at, addr, 32), a.schedule(at, 32));
+        }
+        assert_eq!(d.next_free_cycle(), a.next_free_cycle());
+    }
+
+    #[test]
+    fn channels_split_the_bandwidth_and_interleave_addresses() {
+        // 2 channels of 8 B/cycle each (16 in all), 256 B interleaving.
+        let mut d = Dram::new(10, 16, [1, 1], 2, 256);
+        // Same channel (addresses 0 and 128): back to back at 8 B/cycle, 4 cycles per sector.
+        assert_eq!(d.schedule(100, 0, 32).start, 100);
+        assert_eq!(d.schedule(100, 128, 32).start, 104);
+        // The other channel (256) is idle.
+        assert_eq!(d.schedule(100, 256, 32).start, 100);
+        // 512 is channel 0 again, behind the two.
+        assert_eq!(d.schedule(100, 512, 32).start, 108);
+        assert_eq!(d.next_free_cycle(), 112);
+    }
 
     #[test]
     fn idle_channel_adds_only_latency() {
@@ -137,5 +217,15 @@ mod tests {
         for t in [0u64, 0, 3, 3, 3, 40, 41] {
             assert_eq!(a.schedule(t, 32), b.schedule(t, 32));
         }
+    }
+
+    #[test]
+    fn a_scale_models_share_splits_over_the_channels() {
+        // 2 channels sharing 1/2 of 32 B/cycle: each 8 B/cycle, 4 cycles per sector.
+        let mut d = Dram::new(10, 32, [1, 2], 2, 256);
+        assert_eq!(d.schedule(0, 0, 32).start, 0);
+        assert_eq!(d.schedule(0, 128, 32).start, 4);
+        assert_eq!(d.schedule(0, 256, 32).start, 0);
+        assert_eq!(d.next_free_cycle(), 8);
     }
 }

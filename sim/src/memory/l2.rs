@@ -13,7 +13,7 @@ use std::ops::Range;
 
 use super::cache::{EvictedLine, SectorCache, SectorState};
 use super::config::MemConfig;
-use super::dram::DramChannel;
+use super::dram::Dram;
 use super::request::{AccessClass, Source};
 use super::stats::MemStats;
 
@@ -54,13 +54,14 @@ const MIRROR_SHIFT: u32 = 40;
 #[derive(Debug, Clone)]
 pub struct L2Side {
     l2: SectorCache,
-    dram: DramChannel,
+    dram: Dram,
     /// Lines per L2 set.
     set_ways: u32,
     /// Ways reserved for ray records (`l2_ray_ways`; 0: none).
     ray_ways: u32,
     l1_latency: u64,
     l2_latency: u64,
+    line_bytes: u64,
     sector_bytes: u32,
     /// Copies of each private access the L2 takes in (`l2_private_mirrors`).
     mirrors: u32,
@@ -74,15 +75,18 @@ impl L2Side {
     pub fn new(cfg: &MemConfig) -> Self {
         L2Side {
             l2: SectorCache::new(cfg.l2_geometry()),
-            dram: DramChannel::with_share(
+            dram: Dram::new(
                 cfg.dram_latency,
                 cfg.dram_bytes_per_cycle,
                 cfg.dram_share,
+                cfg.dram_channels,
+                cfg.dram_interleave_bytes,
             ),
             set_ways: cfg.l2_geometry().ways,
             ray_ways: cfg.l2_ray_ways,
             l1_latency: u64::from(cfg.l1_latency),
             l2_latency: u64::from(cfg.l2_latency),
+            line_bytes: u64::from(cfg.line_bytes),
             sector_bytes: cfg.sector_bytes,
             mirrors: cfg.l2_private_mirrors.max(1),
             applied: 0,
@@ -168,7 +172,10 @@ impl L2Side {
             _ => {
                 stats.l2_misses += 1;
                 stats.dram_reads += 1;
-                let grant = self.dram.schedule(hit_done, self.sector_bytes);
+                let grant = self
+                    .dram
+                    .schedule(hit_done, line * self.line_bytes, self.sector_bytes);
+                stats.dram_queue_cycles += grant.start - hit_done;
                 let dram = &mut self.stats.dram;
                 dram.reads += 1;
                 dram.read_bytes += u64::from(self.sector_bytes);
@@ -211,7 +218,7 @@ impl L2Side {
                     }
                     Err(_) => {
                         self.stats.l2_no_allocate += 1;
-                        self.dram_write(leave);
+                        self.dram_write(leave, line);
                         None
                     }
                 }
@@ -228,18 +235,22 @@ impl L2Side {
     fn write_back(&mut self, leave: u64, evicted: Option<EvictedLine>) {
         if let Some(evicted) = evicted {
             for _ in 0..evicted.dirty.count_ones() {
-                self.dram_write(leave);
+                self.dram_write(leave, evicted.line);
             }
         }
     }
 
-    /// One sector write to DRAM arriving at `arrival` (takes bandwidth; nobody waits for it).
-    fn dram_write(&mut self, arrival: u64) {
-        let grant = self.dram.schedule(arrival, self.sector_bytes);
+    /// One sector write of line `line` to DRAM arriving at `arrival` (takes bandwidth; nobody
+    /// waits for it).
+    fn dram_write(&mut self, arrival: u64, line: u64) {
+        let grant = self
+            .dram
+            .schedule(arrival, line * self.line_bytes, self.sector_bytes);
         let dram = &mut self.stats.dram;
         dram.writes += 1;
         dram.write_bytes += u64::from(self.sector_bytes);
         dram.queue_cycles += grant.start - arrival;
+        dram.write_queue_cycles += grant.start - arrival;
     }
 
     /// State at L2 cycle `at` of sector `sector` of line `line`.

@@ -5,7 +5,8 @@
 //! - [`config`]: [`MemConfig`] (Table 1 defaults) and its validation.
 //! - [`cache`]: [`SectorCache`], the tag store of one cache: lines of `line_bytes` (128) with
 //!   valid bits per `sector_bytes` (32) sector, LRU, lines being filled never evicted.
-//! - [`dram`]: [`DramChannel`], fixed latency plus a byte-exact bandwidth limit.
+//! - [`dram`]: [`Dram`], `dram_channels` interleaved [`DramChannel`]s, each a fixed latency plus
+//!   a byte-exact share of the bandwidth.
 //! - [`l1`]: [`L1Port`], one SM's L1, MSHRs and responses, whose L2 operations may be applied
 //!   later in a fixed order ([`L2Op::key`]) so SMs can be simulated independently between
 //!   synchronisation points.
@@ -46,8 +47,9 @@
 //!   acceptance until its fill cycle (free again at `f`). Merges take none and are unlimited.
 //!   With all entries busy, or every replaceable line of the set being filled, the access is
 //!   refused with [`AccessError::Stall`], whose `retry_at` is the first cycle it can succeed.
-//! - **DRAM.** One channel moving `dram_bytes_per_cycle` bytes per cycle, first come first
-//!   served, one full sector per read or write (see [`dram`]); a read's data is back at
+//! - **DRAM.** One channel moving `dram_bytes_per_cycle` bytes per cycle (or `dram_channels`
+//!   channels sharing it equally, addresses interleaved by `dram_interleave_bytes`), first come
+//!   first served, one full sector per read or write (see [`dram`]); a read's data is back at
 //!   `start + D` and is then in the L2 and the L1 at once.
 //! - **Stores.** L1: write-through, no write-allocate (a store hit updates the sector and
 //!   counts as a use for LRU; a miss leaves the L1 unchanged); no MSHR. L2: write-back and
@@ -81,7 +83,7 @@ pub mod system;
 
 pub use cache::{SectorCache, SectorState};
 pub use config::{MemConfig, MemConfigError};
-pub use dram::DramChannel;
+pub use dram::{Dram, DramChannel};
 pub use l1::{Acceptance, L1Port};
 pub use l2::{L2Op, L2Side};
 pub use request::{

@@ -18,16 +18,19 @@ pub enum AccessClass {
     HitRecord,
     /// Traversal-stack entries the RT unit spills to and fills back from memory.
     Stack,
+    /// Traversal stacks of rays waiting in treelet queues (`rt.queued_stack_traffic`).
+    RayStack,
 }
 
 impl AccessClass {
     /// Every class, in statistics order.
-    pub const ALL: [AccessClass; 5] = [
+    pub const ALL: [AccessClass; 6] = [
         AccessClass::Bvh,
         AccessClass::RayRecord,
         AccessClass::CtaState,
         AccessClass::HitRecord,
         AccessClass::Stack,
+        AccessClass::RayStack,
     ];
 }
 

@@ -5,7 +5,8 @@
 //! timing rules in [`super`]): an L1 hit completes at `t + L1`, an L2 hit or a store at
 //! `t + L1 + L2`, and a DRAM read at `start + D` where the channel's start cycle never
 //! decreases. Each of these three kinds therefore arrives already sorted and is kept in a FIFO;
-//! only merges (with an L1 or L2 fill accepted earlier) can complete out of order and go to a
+//! only merges (with an L1 or L2 fill accepted earlier) and, with several DRAM channels, DRAM
+//! reads that overtake an earlier one on another channel complete out of order and go to a
 //! binary heap. Delivery takes the smallest (cycle, sequence) among the four heads, which is
 //! exactly the order of one heap holding every response, at a fraction of the cost.
 
@@ -101,7 +102,16 @@ impl ResponseQueue {
             seq,
             response,
         };
-        let at = match fifo_of(source) {
+        // With several DRAM channels a later read may complete before an earlier one: it
+        // waits with the merges (delivery order is the same wherever a response waits).
+        let in_order = |k: usize, fifos: &[VecDeque<Queued>; 3]| {
+            fifos[k].back().is_none_or(|b| b.key() < q.key())
+        };
+        let place = match fifo_of(source) {
+            Some(2) if !in_order(2, &self.fifos) => None,
+            other => other,
+        };
+        let at = match place {
             Some(k) => {
                 let fifo = &mut self.fifos[k];
                 debug_assert!(

@@ -36,6 +36,8 @@ pub struct ClassStats {
     pub l2_misses: u64,
     /// Sector reads from DRAM caused by this class.
     pub dram_reads: u64,
+    /// Cycles those reads waited for their DRAM channel (queueing behind earlier transfers).
+    pub dram_queue_cycles: u64,
 }
 
 /// L1 prefetch counters (all classes).
@@ -66,6 +68,8 @@ pub struct DramStats {
     pub write_bytes: u64,
     /// Sum over transfers of the cycles spent waiting for the channel.
     pub queue_cycles: u64,
+    /// ... over writes only (the reads' are in each class's `dram_queue_cycles`).
+    pub write_queue_cycles: u64,
 }
 
 /// Every counter of a [`MemorySystem`](super::MemorySystem).
@@ -81,6 +85,8 @@ pub struct MemStats {
     pub hit_record: ClassStats,
     /// Traversal-stack spill and fill traffic.
     pub stack: ClassStats,
+    /// Traffic of the stacks of rays waiting in treelet queues (`rt.queued_stack_traffic`).
+    pub ray_stack: ClassStats,
     /// L1 prefetches.
     pub prefetch: PrefetchStats,
     /// DRAM traffic.
@@ -103,6 +109,7 @@ impl MemStats {
             AccessClass::CtaState => &self.cta_state,
             AccessClass::HitRecord => &self.hit_record,
             AccessClass::Stack => &self.stack,
+            AccessClass::RayStack => &self.ray_stack,
         }
     }
 
@@ -114,6 +121,7 @@ impl MemStats {
             AccessClass::CtaState => &mut self.cta_state,
             AccessClass::HitRecord => &mut self.hit_record,
             AccessClass::Stack => &mut self.stack,
+            AccessClass::RayStack => &mut self.ray_stack,
         }
     }
 }
@@ -135,6 +143,7 @@ impl MemStats {
             a.l2_merges += b.l2_merges;
             a.l2_misses += b.l2_misses;
             a.dram_reads += b.dram_reads;
+            a.dram_queue_cycles += b.dram_queue_cycles;
         }
         let (p, q) = (&mut self.prefetch, &other.prefetch);
         p.requests += q.requests;
@@ -148,6 +157,7 @@ impl MemStats {
         d.read_bytes += e.read_bytes;
         d.write_bytes += e.write_bytes;
         d.queue_cycles += e.queue_cycles;
+        d.write_queue_cycles += e.write_queue_cycles;
         self.mshr_stalls += other.mshr_stalls;
         self.set_stalls += other.set_stalls;
         self.l2_no_allocate += other.l2_no_allocate;

@@ -18,7 +18,7 @@ use super::spec::value_text;
 pub const MISSING: &str = "missing";
 
 /// Headline statistics read directly from the statistics JSON: (column, JSON pointer).
-const DIRECT: [(&str, &str); 21] = [
+const DIRECT: [(&str, &str); 33] = [
     ("cycles", "/cycles"),
     ("rays", "/rays"),
     ("rays_hit", "/rays_hit"),
@@ -26,6 +26,10 @@ const DIRECT: [(&str, &str); 21] = [
     ("bvh_l1_accesses", "/bvh_l1_accesses"),
     ("bvh_l1_misses", "/bvh_l1_misses"),
     ("bvh_l1_miss_rate", "/bvh_l1_miss_rate"),
+    (
+        "bvh_l1_miss_rate_with_prefetches",
+        "/bvh_l1_miss_rate_with_prefetches",
+    ),
     ("l2_misses", "/l2_misses"),
     ("dram_bytes", "/dram_bytes"),
     ("max_queues", "/max_queues"),
@@ -33,18 +37,36 @@ const DIRECT: [(&str, &str); 21] = [
     ("count_table_evictions", "/count_table_evictions"),
     ("queue_table_spills", "/queue_table_spills"),
     ("cta_suspends", "/cta_suspends"),
+    ("cta_save_cycles", "/virtualization/save_cycles"),
+    (
+        "cta_resume_wait_cycles",
+        "/virtualization/resume_wait_cycles",
+    ),
+    ("cta_restore_cycles", "/virtualization/restore_cycles"),
+    ("cta_state_accesses", "/memory/cta_state/l1_bypasses"),
+    ("dram_queue_cycles", "/memory/dram/queue_cycles"),
+    ("dram_write_queue_cycles", "/memory/dram/write_queue_cycles"),
+    ("bvh_dram_reads", "/memory/bvh/dram_reads"),
+    ("bvh_dram_queue_cycles", "/memory/bvh/dram_queue_cycles"),
     ("max_rays_in_flight", "/max_rays_in_flight"),
     ("treelet_warps", "/queues/treelet_warps"),
     ("grouped_warps", "/queues/grouped_warps"),
     ("repacks", "/queues/repacks"),
     ("stack_spills", "/rt/stack_spills"),
+    ("ray_stack_accesses", "/memory/ray_stack/l1_bypasses"),
+    ("bvh_bytes", "/bvh/bvh_bytes"),
+    ("treelets", "/bvh/treelets"),
     ("prefetches_issued", "/prefetches_issued"),
     ("prefetches_used", "/prefetches_used"),
 ];
 
-/// The three traversal phases, whose shares of the phase cycles are columns
-/// `<phase>_share`.
+/// The three traversal phases, whose shares of the phase cycles are columns `<phase>_share`
+/// and whose shares of the intersection tests are columns `<phase>_test_share`.
 const PHASES: [&str; 3] = ["initial", "treelet_stationary", "ray_stationary"];
+
+/// Deciles of the run whose BVH L1 miss rates are columns `miss_rate_d<1..=10>` (and, with
+/// prefetches counted, `miss_rate_pf_d<1..=10>`).
+const DECILES: usize = 10;
 
 /// One row before the columns are chosen.
 #[derive(Debug, Clone)]
@@ -172,9 +194,31 @@ fn json_cell(v: Option<&Json>) -> String {
 /// The headline statistic columns' names, in order.
 fn stat_columns() -> Vec<String> {
     let mut names: Vec<String> = DIRECT.iter().map(|(n, _)| n.to_string()).collect();
+    names.push("treelet_fill".into());
+    names.push("sm_finish_min".into());
+    names.push("sm_finish_mean".into());
     names.push("intersection_tests".into());
     names.extend(PHASES.iter().map(|p| format!("{p}_share")));
+    names.extend(PHASES.iter().map(|p| format!("{p}_test_share")));
+    names.extend((1..=DECILES).map(|d| format!("miss_rate_d{d}")));
+    names.extend((1..=DECILES).map(|d| format!("miss_rate_pf_d{d}")));
     names
+}
+
+/// The shares of `field` over the three phases, as cells (empty when absent or all zero).
+fn phase_shares(stats: &Json, field: &str) -> Vec<String> {
+    let values: Vec<Option<u64>> = PHASES
+        .iter()
+        .map(|p| stats.pointer(&format!("/phases/{p}/{field}"))?.as_u64())
+        .collect();
+    let total: u64 = values.iter().flatten().sum();
+    values
+        .into_iter()
+        .map(|v| match v {
+            Some(v) if total > 0 => (v as f64 / total as f64).to_string(),
+            _ => String::new(),
+        })
+        .collect()
 }
 
 /// The headline statistic cells of one statistics JSON, in [`stat_columns`] order.
@@ -187,17 +231,30 @@ fn stat_cells(stats: &Json) -> Vec<String> {
         .pointer("/rt/tests")
         .and_then(Json::as_object)
         .map(|t| t.values().filter_map(Json::as_u64).sum::<u64>());
+    cells.push(json_cell(stats.pointer("/bvh/treelet_fill")));
+    let finish: Vec<u64> = stats
+        .pointer("/sm_finish_cycles")
+        .and_then(Json::as_array)
+        .map(|v| v.iter().filter_map(Json::as_u64).collect())
+        .unwrap_or_default();
+    if finish.is_empty() {
+        cells.extend([String::new(), String::new()]);
+    } else {
+        let min = finish.iter().min().copied().unwrap_or(0);
+        let mean = finish.iter().sum::<u64>() as f64 / finish.len() as f64;
+        cells.extend([min.to_string(), mean.to_string()]);
+    }
     cells.push(tests.map_or_else(String::new, |t| t.to_string()));
-    let cycles: Vec<Option<u64>> = PHASES
-        .iter()
-        .map(|p| stats.pointer(&format!("/phases/{p}/cycles"))?.as_u64())
-        .collect();
-    let total: u64 = cycles.iter().flatten().sum();
-    for c in cycles {
-        cells.push(match c {
-            Some(c) if total > 0 => (c as f64 / total as f64).to_string(),
-            _ => String::new(),
-        });
+    cells.extend(phase_shares(stats, "cycles"));
+    cells.extend(phase_shares(stats, "intersection_tests"));
+    for key in [
+        "/bvh_l1_miss_rate_deciles",
+        "/bvh_l1_miss_rate_deciles_with_prefetches",
+    ] {
+        let deciles = stats.pointer(key).and_then(Json::as_array);
+        for d in 0..DECILES {
+            cells.push(json_cell(deciles.and_then(|v| v.get(d))));
+        }
     }
     cells
 }
@@ -342,9 +399,14 @@ mod tests {
     fn swept_keys_are_the_varying_ones_and_rows_sort_by_value() {
         let stats = serde_json::json!({
             "cycles": 100, "simt_efficiency": 0.5, "rt": {"tests": {"a": 3, "b": 4}},
-            "phases": {"initial": {"cycles": 1}, "treelet_stationary": {"cycles": 3},
-                       "ray_stationary": {"cycles": 0}},
-            "queues": {"repacks": 7}
+            "phases": {"initial": {"cycles": 1, "intersection_tests": 2},
+                       "treelet_stationary": {"cycles": 3, "intersection_tests": 6},
+                       "ray_stationary": {"cycles": 0, "intersection_tests": 0}},
+            "queues": {"repacks": 7},
+            "bvh": {"bvh_bytes": 4096, "treelet_fill": 0.5},
+            "virtualization": {"restore_cycles": 11},
+            "sm_finish_cycles": [90, 100, 95, 99],
+            "bvh_l1_miss_rate_deciles": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]
         });
         let rows = vec![
             row("wknd", "[hw]\nx = 128\ny = 1\n", "ok", Some(stats.clone())),
@@ -368,6 +430,14 @@ mod tests {
         assert_eq!(ok[col("intersection_tests")], "7");
         assert_eq!(ok[col("initial_share")], "0.25");
         assert_eq!(ok[col("ray_stationary_share")], "0");
+        assert_eq!(ok[col("treelet_stationary_test_share")], "0.75");
+        assert_eq!(ok[col("bvh_bytes")], "4096");
+        assert_eq!(ok[col("treelet_fill")], "0.5");
+        assert_eq!(ok[col("cta_restore_cycles")], "11");
+        assert_eq!(ok[col("sm_finish_min")], "90");
+        assert_eq!(ok[col("sm_finish_mean")], "96");
+        assert_eq!(ok[col("miss_rate_d1")], "0.1");
+        assert_eq!(ok[col("miss_rate_d10")], "1.0");
         assert_eq!(ok[col("rays")], "");
         assert_eq!(t.rows[0][col("status")], MISSING);
         assert_eq!(t.status_summary(), "1 ok, 1 failed, 1 missing");

@@ -27,6 +27,7 @@ use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{node_entry, ray_words, BvhDatapath};
 use crate::gpu::error::SimError;
 use crate::gpu::prefetch::Prefetcher;
+use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::gpu::rt_fault::RtFault;
 use crate::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
@@ -183,6 +184,9 @@ impl<'a> RtPort<'a> {
                     pending: BTreeMap::new(),
                     completed: VecDeque::new(),
                     fault: None,
+                    stacks: setup
+                        .stack_base
+                        .map(|base| QueuedStacks::new(base, hw.max_rays, hw.stack_depth)),
                     observer: QueueObserver::default(),
                 };
                 (Hardware::Treelet(Box::new(treelet)), wake)
@@ -222,6 +226,15 @@ impl<'a> RtPort<'a> {
         match &self.hw {
             Hardware::Treelet(t) => Some(&t.observer),
             Hardware::Plain(_) => None,
+        }
+    }
+
+    /// Queues mode with `rt.queued_stack_traffic`: the queued-stack chunk stores and loads
+    /// issued, (0, 0) otherwise.
+    pub fn queued_stack_chunks(&self) -> (u64, u64) {
+        match &self.hw {
+            Hardware::Treelet(t) => t.stacks.as_ref().map_or((0, 0), |q| (q.stores, q.loads)),
+            Hardware::Plain(_) => (0, 0),
         }
     }
 
@@ -317,12 +330,26 @@ impl<'a> RtPort<'a> {
                         let slot = (r.tag & 0xFFFF) as u32;
                         let ray = ((r.tag & !RAY_LOAD_TAG) >> 16) as u32;
                         match t.store.take(ray) {
-                            Some(record) => t.arrived.push(RayLoad { slot, ray, record }),
+                            Some(record) => {
+                                let load = RayLoad { slot, ray, record };
+                                let ready = match t.stacks.as_mut() {
+                                    Some(q) => q.record_arrived(load),
+                                    None => Some(load),
+                                };
+                                t.arrived.extend(ready);
+                            }
                             None => {
                                 t.fault.get_or_insert(format!(
                                     "the record of ray {ray} was loaded but the store holds none"
                                 ));
                             }
+                        }
+                    }
+                }
+                AccessClass::RayStack => {
+                    if let Hardware::Treelet(t) = &mut self.hw {
+                        if let Some(load) = t.stacks.as_mut().and_then(|q| q.chunk_arrived(r.tag)) {
+                            t.arrived.push(load);
                         }
                     }
                 }

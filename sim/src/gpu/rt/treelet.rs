@@ -15,6 +15,7 @@ use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::gpu::error::SimError;
+use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::ray_memory::{RayStore, SpillFifo};
 use crate::memory::{AccessClass, MemRequest};
 
@@ -41,6 +42,9 @@ pub struct QueueSetup {
     pub features: vtq_hdl::controller::ControllerFeatures,
     /// Byte address of this SM's ray id 0's 32 B ray record.
     pub ray_base: u64,
+    /// Where queued rays' stacks go, when they move through memory
+    /// (`rt.queued_stack_traffic`): the address of this SM's area ([`QueuedStacks`]).
+    pub stack_base: Option<u64>,
 }
 
 /// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
@@ -75,6 +79,8 @@ pub(super) struct Treelet<'a> {
     pub(super) completed: VecDeque<TracedWarp>,
     /// A ray-record response the store could not answer (reported at the next step).
     pub(super) fault: Option<String>,
+    /// The traffic of queued rays' stacks (`rt.queued_stack_traffic`; `None`: free).
+    pub(super) stacks: Option<QueuedStacks>,
     /// The statistics observer.
     pub(super) observer: QueueObserver,
 }
@@ -165,6 +171,9 @@ impl<'a> RtPort<'a> {
             cycle.accepted = Some(idx);
         }
         for r in &out.parked {
+            if let Some(q) = t.stacks.as_mut() {
+                self.requests.extend(q.park(r));
+            }
             t.store.park(r.clone());
         }
         if let Some(entry) = out.spill_push {
@@ -203,23 +212,33 @@ impl<'a> RtPort<'a> {
             }
         }
         cycle.done = t.completed.pop_front();
+        // Taken out while the requests are queued (queueing borrows the port), put back after.
+        let mut stacks = t.stacks.take();
         for r in &out.requests {
             match *r {
-                TreeletRequest::RayLoad { slot, ray, address } => self.requests.push_back(
-                    MemRequest::load(
-                        address,
-                        CHUNK_BYTES,
-                        AccessClass::RayRecord,
-                        RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
-                    )
-                    .bypassing_l1(),
-                ),
+                TreeletRequest::RayLoad { slot, ray, address } => {
+                    self.requests.push_back(
+                        MemRequest::load(
+                            address,
+                            CHUNK_BYTES,
+                            AccessClass::RayRecord,
+                            RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
+                        )
+                        .bypassing_l1(),
+                    );
+                    if let Some(q) = stacks.as_mut() {
+                        self.requests.extend(q.load(ray));
+                    }
+                }
                 TreeletRequest::RayStore { address, .. } => self.requests.push_back(
                     MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
                         .bypassing_l1(),
                 ),
                 TreeletRequest::Rt(req) => self.push_request(&req),
             }
+        }
+        if let Hardware::Treelet(t) = &mut self.hw {
+            t.stacks = stacks;
         }
         Ok(cycle)
     }
