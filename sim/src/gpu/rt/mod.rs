@@ -545,11 +545,13 @@ impl<'a> RtPort<'a> {
                 p.slot_warp
             ),
             Hardware::Treelet(t) => format!(
-                "{}; {common}; spill FIFO {}; SM warps waiting for rays {}, returning {}",
+                "{}; {common}; spill FIFO {}; SM warps waiting for rays {}, returning {}; ray \
+                 records waiting for their stacks {}",
                 t.unit.debug_state(&t.regs),
                 t.spill_fifo.len(),
                 t.pending.len(),
-                t.completed.len()
+                t.completed.len(),
+                t.stacks.as_ref().map_or(0, QueuedStacks::held)
             ),
         }
     }
