@@ -15,6 +15,7 @@ pub mod intersect;
 pub mod memory;
 pub mod plot;
 pub mod rays_csv;
+pub mod reproduce;
 pub mod sample;
 pub mod scene;
 pub mod sweep;

@@ -7,8 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use vtq_sim::cmd::{
-    accuracy, area, bench, compare, cosim, figure5, fuzz, render, scenes, sim, sweep, trace,
-    verilog,
+    accuracy, area, bench, compare, cosim, figure5, fuzz, render, reproduce, scenes, sim, sweep,
+    trace, verilog,
 };
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
@@ -46,6 +46,10 @@ enum Command {
     /// The paper's Figure 5 analytical model: potential treelet speedup against concurrent rays,
     /// from the functional node-fetch traces of the workload's rays.
     Figure5(figure5::Figure5Args),
+    /// The paper's figures: run its experiment matrix (configs/experiments, shared with
+    /// docs/fidelity.md) over the scenes through the result store and write DIR/index.html and
+    /// index.md with the figures as SVG and PNG beside the paper's published values.
+    Reproduce(reproduce::ReproduceArgs),
     /// Write Verilog for the hardware blocks at the configured sizes (checks only the [hw],
     /// [gpu] and [memory] sections, so table sizes can be set in any mode).
     Verilog(verilog::VerilogArgs),
@@ -83,6 +87,7 @@ fn main() -> ExitCode {
         Command::Sweep(args) => sweep::run(args),
         Command::Accuracy(args) => accuracy::run(args),
         Command::Figure5(args) => figure5::run(args),
+        Command::Reproduce(args) => reproduce::run(args),
         Command::Verilog(args) => verilog::run(args),
         Command::Area(args) => area::run(args),
         Command::Cosim(args) => cosim::run(args),

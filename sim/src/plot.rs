@@ -66,6 +66,16 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
+/// Reference-line colors, in order: apart from the series' so a paper's value is not read as a
+/// series.
+const REF_COLORS: [RGBColor; 5] = [
+    RGBColor(40, 40, 40),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(150, 150, 40),
+    RGBColor(127, 127, 127),
+];
+
 /// Marker shapes, one per label in order of first appearance.
 const SHAPES: usize = 5;
 
@@ -288,22 +298,23 @@ fn draw_bars<DB: DrawingBackend>(
         .iter()
         .map(|r| r.value)
         .fold(top, f64::max)
-        .max(1e-9)
-        * 1.15;
+        .max(1e-9);
+    let top = with_legend_room(0.0, top, chart.series.len() + chart.references.len());
     let cats = chart.categories.clone();
     let mut ctx = ChartBuilder::on(area)
         .caption(&chart.title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(0f64..n as f64, 0f64..top)
+        .build_cartesian_2d(-0.5f64..n as f64 - 0.5, 0f64..top)
         .map_err(|e| e.to_string())?;
+    // Category i is centred on x = i, so the axis' whole-number ticks carry the names.
     ctx.configure_mesh()
         .disable_x_mesh()
-        .x_labels(n)
+        .x_labels(n + 1)
         .x_label_formatter(&|x: &f64| {
-            let i = (*x - 0.5).round();
-            if (x - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
+            let i = x.round();
+            if (x - i).abs() < 1e-6 && i >= 0.0 {
                 cats.get(i as usize).cloned().unwrap_or_default()
             } else {
                 String::new()
@@ -322,10 +333,10 @@ fn draw_bars<DB: DrawingBackend>(
                     .iter()
                     .filter_map(|t| t.values.get(i).copied().flatten())
                     .sum();
-                (i as f64 + 0.15, i as f64 + 0.85, below)
+                (i as f64 - 0.35, i as f64 + 0.35, below)
             } else {
                 let w = 0.8 / k;
-                let x = i as f64 + 0.1 + w * j as f64;
+                let x = i as f64 - 0.4 + w * j as f64;
                 (x, x + w * 0.92, 0.0)
             };
             Some(Rectangle::new([(x0, y0), (x1, y0 + v)], color.filled()))
@@ -335,12 +346,7 @@ fn draw_bars<DB: DrawingBackend>(
             .label(s.name.as_str())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
     }
-    references(
-        &mut ctx,
-        &chart.references,
-        chart.series.len(),
-        (0.0, n as f64),
-    )?;
+    references(&mut ctx, &chart.references, (-0.5, n as f64 - 0.5))?;
     finish_legend(&mut ctx)?;
     area.present().map_err(|e| e.to_string())
 }
@@ -350,16 +356,20 @@ pub fn write_bars(stem: &Path, chart: &Bars) -> Result<(PathBuf, PathBuf), PlotE
     write_both(stem, |a| draw_bars(a, chart), |a| draw_bars(a, chart))
 }
 
-/// Draws `refs` as dashed horizontal lines across `x` (colors after the `series` series'),
-/// each with its legend entry.
+/// The top of a y range `bottom..top` raised so that a legend of `entries` entries in the upper
+/// right corner stays above the data.
+fn with_legend_room(bottom: f64, top: f64, entries: usize) -> f64 {
+    top + (top - bottom) * (0.08 + 0.055 * entries as f64)
+}
+
+/// Draws `refs` as dashed horizontal lines across `x`, each with its legend entry.
 fn references<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
     ctx: &mut ChartContext<'_, DB, CT>,
     refs: &[Reference],
-    series: usize,
     (x0, x1): (f64, f64),
 ) -> Result<(), String> {
     for (j, r) in refs.iter().enumerate() {
-        let color = COLORS[(j + series) % COLORS.len()];
+        let color = REF_COLORS[j % REF_COLORS.len()];
         let step = (x1 - x0) / 60.0;
         let dashes = (0..60).step_by(2).map(|q| {
             let x = x0 + q as f64 * step;
@@ -428,6 +438,9 @@ fn draw_lines<DB: DrawingBackend>(
             .chain(chart.references.iter().map(|r| r.value)),
         false,
     );
+    // Non-negative data from zero, with room above it for the legend.
+    let y0 = if y0 >= 0.0 { 0.0 } else { y0 };
+    let y1 = with_legend_room(y0, y1, chart.lines.len() + chart.references.len());
     let mut ctx = ChartBuilder::on(area)
         .caption(&chart.title, ("sans-serif", 20))
         .margin(12)
@@ -450,7 +463,7 @@ fn draw_lines<DB: DrawingBackend>(
         .label(l.name.as_str())
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2)));
     }
-    references(&mut ctx, &chart.references, chart.lines.len(), (x0, x1))?;
+    references(&mut ctx, &chart.references, (x0, x1))?;
     finish_legend(&mut ctx)?;
     area.present().map_err(|e| e.to_string())
 }

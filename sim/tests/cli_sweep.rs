@@ -8,6 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod sweep_grid;
+use sweep_grid::sweep_args;
+
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("vtq-cli-sweep-{}-{test}", std::process::id()));
@@ -43,36 +46,6 @@ fn text(out: &Output) -> String {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     )
-}
-
-/// `vtq sweep` of the resume test (12 points: 2 scenes x 2 repack thresholds x 3 SM counts,
-/// VTQ, 32x32) into `results`, with `extra` options.
-fn sweep_args(dir: &Path, results: &str, extra: &[&str]) -> Vec<String> {
-    let mut args: Vec<String> = [
-        "sweep",
-        "--scene",
-        "wknd",
-        "--scene",
-        "cornell",
-        "--config",
-        &vtq_toml(),
-        "--grid",
-        "hw.repack_threshold=16,28",
-        "--grid",
-        "gpu.sms=2,4,8",
-        "--set",
-        "width=32",
-        "--set",
-        "height=32",
-        "--results",
-        results,
-        "--cache-dir",
-        dir.join("bvh-cache").to_str().unwrap(),
-    ]
-    .map(String::from)
-    .to_vec();
-    args.extend(extra.iter().map(|s| s.to_string()));
-    args
 }
 
 /// Collects `results` (relative to `dir`) and returns the CSV text.

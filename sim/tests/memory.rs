@@ -584,11 +584,9 @@ fn random_request(rng: &mut Rng, tag: u64) -> MemRequest {
     }
 }
 
-/// Runs the requesters against the memory system, visiting every cycle (`jump == false`) or
-/// only cycles where a response is due or a requester wakes (`jump == true`).
-fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
-    let mut mem = system(&stress_config(), sms);
-    let mut reqs: Vec<Requester> = (0..sms)
+/// One requester per SM, seeded from `seed`, the first waking in cycle `sm`.
+fn requesters(seed: u64, sms: usize) -> Vec<Requester> {
+    (0..sms)
         .map(|sm| Requester {
             rng: Rng(0x9e37_79b9_7f4a_7c15 ^ (seed * 1000 + sm as u64 + 1)),
             wake: Some(sm as u64),
@@ -596,7 +594,14 @@ fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
             outstanding: 0,
             issued: 0,
         })
-        .collect();
+        .collect()
+}
+
+/// Runs the requesters against the memory system, visiting every cycle (`jump == false`) or
+/// only cycles where a response is due or a requester wakes (`jump == true`).
+fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
+    let mut mem = system(&stress_config(), sms);
+    let mut reqs = requesters(seed, sms);
     let mut log = Vec::new();
     let mut next_tag = 0;
     let mut now = 0;
@@ -663,15 +668,7 @@ fn run_windowed(seed: u64, sms: usize) -> (Vec<Event>, MemStats, usize) {
     let cfg = stress_config();
     let (mut ports, mut l2) = system(&cfg, sms).into_parts();
     let window = L1Port::round_trip(&cfg);
-    let mut reqs: Vec<Requester> = (0..sms)
-        .map(|sm| Requester {
-            rng: Rng(0x9e37_79b9_7f4a_7c15 ^ (seed * 1000 + sm as u64 + 1)),
-            wake: Some(sm as u64),
-            pending: None,
-            outstanding: 0,
-            issued: 0,
-        })
-        .collect();
+    let mut reqs = requesters(seed, sms);
     let mut log = Vec::new();
     // Log entries to complete when their window settles: (entry, SM, operation, merge).
     let mut unsettled: Vec<(usize, usize, usize, bool)> = Vec::new();

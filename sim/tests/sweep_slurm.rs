@@ -19,6 +19,9 @@ use std::time::{Duration, Instant};
 
 use vtq_gen::tools::CI_ENV;
 
+mod sweep_grid;
+use sweep_grid::sweep_args;
+
 /// The Slurm and munge programs the test runs.
 const TOOLS: [&str; 8] = [
     "munged",
@@ -331,37 +334,6 @@ fn temp_dir() -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// `vtq sweep` of 12 points (2 scenes x 2 repack thresholds x 3 SM counts, VTQ, 32x32) into
-/// `results`, with `extra` options.
-fn sweep_args(dir: &Path, results: &str, extra: &[&str]) -> Vec<String> {
-    let vtq_toml = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/vtq.toml");
-    let mut args: Vec<String> = [
-        "sweep",
-        "--scene",
-        "wknd",
-        "--scene",
-        "cornell",
-        "--config",
-        vtq_toml.to_str().unwrap(),
-        "--grid",
-        "hw.repack_threshold=16,28",
-        "--grid",
-        "gpu.sms=2,4,8",
-        "--set",
-        "width=32",
-        "--set",
-        "height=32",
-        "--results",
-        results,
-        "--cache-dir",
-        dir.join("bvh-cache").to_str().unwrap(),
-    ]
-    .map(String::from)
-    .to_vec();
-    args.extend(extra.iter().map(|s| s.to_string()));
-    args
 }
 
 /// Runs `vtq args` in `dir` with the cluster's configuration and checks it succeeded.

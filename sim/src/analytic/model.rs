@@ -193,27 +193,7 @@ fn ray_stationary(
     // Per SM, its trips in issue order: resident CTAs in groups of `slots`, bounce level by
     // bounce level, warp by warp.
     let per_sm: Vec<Vec<&Trip>> = (0..sms)
-        .map(|sm| {
-            let ctas: Vec<_> = trace.sm_ctas(sm, sms).collect();
-            let mut trips = Vec::new();
-            for group in ctas.chunks(slots) {
-                let levels = group
-                    .iter()
-                    .flat_map(|c| c.warps.iter().map(Vec::len))
-                    .max()
-                    .unwrap_or(0);
-                for level in 0..levels {
-                    for cta in group {
-                        for warp in &cta.warps {
-                            if let Some(t) = warp.get(level) {
-                                trips.push(t);
-                            }
-                        }
-                    }
-                }
-            }
-            trips
-        })
+        .map(|sm| trace.sm_levels(sm, sms, slots).concat())
         .collect();
     let mut time = vec![0u64; sms];
     let (mut busy, mut warp_cycles) = (0u64, 0u64);
@@ -336,24 +316,16 @@ fn treelet_queues(cfg: &SimConfig, trace: &FrameTrace) -> Timing {
     // Batches of each SM, then bounce levels, SMs interleaved batch by batch.
     let batches: Vec<Vec<Vec<&[Node]>>> = (0..sms)
         .map(|sm| {
-            let ctas: Vec<_> = trace.sm_ctas(sm, sms).collect();
-            let mut out = Vec::new();
-            for group in ctas.chunks(batch_ctas) {
-                let levels = group
-                    .iter()
-                    .flat_map(|c| c.warps.iter().map(Vec::len))
-                    .max()
-                    .unwrap_or(0);
-                for level in 0..levels {
-                    let rays: Vec<&[Node]> = group
+            trace
+                .sm_levels(sm, sms, batch_ctas)
+                .into_iter()
+                .map(|level| {
+                    level
                         .iter()
-                        .flat_map(|c| c.warps.iter().filter_map(|w| w.get(level)))
                         .flat_map(|t| t.rays.iter().map(Vec::as_slice))
-                        .collect();
-                    out.push(rays);
-                }
-            }
-            out
+                        .collect()
+                })
+                .collect()
         })
         .collect();
     let longest = batches.iter().map(Vec::len).max().unwrap_or(0);

@@ -117,4 +117,28 @@ impl FrameTrace {
     pub fn sm_ctas(&self, sm: usize, sms: usize) -> impl Iterator<Item = &CtaTrips> {
         self.ctas.iter().skip(sm).step_by(sms.max(1))
     }
+
+    /// The trips SM `sm` of `sms` issues, in issue order: its CTAs in groups of `group` (the
+    /// CTAs in flight together), per group bounce level by bounce level, each level CTA by CTA
+    /// and warp by warp. One entry per (group, level).
+    pub fn sm_levels(&self, sm: usize, sms: usize, group: usize) -> Vec<Vec<&Trip>> {
+        let ctas: Vec<&CtaTrips> = self.sm_ctas(sm, sms).collect();
+        let mut out = Vec::new();
+        for group in ctas.chunks(group.max(1)) {
+            let levels = group
+                .iter()
+                .flat_map(|c| c.warps.iter().map(Vec::len))
+                .max()
+                .unwrap_or(0);
+            for level in 0..levels {
+                out.push(
+                    group
+                        .iter()
+                        .flat_map(|c| c.warps.iter().filter_map(|w| w.get(level)))
+                        .collect(),
+                );
+            }
+        }
+        out
+    }
 }

@@ -9,6 +9,7 @@ pub mod figure5;
 pub mod fuzz;
 pub mod options;
 pub mod render;
+pub mod reproduce;
 pub mod scenes;
 pub mod sim;
 pub mod sweep;

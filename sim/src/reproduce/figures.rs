@@ -1,0 +1,765 @@
+//! The paper's figures computed from stored runs: each a chart (SVG and PNG, the paper's
+//! published values as dashed reference lines where it gives numbers) and the table of the
+//! numbers drawn. Speedups are baseline cycles / design cycles on the same scene; means are
+//! geometric for speedups and arithmetic for rates, shares and SIMT efficiencies, over the
+//! scenes that are not built-ins (docs/fidelity.md).
+
+use std::path::Path;
+
+use serde_json::Value as Json;
+use vtq_gen::AreaReport;
+
+use super::{is_builtin, Results};
+use crate::plot::{write_bars, write_lines, BarSeries, Bars, Line, Lines, Reference};
+
+/// The baseline GPU's configuration file.
+const BASELINE: &str = "configs/baseline.toml";
+/// Treelet prefetching.
+const PREFETCH: &str = "configs/prefetch.toml";
+/// The full design (repacking below 22 active rays).
+const VTQ: &str = "configs/vtq.toml";
+/// Treelet queues without grouping or repacking (also the permanent treelet-stationary mode of
+/// Figure 11).
+const NAIVE: &str = "configs/queues-naive.toml";
+/// Grouping of underpopulated queues, no repacking.
+const GROUPING: &str = "configs/queues-grouping.toml";
+/// Grouping and repacking below 16 active rays.
+const REPACK16: &str = "configs/queues-repack16.toml";
+
+/// A table of numbers: a header and rows of cells.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Table {
+    /// Column names.
+    pub header: Vec<String>,
+    /// Rows of cells.
+    pub rows: Vec<Vec<String>>,
+}
+
+/// One figure of the page.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
+    /// Short name, the stem of its image files (`fig10`, `fig11-lands`...).
+    pub id: String,
+    /// Heading.
+    pub title: String,
+    /// What it shows and what the paper reports.
+    pub caption: String,
+    /// Image stems relative to the output folder (each has a `.svg` and a `.png`).
+    pub images: Vec<String>,
+    /// The numbers drawn.
+    pub table: Table,
+}
+
+/// A number read from statistics by JSON pointer.
+fn num(stats: &Json, pointer: &str) -> Option<f64> {
+    stats.pointer(pointer).and_then(Json::as_f64)
+}
+
+/// Cycles of a run.
+fn cycles(stats: &Option<Json>) -> Option<f64> {
+    stats.as_ref().and_then(|s| num(s, "/cycles"))
+}
+
+/// Geometric mean of the present values (`None` if none is).
+fn geo_mean(values: &[Option<f64>]) -> Option<f64> {
+    let v: Vec<f64> = values
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|x| *x > 0.0)
+        .collect();
+    (!v.is_empty()).then(|| (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp())
+}
+
+/// Arithmetic mean of the present values.
+fn mean(values: &[Option<f64>]) -> Option<f64> {
+    let v: Vec<f64> = values.iter().flatten().copied().collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// A cell with `decimals` decimals, `-` for a missing value.
+fn cell(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |x| format!("{x:.decimals$}"))
+}
+
+/// A percentage cell with one decimal.
+fn pct(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".to_string(), |x| format!("{:.1}%", 100.0 * x))
+}
+
+/// How a per-scene series is averaged into its "mean" category.
+#[derive(Debug, Clone, Copy)]
+enum Mean {
+    /// Geometric (speedups, cycle ratios).
+    Geometric,
+    /// Arithmetic (rates, shares, efficiencies).
+    Arithmetic,
+}
+
+/// Per-scene values plus their mean over the scenes that are not built-ins.
+fn with_mean(scenes: &[&str], values: Vec<Option<f64>>, how: Mean) -> Vec<Option<f64>> {
+    let counted: Vec<Option<f64>> = scenes
+        .iter()
+        .zip(&values)
+        .filter(|(s, _)| !is_builtin(s))
+        .map(|(_, v)| *v)
+        .collect();
+    let counted = if counted.is_empty() {
+        values.clone()
+    } else {
+        counted
+    };
+    let m = match how {
+        Mean::Geometric => geo_mean(&counted),
+        Mean::Arithmetic => mean(&counted),
+    };
+    values.into_iter().chain([m]).collect()
+}
+
+/// The categories of a per-scene chart: the scenes, then the mean.
+fn categories(scenes: &[&str], how: Mean) -> Vec<String> {
+    let name = match how {
+        Mean::Geometric => "geo. mean",
+        Mean::Arithmetic => "mean",
+    };
+    scenes
+        .iter()
+        .map(|s| s.to_string())
+        .chain([name.to_string()])
+        .collect()
+}
+
+/// A reference line.
+fn paper(name: &str, value: f64) -> Reference {
+    Reference {
+        name: name.to_string(),
+        value,
+    }
+}
+
+/// A table with one row per category and one column per series.
+fn series_table(
+    first: &str,
+    cats: &[String],
+    series: &[BarSeries],
+    fmt: fn(Option<f64>) -> String,
+) -> Table {
+    Table {
+        header: std::iter::once(first.to_string())
+            .chain(series.iter().map(|s| s.name.clone()))
+            .collect(),
+        rows: cats
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                std::iter::once(c.clone())
+                    .chain(
+                        series
+                            .iter()
+                            .map(|s| fmt(s.values.get(i).copied().flatten())),
+                    )
+                    .collect()
+            })
+            .collect(),
+    }
+}
+
+/// Writes a bar chart under `out/figures/<id>` and returns its image stem.
+fn bars(out: &Path, id: &str, chart: &Bars) -> anyhow::Result<String> {
+    let stem = format!("figures/{id}");
+    write_bars(&out.join(&stem), chart)?;
+    Ok(stem)
+}
+
+/// Speedups of `design` over the baseline, per scene.
+fn speedups(r: &Results, scenes: &[&str], design: &str, sets: &[&str]) -> Vec<Option<f64>> {
+    scenes
+        .iter()
+        .map(|s| {
+            let base = cycles(&r.stats(s, BASELINE, &[]))?;
+            Some(base / cycles(&r.stats(s, design, sets))?)
+        })
+        .collect()
+}
+
+/// A statistic of `design` per scene.
+fn per_scene(r: &Results, scenes: &[&str], design: &str, pointer: &str) -> Vec<Option<f64>> {
+    scenes
+        .iter()
+        .map(|s| num(&r.stats(s, design, &[])?, pointer))
+        .collect()
+}
+
+/// Figure 1: the baseline's BVH L1 miss rate and RT-unit SIMT efficiency per scene.
+pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let how = Mean::Arithmetic;
+    let cats = categories(&scenes, how);
+    let miss = with_mean(
+        &scenes,
+        per_scene(r, &scenes, BASELINE, "/bvh_l1_miss_rate"),
+        how,
+    );
+    let simt = with_mean(
+        &scenes,
+        per_scene(r, &scenes, BASELINE, "/simt_efficiency"),
+        how,
+    );
+    let a = bars(
+        out,
+        "fig01a",
+        &Bars {
+            title: "Figure 1a: baseline BVH L1 miss rate".into(),
+            y_label: "BVH L1 miss rate (%)".into(),
+            categories: cats.clone(),
+            series: vec![BarSeries {
+                name: "vtq".into(),
+                values: miss.iter().map(|v| v.map(|x| 100.0 * x)).collect(),
+            }],
+            references: vec![
+                paper("paper: mean 58%", 58.0),
+                paper("paper: max 70%", 70.0),
+            ],
+            stacked: false,
+        },
+    )?;
+    let b = bars(
+        out,
+        "fig01b",
+        &Bars {
+            title: "Figure 1b: baseline RT-unit SIMT efficiency".into(),
+            y_label: "SIMT efficiency".into(),
+            categories: cats.clone(),
+            series: vec![BarSeries {
+                name: "vtq".into(),
+                values: simt.clone(),
+            }],
+            references: vec![paper("paper: mean 0.37", 0.37)],
+            stacked: false,
+        },
+    )?;
+    let table = Table {
+        header: vec![
+            "scene".into(),
+            "BVH L1 miss rate".into(),
+            "SIMT efficiency".into(),
+        ],
+        rows: cats
+            .iter()
+            .enumerate()
+            .map(|(i, c)| vec![c.clone(), pct(miss[i]), cell(simt[i], 3)])
+            .collect(),
+    };
+    Ok(Figure {
+        id: "fig01".into(),
+        title: "Figure 1: the baseline's BVH L1 miss rate and SIMT efficiency".into(),
+        caption: "BVH accesses of the RT unit missing in the L1, and the RT unit's SIMT \
+                  efficiency (active lanes / warp size), in the baseline GPU. The paper \
+                  (Vulkan-Sim, all of LumiBench): 58% mean and 70% max miss rate, 0.37 SIMT \
+                  efficiency."
+            .into(),
+        images: vec![a, b],
+        table,
+    })
+}
+
+/// Figure 10: speedups of treelet prefetching and VTQ over the baseline.
+pub fn figure10(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let how = Mean::Geometric;
+    let cats = categories(&scenes, how);
+    let series = vec![
+        BarSeries {
+            name: "treelet prefetching".into(),
+            values: with_mean(&scenes, speedups(r, &scenes, PREFETCH, &[]), how),
+        },
+        BarSeries {
+            name: "VTQ".into(),
+            values: with_mean(&scenes, speedups(r, &scenes, VTQ, &[]), how),
+        },
+    ];
+    let img = bars(
+        out,
+        "fig10",
+        &Bars {
+            title: "Figure 10: speedup over the baseline".into(),
+            y_label: "speedup (baseline cycles / cycles)".into(),
+            categories: cats.clone(),
+            series: series.clone(),
+            references: vec![
+                paper("baseline", 1.0),
+                paper("paper: VTQ mean 1.95", 1.95),
+                paper("paper: VTQ max 2.55", 2.55),
+                paper("paper: prefetching 1.95 / 1.43", 1.95 / 1.43),
+            ],
+            stacked: false,
+        },
+    )?;
+    Ok(Figure {
+        id: "fig10".into(),
+        title: "Figure 10: VTQ and treelet prefetching against the baseline".into(),
+        caption: "Speedup of treelet prefetching (MICRO 2023) and of Virtualized Treelet Queues \
+                  (4096 rays per SM, grouping, repacking below 22) over the baseline GPU. The \
+                  paper: VTQ +95% on average and up to 2.55x, every scene faster, 43% faster \
+                  than prefetching (so prefetching about 1.36x)."
+            .into(),
+        images: vec![img],
+        table: series_table("scene", &cats, &series, |v| cell(v, 2)),
+    })
+}
+
+/// Figure 11: the BVH L1 miss rate over the run (tenths), baseline against the permanent
+/// treelet-stationary mode, one chart per scene.
+pub fn figure11(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let mut images = Vec::new();
+    let mut rows = Vec::new();
+    let deciles = |s: &Option<Json>, key: &str| -> Option<Vec<f64>> {
+        let v = s.as_ref()?.pointer(key)?.as_array()?;
+        Some(v.iter().filter_map(Json::as_f64).collect())
+    };
+    for scene in &scenes {
+        let base = r.stats(scene, BASELINE, &[]);
+        let ts = r.stats(scene, NAIVE, &[]);
+        let lines: Vec<(String, Option<Vec<f64>>)> = vec![
+            (
+                "baseline".into(),
+                deciles(&base, "/bvh_l1_miss_rate_deciles"),
+            ),
+            (
+                "treelet-stationary".into(),
+                deciles(&ts, "/bvh_l1_miss_rate_deciles"),
+            ),
+            (
+                "treelet-stationary, preloads counted".into(),
+                deciles(&ts, "/bvh_l1_miss_rate_deciles_with_prefetches"),
+            ),
+        ];
+        for (name, values) in &lines {
+            let mut row = vec![scene.to_string(), name.clone()];
+            row.extend((0..10).map(|d| pct(values.as_ref().and_then(|v| v.get(d).copied()))));
+            rows.push(row);
+        }
+        let chart = Lines {
+            title: format!("Figure 11: BVH L1 miss rate over the run, {scene}"),
+            x_label: "tenth of the run (%)".into(),
+            y_label: "BVH L1 miss rate (%)".into(),
+            lines: lines
+                .into_iter()
+                .filter_map(|(name, v)| {
+                    Some(Line {
+                        name,
+                        points: v?
+                            .iter()
+                            .enumerate()
+                            .map(|(d, m)| (10.0 * d as f64 + 5.0, 100.0 * m))
+                            .collect(),
+                    })
+                })
+                .collect(),
+            references: vec![
+                paper("paper (LANDS): treelet-stationary early 9%", 9.0),
+                paper("paper: treelet-stationary late 75-80%", 77.5),
+                paper("paper: baseline plateau 60%", 60.0),
+            ],
+        };
+        let stem = format!("figures/fig11-{}", file_safe(scene));
+        write_lines(&out.join(&stem), &chart)?;
+        images.push(stem);
+    }
+    let mut header = vec!["scene".to_string(), "run".to_string()];
+    header.extend((1..=10).map(|d| format!("d{d}")));
+    Ok(Figure {
+        id: "fig11".into(),
+        title: "Figure 11: BVH L1 miss rate over time, baseline against treelet-stationary mode"
+            .into(),
+        caption: "The BVH L1 miss rate in each tenth of the run: the baseline, and treelet queues \
+                  kept in treelet-stationary mode (no grouping, no repacking), counting demand \
+                  loads only, and counting the treelet preloads as accesses too. The paper \
+                  (LANDS): treelet-stationary as low as 9% early, plateauing at 75-80% late; \
+                  the baseline plateaus at about 60%."
+            .into(),
+        images,
+        table: Table { header, rows },
+    })
+}
+
+/// Figure 12: naive treelet queues and grouping of underpopulated queues.
+pub fn figure12(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let how = Mean::Geometric;
+    let cats = categories(&scenes, how);
+    let series = vec![
+        BarSeries {
+            name: "naive treelet queues".into(),
+            values: with_mean(&scenes, speedups(r, &scenes, NAIVE, &[]), how),
+        },
+        BarSeries {
+            name: "grouping underpopulated queues".into(),
+            values: with_mean(&scenes, speedups(r, &scenes, GROUPING, &[]), how),
+        },
+    ];
+    let img = bars(
+        out,
+        "fig12",
+        &Bars {
+            title: "Figure 12: grouping underpopulated treelet queues".into(),
+            y_label: "speedup over the baseline".into(),
+            categories: cats.clone(),
+            series: series.clone(),
+            references: vec![
+                paper("baseline", 1.0),
+                paper("paper: grouping 0.95", 0.95),
+                paper("paper: naive 0.95 / 8", 0.95 / 8.0),
+            ],
+            stacked: false,
+        },
+    )?;
+    Ok(Figure {
+        id: "fig12".into(),
+        title: "Figure 12: grouping underpopulated treelet queues".into(),
+        caption: "Speedup over the baseline of naive treelet queues and of grouping \
+                  underpopulated queues into ray-stationary warps (threshold 128 rays, no \
+                  repacking). The paper: grouping is 8x faster than naive and still 5% slower \
+                  than the baseline."
+            .into(),
+        images: vec![img],
+        table: series_table("scene", &cats, &series, |v| cell(v, 2)),
+    })
+}
+
+/// Figure 13: warp repacking's speedups (a) and SIMT efficiencies (b).
+pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let designs = [
+        ("no repacking", GROUPING),
+        ("repack below 16", REPACK16),
+        ("repack below 22 (VTQ)", VTQ),
+    ];
+    let g = Mean::Geometric;
+    let cats_g = categories(&scenes, g);
+    let speed: Vec<BarSeries> = designs
+        .iter()
+        .map(|(name, cfg)| BarSeries {
+            name: name.to_string(),
+            values: with_mean(&scenes, speedups(r, &scenes, cfg, &[]), g),
+        })
+        .collect();
+    let a = bars(
+        out,
+        "fig13a",
+        &Bars {
+            title: "Figure 13a: warp repacking, speedup".into(),
+            y_label: "speedup over the baseline".into(),
+            categories: cats_g.clone(),
+            series: speed.clone(),
+            references: vec![
+                paper("paper: no repacking 0.95", 0.95),
+                paper("paper: below 16 1.84", 1.84),
+                paper("paper: below 22 1.95", 1.95),
+            ],
+            stacked: false,
+        },
+    )?;
+    let m = Mean::Arithmetic;
+    let cats_m = categories(&scenes, m);
+    let simt: Vec<BarSeries> = std::iter::once(("baseline", BASELINE))
+        .chain(designs)
+        .map(|(name, cfg)| BarSeries {
+            name: name.to_string(),
+            values: with_mean(&scenes, per_scene(r, &scenes, cfg, "/simt_efficiency"), m),
+        })
+        .collect();
+    let b = bars(
+        out,
+        "fig13b",
+        &Bars {
+            title: "Figure 13b: warp repacking, SIMT efficiency".into(),
+            y_label: "RT-unit SIMT efficiency".into(),
+            categories: cats_m.clone(),
+            series: simt.clone(),
+            references: vec![
+                paper("paper: baseline 0.37", 0.37),
+                paper("paper: no repacking 0.33", 0.33),
+                paper("paper: below 22 0.82", 0.82),
+            ],
+            stacked: false,
+        },
+    )?;
+    let mut table = series_table("scene", &cats_g, &speed, |v| cell(v, 2));
+    let simt_table = series_table("scene", &cats_m, &simt, |v| cell(v, 3));
+    for h in &simt_table.header[1..] {
+        table.header.push(format!("SIMT: {h}"));
+    }
+    for (row, extra) in table.rows.iter_mut().zip(&simt_table.rows) {
+        row.extend(extra[1..].iter().cloned());
+    }
+    Ok(Figure {
+        id: "fig13".into(),
+        title: "Figure 13: warp repacking".into(),
+        caption: "Speedup over the baseline (a) and RT-unit SIMT efficiency (b) of grouped \
+                  treelet queues without repacking and repacking warps with fewer than 16 or 22 \
+                  active rays (speedups: geometric means; SIMT: arithmetic). The paper: 0.95x, \
+                  1.84x, 1.95x; SIMT 0.37 (baseline), 0.33 without repacking, 0.82 at 22."
+            .into(),
+        images: vec![a, b],
+        table,
+    })
+}
+
+/// The three phases' shares of `field` (`cycles` or `intersection_tests`) in VTQ, per scene.
+fn phase_shares(r: &Results, scenes: &[&str], field: &str) -> [Vec<Option<f64>>; 3] {
+    let mut out: [Vec<Option<f64>>; 3] = Default::default();
+    for scene in scenes {
+        let stats = r.stats(scene, VTQ, &[]);
+        let values: Option<Vec<f64>> = ["initial", "treelet_stationary", "ray_stationary"]
+            .iter()
+            .map(|p| num(stats.as_ref()?, &format!("/phases/{p}/{field}")))
+            .collect();
+        let total: f64 = values.iter().flatten().sum();
+        for (i, o) in out.iter_mut().enumerate() {
+            o.push(
+                values
+                    .as_ref()
+                    .filter(|_| total > 0.0)
+                    .map(|v| v[i] / total),
+            );
+        }
+    }
+    out
+}
+
+/// The phase series of Figures 14 and 15.
+fn phase_series(scenes: &[&str], shares: [Vec<Option<f64>>; 3]) -> Vec<BarSeries> {
+    let names = ["initial", "treelet-stationary", "ray-stationary"];
+    names
+        .iter()
+        .zip(shares)
+        .map(|(name, v)| BarSeries {
+            name: name.to_string(),
+            values: with_mean(scenes, v, Mean::Arithmetic)
+                .into_iter()
+                .map(|x| x.map(|y| 100.0 * y))
+                .collect(),
+        })
+        .collect()
+}
+
+/// Figure 14: VTQ's cycles per traversal phase.
+pub fn figure14(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let cats = categories(&scenes, Mean::Arithmetic);
+    let series = phase_series(&scenes, phase_shares(r, &scenes, "cycles"));
+    let img = bars(
+        out,
+        "fig14",
+        &Bars {
+            title: "Figure 14: VTQ's cycles per traversal phase".into(),
+            y_label: "share of cycles (%)".into(),
+            categories: cats.clone(),
+            series: series.clone(),
+            references: vec![],
+            stacked: true,
+        },
+    )?;
+    Ok(Figure {
+        id: "fig14".into(),
+        title: "Figure 14: cycle distribution of the traversal phases".into(),
+        caption: "Share of VTQ's RT-unit cycles in the initial phase, the treelet-stationary \
+                  phase and the final ray-stationary phase. The paper gives no numbers: for \
+                  every scene a short initial phase, then mostly ray-stationary."
+            .into(),
+        images: vec![img],
+        table: series_table("scene", &cats, &series, |v| {
+            v.map_or_else(|| "-".into(), |x| format!("{x:.1}%"))
+        }),
+    })
+}
+
+/// Figure 15: VTQ's intersection tests per traversal phase.
+pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let cats = categories(&scenes, Mean::Arithmetic);
+    let series = phase_series(&scenes, phase_shares(r, &scenes, "intersection_tests"));
+    let img = bars(
+        out,
+        "fig15",
+        &Bars {
+            title: "Figure 15: VTQ's intersection tests per traversal phase".into(),
+            y_label: "share of intersection tests (%)".into(),
+            categories: cats.clone(),
+            series: series.clone(),
+            references: vec![
+                paper("paper: treelet-stationary mean 15%", 15.0),
+                paper("paper: treelet-stationary max 52%", 52.0),
+            ],
+            stacked: true,
+        },
+    )?;
+    Ok(Figure {
+        id: "fig15".into(),
+        title: "Figure 15: intersection tests per traversal phase".into(),
+        caption: "Share of VTQ's intersection tests done in each phase (stacked; the \
+                  treelet-stationary part is the middle bar). The paper: the \
+                  treelet-stationary phase processes 15% of the tests on average and up to \
+                  52%."
+            .into(),
+        images: vec![img],
+        table: series_table("scene", &cats, &series, |v| {
+            v.map_or_else(|| "-".into(), |x| format!("{x:.1}%"))
+        }),
+    })
+}
+
+/// Figure 16: the cost of ray virtualization in the full design.
+pub fn figure16(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let scenes = r.scenes();
+    let how = Mean::Arithmetic;
+    let cats = categories(&scenes, how);
+    let overhead: Vec<Option<f64>> = scenes
+        .iter()
+        .map(|s| {
+            let with = cycles(&r.stats(s, VTQ, &[]))?;
+            let free = cycles(&r.stats(s, VTQ, &["virtualization.state_traffic=false"]))?;
+            Some(100.0 * (with / free - 1.0))
+        })
+        .collect();
+    let series = vec![BarSeries {
+        name: "vtq".into(),
+        values: with_mean(&scenes, overhead, how),
+    }];
+    let img = bars(
+        out,
+        "fig16",
+        &Bars {
+            title: "Figure 16: ray virtualization's overhead".into(),
+            y_label: "extra cycles (%)".into(),
+            categories: cats.clone(),
+            series: series.clone(),
+            references: vec![paper("paper: about 10%", 10.0)],
+            stacked: false,
+        },
+    )?;
+    Ok(Figure {
+        id: "fig16".into(),
+        title: "Figure 16: ray virtualization's performance overhead".into(),
+        caption: "Extra cycles of VTQ when suspended CTAs' state is saved and restored through \
+                  memory, against the same design with suspends free \
+                  (`virtualization.state_traffic = false`). The paper: about 10% on average."
+            .into(),
+        images: vec![img],
+        table: series_table("scene", &cats, &series, |v| {
+            v.map_or_else(|| "-".into(), |x| format!("{x:+.1}%"))
+        }),
+    })
+}
+
+/// Section 6.5: the treelet queues tracked at once, against the tables' sizes.
+pub fn section65(r: &Results) -> Table {
+    let scenes = r.scenes();
+    let mut rows: Vec<Vec<String>> = scenes
+        .iter()
+        .map(|s| {
+            let stats = r.stats(s, VTQ, &[]);
+            let get = |p: &str| cell(stats.as_ref().and_then(|x| num(x, p)), 0);
+            vec![
+                s.to_string(),
+                get("/max_queues"),
+                get("/max_queues_above_threshold"),
+                get("/count_table_evictions"),
+            ]
+        })
+        .collect();
+    rows.push(vec![
+        "paper (max over LumiBench)".into(),
+        "549".into(),
+        "13".into(),
+        "-".into(),
+    ]);
+    Table {
+        header: vec![
+            "scene".into(),
+            "most treelet queues at once".into(),
+            "most above the threshold".into(),
+            "count-table evictions".into(),
+        ],
+        rows,
+    }
+}
+
+/// Section 6.5: the area report's structures as a table.
+pub fn area_table(report: &AreaReport) -> Table {
+    let mut header = vec![
+        "structure".to_string(),
+        "where".into(),
+        "entries".into(),
+        "bits / entry".into(),
+        "size".into(),
+        "paper".into(),
+    ];
+    if let Some(s) = report.structures.first() {
+        for a in &s.area {
+            header.push(format!("SRAM {} nm (mm²)", a.feature_nm));
+        }
+    }
+    Table {
+        header,
+        rows: report
+            .structures
+            .iter()
+            .map(|s| {
+                let mut row = vec![
+                    s.name.clone(),
+                    s.location.clone(),
+                    s.entries.to_string(),
+                    s.entry_bits.to_string(),
+                    s.size.clone(),
+                    s.paper.clone().unwrap_or_else(|| "-".into()),
+                ];
+                row.extend(s.area.iter().map(|a| format!("{:.4}", a.sram_mm2)));
+                row
+            })
+            .collect(),
+    }
+}
+
+/// A scene name usable in a file name.
+fn file_safe(scene: &str) -> String {
+    scene
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn means_leave_built_ins_out_and_skip_missing_values() {
+        let scenes = ["wknd", "ship", "bunny"];
+        let v = with_mean(
+            &scenes,
+            vec![Some(100.0), Some(1.0), Some(4.0)],
+            Mean::Geometric,
+        );
+        assert_eq!(v[3], Some(2.0));
+        let v = with_mean(&scenes, vec![Some(9.0), None, Some(4.0)], Mean::Arithmetic);
+        assert_eq!(v[3], Some(4.0));
+        // Only built-ins: they are the mean.
+        let v = with_mean(
+            &["wknd", "cornell"],
+            vec![Some(1.0), Some(3.0)],
+            Mean::Arithmetic,
+        );
+        assert_eq!(v[2], Some(2.0));
+        assert_eq!(cell(None, 2), "-");
+        assert_eq!(file_safe("city:4M"), "city_4M");
+    }
+}
