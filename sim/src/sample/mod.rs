@@ -6,9 +6,11 @@
 //! - [`settings`]: the `[sample]` configuration section and the scale model it makes.
 //! - [`profile`]: the functional profile (rays and node fetches per CTA).
 //! - [`strata`]: stratified CTA samples.
+//! - [`dispatch`]: the CTA-level dispatch model that carries a scale model's cycles to the GPU's.
 //! - [`estimate`]: estimates with Student's t intervals.
 //! - [`run`]: simulating the replicates and combining them.
 
+pub mod dispatch;
 pub mod estimate;
 pub mod profile;
 pub mod run;

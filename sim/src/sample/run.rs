@@ -17,6 +17,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use super::dispatch::{makespan_ratio, resident_ctas};
 use super::estimate::Estimate;
 use super::profile::Profile;
 use super::strata::stratified_sample;
@@ -106,6 +107,10 @@ pub fn simulate_sampled(
     let model = cfg.sample.scale_model(cfg);
     let samples = samples(cfg, profile);
     let total = profile.work(None);
+    let full_work: Vec<f64> = profile.ctas.iter().map(|c| c.fetches as f64).collect();
+    let sms = cfg.gpu.sms as usize;
+    let scale_sms = model.gpu.sms as usize;
+    let resident = resident_ctas(cfg);
     let start = Instant::now();
     let next = AtomicUsize::new(0);
     let slots: Vec<Mutex<Option<Result<Replicate, SimError>>>> =
@@ -126,10 +131,15 @@ pub fn simulate_sampled(
             ctas: (ctas.len() < profile.ctas.len()).then(|| ctas.clone()),
             ..SimOptions::default()
         };
+        let sample_work: Vec<f64> = ctas
+            .iter()
+            .map(|&c| profile.ctas[c as usize].fetches as f64)
+            .collect();
+        let dispatch = makespan_ratio(&full_work, sms, &sample_work, scale_sms, resident);
         let result = simulate(scene, bvh, &model, options, None).map(|out| Replicate {
             ctas: ctas.len(),
             work_share,
-            cycles: out.stats.cycles as f64 / work_share,
+            cycles: out.stats.cycles as f64 * dispatch,
             stats: out.stats,
         });
         *slots[r].lock().unwrap_or_else(|e| e.into_inner()) = Some(result);
@@ -194,14 +204,15 @@ fn combine(
 }
 
 /// The speedup of `design` over `baseline` (sampled with the same settings and seed, so each
-/// replicate ran the same CTAs on both): per replicate the ratio of their cycles, combined into
-/// an estimate with its interval (the pairing cancels most of the sampling noise).
+/// replicate ran the same CTAs on both): per replicate the ratio of their extrapolated cycles
+/// (each design's own dispatch model: their CTAs in flight differ), combined into an estimate
+/// with its interval (the pairing cancels most of the sampling noise).
 pub fn paired_speedup(baseline: &SampledStats, design: &SampledStats) -> Estimate {
     let ratios: Vec<f64> = baseline
         .replicate_runs
         .iter()
         .zip(&design.replicate_runs)
-        .map(|(b, d)| b.stats.cycles as f64 / (d.stats.cycles as f64).max(1.0))
+        .map(|(b, d)| b.cycles / d.cycles.max(1.0))
         .collect();
     Estimate::of(&ratios)
 }
