@@ -9,7 +9,7 @@ mod common;
 
 use common::{
     check_against_functional, check_deterministic, check_same_results, check_skip_matches_lockstep,
-    run, setup, small_config,
+    run, setup, small_config, small_vtq,
 };
 use vtq_sim::bvh::TreeletFormation;
 use vtq_sim::config::SimConfig;
@@ -30,17 +30,7 @@ fn scarce_slots(side: u32, extra: &[&str]) -> SimConfig {
 
 /// The full design on `sms` SMs, a `side` x `side` image, then `extra`.
 fn vtq(sms: u32, side: u32, extra: &[&str]) -> SimConfig {
-    let mut sets = vec![
-        "mode.kind=queues",
-        "mode.virtualization=true",
-        "mode.grouping=true",
-        "mode.preload=true",
-        "hw.repack_threshold=22",
-        "hw.divergence_threshold=2",
-        "hw.underpopulation_threshold=8",
-    ];
-    sets.extend_from_slice(extra);
-    small_config("queues", sms, side, &sets)
+    small_vtq(sms, side, extra)
 }
 
 /// Runs `a` and `b` on scene `name` and checks they traced the same rays with the same hits

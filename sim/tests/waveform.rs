@@ -11,7 +11,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{check_identical, setup, small_config};
+use common::{check_identical, setup, small_config, small_vtq};
 use vtq_gen::tools::{or_skip, run as run_tool};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::trace::{read_vcd, VcdTrace};
@@ -106,19 +106,7 @@ fn distinct(trace: &VcdTrace, signal: &str) -> Vec<u64> {
 /// Full VTQ on one SM of an 8x8 cornell box, with thresholds low enough for the small image
 /// to reach the treelet-stationary and final ray-stationary phases in its first wave of rays.
 fn vtq_config() -> SimConfig {
-    small_config(
-        "queues",
-        1,
-        8,
-        &[
-            "mode.virtualization=true",
-            "mode.grouping=true",
-            "mode.preload=true",
-            "hw.repack_threshold=22",
-            "hw.divergence_threshold=2",
-            "hw.underpopulation_threshold=8",
-        ],
-    )
+    small_vtq(1, 8, &[])
 }
 
 #[test]

@@ -190,6 +190,41 @@ fn per_scene(r: &Results, scenes: &[&str], design: &str, pointer: &str) -> Vec<O
         .collect()
 }
 
+/// A bar chart `id` of the speedups over the baseline of `designs` (legend name, configuration
+/// file) per scene with their geometric mean, and its table.
+fn speedup_bars(
+    r: &Results,
+    out: &Path,
+    id: &str,
+    title: &str,
+    designs: &[(&str, &str)],
+    references: Vec<Reference>,
+) -> anyhow::Result<(String, Table)> {
+    let scenes = r.scenes();
+    let how = Mean::Geometric;
+    let cats = categories(&scenes, how);
+    let series: Vec<BarSeries> = designs
+        .iter()
+        .map(|(name, cfg)| BarSeries {
+            name: name.to_string(),
+            values: with_mean(&scenes, speedups(r, &scenes, cfg, &[]), how),
+        })
+        .collect();
+    let img = bars(
+        out,
+        id,
+        &Bars {
+            title: title.into(),
+            y_label: "speedup (baseline cycles / cycles)".into(),
+            categories: cats.clone(),
+            series: series.clone(),
+            references,
+            stacked: false,
+        },
+    )?;
+    Ok((img, series_table("scene", &cats, &series, |v| cell(v, 2))))
+}
+
 /// Figure 1: the baseline's BVH L1 miss rate and RT-unit SIMT efficiency per scene.
 pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
@@ -265,35 +300,18 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
 
 /// Figure 10: speedups of treelet prefetching and VTQ over the baseline.
 pub fn figure10(r: &Results, out: &Path) -> anyhow::Result<Figure> {
-    let scenes = r.scenes();
-    let how = Mean::Geometric;
-    let cats = categories(&scenes, how);
-    let series = vec![
-        BarSeries {
-            name: "treelet prefetching".into(),
-            values: with_mean(&scenes, speedups(r, &scenes, PREFETCH, &[]), how),
-        },
-        BarSeries {
-            name: "VTQ".into(),
-            values: with_mean(&scenes, speedups(r, &scenes, VTQ, &[]), how),
-        },
-    ];
-    let img = bars(
+    let (img, table) = speedup_bars(
+        r,
         out,
         "fig10",
-        &Bars {
-            title: "Figure 10: speedup over the baseline".into(),
-            y_label: "speedup (baseline cycles / cycles)".into(),
-            categories: cats.clone(),
-            series: series.clone(),
-            references: vec![
-                paper("baseline", 1.0),
-                paper("paper: VTQ mean 1.95", 1.95),
-                paper("paper: VTQ max 2.55", 2.55),
-                paper("paper: prefetching 1.95 / 1.43", 1.95 / 1.43),
-            ],
-            stacked: false,
-        },
+        "Figure 10: speedup over the baseline",
+        &[("treelet prefetching", PREFETCH), ("VTQ", VTQ)],
+        vec![
+            paper("baseline", 1.0),
+            paper("paper: VTQ mean 1.95", 1.95),
+            paper("paper: VTQ max 2.55", 2.55),
+            paper("paper: prefetching 1.95 / 1.43", 1.95 / 1.43),
+        ],
     )?;
     Ok(Figure {
         id: "fig10".into(),
@@ -304,7 +322,7 @@ pub fn figure10(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   than prefetching (so prefetching about 1.36x)."
             .into(),
         images: vec![img],
-        table: series_table("scene", &cats, &series, |v| cell(v, 2)),
+        table,
     })
 }
 
@@ -386,34 +404,20 @@ pub fn figure11(r: &Results, out: &Path) -> anyhow::Result<Figure> {
 
 /// Figure 12: naive treelet queues and grouping of underpopulated queues.
 pub fn figure12(r: &Results, out: &Path) -> anyhow::Result<Figure> {
-    let scenes = r.scenes();
-    let how = Mean::Geometric;
-    let cats = categories(&scenes, how);
-    let series = vec![
-        BarSeries {
-            name: "naive treelet queues".into(),
-            values: with_mean(&scenes, speedups(r, &scenes, NAIVE, &[]), how),
-        },
-        BarSeries {
-            name: "grouping underpopulated queues".into(),
-            values: with_mean(&scenes, speedups(r, &scenes, GROUPING, &[]), how),
-        },
-    ];
-    let img = bars(
+    let (img, table) = speedup_bars(
+        r,
         out,
         "fig12",
-        &Bars {
-            title: "Figure 12: grouping underpopulated treelet queues".into(),
-            y_label: "speedup over the baseline".into(),
-            categories: cats.clone(),
-            series: series.clone(),
-            references: vec![
-                paper("baseline", 1.0),
-                paper("paper: grouping 0.95", 0.95),
-                paper("paper: naive 0.95 / 8", 0.95 / 8.0),
-            ],
-            stacked: false,
-        },
+        "Figure 12: grouping underpopulated treelet queues",
+        &[
+            ("naive treelet queues", NAIVE),
+            ("grouping underpopulated queues", GROUPING),
+        ],
+        vec![
+            paper("baseline", 1.0),
+            paper("paper: grouping 0.95", 0.95),
+            paper("paper: naive 0.95 / 8", 0.95 / 8.0),
+        ],
     )?;
     Ok(Figure {
         id: "fig12".into(),
@@ -424,7 +428,7 @@ pub fn figure12(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   than the baseline."
             .into(),
         images: vec![img],
-        table: series_table("scene", &cats, &series, |v| cell(v, 2)),
+        table,
     })
 }
 
@@ -436,30 +440,17 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         ("repack below 16", REPACK16),
         ("repack below 22 (VTQ)", VTQ),
     ];
-    let g = Mean::Geometric;
-    let cats_g = categories(&scenes, g);
-    let speed: Vec<BarSeries> = designs
-        .iter()
-        .map(|(name, cfg)| BarSeries {
-            name: name.to_string(),
-            values: with_mean(&scenes, speedups(r, &scenes, cfg, &[]), g),
-        })
-        .collect();
-    let a = bars(
+    let (a, mut table) = speedup_bars(
+        r,
         out,
         "fig13a",
-        &Bars {
-            title: "Figure 13a: warp repacking, speedup".into(),
-            y_label: "speedup over the baseline".into(),
-            categories: cats_g.clone(),
-            series: speed.clone(),
-            references: vec![
-                paper("paper: no repacking 0.95", 0.95),
-                paper("paper: below 16 1.84", 1.84),
-                paper("paper: below 22 1.95", 1.95),
-            ],
-            stacked: false,
-        },
+        "Figure 13a: warp repacking, speedup",
+        &designs,
+        vec![
+            paper("paper: no repacking 0.95", 0.95),
+            paper("paper: below 16 1.84", 1.84),
+            paper("paper: below 22 1.95", 1.95),
+        ],
     )?;
     let m = Mean::Arithmetic;
     let cats_m = categories(&scenes, m);
@@ -486,7 +477,6 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             stacked: false,
         },
     )?;
-    let mut table = series_table("scene", &cats_g, &speed, |v| cell(v, 2));
     let simt_table = series_table("scene", &cats_m, &simt, |v| cell(v, 3));
     for h in &simt_table.header[1..] {
         table.header.push(format!("SIMT: {h}"));

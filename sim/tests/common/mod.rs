@@ -34,6 +34,22 @@ pub fn small_config(mode: &str, sms: u32, side: u32, extra: &[&str]) -> SimConfi
     SimConfig::load(None, &sets).expect("valid test configuration")
 }
 
+/// The full design (ray virtualization, grouping, preloading, repacking below 22) on a small GPU
+/// (`small_config`), with thresholds low enough that small images reach the treelet phase, then
+/// the `extra` overrides.
+pub fn small_vtq(sms: u32, side: u32, extra: &[&str]) -> SimConfig {
+    let mut sets = vec![
+        "mode.virtualization=true",
+        "mode.grouping=true",
+        "mode.preload=true",
+        "hw.repack_threshold=22",
+        "hw.divergence_threshold=2",
+        "hw.underpopulation_threshold=8",
+    ];
+    sets.extend_from_slice(extra);
+    small_config("queues", sms, side, &sets)
+}
+
 /// A built-in scene and its BVH for `cfg`.
 pub fn setup(name: &str, cfg: &SimConfig) -> (Scene, HwBvh) {
     let scene = load_scene(name).expect("built-in scene");
