@@ -533,6 +533,38 @@ struct Requester {
 const WINDOW: usize = 6;
 const BUDGET: usize = 250;
 
+impl Requester {
+    /// A response arrived at `now`: one fewer outstanding; wake after a think time if asleep.
+    fn responded(&mut self, now: u64) {
+        self.outstanding -= 1;
+        if self.wake.is_none() && self.issued < BUDGET {
+            self.wake = Some(now + 1 + self.rng.below(6));
+        }
+    }
+
+    /// The request to offer at `now`, if the requester is awake and has budget left (the
+    /// stalled one again, else a new one tagged from `next_tag`).
+    fn offer(&mut self, now: u64, next_tag: &mut u64) -> Option<MemRequest> {
+        if !(self.wake.is_some_and(|w| w <= now) && self.issued < BUDGET) {
+            return None;
+        }
+        let rng = &mut self.rng;
+        Some(*self.pending.get_or_insert_with(|| {
+            *next_tag += 1;
+            random_request(rng, *next_tag)
+        }))
+    }
+
+    /// `req` was accepted at `now`: think, unless the window of outstanding responses is full.
+    fn accepted(&mut self, now: u64, req: &MemRequest) {
+        self.pending = None;
+        self.issued += 1;
+        self.outstanding += usize::from(!req.prefetch);
+        self.wake = (self.outstanding < WINDOW && self.issued < BUDGET)
+            .then(|| now + 1 + self.rng.below(6));
+    }
+}
+
 /// One line of the run log.
 #[derive(Debug, Clone, PartialEq, Eq)]
 enum Event {
@@ -609,16 +641,9 @@ fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
         for (sm, r) in reqs.iter_mut().enumerate() {
             for response in mem.pop_ready(sm, now) {
                 log.push(Event::Delivered { now, sm, response });
-                r.outstanding -= 1;
-                if r.wake.is_none() && r.issued < BUDGET {
-                    r.wake = Some(now + 1 + r.rng.below(6));
-                }
+                r.responded(now);
             }
-            if r.wake.is_some_and(|w| w <= now) && r.issued < BUDGET {
-                let req = *r.pending.get_or_insert_with(|| {
-                    next_tag += 1;
-                    random_request(&mut r.rng, next_tag)
-                });
+            if let Some(req) = r.offer(now, &mut next_tag) {
                 match mem.access(now, sm, req) {
                     Ok(a) => {
                         log.push(Event::Accepted {
@@ -628,11 +653,7 @@ fn run(seed: u64, sms: usize, jump: bool) -> (Vec<Event>, MemStats) {
                             done: a.done,
                             source: a.source,
                         });
-                        r.pending = None;
-                        r.issued += 1;
-                        r.outstanding += usize::from(!req.prefetch);
-                        r.wake = (r.outstanding < WINDOW && r.issued < BUDGET)
-                            .then(|| now + 1 + r.rng.below(6));
+                        r.accepted(now, &req);
                     }
                     Err(e) => {
                         let stall = e.stall().expect("generated requests are valid");
@@ -722,16 +743,9 @@ fn run_windowed(seed: u64, sms: usize) -> (Vec<Event>, MemStats, usize) {
         for (sm, r) in reqs.iter_mut().enumerate() {
             for response in ports[sm].pop_ready(now) {
                 log.push(Event::Delivered { now, sm, response });
-                r.outstanding -= 1;
-                if r.wake.is_none() && r.issued < BUDGET {
-                    r.wake = Some(now + 1 + r.rng.below(6));
-                }
+                r.responded(now);
             }
-            if r.wake.is_some_and(|w| w <= now) && r.issued < BUDGET {
-                let req = *r.pending.get_or_insert_with(|| {
-                    next_tag += 1;
-                    random_request(&mut r.rng, next_tag)
-                });
+            if let Some(req) = r.offer(now, &mut next_tag) {
                 match ports[sm].access(now, 0, req) {
                     Ok(a) => {
                         let (done, source) = match a {
@@ -748,11 +762,7 @@ fn run_windowed(seed: u64, sms: usize) -> (Vec<Event>, MemStats, usize) {
                             done,
                             source,
                         });
-                        r.pending = None;
-                        r.issued += 1;
-                        r.outstanding += usize::from(!req.prefetch);
-                        r.wake = (r.outstanding < WINDOW && r.issued < BUDGET)
-                            .then(|| now + 1 + r.rng.below(6));
+                        r.accepted(now, &req);
                     }
                     Err(e) => {
                         let stall = e.stall().expect("generated requests are valid");

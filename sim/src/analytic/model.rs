@@ -282,13 +282,18 @@ impl Queued<'_> {
         }
         &self.nodes[start..self.at]
     }
+}
 
-    /// Its remaining nodes, to the end.
-    fn rest(&mut self) -> &[Node] {
-        let start = self.at;
-        self.at = self.nodes.len();
-        &self.nodes[start..]
-    }
+/// The remaining nodes of the rays `warp` (indices into `queued`), each ray now run to its end.
+fn take_rests<'t>(queued: &mut [Queued<'t>], warp: &[usize]) -> Vec<&'t [Node]> {
+    warp.iter()
+        .map(|&i| {
+            let q = &mut queued[i];
+            let start = q.at;
+            q.at = q.nodes.len();
+            &q.nodes[start..]
+        })
+        .collect()
 }
 
 /// The treelet-queue design (see the module documentation).
@@ -401,15 +406,7 @@ fn queue_batch(
         let mut requests = 0u64;
         let mut latency = 0u64;
         for warp in rest.chunks(warp_size) {
-            let segs: Vec<&[Node]> = warp
-                .iter()
-                .map(|&i| {
-                    let q = &mut queued[i];
-                    let start = q.at;
-                    q.rest();
-                    &q.nodes[start..]
-                })
-                .collect();
+            let segs = take_rests(&mut queued, warp);
             requests += segs
                 .iter()
                 .map(|s| s.iter().map(|n| u64::from(n.chunks)).sum::<u64>())
@@ -425,15 +422,7 @@ fn queue_batch(
         lanes += t * ws;
     } else {
         for warp in rest.chunks(warp_size) {
-            let segs: Vec<&[Node]> = warp
-                .iter()
-                .map(|&i| {
-                    let q = &mut queued[i];
-                    let start = q.at;
-                    q.rest();
-                    &q.nodes[start..]
-                })
-                .collect();
+            let segs = take_rests(&mut queued, warp);
             let (t, b) = warp_time(caches, sm, &segs, |_, _| {});
             time += t + warp.len() as u64;
             busy += b;

@@ -14,6 +14,7 @@ use crate::geometry::Ray;
 use crate::rays_csv::format_rays;
 use crate::scene::builtin::cornell;
 use crate::scene::{Camera, Material, Scene};
+use crate::sweep::spec::leaves;
 
 /// The configurations shipped in `configs/`.
 const CONFIGS: [&str; 6] = [
@@ -230,8 +231,7 @@ fn overrides(rng: &mut Rng) -> String {
         .to_toml()
         .expect("the defaults write out");
     let table: Table = text.parse().expect("the defaults are TOML");
-    let mut leaves = Vec::new();
-    collect_leaves(&table, "", &mut leaves);
+    let leaves = leaves(&table);
     let n = 1 + rng.below(4);
     let mut lines = Vec::new();
     for _ in 0..n {
@@ -250,21 +250,6 @@ fn overrides(rng: &mut Rng) -> String {
         lines.push(format!("{key}={value}"));
     }
     lines.join("\n")
-}
-
-/// Every leaf of `table` as `(dotted key, value)`.
-fn collect_leaves(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
-    for (k, v) in table {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            Value::Table(sub) => collect_leaves(sub, &key, out),
-            other => out.push((key, other.clone())),
-        }
-    }
 }
 
 /// A rays CSV file of 1 to 20 rays (some with `nan` or `inf` components).

@@ -11,7 +11,7 @@ use serde_json::Value as Json;
 use toml::{Table, Value};
 
 use super::record::RunRecord;
-use super::spec::value_text;
+use super::spec::{leaves, value_text};
 
 /// A run's status in the table when a sweep point has no result file yet (its job was killed,
 /// cancelled or has not run).
@@ -87,26 +87,10 @@ pub struct Row {
     pub key: String,
 }
 
-/// Flattens a TOML table into sorted (dotted key, leaf value) pairs.
-fn flatten(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
-    for (k, v) in table {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            Value::Table(sub) => flatten(sub, &key, out),
-            _ => out.push((key, v.clone())),
-        }
-    }
-}
-
 /// A configuration's TOML as sorted dotted keys and values.
 pub fn flat_config(toml_text: &str) -> anyhow::Result<Vec<(String, Value)>> {
     let table: Table = toml_text.parse().context("the configuration is not TOML")?;
-    let mut out = Vec::new();
-    flatten(&table, "", &mut out);
+    let mut out = leaves(&table);
     out.sort_by(|a, b| a.0.cmp(&b.0));
     Ok(out)
 }

@@ -83,26 +83,30 @@ pub struct Point {
     pub label: String,
 }
 
-/// Flattens a table of (possibly nested) keys into dotted keys and leaf values, sorted by key.
-fn flatten(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
-    for (k, v) in table {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            Value::Table(sub) => flatten(sub, &key, out),
-            _ => out.push((key, v.clone())),
+/// Every leaf of `table` (nested tables flattened) as `(dotted key, value)`, in table order.
+pub fn leaves(table: &Table) -> Vec<(String, Value)> {
+    fn walk(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+        for (k, v) in table {
+            let key = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            match v {
+                Value::Table(sub) => walk(sub, &key, out),
+                _ => out.push((key, v.clone())),
+            }
         }
     }
+    let mut out = Vec::new();
+    walk(table, "", &mut out);
+    out
 }
 
 /// Flattened, sorted entries of `table`, with an error for a key given twice (once dotted, once
 /// quoted).
 fn flat_entries(table: &Table, what: &str) -> anyhow::Result<Vec<(String, Value)>> {
-    let mut out = Vec::new();
-    flatten(table, "", &mut out);
+    let mut out = leaves(table);
     out.sort_by(|a, b| a.0.cmp(&b.0));
     if let Some(w) = out.windows(2).find(|w| w[0].0 == w[1].0) {
         bail!("{what}: key `{}` is given twice", w[0].0);
