@@ -136,6 +136,14 @@ fn draw<DB: DrawingBackend>(
     let points = || chart.series.iter().flat_map(|s| s.points.iter());
     let (x0, x1) = range(points().map(|p| p.x), chart.x_log);
     let (y0, y1) = range(points().map(|p| p.y), chart.y_log);
+    // Room above the data for the legend (in decades on a logarithmic axis).
+    let entries = chart.series.len();
+    let y1 = if chart.y_log {
+        let (l0, l1) = (y0.log10(), y1.log10());
+        10f64.powf(with_legend_room(l0, l1, entries))
+    } else {
+        with_legend_room(y0, y1, entries)
+    };
     let mut labels: Vec<&str> = Vec::new();
     for p in points() {
         if !labels.contains(&p.label.as_str()) {

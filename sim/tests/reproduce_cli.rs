@@ -67,6 +67,7 @@ fn reproduce_writes_every_figure_and_resumes() {
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();
     for stem in [
+        "fig05",
         "fig01a",
         "fig01b",
         "fig10",

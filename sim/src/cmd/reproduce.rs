@@ -11,16 +11,20 @@ use clap::Args;
 use vtq_gen::area_report;
 
 use super::area::area_params;
-use super::options::CacheArgs;
+use super::options::{build_bvh, CacheArgs};
 use super::sweep::{prepare_scenes, Runner};
+use crate::bvh::BvhParams;
 use crate::config::SimConfig;
+use crate::figure5::{model, Figure5Row};
 use crate::reproduce::figures::{self, Figure};
 use crate::reproduce::page::Page;
 use crate::reproduce::{
     check_experiments_dir, default_experiments_dir, load_experiment, project_root, Results,
     FIGURE_EXPERIMENTS,
 };
-use crate::sweep::{Point, ResultStore, Reuse};
+use crate::scene::Scene;
+use crate::sweep::{Point, PreparedScene, ResultStore, Reuse};
+use crate::workload::pathtracer::render;
 
 /// Options of `vtq reproduce`.
 #[derive(Debug, Args)]
@@ -125,6 +129,11 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     .map(|f| f(&results, out))
     .collect::<anyhow::Result<_>>()?;
     let vtq = SimConfig::load(Some(&root.join("configs/vtq.toml")), &args.set)?;
+    let mut figures = figures;
+    figures.insert(
+        0,
+        figures::figure5(&figure5_rows(&scenes, &vtq, &args.cache)?, out)?,
+    );
     let area = area_report(&vtq.hw, &area_params(&vtq))?;
     let page = Page {
         title: "vtq: the paper's figures reproduced".into(),
@@ -175,6 +184,28 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Batch sizes of the Figure 5 model: one warp up to the whole GPU's 16 x 4096 rays.
+const FIGURE5_RAYS: [u64; 9] = [32, 128, 512, 1024, 2048, 4096, 8192, 16384, 65536];
+
+/// The Figure 5 model's rows of every scene, from its functional render under `cfg`.
+fn figure5_rows(
+    scenes: &[PreparedScene],
+    cfg: &SimConfig,
+    cache: &CacheArgs,
+) -> anyhow::Result<Vec<(String, Vec<Figure5Row>)>> {
+    let build = |scene: &Scene, params: &BvhParams| build_bvh(scene, params, cache);
+    scenes
+        .iter()
+        .map(|s| {
+            let bvh = s.bvh(&cfg.bvh_params(), &build)?;
+            let rendered = render(&s.scene, bvh.as_ref(), &cfg.render_settings(), None)
+                .with_context(|| format!("rendering scene '{}' for Figure 5", s.spec))?;
+            let rows = model(&bvh, &rendered, cfg.gpu.threads_per_cta, &FIGURE5_RAYS);
+            Ok((s.spec.clone(), rows))
+        })
+        .collect()
 }
 
 /// The page's opening paragraphs: what was run, how, and how to rerun it.
