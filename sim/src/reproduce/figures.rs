@@ -604,22 +604,48 @@ fn phase_series(scenes: &[&str], shares: [Vec<Option<f64>>; 3]) -> Vec<BarSeries
     .collect()
 }
 
-/// Figure 14: VTQ's cycles per traversal phase.
-pub fn figure14(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+/// A stacked bar chart `id` of VTQ's shares of `field` (`cycles` or `intersection_tests`) per
+/// traversal phase per scene, and its table.
+fn phase_bars(
+    r: &Results,
+    out: &Path,
+    id: &str,
+    title: &str,
+    y_label: &str,
+    field: &str,
+    references: Vec<Reference>,
+) -> anyhow::Result<(String, Table)> {
     let scenes = r.scenes();
     let cats = categories(&scenes, Mean::Arithmetic);
-    let series = phase_series(&scenes, phase_shares(r, &scenes, "cycles"));
+    let series = phase_series(&scenes, phase_shares(r, &scenes, field));
     let img = bars(
         out,
-        "fig14",
+        id,
         &Bars {
-            title: "Figure 14: VTQ's cycles per traversal phase".into(),
-            y_label: "share of cycles (%)".into(),
+            title: title.into(),
+            y_label: y_label.into(),
             categories: cats.clone(),
             series: series.clone(),
-            references: vec![],
+            references,
             stacked: true,
         },
+    )?;
+    let table = series_table("scene", &cats, &series, |v| {
+        v.map_or_else(|| "-".into(), |x| format!("{x:.1}%"))
+    });
+    Ok((img, table))
+}
+
+/// Figure 14: VTQ's cycles per traversal phase.
+pub fn figure14(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let (img, table) = phase_bars(
+        r,
+        out,
+        "fig14",
+        "Figure 14: VTQ's cycles per traversal phase",
+        "share of cycles (%)",
+        "cycles",
+        vec![],
     )?;
     Ok(Figure {
         id: "fig14".into(),
@@ -629,31 +655,23 @@ pub fn figure14(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   numbers: for every scene a short initial phase, then mostly ray-stationary."
             .into(),
         images: vec![img],
-        table: series_table("scene", &cats, &series, |v| {
-            v.map_or_else(|| "-".into(), |x| format!("{x:.1}%"))
-        }),
+        table,
     })
 }
 
 /// Figure 15: VTQ's intersection tests per traversal phase.
 pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
-    let scenes = r.scenes();
-    let cats = categories(&scenes, Mean::Arithmetic);
-    let series = phase_series(&scenes, phase_shares(r, &scenes, "intersection_tests"));
-    let img = bars(
+    let (img, table) = phase_bars(
+        r,
         out,
         "fig15",
-        &Bars {
-            title: "Figure 15: VTQ's intersection tests per traversal phase".into(),
-            y_label: "share of intersection tests (%)".into(),
-            categories: cats.clone(),
-            series: series.clone(),
-            references: vec![
-                paper("paper: treelet-stationary mean 15%", 15.0),
-                paper("paper: treelet-stationary max 52%", 52.0),
-            ],
-            stacked: true,
-        },
+        "Figure 15: VTQ's intersection tests per traversal phase",
+        "share of intersection tests (%)",
+        "intersection_tests",
+        vec![
+            paper("paper: treelet-stationary mean 15%", 15.0),
+            paper("paper: treelet-stationary max 52%", 52.0),
+        ],
     )?;
     Ok(Figure {
         id: "fig15".into(),
@@ -664,9 +682,7 @@ pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   average and up to 52%."
             .into(),
         images: vec![img],
-        table: series_table("scene", &cats, &series, |v| {
-            v.map_or_else(|| "-".into(), |x| format!("{x:.1}%"))
-        }),
+        table,
     })
 }
 
