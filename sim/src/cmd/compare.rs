@@ -138,6 +138,16 @@ pub(crate) struct Design {
     pub(crate) config: SimConfig,
 }
 
+/// Width of the design column of the tables: the longest label, at least the header's.
+fn label_width(designs: &[Design]) -> usize {
+    designs
+        .iter()
+        .map(|d| d.label.len())
+        .max()
+        .unwrap_or(0)
+        .max("design".len())
+}
+
 /// A built-in configuration with `overrides` applied, read as [`SimConfig::load`] reads its file.
 fn built_in_config(built_in: &BuiltIn, overrides: &[String]) -> anyhow::Result<SimConfig> {
     let origin = Path::new(built_in.path);
@@ -396,12 +406,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             .map(|r| r as f64 / stats.cycles as f64)
     };
 
-    let label_width = designs
-        .iter()
-        .map(|d| d.label.len())
-        .max()
-        .unwrap_or(0)
-        .max("design".len());
+    let label_width = label_width(&designs);
     println!(
         "{:<label_width$}  {:>12}  {:>8}  {:>11}  {:>9}  {:>23}  {:>8}",
         "design", "cycles", "speedup", "BVH L1 miss", "SIMT eff.", "phases % init/TS/RS", "wall s"
@@ -562,12 +567,7 @@ fn compare_sampled(
         .iter()
         .position(|d| d.label == BASELINE)
         .unwrap_or(0);
-    let width = designs
-        .iter()
-        .map(|d| d.label.len())
-        .max()
-        .unwrap_or(0)
-        .max("design".len());
+    let width = label_width(designs);
     println!(
         "{:<width$}  {:>24}  {:>15}  {:>13}  {:>13}  {:>8}",
         "design", "cycles (est.)", "speedup (est.)", "BVH L1 miss", "SIMT eff.", "wall s"

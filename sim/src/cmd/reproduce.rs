@@ -3,6 +3,7 @@
 //! result store, then draws the paper's figures with its published values beside vtq's and
 //! writes `DIR/index.html` and `DIR/index.md` (docs/reproducing.md).
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -69,6 +70,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
 
     // Every experiment's points, each distinct run once.
     let mut points: Vec<Point> = Vec::new();
+    let mut seen = HashSet::new();
     for name in FIGURE_EXPERIMENTS {
         let mut spec = load_experiment(&experiments, name, &args.scenes)?;
         spec.set.extend(args.set.iter().cloned());
@@ -76,11 +78,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             .points()
             .with_context(|| format!("experiment {name}"))?
         {
-            let canonical = p.config.to_toml()?;
-            let seen = points.iter().any(|q| {
-                q.scene == p.scene && q.config.to_toml().ok().as_ref() == Some(&canonical)
-            });
-            if !seen {
+            if seen.insert((p.scene.clone(), p.config.to_toml()?)) {
                 points.push(Point {
                     index: points.len(),
                     label: format!("{name}: {}", p.label),

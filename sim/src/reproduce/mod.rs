@@ -16,7 +16,6 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use serde_json::Value as Json;
 
 use crate::config::SimConfig;
@@ -80,7 +79,7 @@ pub struct Results<'a> {
     root: PathBuf,
     /// Overrides of every run (`vtq reproduce --set`).
     sets: Vec<String>,
-    /// Statistics loaded so far, by key.
+    /// Statistics looked up so far, by scene, configuration file and overrides.
     loaded: RefCell<HashMap<String, Option<Json>>>,
 }
 
@@ -111,6 +110,19 @@ impl<'a> Results<'a> {
     /// project root, e.g. `configs/vtq.toml`) and the overrides `sets` (`key=value`), or `None`
     /// when that run is not stored or failed.
     pub fn stats(&self, scene: &str, base: &str, sets: &[&str]) -> Option<Json> {
+        // Figures ask for the same runs again and again: cached by the question.
+        let question = format!("{scene}\n{base}\n{}", sets.join("\n"));
+        if let Some(found) = self.loaded.borrow().get(&question) {
+            return found.clone();
+        }
+        let found = self.lookup(scene, base, sets);
+        self.loaded.borrow_mut().insert(question, found.clone());
+        found
+    }
+
+    /// [`Results::stats`] without the cache: the configuration loaded, hashed with the scene
+    /// into its key and the stored run read.
+    fn lookup(&self, scene: &str, base: &str, sets: &[&str]) -> Option<Json> {
         let prepared = self.scenes.iter().find(|s| s.spec == scene)?;
         let path = self.root.join(base);
         let text = std::fs::read_to_string(&path).ok()?;
@@ -123,18 +135,12 @@ impl<'a> Results<'a> {
         let config =
             SimConfig::load_unvalidated(Some((path.as_path(), text.as_str())), &sets).ok()?;
         let key = RunKey::new(&prepared.hash, &config).ok()?;
-        if let Some(found) = self.loaded.borrow().get(&key.hex()) {
-            return found.clone();
-        }
-        let found = self
-            .store
+        self.store
             .load(&key)
             .ok()
             .flatten()
             .filter(|r| r.status == RunStatus::Ok)
-            .and_then(|r| r.stats().cloned());
-        self.loaded.borrow_mut().insert(key.hex(), found.clone());
-        found
+            .and_then(|r| r.stats().cloned())
     }
 }
 
@@ -160,6 +166,5 @@ pub fn check_experiments_dir(dir: &Path) -> anyhow::Result<()> {
             );
         }
     }
-    std::fs::metadata(dir).with_context(|| format!("experiments folder {}", dir.display()))?;
     Ok(())
 }
