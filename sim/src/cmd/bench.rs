@@ -63,6 +63,11 @@ pub struct BenchArgs {
     /// identical statistics; speeds are reported against the first).
     #[arg(long, value_delimiter = ',', default_value = "1", value_parser = parse_threads)]
     pub threads: Vec<usize>,
+    /// With --sim: also run once on one thread with every round of the engine timed, and print
+    /// the parallelism report: where the time goes (parallel SM visits and L2 partitions,
+    /// serial sections) and the speedup the work-span bound predicts for 2 to 32 threads.
+    #[arg(long, requires = "sim")]
+    pub parallelism: bool,
 }
 
 /// `obvhs`'s CWBVH over the scene's primitives (triangles, then spheres, as global ids).
@@ -385,6 +390,21 @@ fn run_sim(args: &BenchArgs) -> anyhow::Result<()> {
         runs.push((threads, out));
     }
     let (_, out) = runs.first().expect("at least one thread count");
+    if args.parallelism {
+        let options = crate::gpu::SimOptions {
+            threads: 1,
+            profile: true,
+            ..crate::gpu::SimOptions::default()
+        };
+        let profiled = simulate_with_progress(&scene, &bvh, &cfg, options)?;
+        if comparable_json(&profiled.stats) != comparable_json(&out.stats) {
+            anyhow::bail!("the profiled run gave different statistics");
+        }
+        let profile = profiled
+            .parallelism
+            .context("the profiled run returned no parallelism report")?;
+        print!("{}", profile.report());
+    }
     let s = &out.stats;
     let slowdown = s.sim_wall_seconds / render_wall.max(1e-9);
     println!(

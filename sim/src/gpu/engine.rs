@@ -42,6 +42,7 @@ use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
 use crate::gpu::node::{Ctx, HaltKind, SmNode};
+use crate::gpu::parallelism::{ParallelProfile, RoundKind, Serial, Stopwatch};
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::rt::waveform::{VcdWindow, Waveform, WaveformSummary, MAX_WINDOW_CYCLES};
@@ -52,7 +53,8 @@ use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
 use crate::gpu::watchdog::Watchdog;
 use crate::gpu::workers::Workers;
-use crate::memory::{L1Port, L2Side, MemorySystem};
+use crate::gpu::l2_partitions::PartitionJobs;
+use crate::memory::{L1Port, MemorySystem};
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
 
@@ -79,6 +81,9 @@ pub struct SimOptions {
     /// Write the waveform of one SM's RT unit over a window of cycles as VCD
     /// ([`crate::gpu::rt::waveform`]); the results do not change.
     pub vcd: Option<VcdWindow>,
+    /// Time the engine's rounds and serial sections for the parallelism report
+    /// ([`SimOutput::parallelism`]; meant for one-thread runs); the results do not change.
+    pub profile: bool,
 }
 
 /// One traced ray and the closest hit the RT unit found.
@@ -109,6 +114,8 @@ pub struct SimOutput {
     pub table_log: Option<vtq_hdl::treelet_rt_unit::TableLog>,
     /// The waveform written (only with [`SimOptions::vcd`]).
     pub waveform: Option<WaveformSummary>,
+    /// The parallelism report's timings (only with [`SimOptions::profile`]).
+    pub parallelism: Option<ParallelProfile>,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
@@ -280,16 +287,19 @@ pub fn simulate(
         frame,
         timing: ShaderTiming::new(&cfg.gpu),
         record_rays: options.record_rays,
+        profile: options.profile,
     };
     let start = Instant::now();
+    let l2 = PartitionJobs::new(l2);
     let mut engine = Engine {
         ctx: &ctx,
         scheduler,
-        l2,
+        l2: &l2,
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         progress,
+        profile: options.profile.then(ParallelProfile::default),
     };
-    let step = |node: &mut SmNode, round: &Round| step_node(&ctx, node, round);
+    let step = |node: &mut SmNode, round: &Round| step_node(&ctx, &l2, node, round);
     let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));
     let waveform_sm = options.vcd.as_ref().map(|w| w.sm);
     let cycles = match cycles {
@@ -316,7 +326,7 @@ pub fn simulate(
     let mut out = finish(Finished {
         ctx: &ctx,
         nodes: &nodes,
-        l2: &engine.l2,
+        l2_stats: l2.stats(),
         cycles,
         wall,
         config: config_toml,
@@ -325,6 +335,7 @@ pub fn simulate(
     });
     out.table_log = table_log;
     out.waveform = waveform;
+    out.parallelism = engine.profile;
     Ok(out)
 }
 
@@ -377,38 +388,62 @@ impl SpillLayout {
     }
 }
 
-/// The parameter of a round of node visits.
+/// The parameter of a round of work on the worker threads.
 #[derive(Debug, Clone, Copy)]
-struct Round {
-    /// The end of the window (exclusive).
-    end: u64,
-    /// Whether CTAs are pending at the CTA scheduler.
-    pending: bool,
-    /// The first round of the window: nodes settle the last window and begin this one.
-    begin: bool,
+enum Round {
+    /// Node visits.
+    Visit {
+        /// The end of the window (exclusive).
+        end: u64,
+        /// Whether CTAs are pending at the CTA scheduler.
+        pending: bool,
+        /// The first round of the window: nodes settle the last window and begin this one.
+        begin: bool,
+    },
+    /// The L2 partitions apply the window's operations: the unit of node `i` applies
+    /// partitions `i`, `i + stride`, ... (the node itself is not touched).
+    L2 {
+        /// The number of nodes.
+        stride: usize,
+    },
 }
 
 /// What the nodes share, and the loop over windows.
 struct Engine<'r, 'a> {
     ctx: &'r Ctx<'a>,
     scheduler: CtaScheduler,
-    l2: L2Side,
+    l2: &'r PartitionJobs,
     watchdog: Watchdog,
     progress: Option<&'r indicatif::ProgressBar>,
+    /// The parallelism report's timings, in a profiled run.
+    profile: Option<ParallelProfile>,
 }
-
-/// The order in which L2 operations apply ([`crate::memory::L2Op::key`]).
-type OpKey = (u64, u8, u32, u64);
 
 /// The engine's view of the nodes between rounds.
 type Nodes<'w, 'a, F> = Workers<'w, SmNode<'a>, Round, F>;
 
-/// One round of node visits (run on any thread).
-fn step_node(ctx: &Ctx, node: &mut SmNode, round: &Round) {
-    if round.begin {
-        node.begin_window(ctx, round.end, round.pending);
+/// One unit of a round (run on any thread): a node's visits, or the L2 partitions of the
+/// node's index.
+fn step_node(ctx: &Ctx, l2: &PartitionJobs, node: &mut SmNode, round: &Round) {
+    match *round {
+        Round::Visit {
+            end,
+            pending,
+            begin,
+        } => {
+            let watch = Stopwatch::start(ctx.profile);
+            if begin {
+                node.begin_window(ctx, end, pending);
+            }
+            node.run(ctx, end, pending);
+            node.visit_ns = watch.ns();
+        }
+        Round::L2 { stride } => {
+            for p in (node.index..l2.len()).step_by(stride) {
+                l2.apply(p, ctx.profile);
+            }
+        }
     }
-    node.run(ctx, round.end, round.pending);
 }
 
 impl<'a> Engine<'_, 'a> {
@@ -418,13 +453,18 @@ impl<'a> Engine<'_, 'a> {
         nodes: &mut Nodes<'_, 'a, F>,
     ) -> Result<u64, SimError> {
         let window = L1Port::round_trip(&self.ctx.cfg.memory);
+        let total = Stopwatch::start(self.profile.is_some());
         let mut start = 0u64;
         loop {
             let end = start.saturating_add(window);
             let pending = self.scheduler.pending() > 0;
-            nodes.round(
+            if let Some(p) = &mut self.profile {
+                p.window();
+            }
+            self.visit_round(
+                nodes,
                 |_| true,
-                Round {
+                Round::Visit {
                     end,
                     pending,
                     begin: true,
@@ -433,6 +473,9 @@ impl<'a> Engine<'_, 'a> {
             let ended = self.serve_halts(nodes, end)?;
             let next = self.apply_l2(nodes, end);
             if let Some(cycles) = ended {
+                if let Some(p) = &mut self.profile {
+                    p.set_total(total.ns());
+                }
                 return Ok(cycles);
             }
             let deadline = self.watchdog.deadline();
@@ -440,6 +483,29 @@ impl<'a> Engine<'_, 'a> {
                 return Err(self.watchdog_error(nodes, deadline));
             }
             start = next;
+        }
+    }
+
+    /// Runs a round of visits of the nodes `choose` selects; in a profiled run, records the
+    /// visits' times.
+    fn visit_round<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+        &mut self,
+        nodes: &mut Nodes<'_, 'a, F>,
+        choose: impl Fn(usize) -> bool,
+        round: Round,
+    ) {
+        let kind = match round {
+            Round::Visit { begin: true, .. } => RoundKind::Window,
+            _ => RoundKind::AfterHalt,
+        };
+        let chosen: Vec<bool> = (0..nodes.len()).map(&choose).collect();
+        nodes.round(|i| chosen[i], round);
+        if let Some(p) = &mut self.profile {
+            let times: Vec<u64> = (0..nodes.len())
+                .filter(|&i| chosen[i])
+                .map(|i| nodes.item(i).visit_ns)
+                .collect();
+            p.round(kind, &times);
         }
     }
 
@@ -452,6 +518,7 @@ impl<'a> Engine<'_, 'a> {
         end: u64,
     ) -> Result<Option<u64>, SimError> {
         loop {
+            let watch = Stopwatch::start(self.profile.is_some());
             // The first error in (cycle, SM) order among the nodes that ran.
             let mut first: Option<(u64, usize)> = None;
             for i in 0..nodes.len() {
@@ -469,7 +536,11 @@ impl<'a> Engine<'_, 'a> {
                 .map(|i| nodes.item(i).halt.map(|h| (h.cycle, h.kind)))
                 .collect();
             let Some(t) = halts.iter().flatten().map(|h| h.0).min() else {
-                return Ok(self.ended(nodes));
+                let ended = self.ended(nodes);
+                if let Some(p) = &mut self.profile {
+                    p.serial(Serial::Halts, watch.ns());
+                }
+                return Ok(ended);
             };
             // Every node is at cycle t or later: serve the CTA dispatch of cycle t.
             let at = |i: usize, kind| halts[i] == Some((t, kind));
@@ -502,9 +573,13 @@ impl<'a> Engine<'_, 'a> {
                     n.next = u64::MAX;
                 }
             }
-            nodes.round(
+            if let Some(p) = &mut self.profile {
+                p.serial(Serial::Halts, watch.ns());
+            }
+            self.visit_round(
+                nodes,
                 |i| go[i],
-                Round {
+                Round::Visit {
                     end,
                     pending,
                     begin: false,
@@ -552,26 +627,49 @@ impl<'a> Engine<'_, 'a> {
     }
 
     /// Applies the window's L2 operations of every node in (cycle, phase, SM, sequence) order
-    /// (the nodes settle the results when the next window begins), advances the progress bar
-    /// and the watchdog, and returns the earliest cycle at which a node may have work: its
-    /// next visit or a response from this window (the window end if a stall's retry cycle is
-    /// still unknown).
-    fn apply_l2<F>(&mut self, nodes: &Nodes<'_, 'a, F>, end: u64) -> u64 {
-        let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
-        let mut order: Vec<(OpKey, usize, usize)> = Vec::new();
-        for (i, g) in guards.iter().enumerate() {
-            order.extend(
-                g.mem
-                    .ops()
-                    .iter()
-                    .enumerate()
-                    .map(|(k, op)| (op.key(), i, k)),
-            );
+    /// within each memory partition, the partitions side by side on the worker threads (the
+    /// nodes settle the results when the next window begins), advances the progress bar and
+    /// the watchdog, and returns the earliest cycle at which a node may have work: its next
+    /// visit or a response from this window (the window end if a stall's retry cycle is still
+    /// unknown).
+    fn apply_l2<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+        &mut self,
+        nodes: &mut Nodes<'_, 'a, F>,
+        end: u64,
+    ) -> u64 {
+        let profile = self.profile.is_some();
+        let watch = Stopwatch::start(profile);
+        {
+            let guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
+            self.l2.gather(guards.iter().map(|g| g.mem.ops()));
         }
-        order.sort_unstable_by_key(|&(key, _, _)| key);
-        for (_, i, k) in order {
-            let result = self.l2.apply(&guards[i].mem.ops()[k]);
-            guards[i].mem.set_result(k, result);
+        let parts = self.l2.len();
+        if parts == 1 {
+            let handover = watch.ns();
+            self.l2.apply(0, false);
+            if let Some(p) = &mut self.profile {
+                p.serial(Serial::L2Handover, handover);
+                p.serial(Serial::L2Apply, watch.ns() - handover);
+            }
+        } else {
+            if let Some(p) = &mut self.profile {
+                p.serial(Serial::L2Handover, watch.ns());
+            }
+            let stride = nodes.len();
+            nodes.round(|i| i < parts, Round::L2 { stride });
+            if let Some(p) = &mut self.profile {
+                let units: Vec<u64> = (0..stride.min(parts))
+                    .map(|i| (i..parts).step_by(stride).map(|j| self.l2.apply_ns(j)).sum())
+                    .collect();
+                p.round(RoundKind::L2, &units);
+            }
+        }
+        let watch = Stopwatch::start(profile);
+        let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
+        self.l2
+            .scatter(|sm, k, result| guards[sm].mem.set_result(k, result));
+        if let Some(p) = &mut self.profile {
+            p.serial(Serial::L2Handover, watch.ns());
         }
         let mut next = u64::MAX;
         let (mut pixels, mut progress) = (0, 0);

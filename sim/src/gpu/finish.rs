@@ -10,7 +10,7 @@ use crate::gpu::node::{Ctx, SmNode};
 use crate::gpu::rt::QueueObserver;
 use crate::gpu::sm::VirtTiming;
 use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
-use crate::memory::{AccessClass, L2Side};
+use crate::memory::{AccessClass, MemStats};
 
 /// What [`finish`] needs of a run that ended.
 pub struct Finished<'r, 'a> {
@@ -18,8 +18,8 @@ pub struct Finished<'r, 'a> {
     pub ctx: &'r Ctx<'a>,
     /// The SM nodes, by index.
     pub nodes: &'r [SmNode<'a>],
-    /// The L2 and DRAM.
-    pub l2: &'r L2Side,
+    /// The L2 and DRAM counters.
+    pub l2_stats: MemStats,
     /// Cycles the run took.
     pub cycles: u64,
     /// Wall-clock seconds of the simulation loop.
@@ -38,7 +38,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     let Finished {
         ctx,
         nodes,
-        l2,
+        l2_stats,
         cycles,
         wall,
         config,
@@ -47,7 +47,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     } = run;
     let cfg = ctx.cfg;
     let mut rt = RtTotals::default();
-    let mut mem = *l2.stats();
+    let mut mem = l2_stats;
     for node in nodes {
         rt.add(node.rt.hw_stats());
         mem.add(node.mem.stats());
@@ -216,6 +216,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         ray_log,
         table_log: None,
         waveform: None,
+        parallelism: None,
     }
 }
 

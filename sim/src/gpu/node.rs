@@ -50,6 +50,8 @@ pub struct Ctx<'a> {
     pub timing: ShaderTiming,
     /// Record every traced ray.
     pub record_rays: bool,
+    /// Time each round of visits ([`SmNode::visit_ns`]) for the parallelism report.
+    pub profile: bool,
 }
 
 /// Why a node stopped before the end of a window.
@@ -131,6 +133,8 @@ pub struct SmNode<'a> {
     pub ray_log: Vec<((u64, u8, usize, u64), TracedRay)>,
     /// Its time-series contributions, one per sample cycle so far.
     pub samples: Vec<NodeSample>,
+    /// Wall time of its last round of visits, in nanoseconds (with [`Ctx::profile`]).
+    pub visit_ns: u64,
 }
 
 impl<'a> SmNode<'a> {
@@ -156,6 +160,7 @@ impl<'a> SmNode<'a> {
             rays_hit: 0,
             ray_log: Vec::new(),
             samples: Vec::new(),
+            visit_ns: 0,
         }
     }
 

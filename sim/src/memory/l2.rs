@@ -1,5 +1,18 @@
-//! [`L2Side`]: the part of the memory hierarchy every SM shares — the L2 and the DRAM channel —
-//! and [`L2Op`], an access on its way there from an SM's L1 port ([`super::l1::L1Port`]).
+//! [`L2Side`]: the part of the memory hierarchy every SM shares — the L2 and the DRAM — and
+//! [`L2Op`], an access on its way there from an SM's L1 port ([`super::l1::L1Port`]).
+//!
+//! # Memory partitions
+//! As in GPGPU-Sim (and so Vulkan-Sim), the L2 is sliced by address across memory partitions,
+//! one per DRAM channel: every L2 set lies in exactly one channel's address range when the
+//! channel interleaving (`dram_interleave_bytes` chunks, consecutive chunks in consecutive
+//! channels) repeats within the set index, i.e. when the L2's sets are a multiple of
+//! `dram_channels x dram_interleave_bytes / line_bytes` and the channel count is a power of two.
+//! Then a set's lines, its replacement state and its channel's queue belong to one
+//! [`L2Partition`], and partitions share no state: applying each partition's operations in key
+//! order on its own (on any thread) gives exactly what applying all of them in key order gives
+//! (tested against the unified model, [`L2Side::unified`]). Otherwise (one channel, today's
+//! default before partitions, or an L2 too small to hold a set per channel) the whole L2 and its
+//! DRAM are one partition.
 //!
 //! Every request reaches the L2 `l1_latency` cycles after its L1 port accepted it, so requests
 //! reach the L2 (and DRAM) in acceptance order: acceptance cycle first, then the phase of the
@@ -50,9 +63,150 @@ impl L2Op {
 /// data stay far below: 2^40 lines is 2^47 bytes).
 const MIRROR_SHIFT: u32 = 40;
 
-/// The L2 and DRAM with their counters.
+/// How line addresses map to memory partitions and to line numbers inside their partition's
+/// cache (a partition's cache has `1 / partitions` of the sets).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PartitionMap {
+    /// log2 of the partitions (a power of two).
+    bits: u32,
+    /// log2 of the lines of one interleaving chunk.
+    chunk_bits: u32,
+}
+
+impl PartitionMap {
+    /// The map of `cfg` (validated): one partition per DRAM channel where each L2 set lies in
+    /// one channel, else one partition.
+    pub fn new(cfg: &MemConfig) -> Self {
+        let channels = cfg.dram_channels.max(1);
+        let chunk_lines = (cfg.dram_interleave_bytes / cfg.line_bytes).max(1);
+        let sets = cfg.l2_geometry().sets;
+        let fits = channels > 1
+            && channels.is_power_of_two()
+            && chunk_lines.is_power_of_two()
+            && sets.is_power_of_two()
+            && u64::from(sets) % (u64::from(channels) * u64::from(chunk_lines)) == 0;
+        if fits {
+            PartitionMap {
+                bits: channels.trailing_zeros(),
+                chunk_bits: chunk_lines.trailing_zeros(),
+            }
+        } else {
+            PartitionMap::unified()
+        }
+    }
+
+    /// One partition holding everything.
+    pub fn unified() -> Self {
+        PartitionMap {
+            bits: 0,
+            chunk_bits: 0,
+        }
+    }
+
+    /// Number of partitions.
+    pub fn partitions(&self) -> usize {
+        1 << self.bits
+    }
+
+    /// The partition of line `line` (its DRAM channel).
+    pub fn partition(&self, line: u64) -> usize {
+        ((line >> self.chunk_bits) & ((1 << self.bits) - 1)) as usize
+    }
+
+    /// The line number of `line` inside its partition: the partition bits taken out, so the
+    /// partition's cache of `1 / partitions` of the sets puts it in the set and order it has in
+    /// the whole L2.
+    fn local(&self, line: u64) -> u64 {
+        let low = line & ((1 << self.chunk_bits) - 1);
+        ((line >> (self.chunk_bits + self.bits)) << self.chunk_bits) | low
+    }
+}
+
+/// The L2 and DRAM of the GPU: its memory partitions and how addresses map to them.
 #[derive(Debug, Clone)]
 pub struct L2Side {
+    map: PartitionMap,
+    parts: Vec<L2Partition>,
+}
+
+impl L2Side {
+    /// An empty L2 and idle DRAM (`cfg` already validated), in partitions where the
+    /// configuration allows ([`PartitionMap::new`]).
+    pub fn new(cfg: &MemConfig) -> Self {
+        Self::with_map(cfg, PartitionMap::new(cfg))
+    }
+
+    /// The same L2 and DRAM as one partition (the reference the partitions are tested against).
+    pub fn unified(cfg: &MemConfig) -> Self {
+        Self::with_map(cfg, PartitionMap::unified())
+    }
+
+    fn with_map(cfg: &MemConfig, map: PartitionMap) -> Self {
+        L2Side {
+            map,
+            parts: (0..map.partitions())
+                .map(|i| L2Partition::new(cfg, map, i))
+                .collect(),
+        }
+    }
+
+    /// Applies `op` (in key order over all operations; see [`L2Partition::apply`]).
+    pub fn apply(&mut self, op: &L2Op) -> (u64, Source) {
+        let p = self.map.partition(op.line);
+        self.parts[p].apply(op)
+    }
+
+    /// The L2 and DRAM counters of all partitions (the L1 counters are the ports').
+    pub fn stats(&self) -> MemStats {
+        let mut stats = MemStats::default();
+        for part in &self.parts {
+            stats.add(&part.stats);
+        }
+        stats
+    }
+
+    /// State at L2 cycle `at` of sector `sector` of line `line`.
+    pub fn sector(&self, line: u64, sector: u32, at: u64) -> SectorState {
+        self.parts[self.map.partition(line)].sector(line, sector, at)
+    }
+
+    /// A one-line summary at cycle `now`, for a deadlock watchdog.
+    pub fn debug_state(&self, now: u64) -> String {
+        summary(self.parts.iter(), now)
+    }
+
+    /// The address map and the partitions, to apply each partition's operations on its own.
+    pub fn into_partitions(self) -> (PartitionMap, Vec<L2Partition>) {
+        (self.map, self.parts)
+    }
+}
+
+/// A one-line summary of `parts` at cycle `now`, for a deadlock watchdog.
+pub fn summary<'p>(parts: impl Iterator<Item = &'p L2Partition>, now: u64) -> String {
+    let (mut lines, mut pending, mut first, mut applied, mut free) = (0, 0, None, 0, 0);
+    for p in parts {
+        let (n, next) = p.l2.pending_sectors(now);
+        lines += p.l2.lines_present();
+        pending += n;
+        first = match (first, next) {
+            (Some(a), Some(b)) => Some(std::cmp::min(a, b)),
+            (a, b) => a.or(b),
+        };
+        applied += p.applied;
+        free = free.max(p.dram.next_free_cycle());
+    }
+    format!(
+        "L2: {lines} lines, {pending} sectors being filled (first fill {first:?}), {applied} \
+         accesses applied; DRAM free from cycle {free}"
+    )
+}
+
+/// One memory partition: its part of the L2's sets and its DRAM channel(s), with counters.
+#[derive(Debug, Clone)]
+pub struct L2Partition {
+    /// Its index (its DRAM channel with several partitions).
+    index: usize,
+    map: PartitionMap,
     l2: SectorCache,
     dram: Dram,
     /// Lines per L2 set.
@@ -70,18 +224,37 @@ pub struct L2Side {
     stats: MemStats,
 }
 
-impl L2Side {
-    /// An empty L2 and an idle DRAM channel (`cfg` already validated).
-    pub fn new(cfg: &MemConfig) -> Self {
-        L2Side {
-            l2: SectorCache::new(cfg.l2_geometry()),
-            dram: Dram::new(
+impl L2Partition {
+    /// One empty partition of `map` (`cfg` already validated): `1 / partitions` of the L2's
+    /// sets and, with several partitions, one DRAM channel with its share of the bandwidth.
+    fn new(cfg: &MemConfig, map: PartitionMap, index: usize) -> Self {
+        let n = map.partitions() as u32;
+        let mut geometry = cfg.l2_geometry();
+        geometry.sets /= n;
+        let dram = if n == 1 {
+            Dram::new(
                 cfg.dram_latency,
                 cfg.dram_bytes_per_cycle,
                 cfg.dram_share,
                 cfg.dram_channels,
                 cfg.dram_interleave_bytes,
-            ),
+            )
+        } else {
+            // Channel k of `n` has `[num, den x n]` of the bandwidth, as in `Dram::new`.
+            let [num, den] = cfg.dram_share;
+            Dram::new(
+                cfg.dram_latency,
+                cfg.dram_bytes_per_cycle,
+                [num, den.max(1) * n],
+                1,
+                cfg.dram_interleave_bytes,
+            )
+        };
+        L2Partition {
+            index,
+            map,
+            l2: SectorCache::new(geometry),
+            dram,
             set_ways: cfg.l2_geometry().ways,
             ray_ways: cfg.l2_ray_ways,
             l1_latency: u64::from(cfg.l1_latency),
@@ -94,27 +267,31 @@ impl L2Side {
         }
     }
 
-    /// The L2 and DRAM counters (the L1 counters are the ports').
+    /// This partition's L2 and DRAM counters.
     pub fn stats(&self) -> &MemStats {
         &self.stats
     }
 
-    /// Applies `op`, which reaches the L2 at `op.cycle + l1_latency`; returns its completion
-    /// cycle and where it was served (a write: acknowledged by the L2, `Source::L2Write`).
+    /// Applies `op`, an operation on a line of this partition, which reaches the L2 at
+    /// `op.cycle + l1_latency`; returns its completion cycle and where it was served (a write:
+    /// acknowledged by the L2, `Source::L2Write`). Operations must come in key order.
     pub fn apply(&mut self, op: &L2Op) -> (u64, Source) {
+        debug_assert_eq!(self.map.partition(op.line), self.index, "line of another partition");
         self.applied += 1;
         let at = op.cycle + self.l1_latency;
+        let line = self.map.local(op.line);
         let result = if op.write {
-            self.write(at, op.line, op.sector, op.class);
+            self.write(at, line, op.sector, op.class);
             (at + self.l2_latency, Source::L2Write)
         } else {
-            self.read(at, op.line, op.sector, op.class)
+            self.read(at, line, op.sector, op.class)
         };
         if op.class != AccessClass::Bvh {
             for j in 1..self.mirrors {
+                // Mirrors keep the partition bits of `op.line` (2^40 lines apart): same set.
                 self.mirror(
                     at,
-                    op.line + (u64::from(j) << MIRROR_SHIFT),
+                    self.map.local(op.line + (u64::from(j) << MIRROR_SHIFT)),
                     op.sector,
                     op.class,
                 );
@@ -253,20 +430,112 @@ impl L2Side {
         dram.write_queue_cycles += grant.start - arrival;
     }
 
-    /// State at L2 cycle `at` of sector `sector` of line `line`.
+    /// State at L2 cycle `at` of sector `sector` of line `line` (a line of this partition).
     pub fn sector(&self, line: u64, sector: u32, at: u64) -> SectorState {
-        self.l2.state(line, sector, at)
+        self.l2.state(self.map.local(line), sector, at)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A configuration with `channels` DRAM channels and a small L2 whose sets repeat the
+    /// channel interleaving (16 sets of 4 ways: 2 chunks of 2 lines per set stride).
+    fn small(channels: u32) -> MemConfig {
+        MemConfig {
+            l2_bytes: 16 * 4 * 128,
+            l2_ways: 4,
+            dram_channels: channels,
+            dram_bytes_per_cycle: 40,
+            ..MemConfig::default()
+        }
     }
 
-    /// A one-line summary at cycle `now`, for a deadlock watchdog.
-    pub fn debug_state(&self, now: u64) -> String {
-        let (pending, next) = self.l2.pending_sectors(now);
-        format!(
-            "L2: {} lines, {pending} sectors being filled (first fill {next:?}), {} accesses \
-             applied; DRAM free from cycle {}",
-            self.l2.lines_present(),
-            self.applied,
-            self.dram.next_free_cycle()
-        )
+    #[test]
+    fn partitions_follow_the_channels_where_every_set_lies_in_one() {
+        let cfg = MemConfig {
+            dram_channels: 16,
+            ..MemConfig::default()
+        };
+        cfg.validate().unwrap();
+        let map = PartitionMap::new(&cfg);
+        assert_eq!(map.partitions(), 16);
+        // 256 B chunks: lines 2k and 2k + 1 share a channel, consecutive chunks the next one.
+        assert_eq!(map.partition(0), 0);
+        assert_eq!(map.partition(1), 0);
+        assert_eq!(map.partition(2), 1);
+        assert_eq!(map.partition(31), 15);
+        assert_eq!(map.partition(32), 0);
+        // One channel, a channel count that is no power of two, an L2 too small for a set per
+        // channel: one partition.
+        for channels in [1, 12] {
+            let c = MemConfig {
+                dram_channels: channels,
+                ..MemConfig::default()
+            };
+            assert_eq!(PartitionMap::new(&c).partitions(), 1, "{channels} channels");
+        }
+        assert_eq!(PartitionMap::new(&small(16)).partitions(), 1);
+        assert_eq!(PartitionMap::new(&small(8)).partitions(), 8);
+        assert_eq!(L2Side::new(&cfg).into_partitions().1.len(), 16);
+    }
+
+    /// Operations in key order from (cycle step, line, sector, class, write) draws.
+    fn ops(draws: &[(u64, u64, u32, usize, bool)]) -> Vec<L2Op> {
+        let mut cycle = 0;
+        draws
+            .iter()
+            .enumerate()
+            .map(|(seq, &(step, line, sector, class, write))| {
+                cycle += step;
+                L2Op {
+                    cycle,
+                    phase: 0,
+                    sm: 0,
+                    seq: seq as u64,
+                    line,
+                    sector,
+                    class: AccessClass::ALL[class],
+                    write,
+                }
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// Applying each partition's operations on its own gives the unified L2's results and
+        /// counters, with ray ways, mirrors and a scale model's DRAM share.
+        #[test]
+        fn partitions_equal_the_unified_l2(
+            draws in prop::collection::vec(
+                (0u64..6, 0u64..512, 0u32..4, 0usize..6, any::<bool>()), 1..400),
+            channels in prop::sample::select(vec![2u32, 4, 8]),
+            ray_ways in 0u32..3,
+            mirrors in 1u32..4,
+        ) {
+            let cfg = MemConfig {
+                l2_ray_ways: ray_ways,
+                l2_private_mirrors: mirrors,
+                dram_share: [1, 2],
+                ..small(channels)
+            };
+            cfg.validate().unwrap();
+            let mut parts = L2Side::new(&cfg);
+            prop_assert_eq!(parts.map.partitions(), channels as usize);
+            let mut unified = L2Side::unified(&cfg);
+            for op in ops(&draws) {
+                prop_assert_eq!(parts.apply(&op), unified.apply(&op), "{:?}", op);
+                for sector in 0..4 {
+                    let at = op.cycle + 100;
+                    prop_assert_eq!(
+                        parts.sector(op.line, sector, at),
+                        unified.sector(op.line, sector, at)
+                    );
+                }
+            }
+            prop_assert_eq!(parts.stats(), unified.stats());
+        }
     }
 }

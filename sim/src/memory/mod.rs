@@ -10,7 +10,8 @@
 //! - [`l1`]: [`L1Port`], one SM's L1, MSHRs and responses, whose L2 operations may be applied
 //!   later in a fixed order ([`L2Op::key`]) so SMs can be simulated independently between
 //!   synchronisation points.
-//! - [`l2`]: [`L2Side`], the shared L2 and DRAM channel.
+//! - [`l2`]: [`L2Side`], the shared L2 and DRAM, in memory partitions ([`L2Partition`]) that
+//!   share no state, one per DRAM channel where the address map allows.
 //! - [`system`]: [`MemorySystem`], the ports and the L2 with every L2 operation applied as it
 //!   is accepted.
 //! - [`responses`]: [`ResponseQueue`], one SM's undelivered responses in delivery order.
@@ -85,7 +86,7 @@ pub use cache::{SectorCache, SectorState};
 pub use config::{MemConfig, MemConfigError};
 pub use dram::{Dram, DramChannel};
 pub use l1::{Acceptance, L1Port};
-pub use l2::{L2Op, L2Side};
+pub use l2::{L2Op, L2Partition, L2Side, PartitionMap};
 pub use request::{
     Accepted, AccessClass, AccessError, MemRequest, Response, Source, Stall, StallReason,
 };

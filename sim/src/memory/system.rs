@@ -56,7 +56,7 @@ impl MemorySystem {
 
     /// Counters so far.
     pub fn stats(&self) -> MemStats {
-        let mut stats = *self.l2.stats();
+        let mut stats = self.l2.stats();
         for port in &self.ports {
             stats.add(port.stats());
         }
