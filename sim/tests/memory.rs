@@ -788,7 +788,7 @@ fn run_windowed(seed: u64, sms: usize) -> (Vec<Event>, MemStats, usize) {
         now += 1;
         assert!(now < 1_000_000, "run did not finish");
     }
-    let mut stats = *l2.stats();
+    let mut stats = l2.stats();
     for port in &ports {
         stats.add(port.stats());
     }
