@@ -66,9 +66,10 @@ fn latencies_of_hit_l2_hit_and_dram_are_exact() {
 
 #[test]
 fn dram_bandwidth_queues_back_to_back_misses() {
-    // 8 B/cycle: each 32 B sector holds the channel for 4 cycles.
+    // One channel of 8 B/cycle: each 32 B sector holds it for 4 cycles.
     let cfg = MemConfig {
         dram_bytes_per_cycle: 8,
+        dram_channels: 1,
         ..MemConfig::default()
     };
     let base = (cfg.l1_latency + cfg.l2_latency) as u64;
@@ -94,6 +95,7 @@ fn dram_bandwidth_queues_back_to_back_misses() {
     // 12 B/cycle: sector i starts floor(32 i / 12) cycles after the common arrival.
     let cfg = MemConfig {
         dram_bytes_per_cycle: 12,
+        dram_channels: 1,
         ..MemConfig::default()
     };
     let mut mem = system(&cfg, 1);

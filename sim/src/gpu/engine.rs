@@ -42,7 +42,7 @@ use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
 use crate::gpu::node::{Ctx, HaltKind, SmNode};
-use crate::gpu::parallelism::{ParallelProfile, RoundKind, Serial, Stopwatch};
+use crate::gpu::parallelism::{clock_reads, ParallelProfile, RoundKind, Serial, Stopwatch};
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::rt::waveform::{VcdWindow, Waveform, WaveformSummary, MAX_WINDOW_CYCLES};
@@ -453,6 +453,7 @@ impl<'a> Engine<'_, 'a> {
         nodes: &mut Nodes<'_, 'a, F>,
     ) -> Result<u64, SimError> {
         let window = L1Port::round_trip(&self.ctx.cfg.memory);
+        let reads_before = clock_reads();
         let total = Stopwatch::start(self.profile.is_some());
         let mut start = 0u64;
         loop {
@@ -474,7 +475,7 @@ impl<'a> Engine<'_, 'a> {
             let next = self.apply_l2(nodes, end);
             if let Some(cycles) = ended {
                 if let Some(p) = &mut self.profile {
-                    p.set_total(total.ns());
+                    p.set_total(total.ns(), reads_before);
                 }
                 return Ok(cycles);
             }

@@ -11,6 +11,7 @@
 //! `vtq bench --sim --parallelism` prints it (docs/performance.md).
 
 use std::fmt::Write as _;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Thread counts the report predicts.
@@ -76,8 +77,10 @@ pub struct ParallelProfile {
     window_max_ns: u64,
     /// Windows run.
     windows: u64,
-    /// Wall time of the whole engine loop.
+    /// Time of the whole engine loop, less the profiling's own clock reads.
     total_ns: u64,
+    /// The clock reads' estimated time, taken out of `total_ns`.
+    clock_ns: u64,
 }
 
 /// A stopwatch of the calling thread's CPU time (on Unix; wall time elsewhere), so that time
@@ -85,16 +88,36 @@ pub struct ParallelProfile {
 #[derive(Debug)]
 pub struct Stopwatch(Option<u64>);
 
+/// Clock reads made by stopwatches (their cost is taken out of the report).
+static CLOCK_READS: AtomicU64 = AtomicU64::new(0);
+
 impl Stopwatch {
     /// Starts timing if `on` (a profiled run).
     pub fn start(on: bool) -> Self {
-        Stopwatch(on.then(thread_ns))
+        Stopwatch(on.then(|| {
+            CLOCK_READS.fetch_add(1, Ordering::Relaxed);
+            thread_ns()
+        }))
     }
 
     /// Nanoseconds since the start (0 when not timing).
     pub fn ns(&self) -> u64 {
-        self.0.map_or(0, |t| thread_ns().saturating_sub(t))
+        self.0.map_or(0, |t| {
+            CLOCK_READS.fetch_add(1, Ordering::Relaxed);
+            thread_ns().saturating_sub(t)
+        })
     }
+}
+
+/// Nanoseconds one clock read takes, measured over 10,000 reads.
+fn clock_read_ns() -> f64 {
+    const READS: u32 = 10_000;
+    let start = thread_ns();
+    let mut last = start;
+    for _ in 0..READS {
+        last = std::hint::black_box(thread_ns());
+    }
+    last.saturating_sub(start) as f64 / f64::from(READS)
 }
 
 /// The calling thread's CPU time in nanoseconds.
@@ -135,9 +158,12 @@ impl ParallelProfile {
         self.windows += 1;
     }
 
-    /// Sets the wall time of the whole loop.
-    pub fn set_total(&mut self, ns: u64) {
-        self.total_ns = ns;
+    /// Sets the time of the whole loop, taking out the estimated cost of the clock reads made
+    /// since the profile was created (`reads_before`: [`clock_reads`] then).
+    pub fn set_total(&mut self, ns: u64, reads_before: u64) {
+        let reads = clock_reads().saturating_sub(reads_before);
+        self.clock_ns = (reads as f64 * clock_read_ns()) as u64;
+        self.total_ns = ns.saturating_sub(self.clock_ns);
     }
 
     /// One round of kind `kind` whose units took `units` nanoseconds each, in the order the
@@ -232,6 +258,11 @@ impl ParallelProfile {
         }
         let _ = writeln!(
             s,
+            "  (the profile's own {:.1} ms of clock reads taken out of the loop's time)",
+            ms(self.clock_ns)
+        );
+        let _ = writeln!(
+            s,
             "  serial in all: {:.1}% (Amdahl's limit {:.1}x)",
             pct(self.serial_total_ns()),
             one / self.serial_total_ns().max(1) as f64
@@ -262,6 +293,11 @@ impl ParallelProfile {
         );
         s
     }
+}
+
+/// Clock reads made by stopwatches so far (in every thread).
+pub fn clock_reads() -> u64 {
+    CLOCK_READS.load(Ordering::Relaxed)
 }
 
 /// Time to run `units` (in claim order, each thread taking the next unit when it is free) on
@@ -308,7 +344,7 @@ mod tests {
             p.round(RoundKind::Window, &[10; 16]);
         }
         p.serial(Serial::Halts, 400);
-        p.set_total(16_400);
+        p.total_ns = 16_400;
         let s = p.predicted_speedups();
         assert_eq!(s[0], (1, 1.0));
         // 16 threads: 400 + 100 x 10 = 1,400 ns against 16,400.
@@ -325,7 +361,7 @@ mod tests {
         let mut p = ParallelProfile::default();
         p.round(RoundKind::AfterHalt, &[100, 100]);
         p.serial(Serial::L2Apply, 50);
-        p.set_total(300);
+        p.total_ns = 300;
         // 300 - 200 - 50 = 50 ns of hand-over on top of the 50 timed.
         assert_eq!(p.serial_total_ns(), 100);
         assert_eq!(p.one_thread_ns(), 300);

@@ -75,10 +75,11 @@ pub struct MemConfig {
     /// SMs, give them `[k, sms]` of the channel (docs/accuracy.md); bandwidth is then exactly
     /// `dram_bytes_per_cycle * numerator / denominator` bytes per cycle.
     pub dram_share: [u32; 2],
-    /// DRAM channels sharing `dram_bytes_per_cycle` equally, each first come first served.
-    /// Default 1: the whole bandwidth as one channel (a modelling simplification). Vulkan-Sim's
-    /// RTX 3070 configuration, which supplied the paper's latencies, has 16 (`-gpgpu_n_mem 16`,
-    /// each with FR-FCFS scheduling over 16 banks, which is not modelled here).
+    /// DRAM channels sharing `dram_bytes_per_cycle` equally, each first come first served, and
+    /// with them the memory partitions the L2 is sliced into ([`super::l2::PartitionMap`]).
+    /// Default 16: Vulkan-Sim's RTX 3070 configuration, which supplied the paper's latencies
+    /// (`-gpgpu_n_mem 16`; each channel's FR-FCFS scheduling over 16 banks is not modelled).
+    /// 1 is the single first-come-first-served channel of vtq before memory partitions.
     pub dram_channels: u32,
     /// Bytes of consecutive addresses in one channel before the next channel's (a power of two,
     /// at least `line_bytes`, so a line lives in one channel); used when `dram_channels > 1`.
@@ -106,7 +107,7 @@ impl Default for MemConfig {
             dram_latency: 254,
             dram_bytes_per_cycle: 328,
             dram_share: [1, 1],
-            dram_channels: 1,
+            dram_channels: 16,
             dram_interleave_bytes: 256,
             sector_bytes: 32,
             line_bytes: 128,
