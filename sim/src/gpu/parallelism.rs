@@ -252,7 +252,7 @@ impl ParallelProfile {
             } else {
                 self.serial_ns[k]
             };
-            if ns > 0 {
+            if ns > 0 || k == Serial::Other as usize {
                 let _ = writeln!(s, "  serial    {name}: {:.1} ms ({:.1}%)", ms(ns), pct(ns));
             }
         }
@@ -273,11 +273,13 @@ impl ParallelProfile {
             let _ = writeln!(
                 s,
                 "  balance: work per SM over the run {:.1} / {:.1} / {:.1} ms (least / mean / \
-                 most); in a window the slowest SM takes {:.2}x the mean",
+                 most); in a window the slowest SM takes {:.2}x the mean; without a barrier per \
+                 window the SM visits could take as little as the busiest SM's {:.1} ms",
                 ms(min),
                 ms(mean),
                 ms(max),
                 self.window_max_ns as f64 / mean.max(1) as f64,
+                ms(max),
             );
         }
         let speedups: Vec<String> = self
