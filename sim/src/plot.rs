@@ -1,10 +1,13 @@
 //! Charts as SVG and PNG with `plotters`: scatter plots of labelled points in series (color per
 //! series, marker shape per label) with linear or logarithmic axes ([`Scatter`]), grouped or
 //! stacked bar charts over categories with reference lines such as a paper's published values
-//! ([`Bars`]), and line charts ([`Lines`]). Text in the PNG needs a system font (fontconfig;
-//! Debian's `fonts-dejavu-core`); the SVG names the font family only.
+//! ([`Bars`]), and line charts ([`Lines`]). Text is laid out and drawn into the PNG with
+//! DejaVu Sans embedded in the binary (the `dejavu` crate; rasterized in Rust by `ab_glyph`), so
+//! charts need no system font, fontconfig or freetype; the SVG names the font family only
+//! (`sans-serif`: the viewer's font).
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
@@ -54,6 +57,25 @@ pub struct PlotError {
     pub path: PathBuf,
     /// What went wrong.
     pub reason: String,
+}
+
+/// The font families the charts name (plotters' default is `sans-serif`), all drawn with the
+/// embedded DejaVu Sans.
+const FAMILIES: [&str; 3] = ["sans-serif", "serif", "monospace"];
+
+/// Registers the embedded font with plotters under [`FAMILIES`] (once per process); the
+/// error says why the font data was refused.
+pub fn register_fonts() -> Result<(), String> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        // Other styles (bold, italic) fall back to this one; the charts use none.
+        for family in FAMILIES {
+            plotters::style::register_font(family, FontStyle::Normal, dejavu::sans::regular())
+                .map_err(|_| format!("the embedded DejaVu Sans font ({family}) is not valid"))?;
+        }
+        Ok(())
+    })
+    .clone()
 }
 
 /// Series colors, in order.
@@ -226,6 +248,8 @@ fn write_both(
         let path = path.to_path_buf();
         move |reason: String| PlotError { path, reason }
     };
+    // Both backends lay text out with the registered font.
+    register_fonts().map_err(err(&svg))?;
     {
         let area = SVGBackend::new(&svg, (900, 600)).into_drawing_area();
         draw_svg(&area).map_err(err(&svg))?;
