@@ -2,15 +2,18 @@
 //! series, marker shape per label) with linear or logarithmic axes ([`Scatter`]), grouped or
 //! stacked bar charts over categories with reference lines such as a paper's published values
 //! ([`Bars`]), and line charts ([`Lines`]). Text is laid out and drawn into the PNG with
-//! DejaVu Sans embedded in the binary (the `dejavu` crate; rasterized in Rust by `ab_glyph`), so
-//! charts need no system font, fontconfig or freetype; the SVG names the font family only
-//! (`sans-serif`: the viewer's font).
+//! DejaVu Sans embedded in the binary (the `dejavu` crate; rasterized in Rust by `ab_glyph`,
+//! see [`EmbeddedText`]), so charts need no system font, fontconfig or freetype; the SVG names
+//! the font family only (`sans-serif`: the viewer's font).
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use plotters::coord::CoordTranslate;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
+
+mod text;
+pub use text::{text_size, EmbeddedText};
 
 /// One point of a series: its coordinates and the label its marker shape stands for.
 #[derive(Debug, Clone, PartialEq)]
@@ -151,7 +154,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 
 /// Draws `chart` on `area`.
 fn draw<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<DB, Shift>,
     chart: &Scatter,
 ) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -239,8 +242,8 @@ fn draw<DB: DrawingBackend>(
 /// Draws with `draw_on` into `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
 fn write_both(
     stem: &Path,
-    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<(), String>,
-    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, plotters::coord::Shift>) -> Result<(), String>,
+    draw_svg: impl FnOnce(&DrawingArea<EmbeddedText<SVGBackend>, Shift>) -> Result<(), String>,
+    draw_png: impl FnOnce(&DrawingArea<EmbeddedText<BitMapBackend>, Shift>) -> Result<(), String>,
 ) -> Result<(PathBuf, PathBuf), PlotError> {
     let svg = stem.with_extension("svg");
     let png = stem.with_extension("png");
@@ -251,11 +254,19 @@ fn write_both(
     // Both backends lay text out with the registered font.
     register_fonts().map_err(err(&svg))?;
     {
-        let area = SVGBackend::new(&svg, (900, 600)).into_drawing_area();
+        let area = EmbeddedText {
+            inner: SVGBackend::new(&svg, (900, 600)),
+            draw: false,
+        }
+        .into_drawing_area();
         draw_svg(&area).map_err(err(&svg))?;
     }
     {
-        let area = BitMapBackend::new(&png, (900, 600)).into_drawing_area();
+        let area = EmbeddedText {
+            inner: BitMapBackend::new(&png, (900, 600)),
+            draw: true,
+        }
+        .into_drawing_area();
         draw_png(&area).map_err(err(&png))?;
     }
     Ok((svg, png))
@@ -303,7 +314,7 @@ pub struct Bars {
 
 /// Draws `chart` on `area`.
 fn draw_bars<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<DB, Shift>,
     chart: &Bars,
 ) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -458,7 +469,7 @@ pub struct Lines {
 
 /// Draws `chart` on `area`.
 fn draw_lines<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<DB, Shift>,
     chart: &Lines,
 ) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
