@@ -266,7 +266,10 @@ mod tests {
         std::fs::write(dir.join("plain"), b"").unwrap();
         let err = write_or_keep(&target, |p| std::fs::write(p, b"result")).unwrap_err();
         let text = format!("{err:#}");
-        assert!(text.contains("stats.json") && text.contains("kept in"), "{text}");
+        assert!(
+            text.contains("stats.json") && text.contains("kept in"),
+            "{text}"
+        );
         let kept = fallback_paths(&target)
             .into_iter()
             .find(|p| p.exists())
@@ -287,6 +290,9 @@ mod tests {
         assert!(!f.note(Err(anyhow!("one"))));
         assert!(!f.note(Err(anyhow!("two"))));
         let text = f.finish().unwrap_err().to_string();
-        assert!(text.contains("2 outputs failed") && text.contains("two"), "{text}");
+        assert!(
+            text.contains("2 outputs failed") && text.contains("two"),
+            "{text}"
+        );
     }
 }

@@ -153,10 +153,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// Draws `chart` on `area`.
-fn draw<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    chart: &Scatter,
-) -> Result<(), String> {
+fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Scatter) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
     let points = || chart.series.iter().flat_map(|s| s.points.iter());
     let (x0, x1) = range(points().map(|p| p.x), chart.x_log);

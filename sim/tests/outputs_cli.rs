@@ -33,7 +33,10 @@ fn assert_fails_before_work(cwd: &Path, args: &[&str], bad: &Path, work: &[&str]
     let took = start.elapsed();
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{args:?} succeeded: {stdout}{stderr}");
+    assert!(
+        !out.status.success(),
+        "{args:?} succeeded: {stdout}{stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
     let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
     assert_eq!(errors.len(), 1, "{args:?}: {stderr}");

@@ -106,7 +106,10 @@ fn the_elf_reader_finds_needed_libraries() {
     // dynamically linked against the C library.
     let me = std::env::current_exe().unwrap();
     let needed = needed_libraries(&std::fs::read(me).unwrap());
-    assert!(needed.iter().any(|l| l.starts_with("libc.so")), "{needed:?}");
+    assert!(
+        needed.iter().any(|l| l.starts_with("libc.so")),
+        "{needed:?}"
+    );
 }
 
 /// Pixels darker than mid grey in rows `rows` of the PNG at `path`.
@@ -127,7 +130,11 @@ fn scratch() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("vtq-self-contained-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("fonts.conf"), "<?xml version=\"1.0\"?>\n<fontconfig/>\n").unwrap();
+    std::fs::write(
+        dir.join("fonts.conf"),
+        "<?xml version=\"1.0\"?>\n<fontconfig/>\n",
+    )
+    .unwrap();
     dir
 }
 
@@ -170,8 +177,14 @@ fn accuracy_draws_its_chart_text_without_fontconfig() {
     // The title sits in the top 40 rows above the plot area (white without text); the axis
     // labels and the marker key under the plot.
     let title = dark_pixels(&png, 0..40);
-    assert!(title > 200, "{title} dark pixels in the title band: no text drawn");
+    assert!(
+        title > 200,
+        "{title} dark pixels in the title band: no text drawn"
+    );
     let key = dark_pixels(&png, 575..600);
-    assert!(key > 100, "{key} dark pixels in the marker key band: no text drawn");
+    assert!(
+        key > 100,
+        "{key} dark pixels in the marker key band: no text drawn"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -151,8 +151,8 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         .map(|(id, title, f)| drawn(id, title, f(&results, out)))
         .collect();
     let vtq = SimConfig::load(Some(&root.join("configs/vtq.toml")), &args.set)?;
-    let fig5 = figure5_rows(&scenes, &vtq, &args.cache)
-        .and_then(|rows| figures::figure5(&rows, out));
+    let fig5 =
+        figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));
     figures.insert(0, drawn("fig05", "Figure 5", fig5));
     let area = area_report(&vtq.hw, &area_params(&vtq))?;
     let page = Page {

@@ -62,11 +62,7 @@ pub fn text_size(text: &str, size: f64) -> Result<(u32, u32), String> {
 }
 
 /// Draws `text` with its top-left corner at `(0, 0)` through `pixel(x, y, coverage)`.
-fn rasterize(
-    text: &str,
-    size: f64,
-    mut pixel: impl FnMut(i32, i32, f32),
-) -> Result<(), String> {
+fn rasterize(text: &str, size: f64, mut pixel: impl FnMut(i32, i32, f32)) -> Result<(), String> {
     let font = font()?;
     let em = em(size);
     let scale = px_scale(font, em);
