@@ -162,10 +162,11 @@ pub fn write_or_keep<E: std::fmt::Display>(
     };
     for fallback in fallback_paths(path) {
         if write(&fallback).is_ok() {
+            let shown_fallback = std::path::absolute(&fallback).unwrap_or(fallback);
             bail!(
                 "cannot write {}: {err}; the result is kept in {}",
                 shown(path),
-                fallback.display()
+                shown_fallback.display()
             );
         }
     }
@@ -181,14 +182,12 @@ pub fn write_or_keep<E: std::fmt::Display>(
 pub struct Failures(Vec<String>);
 
 impl Failures {
-    /// Notes `result`'s error, if any (printed at once on stderr too); whether it was `Ok`.
+    /// Notes `result`'s error, if any; whether it was `Ok`.
     pub fn note(&mut self, result: anyhow::Result<()>) -> bool {
         match result {
             Ok(()) => true,
             Err(e) => {
-                let line = format!("{e:#}");
-                eprintln!("error: {line}");
-                self.0.push(line);
+                self.0.push(format!("{e:#}"));
                 false
             }
         }
@@ -274,7 +273,8 @@ mod tests {
             .into_iter()
             .find(|p| p.exists())
             .expect("a fallback file was written");
-        assert!(text.contains(&kept.display().to_string()), "{text}");
+        let absolute = std::path::absolute(&kept).unwrap();
+        assert!(text.contains(&absolute.display().to_string()), "{text}");
         assert_eq!(std::fs::read(&kept).unwrap(), b"result");
         std::fs::remove_file(kept).unwrap();
         write_or_keep(&dir.join("ok.json"), |p| std::fs::write(p, b"1")).unwrap();
