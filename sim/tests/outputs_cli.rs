@@ -267,3 +267,86 @@ fn trace_and_figure5_check_their_files() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Runs `vtq args` in `cwd`; returns (success, stdout, stderr).
+fn run(cwd: &Path, args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .current_dir(cwd)
+        .args(args)
+        .output()
+        .expect("the vtq binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_figure_that_cannot_be_drawn_leaves_the_results_and_the_rest() {
+    let (dir, _) = scratch("figure");
+    let out = dir.join("page");
+    // A folder where Figure 10's SVG goes: that chart cannot be written.
+    std::fs::create_dir_all(out.join("figures/fig10.svg/x")).unwrap();
+    let args = [
+        "reproduce",
+        "--out",
+        s(&out),
+        "--scene",
+        "wknd",
+        "--set",
+        "width=16",
+        "--set",
+        "height=16",
+        "--jobs",
+        "2",
+    ];
+    let (ok, stdout, stderr) = run(&dir, &args);
+    assert!(!ok, "{stdout}{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let last = stderr.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("error: 1 figure(s) not drawn (Figure 10") && last.contains("fig10.svg"),
+        "{stderr}"
+    );
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        html.contains("Not drawn: "),
+        "the page says which figure is missing"
+    );
+    for stem in ["fig05", "fig12", "fig16"] {
+        assert!(out.join(format!("figures/{stem}.png")).exists(), "{stem}");
+    }
+    assert!(std::fs::read_dir(out.join("results/runs")).unwrap().count() > 0);
+
+    let acc = dir.join("acc");
+    std::fs::create_dir_all(acc.join("accuracy.svg/x")).unwrap();
+    let (ok, stdout, stderr) = run(
+        &dir,
+        &[
+            "accuracy",
+            "--scene",
+            "wknd",
+            "--designs",
+            "baseline",
+            "--settings",
+            "1/2x2",
+            "--threads",
+            "2",
+            "--set",
+            "width=16",
+            "--set",
+            "height=16",
+            "--set",
+            "gpu.sms=4",
+            "--out",
+            s(&acc),
+        ],
+    );
+    assert!(!ok, "{stdout}{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains("the plot was not drawn"), "{stderr}");
+    assert!(acc.join("accuracy.csv").exists() && acc.join("accuracy.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
