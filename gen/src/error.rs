@@ -3,8 +3,12 @@
 /// Why generating, simulating, synthesizing or linting failed.
 #[derive(Debug, thiserror::Error)]
 pub enum GenError {
-    /// An external tool (iverilog, vvp, verilator, yosys) is not on `PATH`.
-    #[error("{tool} is not installed (not found on PATH)")]
+    /// An external tool (iverilog, vvp, verilator, yosys) is not on `PATH`; the message names
+    /// the Debian package that provides it.
+    #[error(
+        "{tool} is not installed (not found on PATH; Debian package `{}`)",
+        crate::tools::debian_package(tool)
+    )]
     ToolMissing {
         /// Executable name.
         tool: String,

@@ -58,6 +58,18 @@ pub fn run(
     Ok((out, ok))
 }
 
+/// The Debian package that provides the external tool `tool` (`iverilog` for Icarus Verilog's
+/// `iverilog` and `vvp`; `gtkwave` for `vcd2fst`).
+pub fn debian_package(tool: &str) -> &'static str {
+    match tool {
+        "verilator" | "./obj_dir/cosim" => "verilator",
+        "yosys" => "yosys",
+        "vcd2fst" | "gtkwave" => "gtkwave",
+        "sbatch" | "srun" | "squeue" | "scancel" => "slurm-client",
+        _ => "iverilog",
+    }
+}
+
 /// Whether `tool` can be started (it answers `--version` or `-V`).
 pub fn available(tool: &str) -> bool {
     ["--version", "-V"].iter().any(|flag| {

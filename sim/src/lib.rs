@@ -13,6 +13,7 @@ pub mod geometry;
 pub mod gpu;
 pub mod intersect;
 pub mod memory;
+pub mod output;
 pub mod plot;
 pub mod rays_csv;
 pub mod reproduce;

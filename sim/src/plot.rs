@@ -1,13 +1,19 @@
 //! Charts as SVG and PNG with `plotters`: scatter plots of labelled points in series (color per
 //! series, marker shape per label) with linear or logarithmic axes ([`Scatter`]), grouped or
 //! stacked bar charts over categories with reference lines such as a paper's published values
-//! ([`Bars`]), and line charts ([`Lines`]). Text in the PNG needs a system font (fontconfig;
-//! Debian's `fonts-dejavu-core`); the SVG names the font family only.
+//! ([`Bars`]), and line charts ([`Lines`]). Text is laid out and drawn into the PNG with
+//! DejaVu Sans embedded in the binary (the `dejavu` crate; rasterized in Rust by `ab_glyph`,
+//! see [`EmbeddedText`]), so charts need no system font, fontconfig or freetype; the SVG names
+//! the font family only (`sans-serif`: the viewer's font).
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
-use plotters::coord::CoordTranslate;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
+
+mod text;
+pub use text::{text_size, EmbeddedText};
 
 /// One point of a series: its coordinates and the label its marker shape stands for.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +60,25 @@ pub struct PlotError {
     pub path: PathBuf,
     /// What went wrong.
     pub reason: String,
+}
+
+/// The font families the charts name (plotters' default is `sans-serif`), all drawn with the
+/// embedded DejaVu Sans.
+const FAMILIES: [&str; 3] = ["sans-serif", "serif", "monospace"];
+
+/// Registers the embedded font with plotters under [`FAMILIES`] (once per process); the
+/// error says why the font data was refused.
+pub fn register_fonts() -> Result<(), String> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        // Other styles (bold, italic) fall back to this one; the charts use none.
+        for family in FAMILIES {
+            plotters::style::register_font(family, FontStyle::Normal, dejavu::sans::regular())
+                .map_err(|_| format!("the embedded DejaVu Sans font ({family}) is not valid"))?;
+        }
+        Ok(())
+    })
+    .clone()
 }
 
 /// Series colors, in order.
@@ -128,10 +153,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// Draws `chart` on `area`.
-fn draw<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    chart: &Scatter,
-) -> Result<(), String> {
+fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Scatter) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
     let points = || chart.series.iter().flat_map(|s| s.points.iter());
     let (x0, x1) = range(points().map(|p| p.x), chart.x_log);
@@ -217,8 +239,8 @@ fn draw<DB: DrawingBackend>(
 /// Draws with `draw_on` into `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
 fn write_both(
     stem: &Path,
-    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<(), String>,
-    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, plotters::coord::Shift>) -> Result<(), String>,
+    draw_svg: impl FnOnce(&DrawingArea<EmbeddedText<SVGBackend>, Shift>) -> Result<(), String>,
+    draw_png: impl FnOnce(&DrawingArea<EmbeddedText<BitMapBackend>, Shift>) -> Result<(), String>,
 ) -> Result<(PathBuf, PathBuf), PlotError> {
     let svg = stem.with_extension("svg");
     let png = stem.with_extension("png");
@@ -226,12 +248,22 @@ fn write_both(
         let path = path.to_path_buf();
         move |reason: String| PlotError { path, reason }
     };
+    // Both backends lay text out with the registered font.
+    register_fonts().map_err(err(&svg))?;
     {
-        let area = SVGBackend::new(&svg, (900, 600)).into_drawing_area();
+        let area = EmbeddedText {
+            inner: SVGBackend::new(&svg, (900, 600)),
+            draw: false,
+        }
+        .into_drawing_area();
         draw_svg(&area).map_err(err(&svg))?;
     }
     {
-        let area = BitMapBackend::new(&png, (900, 600)).into_drawing_area();
+        let area = EmbeddedText {
+            inner: BitMapBackend::new(&png, (900, 600)),
+            draw: true,
+        }
+        .into_drawing_area();
         draw_png(&area).map_err(err(&png))?;
     }
     Ok((svg, png))
@@ -279,7 +311,7 @@ pub struct Bars {
 
 /// Draws `chart` on `area`.
 fn draw_bars<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<DB, Shift>,
     chart: &Bars,
 ) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -434,7 +466,7 @@ pub struct Lines {
 
 /// Draws `chart` on `area`.
 fn draw_lines<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
+    area: &DrawingArea<DB, Shift>,
     chart: &Lines,
 ) -> Result<(), String> {
     area.fill(&WHITE).map_err(|e| e.to_string())?;

@@ -14,10 +14,15 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Runs vtq in `dir` with `args`, expecting success.
+/// Runs vtq in `dir` with `args`, expecting success. Fontconfig is pointed at an empty
+/// configuration (no fonts): the charts' text comes from the font embedded in vtq.
 fn vtq(dir: &Path, args: &[&str]) -> Output {
+    let fonts_conf = dir.join("empty-fonts.conf");
+    std::fs::write(&fonts_conf, "<?xml version=\"1.0\"?>\n<fontconfig/>\n").unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_vtq"))
         .current_dir(dir)
+        .env("FONTCONFIG_FILE", &fonts_conf)
+        .env("FONTCONFIG_PATH", dir)
         .args(args)
         .output()
         .expect("vtq runs");
@@ -28,6 +33,20 @@ fn vtq(dir: &Path, args: &[&str]) -> Output {
         String::from_utf8_lossy(&out.stderr)
     );
     out
+}
+
+/// Pixels darker than mid grey in rows `rows` of the PNG at `path`.
+fn dark_pixels(path: &Path, rows: std::ops::Range<usize>) -> usize {
+    let file = std::fs::File::open(path).unwrap();
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let (channels, width) = (info.color_type.samples(), info.width as usize);
+    rows.flat_map(|y| (0..width).map(move |x| (y * width + x) * channels))
+        .filter(|&i| buf[i..i + 3].iter().map(|&c| u32::from(c)).sum::<u32>() < 3 * 128)
+        .count()
 }
 
 /// The tiny reproduction's arguments (`--out` first).
@@ -92,6 +111,16 @@ fn reproduce_writes_every_figure_and_resumes() {
             "{stem}"
         );
         assert!(md.contains(&format!("(figures/{stem}.png)")), "{stem}");
+    }
+    // The PNG charts carry text (the title band above the plot is white without it).
+    for stem in ["fig05", "fig10", "fig11-wknd"] {
+        let png = out.join(format!("figures/{stem}.png"));
+        let title = dark_pixels(&png, 0..40);
+        assert!(
+            title > 200,
+            "{}: {title} dark pixels in the title",
+            png.display()
+        );
     }
     // The paper's values are drawn and tabled; every figure has its numbers, no cell missing.
     let fig10 = std::fs::read_to_string(out.join("figures/fig10.svg")).unwrap();

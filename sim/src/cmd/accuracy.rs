@@ -11,6 +11,7 @@ use clap::Args;
 use crate::accuracy::{benchmark, chart, csv, summarize, Design, Plan, Row};
 use crate::cmd::compare::resolve_design;
 use crate::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
+use crate::output::{check_dir, write_or_keep, Failures};
 use crate::plot::write_scatter;
 
 /// Options of `vtq accuracy`.
@@ -84,6 +85,7 @@ fn print_rows(rows: &[Row]) {
 
 /// Run `vtq accuracy`.
 pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
+    check_dir(&args.out)?;
     let designs: Vec<Design> = args
         .designs
         .iter()
@@ -172,20 +174,29 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         "errors are relative to full detail on the same machine and threads ({threads}); \
          x faster = full detail's wall time / the tier's"
     );
+    // The results first; a chart that cannot be drawn is reported without losing them, and
+    // one file that cannot be written is kept in a fallback file.
+    let mut failures = Failures::default();
+    let mut wrote = Vec::new();
     let csv_path = args.out.join("accuracy.csv");
-    std::fs::write(&csv_path, csv(&rows))
-        .with_context(|| format!("writing {}", csv_path.display()))?;
+    let csv_text = csv(&rows);
+    if failures.note(write_or_keep(&csv_path, |p| std::fs::write(p, &csv_text))) {
+        wrote.push(csv_path.display().to_string());
+    }
     let json_path = args.out.join("accuracy.json");
     let doc = serde_json::json!({ "threads": threads, "rows": rows, "summary": summary });
-    std::fs::write(&json_path, serde_json::to_string_pretty(&doc)? + "\n")
-        .with_context(|| format!("writing {}", json_path.display()))?;
-    let (svg, png) = write_scatter(&args.out.join("accuracy"), &chart(&rows))?;
-    println!(
-        "wrote {}, {}, {} and {}",
-        csv_path.display(),
-        json_path.display(),
-        svg.display(),
-        png.display()
-    );
-    Ok(())
+    let json_text = serde_json::to_string_pretty(&doc)? + "\n";
+    if failures.note(write_or_keep(&json_path, |p| std::fs::write(p, &json_text))) {
+        wrote.push(json_path.display().to_string());
+    }
+    match write_scatter(&args.out.join("accuracy"), &chart(&rows)) {
+        Ok((svg, png)) => wrote.extend([svg.display().to_string(), png.display().to_string()]),
+        Err(e) => {
+            failures.note(Err(anyhow::Error::new(e).context("the plot was not drawn")));
+        }
+    }
+    if !wrote.is_empty() {
+        println!("wrote {}", wrote.join(", "));
+    }
+    failures.finish()
 }

@@ -22,6 +22,7 @@ use crate::bvh::HwBvh;
 use crate::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::config::SimConfig;
 use crate::gpu::{simulate, SimOptions, SimStats};
+use crate::output::{check_file, write_or_keep};
 use crate::sample::{paired_speedup, simulate_sampled, Profile};
 use crate::scene::Scene;
 
@@ -302,6 +303,18 @@ fn image_difference(a: &[Vec3], b: &[Vec3]) -> Option<(usize, usize)> {
     Some((first, differing.count()))
 }
 
+/// Writes the JSON text to `path` (or keeps it in a fallback file) and says so; the error, as
+/// one line, when `path` could not be written.
+fn write_json(path: &Path, text: &str) -> Option<String> {
+    match write_or_keep(path, |p| std::fs::write(p, text)) {
+        Ok(()) => {
+            println!("wrote {}", path.display());
+            None
+        }
+        Err(e) => Some(format!("{e:#}")),
+    }
+}
+
 /// Run `vtq compare`.
 pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     let overrides = args.overrides();
@@ -347,6 +360,9 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         }
     }
 
+    if let Some(path) = &args.json {
+        check_file(path)?;
+    }
     let scene = load_scene(&args.scene)?;
     // One BVH per distinct build parameters, shared by every design that uses them.
     let mut bvhs: Vec<HwBvh> = Vec::new();
@@ -476,6 +492,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         (_, false) => println!("images: DIFFERENT: {}", mismatches.join("; ")),
     }
 
+    let mut json_error = None;
     if let Some(path) = &args.json {
         let entries: Vec<serde_json::Value> = designs
             .iter()
@@ -502,11 +519,10 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             "designs": entries,
         });
         let text = serde_json::to_string_pretty(&doc).context("serializing the statistics")?;
-        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
+        json_error = write_json(path, &(text + "\n"));
     }
 
-    let mut problems = Vec::new();
+    let mut problems: Vec<String> = json_error.into_iter().collect();
     if !mismatches.is_empty() {
         problems.push(format!(
             "the designs' images differ (they must be identical): {}",
@@ -623,8 +639,12 @@ fn compare_sampled(
             "designs": entries,
         });
         let text = serde_json::to_string_pretty(&doc).context("serializing the estimates")?;
-        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
+        if let Some(e) = write_json(path, &(text + "\n")) {
+            if failures.is_empty() {
+                bail!("{e}");
+            }
+            eprintln!("error: {e}");
+        }
     }
     if !failures.is_empty() {
         bail!(

@@ -52,6 +52,9 @@ pub fn run(args: &Figure5Args) -> anyhow::Result<()> {
     if let Some(bad) = args.rays.iter().find(|&&r| r == 0) {
         bail!("--rays: a batch of {bad} rays; every batch size must be at least 1");
     }
+    if let Some(path) = &args.json {
+        crate::output::check_file(path)?;
+    }
     let cfg = args.config.load()?;
     let scene = load_scene(&args.scene)?;
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
@@ -100,7 +103,8 @@ pub fn run(args: &Figure5Args) -> anyhow::Result<()> {
             rows: &rows,
         };
         let json = serde_json::to_string_pretty(&out).context("serializing the table")?;
-        std::fs::write(path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
+        let text = json + "\n";
+        crate::output::write_or_keep(path, |p| std::fs::write(p, &text))?;
         println!("wrote {}", path.display());
     }
     Ok(())

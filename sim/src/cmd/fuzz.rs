@@ -101,6 +101,8 @@ pub fn run(args: &FuzzArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
+    // Inputs that fail are saved there: checked before fuzzing (created on the first one).
+    crate::output::check_dir(&args.save_dir)?;
     let options = FuzzOptions {
         cases: args.cases,
         seed: args.seed,

@@ -8,6 +8,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::cmd::options::{build_bvh, load_scene, BvhArgs, ImageArgs};
+use crate::output::{check_file, write_or_keep, Failures};
 use crate::rays_csv::write_rays;
 use crate::workload::image::write_png;
 use crate::workload::pathtracer::render;
@@ -53,7 +54,14 @@ fn default_out(scene_name: &str) -> PathBuf {
 /// Run `vtq render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let settings = args.image.settings()?;
+    // The outputs are checked before the work (the default image name needs the scene's name,
+    // so that one right after loading it).
+    for path in args.out.iter().chain(&args.rays_out) {
+        check_file(path)?;
+    }
     let scene = load_scene(&args.scene)?;
+    let out = args.out.clone().unwrap_or_else(|| default_out(&scene.name));
+    check_file(&out)?;
     let bvh = build_bvh(&scene, &args.bvh.params(), &args.bvh.cache)?;
 
     let progress = std::io::stderr().is_terminal().then(|| {
@@ -70,9 +78,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bar.finish_and_clear();
     }
 
-    let out = args.out.clone().unwrap_or_else(|| default_out(&scene.name));
-    let black =
-        write_png(&out, result.width, result.height, &result.image).context("writing the image")?;
+    // Every output is attempted; one that cannot be written is kept in a fallback file.
+    let mut failures = Failures::default();
+    let mut black = 0;
+    let wrote_image = failures.note(write_or_keep(&out, |p| {
+        write_png(p, result.width, result.height, &result.image).map(|n| black = n)
+    }));
     let stats = &result.stats;
     println!(
         "render: {}x{}, {} spp, {} bounces: {} rays in {:.3} s ({:.0} rays/s)",
@@ -90,12 +101,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             stats.nonfinite_samples, black
         );
     }
-    println!("wrote {}", out.display());
-    if let Some(path) = &args.rays_out {
-        write_rays(path, &result.rays).context("writing the rays")?;
-        println!("wrote {} rays to {}", result.rays.len(), path.display());
+    if wrote_image {
+        println!("wrote {}", out.display());
     }
-    Ok(())
+    if let Some(path) = &args.rays_out {
+        if failures.note(write_or_keep(path, |p| write_rays(p, &result.rays))) {
+            println!("wrote {} rays to {}", result.rays.len(), path.display());
+        }
+    }
+    failures.finish()
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@ use super::sweep::{prepare_scenes, Runner};
 use crate::bvh::BvhParams;
 use crate::config::SimConfig;
 use crate::figure5::{model, Figure5Row};
+use crate::output::check_dir;
 use crate::reproduce::figures::{self, Figure};
 use crate::reproduce::page::Page;
 use crate::reproduce::{
@@ -61,6 +62,10 @@ pub struct ReproduceArgs {
 /// Run `vtq reproduce`.
 pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let start = Instant::now();
+    check_dir(&args.out)?;
+    if let Some(results) = &args.results {
+        check_dir(results)?;
+    }
     let experiments = args
         .experiments
         .clone()
@@ -113,25 +118,42 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", figures_dir.display()))?;
     let results = Results::new(&store, &scenes, root.clone()).with_sets(&args.set);
     let out = args.out.as_path();
-    let figures: Vec<Figure> = [
-        figures::figure1,
-        figures::figure10,
-        figures::figure11,
-        figures::figure12,
-        figures::figure13,
-        figures::figure14,
-        figures::figure15,
-        figures::figure16,
-    ]
-    .iter()
-    .map(|f| f(&results, out))
-    .collect::<anyhow::Result<_>>()?;
+    // A figure that cannot be drawn leaves a note on the page instead of stopping the others
+    // (the runs are stored: a rerun draws it without running them again).
+    let mut undrawn: Vec<String> = Vec::new();
+    let mut drawn = |id: &str, title: &str, figure: anyhow::Result<Figure>| match figure {
+        Ok(f) => f,
+        Err(e) => {
+            let why = format!("{e:#}");
+            eprintln!("reproduce: error: {title} was not drawn: {why}");
+            undrawn.push(format!("{title}: {why}"));
+            Figure {
+                id: id.to_string(),
+                title: title.to_string(),
+                caption: format!("Not drawn: {why}"),
+                images: Vec::new(),
+                table: Default::default(),
+            }
+        }
+    };
+    let figure_fns: [(&str, &str, FigureFn); 8] = [
+        ("fig01", "Figure 1", figures::figure1),
+        ("fig10", "Figure 10", figures::figure10),
+        ("fig11", "Figure 11", figures::figure11),
+        ("fig12", "Figure 12", figures::figure12),
+        ("fig13", "Figure 13", figures::figure13),
+        ("fig14", "Figure 14", figures::figure14),
+        ("fig15", "Figure 15", figures::figure15),
+        ("fig16", "Figure 16", figures::figure16),
+    ];
+    let mut figures: Vec<Figure> = figure_fns
+        .iter()
+        .map(|(id, title, f)| drawn(id, title, f(&results, out)))
+        .collect();
     let vtq = SimConfig::load(Some(&root.join("configs/vtq.toml")), &args.set)?;
-    let mut figures = figures;
-    figures.insert(
-        0,
-        figures::figure5(&figure5_rows(&scenes, &vtq, &args.cache)?, out)?,
-    );
+    let fig5 =
+        figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));
+    figures.insert(0, drawn("fig05", "Figure 5", fig5));
     let area = area_report(&vtq.hw, &area_params(&vtq))?;
     let page = Page {
         title: "vtq: the paper's figures reproduced".into(),
@@ -173,16 +195,32 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         out.join("index.md").display(),
         start.elapsed().as_secs_f64()
     );
+    let mut problems = Vec::new();
+    if !undrawn.is_empty() {
+        problems.push(format!(
+            "{} figure(s) not drawn ({}); the results are stored in {}: a rerun draws them \
+             without running again",
+            undrawn.len(),
+            undrawn.join("; "),
+            results_dir.display()
+        ));
+    }
     if !failed.is_empty() {
-        anyhow::bail!(
+        problems.push(format!(
             "{} runs failed ({}); the figures leave them out (shown as `-`); their errors are in \
              their result files; --retry-failed runs them again",
             failed.len(),
             failed.join("; ")
-        );
+        ));
+    }
+    if !problems.is_empty() {
+        anyhow::bail!("{}", problems.join("; "));
     }
     Ok(())
 }
+
+/// A figure of the page drawn from the stored runs into the output folder.
+type FigureFn = fn(&Results<'_>, &Path) -> anyhow::Result<Figure>;
 
 /// Batch sizes of the Figure 5 model: one warp up to the whole GPU's 16 x 4096 rays.
 const FIGURE5_RAYS: [u64; 9] = [32, 128, 512, 1024, 2048, 4096, 8192, 16384, 65536];

@@ -14,6 +14,7 @@ use crate::config::SimConfig;
 use crate::gpu::rt::waveform::parse_cycles;
 use crate::gpu::stats::write_time_series;
 use crate::gpu::{SimOptions, VcdWindow};
+use crate::output::{check_file, write_or_keep, Failures};
 use crate::sample::{simulate_sampled, Profile};
 use crate::workload::image::write_png;
 
@@ -90,6 +91,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     if vcd.is_some() && args.sample.is_some() {
         anyhow::bail!("--vcd records a full-detail run: it cannot be combined with --sample");
     }
+    check_outputs(args)?;
     let scene = load_scene(&args.scene)?;
     if let Some(spec) = &args.sample {
         cfg.sample.apply_spec(spec).map_err(anyhow::Error::msg)?;
@@ -108,12 +110,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     };
     let out = simulate_with_progress(&scene, &bvh, &cfg, options)?;
     let s = &out.stats;
-    let json = serde_json::to_string_pretty(s).context("serializing the statistics")?;
-    std::fs::write(&args.out, json + "\n")
-        .with_context(|| format!("writing {}", args.out.display()))?;
+    let json = serde_json::to_string_pretty(s).context("serializing the statistics")? + "\n";
+    // Every output is attempted; one that cannot be written is kept in a fallback file.
+    let mut failures = Failures::default();
+    failures.note(write_json(&args.out, &json));
     let csv = time_series_path(&args.out);
-    write_time_series(&csv, &out.time_series)
-        .with_context(|| format!("writing {}", csv.display()))?;
+    failures.note(write_or_keep(&csv, |p| {
+        write_time_series(p, &out.time_series)
+    }));
     println!(
         "sim: {} cycles, {} rays, SIMT efficiency {:.3}, BVH L1 miss rate {:.3}; {:.2} s wall, \
          {:.0} simulated rays/s",
@@ -124,7 +128,9 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.sim_wall_seconds,
         s.simulated_rays_per_second
     );
-    println!("wrote {} and {}", args.out.display(), csv.display());
+    if failures.is_empty() {
+        println!("wrote {} and {}", args.out.display(), csv.display());
+    }
     if let Some(w) = &out.waveform {
         println!(
             "wrote {} (the RT unit of SM {} over cycles {}..{}; {} of them idle, stepped only \
@@ -137,11 +143,32 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.image {
-        write_png(path, cfg.workload.width, cfg.workload.height, &out.image)
-            .context("writing the image")?;
-        println!("wrote {}", path.display());
+        let written = failures.note(write_or_keep(path, |p| {
+            write_png(p, cfg.workload.width, cfg.workload.height, &out.image).map(|_| ())
+        }));
+        if written {
+            println!("wrote {}", path.display());
+        }
+    }
+    failures.finish()
+}
+
+/// Checks before the work that every file the run writes can be created (the statistics, the
+/// time series of a full-detail run, the image, the waveform), so that a bad path fails at once.
+fn check_outputs(args: &SimArgs) -> anyhow::Result<()> {
+    check_file(&args.out)?;
+    if args.sample.is_none() && !args.analytic {
+        check_file(&time_series_path(&args.out))?;
+    }
+    for path in args.image.iter().chain(&args.vcd) {
+        check_file(path)?;
     }
     Ok(())
+}
+
+/// Writes the JSON text `json` to `path`, or keeps it in a fallback file the error names.
+fn write_json(path: &Path, json: &str) -> anyhow::Result<()> {
+    write_or_keep(path, |p| std::fs::write(p, json))
 }
 
 /// `vtq sim --sample`: the sampled tier's estimates, written as JSON (docs/accuracy.md).
@@ -156,8 +183,7 @@ fn run_sampled(
     let s = simulate_sampled(scene, bvh, cfg, &profile, args.threads)
         .with_context(|| format!("simulating scene '{}' (sampled)", scene.name))?;
     let json = serde_json::to_string_pretty(&s).context("serializing the estimates")?;
-    std::fs::write(&args.out, json + "\n")
-        .with_context(|| format!("writing {}", args.out.display()))?;
+    write_json(&args.out, &(json + "\n"))?;
     println!(
         "sim (sampled: {} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals): cycles \
          {}, {} rays, SIMT efficiency {}, BVH L1 miss rate {}; {:.2} s wall ({:.2} s profile)",
@@ -195,8 +221,7 @@ fn run_analytic(
         "model_seconds": a.model_seconds,
     });
     let json = serde_json::to_string_pretty(&doc).context("serializing the estimate")?;
-    std::fs::write(&args.out, json + "\n")
-        .with_context(|| format!("writing {}", args.out.display()))?;
+    write_json(&args.out, &(json + "\n"))?;
     println!(
         "sim (analytical estimate, no interval): cycles {:.0}, SIMT efficiency {:.3}, BVH L1 miss \
          rate {:.3}; {:.2} s wall ({:.2} s trace)",

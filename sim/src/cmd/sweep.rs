@@ -11,6 +11,7 @@ use clap::Args;
 
 use crate::bvh::{BvhParams, HwBvh};
 use crate::cmd::options::{build_bvh, load_scene, CacheArgs};
+use crate::output::{check_dir, check_file_or_dirs};
 use crate::scene::Scene;
 use crate::sweep::collect::{table, Row};
 use crate::sweep::key::VTQ_VERSION;
@@ -114,12 +115,18 @@ impl SweepArgs {
 /// Run `vtq sweep`.
 pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.collect {
+        check_file_or_dirs(&args.out.clone().unwrap_or_else(|| dir.join(TABLE_FILE)))?;
         return collect(args, dir);
     }
     let spec = args.spec()?;
     let Some(results) = &args.results else {
         bail!("--results DIR is required: the folder that holds one result file per run");
     };
+    // The outputs are checked before any scene is loaded or run.
+    check_dir(results)?;
+    if let Some(script) = &args.slurm {
+        check_file_or_dirs(script)?;
+    }
     match &args.slurm {
         Some(script) => slurm(args, spec, results, script),
         None => sweep(args, &spec, results),

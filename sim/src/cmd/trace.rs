@@ -53,6 +53,7 @@ pub struct TraceArgs {
 
 /// Run `vtq trace`.
 pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
+    crate::output::check_file(&args.out)?;
     let rays = read_rays(&args.rays).context("reading the rays")?;
     let scene = load_scene(&args.scene)?;
     let bvh = build_bvh(&scene, &args.bvh.params(), &args.bvh.cache)?;
@@ -67,7 +68,7 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
             }
         })
         .collect();
-    write_hits(&args.out, &hits).context("writing the hits")?;
+    crate::output::write_or_keep(&args.out, |p| write_hits(p, &hits))?;
     let invalid = rays.iter().filter(|r| !r.is_valid()).count();
     let hit_count = hits.iter().filter(|h| h.is_some()).count();
     println!(

@@ -58,6 +58,7 @@ pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
 /// Run `vtq verilog`.
 pub fn run(args: &VerilogArgs) -> anyhow::Result<()> {
     let cfg = args.config.load_hardware()?;
+    crate::output::check_dir(&args.out)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     for (name, text) in modules(&cfg)? {

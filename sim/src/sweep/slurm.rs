@@ -68,7 +68,10 @@ fn sbatch(args: &[String], script: &Path) -> anyhow::Result<String> {
         .output()
         .map_err(|e| {
             if e.kind() == std::io::ErrorKind::NotFound {
-                anyhow::anyhow!("cannot run sbatch: not found on PATH (is Slurm installed?)")
+                anyhow::anyhow!(
+                    "cannot run sbatch: not found on PATH (Slurm's client, Debian package \
+                     `slurm-client`)"
+                )
             } else {
                 anyhow::anyhow!("cannot run sbatch: {e}")
             }
