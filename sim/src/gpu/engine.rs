@@ -52,7 +52,7 @@ use crate::gpu::sm::{RayBudget, Sm};
 use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
 use crate::gpu::watchdog::Watchdog;
-use crate::gpu::workers::Workers;
+use crate::gpu::workers::{Unit, Workers};
 use crate::gpu::l2_partitions::PartitionJobs;
 use crate::memory::{L1Port, MemorySystem};
 use crate::scene::Scene;
@@ -290,17 +290,23 @@ pub fn simulate(
         profile: options.profile,
     };
     let start = Instant::now();
-    let l2 = PartitionJobs::new(l2);
+    let l2 = PartitionJobs::new(l2, nsms);
     let mut engine = Engine {
         ctx: &ctx,
         scheduler,
         l2: &l2,
+        l2_unapplied: false,
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         progress,
         profile: options.profile.then(ParallelProfile::default),
     };
-    let step = |node: &mut SmNode, round: &Round| step_node(&ctx, &l2, node, round);
+    let step = |unit: Unit<'_, SmNode>, round: &Round| step(&ctx, &l2, unit, round);
     let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));
+    // The last window's L2 operations count in the L2 and DRAM statistics, as every other
+    // window's do (nobody settles their results).
+    for p in 0..l2.len() {
+        l2.apply(p, false);
+    }
     let waveform_sm = options.vcd.as_ref().map(|w| w.sm);
     let cycles = match cycles {
         Ok(c) => c,
@@ -388,24 +394,15 @@ impl SpillLayout {
     }
 }
 
-/// The parameter of a round of work on the worker threads.
+/// The parameter of a round of node visits.
 #[derive(Debug, Clone, Copy)]
-enum Round {
-    /// Node visits.
-    Visit {
-        /// The end of the window (exclusive).
-        end: u64,
-        /// Whether CTAs are pending at the CTA scheduler.
-        pending: bool,
-        /// The first round of the window: nodes settle the last window and begin this one.
-        begin: bool,
-    },
-    /// The L2 partitions apply the window's operations: the unit of node `i` applies
-    /// partitions `i`, `i + stride`, ... (the node itself is not touched).
-    L2 {
-        /// The number of nodes.
-        stride: usize,
-    },
+struct Round {
+    /// The end of the window (exclusive).
+    end: u64,
+    /// Whether CTAs are pending at the CTA scheduler.
+    pending: bool,
+    /// The first round of the window: nodes settle the last window and begin this one.
+    begin: bool,
 }
 
 /// What the nodes share, and the loop over windows.
@@ -413,6 +410,9 @@ struct Engine<'r, 'a> {
     ctx: &'r Ctx<'a>,
     scheduler: CtaScheduler,
     l2: &'r PartitionJobs,
+    /// The last window's L2 operations wait in the partitions, to be applied by the next
+    /// window's first round.
+    l2_unapplied: bool,
     watchdog: Watchdog,
     progress: Option<&'r indicatif::ProgressBar>,
     /// The parallelism report's timings, in a profiled run.
@@ -422,33 +422,34 @@ struct Engine<'r, 'a> {
 /// The engine's view of the nodes between rounds.
 type Nodes<'w, 'a, F> = Workers<'w, SmNode<'a>, Round, F>;
 
-/// One unit of a round (run on any thread): a node's visits, or the L2 partitions of the
-/// node's index.
-fn step_node(ctx: &Ctx, l2: &PartitionJobs, node: &mut SmNode, round: &Round) {
-    match *round {
-        Round::Visit {
-            end,
-            pending,
-            begin,
-        } => {
+/// The function the workers run.
+trait StepFn<'a>: for<'u> Fn(Unit<'u, SmNode<'a>>, &Round) + Sync {}
+impl<'a, F: for<'u> Fn(Unit<'u, SmNode<'a>>, &Round) + Sync> StepFn<'a> for F {}
+
+/// One unit of a round (run on any thread): a memory partition applying the last window's L2
+/// operations (a pre-job), or a node's visits (which first takes its results of the last
+/// window, all partitions being done, when the round begins a window).
+fn step(ctx: &Ctx, l2: &PartitionJobs, unit: Unit<'_, SmNode>, round: &Round) {
+    match unit {
+        Unit::Pre(p) => l2.apply(p, ctx.profile),
+        Unit::Item(node) => {
             let watch = Stopwatch::start(ctx.profile);
-            if begin {
-                node.begin_window(ctx, end, pending);
+            if round.begin {
+                if node.unsettled.is_some() {
+                    let mem = &mut node.mem;
+                    l2.results_for(node.index, |k, result| mem.set_result(k, result));
+                }
+                node.begin_window(ctx, round.end, round.pending);
             }
-            node.run(ctx, end, pending);
+            node.run(ctx, round.end, round.pending);
             node.visit_ns = watch.ns();
-        }
-        Round::L2 { stride } => {
-            for p in (node.index..l2.len()).step_by(stride) {
-                l2.apply(p, ctx.profile);
-            }
         }
     }
 }
 
 impl<'a> Engine<'_, 'a> {
     /// Runs windows until the last SM falls idle with no CTA pending; returns the cycle count.
-    fn run<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+    fn run<F: StepFn<'a>>(
         &mut self,
         nodes: &mut Nodes<'_, 'a, F>,
     ) -> Result<u64, SimError> {
@@ -462,17 +463,20 @@ impl<'a> Engine<'_, 'a> {
             if let Some(p) = &mut self.profile {
                 p.window();
             }
+            let pre = if self.l2_unapplied { self.l2.len() } else { 0 };
+            self.l2_unapplied = false;
             self.visit_round(
                 nodes,
+                pre,
                 |_| true,
-                Round::Visit {
+                Round {
                     end,
                     pending,
                     begin: true,
                 },
             );
             let ended = self.serve_halts(nodes, end)?;
-            let next = self.apply_l2(nodes, end);
+            let next = self.hand_over_l2(nodes, end);
             if let Some(cycles) = ended {
                 if let Some(p) = &mut self.profile {
                     p.set_total(total.ns(), reads_before);
@@ -487,21 +491,25 @@ impl<'a> Engine<'_, 'a> {
         }
     }
 
-    /// Runs a round of visits of the nodes `choose` selects; in a profiled run, records the
-    /// visits' times.
-    fn visit_round<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+    /// Runs a round: the memory partitions `0..pre` apply their operations, then the nodes
+    /// `choose` selects visit their cycles; in a profiled run, records the units' times.
+    fn visit_round<F: StepFn<'a>>(
         &mut self,
         nodes: &mut Nodes<'_, 'a, F>,
+        pre: usize,
         choose: impl Fn(usize) -> bool,
         round: Round,
     ) {
-        let kind = match round {
-            Round::Visit { begin: true, .. } => RoundKind::Window,
-            _ => RoundKind::AfterHalt,
+        let kind = if round.begin {
+            RoundKind::Window
+        } else {
+            RoundKind::AfterHalt
         };
         let chosen: Vec<bool> = (0..nodes.len()).map(&choose).collect();
-        nodes.round(|i| chosen[i], round);
+        nodes.round(pre, |i| chosen[i], round);
         if let Some(p) = &mut self.profile {
+            let parts: Vec<u64> = (0..pre).map(|j| self.l2.apply_ns(j)).collect();
+            p.round(RoundKind::L2, &parts);
             let times: Vec<u64> = (0..nodes.len())
                 .filter(|&i| chosen[i])
                 .map(|i| nodes.item(i).visit_ns)
@@ -513,7 +521,7 @@ impl<'a> Engine<'_, 'a> {
     /// Serves the nodes' halts of the window ending at `end` in cycle order, letting the
     /// halted nodes go on after each, until every node has reached `end`. Returns the cycle
     /// count when the run has ended.
-    fn serve_halts<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
+    fn serve_halts<F: StepFn<'a>>(
         &mut self,
         nodes: &mut Nodes<'_, 'a, F>,
         end: u64,
@@ -579,8 +587,9 @@ impl<'a> Engine<'_, 'a> {
             }
             self.visit_round(
                 nodes,
+                0,
                 |i| go[i],
-                Round::Visit {
+                Round {
                     end,
                     pending,
                     begin: false,
@@ -627,48 +636,17 @@ impl<'a> Engine<'_, 'a> {
         }
     }
 
-    /// Applies the window's L2 operations of every node in (cycle, phase, SM, sequence) order
-    /// within each memory partition, the partitions side by side on the worker threads (the
-    /// nodes settle the results when the next window begins), advances the progress bar and
-    /// the watchdog, and returns the earliest cycle at which a node may have work: its next
-    /// visit or a response from this window (the window end if a stall's retry cycle is still
-    /// unknown).
-    fn apply_l2<F: Fn(&mut SmNode<'a>, &Round) + Sync>(
-        &mut self,
-        nodes: &mut Nodes<'_, 'a, F>,
-        end: u64,
-    ) -> u64 {
-        let profile = self.profile.is_some();
-        let watch = Stopwatch::start(profile);
-        {
-            let guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
-            self.l2.gather(guards.iter().map(|g| g.mem.ops()));
-        }
-        let parts = self.l2.len();
-        if parts == 1 {
-            let handover = watch.ns();
-            self.l2.apply(0, false);
-            if let Some(p) = &mut self.profile {
-                p.serial(Serial::L2Handover, handover);
-                p.serial(Serial::L2Apply, watch.ns() - handover);
-            }
-        } else {
-            if let Some(p) = &mut self.profile {
-                p.serial(Serial::L2Handover, watch.ns());
-            }
-            let stride = nodes.len();
-            nodes.round(|i| i < parts, Round::L2 { stride });
-            if let Some(p) = &mut self.profile {
-                let units: Vec<u64> = (0..stride.min(parts))
-                    .map(|i| (i..parts).step_by(stride).map(|j| self.l2.apply_ns(j)).sum())
-                    .collect();
-                p.round(RoundKind::L2, &units);
-            }
-        }
-        let watch = Stopwatch::start(profile);
+    /// Hands the window's L2 operations of every node to the memory partitions, which apply
+    /// them in (cycle, phase, SM, sequence) order as the next window's first round begins
+    /// (the nodes then take their results and settle), advances the progress bar and the
+    /// watchdog, and returns the earliest cycle at which a node may have work: its next visit,
+    /// or the window end if it waits for an L2 result of this window (never earlier than the
+    /// end) or for a stall's retry cycle.
+    fn hand_over_l2<F: StepFn<'a>>(&mut self, nodes: &mut Nodes<'_, 'a, F>, end: u64) -> u64 {
+        let watch = Stopwatch::start(self.profile.is_some());
         let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
-        self.l2
-            .scatter(|sm, k, result| guards[sm].mem.set_result(k, result));
+        self.l2.gather(guards.iter().map(|g| g.mem.ops()));
+        self.l2_unapplied = true;
         if let Some(p) = &mut self.profile {
             p.serial(Serial::L2Handover, watch.ns());
         }
@@ -677,10 +655,7 @@ impl<'a> Engine<'_, 'a> {
         for g in &mut guards {
             g.unsettled = Some(end);
             next = next.min(g.next);
-            if let Some(c) = g.mem.earliest_result() {
-                next = next.min(c);
-            }
-            if g.mem.has_deferred_stall() {
+            if !g.mem.ops().is_empty() || g.mem.has_deferred_stall() {
                 next = end;
             }
             pixels += g.pixels.len();

@@ -2,11 +2,13 @@
 //! work that worker threads apply side by side at the end of each window.
 //!
 //! At the end of a window the engine hands every SM's L2 operations to the partition of their
-//! line ([`PartitionJobs::gather`], in SM order), each partition sorts its own operations into
-//! key order ([`crate::memory::L2Op::key`]) and applies them ([`PartitionJobs::apply`], on any
-//! thread: partitions share no state), and the results go back to the SMs' L1 ports
-//! ([`PartitionJobs::scatter`]). Within a partition the order is the global key order restricted
-//! to it, so results are exactly those of one loop applying every operation in key order.
+//! line ([`PartitionJobs::gather`], in SM order). In the first round of the next window each
+//! partition, as a pre-job on any thread (partitions share no state), sorts its own operations
+//! into key order ([`crate::memory::L2Op::key`]) and applies them ([`PartitionJobs::apply`]);
+//! then every SM takes its own results from the partitions ([`PartitionJobs::results_for`])
+//! before it settles the window. Within a partition the order is the global key order
+//! restricted to it, so results are exactly those of one loop applying every operation in key
+//! order.
 
 use std::sync::{Mutex, MutexGuard};
 
@@ -19,8 +21,8 @@ struct Job {
     part: L2Partition,
     /// The window's operations of this partition: (operation, SM, index in the SM's window).
     ops: Vec<(L2Op, u32, u32)>,
-    /// Their results, in application order: (SM, index, result).
-    results: Vec<(u32, u32, (u64, Source))>,
+    /// Their results per SM: (index in the SM's window, result).
+    results: Vec<Vec<(u32, (u64, Source))>>,
     /// Nanoseconds the last [`PartitionJobs::apply`] took (profiled runs).
     ns: u64,
 }
@@ -38,8 +40,8 @@ fn lock(job: &Mutex<Job>) -> MutexGuard<'_, Job> {
 }
 
 impl PartitionJobs {
-    /// The partitions of `l2`.
-    pub fn new(l2: L2Side) -> Self {
+    /// The partitions of `l2`, serving `sms` SMs.
+    pub fn new(l2: L2Side, sms: usize) -> Self {
         let (map, parts) = l2.into_partitions();
         PartitionJobs {
             map,
@@ -49,7 +51,7 @@ impl PartitionJobs {
                     Mutex::new(Job {
                         part,
                         ops: Vec::new(),
-                        results: Vec::new(),
+                        results: vec![Vec::new(); sms],
                         ns: 0,
                     })
                 })
@@ -68,9 +70,14 @@ impl PartitionJobs {
     }
 
     /// Hands the window's operations of every SM (`ops[sm]`, in the SM's acceptance order) to
-    /// their partitions.
+    /// their partitions, dropping the last window's results.
     pub fn gather<'o>(&self, ops: impl Iterator<Item = &'o [L2Op]>) {
         let mut jobs: Vec<MutexGuard<'_, Job>> = self.jobs.iter().map(lock).collect();
+        for job in &mut jobs {
+            for r in job.results.iter_mut() {
+                r.clear();
+            }
+        }
         for (sm, ops) in ops.enumerate() {
             for (k, op) in ops.iter().enumerate() {
                 let p = self.map.partition(op.line);
@@ -88,8 +95,9 @@ impl PartitionJobs {
             part, ops, results, ..
         } = &mut *job;
         ops.sort_unstable_by_key(|(op, _, _)| op.key());
-        results.clear();
-        results.extend(ops.drain(..).map(|(op, sm, k)| (sm, k, part.apply(&op))));
+        for (op, sm, k) in ops.drain(..) {
+            results[sm as usize].push((k, part.apply(&op)));
+        }
         job.ns = watch.ns();
     }
 
@@ -98,11 +106,17 @@ impl PartitionJobs {
         lock(&self.jobs[p]).ns
     }
 
-    /// Hands every result of the window to `f(sm, index, result)`, partition by partition.
-    pub fn scatter(&self, mut f: impl FnMut(usize, usize, (u64, Source))) {
+    /// Whether some partition holds operations not applied yet.
+    pub fn unapplied(&self) -> bool {
+        self.jobs.iter().any(|j| !lock(j).ops.is_empty())
+    }
+
+    /// Hands SM `sm`'s results of the last applied window to `f(index, result)`, partition by
+    /// partition.
+    pub fn results_for(&self, sm: usize, mut f: impl FnMut(usize, (u64, Source))) {
         for job in &self.jobs {
-            for &(sm, k, result) in &lock(job).results {
-                f(sm as usize, k as usize, result);
+            for &(k, result) in &lock(job).results[sm] {
+                f(k as usize, result);
             }
         }
     }

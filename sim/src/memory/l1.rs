@@ -393,17 +393,6 @@ impl L1Port {
         !self.stalls.is_empty()
     }
 
-    /// The earliest cycle of a response the settle will queue (from this window's operations
-    /// whose results are set, and the merges waiting for them).
-    pub fn earliest_result(&self) -> Option<u64> {
-        let done = |op: usize| self.results[op].map(|(done, _)| done);
-        let own = (0..self.ops.len())
-            .filter(|&k| self.replies[k].respond.is_some())
-            .filter_map(done);
-        let merged = self.waiting.iter().filter_map(|&(op, _, _)| done(op));
-        own.chain(merged).min()
-    }
-
     /// This window's L2 operations, in acceptance order (to be applied in [`L2Op::key`] order
     /// over all SMs).
     pub fn ops(&self) -> &[L2Op] {
