@@ -8,10 +8,13 @@
 //! acceptance ([`crate::memory::l1`]). So the engine runs time in *windows* of at most one
 //! round trip: within a window every node visits its own cycles independently — on any of
 //! `threads` threads — while its L2 operations wait; at the end of the window the operations of
-//! all nodes are applied to the L2 in a fixed order (cycle, phase, SM, sequence:
-//! [`crate::memory::L2Op::key`]), exactly the order in which one loop visiting every SM each
-//! cycle would have applied them, and their results are settled into the nodes. The next window
-//! starts at the earliest cycle any node has work (idle stretches are skipped whole).
+//! all nodes go to the L2's memory partitions ([`crate::gpu::l2_partitions`]), which apply them
+//! at the start of the next window's first round, side by side, each in a fixed order (cycle,
+//! phase, SM, sequence: [`crate::memory::L2Op::key`]) — exactly the order in which one loop
+//! visiting every SM each cycle would have applied them, as partitions share no state — and the
+//! nodes settle their results before they go on. The next window starts at the earliest cycle
+//! any node has work (idle stretches are skipped whole), or where this one ended if a node
+//! waits for an L2 result of it.
 //!
 //! Within a window a node stops ([`crate::gpu::node::Halt`]) where it needs the engine: when it
 //! could take a new CTA (the scheduler hands CTAs out round-robin over the SMs with room in the
@@ -298,7 +301,7 @@ pub fn simulate(
         l2_unapplied: false,
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         progress,
-        profile: options.profile.then(ParallelProfile::default),
+        profile: options.profile.then(ParallelProfile::new),
     };
     let step = |unit: Unit<'_, SmNode>, round: &Round| step(&ctx, &l2, unit, round);
     let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));

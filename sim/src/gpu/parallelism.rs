@@ -81,6 +81,8 @@ pub struct ParallelProfile {
     total_ns: u64,
     /// The clock reads' estimated time, taken out of `total_ns`.
     clock_ns: u64,
+    /// Nanoseconds of one clock read: a measured unit or section holds about one, taken out.
+    read_ns: u64,
 }
 
 /// A stopwatch of the calling thread's CPU time (on Unix; wall time elsewhere), so that time
@@ -148,9 +150,17 @@ fn wall_ns() -> u64 {
 }
 
 impl ParallelProfile {
-    /// Adds `ns` to serial section `s`.
+    /// An empty profile, with the cost of a clock read measured.
+    pub fn new() -> Self {
+        ParallelProfile {
+            read_ns: clock_read_ns() as u64,
+            ..ParallelProfile::default()
+        }
+    }
+
+    /// Adds `ns` (as a stopwatch measured it) to serial section `s`.
     pub fn serial(&mut self, s: Serial, ns: u64) {
-        self.serial_ns[s as usize] += ns;
+        self.serial_ns[s as usize] += ns.saturating_sub(self.read_ns);
     }
 
     /// Counts one window.
@@ -162,16 +172,21 @@ impl ParallelProfile {
     /// since the profile was created (`reads_before`: [`clock_reads`] then).
     pub fn set_total(&mut self, ns: u64, reads_before: u64) {
         let reads = clock_reads().saturating_sub(reads_before);
-        self.clock_ns = (reads as f64 * clock_read_ns()) as u64;
+        self.clock_ns = reads * self.read_ns;
         self.total_ns = ns.saturating_sub(self.clock_ns);
     }
 
-    /// One round of kind `kind` whose units took `units` nanoseconds each, in the order the
-    /// worker threads claim them.
+    /// One round of kind `kind` whose units took `units` nanoseconds each (as stopwatches
+    /// measured them), in the order the worker threads claim them.
     pub fn round(&mut self, kind: RoundKind, units: &[u64]) {
         if units.is_empty() {
             return;
         }
+        let units: Vec<u64> = units
+            .iter()
+            .map(|u| u.saturating_sub(self.read_ns))
+            .collect();
+        let units = &units[..];
         let k = kind as usize;
         if kind == RoundKind::Window {
             if self.per_unit_ns.len() < units.len() {
