@@ -44,6 +44,7 @@ use crate::geometry::{Hit, Ray};
 use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
+use crate::gpu::l2_partitions::PartitionJobs;
 use crate::gpu::node::{Ctx, HaltKind, SmNode};
 use crate::gpu::parallelism::{clock_reads, ParallelProfile, RoundKind, Serial, Stopwatch};
 use crate::gpu::prefetch::Prefetcher;
@@ -56,7 +57,6 @@ use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
 use crate::gpu::watchdog::Watchdog;
 use crate::gpu::workers::{Unit, Workers};
-use crate::gpu::l2_partitions::PartitionJobs;
 use crate::memory::{L1Port, MemorySystem};
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
@@ -452,10 +452,7 @@ fn step(ctx: &Ctx, l2: &PartitionJobs, unit: Unit<'_, SmNode>, round: &Round) {
 
 impl<'a> Engine<'_, 'a> {
     /// Runs windows until the last SM falls idle with no CTA pending; returns the cycle count.
-    fn run<F: StepFn<'a>>(
-        &mut self,
-        nodes: &mut Nodes<'_, 'a, F>,
-    ) -> Result<u64, SimError> {
+    fn run<F: StepFn<'a>>(&mut self, nodes: &mut Nodes<'_, 'a, F>) -> Result<u64, SimError> {
         let window = L1Port::round_trip(&self.ctx.cfg.memory);
         let reads_before = clock_reads();
         let total = Stopwatch::start(self.profile.is_some());

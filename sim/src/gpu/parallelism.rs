@@ -282,7 +282,9 @@ impl ParallelProfile {
             pct(self.serial_total_ns()),
             one / self.serial_total_ns().max(1) as f64
         );
-        if let (Some(&max), Some(&min)) = (self.per_unit_ns.iter().max(), self.per_unit_ns.iter().min()) {
+        if let (Some(&max), Some(&min)) =
+            (self.per_unit_ns.iter().max(), self.per_unit_ns.iter().min())
+        {
             let sms = self.per_unit_ns.len() as u64;
             let mean = self.per_unit_ns.iter().sum::<u64>() / sms;
             let _ = writeln!(

@@ -276,7 +276,11 @@ impl L2Partition {
     /// `op.cycle + l1_latency`; returns its completion cycle and where it was served (a write:
     /// acknowledged by the L2, `Source::L2Write`). Operations must come in key order.
     pub fn apply(&mut self, op: &L2Op) -> (u64, Source) {
-        debug_assert_eq!(self.map.partition(op.line), self.index, "line of another partition");
+        debug_assert_eq!(
+            self.map.partition(op.line),
+            self.index,
+            "line of another partition"
+        );
         self.applied += 1;
         let at = op.cycle + self.l1_latency;
         let line = self.map.local(op.line);
