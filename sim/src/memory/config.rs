@@ -22,7 +22,8 @@ pub const MAX_DRAM_CHANNELS: u32 = 1024;
 /// Largest DRAM interleaving granularity (bytes) accepted by [`MemConfig::validate`].
 pub const MAX_DRAM_INTERLEAVE: u32 = 1 << 30;
 
-/// The memory hierarchy of the simulated GPU: one L1 per SM, a unified L2, one DRAM channel.
+/// The memory hierarchy of the simulated GPU: one L1 per SM, a unified L2 (in memory partitions),
+/// `dram_channels` DRAM channels.
 ///
 /// Defaults are the paper's Table 1 (Vulkan-Sim / Accel-Sim RTX 3070-like configuration); the
 /// fields the table does not give are documented where they are chosen. All latencies are in

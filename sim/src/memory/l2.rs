@@ -10,9 +10,9 @@
 //! Then a set's lines, its replacement state and its channel's queue belong to one
 //! [`L2Partition`], and partitions share no state: applying each partition's operations in key
 //! order on its own (on any thread) gives exactly what applying all of them in key order gives
-//! (tested against the unified model, [`L2Side::unified`]). Otherwise (one channel, today's
-//! default before partitions, or an L2 too small to hold a set per channel) the whole L2 and its
-//! DRAM are one partition.
+//! (tested against the unified model, [`L2Side::unified`]). Otherwise (one channel, the default
+//! before partitions; a channel count that is not a power of two; or an L2 too small to hold a
+//! set per channel) the whole L2 and its DRAM are one partition.
 //!
 //! Every request reaches the L2 `l1_latency` cycles after its L1 port accepted it, so requests
 //! reach the L2 (and DRAM) in acceptance order: acceptance cycle first, then the phase of the

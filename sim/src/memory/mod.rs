@@ -1,5 +1,6 @@
 //! The cycle-exact memory hierarchy of the simulated GPU: one sectored L1 per SM, a shared
-//! sectored L2 and one DRAM channel (paper Table 1; ray data bypasses the L1, paper 4.2 and 5).
+//! sectored L2 in memory partitions and `dram_channels` DRAM channels (paper Table 1 and
+//! Vulkan-Sim's RTX 3070; ray data bypasses the L1, paper 4.2 and 5).
 //!
 //! # Structure
 //! - [`config`]: [`MemConfig`] (Table 1 defaults) and its validation.

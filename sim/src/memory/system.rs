@@ -8,7 +8,7 @@ use super::l2::L2Side;
 use super::request::{Accepted, AccessError, MemRequest, Response, Source};
 use super::stats::MemStats;
 
-/// The memory hierarchy of the simulated GPU: one L1 per SM, a shared L2 and one DRAM channel.
+/// The memory hierarchy of the simulated GPU: one L1 per SM, a shared L2 and its DRAM channels.
 ///
 /// Every accepted access gets its completion cycle when it is accepted, so the memory system
 /// has no per-cycle work: an engine calls [`access`](Self::access) in non-decreasing cycle
