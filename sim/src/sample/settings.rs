@@ -130,7 +130,9 @@ impl SampleConfig {
     }
 
     /// The scale model of `cfg`: `k = fraction x gpu.sms` of its SMs, with that share of the
-    /// DRAM bandwidth and the whole L2, in which the private data (ray records, CTA state,
+    /// DRAM bandwidth — as that share of the DRAM channels, each as wide as the GPU's, where the
+    /// channels divide evenly (16 channels, 1 of 16 SMs: one channel), else all the channels,
+    /// each narrower — and the whole L2, in which the private data (ray records, CTA state,
     /// stacks, hit records) of every simulated SM also stands for that of the `sms / k - 1` SMs
     /// not simulated (`memory.l2_private_mirrors`), while BVH nodes, which all SMs share, are
     /// cached once; everything per SM (L1, RT unit, CTA slots) unchanged. Call after
@@ -148,6 +150,12 @@ impl SampleConfig {
         );
         let g = gcd(num, den);
         m.memory.dram_share = [(num / g) as u32, (den / g) as u32];
+        let channels = cfg.memory.dram_channels;
+        if channels * k % sms == 0 {
+            // `dram_share` of the bandwidth over `channels x k / sms` channels: each channel has
+            // the GPU's per-channel bandwidth.
+            m.memory.dram_channels = channels * k / sms;
+        }
         m
     }
 }
@@ -178,7 +186,19 @@ mod tests {
         assert_eq!(m.memory.l2_bytes, cfg.memory.l2_bytes);
         assert_eq!(m.memory.l2_private_mirrors, 8);
         assert_eq!(m.memory.dram_share, [1, 8]);
+        // 2 of the 16 channels, each as wide as one of the GPU's.
+        assert_eq!(m.memory.dram_channels, 2);
         assert_eq!(m.memory.l1_bytes, cfg.memory.l1_bytes);
+        let one = SampleConfig {
+            fraction: 0.0625,
+            ..SampleConfig::default()
+        };
+        let mut single = cfg.clone();
+        single.memory.dram_channels = 1;
+        // One channel cannot be split: it keeps its address map with 1/16 of the bandwidth.
+        assert_eq!(one.scale_model(&single).memory.dram_channels, 1);
+        assert_eq!(one.scale_model(&single).memory.dram_share, [1, 16]);
+        assert_eq!(one.scale_model(&cfg).memory.dram_channels, 1);
         let whole = SampleConfig {
             fraction: 1.0,
             ..SampleConfig::default()
