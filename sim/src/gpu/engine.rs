@@ -645,8 +645,7 @@ impl<'a> Engine<'_, 'a> {
     fn hand_over_l2<F: StepFn<'a>>(&mut self, nodes: &mut Nodes<'_, 'a, F>, end: u64) -> u64 {
         let watch = Stopwatch::start(self.profile.is_some());
         let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
-        self.l2.gather(guards.iter().map(|g| g.mem.ops()));
-        self.l2_unapplied = true;
+        self.l2_unapplied = self.l2.gather(guards.iter().map(|g| g.mem.ops()));
         if let Some(p) = &mut self.profile {
             p.serial(Serial::L2Handover, watch.ns());
         }

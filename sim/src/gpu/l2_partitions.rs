@@ -70,8 +70,9 @@ impl PartitionJobs {
     }
 
     /// Hands the window's operations of every SM (`ops[sm]`, in the SM's acceptance order) to
-    /// their partitions, dropping the last window's results.
-    pub fn gather<'o>(&self, ops: impl Iterator<Item = &'o [L2Op]>) {
+    /// their partitions, dropping the last window's results; returns whether there were any.
+    pub fn gather<'o>(&self, ops: impl Iterator<Item = &'o [L2Op]>) -> bool {
+        let mut any = false;
         let mut jobs: Vec<MutexGuard<'_, Job>> = self.jobs.iter().map(lock).collect();
         for job in &mut jobs {
             for r in job.results.iter_mut() {
@@ -82,8 +83,10 @@ impl PartitionJobs {
             for (k, op) in ops.iter().enumerate() {
                 let p = self.map.partition(op.line);
                 jobs[p].ops.push((*op, sm as u32, k as u32));
+                any = true;
             }
         }
+        any
     }
 
     /// Applies partition `p`'s operations of the window in key order (on any thread); times
@@ -104,11 +107,6 @@ impl PartitionJobs {
     /// Nanoseconds the last [`apply`](Self::apply) of partition `p` took (profiled runs).
     pub fn apply_ns(&self, p: usize) -> u64 {
         lock(&self.jobs[p]).ns
-    }
-
-    /// Whether some partition holds operations not applied yet.
-    pub fn unapplied(&self) -> bool {
-        self.jobs.iter().any(|j| !lock(j).ops.is_empty())
     }
 
     /// Hands SM `sm`'s results of the last applied window to `f(index, result)`, partition by

@@ -20,10 +20,8 @@ pub const PREDICTED_THREADS: [usize; 6] = [1, 2, 4, 8, 16, 32];
 /// Serial sections of the engine, timed separately.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Serial {
-    /// Sorting the window's L2 operations into partitions and handing results back.
+    /// Handing the window's L2 operations to the partitions.
     L2Handover,
-    /// Applying L2 operations on the calling thread (one partition: nothing to run beside it).
-    L2Apply,
     /// Serving halts: CTA dispatch, deciding which halted nodes go on.
     Halts,
     /// The rest of the loop: window bookkeeping, the watchdog, the progress bar.
@@ -31,9 +29,8 @@ pub enum Serial {
 }
 
 /// Names of the [`Serial`] sections, in declaration order.
-const SERIAL_NAMES: [&str; 4] = [
-    "L2 hand-over (sorting ops into partitions, results back)",
-    "L2 applied on one thread",
+const SERIAL_NAMES: [&str; 3] = [
+    "L2 hand-over (operations into partitions)",
     "halts (CTA dispatch, which halted SMs go on)",
     "other (window bookkeeping, watchdog, progress)",
 ];
@@ -45,7 +42,8 @@ pub enum RoundKind {
     Window,
     /// A round after serving halts: the halted SMs go on.
     AfterHalt,
-    /// The L2 partitions apply their operations of the window.
+    /// The L2 partitions apply the last window's operations (pre-jobs of a window's first
+    /// round: the SMs start when all are done; one partition is serial work).
     L2,
 }
 
@@ -60,7 +58,7 @@ const ROUND_NAMES: [&str; 3] = [
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ParallelProfile {
     /// Nanoseconds in each [`Serial`] section.
-    serial_ns: [u64; 4],
+    serial_ns: [u64; 3],
     /// Rounds of each [`RoundKind`].
     rounds: [u64; 3],
     /// Units run in rounds of each kind.
@@ -379,7 +377,7 @@ mod tests {
     fn unaccounted_loop_time_counts_as_serial() {
         let mut p = ParallelProfile::default();
         p.round(RoundKind::AfterHalt, &[100, 100]);
-        p.serial(Serial::L2Apply, 50);
+        p.serial(Serial::L2Handover, 50);
         p.total_ns = 300;
         // 300 - 200 - 50 = 50 ns of hand-over on top of the 50 timed.
         assert_eq!(p.serial_total_ns(), 100);
