@@ -151,7 +151,7 @@ impl SampleConfig {
         let g = gcd(num, den);
         m.memory.dram_share = [(num / g) as u32, (den / g) as u32];
         let channels = cfg.memory.dram_channels;
-        if channels * k % sms == 0 {
+        if (channels * k).is_multiple_of(sms) {
             // `dram_share` of the bandwidth over `channels x k / sms` channels: each channel has
             // the GPU's per-channel bandwidth.
             m.memory.dram_channels = channels * k / sms;
