@@ -121,11 +121,8 @@ impl PartitionJobs {
 
     /// The L2 and DRAM counters of all partitions.
     pub fn stats(&self) -> MemStats {
-        let mut stats = MemStats::default();
-        for job in &self.jobs {
-            stats.add(lock(job).part.stats());
-        }
-        stats
+        let jobs: Vec<MutexGuard<'_, Job>> = self.jobs.iter().map(lock).collect();
+        crate::memory::l2::total_stats(jobs.iter().map(|j| &j.part))
     }
 
     /// A one-line summary at cycle `now`, for a deadlock watchdog.

@@ -158,11 +158,7 @@ impl L2Side {
 
     /// The L2 and DRAM counters of all partitions (the L1 counters are the ports').
     pub fn stats(&self) -> MemStats {
-        let mut stats = MemStats::default();
-        for part in &self.parts {
-            stats.add(&part.stats);
-        }
-        stats
+        total_stats(self.parts.iter())
     }
 
     /// State at L2 cycle `at` of sector `sector` of line `line`.
@@ -179,6 +175,15 @@ impl L2Side {
     pub fn into_partitions(self) -> (PartitionMap, Vec<L2Partition>) {
         (self.map, self.parts)
     }
+}
+
+/// The L2 and DRAM counters of `parts` added up.
+pub fn total_stats<'p>(parts: impl Iterator<Item = &'p L2Partition>) -> MemStats {
+    let mut stats = MemStats::default();
+    for part in parts {
+        stats.add(&part.stats);
+    }
+    stats
 }
 
 /// A one-line summary of `parts` at cycle `now`, for a deadlock watchdog.
@@ -231,25 +236,17 @@ impl L2Partition {
         let n = map.partitions() as u32;
         let mut geometry = cfg.l2_geometry();
         geometry.sets /= n;
-        let dram = if n == 1 {
-            Dram::new(
-                cfg.dram_latency,
-                cfg.dram_bytes_per_cycle,
-                cfg.dram_share,
-                cfg.dram_channels,
-                cfg.dram_interleave_bytes,
-            )
-        } else {
-            // Channel k of `n` has `[num, den x n]` of the bandwidth, as in `Dram::new`.
-            let [num, den] = cfg.dram_share;
-            Dram::new(
-                cfg.dram_latency,
-                cfg.dram_bytes_per_cycle,
-                [num, den.max(1) * n],
-                1,
-                cfg.dram_interleave_bytes,
-            )
-        };
+        // One partition keeps every channel; partition k of `n` is channel k, with
+        // `[num, den x n]` of the bandwidth, as `Dram::new` gives each channel.
+        let [num, den] = cfg.dram_share;
+        let channels = if n == 1 { cfg.dram_channels } else { 1 };
+        let dram = Dram::new(
+            cfg.dram_latency,
+            cfg.dram_bytes_per_cycle,
+            [num, den.max(1) * n],
+            channels,
+            cfg.dram_interleave_bytes,
+        );
         L2Partition {
             index,
             map,
@@ -265,11 +262,6 @@ impl L2Partition {
             applied: 0,
             stats: MemStats::default(),
         }
-    }
-
-    /// This partition's L2 and DRAM counters.
-    pub fn stats(&self) -> &MemStats {
-        &self.stats
     }
 
     /// Applies `op`, an operation on a line of this partition, which reaches the L2 at
