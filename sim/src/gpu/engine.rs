@@ -294,17 +294,22 @@ pub fn simulate(
     };
     let start = Instant::now();
     let l2 = PartitionJobs::new(l2, nsms);
+    let slots: Vec<SummarySlot> = (0..nsms).map(|_| SummarySlot::default()).collect();
     let mut engine = Engine {
         ctx: &ctx,
         scheduler,
         l2: &l2,
+        slots: &slots,
+        summaries: nodes.iter().map(Summary::of).collect(),
         l2_unapplied: false,
         watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
         progress,
         profile: options.profile.then(ParallelProfile::new),
     };
-    let step = |unit: Unit<'_, SmNode>, round: &Round| step(&ctx, &l2, unit, round);
-    let (cycles, mut nodes) = Workers::with(options.threads.max(1), nodes, step, |w| engine.run(w));
+    let step = |unit: Unit<'_, SmNode>, round: &Round| step(&ctx, &l2, &slots, unit, round);
+    let (cycles, mut nodes) = Workers::with(options.threads.max(1), l2.len(), nodes, step, |w| {
+        engine.run(w)
+    });
     // The last window's L2 operations count in the L2 and DRAM statistics, as every other
     // window's do (nobody settles their results).
     for p in 0..l2.len() {
@@ -413,6 +418,10 @@ struct Engine<'r, 'a> {
     ctx: &'r Ctx<'a>,
     scheduler: CtaScheduler,
     l2: &'r PartitionJobs,
+    /// The nodes' summary slots, written as their visits end.
+    slots: &'r [SummarySlot],
+    /// The nodes' summaries as of the last round each took part in.
+    summaries: Vec<Summary>,
     /// The last window's L2 operations wait in the partitions, to be applied by the next
     /// window's first round.
     l2_unapplied: bool,
@@ -432,21 +441,90 @@ impl<'a, F: for<'u> Fn(Unit<'u, SmNode<'a>>, &Round) + Sync> StepFn<'a> for F {}
 /// One unit of a round (run on any thread): a memory partition applying the last window's L2
 /// operations (a pre-job), or a node's visits (which first takes its results of the last
 /// window, all partitions being done, when the round begins a window).
-fn step(ctx: &Ctx, l2: &PartitionJobs, unit: Unit<'_, SmNode>, round: &Round) {
+fn step(
+    ctx: &Ctx,
+    l2: &PartitionJobs,
+    summaries: &[SummarySlot],
+    unit: Unit<'_, SmNode>,
+    round: &Round,
+) {
     match unit {
         Unit::Pre(p) => l2.apply(p, ctx.profile),
         Unit::Item(node) => {
             let watch = Stopwatch::start(ctx.profile);
             if round.begin {
-                if node.unsettled.is_some() {
+                if !node.mem.ops().is_empty() {
                     let mem = &mut node.mem;
                     l2.results_for(node.index, |k, result| mem.set_result(k, result));
                 }
                 node.begin_window(ctx, round.end, round.pending);
             }
             node.run(ctx, round.end, round.pending);
-            node.visit_ns = watch.ns();
+            let ops = node.mem.ops();
+            l2.post(node.index, node.posted, &ops[node.posted..]);
+            node.posted = ops.len();
+            let mut summary = Summary::of(node);
+            summary.visit_ns = watch.ns();
+            *summaries[node.index].lock() = summary;
         }
+    }
+}
+
+/// What the engine reads of a node between rounds: the node writes it at the end of each of
+/// its visits, into a slot of its own, so that the engine reads one cache line per node
+/// instead of locking the node.
+#[derive(Debug, Clone, Copy, Default)]
+struct Summary {
+    /// The cycle of its first error, if any.
+    error: Option<u64>,
+    /// Where and why it halted, if it did.
+    halt: Option<(u64, HaltKind)>,
+    /// Whether its SM holds no CTA.
+    idle: bool,
+    /// [`SmNode::idle_since`].
+    idle_since: Option<u64>,
+    /// [`SmNode::next`].
+    next: u64,
+    /// Whether it has L2 operations in the window.
+    l2_ops: bool,
+    /// Whether it waits for an L2 result of the window (an operation or a deferred stall).
+    l2_wait: bool,
+    /// Pixels it finished.
+    pixels: usize,
+    /// [`SmNode::last_progress`].
+    last_progress: u64,
+    /// Nanoseconds of its last visits (profiled runs).
+    visit_ns: u64,
+}
+
+impl Summary {
+    /// The summary of `node` as it is.
+    fn of(node: &SmNode) -> Self {
+        let l2_ops = !node.mem.ops().is_empty();
+        Summary {
+            error: node.error.as_ref().map(|(c, _)| *c),
+            halt: node.halt.map(|h| (h.cycle, h.kind)),
+            idle: node.sm.is_idle(),
+            idle_since: node.idle_since,
+            next: node.next,
+            l2_ops,
+            l2_wait: l2_ops || node.mem.has_deferred_stall(),
+            pixels: node.pixels.len(),
+            last_progress: node.last_progress,
+            visit_ns: 0,
+        }
+    }
+}
+
+/// A node's [`Summary`] behind its own lock, on cache lines of its own.
+#[derive(Debug, Default)]
+#[repr(align(128))]
+struct SummarySlot(std::sync::Mutex<Summary>);
+
+impl SummarySlot {
+    /// The summary, locked.
+    fn lock(&self) -> std::sync::MutexGuard<'_, Summary> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
     }
 }
 
@@ -476,7 +554,7 @@ impl<'a> Engine<'_, 'a> {
                 },
             );
             let ended = self.serve_halts(nodes, end)?;
-            let next = self.hand_over_l2(nodes, end);
+            let next = self.end_window(end);
             if let Some(cycles) = ended {
                 if let Some(p) = &mut self.profile {
                     p.set_total(total.ns(), reads_before);
@@ -507,12 +585,15 @@ impl<'a> Engine<'_, 'a> {
         };
         let chosen: Vec<bool> = (0..nodes.len()).map(&choose).collect();
         nodes.round(pre, |i| chosen[i], round);
+        for (i, _) in chosen.iter().enumerate().filter(|(_, &c)| c) {
+            self.summaries[i] = *self.slots[i].lock();
+        }
         if let Some(p) = &mut self.profile {
             let parts: Vec<u64> = (0..pre).map(|j| self.l2.apply_ns(j)).collect();
             p.round(RoundKind::L2, &parts);
             let times: Vec<u64> = (0..nodes.len())
                 .filter(|&i| chosen[i])
-                .map(|i| nodes.item(i).visit_ns)
+                .map(|i| self.summaries[i].visit_ns)
                 .collect();
             p.round(kind, &times);
         }
@@ -530,22 +611,21 @@ impl<'a> Engine<'_, 'a> {
             let watch = Stopwatch::start(self.profile.is_some());
             // The first error in (cycle, SM) order among the nodes that ran.
             let mut first: Option<(u64, usize)> = None;
-            for i in 0..nodes.len() {
-                if let Some((c, _)) = &nodes.item(i).error {
-                    if first.is_none_or(|(fc, _)| *c < fc) {
-                        first = Some((*c, i));
+            for (i, s) in self.summaries.iter().enumerate() {
+                if let Some(c) = s.error {
+                    if first.is_none_or(|(fc, _)| c < fc) {
+                        first = Some((c, i));
                     }
                 }
             }
             if let Some((_, i)) = first {
-                let (_, e) = nodes.item(i).error.take().expect("found above");
+                let (_, e) = nodes.item(i).error.take().expect("its summary has it");
                 return Err(e);
             }
-            let halts: Vec<Option<(u64, HaltKind)>> = (0..nodes.len())
-                .map(|i| nodes.item(i).halt.map(|h| (h.cycle, h.kind)))
-                .collect();
+            let halts: Vec<Option<(u64, HaltKind)>> =
+                self.summaries.iter().map(|s| s.halt).collect();
             let Some(t) = halts.iter().flatten().map(|h| h.0).min() else {
-                let ended = self.ended(nodes);
+                let ended = self.ended();
                 if let Some(p) = &mut self.profile {
                     p.serial(Serial::Halts, watch.ns());
                 }
@@ -563,23 +643,30 @@ impl<'a> Engine<'_, 'a> {
             // Visits of nodes idle for good happen only if the run goes on past cycle t: some
             // CTA is pending, or some SM holds CTAs or fell idle at t or later.
             let goes_on = pending
-                || (0..nodes.len()).any(|i| {
-                    let n = nodes.item(i);
-                    n.idle_since.is_none_or(|c| c >= t)
-                });
+                || self
+                    .summaries
+                    .iter()
+                    .any(|s| s.idle_since.is_none_or(|c| c >= t));
             let mut go = vec![false; nodes.len()];
             for i in 0..nodes.len() {
-                let mut n = nodes.item(i);
                 if halts[i].is_none_or(|(c, _)| c != t) {
                     continue;
                 }
-                let idle = n.sm.is_idle() && !pending;
+                // A node served a dispatch may hold CTAs now (its summary predates it).
+                let idle = if dispatch.contains(&i) {
+                    nodes.item(i).sm.is_idle()
+                } else {
+                    self.summaries[i].idle
+                } && !pending;
                 if goes_on || !idle {
                     go[i] = true;
                 } else {
                     // Beyond the end of the run: the visit never happens.
+                    let mut n = nodes.item(i);
                     n.halt = None;
                     n.next = u64::MAX;
+                    self.summaries[i].halt = None;
+                    self.summaries[i].next = u64::MAX;
                 }
             }
             if let Some(p) = &mut self.profile {
@@ -600,13 +687,13 @@ impl<'a> Engine<'_, 'a> {
 
     /// When every node has reached the end of the window: the cycle count if the run has ended
     /// (no CTA pending and every SM idle: it ends after the cycle the last one fell idle).
-    fn ended<F>(&self, nodes: &Nodes<'_, 'a, F>) -> Option<u64> {
+    fn ended(&self) -> Option<u64> {
         if self.scheduler.pending() > 0 {
             return None;
         }
         let mut last = 0;
-        for i in 0..nodes.len() {
-            last = last.max(nodes.item(i).idle_since?);
+        for s in &self.summaries {
+            last = last.max(s.idle_since?);
         }
         Some(last + 1)
     }
@@ -636,34 +723,32 @@ impl<'a> Engine<'_, 'a> {
         }
     }
 
-    /// Hands the window's L2 operations of every node to the memory partitions, which apply
-    /// them in (cycle, phase, SM, sequence) order as the next window's first round begins
-    /// (the nodes then take their results and settle), advances the progress bar and the
-    /// watchdog, and returns the earliest cycle at which a node may have work: its next visit,
-    /// or the window end if it waits for an L2 result of this window (never earlier than the
-    /// end) or for a stall's retry cycle.
-    fn hand_over_l2<F: StepFn<'a>>(&mut self, nodes: &mut Nodes<'_, 'a, F>, end: u64) -> u64 {
+    /// Ends the window at `end`: notes whether the nodes posted L2 operations (the memory
+    /// partitions then apply them in (cycle, phase, SM, sequence) order as the next window's
+    /// first round begins, and the nodes take their results and settle), advances the progress
+    /// bar and the watchdog, and returns the earliest cycle at which a node may have work: its
+    /// next visit, or the window end if it waits for an L2 result of this window (never earlier
+    /// than the end) or for a stall's retry cycle.
+    fn end_window(&mut self, end: u64) -> u64 {
         let watch = Stopwatch::start(self.profile.is_some());
-        let mut guards: Vec<_> = (0..nodes.len()).map(|i| nodes.item(i)).collect();
-        self.l2_unapplied = self.l2.gather(guards.iter().map(|g| g.mem.ops()));
-        if let Some(p) = &mut self.profile {
-            p.serial(Serial::L2Handover, watch.ns());
-        }
         let mut next = u64::MAX;
         let (mut pixels, mut progress) = (0, 0);
-        for g in &mut guards {
-            g.unsettled = Some(end);
-            next = next.min(g.next);
-            if !g.mem.ops().is_empty() || g.mem.has_deferred_stall() {
+        for s in &self.summaries {
+            self.l2_unapplied |= s.l2_ops;
+            next = next.min(s.next);
+            if s.l2_wait {
                 next = end;
             }
-            pixels += g.pixels.len();
-            progress = progress.max(g.last_progress);
+            pixels += s.pixels;
+            progress = progress.max(s.last_progress);
         }
         if let Some(bar) = self.progress {
             bar.set_position(pixels as u64);
         }
         self.watchdog.progress(progress);
+        if let Some(p) = &mut self.profile {
+            p.serial(Serial::WindowEnd, watch.ns());
+        }
         next.max(end)
     }
 

@@ -110,8 +110,8 @@ pub struct SmNode<'a> {
     pub next: u64,
     /// Where it stopped before the end of the window, if it did.
     pub halt: Option<Halt>,
-    /// The end of the window whose L2 results the engine applied but the node has not
-    /// settled yet.
+    /// The end of the window it is in (after the first window began): its L2 results are
+    /// settled when the next window begins.
     pub unsettled: Option<u64>,
     /// The cycle of the visit after which it held no CTA (resident or suspended), while it
     /// holds none.
@@ -135,6 +135,8 @@ pub struct SmNode<'a> {
     pub samples: Vec<NodeSample>,
     /// Wall time of its last round of visits, in nanoseconds (with [`Ctx::profile`]).
     pub visit_ns: u64,
+    /// How many of the window's L2 operations it has posted to the memory partitions.
+    pub posted: usize,
 }
 
 impl<'a> SmNode<'a> {
@@ -161,6 +163,7 @@ impl<'a> SmNode<'a> {
             ray_log: Vec::new(),
             samples: Vec::new(),
             visit_ns: 0,
+            posted: 0,
         }
     }
 
@@ -288,10 +291,11 @@ impl<'a> SmNode<'a> {
         true
     }
 
-    /// Starts a window ending at `end`: settles the last window's L2 results, if the engine
-    /// applied them ([`SmNode::unsettled`]), and declares the window to the L1 port.
+    /// Starts a window ending at `end`: settles the last window's L2 results
+    /// ([`SmNode::unsettled`]; the engine has applied them and this node has taken its own),
+    /// and declares the window to the L1 port.
     pub fn begin_window(&mut self, ctx: &Ctx, end: u64, pending: bool) {
-        if let Some(last) = self.unsettled.take() {
+        if let Some(last) = self.unsettled.replace(end) {
             self.settle(last, ctx.cfg.sim.lockstep, pending);
         }
         self.mem.set_window_end(end);
@@ -302,6 +306,7 @@ impl<'a> SmNode<'a> {
     /// as of the end of that window (its responses are queued now).
     pub fn settle(&mut self, end: u64, lockstep: bool, pending: bool) {
         self.mem.settle();
+        self.posted = 0;
         self.rt.settle_retries(&self.mem);
         self.wake = self.wake_cycle(end.saturating_sub(1), pending);
         self.next = if lockstep && !self.retired(pending) {

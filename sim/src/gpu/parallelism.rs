@@ -20,8 +20,8 @@ pub const PREDICTED_THREADS: [usize; 6] = [1, 2, 4, 8, 16, 32];
 /// Serial sections of the engine, timed separately.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Serial {
-    /// Handing the window's L2 operations to the partitions.
-    L2Handover,
+    /// Ending a window: whether L2 operations wait, the next window's start, progress.
+    WindowEnd,
     /// Serving halts: CTA dispatch, deciding which halted nodes go on.
     Halts,
     /// The rest of the loop: window bookkeeping, the watchdog, the progress bar.
@@ -30,7 +30,7 @@ pub enum Serial {
 
 /// Names of the [`Serial`] sections, in declaration order.
 const SERIAL_NAMES: [&str; 3] = [
-    "L2 hand-over (operations into partitions)",
+    "window end (L2 operations waiting, next start, progress)",
     "halts (CTA dispatch, which halted SMs go on)",
     "other (window bookkeeping, watchdog, progress)",
 ];
@@ -377,7 +377,7 @@ mod tests {
     fn unaccounted_loop_time_counts_as_serial() {
         let mut p = ParallelProfile::default();
         p.round(RoundKind::AfterHalt, &[100, 100]);
-        p.serial(Serial::L2Handover, 50);
+        p.serial(Serial::WindowEnd, 50);
         p.total_ns = 300;
         // 300 - 200 - 50 = 50 ns of hand-over on top of the 50 timed.
         assert_eq!(p.serial_total_ns(), 100);

@@ -1,14 +1,23 @@
 //! The simulator's worker threads: [`Workers::round`] runs one function with a round's
 //! parameter on a number of *pre-jobs* (the engine's L2 partitions) and then on a chosen set of
-//! items (the engine's SM nodes) on all threads at once and returns when every one is done. Jobs
-//! and items are claimed one at a time from a shared counter, pre-jobs first, so threads balance
-//! the load; no item starts before every pre-job is done; each item is behind its own
-//! uncontended lock. Which thread runs a job or an item never changes the result: during a round
-//! they only touch their own state.
+//! items (the engine's SM nodes) on all threads at once and returns when every one is done. No
+//! item starts before every pre-job is done; each item is behind its own uncontended lock.
+//! Which thread runs a job or an item never changes the result: during a round they only touch
+//! their own state.
+//!
+//! # Affinity
+//! Each unit has a *home* thread (pre-job or item `u` of `T` threads: thread `u mod T`, the
+//! calling thread being thread 0). A thread first runs its home units, then takes any other
+//! unit not yet claimed (each unit is claimed once per round by an atomic), so threads still
+//! balance the load, but an SM's state (its RT unit, tables and L1: hundreds of KB) stays in
+//! one core's caches from window to window unless its home thread falls behind. Threads are not
+//! pinned to CPUs: on a 16-core machine pinning made sponza VTQ on 16 threads 1.25x slower
+//! (docs/performance.md).
 //!
 //! Rounds are short (a few hundred simulated cycles of one SM), so waiting threads spin
 //! briefly before they yield, and the calling thread works on the round too.
 
+use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, MutexGuard};
 use std::thread::{self, Scope};
@@ -24,6 +33,16 @@ pub enum Unit<'t, T> {
     Item(&'t mut T),
 }
 
+/// The parameter of the current round, shared without a lock.
+struct ParamCell<P>(UnsafeCell<Option<P>>);
+
+// SAFETY: the cell is written only by the calling thread inside `Workers::round`, before it
+// starts the round by raising the epoch (Release), at a time when every helper has finished the
+// previous round (the caller waited for all of them) and waits for the epoch to change; helpers
+// read it only after observing the new epoch (Acquire) and before they report the round done.
+// So a write never overlaps a read, and every read sees the round's value.
+unsafe impl<P: Send + Sync> Sync for ParamCell<P> {}
+
 /// Shared state of the rounds.
 struct Round<T, P, F> {
     /// The function run on each chosen item.
@@ -32,12 +51,16 @@ struct Round<T, P, F> {
     items: Vec<Mutex<T>>,
     /// Which items take part in the current round.
     chosen: Vec<AtomicBool>,
+    /// The most pre-jobs a round may have.
+    max_pre: usize,
+    /// Per unit (pre-jobs `0..max_pre`, then items): the last epoch in which it was claimed.
+    claims: Vec<AtomicU64>,
+    /// Threads in all, the calling thread included.
+    threads: usize,
     /// Pre-jobs of the current round.
     pre: AtomicUsize,
     /// Pre-jobs of the current round done.
     pre_done: AtomicUsize,
-    /// Next unit to claim: pre-jobs `0..pre`, then items.
-    next: AtomicUsize,
     /// Threads done with the current round.
     done: AtomicUsize,
     /// Round number; a change starts a round.
@@ -47,27 +70,40 @@ struct Round<T, P, F> {
     /// Set when a job panicked on a helper thread.
     panicked: AtomicBool,
     /// The parameter of the current round.
-    param: Mutex<Option<P>>,
+    param: ParamCell<P>,
 }
 
 impl<T, P, F: Fn(Unit<'_, T>, &P)> Round<T, P, F> {
-    /// Claims and runs pre-jobs, then chosen items once every pre-job is done, until none is
-    /// left.
-    fn work(&self, param: &P) {
+    /// Claims unit `u` for the round of `epoch`; false if another thread already has.
+    fn claim(&self, u: usize, epoch: u64) -> bool {
+        self.claims[u].fetch_max(epoch, Ordering::AcqRel) < epoch
+    }
+
+    /// Units `0..n` in the order thread `me` takes them: its home units, then the others.
+    fn order(&self, n: usize, me: usize) -> impl Iterator<Item = usize> + '_ {
+        let t = self.threads;
+        (me..n)
+            .step_by(t)
+            .chain((0..n).filter(move |u| u % t != me))
+    }
+
+    /// Thread `me`'s part of the round of `epoch`: claims and runs pre-jobs, then, once every
+    /// pre-job is done, chosen items, until none is left.
+    fn work(&self, me: usize, epoch: u64, param: &P) {
         let pre = self.pre.load(Ordering::Acquire);
-        loop {
-            let i = self.next.fetch_add(1, Ordering::AcqRel);
-            if i < pre {
-                (self.f)(Unit::Pre(i), param);
+        for p in self.order(pre, me) {
+            if self.claim(p, epoch) {
+                (self.f)(Unit::Pre(p), param);
                 self.pre_done.fetch_add(1, Ordering::AcqRel);
-                continue;
             }
-            let i = i - pre;
-            if i >= self.items.len() {
-                return;
-            }
-            if self.chosen[i].load(Ordering::Acquire) {
-                wait(|| self.pre_done.load(Ordering::Acquire) == pre);
+        }
+        let mut waited = pre == 0;
+        for i in self.order(self.items.len(), me) {
+            if self.chosen[i].load(Ordering::Acquire) && self.claim(self.max_pre + i, epoch) {
+                if !waited {
+                    wait(|| self.pre_done.load(Ordering::Acquire) == pre);
+                    waited = true;
+                }
                 (self.f)(Unit::Item(&mut lock(&self.items[i])), param);
             }
         }
@@ -98,33 +134,40 @@ pub struct Workers<'s, T, P, F> {
     helpers: usize,
 }
 
-impl<'s, T: Send, P: Clone + Send, F: Fn(Unit<'_, T>, &P) + Sync> Workers<'s, T, P, F> {
-    /// Runs `body` with workers running `f` over pre-jobs and `items` on `threads` threads in
-    /// all (the caller's included; at least 1); returns its result and the items.
+impl<'s, T: Send, P: Clone + Send + Sync, F: Fn(Unit<'_, T>, &P) + Sync> Workers<'s, T, P, F> {
+    /// Runs `body` with workers running `f` over up to `max_pre` pre-jobs per round and over
+    /// `items` on `threads` threads in all (the caller's included; at least 1); returns its
+    /// result and the items.
     pub fn with<R>(
         threads: usize,
+        max_pre: usize,
         items: Vec<T>,
         f: F,
         body: impl FnOnce(&mut Workers<'_, T, P, F>) -> R,
     ) -> (R, Vec<T>) {
+        let threads = threads.max(1);
         let round = Round {
             f,
             chosen: items.iter().map(|_| AtomicBool::new(false)).collect(),
+            max_pre,
+            claims: (0..max_pre + items.len())
+                .map(|_| AtomicU64::new(0))
+                .collect(),
+            threads,
             items: items.into_iter().map(Mutex::new).collect(),
             pre: AtomicUsize::new(0),
             pre_done: AtomicUsize::new(0),
-            next: AtomicUsize::new(0),
             done: AtomicUsize::new(0),
             epoch: AtomicU64::new(0),
             stop: AtomicBool::new(false),
             panicked: AtomicBool::new(false),
-            param: Mutex::new(None),
+            param: ParamCell(UnsafeCell::new(None)),
         };
-        let helpers = threads.max(1) - 1;
+        let helpers = threads - 1;
         let result = thread::scope(|scope: &Scope<'_, '_>| {
-            for _ in 0..helpers {
+            for me in 1..threads {
                 let round = &round;
-                scope.spawn(move || helper(round));
+                scope.spawn(move || helper(round, me));
             }
             let mut workers = Workers {
                 round: &round,
@@ -143,10 +186,12 @@ impl<'s, T: Send, P: Clone + Send, F: Fn(Unit<'_, T>, &P) + Sync> Workers<'s, T,
         (result, items)
     }
 
-    /// Runs the function with `param` on pre-jobs `0..pre` and then on every item `choose`
-    /// selects, on all threads; returns when all are done.
+    /// Runs the function with `param` on pre-jobs `0..pre` (at most the `max_pre` given to
+    /// [`Workers::with`]) and then on every item `choose` selects, on all threads; returns
+    /// when all are done.
     pub fn round(&mut self, pre: usize, choose: impl Fn(usize) -> bool, param: P) {
         let r = self.round;
+        assert!(pre <= r.max_pre, "{pre} pre-jobs exceed the {}", r.max_pre);
         let mut any = 0;
         let mut only = 0;
         for (i, c) in r.chosen.iter().enumerate() {
@@ -176,13 +221,13 @@ impl<'s, T: Send, P: Clone + Send, F: Fn(Unit<'_, T>, &P) + Sync> Workers<'s, T,
             }
             return;
         }
-        *lock(&r.param) = Some(param.clone());
+        // SAFETY: every helper has finished the last round (see `ParamCell`).
+        unsafe { *r.param.0.get() = Some(param.clone()) };
         r.pre.store(pre, Ordering::Release);
         r.pre_done.store(0, Ordering::Release);
-        r.next.store(0, Ordering::Release);
         r.done.store(0, Ordering::Release);
-        r.epoch.fetch_add(1, Ordering::AcqRel);
-        r.work(&param);
+        let epoch = r.epoch.fetch_add(1, Ordering::AcqRel) + 1;
+        r.work(0, epoch, &param);
         wait(|| r.done.load(Ordering::Acquire) == self.helpers);
         assert!(
             !r.panicked.load(Ordering::Acquire),
@@ -208,8 +253,8 @@ impl<T, P, F> Workers<'_, T, P, F> {
     }
 }
 
-/// A helper thread: works on each round until told to stop.
-fn helper<T, P: Clone, F: Fn(Unit<'_, T>, &P)>(round: &Round<T, P, F>) {
+/// Helper thread `me`: works on each round until told to stop.
+fn helper<T, P: Clone + Send + Sync, F: Fn(Unit<'_, T>, &P)>(round: &Round<T, P, F>, me: usize) {
     let mut seen = 0;
     loop {
         wait(|| round.epoch.load(Ordering::Acquire) != seen);
@@ -217,9 +262,11 @@ fn helper<T, P: Clone, F: Fn(Unit<'_, T>, &P)>(round: &Round<T, P, F>) {
         if round.stop.load(Ordering::Acquire) {
             return;
         }
-        let param = lock(&round.param).clone();
+        // SAFETY: the round of epoch `seen` has started and the caller does not write the
+        // parameter again before this thread reports it done (see `ParamCell`).
+        let param = unsafe { (*round.param.0.get()).clone() };
         if let Some(param) = param {
-            let run = std::panic::AssertUnwindSafe(|| round.work(&param));
+            let run = std::panic::AssertUnwindSafe(|| round.work(me, seen, &param));
             if std::panic::catch_unwind(run).is_err() {
                 round.panicked.store(true, Ordering::Release);
             }
@@ -241,7 +288,7 @@ mod tests {
                     *x += by;
                 }
             };
-            let ((), items) = Workers::with(threads, items, add, |w| {
+            let ((), items) = Workers::with(threads, 0, items, add, |w| {
                 for round in 0..50u64 {
                     w.round(0, |i| !(i as u64 + round).is_multiple_of(3), 1);
                 }
@@ -270,7 +317,7 @@ mod tests {
                 }
                 Unit::Item(x) => *x = sum.load(Ordering::Acquire),
             };
-            let ((), items) = Workers::with(threads, vec![0u64; 6], f, |w| {
+            let ((), items) = Workers::with(threads, 5, vec![0u64; 6], f, |w| {
                 for round in 1..=20u64 {
                     w.round(5, |_| true, round);
                 }
