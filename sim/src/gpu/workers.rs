@@ -43,6 +43,11 @@ struct ParamCell<P>(UnsafeCell<Option<P>>);
 // So a write never overlaps a read, and every read sees the round's value.
 unsafe impl<P: Send + Sync> Sync for ParamCell<P> {}
 
+/// A unit's claim: the last epoch in which a thread claimed it, on a cache line of its own.
+#[derive(Default)]
+#[repr(align(128))]
+struct Claim(AtomicU64);
+
 /// Shared state of the rounds.
 struct Round<T, P, F> {
     /// The function run on each chosen item.
@@ -54,7 +59,7 @@ struct Round<T, P, F> {
     /// The most pre-jobs a round may have.
     max_pre: usize,
     /// Per unit (pre-jobs `0..max_pre`, then items): the last epoch in which it was claimed.
-    claims: Vec<AtomicU64>,
+    claims: Vec<Claim>,
     /// Threads in all, the calling thread included.
     threads: usize,
     /// Pre-jobs of the current round.
@@ -74,9 +79,12 @@ struct Round<T, P, F> {
 }
 
 impl<T, P, F: Fn(Unit<'_, T>, &P)> Round<T, P, F> {
-    /// Claims unit `u` for the round of `epoch`; false if another thread already has.
+    /// Claims unit `u` for the round of `epoch`; false if another thread already has (a
+    /// plain read first, so that threads looking for work do not take the line from the
+    /// claiming one).
     fn claim(&self, u: usize, epoch: u64) -> bool {
-        self.claims[u].fetch_max(epoch, Ordering::AcqRel) < epoch
+        let c = &self.claims[u].0;
+        c.load(Ordering::Acquire) < epoch && c.fetch_max(epoch, Ordering::AcqRel) < epoch
     }
 
     /// Units `0..n` in the order thread `me` takes them: its home units, then the others.
@@ -151,7 +159,7 @@ impl<'s, T: Send, P: Clone + Send + Sync, F: Fn(Unit<'_, T>, &P) + Sync> Workers
             chosen: items.iter().map(|_| AtomicBool::new(false)).collect(),
             max_pre,
             claims: (0..max_pre + items.len())
-                .map(|_| AtomicU64::new(0))
+                .map(|_| Claim::default())
                 .collect(),
             threads,
             items: items.into_iter().map(Mutex::new).collect(),
