@@ -11,10 +11,11 @@ use crate::bvh::HwBvh;
 use crate::config::SimConfig;
 use crate::geometry::Ray;
 use crate::rays_csv::{format_rays, parse_rays};
+use crate::scene::geometry::SceneGeometry;
 use crate::scene::load::scene_from_geometry;
 use crate::scene::manifest::Manifest;
 use crate::scene::mtl::{material_from_mtl, parse_mtl, MtlLibrary};
-use crate::scene::obj::{parse_obj, ObjGeometry};
+use crate::scene::obj::{add_obj, parse_obj};
 use crate::scene::text::decode;
 use crate::scene::{Camera, Material, Scene};
 use crate::traversal::{trace, Order};
@@ -82,8 +83,8 @@ fn obj(input: &[u8]) -> Outcome {
         return Outcome::Rejected;
     };
     let in_file = file.triangles.len() as u64;
-    let mut geometry = ObjGeometry::new();
-    if geometry.add(file, Path::new(".")).is_err() {
+    let mut geometry = SceneGeometry::new();
+    if add_obj(&mut geometry, file, path).is_err() {
         return Outcome::Rejected;
     }
     assert_eq!(
@@ -91,7 +92,7 @@ fn obj(input: &[u8]) -> Outcome {
         in_file,
         "every triangle is loaded or counted as left out"
     );
-    Outcome::from_ok(scene_from_geometry(geometry, path, "fuzz".into(), None).is_ok())
+    Outcome::from_ok(scene_from_geometry(geometry, path, "fuzz".into(), None, true).is_ok())
 }
 
 /// A material library. Checks: every material it maps to passes [`Scene::validate`].
