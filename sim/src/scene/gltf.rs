@@ -107,7 +107,10 @@ pub fn parse_gltf(
             ignored.add(&format!("extension {name}"), 1);
         }
     }
-    ignored.add("animation", gltf.animations().count() as u64);
+    let animations = gltf.animations().count() as u64;
+    if animations > 0 {
+        ignored.add("animation", animations);
+    }
     for m in gltf.materials() {
         let material = material::material_from_gltf(&m, ignored).map_err(fail)?;
         file.part.materials.push(material);
@@ -116,7 +119,10 @@ pub fn parse_gltf(
         .default_scene()
         .or_else(|| gltf.scenes().next())
         .ok_or_else(|| fail("the file has no scene: nothing to render".into()))?;
-    ignored.add("scene (not read)", gltf.scenes().count() as u64 - 1);
+    let other_scenes = gltf.scenes().count() as u64 - 1;
+    if other_scenes > 0 {
+        ignored.add("scene (not read)", other_scenes);
+    }
     let mut visited = vec![false; gltf.nodes().count()];
     // Depth first, in file order: children are pushed last to first.
     let mut stack: Vec<(::gltf::Node<'_>, Mat4)> =

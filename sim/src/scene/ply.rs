@@ -97,8 +97,12 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<PlyFile, SceneError> {
             }
             _ => {
                 skip(&mut reader, element, &header).map_err(what)?;
-                file.ignored
-                    .add(&format!("element {}", element.name), element.count as u64);
+                if element.count > 0 {
+                    file.ignored.add(
+                        &format!("element {}", preview(&element.name)),
+                        element.count as u64,
+                    );
+                }
             }
         }
     }
@@ -162,10 +166,13 @@ fn check_header(header: &Header) -> Result<&'static str, String> {
 
 /// Count the properties of `element` other than `used`, once per element instance.
 fn count_unused(ignored: &mut StatementCounts, element: &ElementDef, used: &[&str]) {
+    if element.count == 0 {
+        return;
+    }
     for name in element.properties.keys() {
         if !used.contains(&name.as_str()) {
             ignored.add(
-                &format!("{} {}", element.name, preview(name)),
+                &format!("{} {}", preview(&element.name), preview(name)),
                 element.count as u64,
             );
         }
