@@ -5,7 +5,7 @@ mod scene_writers;
 
 use std::path::Path;
 
-use scene_writers::{glb, gltf, ply, room, temp_dir, write, PlyFormat};
+use scene_writers::{glb, gltf, manifest, ply, room, temp_dir, write, PlyFormat};
 use serde_json::{json, Value};
 use vtq_sim::scene::load::load_scene_with_report;
 
@@ -90,9 +90,9 @@ fn malformed_gltf_files_are_errors_naming_file_and_problem() {
             "POSITION",
         ),
         (
-            "not_whole_triangles",
-            edited(|d| d["accessors"][1]["count"] = json!(5)).0,
-            "multiple of 3",
+            "position_accessor",
+            edited(|d| d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(99)).0,
+            "accessor 99 does not exist",
         ),
         (
             "cycle",
@@ -154,6 +154,24 @@ fn malformed_gltf_files_are_errors_naming_file_and_problem() {
         let msg = load_err(&path);
         assert!(msg.contains(needle), "{tag}: {msg}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_incomplete_last_triangle_is_counted_not_refused() {
+    let dir = temp_dir("incomplete");
+    let (document, bin) = edited(|d| d["accessors"][1]["count"] = json!(5));
+    write(&dir, "room.bin", &bin);
+    write(&dir, "incomplete.gltf", document.to_string());
+    write(&dir, "scene.toml", manifest("ROOM"));
+    let loaded = load_scene_with_report(dir.to_str().unwrap()).expect("loads");
+    assert_eq!(
+        loaded.scene.triangles.len(),
+        20,
+        "the wall's second triangle is cut"
+    );
+    let ignored = loaded.report.ignored_line().unwrap();
+    assert!(ignored.contains("incomplete triangle x1"), "{ignored}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -3,16 +3,18 @@
 //! document model and vtq's own bounds-checked accessor reader ([`accessor`]).
 //!
 //! # What is read
-//! The file's default scene (`scene`), else its first scene: every node reachable from the
-//! scene's root nodes, depth first in file order, each with its world transform (its parents'
-//! transforms times its own: `matrix`, or `translation * rotation * scale`). Of each node's
-//! mesh, every primitive of mode `TRIANGLES` (the default): its `POSITION` accessor transformed
-//! to world space and its indices (or, without indices, its vertices in threes) as triangles in
-//! order; a mesh used by several nodes is added once per node. The primitive's material is
-//! mapped as in [`material`]; every material of the file is kept, used or not. The first node
-//! (in that order) with a perspective camera gives the scene camera: the node's origin is the
-//! eye, its -Z axis the view direction and its +Y axis up; `yfov` is the vertical field of view
-//! (its aspect ratio and clip planes are not used: vtq's image size gives the aspect ratio).
+//! The JSON (a UTF-8 byte-order mark, which writers must not add, is ignored as the
+//! specification allows) and the file's default scene (`scene`), else its first scene: every
+//! node reachable from the scene's root nodes, depth first in file order, each with its world
+//! transform (its parents' transforms times its own: `matrix`, or `translation * rotation *
+//! scale`). Of each node's mesh, every primitive of mode `TRIANGLES` (the default): its
+//! `POSITION` accessor transformed to world space and its indices (or, without indices, its
+//! vertices in threes) as triangles in order; a mesh used by several nodes is added once per
+//! node. The primitive's material is mapped as in [`material`]; every material of the file is
+//! kept, used or not. The first node (in that order) with a perspective camera gives the scene
+//! camera: the node's origin is the eye, its -Z axis the view direction and its +Y axis up;
+//! `yfov` is the vertical field of view (its aspect ratio and clip planes are not used: vtq's
+//! image size gives the aspect ratio).
 //!
 //! # What is counted, not used
 //! Primitives of other modes (`mode POINTS`, `mode LINES`, `mode TRIANGLE_STRIP`, ...),
@@ -28,9 +30,10 @@
 //! or JSON that does not parse, a document that the `gltf` crate's validation refuses (an index
 //! out of range, a required extension vtq does not read such as mesh compression), a missing or
 //! short buffer, an accessor of the wrong type or beyond its data, an index beyond its
-//! positions, a `TRIANGLES` primitive whose vertex count is not a multiple of 3, a node reached
-//! twice (glTF nodes form trees), a non-finite material factor, a camera that does not give a
-//! valid view, or a file without scenes.
+//! positions, a node reached twice (glTF nodes form trees), a non-finite material factor, a
+//! camera that does not give a valid view, or a file without scenes. A `TRIANGLES` primitive
+//! whose vertex count is not a multiple of 3 (which the glTF validator only warns about) loads
+//! its whole triangles; the rest is counted as `incomplete triangle`.
 
 mod accessor;
 mod buffers;
@@ -97,9 +100,8 @@ pub fn parse_gltf(
     resolve: &mut BufferResolver<'_>,
 ) -> Result<GltfFile, SceneError> {
     let fail = |reason: String| parse_error(path, reason);
-    check_glb_header(bytes).map_err(fail)?;
-    let gltf = ::gltf::Gltf::from_slice(bytes).map_err(|e| fail(describe(e)))?;
-    let buffers = buffers::load_buffers(&gltf.document, gltf.blob.as_deref(), path, resolve)?;
+    let (gltf, blob) = read_document(bytes).map_err(fail)?;
+    let buffers = buffers::load_buffers(&gltf, blob.as_deref(), path, resolve)?;
     let mut file = GltfFile::default();
     let ignored = &mut file.ignored;
     for name in gltf.extensions_used() {
@@ -217,11 +219,10 @@ fn add_primitive(
         Some(indices) => accessor::read_indices(&indices, buffers)?,
         None => (0..u32::try_from(vertices.len()).map_err(|_| "too many vertices")?).collect(),
     };
-    if indices.len() % 3 != 0 {
-        return Err(format!(
-            "{} vertices do not make whole triangles (TRIANGLES needs a multiple of 3)",
-            indices.len()
-        ));
+    if !indices.len().is_multiple_of(3) {
+        // The glTF validator warns about this but the file stays valid: the last vertices are
+        // not a triangle.
+        file.ignored.add("incomplete triangle", 1);
     }
     if let Some(&bad) = indices.iter().find(|&&v| v as usize >= vertices.len()) {
         return Err(format!(
@@ -266,12 +267,44 @@ fn mode_name(mode: Mode) -> &'static str {
     }
 }
 
+/// The validated document of a glTF or GLB file and the GLB binary chunk, or why not.
+///
+/// The `gltf` crate's own `Gltf::from_slice` panics on two malformed inputs, which are refused
+/// here before it could meet them: a GLB header whose total length is shorter than the header
+/// (subtracted without a check), and a primitive whose `POSITION` names an accessor that does
+/// not exist (indexed without a check in the crate's validation).
+fn read_document(bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), String> {
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        check_glb_header(bytes)?;
+        let glb = ::gltf::Glb::from_slice(bytes).map_err(describe)?;
+        (glb.json, glb.bin.map(|bin| bin.into_owned()))
+    } else {
+        (std::borrow::Cow::Borrowed(bytes), None)
+    };
+    let root =
+        ::gltf::json::Root::from_slice(&json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = ::gltf::json::validation::Checked::Valid(Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "invalid glTF: meshes[{m}].primitives[{p}].attributes[\"POSITION\"]: \
+                         accessor {} does not exist ({} accessors)",
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    let document = ::gltf::Document::from_json(root).map_err(describe)?;
+    Ok((document, blob))
+}
+
 /// Refuse a GLB whose header gives a total length shorter than the header itself, which the
 /// `gltf` crate would subtract without a check.
 fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
-    if !bytes.starts_with(b"glTF") {
-        return Ok(());
-    }
     let length = bytes
         .get(8..12)
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))

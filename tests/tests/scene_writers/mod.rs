@@ -170,7 +170,7 @@ fn gltf_materials() -> Value {
 /// group (u16, u32, u8 in turn), except the lamp group, which is written without indices (its
 /// own positions, three per triangle). `uri` is the buffer's URI (`None`: the GLB chunk).
 pub fn gltf(mesh: &Mesh, stride: usize, uri: Option<String>) -> (Value, Vec<u8>) {
-    assert!(stride >= 12 && stride % 4 == 0);
+    assert!(stride >= 12 && stride.is_multiple_of(4));
     let mut bin = Vec::new();
     for p in &mesh.positions {
         for c in p {
@@ -223,7 +223,7 @@ pub fn gltf(mesh: &Mesh, stride: usize, uri: Option<String>) -> (Value, Vec<u8>)
             );
             primitive["indices"] = json!(accessors.len() - 1);
         }
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         primitive["attributes"] = attributes;
@@ -278,11 +278,11 @@ pub fn gltf_embedded(mesh: &Mesh) -> String {
 /// `document` (with its buffer 0 the binary chunk) and `bin` as a GLB file.
 pub fn glb(document: &Value, bin: &[u8]) -> Vec<u8> {
     let mut json = document.to_string().into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin = bin.to_vec();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();

@@ -22,9 +22,9 @@ pub fn read_positions(accessor: &Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Ve
         || accessor.normalized()
     {
         return Err(format!(
-            "accessor {i} (POSITION) is {:?} of {:?}{}; vtq reads VEC3 of FLOAT positions",
-            accessor.dimensions(),
-            accessor.data_type(),
+            "accessor {i} (POSITION) is {} of {}{}; vtq reads VEC3 of FLOAT positions",
+            dimensions_name(accessor.dimensions()),
+            type_name(accessor.data_type()),
             if accessor.normalized() {
                 ", normalized"
             } else {
@@ -42,8 +42,8 @@ pub fn read_indices(accessor: &Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Vec<
     let i = accessor.index();
     if accessor.dimensions() != Dimensions::Scalar {
         return Err(format!(
-            "accessor {i} (indices) is {:?}; indices are SCALAR",
-            accessor.dimensions()
+            "accessor {i} (indices) is {}; indices are SCALAR",
+            dimensions_name(accessor.dimensions())
         ));
     }
     match accessor.data_type() {
@@ -51,8 +51,9 @@ pub fn read_indices(accessor: &Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Vec<
         DataType::U16 => read(accessor, buffers, 2, |b| u32::from(u16_at(b, 0))),
         DataType::U32 => read(accessor, buffers, 4, |b| u32_at(b, 0)),
         other => Err(format!(
-            "accessor {i} (indices) is of {other:?}; indices are UNSIGNED_BYTE, UNSIGNED_SHORT \
-             or UNSIGNED_INT"
+            "accessor {i} (indices) is of {}; indices are UNSIGNED_BYTE, UNSIGNED_SHORT or \
+             UNSIGNED_INT",
+            type_name(other)
         )),
     }
 }
@@ -184,6 +185,31 @@ fn strided_range(
         .checked_add(size)?
         .checked_add(offset)?;
     Some((offset, end))
+}
+
+/// The name glTF gives an accessor type.
+fn dimensions_name(dimensions: Dimensions) -> &'static str {
+    match dimensions {
+        Dimensions::Scalar => "SCALAR",
+        Dimensions::Vec2 => "VEC2",
+        Dimensions::Vec3 => "VEC3",
+        Dimensions::Vec4 => "VEC4",
+        Dimensions::Mat2 => "MAT2",
+        Dimensions::Mat3 => "MAT3",
+        Dimensions::Mat4 => "MAT4",
+    }
+}
+
+/// The name glTF gives a component type.
+fn type_name(data_type: DataType) -> &'static str {
+    match data_type {
+        DataType::I8 => "BYTE",
+        DataType::U8 => "UNSIGNED_BYTE",
+        DataType::I16 => "SHORT",
+        DataType::U16 => "UNSIGNED_SHORT",
+        DataType::U32 => "UNSIGNED_INT",
+        DataType::F32 => "FLOAT",
+    }
 }
 
 /// The little-endian `f32` at `at` in `b`.
