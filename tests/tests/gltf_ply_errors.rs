@@ -95,6 +95,16 @@ fn malformed_gltf_files_are_errors_naming_file_and_problem() {
             "accessor 99 does not exist",
         ),
         (
+            "camera_type",
+            edited(|d| {
+                d["cameras"] =
+                    json!([{"type": "orthographic", "perspective": {"yfov": 1, "znear": 0.1}}]);
+                d["nodes"][0]["camera"] = json!(0);
+            })
+            .0,
+            "no \"orthographic\" object",
+        ),
+        (
             "cycle",
             edited(|d| d["nodes"] = json!([{"mesh": 0, "children": [1]}, {"children": [0]}])).0,
             "reached twice",

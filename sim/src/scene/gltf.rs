@@ -269,10 +269,11 @@ fn mode_name(mode: Mode) -> &'static str {
 
 /// The validated document of a glTF or GLB file and the GLB binary chunk, or why not.
 ///
-/// The `gltf` crate's own `Gltf::from_slice` panics on two malformed inputs, which are refused
-/// here before it could meet them: a GLB header whose total length is shorter than the header
-/// (subtracted without a check), and a primitive whose `POSITION` names an accessor that does
-/// not exist (indexed without a check in the crate's validation).
+/// The `gltf` crate panics on three malformed inputs, which are refused here before it could
+/// meet them: a GLB header whose total length is shorter than the header (subtracted without a
+/// check), a primitive whose `POSITION` names an accessor that does not exist (indexed without
+/// a check in the crate's validation), and a camera without the projection its `type` names
+/// (which the validation does not check and `Camera::projection` unwraps).
 fn read_document(bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), String> {
     let (json, blob) = if bytes.starts_with(b"glTF") {
         check_glb_header(bytes)?;
@@ -283,9 +284,19 @@ fn read_document(bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), St
     };
     let root =
         ::gltf::json::Root::from_slice(&json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
+    check_unchecked(&root)?;
+    let document = ::gltf::Document::from_json(root).map_err(describe)?;
+    Ok((document, blob))
+}
+
+/// Refuse what the `gltf` crate's validation lets through but its document model would panic
+/// on (see [`read_document`]).
+fn check_unchecked(root: &::gltf::json::Root) -> Result<(), String> {
+    use ::gltf::json::camera::Type;
+    use ::gltf::json::validation::Checked;
+    let position = Checked::Valid(Semantic::Positions);
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
-            let position = ::gltf::json::validation::Checked::Valid(Semantic::Positions);
             if let Some(index) = primitive.attributes.get(&position) {
                 if index.value() >= root.accessors.len() {
                     return Err(format!(
@@ -298,8 +309,19 @@ fn read_document(bytes: &[u8]) -> Result<(::gltf::Document, Option<Vec<u8>>), St
             }
         }
     }
-    let document = ::gltf::Document::from_json(root).map_err(describe)?;
-    Ok((document, blob))
+    for (c, camera) in root.cameras.iter().enumerate() {
+        let (name, missing) = match camera.type_ {
+            Checked::Valid(Type::Perspective) => ("perspective", camera.perspective.is_none()),
+            Checked::Valid(Type::Orthographic) => ("orthographic", camera.orthographic.is_none()),
+            Checked::Invalid => ("", false),
+        };
+        if missing {
+            return Err(format!(
+                "invalid glTF: cameras[{c}]: its type is {name} but it has no \"{name}\" object"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuse a GLB whose header gives a total length shorter than the header itself, which the

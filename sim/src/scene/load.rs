@@ -515,7 +515,7 @@ fn folder_info(dir: &Path) -> SceneInfo {
     };
     let manifest_path = dir.join(MANIFEST_FILE);
     if !manifest_path.is_file() {
-        info.problem = Some(format!("no {MANIFEST_FILE}: default camera"));
+        info.problem = Some(format!("no {MANIFEST_FILE}: glTF or default camera"));
         return info;
     }
     match Manifest::read(&manifest_path) {
