@@ -223,16 +223,17 @@ pub fn gltf(rng: &mut Rng, variant: usize) -> Vec<u8> {
     if rng.chance(20) {
         scenes.push(json!({"nodes": [0]}));
     }
+    let materials: Vec<Value> = (0..materials).map(|_| material(rng)).collect();
+    let yfov = 0.2 + rng.below(20) as f32 / 10.0;
     let mut document = json!({
         "asset": {"version": "2.0", "generator": "vtq fuzz"},
         "scenes": scenes,
         "nodes": nodes,
         "meshes": meshes,
-        "materials": (0..materials).map(|_| material(rng)).collect::<Vec<_>>(),
+        "materials": materials,
         "textures": [{"source": 0}],
         "images": [{"uri": "texture.png"}],
-        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.2 + rng.below(20) as f32 / 10.0,
-                                                             "znear": 0.01}},
+        "cameras": [{"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.01}},
                     {"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1,
                                                                "znear": 0.01, "zfar": 100}}],
         "accessors": b.accessors,

@@ -1,20 +1,19 @@
 //! glTF 2.0 scenes: `.gltf` (JSON, buffers embedded as base64 `data:` URIs or in separate
 //! files) and `.glb` (binary, buffers in its binary chunk), read with the `gltf` crate's
-//! document model and vtq's own bounds-checked accessor reader ([`accessor`]).
+//! document model and vtq's own bounds-checked accessor reader (`gltf/accessor.rs`).
 //!
 //! # What is read
-//! The JSON (a UTF-8 byte-order mark, which writers must not add, is ignored as the
-//! specification allows) and the file's default scene (`scene`), else its first scene: every
-//! node reachable from the scene's root nodes, depth first in file order, each with its world
-//! transform (its parents' transforms times its own: `matrix`, or `translation * rotation *
-//! scale`). Of each node's mesh, every primitive of mode `TRIANGLES` (the default): its
-//! `POSITION` accessor transformed to world space and its indices (or, without indices, its
-//! vertices in threes) as triangles in order; a mesh used by several nodes is added once per
-//! node. The primitive's material is mapped as in [`material`]; every material of the file is
-//! kept, used or not. The first node (in that order) with a perspective camera gives the scene
-//! camera: the node's origin is the eye, its -Z axis the view direction and its +Y axis up;
-//! `yfov` is the vertical field of view (its aspect ratio and clip planes are not used: vtq's
-//! image size gives the aspect ratio).
+//! The JSON (a UTF-8 byte-order mark, which writers must not add, is ignored as the specification
+//! allows) and the file's default scene (`scene`), else its first scene: every node reachable from
+//! the scene's root nodes, depth first in file order, each with its world transform (its parents'
+//! transforms times its own: `matrix`, or `translation * rotation * scale`). Of each node's mesh,
+//! every primitive of mode `TRIANGLES` (the default): its `POSITION` accessor transformed to world
+//! space and its indices (or, without indices, its vertices in threes) as triangles in order; a
+//! mesh used by several nodes is added once per node. The primitive's material is mapped as in
+//! `gltf/material.rs`; every material of the file is kept, used or not. The first node (in that
+//! order) with a perspective camera gives the scene camera: the node's origin is the eye, its -Z
+//! axis the view direction and its +Y axis up; `yfov` is the vertical field of view (its aspect
+//! ratio and clip planes are not used: vtq's image size gives the aspect ratio).
 //!
 //! # What is counted, not used
 //! Primitives of other modes (`mode POINTS`, `mode LINES`, `mode TRIANGLE_STRIP`, ...),
