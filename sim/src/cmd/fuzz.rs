@@ -12,7 +12,8 @@ use crate::fuzz::{fuzz_parser, replay, FuzzOptions, Parser, ParserReport};
 /// Options of `vtq fuzz`.
 #[derive(Debug, Args)]
 pub struct FuzzArgs {
-    /// Parser to fuzz: obj, mtl, scene-toml, config, set, rays-csv, bvh-cache or all.
+    /// Parser to fuzz: obj, mtl, gltf, ply, scene-toml, config, set, rays-csv, bvh-cache or
+    /// all.
     #[arg(long, default_value = "all")]
     pub parser: String,
     /// Cases per parser.

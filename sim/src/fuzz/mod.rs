@@ -1,10 +1,10 @@
-//! Fuzzing every parser of user input: OBJ, MTL, `scene.toml`, configuration TOML, `--set`
-//! overrides, rays CSV and BVH cache files (`vtq fuzz`, `docs/fuzzing.md`).
+//! Fuzzing every parser of user input: OBJ, MTL, glTF/GLB, PLY, `scene.toml`, configuration
+//! TOML, `--set` overrides, rays CSV and BVH cache files (`vtq fuzz`, `docs/fuzzing.md`).
 //!
-//! Each parser gets cases made from its generated valid seeds ([`seeds`]) by 1 to 8 random
-//! mutations ([`mutate`]), plus unchanged seeds and random bytes; cache files are mostly
-//! resealed with a valid checksum after mutation so that the node validation behind the
-//! checksum is reached. Each case runs on a worker thread under a time bound with panics caught
+//! Each parser gets cases made from its generated valid seeds ([`seeds`], [`mesh_seeds`]) by 1
+//! to 8 random mutations ([`mutate`]), plus unchanged seeds and random bytes; cache files are
+//! mostly resealed with a valid checksum after mutation so that the node validation behind the
+//! checksum is reached, and GLB files get their chunk lengths repaired for the same reason. Each case runs on a worker thread under a time bound with panics caught
 //! ([`harness`]); an input that panics or hangs is saved to a file for reproduction
 //! (`vtq fuzz --replay FILE`). An accepted input must also keep its parser's invariants
 //! ([`targets`]: round trips, counts, valid materials), checked by assertions that the harness
@@ -12,6 +12,7 @@
 //! inputs (the report's digest) on any machine.
 
 pub mod harness;
+pub mod mesh_seeds;
 pub mod mutate;
 pub mod seeds;
 pub mod targets;
@@ -32,6 +33,10 @@ pub enum Parser {
     Obj,
     /// Wavefront MTL material libraries.
     Mtl,
+    /// glTF 2.0 files, JSON or GLB (with an in-memory external buffer).
+    Gltf,
+    /// PLY meshes, ASCII or binary.
+    Ply,
     /// Scene folder manifests (`scene.toml`).
     SceneToml,
     /// Simulator configuration files.
@@ -46,9 +51,11 @@ pub enum Parser {
 
 impl Parser {
     /// Every parser, in report order.
-    pub const ALL: [Parser; 7] = [
+    pub const ALL: [Parser; 9] = [
         Parser::Obj,
         Parser::Mtl,
+        Parser::Gltf,
+        Parser::Ply,
         Parser::SceneToml,
         Parser::Config,
         Parser::Set,
@@ -61,6 +68,8 @@ impl Parser {
         match self {
             Parser::Obj => "obj",
             Parser::Mtl => "mtl",
+            Parser::Gltf => "gltf",
+            Parser::Ply => "ply",
             Parser::SceneToml => "scene-toml",
             Parser::Config => "config",
             Parser::Set => "set",
@@ -79,6 +88,8 @@ impl Parser {
         match self {
             Parser::Obj => "obj",
             Parser::Mtl => "mtl",
+            Parser::Gltf => "gltf",
+            Parser::Ply => "ply",
             Parser::SceneToml | Parser::Config => "toml",
             Parser::Set => "txt",
             Parser::RaysCsv => "csv",
@@ -149,7 +160,8 @@ pub struct ParserReport {
 }
 
 /// The input of case `case` for `parser`: random bytes (8%), an unchanged seed (4%), or a
-/// mutated seed (for cache files, resealed with a valid checksum 3 times in 4).
+/// mutated seed (for cache files, resealed with a valid checksum 3 times in 4; for GLB files,
+/// their lengths repaired 3 times in 4).
 fn make_case(parser: Parser, rng: &mut Rng, seeds: &[Vec<u8>]) -> Vec<u8> {
     let roll = rng.below(100);
     if roll < 8 {
@@ -163,6 +175,9 @@ fn make_case(parser: Parser, rng: &mut Rng, seeds: &[Vec<u8>]) -> Vec<u8> {
     mutate(rng, &mut input, &other);
     if parser == Parser::BvhCache && rng.chance(75) {
         reseal(&mut input);
+    }
+    if parser == Parser::Gltf && input.starts_with(b"glTF") && rng.chance(75) {
+        mesh_seeds::reseal_glb(&mut input);
     }
     input
 }

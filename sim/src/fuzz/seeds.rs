@@ -1,11 +1,13 @@
 //! Valid inputs the fuzzer mutates, generated per parser from the run's seed: OBJ files with
-//! every statement form and quirk the reader accepts, MTL libraries, scene manifests, the
+//! every statement form and quirk the reader accepts, MTL libraries, glTF and PLY files
+//! ([`super::mesh_seeds`]), scene manifests, the
 //! shipped configurations and the defaults, `--set` overrides of every key, rays CSV files, and
 //! serialized BVHs of small scenes.
 
 use glam::Vec3;
 use toml::{Table, Value};
 
+use super::mesh_seeds;
 use super::mutate::Rng;
 use super::Parser;
 use crate::bvh::{BvhParams, HwBvh, TreeletFormation};
@@ -34,6 +36,8 @@ pub fn seeds(parser: Parser, rng: &mut Rng) -> Vec<Vec<u8>> {
     match parser {
         Parser::Obj => (0..GENERATED).map(|i| obj(rng, i).into_bytes()).collect(),
         Parser::Mtl => (0..GENERATED).map(|i| mtl(rng, i).into_bytes()).collect(),
+        Parser::Gltf => (0..GENERATED).map(|i| mesh_seeds::gltf(rng, i)).collect(),
+        Parser::Ply => (0..GENERATED).map(|i| mesh_seeds::ply(rng, i)).collect(),
         Parser::SceneToml => (0..GENERATED).map(|_| manifest(rng).into_bytes()).collect(),
         Parser::Config => config_files(),
         Parser::Set => (0..GENERATED)

@@ -6,15 +6,19 @@ use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
 
+use super::mesh_seeds::fuzz_buffer;
 use super::Parser;
 use crate::bvh::HwBvh;
 use crate::config::SimConfig;
 use crate::geometry::Ray;
 use crate::rays_csv::{format_rays, parse_rays};
+use crate::scene::geometry::{MeshPart, SceneGeometry};
+use crate::scene::gltf::parse_gltf;
 use crate::scene::load::scene_from_geometry;
 use crate::scene::manifest::Manifest;
 use crate::scene::mtl::{material_from_mtl, parse_mtl, MtlLibrary};
-use crate::scene::obj::{parse_obj, ObjGeometry};
+use crate::scene::obj::{add_obj, parse_obj};
+use crate::scene::ply::parse_ply;
 use crate::scene::text::decode;
 use crate::scene::{Camera, Material, Scene};
 use crate::traversal::{trace, Order};
@@ -49,6 +53,8 @@ pub fn run(parser: Parser, input: &[u8]) -> Outcome {
     match parser {
         Parser::Obj => obj(input),
         Parser::Mtl => mtl(input),
+        Parser::Gltf => gltf(input),
+        Parser::Ply => ply(input),
         Parser::SceneToml => Outcome::from_ok(
             Manifest::parse(&String::from_utf8_lossy(input), Path::new("scene.toml")).is_ok(),
         ),
@@ -82,8 +88,8 @@ fn obj(input: &[u8]) -> Outcome {
         return Outcome::Rejected;
     };
     let in_file = file.triangles.len() as u64;
-    let mut geometry = ObjGeometry::new();
-    if geometry.add(file, Path::new(".")).is_err() {
+    let mut geometry = SceneGeometry::new();
+    if add_obj(&mut geometry, file, path).is_err() {
         return Outcome::Rejected;
     }
     assert_eq!(
@@ -91,7 +97,51 @@ fn obj(input: &[u8]) -> Outcome {
         in_file,
         "every triangle is loaded or counted as left out"
     );
-    Outcome::from_ok(scene_from_geometry(geometry, path, "fuzz".into(), None).is_ok())
+    Outcome::from_ok(scene_from_geometry(geometry, path, "fuzz".into(), None, true).is_ok())
+}
+
+/// A glTF or GLB file loaded as `vtq` loads it, every relative buffer URI resolving to
+/// [`fuzz_buffer`] (names starting with `missing` to no file). Checks: its camera, if any, is
+/// valid, and every triangle is loaded or counted as left out.
+fn gltf(input: &[u8]) -> Outcome {
+    let path = Path::new("fuzz.gltf");
+    let mut resolve =
+        |name: &str| Ok((!name.starts_with("missing")).then(|| fuzz_buffer().to_vec()));
+    let Ok(file) = parse_gltf(input, path, &mut resolve) else {
+        return Outcome::Rejected;
+    };
+    if let Some(camera) = file.camera {
+        if let Err(e) = camera.check() {
+            panic!("an accepted glTF camera is not valid: {e}");
+        }
+    }
+    mesh(file.part, path, file.camera)
+}
+
+/// A PLY file loaded as `vtq` loads it. Checks: every triangle is loaded or counted as left
+/// out.
+fn ply(input: &[u8]) -> Outcome {
+    let path = Path::new("fuzz.ply");
+    match parse_ply(input, path) {
+        Ok(file) => mesh(file.part, path, None),
+        Err(_) => Outcome::Rejected,
+    }
+}
+
+/// A mesh part a reader accepted, merged into scene geometry and made a scene. Checks: the
+/// merge accepts it (its triangles index its vertices) and every triangle is loaded or counted
+/// as left out.
+fn mesh(part: MeshPart, path: &Path, camera: Option<Camera>) -> Outcome {
+    let mut geometry = SceneGeometry::new();
+    if let Err(e) = geometry.add_part(&part, path) {
+        panic!("an accepted mesh does not merge: {e}");
+    }
+    assert_eq!(
+        geometry.triangles.len() + geometry.nonfinite_triangles as usize,
+        part.triangles.len(),
+        "every triangle is loaded or counted as left out"
+    );
+    Outcome::from_ok(scene_from_geometry(geometry, path, "fuzz".into(), camera, true).is_ok())
 }
 
 /// A material library. Checks: every material it maps to passes [`Scene::validate`].

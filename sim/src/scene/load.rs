@@ -1,4 +1,4 @@
-//! Resolving a scene spec (built-in name, `.obj` file, scene folder or shared scene name) to a
+//! Resolving a scene spec (built-in name, scene file, scene folder or shared scene name) to a
 //! loaded [`Scene`], and listing the scenes available for `vtq scenes`.
 
 use std::path::{Path, PathBuf};
@@ -6,8 +6,11 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::builtin::{builtin, builtin_counts, builtin_title, BUILTIN_NAMES};
+use super::geometry::SceneGeometry;
+use super::gltf::read_gltf_file;
 use super::manifest::Manifest;
-use super::obj::ObjGeometry;
+use super::obj::ObjReader;
+use super::ply::read_ply_file;
 use super::report::LoadReport;
 use super::{Camera, Scene, SceneError};
 
@@ -31,17 +34,17 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
 /// Load the scene `spec` names, trying in order:
 /// 1. a built-in name (`wknd`, `cornell`, `city` or `city:N`; ASCII case-insensitive; a
 ///    malformed `city:N` is a [`SceneError::Parse`] naming the spec);
-/// 2. an existing path: a `.obj` file (default camera framing its bounds, sky on), a scene
-///    folder (every `.obj` in it, sorted by file name, in one world space, camera and sky from
-///    its `scene.toml` if present, else the default camera and sky on) or a `scene.toml` file
-///    (its folder);
+/// 2. an existing path: a scene file (`.obj`, `.gltf`, `.glb` or `.ply`; see
+///    [`load_scene_file`]), a scene folder (every scene file in it, sorted by file name, in one
+///    world space, camera and sky as [`load_folder`] says) or a `scene.toml` file (its folder);
 /// 3. a bare name (no path separator): a folder of that name, or whose manifest `name` is that
 ///    name (ASCII case-insensitive, e.g. `SPNZA`), in the shared scenes folders
 ///    (see [`shared_scenes_dir`]).
 ///
 /// Errors name the file: [`SceneError::Io`] for a path that does not exist or cannot be read,
-/// [`SceneError::Parse`] for malformed OBJ/MTL/manifest contents (with a line number where
-/// known), a folder without `.obj` files or a scene without faces, [`SceneError::Unknown`] for a
+/// [`SceneError::Parse`] for malformed OBJ/MTL/glTF/PLY/manifest contents (with a line number
+/// where known), a folder without scene files, a scene without faces or without a camera where
+/// one is needed, [`SceneError::Unknown`] for a
 /// bare name nothing matches. Loading does not print: statements read but not used, triangles
 /// left out for non-finite vertices, missing `.mtl` libraries (their faces use the default
 /// material), undefined material names and a manifest triangle count that differs from the
@@ -78,7 +81,7 @@ pub fn load_scene_with_report(spec: &str) -> Result<LoadedScene, SceneError> {
     }
 }
 
-/// Load an existing path: a folder, a `scene.toml` (its folder) or a `.obj` file.
+/// Load an existing path: a folder, a `scene.toml` (its folder) or a scene file.
 fn load_path(path: &Path) -> Result<LoadedScene, SceneError> {
     if path.is_dir() {
         return load_folder(path);
@@ -86,30 +89,120 @@ fn load_path(path: &Path) -> Result<LoadedScene, SceneError> {
     if path.file_name().is_some_and(|n| n == MANIFEST_FILE) {
         return load_folder(path.parent().unwrap_or(Path::new(".")));
     }
-    if is_obj(path) {
-        return load_obj_file(path);
+    if FileKind::of(path).is_some() {
+        return load_scene_file(path);
     }
     Err(SceneError::Parse {
         path: path.display().to_string(),
-        reason: "not a scene: expected a .obj file, a scene folder or a scene.toml".into(),
+        reason: "not a scene: expected a .obj, .gltf, .glb or .ply file, a scene folder or a \
+                 scene.toml"
+            .into(),
     })
 }
 
-/// Load one `.obj` file (and its `.mtl` libraries) as a scene named after the file stem, with a
-/// camera framing its bounds ([`Camera::framing`]) and sky on.
-pub fn load_obj_file(path: &Path) -> Result<LoadedScene, SceneError> {
-    let mut geometry = ObjGeometry::new();
-    geometry.load_file(path)?;
+/// The formats of scene files, by extension (ASCII case-insensitive).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum FileKind {
+    /// `.obj` (with its `.mtl` libraries).
+    Obj,
+    /// `.gltf` or `.glb`.
+    Gltf,
+    /// `.ply`.
+    Ply,
+}
+
+impl FileKind {
+    /// The format of `path`, or `None` when its extension names none.
+    fn of(path: &Path) -> Option<FileKind> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "obj" => Some(FileKind::Obj),
+            "gltf" | "glb" => Some(FileKind::Gltf),
+            "ply" => Some(FileKind::Ply),
+            _ => None,
+        }
+    }
+}
+
+/// Scene files appended into one world space, with the first glTF camera met.
+#[derive(Default)]
+struct SceneFiles {
+    /// The geometry so far.
+    geometry: SceneGeometry,
+    /// Reads OBJ files (each material library once).
+    obj: ObjReader,
+    /// The first glTF camera and its file.
+    gltf_camera: Option<(Camera, PathBuf)>,
+    /// Whether a glTF file was read.
+    any_gltf: bool,
+}
+
+impl SceneFiles {
+    /// Append the scene file at `path`, of format `kind`.
+    fn load(&mut self, path: &Path, kind: FileKind) -> Result<(), SceneError> {
+        match kind {
+            FileKind::Obj => {
+                self.obj.load_file(&mut self.geometry, path)?;
+            }
+            FileKind::Gltf => {
+                let file = read_gltf_file(path)?;
+                self.geometry.add_part(&file.part, path)?;
+                self.geometry.gltf_ignored.merge(&file.ignored);
+                if self.gltf_camera.is_none() {
+                    self.gltf_camera = file.camera.map(|c| (c, path.to_path_buf()));
+                }
+                self.any_gltf = true;
+            }
+            FileKind::Ply => {
+                let file = read_ply_file(path)?;
+                self.geometry.add_part(&file.part, path)?;
+                self.geometry.ply_ignored.merge(&file.ignored);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Load one scene file as a scene named after the file stem, sky on: a `.obj` (and its `.mtl`
+/// libraries) or `.ply` file with a camera framing its bounds ([`Camera::framing`]), a `.gltf`
+/// or `.glb` file with its first camera (a glTF file without a camera is an error: put it in a
+/// folder with a `scene.toml` giving a `[camera]`).
+pub fn load_scene_file(path: &Path) -> Result<LoadedScene, SceneError> {
+    let kind = FileKind::of(path).ok_or_else(|| SceneError::Parse {
+        path: path.display().to_string(),
+        reason: "not a scene file: expected .obj, .gltf, .glb or .ply".into(),
+    })?;
+    let mut files = SceneFiles::default();
+    files.load(path, kind)?;
     let name = path
         .file_stem()
         .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    scene_from_geometry(geometry, path, name, None)
+    let camera = match files.gltf_camera {
+        Some((camera, _)) => Some(camera),
+        None if files.any_gltf => {
+            return Err(SceneError::Parse {
+                path: path.display().to_string(),
+                reason: format!(
+                    "no camera: the file has no perspective camera; put it in a folder with a \
+                     {MANIFEST_FILE} giving a [camera]"
+                ),
+            })
+        }
+        None => None,
+    };
+    scene_from_geometry(files.geometry, path, name, camera, true)
 }
 
-/// Load a scene folder: every `.obj` file in it (not recursive; extension ASCII
-/// case-insensitive), sorted by file name, appended in that order, with camera, sky and name
-/// from `scene.toml` when present. A manifest `triangles` count that differs from the files'
-/// is reported in [`LoadReport::manifest_mismatch`].
+/// Load a scene folder: every scene file in it (`.obj`, `.gltf`, `.glb`, `.ply`; not
+/// recursive; extensions ASCII case-insensitive), sorted by file name, appended in that order
+/// into one world space, with name and sky from `scene.toml` when present.
+///
+/// The camera is the first perspective camera of the glTF files (in that order), else the
+/// manifest's `[camera]`; without either, a folder with a `scene.toml` or a glTF file is an
+/// error, and one holding only OBJ and PLY files without a `scene.toml` gets a camera framing
+/// its bounds. A manifest camera that a glTF camera replaces is reported in
+/// [`LoadReport::unused_manifest_camera`], and a manifest `triangles` count that differs from
+/// the files' in [`LoadReport::manifest_mismatch`].
 pub fn load_folder(dir: &Path) -> Result<LoadedScene, SceneError> {
     let manifest_path = dir.join(MANIFEST_FILE);
     let manifest = if manifest_path.is_file() {
@@ -117,43 +210,76 @@ pub fn load_folder(dir: &Path) -> Result<LoadedScene, SceneError> {
     } else {
         None
     };
-    let parts = obj_files(dir)?;
+    let parts = scene_files(dir)?;
     if parts.is_empty() {
         return Err(SceneError::Parse {
             path: dir.display().to_string(),
-            reason: "the folder holds no .obj files".into(),
+            reason: "the folder holds no scene files (.obj, .gltf, .glb or .ply)".into(),
         });
     }
-    let mut geometry = ObjGeometry::new();
-    for part in &parts {
-        geometry.load_file(part)?;
+    let mut files = SceneFiles::default();
+    for (part, kind) in &parts {
+        files.load(part, *kind)?;
     }
+    let geometry = &files.geometry;
     let in_files = geometry.triangles.len() as u64 + geometry.nonfinite_triangles;
     let mismatch = manifest
         .as_ref()
         .and_then(|m| m.triangles)
         .filter(|&expected| expected != in_files)
         .map(|expected| (manifest_path.clone(), expected));
+    let manifest_camera = manifest.as_ref().and_then(|m| m.camera);
+    let mut unused_manifest_camera = None;
+    let camera = match (files.gltf_camera, manifest_camera) {
+        (Some((camera, gltf)), spec) => {
+            if spec.is_some() {
+                unused_manifest_camera = Some((manifest_path.clone(), gltf));
+            }
+            Some(camera)
+        }
+        (None, Some(spec)) => Some(spec.camera()),
+        (None, None) if manifest.is_some() => {
+            return Err(SceneError::Parse {
+                path: manifest_path.display().to_string(),
+                reason: "no [camera]: a scene.toml needs one unless a glTF file of the folder \
+                         has a camera"
+                    .into(),
+            })
+        }
+        (None, None) if files.any_gltf => {
+            return Err(SceneError::Parse {
+                path: dir.display().to_string(),
+                reason: format!(
+                    "no camera: no glTF file of the folder has a perspective camera and there \
+                     is no {MANIFEST_FILE} giving a [camera]"
+                ),
+            })
+        }
+        (None, None) => None,
+    };
     let name = manifest
         .as_ref()
         .and_then(|m| m.name.clone())
         .unwrap_or_else(|| folder_name(dir));
-    let mut loaded = scene_from_geometry(geometry, dir, name, manifest.as_ref())?;
+    let sky = manifest.as_ref().is_none_or(|m| m.sky);
+    let mut loaded = scene_from_geometry(files.geometry, dir, name, camera, sky)?;
     loaded.report.manifest_mismatch = mismatch;
+    loaded.report.unused_manifest_camera = unused_manifest_camera;
     Ok(loaded)
 }
 
 /// Build and check the scene loaded from `origin` (a file or folder, named in errors) from its
-/// geometry, with the manifest's camera and sky when given (else a camera framing the
-/// geometry, sky on), and its load report.
+/// geometry, with `camera` (`None`: a camera framing the geometry) and `sky`, and its load
+/// report.
 ///
 /// Errors ([`SceneError::Parse`] naming `origin`): no triangles, or a scene that fails
 /// [`Scene::validate`].
 pub fn scene_from_geometry(
-    geometry: ObjGeometry,
+    geometry: SceneGeometry,
     origin: &Path,
     name: String,
-    manifest: Option<&Manifest>,
+    camera: Option<Camera>,
+    sky: bool,
 ) -> Result<LoadedScene, SceneError> {
     if geometry.triangles.is_empty() {
         let reason = if geometry.nonfinite_triangles > 0 {
@@ -171,16 +297,13 @@ pub fn scene_from_geometry(
     }
     let report = LoadReport::from_geometry(&geometry);
     // Every stored position is used by a triangle, so their bounds are the scene's.
-    let camera = match manifest {
-        Some(m) => m.camera.camera(),
-        None => {
-            let (min, max) = geometry.positions.iter().fold(
-                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                |(min, max), &p| (min.min(p), max.max(p)),
-            );
-            Camera::framing(min, max)
-        }
-    };
+    let camera = camera.unwrap_or_else(|| {
+        let (min, max) = geometry.positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(min, max), &p| (min.min(p), max.max(p)),
+        );
+        Camera::framing(min, max)
+    });
     let scene = Scene {
         name,
         positions: geometry.positions,
@@ -189,7 +312,7 @@ pub fn scene_from_geometry(
         spheres: Vec::new(),
         materials: geometry.materials,
         camera,
-        sky: manifest.is_none_or(|m| m.sky),
+        sky,
     };
     scene.validate().map_err(|e| match e {
         SceneError::Parse { reason, .. } => SceneError::Parse {
@@ -201,8 +324,8 @@ pub fn scene_from_geometry(
     Ok(LoadedScene { scene, report })
 }
 
-/// The `.obj` files directly in `dir`, sorted by file name.
-fn obj_files(dir: &Path) -> Result<Vec<PathBuf>, SceneError> {
+/// The scene files directly in `dir` with their formats, sorted by file name.
+fn scene_files(dir: &Path) -> Result<Vec<(PathBuf, FileKind)>, SceneError> {
     let entries = std::fs::read_dir(dir).map_err(|e| SceneError::Io {
         path: dir.display().to_string(),
         reason: e.to_string(),
@@ -215,18 +338,12 @@ fn obj_files(dir: &Path) -> Result<Vec<PathBuf>, SceneError> {
                 reason: e.to_string(),
             })?
             .path();
-        if path.is_file() && is_obj(&path) {
-            files.push(path);
+        if let Some(kind) = FileKind::of(&path).filter(|_| path.is_file()) {
+            files.push((path, kind));
         }
     }
-    files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    files.sort_by(|a, b| a.0.file_name().cmp(&b.0.file_name()));
     Ok(files)
-}
-
-/// Whether `path` has the extension `obj` (ASCII case-insensitive).
-fn is_obj(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
 }
 
 /// The last component of `dir` (after resolving `.` and `..`), for naming a scene.
@@ -286,7 +403,7 @@ fn find_shared_scene(shared: &Path, name: &str) -> Option<PathBuf> {
     })
 }
 
-/// The sub-folders of `shared` that hold a `scene.toml` or a `.obj` file, sorted by name.
+/// The sub-folders of `shared` that hold a `scene.toml` or a scene file, sorted by name.
 fn scene_folders(shared: &Path) -> Vec<PathBuf> {
     let Ok(entries) = std::fs::read_dir(shared) else {
         return Vec::new();
@@ -294,7 +411,7 @@ fn scene_folders(shared: &Path) -> Vec<PathBuf> {
     let mut dirs: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_dir())
-        .filter(|p| p.join(MANIFEST_FILE).is_file() || obj_files(p).is_ok_and(|f| !f.is_empty()))
+        .filter(|p| p.join(MANIFEST_FILE).is_file() || scene_files(p).is_ok_and(|f| !f.is_empty()))
         .collect();
     dirs.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
     dirs
@@ -334,7 +451,7 @@ pub struct SceneInfo {
     pub kind: SceneKind,
     /// Triangle count, if known (see `counted`).
     pub triangles: Option<usize>,
-    /// Procedural sphere count (0 for folders: OBJ scenes have none).
+    /// Procedural sphere count (0 for folders: scene files hold none).
     pub spheres: usize,
     /// Where the counts come from.
     pub counted: CountSource,
@@ -398,7 +515,7 @@ fn folder_info(dir: &Path) -> SceneInfo {
     };
     let manifest_path = dir.join(MANIFEST_FILE);
     if !manifest_path.is_file() {
-        info.problem = Some(format!("no {MANIFEST_FILE}: default camera"));
+        info.problem = Some(format!("no {MANIFEST_FILE}: glTF or default camera"));
         return info;
     }
     match Manifest::read(&manifest_path) {

@@ -52,8 +52,9 @@ pub struct Manifest {
     /// Whether rays that miss see a sky gradient (default `true`).
     #[serde(default = "sky_default")]
     pub sky: bool,
-    /// The camera (required).
-    pub camera: CameraSpec,
+    /// The camera: required unless a glTF file of the folder has a camera (which is then used
+    /// instead, see [`super::load::load_folder`]).
+    pub camera: Option<CameraSpec>,
 }
 
 /// The default of [`Manifest::sky`].
@@ -65,8 +66,9 @@ impl Manifest {
     /// Parse and check the text of a manifest; `path` names the file in errors.
     ///
     /// Errors ([`SceneError::Parse`], one line, with a line number where TOML gives one): TOML
-    /// syntax, a missing `[camera]` or camera key, a wrong type, an unknown key, a non-finite
+    /// syntax, a missing camera key in `[camera]`, a wrong type, an unknown key, a non-finite
     /// camera number, a field of view outside `(0, 180)` degrees, or a degenerate camera frame.
+    /// A manifest without `[camera]` parses; the folder's loader decides whether it needs one.
     pub fn parse(text: &str, path: &Path) -> Result<Manifest, SceneError> {
         let manifest: Manifest = toml::from_str(text).map_err(|e| {
             let message = e.message().trim().replace('\n', "; ");
@@ -80,11 +82,12 @@ impl Manifest {
             };
             parse_error(path, format!("invalid scene manifest: {reason}"))
         })?;
-        manifest
-            .camera
-            .camera()
-            .check()
-            .map_err(|reason| parse_error(path, format!("invalid [camera]: {reason}")))?;
+        if let Some(camera) = &manifest.camera {
+            camera
+                .camera()
+                .check()
+                .map_err(|reason| parse_error(path, format!("invalid [camera]: {reason}")))?;
+        }
         Ok(manifest)
     }
 

@@ -1,5 +1,6 @@
 //! Scenes: triangle meshes and procedural spheres with materials and a camera, from a built-in
-//! name, one `.obj` file, or a scene folder (see `../shared/scenes/README.md`).
+//! name, one scene file (`.obj`, `.gltf`, `.glb`, `.ply`), or a scene folder (see
+//! `../shared/scenes/README.md` and `docs/scenes.md`).
 
 use glam::Vec3;
 
@@ -24,7 +25,7 @@ pub enum SceneError {
     },
     /// A scene name matched no built-in and no folder.
     #[error(
-        "unknown scene '{0}': not a built-in, a .obj file or a scene folder (run `vtq scenes`)"
+        "unknown scene '{0}': not a built-in, a scene file or a scene folder (run `vtq scenes`)"
     )]
     Unknown(String),
 }
@@ -145,10 +146,13 @@ impl Scene {
 pub mod builtin;
 pub mod city;
 mod content_hash;
+pub mod geometry;
+pub mod gltf;
 pub mod load;
 pub mod manifest;
 pub mod mtl;
 pub mod obj;
+pub mod ply;
 pub mod report;
 pub mod text;
 

@@ -12,7 +12,7 @@
 //! - `usemtl name` (the rest of the line; empty selects the default material) and
 //!   `mtllib file` (the rest of the line, relative to the OBJ file's folder; if no such file
 //!   exists and the name has blanks, each word is tried as a file of its own; a missing library
-//!   is not an error, see [`ObjGeometry::missing_mtl`]).
+//!   is not an error, see [`SceneGeometry::missing_mtl`]).
 //!
 //! Every other statement (`vt`, `vn`, `o`, `g`, `s`, `l`, `p`, `vp`, `curv`, `mg`, ... and an
 //! `mtllib` without a name) is not used by vtq: it is skipped without reading its arguments and
@@ -22,7 +22,7 @@
 //! are not 3, 4 or 6, a face with fewer than 3 corners, an index that is 0, not an integer, or
 //! out of range (counting only elements defined before the face). A vertex that parses to a
 //! non-finite position (`nan`, `inf`, `1e39`, `w = 0`) is not an error: it is counted, and every
-//! triangle using it is left out and counted ([`ObjGeometry::nonfinite_triangles`]).
+//! triangle using it is left out and counted ([`SceneGeometry::nonfinite_triangles`]).
 //!
 //! # Triangles and vertices
 //! Faces in file order, polygons as fans `(v0, v1, v2), (v0, v2, v3), ...`; files appended in
@@ -32,9 +32,10 @@
 //! and counts them). A face's material is the one its last `usemtl` selected among the
 //! materials of the libraries loaded before that `usemtl` (a later library's material wins over
 //! an earlier one of the same name); faces before any `usemtl`, after an empty one, or whose
-//! `usemtl` names a material no library defines ([`ObjGeometry::undefined_materials`]) use
-//! [`Material::DEFAULT`]. Materials are mapped as in [`super::mtl`]; every material of every
-//! library is kept (distinct values once), used or not.
+//! `usemtl` names a material no library defines ([`SceneGeometry::undefined_materials`]) use
+//! [`super::Material::DEFAULT`]. Materials are mapped as in [`super::mtl`]; every material of
+//! every library is kept (distinct values once), used or not. The merge into one world space is
+//! [`super::geometry`]'s.
 //!
 //! # Why not `tobj`
 //! vtq used `tobj` until it met real exporters' files: tobj does not strip a byte-order mark (so
@@ -51,14 +52,12 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::geometry::{read_regular_file, MeshPart, SceneGeometry, NO_MATERIAL};
 use super::mtl::{material_from_mtl, parse_mtl, preview, MtlLibrary, MtlMaterial};
 use super::text::{decode, is_keyword, logical_lines, StatementCounts};
-use super::{Material, SceneError};
+use super::SceneError;
 
-/// The material slot of a triangle without a material.
-const NO_MATERIAL: u32 = u32::MAX;
-
-/// One OBJ file, parsed but not yet added to an [`ObjGeometry`].
+/// One OBJ file, parsed but not yet added to a [`SceneGeometry`].
 #[derive(Debug, Clone, Default)]
 pub struct ObjFile {
     /// Every `v` position in file order (OBJ index - 1), possibly non-finite.
@@ -292,97 +291,54 @@ fn corner(word: &str, counts: [usize; 3]) -> Result<u32, String> {
     Ok(vertex)
 }
 
-/// Triangles, shared vertices and materials accumulated from OBJ files into one world space,
-/// with the counts of what was read but not used or left out.
-#[derive(Debug, Clone)]
-pub struct ObjGeometry {
-    /// Shared vertex positions: each distinct position once, only positions a triangle uses.
-    pub positions: Vec<Vec3>,
-    /// Triangles as indices into `positions`, in load order.
-    pub triangles: Vec<[u32; 3]>,
-    /// Material index (into `materials`) of each triangle.
-    pub tri_material: Vec<u32>,
-    /// Distinct materials; index 0 is [`Material::DEFAULT`].
-    pub materials: Vec<Material>,
-    /// Material libraries named by `mtllib` that do not exist, once each, in the order met
-    /// (their faces use the default material). Loading does not print; the caller decides how
-    /// to warn.
-    pub missing_mtl: Vec<PathBuf>,
-    /// Names that `usemtl` selected but no loaded library defined, once each, in order met.
-    pub undefined_materials: Vec<String>,
-    /// OBJ statements read but not used, by keyword.
-    pub ignored: StatementCounts,
-    /// MTL statements read but not used, by keyword (each library file counted once).
-    pub mtl_ignored: StatementCounts,
-    /// Vertices whose position is not finite.
-    pub nonfinite_vertices: u64,
-    /// Triangles left out because a corner's position is not finite.
-    pub nonfinite_triangles: u64,
-    /// Position bit patterns to vertex ids, for sharing.
-    vertex_ids: HashMap<[u32; 3], u32>,
-    /// Material values (see [`material_key`]) to their index in `materials`.
-    material_ids: HashMap<[u32; 5], u32>,
-    /// The entries of `missing_mtl` and `undefined_materials`, for finding them fast.
-    reported: (HashSet<PathBuf>, HashSet<String>),
+/// Reads OBJ files into a [`SceneGeometry`], reading and parsing each material library once
+/// per load however many files name it.
+#[derive(Debug, Clone, Default)]
+pub struct ObjReader {
     /// Libraries read so far by path (`None`: no such file).
     libraries: HashMap<PathBuf, Option<Arc<MtlLibrary>>>,
 }
 
-impl Default for ObjGeometry {
-    fn default() -> Self {
-        ObjGeometry::new()
-    }
-}
-
-impl ObjGeometry {
-    /// Empty geometry with only the default material.
+impl ObjReader {
+    /// A reader that has read no library yet.
     pub fn new() -> Self {
-        ObjGeometry {
-            positions: Vec::new(),
-            triangles: Vec::new(),
-            tri_material: Vec::new(),
-            materials: vec![Material::DEFAULT],
-            missing_mtl: Vec::new(),
-            undefined_materials: Vec::new(),
-            ignored: StatementCounts::default(),
-            mtl_ignored: StatementCounts::default(),
-            nonfinite_vertices: 0,
-            nonfinite_triangles: 0,
-            vertex_ids: HashMap::new(),
-            material_ids: HashMap::from([(material_key(&Material::DEFAULT), 0)]),
-            reported: (HashSet::new(), HashSet::new()),
-            libraries: HashMap::new(),
-        }
+        ObjReader::default()
     }
 
-    /// Append the OBJ file at `path` (its `mtllib`s are resolved relative to its folder) and
-    /// return the number of triangles it added. On error nothing is appended.
+    /// Append the OBJ file at `path` (its `mtllib`s are resolved relative to its folder) to
+    /// `geometry` and return the number of triangles it added. On error nothing is appended.
     ///
     /// Errors: [`SceneError::Io`] when the file (or an existing material library) cannot be
     /// read or is not a regular file; [`SceneError::Parse`] naming the file and line for broken
     /// OBJ or MTL data (see the module documentation and [`super::mtl`]).
-    pub fn load_file(&mut self, path: &Path) -> Result<usize, SceneError> {
+    pub fn load_file(
+        &mut self,
+        geometry: &mut SceneGeometry,
+        path: &Path,
+    ) -> Result<usize, SceneError> {
         let bytes = read_regular_file(path)?;
-        self.load_str(&decode(&bytes, path)?, path)
+        let text = decode(&bytes, path)?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let file = parse_obj(&text, path, &mut |name| {
+            self.library(&mut geometry.mtl_ignored, dir.join(name))
+        })?;
+        add_obj(geometry, file, path)
     }
 
-    /// Append OBJ text as if read from `path` (used in errors and to resolve `mtllib`s) and
-    /// return the number of triangles it added. On error nothing is appended.
-    pub fn load_str(&mut self, text: &str, path: &Path) -> Result<usize, SceneError> {
-        let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        let file = parse_obj(text, path, &mut |name| self.library(dir.join(name)))?;
-        self.add(file, &dir)
-    }
-
-    /// The library at `full`, read and parsed on first use (`None` when no such file exists).
-    fn library(&mut self, full: PathBuf) -> Result<Option<Arc<MtlLibrary>>, SceneError> {
+    /// The library at `full`, read and parsed on first use (`None` when no such file exists);
+    /// its unused statements are counted in `mtl_ignored` when it is first read.
+    fn library(
+        &mut self,
+        mtl_ignored: &mut StatementCounts,
+        full: PathBuf,
+    ) -> Result<Option<Arc<MtlLibrary>>, SceneError> {
         if let Some(known) = self.libraries.get(&full) {
             return Ok(known.clone());
         }
         let library = match read_regular_file(&full) {
             Ok(bytes) => {
                 let library = parse_mtl(&decode(&bytes, &full)?, &full)?;
-                self.mtl_ignored.merge(&library.ignored);
+                mtl_ignored.merge(&library.ignored);
                 Some(Arc::new(library))
             }
             Err(SceneError::Io { .. }) if !full.exists() => None,
@@ -391,134 +347,33 @@ impl ObjGeometry {
         self.libraries.insert(full, library.clone());
         Ok(library)
     }
-
-    /// Append a parsed file (its missing libraries named relative to `dir`) and return the
-    /// number of triangles it added. Triangles with a non-finite corner are left out and
-    /// counted. On error (more than 2^32 - 1 distinct vertices) nothing is appended.
-    pub fn add(&mut self, file: ObjFile, dir: &Path) -> Result<usize, SceneError> {
-        let mark = (
-            self.positions.len(),
-            self.triangles.len(),
-            self.materials.len(),
-        );
-        match self.add_geometry(&file) {
-            Ok(left_out) => {
-                self.nonfinite_triangles += left_out;
-                self.nonfinite_vertices += file.nonfinite_vertices;
-                self.ignored.merge(&file.ignored);
-                for name in file.missing_mtl {
-                    let path = dir.join(name);
-                    if self.reported.0.insert(path.clone()) {
-                        self.missing_mtl.push(path);
-                    }
-                }
-                for name in file.undefined_materials {
-                    if self.reported.1.insert(name.clone()) {
-                        self.undefined_materials.push(name);
-                    }
-                }
-                Ok(self.triangles.len() - mark.1)
-            }
-            Err(err) => {
-                for p in self.positions.drain(mark.0..) {
-                    self.vertex_ids
-                        .remove(&[p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]);
-                }
-                self.triangles.truncate(mark.1);
-                self.tri_material.truncate(mark.1);
-                for m in self.materials.drain(mark.2..) {
-                    self.material_ids.remove(&material_key(&m));
-                }
-                Err(err)
-            }
-        }
-    }
-
-    /// Append the materials and the finite triangles of `file`; returns how many triangles
-    /// were left out for a non-finite corner.
-    fn add_geometry(&mut self, file: &ObjFile) -> Result<u64, SceneError> {
-        let material_ids: Vec<u32> = file
-            .materials
-            .iter()
-            .map(|m| self.intern_material(material_from_mtl(m)))
-            .collect();
-        let mut left_out = 0;
-        self.triangles.reserve(file.triangles.len());
-        self.tri_material.reserve(file.triangles.len());
-        for (tri, &slot) in file.triangles.iter().zip(&file.tri_slot) {
-            let corners = tri.map(|v| file.vertices[v as usize]);
-            if !corners.iter().all(|p| p.is_finite()) {
-                left_out += 1;
-                continue;
-            }
-            let ids = [
-                self.vertex_id(corners[0])?,
-                self.vertex_id(corners[1])?,
-                self.vertex_id(corners[2])?,
-            ];
-            self.triangles.push(ids);
-            self.tri_material
-                .push(material_ids.get(slot as usize).copied().unwrap_or(0));
-        }
-        Ok(left_out)
-    }
-
-    /// The id of `p`, adding it if it is new.
-    fn vertex_id(&mut self, p: Vec3) -> Result<u32, SceneError> {
-        let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
-        if let Some(&id) = self.vertex_ids.get(&key) {
-            return Ok(id);
-        }
-        let id = u32::try_from(self.positions.len()).map_err(|_| SceneError::Parse {
-            path: "scene".into(),
-            reason: "more than 2^32 distinct vertices".into(),
-        })?;
-        self.positions.push(p);
-        self.vertex_ids.insert(key, id);
-        Ok(id)
-    }
-
-    /// The index of `m` in `materials`, adding it if it is new.
-    fn intern_material(&mut self, m: Material) -> u32 {
-        let next = self.materials.len() as u32;
-        let id = *self.material_ids.entry(material_key(&m)).or_insert(next);
-        if id == next {
-            self.materials.push(m);
-        }
-        id
-    }
 }
 
-/// A material's kind and parameters as bits, equal exactly when the materials compare equal
-/// (`-0` counts as `0`; parameters are finite).
-fn material_key(m: &Material) -> [u32; 5] {
-    let bits = |x: f32| (x + 0.0).to_bits();
-    match *m {
-        Material::Lambertian { albedo } => [0, bits(albedo.x), bits(albedo.y), bits(albedo.z), 0],
-        Material::Metal { albedo, fuzz } => [
-            1,
-            bits(albedo.x),
-            bits(albedo.y),
-            bits(albedo.z),
-            bits(fuzz),
-        ],
-        Material::Dielectric { ior } => [2, bits(ior), 0, 0, 0],
-        Material::Light { emit } => [3, bits(emit.x), bits(emit.y), bits(emit.z), 0],
-    }
-}
-
-/// The bytes of the regular file at `path` ([`SceneError::Io`] if it cannot be read or is not a
-/// regular file: a device or pipe would never end).
-fn read_regular_file(path: &Path) -> Result<Vec<u8>, SceneError> {
-    let io = |reason: String| SceneError::Io {
-        path: path.display().to_string(),
-        reason,
+/// Append OBJ file `path`, parsed, to `geometry` (its missing libraries named relative to the
+/// file's folder) and return the number of triangles it added; see
+/// [`SceneGeometry::add_part`]. On error nothing is appended.
+pub fn add_obj(
+    geometry: &mut SceneGeometry,
+    file: ObjFile,
+    path: &Path,
+) -> Result<usize, SceneError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let part = MeshPart {
+        vertices: file.vertices,
+        triangles: file.triangles,
+        tri_slot: file.tri_slot,
+        materials: file.materials.iter().map(material_from_mtl).collect(),
+        nonfinite_vertices: file.nonfinite_vertices,
     };
-    let meta = std::fs::metadata(path).map_err(|e| io(e.to_string()))?;
-    if !meta.is_file() {
-        return Err(io("not a regular file".into()));
+    let added = geometry.add_part(&part, path)?;
+    geometry.ignored.merge(&file.ignored);
+    for name in file.missing_mtl {
+        geometry.note_missing_library(dir.join(name));
     }
-    std::fs::read(path).map_err(|e| io(e.to_string()))
+    for name in file.undefined_materials {
+        geometry.note_undefined_material(name);
+    }
+    Ok(added)
 }
 
 #[cfg(test)]

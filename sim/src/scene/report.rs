@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use super::obj::ObjGeometry;
+use super::geometry::SceneGeometry;
 use super::text::StatementCounts;
 
 /// What a scene load read but did not use, left out or could not find (all empty for the
@@ -14,6 +14,10 @@ pub struct LoadReport {
     pub ignored: StatementCounts,
     /// MTL statements read but not used, by keyword (e.g. `map_Kd`, `Ka`, `bump`).
     pub mtl_ignored: StatementCounts,
+    /// glTF content read but not used, by kind (e.g. `baseColorTexture`, `mode LINES`).
+    pub gltf_ignored: StatementCounts,
+    /// PLY properties and elements read but not used, by kind (e.g. `vertex red`, `edge`).
+    pub ply_ignored: StatementCounts,
     /// Vertices whose position is not finite.
     pub nonfinite_vertices: u64,
     /// Triangles left out because a corner's position is not finite.
@@ -25,31 +29,44 @@ pub struct LoadReport {
     /// The manifest and its `triangles` count, when that count differs from the triangles in
     /// the files (loaded plus left out).
     pub manifest_mismatch: Option<(PathBuf, u64)>,
+    /// The manifest whose `[camera]` was not used and the glTF file whose camera was, when both
+    /// give one.
+    pub unused_manifest_camera: Option<(PathBuf, PathBuf)>,
 }
 
 impl LoadReport {
     /// The counts gathered by `geometry`.
-    pub fn from_geometry(geometry: &ObjGeometry) -> LoadReport {
+    pub fn from_geometry(geometry: &SceneGeometry) -> LoadReport {
         LoadReport {
             ignored: geometry.ignored.clone(),
             mtl_ignored: geometry.mtl_ignored.clone(),
+            gltf_ignored: geometry.gltf_ignored.clone(),
+            ply_ignored: geometry.ply_ignored.clone(),
             nonfinite_vertices: geometry.nonfinite_vertices,
             nonfinite_triangles: geometry.nonfinite_triangles,
             missing_mtl: geometry.missing_mtl.clone(),
             undefined_materials: geometry.undefined_materials.clone(),
             manifest_mismatch: None,
+            unused_manifest_camera: None,
         }
     }
 
     /// The one line naming every ignored statement with its count, e.g. `ignored: vt x12,
-    /// l x3; in .mtl files: map_Kd x4`, or `None` when nothing was ignored.
+    /// l x3; in .mtl files: map_Kd x4; in glTF files: baseColorTexture x2; in .ply files:
+    /// vertex red x8`, or `None` when nothing was ignored.
     pub fn ignored_line(&self) -> Option<String> {
         let mut parts = Vec::new();
         if !self.ignored.is_empty() {
             parts.push(self.ignored.to_string());
         }
-        if !self.mtl_ignored.is_empty() {
-            parts.push(format!("in .mtl files: {}", self.mtl_ignored));
+        for (label, counts) in [
+            ("in .mtl files", &self.mtl_ignored),
+            ("in glTF files", &self.gltf_ignored),
+            ("in .ply files", &self.ply_ignored),
+        ] {
+            if !counts.is_empty() {
+                parts.push(format!("{label}: {counts}"));
+            }
         }
         (!parts.is_empty()).then(|| format!("ignored: {}", parts.join("; ")))
     }
@@ -75,8 +92,8 @@ impl LoadReport {
         })
     }
 
-    /// Warnings (without a `warning:` prefix): missing libraries, undefined materials and a
-    /// manifest count that differs from the files.
+    /// Warnings (without a `warning:` prefix): missing libraries, undefined materials, a
+    /// manifest count that differs from the files and a manifest camera a glTF camera replaced.
     pub fn warnings(&self, loaded_triangles: usize) -> Vec<String> {
         let mut out = Vec::new();
         if let Some(first) = self.missing_mtl.first() {
@@ -103,6 +120,13 @@ impl LoadReport {
                 manifest.display(),
                 loaded_triangles as u64 + self.nonfinite_triangles,
                 self.nonfinite_triangles
+            ));
+        }
+        if let Some((manifest, gltf)) = &self.unused_manifest_camera {
+            out.push(format!(
+                "the [camera] of {} is not used: the camera of {} is",
+                manifest.display(),
+                gltf.display()
             ));
         }
         out
