@@ -98,14 +98,19 @@ pub fn register_fonts() -> Result<(), String> {
     .clone()
 }
 
-/// Series colours, in order.
-const COLORS: [RGBColor; 6] = [
+/// Series colours, in order (a chart of up to ten series, such as Figure 5 over every scene,
+/// repeats none).
+const COLORS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
 ];
 
 /// The colour of series `k`.

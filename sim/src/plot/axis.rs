@@ -41,6 +41,9 @@ fn decimals_of(step: f64) -> usize {
 /// A round step for a linear axis spanning `span` with about [`MIN_TICKS`] to 8 intervals: 1,
 /// 2 or 5 times a power of ten (so labels need no more decimals than the power).
 fn nice_step(span: f64) -> f64 {
+    if !(span.is_finite() && span > 0.0) {
+        return 1.0;
+    }
     let raw = span / MIN_TICKS;
     let power = 10f64.powf(raw.log10().floor());
     [1.0, 2.0, 5.0, 10.0]
@@ -73,6 +76,8 @@ impl Axis {
     /// A linear axis of exactly `lo..=hi` (e.g. 0 to 100 for a rate in percent), ticks at round
     /// steps inside it.
     pub fn fixed(lo: f64, hi: f64) -> Axis {
+        let (lo, hi) = finite_or(lo, hi, (0.0, 1.0));
+        let hi = if hi > lo { hi } else { lo + 1.0 };
         Axis::fixed_with_step(lo, hi, nice_step(hi - lo))
     }
 
@@ -283,8 +288,12 @@ mod tests {
         let n = Axis::linear(-3.2, 10.4);
         assert!(n.lo <= -3.2 && n.hi >= 10.4 && n.ticks.contains(&0.0));
         assert!((5..=9).contains(&n.ticks.len()), "{:?}", n.ticks);
-        // Nothing to show: a unit axis.
+        // Nothing to show, or an empty range: a unit axis.
         let e = Axis::linear(f64::INFINITY, f64::NEG_INFINITY);
         assert_eq!((e.lo, e.hi), (0.0, 1.0));
+        let f = Axis::fixed(5.0, 5.0);
+        assert_eq!((f.lo, f.hi, f.ticks.len()), (5.0, 6.0, 6));
+        let g = Axis::log(7.0, 7.0);
+        assert!(g.lo < 7.0 && g.hi > 7.0 && !g.ticks.is_empty());
     }
 }
