@@ -283,16 +283,18 @@ pub fn csv(rows: &[Row]) -> String {
     out
 }
 
-/// The run-time-against-error chart of `rows`: log wall time on x, |cycles error| in percent on
-/// y, one series per tier, one marker shape per scene (full detail at 0).
+/// The run-time-against-error chart of `rows`: log wall time on x, the signed error of cycles
+/// against full detail in percent on y, with the sampled tier's 95% intervals as error bars
+/// (full detail at 0), one series per tier, one marker shape per scene.
 pub fn chart(rows: &[Row]) -> Scatter {
     let mut series: Vec<Series> = Vec::new();
     for r in rows {
         let name = r.tier.name();
         let point = Point {
             x: r.wall.max(1e-3),
-            y: 100.0 * r.cycles_error.abs(),
+            y: 100.0 * r.cycles_error,
             label: r.scene.clone(),
+            interval: error_interval(r),
         };
         match series.iter_mut().find(|s| s.name == name) {
             Some(s) => s.points.push(point),
@@ -304,10 +306,73 @@ pub fn chart(rows: &[Row]) -> Scatter {
     }
     Scatter {
         title: "vtq accuracy: run time against error of cycles".into(),
-        x_label: "wall time per design run (s, log)".into(),
-        y_label: "|error of cycles| vs full detail (%)".into(),
+        x_label: "wall time per design run (s)".into(),
+        y_label: "error of cycles vs full detail (%, 95% interval)".into(),
         x_log: true,
         y_log: false,
+        joined: false,
         series,
+    }
+}
+
+/// The 95% interval of a row's error of cycles in percent (`None` without an interval): the
+/// interval of its cycles over full detail's cycles (the estimate over one plus its error).
+fn error_interval(r: &Row) -> Option<(f64, f64)> {
+    let full = r.cycles / (1.0 + r.cycles_error);
+    let hw = r.cycles_half_width?;
+    (full.is_finite() && full > 0.0).then(|| {
+        let err = |c: f64| 100.0 * (c / full - 1.0);
+        (err(r.cycles - hw), err(r.cycles + hw))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_chart_draws_the_sampled_tiers_intervals() {
+        let row = |tier: Tier, cycles: f64, half_width: Option<f64>| Row {
+            scene: "WKND".into(),
+            design: "baseline".into(),
+            tier,
+            wall: 1.0,
+            time_speedup: 1.0,
+            cycles,
+            cycles_half_width: half_width,
+            cycles_error: cycles / 100.0 - 1.0,
+            cycles_covered: half_width.map(|h| (cycles - h..=cycles + h).contains(&100.0)),
+            speedup: None,
+            speedup_half_width: None,
+            speedup_error: None,
+            speedup_covered: None,
+        };
+        let rows = [
+            row(Tier::Full, 100.0, None),
+            row(Tier::Sampled("1/16x4".into()), 110.0, Some(20.0)),
+            row(Tier::Analytical, 80.0, None),
+        ];
+        let chart = chart(&rows);
+        let points: Vec<&Point> = chart.series.iter().flat_map(|s| &s.points).collect();
+        assert_eq!(points[0].interval, None);
+        let (lo, hi) = points[1].interval.expect("the sampled estimate's interval");
+        assert!((points[1].y - 10.0).abs() < 1e-9);
+        assert!(
+            (lo + 10.0).abs() < 1e-9 && (hi - 30.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+        // The error is signed, so an interval shows whether it holds full detail (0).
+        assert!((points[2].y + 20.0).abs() < 1e-9);
+        // The axis holds the estimates; an interval reaching more than half their span beyond
+        // them runs off it.
+        let (_, y) = chart.axes();
+        assert!(y.lo <= -20.0 && y.hi >= 10.0 && y.hi < 30.0, "{y:?}");
+        let narrower = [
+            rows[0].clone(),
+            row(Tier::Sampled("1/16x4".into()), 110.0, Some(12.0)),
+            rows[2].clone(),
+        ];
+        let (_, y) = super::chart(&narrower).axes();
+        assert!(y.lo <= -20.0 && y.hi >= 22.0, "{y:?}");
     }
 }

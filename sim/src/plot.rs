@@ -1,21 +1,34 @@
-//! Charts as SVG and PNG with `plotters`: scatter plots of labelled points in series (color per
-//! series, marker shape per label) with linear or logarithmic axes ([`Scatter`]), grouped or
-//! stacked bar charts over categories with reference lines such as a paper's published values
-//! ([`Bars`]), and line charts ([`Lines`]). Text is laid out and drawn into the PNG with
-//! DejaVu Sans embedded in the binary (the `dejavu` crate; rasterized in Rust by `ab_glyph`,
-//! see [`EmbeddedText`]), so charts need no system font, fontconfig or freetype; the SVG names
-//! the font family only (`sans-serif`: the viewer's font).
+//! Charts as SVG and PNG with `plotters`, drawn as a careful author would for print: scatter
+//! plots of labelled points in series (colour per series, marker shape per label, optional 95%
+//! intervals as error bars, optionally joined by lines) on linear or logarithmic axes
+//! ([`Scatter`]), grouped or stacked bar charts over categories with reference lines such as a
+//! paper's published values ([`Bars`]), and line charts ([`Lines`]). Every chart has its legend
+//! in a band between the title and the plot, never over the data, each entry showing the mark
+//! its series is drawn with; axes run between round numbers with plain tick labels (`100`,
+//! `1,000`; [`axis`]), and a rate's axis can be fixed to 0-100% (`y_range`).
+//!
+//! Text is laid out and drawn into the PNG with DejaVu Sans embedded in the binary (the
+//! `dejavu` crate; rasterized in Rust by `ab_glyph`, see [`EmbeddedText`]), so charts need no
+//! system font, fontconfig or freetype; the SVG names the font family only (`sans-serif`: the
+//! viewer's font).
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use plotters::coord::{CoordTranslate, Shift};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
+pub mod axis;
+mod draw;
+mod frame;
+pub mod legend;
 mod text;
+pub use axis::Axis;
+pub use legend::{Entry, Shape, Swatch};
 pub use text::{text_size, EmbeddedText};
 
-/// One point of a series: its coordinates and the label its marker shape stands for.
+/// One point of a series: its coordinates, the label its marker shape stands for and, for an
+/// estimate, its interval.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Point {
     /// x.
@@ -24,9 +37,11 @@ pub struct Point {
     pub y: f64,
     /// What the point is (e.g. a scene): one marker shape per distinct label.
     pub label: String,
+    /// The interval of y (low, high), e.g. a 95% confidence interval, drawn as an error bar.
+    pub interval: Option<(f64, f64)>,
 }
 
-/// A named set of points drawn in one color.
+/// A named set of points drawn in one colour.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
     /// Legend name.
@@ -48,6 +63,8 @@ pub struct Scatter {
     pub x_log: bool,
     /// Logarithmic y axis.
     pub y_log: bool,
+    /// Join each series' points by lines, in order.
+    pub joined: bool,
     /// The series.
     pub series: Vec<Series>,
 }
@@ -81,17 +98,27 @@ pub fn register_fonts() -> Result<(), String> {
     .clone()
 }
 
-/// Series colors, in order.
-const COLORS: [RGBColor; 6] = [
+/// Series colours, in order (a chart of up to ten series, such as Figure 5 over every scene,
+/// repeats none).
+const COLORS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
 ];
 
-/// Reference-line colors, in order: apart from the series' so a paper's value is not read as a
+/// The colour of series `k`.
+fn color(k: usize) -> RGBColor {
+    COLORS[k % COLORS.len()]
+}
+
+/// Reference-line colours, in order: apart from the series' so a paper's value is not read as a
 /// series.
 const REF_COLORS: [RGBColor; 5] = [
     RGBColor(40, 40, 40),
@@ -101,139 +128,108 @@ const REF_COLORS: [RGBColor; 5] = [
     RGBColor(127, 127, 127),
 ];
 
-/// Marker shapes, one per label in order of first appearance.
-const SHAPES: usize = 5;
-
-/// Draws a marker of shape `shape` at `(x, y)`.
-fn marker<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
-    chart: &mut ChartContext<'_, DB, CT>,
-    x: f64,
-    y: f64,
-    shape: usize,
-    color: RGBColor,
-) -> Result<(), String> {
-    let style = color.filled();
-    let r = 5;
-    let res = match shape % SHAPES {
-        0 => chart.draw_series(std::iter::once(Circle::new((x, y), r, style))),
-        1 => chart.draw_series(std::iter::once(TriangleMarker::new((x, y), r + 1, style))),
-        2 => chart.draw_series(std::iter::once(Cross::new(
-            (x, y),
-            r,
-            color.stroke_width(2),
-        ))),
-        3 => chart.draw_series(std::iter::once(
-            EmptyElement::at((x, y)) + Rectangle::new([(-r, -r), (r, r)], style),
-        )),
-        _ => chart.draw_series(std::iter::once(Circle::new(
-            (x, y),
-            r,
-            color.stroke_width(2),
-        ))),
-    };
-    res.map(|_| ()).map_err(|e| e.to_string())
+/// The colour of reference line `k`.
+fn ref_color(k: usize) -> RGBColor {
+    REF_COLORS[k % REF_COLORS.len()]
 }
 
-/// The axis range of `values` (padded; positive for a log axis).
-fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
-    let (mut lo, mut hi) = values
-        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+/// The colour of the marker-shape key of a scatter chart (shapes standing for labels, not
+/// series).
+const KEY_COLOR: RGBColor = RGBColor(70, 70, 70);
+
+/// The lowest and highest finite values of `values` (`(inf, -inf)` for none).
+fn extent(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    values
+        .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(v), b.max(v))
-        });
-    if !lo.is_finite() {
-        (lo, hi) = if log { (0.1, 10.0) } else { (0.0, 1.0) };
-    }
+        })
+}
+
+/// The axis of `values`: logarithmic (over the positive ones) or linear, from zero.
+fn auto_axis(values: impl Iterator<Item = f64>, log: bool) -> Axis {
     if log {
-        (lo / 1.5, hi * 1.5)
+        let (lo, hi) = extent(values.filter(|v| *v > 0.0));
+        Axis::log(lo, hi)
     } else {
-        let pad = ((hi - lo) * 0.08).max(1e-9);
-        (if lo >= 0.0 { 0.0 } else { lo - pad }, hi + pad)
+        let (lo, hi) = extent(values);
+        Axis::linear(lo, hi)
     }
 }
 
-/// Draws `chart` on `area`.
-fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Scatter) -> Result<(), String> {
-    area.fill(&WHITE).map_err(|e| e.to_string())?;
-    let points = || chart.series.iter().flat_map(|s| s.points.iter());
-    let (x0, x1) = range(points().map(|p| p.x), chart.x_log);
-    let (y0, y1) = range(points().map(|p| p.y), chart.y_log);
-    // Room above the data for the legend (in decades on a logarithmic axis).
-    let entries = chart.series.len();
-    let y1 = if chart.y_log {
-        let (l0, l1) = (y0.log10(), y1.log10());
-        10f64.powf(with_legend_room(l0, l1, entries))
-    } else {
-        with_legend_room(y0, y1, entries)
-    };
-    let mut labels: Vec<&str> = Vec::new();
-    for p in points() {
-        if !labels.contains(&p.label.as_str()) {
-            labels.push(&p.label);
-        }
-    }
-    let mut builder = ChartBuilder::on(area);
-    builder
-        .caption(&chart.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60);
-    macro_rules! finish {
-        ($ctx:expr) => {{
-            let mut ctx = $ctx;
-            ctx.configure_mesh()
-                .x_desc(chart.x_label.as_str())
-                .y_desc(chart.y_label.as_str())
-                .draw()
-                .map_err(|e| e.to_string())?;
-            for (k, s) in chart.series.iter().enumerate() {
-                let color = COLORS[k % COLORS.len()];
-                for p in &s.points {
-                    let shape = labels.iter().position(|l| *l == p.label).unwrap_or(0);
-                    if p.x.is_finite() && p.y.is_finite() {
-                        marker(&mut ctx, p.x, p.y, shape, color)?;
-                    }
-                }
-                ctx.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-                    .map_err(|e| e.to_string())?
-                    .label(s.name.as_str())
-                    .legend(move |(x, y)| Circle::new((x, y), 5, color.filled()));
+impl Scatter {
+    /// The labels of the points, in order of first appearance: label `i` is drawn with
+    /// [`legend::shape`]`(i)`.
+    pub fn labels(&self) -> Vec<&str> {
+        let mut labels: Vec<&str> = Vec::new();
+        for p in self.series.iter().flat_map(|s| &s.points) {
+            if !labels.contains(&p.label.as_str()) {
+                labels.push(&p.label);
             }
-            ctx.configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(|e| e.to_string())?;
-        }};
+        }
+        labels
     }
-    match (chart.x_log, chart.y_log) {
-        (true, true) => finish!(builder
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(|e| e.to_string())?),
-        (true, false) => finish!(builder
-            .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
-            .map_err(|e| e.to_string())?),
-        (false, true) => finish!(builder
-            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
-            .map_err(|e| e.to_string())?),
-        (false, false) => finish!(builder
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| e.to_string())?),
+
+    /// The shape points labelled `label` are drawn with.
+    pub fn shape_of(&self, label: &str) -> Shape {
+        legend::shape(self.labels().iter().position(|l| *l == label).unwrap_or(0))
     }
-    // The marker shapes' key, under the plot.
-    let key: Vec<String> = labels
-        .iter()
-        .enumerate()
-        .map(|(i, l)| format!("{} {l}", ["o", "^", "x", "[]", "()"][i % SHAPES]))
-        .collect();
-    area.draw_text(
-        &format!("markers: {}", key.join("  ")),
-        &("sans-serif", 13).into_font().color(&BLACK),
-        (70, area.dim_in_pixel().1 as i32 - 16),
-    )
-    .map_err(|e| e.to_string())?;
-    area.present().map_err(|e| e.to_string())
+
+    /// The x and y axes: they hold every point, and every interval unless it reaches further
+    /// than half the points' span beyond them (a wide interval of an estimate from few
+    /// replicates would flatten the rest: it runs off the plot instead).
+    pub fn axes(&self) -> (Axis, Axis) {
+        let points = || self.series.iter().flat_map(|s| &s.points);
+        let x = auto_axis(points().map(|p| p.x), self.x_log);
+        let ys = auto_axis(points().map(|p| p.y), self.y_log);
+        let (lo, hi) = (ys.to(ys.lo), ys.to(ys.hi));
+        let reach = 0.5 * (hi - lo);
+        let within = |v: f64| ys.to(v) >= lo - reach && ys.to(v) <= hi + reach;
+        let ends = points().flat_map(|p| p.interval.map(|(a, b)| [a, b]).into_iter().flatten());
+        let y = auto_axis(
+            points().map(|p| p.y).chain(ends.filter(|&v| within(v))),
+            self.y_log,
+        );
+        (x, y)
+    }
+
+    /// The legend: one entry per series with the mark it is drawn with (its marker when all its
+    /// points share a label, else its colour), then, when the shapes stand for something else
+    /// than the series (a label that is not its series' name), one entry per label with its
+    /// shape.
+    pub fn legend(&self) -> Vec<Entry> {
+        let mut entries: Vec<Entry> = self
+            .series
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let first = s.points.first().map(|p| p.label.as_str());
+                let one_label = s.points.iter().all(|p| Some(p.label.as_str()) == first);
+                let c = color(k);
+                let swatch = match (one_label, self.joined) {
+                    (true, false) => Swatch::Marker(self.shape_of(first.unwrap_or("")), c),
+                    (true, true) => Swatch::LineMarker(self.shape_of(first.unwrap_or("")), c),
+                    (false, false) => Swatch::Patch(c),
+                    (false, true) => Swatch::Line(c),
+                };
+                Entry {
+                    name: s.name.clone(),
+                    swatch,
+                }
+            })
+            .collect();
+        let key = self
+            .series
+            .iter()
+            .any(|s| s.points.iter().any(|p| p.label != s.name));
+        if key {
+            entries.extend(self.labels().into_iter().map(|l| Entry {
+                name: l.to_string(),
+                swatch: Swatch::Marker(self.shape_of(l), KEY_COLOR),
+            }));
+        }
+        entries
+    }
 }
 
 /// Draws with `draw_on` into `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
@@ -271,7 +267,11 @@ fn write_both(
 
 /// Writes `chart` as `<stem>.svg` and `<stem>.png` (900 x 600); returns both paths.
 pub fn write_scatter(stem: &Path, chart: &Scatter) -> Result<(PathBuf, PathBuf), PlotError> {
-    write_both(stem, |a| draw(a, chart), |a| draw(a, chart))
+    write_both(
+        stem,
+        |a| draw::scatter(a, chart),
+        |a| draw::scatter(a, chart),
+    )
 }
 
 /// A value series of a bar chart: one value per category (`None`: no bar).
@@ -283,7 +283,7 @@ pub struct BarSeries {
     pub values: Vec<Option<f64>>,
 }
 
-/// A horizontal reference line (e.g. a paper's published value) across a bar chart.
+/// A horizontal reference line (e.g. a paper's published value) across a chart.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reference {
     /// Legend name.
@@ -307,137 +307,70 @@ pub struct Bars {
     pub references: Vec<Reference>,
     /// Stack the series instead of placing them side by side.
     pub stacked: bool,
+    /// A fixed y range (e.g. `(0.0, 100.0)` for a rate in percent) instead of one fitted to the
+    /// values.
+    pub y_range: Option<(f64, f64)>,
 }
 
-/// Draws `chart` on `area`.
-fn draw_bars<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    chart: &Bars,
-) -> Result<(), String> {
-    area.fill(&WHITE).map_err(|e| e.to_string())?;
-    let n = chart.categories.len().max(1);
-    let top = if chart.stacked {
-        (0..n)
-            .map(|i| {
-                chart
-                    .series
-                    .iter()
-                    .filter_map(|s| s.values.get(i).copied().flatten())
-                    .sum::<f64>()
-            })
-            .fold(0.0, f64::max)
-    } else {
-        chart
-            .series
+impl Bars {
+    /// The bars' (bottom, top) per series and category (`None`: no bar).
+    pub fn spans(&self) -> Vec<Vec<Option<(f64, f64)>>> {
+        let n = self.categories.len();
+        let mut below = vec![0.0; n];
+        self.series
             .iter()
-            .flat_map(|s| s.values.iter().flatten().copied())
-            .fold(0.0, f64::max)
-    };
-    let top = chart
-        .references
-        .iter()
-        .map(|r| r.value)
-        .fold(top, f64::max)
-        .max(1e-9);
-    let top = with_legend_room(0.0, top, chart.series.len() + chart.references.len());
-    let cats = chart.categories.clone();
-    let mut ctx = ChartBuilder::on(area)
-        .caption(&chart.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(-0.5f64..n as f64 - 0.5, 0f64..top)
-        .map_err(|e| e.to_string())?;
-    // Category i is centred on x = i, so the axis' whole-number ticks carry the names.
-    ctx.configure_mesh()
-        .disable_x_mesh()
-        .x_labels(n + 1)
-        .x_label_formatter(&|x: &f64| {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 {
-                cats.get(i as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        })
-        .y_desc(chart.y_label.as_str())
-        .draw()
-        .map_err(|e| e.to_string())?;
-    let k = chart.series.len().max(1) as f64;
-    for (j, s) in chart.series.iter().enumerate() {
-        let color = COLORS[j % COLORS.len()];
-        let bars = s.values.iter().enumerate().filter_map(|(i, v)| {
-            let v = (*v)?;
-            let (x0, x1, y0) = if chart.stacked {
-                let below: f64 = chart.series[..j]
-                    .iter()
-                    .filter_map(|t| t.values.get(i).copied().flatten())
-                    .sum();
-                (i as f64 - 0.35, i as f64 + 0.35, below)
-            } else {
-                let w = 0.8 / k;
-                let x = i as f64 - 0.4 + w * j as f64;
-                (x, x + w * 0.92, 0.0)
-            };
-            Some(Rectangle::new([(x0, y0), (x1, y0 + v)], color.filled()))
-        });
-        ctx.draw_series(bars)
-            .map_err(|e| e.to_string())?
-            .label(s.name.as_str())
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
+            .map(|s| {
+                (0..n)
+                    .map(|i| {
+                        let v = s.values.get(i).copied().flatten()?;
+                        if !v.is_finite() {
+                            return None;
+                        }
+                        if self.stacked {
+                            let b = below[i];
+                            below[i] += v;
+                            Some((b, b + v))
+                        } else {
+                            Some((0.0, v))
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
     }
-    references(&mut ctx, &chart.references, (-0.5, n as f64 - 0.5))?;
-    finish_legend(&mut ctx)?;
-    area.present().map_err(|e| e.to_string())
+
+    /// The y axis: the fixed range, else one holding every bar, reference and zero.
+    pub fn y_axis(&self) -> Axis {
+        if let Some((lo, hi)) = self.y_range {
+            return Axis::fixed(lo, hi);
+        }
+        let bars = self.spans();
+        let ends = bars.iter().flatten().flatten().flat_map(|&(a, b)| [a, b]);
+        let (lo, hi) = extent(ends.chain(self.references.iter().map(|r| r.value)));
+        Axis::linear(lo, hi)
+    }
+
+    /// The legend: a colour patch per series, a dashed line per reference.
+    pub fn legend(&self) -> Vec<Entry> {
+        let series = self.series.iter().enumerate().map(|(k, s)| Entry {
+            name: s.name.clone(),
+            swatch: Swatch::Patch(color(k)),
+        });
+        series.chain(reference_entries(&self.references)).collect()
+    }
+}
+
+/// The legend entries of reference lines.
+fn reference_entries(refs: &[Reference]) -> impl Iterator<Item = Entry> + '_ {
+    refs.iter().enumerate().map(|(k, r)| Entry {
+        name: r.name.clone(),
+        swatch: Swatch::Dashed(ref_color(k)),
+    })
 }
 
 /// Writes the bar chart as `<stem>.svg` and `<stem>.png`; returns both paths.
 pub fn write_bars(stem: &Path, chart: &Bars) -> Result<(PathBuf, PathBuf), PlotError> {
-    write_both(stem, |a| draw_bars(a, chart), |a| draw_bars(a, chart))
-}
-
-/// The top of a y range `bottom..top` raised so that a legend of `entries` entries in the upper
-/// right corner stays above the data.
-fn with_legend_room(bottom: f64, top: f64, entries: usize) -> f64 {
-    top + (top - bottom) * (0.08 + 0.055 * entries as f64)
-}
-
-/// Draws `refs` as dashed horizontal lines across `x`, each with its legend entry.
-fn references<DB: DrawingBackend, CT: CoordTranslate<From = (f64, f64)>>(
-    ctx: &mut ChartContext<'_, DB, CT>,
-    refs: &[Reference],
-    (x0, x1): (f64, f64),
-) -> Result<(), String> {
-    for (j, r) in refs.iter().enumerate() {
-        let color = REF_COLORS[j % REF_COLORS.len()];
-        let step = (x1 - x0) / 60.0;
-        let dashes = (0..60).step_by(2).map(|q| {
-            let x = x0 + q as f64 * step;
-            PathElement::new(
-                vec![(x, r.value), (x + step, r.value)],
-                color.stroke_width(2),
-            )
-        });
-        ctx.draw_series(dashes)
-            .map_err(|e| e.to_string())?
-            .label(r.name.as_str())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2))
-            });
-    }
-    Ok(())
-}
-
-/// Draws the legend of the series labelled so far, in the upper right corner.
-fn finish_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate<From = (f64, f64)>>(
-    ctx: &mut ChartContext<'a, DB, CT>,
-) -> Result<(), String> {
-    ctx.configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| e.to_string())
+    write_both(stem, |a| draw::bars(a, chart), |a| draw::bars(a, chart))
 }
 
 /// A line of a line chart.
@@ -449,7 +382,7 @@ pub struct Line {
     pub points: Vec<(f64, f64)>,
 }
 
-/// A line chart.
+/// A line chart: each line with a marker of its own shape at every point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lines {
     /// Title above the plot.
@@ -462,60 +395,81 @@ pub struct Lines {
     pub lines: Vec<Line>,
     /// Reference lines, dashed.
     pub references: Vec<Reference>,
+    /// A fixed x range instead of one fitted to the points.
+    pub x_range: Option<(f64, f64)>,
+    /// A fixed y range (e.g. `(0.0, 100.0)` for a rate in percent).
+    pub y_range: Option<(f64, f64)>,
 }
 
-/// Draws `chart` on `area`.
-fn draw_lines<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    chart: &Lines,
-) -> Result<(), String> {
-    area.fill(&WHITE).map_err(|e| e.to_string())?;
-    let points = || chart.lines.iter().flat_map(|l| l.points.iter());
-    let (x0, x1) = range(points().map(|p| p.0), false);
-    let (y0, y1) = range(
-        points()
-            .map(|p| p.1)
-            .chain(chart.references.iter().map(|r| r.value)),
-        false,
-    );
-    // Non-negative data from zero, with room above it for the legend.
-    let y0 = if y0 >= 0.0 { 0.0 } else { y0 };
-    let y1 = with_legend_room(y0, y1, chart.lines.len() + chart.references.len());
-    let mut ctx = ChartBuilder::on(area)
-        .caption(&chart.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(|e| e.to_string())?;
-    ctx.configure_mesh()
-        .x_desc(chart.x_label.as_str())
-        .y_desc(chart.y_label.as_str())
-        .draw()
-        .map_err(|e| e.to_string())?;
-    for (j, l) in chart.lines.iter().enumerate() {
-        let color = COLORS[j % COLORS.len()];
-        ctx.draw_series(LineSeries::new(
-            l.points.iter().copied(),
-            color.stroke_width(2),
-        ))
-        .map_err(|e| e.to_string())?
-        .label(l.name.as_str())
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 12, y)], color.stroke_width(2)));
+impl Lines {
+    /// The x and y axes: the fixed ranges, else ones holding every point (and reference).
+    pub fn axes(&self) -> (Axis, Axis) {
+        let points = || self.lines.iter().flat_map(|l| &l.points);
+        let fit = |range: Option<(f64, f64)>, values: Vec<f64>| match range {
+            Some((lo, hi)) => Axis::fixed(lo, hi),
+            None => {
+                let (lo, hi) = extent(values.into_iter());
+                Axis::linear(lo, hi)
+            }
+        };
+        let refs = self.references.iter().map(|r| r.value);
+        (
+            fit(self.x_range, points().map(|p| p.0).collect()),
+            fit(self.y_range, points().map(|p| p.1).chain(refs).collect()),
+        )
     }
-    references(&mut ctx, &chart.references, (x0, x1))?;
-    finish_legend(&mut ctx)?;
-    area.present().map_err(|e| e.to_string())
+
+    /// The legend: each line with its marker, then a dashed line per reference.
+    pub fn legend(&self) -> Vec<Entry> {
+        let lines = self.lines.iter().enumerate().map(|(k, l)| Entry {
+            name: l.name.clone(),
+            swatch: Swatch::LineMarker(legend::shape(k), color(k)),
+        });
+        lines.chain(reference_entries(&self.references)).collect()
+    }
 }
 
 /// Writes the line chart as `<stem>.svg` and `<stem>.png`; returns both paths.
 pub fn write_lines(stem: &Path, chart: &Lines) -> Result<(PathBuf, PathBuf), PlotError> {
-    write_both(stem, |a| draw_lines(a, chart), |a| draw_lines(a, chart))
+    write_both(stem, |a| draw::lines(a, chart), |a| draw::lines(a, chart))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn point(x: f64, y: f64, label: &str) -> Point {
+        Point {
+            x,
+            y,
+            label: label.into(),
+            interval: None,
+        }
+    }
+
+    /// A scatter chart whose series each carry one label: its own name.
+    fn per_scene() -> Scatter {
+        let series = |name: &str, ys: [f64; 3]| Series {
+            name: name.into(),
+            points: [32.0, 1024.0, 65536.0]
+                .iter()
+                .zip(ys)
+                .map(|(&x, y)| point(x, y, name))
+                .collect(),
+        };
+        Scatter {
+            title: "potential speedup".into(),
+            x_label: "concurrent rays".into(),
+            y_label: "speedup".into(),
+            x_log: true,
+            y_log: true,
+            joined: false,
+            series: vec![
+                series("WKND", [2.0, 30.0, 150.0]),
+                series("SHIP", [1.8, 13.0, 50.0]),
+            ],
+        }
+    }
 
     #[test]
     fn writes_an_svg_and_a_png() {
@@ -524,32 +478,24 @@ mod tests {
         let chart = Scatter {
             title: "run time against error".into(),
             x_label: "wall s".into(),
-            y_label: "|error| %".into(),
+            y_label: "error %".into(),
             x_log: true,
             y_log: false,
+            joined: false,
             series: vec![
                 Series {
                     name: "sampled".into(),
                     points: vec![
                         Point {
-                            x: 0.5,
-                            y: 1.2,
-                            label: "wknd".into(),
+                            interval: Some((-0.3, 2.7)),
+                            ..point(0.5, 1.2, "wknd")
                         },
-                        Point {
-                            x: 2.0,
-                            y: 0.4,
-                            label: "sponza".into(),
-                        },
+                        point(2.0, -0.4, "sponza"),
                     ],
                 },
                 Series {
                     name: "analytical".into(),
-                    points: vec![Point {
-                        x: 0.1,
-                        y: 20.0,
-                        label: "wknd".into(),
-                    }],
+                    points: vec![point(0.1, 20.0, "wknd")],
                 },
             ],
         };
@@ -577,6 +523,7 @@ mod tests {
                 value: 1.95,
             }],
             stacked: false,
+            y_range: None,
         };
         let (svg, _) = write_bars(&dir.join("bars"), &bars).unwrap();
         assert!(std::fs::read_to_string(svg).unwrap().contains("paper"));
@@ -589,9 +536,136 @@ mod tests {
                 points: vec![(0.0, 0.6), (1.0, 0.62)],
             }],
             references: vec![],
+            x_range: None,
+            y_range: None,
         };
         let (_, png) = write_lines(&dir.join("lines"), &lines).unwrap();
         assert!(std::fs::metadata(png).unwrap().len() > 1000);
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn legend_markers_are_the_series_markers() {
+        let chart = per_scene();
+        let legend = chart.legend();
+        // One entry per series, no separate shape key: each series is one scene.
+        assert_eq!(legend.len(), 2);
+        for (k, s) in chart.series.iter().enumerate() {
+            let shape = chart.shape_of(&s.points[0].label);
+            assert_eq!(legend[k].swatch, Swatch::Marker(shape, color(k)));
+        }
+        assert_eq!(legend[1].swatch, Swatch::Marker(Shape::Triangle, color(1)));
+        let joined = Scatter {
+            joined: true,
+            ..chart.clone()
+        };
+        assert_eq!(
+            joined.legend()[1].swatch,
+            Swatch::LineMarker(Shape::Triangle, color(1))
+        );
+        // In the drawing: the first series' circles and its legend circle, no circle for the
+        // triangles' legend entry.
+        let dir = std::env::temp_dir().join(format!("vtq-plot-legend-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (svg, _) = write_scatter(&dir.join("fig5"), &chart).unwrap();
+        let text = std::fs::read_to_string(svg).unwrap();
+        assert_eq!(text.matches("<circle").count(), 3 + 1, "{text}");
+        let _ = std::fs::remove_dir_all(&dir);
+        // Series of several labels: a colour patch each, then the shapes' key.
+        let mixed = Scatter {
+            series: vec![Series {
+                name: "sampled".into(),
+                points: vec![point(1.0, 1.0, "WKND"), point(2.0, 2.0, "SHIP")],
+            }],
+            ..chart
+        };
+        let legend = mixed.legend();
+        assert_eq!(legend[0].swatch, Swatch::Patch(color(0)));
+        assert_eq!(legend[1].name, "WKND");
+        assert_eq!(legend[2].swatch, Swatch::Marker(Shape::Triangle, KEY_COLOR));
+    }
+
+    #[test]
+    fn rate_axes_end_at_100_percent_and_others_fit_the_data() {
+        let bars = Bars {
+            title: "miss rate".into(),
+            y_label: "%".into(),
+            categories: vec!["a".into(), "b".into()],
+            series: vec![BarSeries {
+                name: "vtq".into(),
+                values: vec![Some(52.7), Some(98.0)],
+            }],
+            references: vec![Reference {
+                name: "paper".into(),
+                value: 70.0,
+            }],
+            stacked: false,
+            y_range: Some((0.0, 100.0)),
+        };
+        let y = bars.y_axis();
+        assert_eq!((y.lo, y.hi), (0.0, 100.0));
+        assert_eq!(y.ticks.last(), Some(&100.0));
+        // Without a fixed range: zero to the first tick above the highest bar or reference.
+        let fitted = Bars {
+            y_range: None,
+            ..bars.clone()
+        };
+        let y = fitted.y_axis();
+        assert_eq!(y.lo, 0.0);
+        assert!(y.hi >= 98.0 && y.hi <= 120.0, "{}", y.hi);
+        // Stacked shares sum to 100: the axis is 0..=100.
+        let stacked = Bars {
+            series: vec![
+                BarSeries {
+                    name: "a".into(),
+                    values: vec![Some(30.0), Some(60.0)],
+                },
+                BarSeries {
+                    name: "b".into(),
+                    values: vec![Some(70.0), Some(40.0)],
+                },
+            ],
+            stacked: true,
+            ..bars
+        };
+        assert_eq!(stacked.spans()[1][0], Some((30.0, 100.0)));
+        let y = stacked.y_axis();
+        assert_eq!((y.lo, y.hi), (0.0, 100.0));
+        // A negative bar (a design faster than its reference): the axis goes below zero.
+        let negative = Bars {
+            series: vec![BarSeries {
+                name: "overhead".into(),
+                values: vec![Some(-3.0), Some(10.4)],
+            }],
+            y_range: None,
+            stacked: false,
+            references: vec![],
+            ..stacked
+        };
+        let y = negative.y_axis();
+        assert!(y.lo <= -3.0 && y.hi >= 10.4);
+        let lines = Lines {
+            title: "miss rate over the run".into(),
+            x_label: "%".into(),
+            y_label: "%".into(),
+            lines: vec![Line {
+                name: "baseline".into(),
+                points: vec![(5.0, 22.0), (95.0, 99.5)],
+            }],
+            references: vec![],
+            x_range: Some((0.0, 100.0)),
+            y_range: Some((0.0, 100.0)),
+        };
+        let (x, y) = lines.axes();
+        assert_eq!((x.lo, x.hi, y.lo, y.hi), (0.0, 100.0, 0.0, 100.0));
+    }
+
+    #[test]
+    fn log_axes_of_a_scatter_hold_its_points() {
+        let (x, y) = per_scene().axes();
+        assert!(x.log && y.log);
+        assert!(x.lo <= 32.0 && x.hi >= 65536.0);
+        assert!(y.lo <= 1.8 && y.hi >= 150.0);
+        assert!(x.ticks.contains(&1000.0));
     }
 }

@@ -193,6 +193,71 @@ fn reproduce_reuses_what_a_sweep_stored() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A cube of 12 triangles on a floor quad, as an OBJ file.
+const BOX_OBJ: &str = "\
+v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n\
+v -0.3 0 -0.3\nv 0.3 0 -0.3\nv 0.3 0 0.3\nv -0.3 0 0.3\n\
+v -0.3 0.6 -0.3\nv 0.3 0.6 -0.3\nv 0.3 0.6 0.3\nv -0.3 0.6 0.3\n\
+f 1 2 3\nf 1 3 4\n\
+f 5 6 10\nf 5 10 9\nf 6 7 11\nf 6 11 10\nf 7 8 12\nf 7 12 11\nf 8 5 9\nf 8 9 12\n\
+f 9 10 11\nf 9 11 12\n";
+
+#[test]
+fn a_scene_folder_given_by_its_path_is_named_by_its_scene_toml() {
+    let dir = scratch("folder");
+    // A path with folders and a space: none of it may reach a label or a file name.
+    let scene = dir.join("scenes/my box");
+    std::fs::create_dir_all(&scene).unwrap();
+    std::fs::write(scene.join("box.obj"), BOX_OBJ).unwrap();
+    std::fs::write(
+        scene.join("scene.toml"),
+        "name = \"BOX\"\n[camera]\neye = [0.0, 1.5, 3.0]\nlook_at = [0.0, 0.3, 0.0]\n\
+         up = [0.0, 1.0, 0.0]\nfov_y_deg = 40\n",
+    )
+    .unwrap();
+    let out = dir.join("page");
+    let spec = scene.to_str().unwrap();
+    let args = [
+        "reproduce",
+        "--out",
+        out.to_str().unwrap(),
+        "--jobs",
+        "2",
+        "--scene",
+        spec,
+        "--set",
+        "width=24",
+        "--set",
+        "height=16",
+    ];
+    vtq(&dir, &args);
+    // Figure 11's files are named after the scene's name; no figure file after its path.
+    let files: Vec<String> = std::fs::read_dir(out.join("figures"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(files.contains(&"fig11-BOX.png".to_string()), "{files:?}");
+    assert!(files.contains(&"fig11-BOX.svg".to_string()), "{files:?}");
+    assert!(
+        files
+            .iter()
+            .all(|f| !f.contains("scenes") && !f.contains("box_")),
+        "{files:?}"
+    );
+    // The charts and tables label it BOX; only the page's account of the run names the path.
+    for figure in ["fig01a", "fig05", "fig10", "fig11-BOX", "fig14"] {
+        let svg = std::fs::read_to_string(out.join(format!("figures/{figure}.svg"))).unwrap();
+        assert!(svg.contains("BOX"), "{figure} does not name the scene");
+        assert!(!svg.contains("scenes/"), "{figure} names the scene's path");
+    }
+    let csv = std::fs::read_to_string(out.join("tables/fig10.csv")).unwrap();
+    assert!(csv.lines().nth(1).unwrap().starts_with("BOX,"), "{csv}");
+    let md = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(md.contains(&format!("BOX (`{spec}`)")), "{md}");
+    assert!(md.contains("| BOX |"), "{md}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Chromium (Debian's `chromium`), if installed.
 fn chromium() -> Option<PathBuf> {
     ["chromium", "chromium-browser", "google-chrome"]

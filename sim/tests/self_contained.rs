@@ -174,17 +174,17 @@ fn accuracy_draws_its_chart_text_without_fontconfig() {
         String::from_utf8_lossy(&o.stderr)
     );
     let png = out.join("accuracy.png");
-    // The title sits in the top 40 rows above the plot area (white without text); the axis
-    // labels and the marker key under the plot.
+    // The title sits in the top 40 rows above the legend and the plot (white without text);
+    // the x axis' caption in the bottom rows, under its tick labels.
     let title = dark_pixels(&png, 0..40);
     assert!(
         title > 200,
         "{title} dark pixels in the title band: no text drawn"
     );
-    let key = dark_pixels(&png, 575..600);
+    let caption = dark_pixels(&png, 575..600);
     assert!(
-        key > 100,
-        "{key} dark pixels in the marker key band: no text drawn"
+        caption > 100,
+        "{caption} dark pixels in the x axis caption's band: no text drawn"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -20,9 +20,10 @@ use crate::figure5::{model, Figure5Row};
 use crate::output::check_dir;
 use crate::reproduce::figures::{self, Figure};
 use crate::reproduce::page::Page;
+use crate::reproduce::tables;
 use crate::reproduce::{
-    check_experiments_dir, default_experiments_dir, load_experiment, project_root, Results,
-    FIGURE_EXPERIMENTS,
+    check_experiments_dir, default_experiments_dir, load_experiment, project_root, scene_labels,
+    Results, FIGURE_EXPERIMENTS,
 };
 use crate::scene::Scene;
 use crate::sweep::{Point, PreparedScene, ResultStore, Reuse};
@@ -161,7 +162,8 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             args,
             &experiments,
             &results_dir,
-            &points,
+            &scenes,
+            points.len(),
             &failed,
             start.elapsed().as_secs_f64(),
         ),
@@ -173,7 +175,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
                  holding at least the underpopulation threshold (127) rays; a full table (600 \
                  entries) evicts its smallest queue. The paper: at most 549 and 13."
                     .into(),
-                figures::section65(&results),
+                tables::section65(&results),
             ),
             (
                 "Section 6.5: storage and area of the tables".into(),
@@ -181,7 +183,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
                  configuration: the paper gives 2.2 KB for the count table, 6.29 KB for the \
                  queue table and 128 KB of ray records."
                     .into(),
-                figures::area_table(&area),
+                tables::area_table(&area),
             ),
         ],
     };
@@ -225,7 +227,8 @@ type FigureFn = fn(&Results<'_>, &Path) -> anyhow::Result<Figure>;
 /// Batch sizes of the Figure 5 model: one warp up to the whole GPU's 16 x 4096 rays.
 const FIGURE5_RAYS: [u64; 9] = [32, 128, 512, 1024, 2048, 4096, 8192, 16384, 65536];
 
-/// The Figure 5 model's rows of every scene, from its functional render under `cfg`.
+/// The Figure 5 model's rows of every scene (by its name, [`scene_labels`]), from its
+/// functional render under `cfg`.
 fn figure5_rows(
     scenes: &[PreparedScene],
     cfg: &SimConfig,
@@ -234,12 +237,13 @@ fn figure5_rows(
     let build = |scene: &Scene, params: &BvhParams| build_bvh(scene, params, cache);
     scenes
         .iter()
-        .map(|s| {
+        .zip(scene_labels(scenes))
+        .map(|(s, name)| {
             let bvh = s.bvh(&cfg.bvh_params(), &build)?;
             let rendered = render(&s.scene, bvh.as_ref(), &cfg.render_settings(), None)
                 .with_context(|| format!("rendering scene '{}' for Figure 5", s.spec))?;
             let rows = model(&bvh, &rendered, cfg.gpu.threads_per_cta, &FIGURE5_RAYS);
-            Ok((s.spec.clone(), rows))
+            Ok((name, rows))
         })
         .collect()
 }
@@ -249,19 +253,23 @@ fn intro(
     args: &ReproduceArgs,
     experiments: &Path,
     results: &Path,
-    points: &[Point],
+    scenes: &[PreparedScene],
+    runs: usize,
     failed: &[String],
     seconds: f64,
 ) -> Vec<String> {
-    let scenes: Vec<&str> = {
-        let mut v: Vec<&str> = Vec::new();
-        for p in points {
-            if !v.contains(&p.scene.as_str()) {
-                v.push(&p.scene);
+    // Each scene by its name, with what it was given as where that differs.
+    let names: Vec<String> = scenes
+        .iter()
+        .zip(scene_labels(scenes))
+        .map(|(s, name)| {
+            if name.eq_ignore_ascii_case(&s.spec) {
+                name
+            } else {
+                format!("{name} (`{}`)", s.spec)
             }
-        }
-        v
-    };
+        })
+        .collect();
     let mut intro = vec![
         format!(
             "The figures of Chou & Aamodt, Virtualized Treelet Queues (ASPLOS 2025), measured by \
@@ -270,8 +278,8 @@ fn intro(
              gives numbers (the paper simulated all of LumiBench in Vulkan-Sim; the shared scenes \
              are smaller subsets). Means leave the built-in scenes out.",
             crate::sweep::key::VTQ_VERSION,
-            scenes.join(", "),
-            points.len(),
+            names.join(", "),
+            runs,
             experiments.display()
         ),
         format!(

@@ -7,9 +7,8 @@
 use std::path::Path;
 
 use serde_json::Value as Json;
-use vtq_gen::AreaReport;
 
-use super::{is_builtin, Results};
+use super::{file_safe, is_builtin, Results};
 use crate::figure5::Figure5Row;
 use crate::plot::{
     write_bars, write_lines, write_scatter, BarSeries, Bars, Line, Lines, Point, Reference,
@@ -21,7 +20,7 @@ const BASELINE: &str = "configs/baseline.toml";
 /// Treelet prefetching.
 const PREFETCH: &str = "configs/prefetch.toml";
 /// The full design (repacking below 22 active rays).
-const VTQ: &str = "configs/vtq.toml";
+pub(super) const VTQ: &str = "configs/vtq.toml";
 /// Treelet queues without grouping or repacking (also the permanent treelet-stationary mode of
 /// Figure 11).
 const NAIVE: &str = "configs/queues-naive.toml";
@@ -29,6 +28,11 @@ const NAIVE: &str = "configs/queues-naive.toml";
 const GROUPING: &str = "configs/queues-grouping.toml";
 /// Grouping and repacking below 16 active rays.
 const REPACK16: &str = "configs/queues-repack16.toml";
+
+/// The axis range of a rate drawn as a fraction (SIMT efficiency).
+const RATE: (f64, f64) = (0.0, 1.0);
+/// The axis range of a rate or share drawn in percent.
+const RATE_PERCENT: (f64, f64) = (0.0, 100.0);
 
 /// A table of numbers: a header and rows of cells.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -55,7 +59,7 @@ pub struct Figure {
 }
 
 /// A number read from statistics by JSON pointer.
-fn num(stats: &Json, pointer: &str) -> Option<f64> {
+pub(super) fn num(stats: &Json, pointer: &str) -> Option<f64> {
     stats.pointer(pointer).and_then(Json::as_f64)
 }
 
@@ -82,7 +86,7 @@ fn mean(values: &[Option<f64>]) -> Option<f64> {
 }
 
 /// A cell with `decimals` decimals, `-` for a missing value.
-fn cell(v: Option<f64>, decimals: usize) -> String {
+pub(super) fn cell(v: Option<f64>, decimals: usize) -> String {
     v.map_or_else(|| "-".to_string(), |x| format!("{x:.decimals$}"))
 }
 
@@ -120,17 +124,13 @@ fn with_mean(scenes: &[&str], values: Vec<Option<f64>>, how: Mean) -> Vec<Option
     values.into_iter().chain([m]).collect()
 }
 
-/// The categories of a per-scene chart: the scenes, then the mean.
-fn categories(scenes: &[&str], how: Mean) -> Vec<String> {
+/// The categories of a per-scene chart: the scenes' names, then the mean.
+fn categories(names: &[String], how: Mean) -> Vec<String> {
     let name = match how {
         Mean::Geometric => "geo. mean",
         Mean::Arithmetic => "mean",
     };
-    scenes
-        .iter()
-        .map(|s| s.to_string())
-        .chain([name.to_string()])
-        .collect()
+    names.iter().cloned().chain([name.to_string()]).collect()
 }
 
 /// A reference line.
@@ -206,7 +206,7 @@ fn speedup_bars(
 ) -> anyhow::Result<(String, Table)> {
     let scenes = r.scenes();
     let how = Mean::Geometric;
-    let cats = categories(&scenes, how);
+    let cats = categories(&r.labels(), how);
     let series: Vec<BarSeries> = designs
         .iter()
         .map(|(name, cfg)| BarSeries {
@@ -224,6 +224,7 @@ fn speedup_bars(
             series: series.clone(),
             references,
             stacked: false,
+            y_range: None,
         },
     )?;
     Ok((img, series_table("scene", &cats, &series, |v| cell(v, 2))))
@@ -233,7 +234,7 @@ fn speedup_bars(
 pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
     let how = Mean::Arithmetic;
-    let cats = categories(&scenes, how);
+    let cats = categories(&r.labels(), how);
     let miss = with_mean(
         &scenes,
         per_scene(r, &scenes, BASELINE, "/bvh_l1_miss_rate"),
@@ -252,7 +253,7 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             y_label: "BVH L1 miss rate (%)".into(),
             categories: cats.clone(),
             series: vec![BarSeries {
-                name: "vtq".into(),
+                name: "measured by vtq".into(),
                 values: miss.iter().map(|v| v.map(|x| 100.0 * x)).collect(),
             }],
             references: vec![
@@ -260,6 +261,7 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 paper("paper: max 70%", 70.0),
             ],
             stacked: false,
+            y_range: Some(RATE_PERCENT),
         },
     )?;
     let b = bars(
@@ -270,11 +272,12 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             y_label: "SIMT efficiency".into(),
             categories: cats.clone(),
             series: vec![BarSeries {
-                name: "vtq".into(),
+                name: "measured by vtq".into(),
                 values: simt.clone(),
             }],
             references: vec![paper("paper: mean 0.37", 0.37)],
             stacked: false,
+            y_range: Some(RATE),
         },
     )?;
     let table = Table {
@@ -315,6 +318,7 @@ pub fn figure5(rows: &[(String, Vec<Figure5Row>)], out: &Path) -> anyhow::Result
                     x: r.concurrent_rays as f64,
                     y: r.speedup,
                     label: scene.clone(),
+                    interval: None,
                 })
                 .collect(),
         })
@@ -324,10 +328,11 @@ pub fn figure5(rows: &[(String, Vec<Figure5Row>)], out: &Path) -> anyhow::Result
         &out.join(&stem),
         &Scatter {
             title: "Figure 5: potential speedup of treelets against concurrent rays (model)".into(),
-            x_label: "concurrent rays (log)".into(),
-            y_label: "potential speedup (log)".into(),
+            x_label: "concurrent rays".into(),
+            y_label: "potential speedup (model)".into(),
             x_log: true,
             y_log: true,
+            joined: true,
             series,
         },
     )?;
@@ -400,7 +405,7 @@ pub fn figure11(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         let v = s.as_ref()?.pointer(key)?.as_array()?;
         Some(v.iter().filter_map(Json::as_f64).collect())
     };
-    for scene in &scenes {
+    for (scene, name) in scenes.iter().zip(r.labels()) {
         let base = r.stats(scene, BASELINE, &[]);
         let ts = r.stats(scene, NAIVE, &[]);
         let lines: Vec<(String, Option<Vec<f64>>)> = vec![
@@ -417,20 +422,20 @@ pub fn figure11(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 deciles(&ts, "/bvh_l1_miss_rate_deciles_with_prefetches"),
             ),
         ];
-        for (name, values) in &lines {
-            let mut row = vec![scene.to_string(), name.clone()];
+        for (run, values) in &lines {
+            let mut row = vec![name.clone(), run.clone()];
             row.extend((0..10).map(|d| pct(values.as_ref().and_then(|v| v.get(d).copied()))));
             rows.push(row);
         }
         let chart = Lines {
-            title: format!("Figure 11: BVH L1 miss rate over the run, {scene}"),
-            x_label: "tenth of the run (%)".into(),
+            title: format!("Figure 11: BVH L1 miss rate over the run, {name}"),
+            x_label: "progress through the run (% of cycles)".into(),
             y_label: "BVH L1 miss rate (%)".into(),
             lines: lines
                 .into_iter()
-                .filter_map(|(name, v)| {
+                .filter_map(|(run, v)| {
                     Some(Line {
-                        name,
+                        name: run,
                         points: v?
                             .iter()
                             .enumerate()
@@ -444,8 +449,10 @@ pub fn figure11(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 paper("paper: treelet-stationary late 75-80%", 77.5),
                 paper("paper: baseline plateau 60%", 60.0),
             ],
+            x_range: Some(RATE_PERCENT),
+            y_range: Some(RATE_PERCENT),
         };
-        let stem = format!("figures/fig11-{}", file_safe(scene));
+        let stem = format!("figures/fig11-{}", file_safe(&name));
         write_lines(&out.join(&stem), &chart)?;
         images.push(stem);
     }
@@ -517,7 +524,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         ],
     )?;
     let m = Mean::Arithmetic;
-    let cats_m = categories(&scenes, m);
+    let cats_m = categories(&r.labels(), m);
     let simt: Vec<BarSeries> = std::iter::once(("baseline", BASELINE))
         .chain(designs)
         .map(|(name, cfg)| BarSeries {
@@ -539,6 +546,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 paper("paper: below 22 0.82", 0.82),
             ],
             stacked: false,
+            y_range: Some(RATE),
         },
     )?;
     let simt_table = series_table("scene", &cats_m, &simt, |v| cell(v, 3));
@@ -616,7 +624,7 @@ fn phase_bars(
     references: Vec<Reference>,
 ) -> anyhow::Result<(String, Table)> {
     let scenes = r.scenes();
-    let cats = categories(&scenes, Mean::Arithmetic);
+    let cats = categories(&r.labels(), Mean::Arithmetic);
     let series = phase_series(&scenes, phase_shares(r, &scenes, field));
     let img = bars(
         out,
@@ -628,6 +636,7 @@ fn phase_bars(
             series: series.clone(),
             references,
             stacked: true,
+            y_range: Some(RATE_PERCENT),
         },
     )?;
     let table = series_table("scene", &cats, &series, |v| {
@@ -690,7 +699,7 @@ pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
 pub fn figure16(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
     let how = Mean::Arithmetic;
-    let cats = categories(&scenes, how);
+    let cats = categories(&r.labels(), how);
     let overhead: Vec<Option<f64>> = scenes
         .iter()
         .map(|s| {
@@ -700,7 +709,7 @@ pub fn figure16(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         })
         .collect();
     let series = vec![BarSeries {
-        name: "vtq".into(),
+        name: "measured by vtq".into(),
         values: with_mean(&scenes, overhead, how),
     }];
     let img = bars(
@@ -713,6 +722,7 @@ pub fn figure16(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             series: series.clone(),
             references: vec![paper("paper: about 10%", 10.0)],
             stacked: false,
+            y_range: None,
         },
     )?;
     Ok(Figure {
@@ -727,89 +737,6 @@ pub fn figure16(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             v.map_or_else(|| "-".into(), |x| format!("{x:+.1}%"))
         }),
     })
-}
-
-/// Section 6.5: the treelet queues tracked at once, against the tables' sizes.
-pub fn section65(r: &Results) -> Table {
-    let scenes = r.scenes();
-    let mut rows: Vec<Vec<String>> = scenes
-        .iter()
-        .map(|s| {
-            let stats = r.stats(s, VTQ, &[]);
-            let get = |p: &str| cell(stats.as_ref().and_then(|x| num(x, p)), 0);
-            vec![
-                s.to_string(),
-                get("/max_queues"),
-                get("/max_queues_above_threshold"),
-                get("/count_table_evictions"),
-            ]
-        })
-        .collect();
-    rows.push(vec![
-        "paper (max over LumiBench)".into(),
-        "549".into(),
-        "13".into(),
-        "-".into(),
-    ]);
-    Table {
-        header: vec![
-            "scene".into(),
-            "most treelet queues at once".into(),
-            "most above the threshold".into(),
-            "count-table evictions".into(),
-        ],
-        rows,
-    }
-}
-
-/// Section 6.5: the area report's structures as a table.
-pub fn area_table(report: &AreaReport) -> Table {
-    let mut header = vec![
-        "structure".to_string(),
-        "where".into(),
-        "entries".into(),
-        "bits / entry".into(),
-        "size".into(),
-        "paper".into(),
-    ];
-    if let Some(s) = report.structures.first() {
-        for a in &s.area {
-            header.push(format!("SRAM {} nm (mm²)", a.feature_nm));
-        }
-    }
-    Table {
-        header,
-        rows: report
-            .structures
-            .iter()
-            .map(|s| {
-                let mut row = vec![
-                    s.name.clone(),
-                    s.location.clone(),
-                    s.entries.to_string(),
-                    s.entry_bits.to_string(),
-                    s.size.clone(),
-                    s.paper.clone().unwrap_or_else(|| "-".into()),
-                ];
-                row.extend(s.area.iter().map(|a| format!("{:.4}", a.sram_mm2)));
-                row
-            })
-            .collect(),
-    }
-}
-
-/// A scene name usable in a file name.
-fn file_safe(scene: &str) -> String {
-    scene
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -835,6 +762,5 @@ mod tests {
         );
         assert_eq!(v[2], Some(2.0));
         assert_eq!(cell(None, 2), "-");
-        assert_eq!(file_safe("city:4M"), "city_4M");
     }
 }

@@ -5,12 +5,14 @@
 //! ([`FIGURE_EXPERIMENTS`]): one definition per experiment, shared by `vtq sweep --spec`, the
 //! fidelity study and this command. Their points run into a [`ResultStore`], so a reproduction
 //! that is interrupted resumes, and a point any sweep already ran is not run again. The figures
-//! ([`figures`]) read the stored statistics through [`Results`] and are written as SVG and PNG
-//! with the paper's published values drawn beside vtq's, on an HTML page and its Markdown twin
-//! ([`page`]).
+//! ([`figures`]) and the section 6.5 tables ([`tables`]) read the stored statistics through
+//! [`Results`], which names each scene by its own name ([`scene_labels`]), and are written as
+//! SVG and PNG with the paper's published values drawn beside vtq's, on an HTML page and its
+//! Markdown twin ([`page`]).
 
 pub mod figures;
 pub mod page;
+pub mod tables;
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -38,6 +40,46 @@ pub const FIGURE_EXPERIMENTS: [&str; 8] = [
 pub fn is_builtin(scene: &str) -> bool {
     let lower = scene.to_ascii_lowercase();
     lower == "wknd" || lower == "cornell" || lower.starts_with("city")
+}
+
+/// The names the figures and tables give `scenes`: each scene's own name (a scene folder's
+/// `name` in its scene.toml, else the folder's name; a built-in's name; an `.obj` file's stem),
+/// never the path it was given by. Scenes that share a name are numbered (`LANDS-1`,
+/// `LANDS-2`).
+pub fn scene_labels(scenes: &[PreparedScene]) -> Vec<String> {
+    let names: Vec<&str> = scenes.iter().map(|s| s.scene.name.as_str()).collect();
+    unique_labels(&names)
+}
+
+/// `names`, those that occur more than once numbered in order (`A-1`, `A-2`).
+fn unique_labels(names: &[&str]) -> Vec<String> {
+    let mut seen: HashMap<&str, usize> = HashMap::new();
+    names
+        .iter()
+        .map(|&name| {
+            if names.iter().filter(|&&n| n == name).count() < 2 {
+                return name.to_string();
+            }
+            let k = seen.entry(name).or_default();
+            *k += 1;
+            format!("{name}-{k}")
+        })
+        .collect()
+}
+
+/// `label` as a file name: letters, digits, `-` and `_` kept, everything else (a path's
+/// slashes, a `city:4M`'s colon, spaces) turned into `_`.
+pub fn file_safe(label: &str) -> String {
+    label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 /// One experiment's sweep file, its configuration paths resolved against the project root and
@@ -101,9 +143,15 @@ impl<'a> Results<'a> {
         self
     }
 
-    /// The scenes, in order.
+    /// The scenes as given (what [`Results::stats`] looks up), in order.
     pub fn scenes(&self) -> Vec<&str> {
         self.scenes.iter().map(|s| s.spec.as_str()).collect()
+    }
+
+    /// The scenes' names for figures and tables, in the order of [`Results::scenes`]
+    /// ([`scene_labels`]).
+    pub fn labels(&self) -> Vec<String> {
+        scene_labels(self.scenes)
     }
 
     /// The statistics of `scene` simulated with the configuration file `base` (relative to the
@@ -167,4 +215,26 @@ pub fn check_experiments_dir(dir: &Path) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenes_are_named_by_their_own_names_and_files_never_by_paths() {
+        assert_eq!(
+            unique_labels(&["LANDS", "wknd", "LANDS", "SHIP"]),
+            ["LANDS-1", "wknd", "LANDS-2", "SHIP"]
+        );
+        for name in ["city:4M", "/work/shared/scenes/lands", "a b/c\\d", "LANDS"] {
+            let file = file_safe(name);
+            assert!(
+                !file.contains('/') && !file.contains('\\') && !file.contains(':'),
+                "{file}"
+            );
+        }
+        assert_eq!(file_safe("city:4M"), "city_4M");
+        assert_eq!(file_safe("../scenes/lands"), "___scenes_lands");
+    }
 }
