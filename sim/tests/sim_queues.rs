@@ -81,6 +81,25 @@ fn check_queue_stats(out: &SimOutput) {
         s.rt.total_tests(),
         "every test is attributed to a phase"
     );
+    let phases = [
+        &s.phases.initial,
+        &s.phases.treelet_stationary,
+        &s.phases.ray_stationary,
+    ];
+    assert_eq!(
+        phases.iter().map(|p| p.warp_cycles).sum::<u64>(),
+        s.rt.warp_cycles,
+        "every warp cycle is attributed to a phase"
+    );
+    assert_eq!(
+        phases.iter().map(|p| p.active_thread_cycles).sum::<u64>(),
+        s.rt.active_thread_cycles,
+        "every active thread cycle is attributed to a phase"
+    );
+    assert!(s.phases.treelet_stationary.warp_cycles > 0);
+    for p in phases {
+        assert!((0.0..=1.0).contains(&p.simt_efficiency), "{p:?}");
+    }
     // Every ray an SM issued stored its record once; every ray that entered a queue left it
     // again and had its record loaded once.
     let q = &s.queues;

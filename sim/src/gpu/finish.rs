@@ -92,31 +92,40 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     let warp_size = cfg.hw.warp_size;
     let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
     let queues: Vec<&QueueObserver> = nodes.iter().filter_map(|n| n.rt.queue_stats()).collect();
+    let phase_stats = |cycles, intersection_tests, warp_cycles, active_thread_cycles| PhaseStats {
+        cycles,
+        intersection_tests,
+        warp_cycles,
+        active_thread_cycles,
+        simt_efficiency: ratio(active_thread_cycles, warp_cycles * warp_size as u64),
+    };
     let phases = if queues.is_empty() {
         Phases {
-            ray_stationary: PhaseStats {
+            ray_stationary: phase_stats(
                 cycles,
-                intersection_tests: rt.total_tests(),
-            },
+                rt.total_tests(),
+                rt.warp_cycles,
+                rt.active_thread_cycles,
+            ),
             ..Phases::default()
         }
     } else {
-        // Cycles: each SM's controller time per mode, averaged over the SMs.
+        // Cycles: each SM's controller time per mode, averaged over the SMs; tests and warp
+        // cycles: summed over the SMs.
         let n = queues.len() as u64;
-        let phase = |f: &dyn Fn(&QueueObserver) -> (u64, u64)| {
-            let (c, t) = queues
-                .iter()
-                .map(|q| f(q))
-                .fold((0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-            PhaseStats {
-                cycles: c / n,
-                intersection_tests: t,
-            }
+        let phase = |i: usize, cycles: &dyn Fn(&QueueObserver) -> u64| {
+            let sum = |f: &dyn Fn(&QueueObserver) -> u64| queues.iter().map(|q| f(q)).sum::<u64>();
+            phase_stats(
+                sum(cycles) / n,
+                sum(&|q| q.tests[i]),
+                sum(&|q| q.warp_cycles[i]),
+                sum(&|q| q.active_thread_cycles[i]),
+            )
         };
         Phases {
-            initial: phase(&|q| (q.counts.ctl.cycles_initial, q.tests[0])),
-            treelet_stationary: phase(&|q| (q.counts.ctl.cycles_treelet, q.tests[1])),
-            ray_stationary: phase(&|q| (q.counts.ctl.cycles_final, q.tests[2])),
+            initial: phase(0, &|q| q.counts.ctl.cycles_initial),
+            treelet_stationary: phase(1, &|q| q.counts.ctl.cycles_treelet),
+            ray_stationary: phase(2, &|q| q.counts.ctl.cycles_final),
         }
     };
     let mut image = vec![Vec3::ZERO; ctx.settings.pixels()];

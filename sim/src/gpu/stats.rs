@@ -17,18 +17,26 @@ use crate::memory::MemStats;
 pub const HOST_DEPENDENT_KEYS: [&str; 3] =
     ["sim_wall_seconds", "simulated_rays_per_second", "sm_visits"];
 
-/// Cycles and intersection tests of one traversal phase (paper section 6.4).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+/// Cycles, intersection tests and RT-unit warp cycles of one traversal phase (paper section
+/// 6.4).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct PhaseStats {
     /// Cycles spent in the phase.
     pub cycles: u64,
     /// Intersection tests (node tests of every kind) made in the phase.
     pub intersection_tests: u64,
+    /// RT-unit warp cycles (cycles x resident warps) in the phase, summed over the SMs.
+    pub warp_cycles: u64,
+    /// Sum over those warp cycles of traversing rays.
+    pub active_thread_cycles: u64,
+    /// SIMT efficiency in the phase: `active_thread_cycles / (warp_cycles x warp_size)` (0
+    /// with no warp cycles).
+    pub simt_efficiency: f64,
 }
 
 /// The three traversal phases of treelet queues (paper section 3.2). The baseline has only
 /// ray-stationary traversal, so everything counts there.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Phases {
     /// Initial ray-stationary phase, before the switch to treelet-stationary mode.
     pub initial: PhaseStats,

@@ -422,9 +422,12 @@ impl<'a> RtPort<'a> {
                 self.stats.add(&counts);
             }
             Hardware::Treelet(t) => {
+                // The controller is not evaluated in idle cycles: its mode holds throughout.
+                let phase = treelet::phase_index(t.unit.mode(&t.regs));
                 let counts = t.unit.skip(&mut t.regs, &mut t.cache, n);
                 self.stats.add(&counts.rt);
                 t.observer.counts.add(&counts);
+                t.observer.add_warp_cycles(phase, &counts.rt);
             }
         }
         self.at = now;

@@ -5,7 +5,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::mode::Mode;
-use vtq_hdl::rt_unit::CHUNK_BYTES;
+use vtq_hdl::rt_unit::{RtStats, CHUNK_BYTES};
 use vtq_hdl::treelet_rt_unit::{
     RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
     TreeletRtUnitRegs,
@@ -28,10 +28,34 @@ pub struct QueueObserver {
     /// Intersection tests per phase (the controller's mode after the cycle of the test):
     /// initial, treelet stationary, final ray stationary.
     pub tests: [u64; 3],
+    /// RT-unit warp cycles per phase (the controller's mode during the cycle, the mode its
+    /// cycle counters use), in the order of `tests`.
+    pub warp_cycles: [u64; 3],
+    /// Traversing lanes summed over those warp cycles, per phase as `warp_cycles`.
+    pub active_thread_cycles: [u64; 3],
     /// Most treelet queues tracked by the count table at once.
     pub max_queues: u64,
     /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
     pub max_queues_above_threshold: u64,
+}
+
+impl QueueObserver {
+    /// Adds the warp cycles and traversing lanes of `counts` (one cycle's, or a skip's) to
+    /// phase `phase` (an index of [`phase_index`]).
+    pub(super) fn add_warp_cycles(&mut self, phase: usize, counts: &RtStats) {
+        self.warp_cycles[phase] += counts.warp_cycles;
+        self.active_thread_cycles[phase] += counts.active_thread_cycles;
+    }
+}
+
+/// The index of the controller's mode `mode` in [`QueueObserver`]'s per-phase counters: initial
+/// (and done, a drained controller), treelet stationary, final ray stationary.
+pub(super) fn phase_index(mode: Mode) -> usize {
+    match mode {
+        Mode::Initial | Mode::Done => 0,
+        Mode::TreeletStationary => 1,
+        Mode::FinalRayStationary => 2,
+    }
 }
 
 /// The queues design's treelet hardware for [`RtPort::new`]: the controller's feature switches
@@ -124,6 +148,7 @@ impl<'a> RtPort<'a> {
         if record {
             t.cache.probe(true);
         }
+        let during = phase_index(t.unit.mode(&t.regs));
         let out = t.unit.step_cached(&mut t.regs, &mut t.cache, inputs);
         if let (true, Some(w)) = (record, self.waveform.as_mut()) {
             w.record_treelet(inputs, &out, t.cache.take_probe());
@@ -132,12 +157,8 @@ impl<'a> RtPort<'a> {
         self.stats.add(&out.counts.rt);
         let obs = &mut t.observer;
         obs.counts.add(&out.counts);
-        let phase = match t.unit.mode(&t.regs) {
-            Mode::Initial | Mode::Done => 0,
-            Mode::TreeletStationary => 1,
-            Mode::FinalRayStationary => 2,
-        };
-        obs.tests[phase] += out.counts.rt.total_tests();
+        obs.add_warp_cycles(during, &out.counts.rt);
+        obs.tests[phase_index(t.unit.mode(&t.regs))] += out.counts.rt.total_tests();
         let (queues, above) = t.unit.queues(&t.regs);
         obs.max_queues = obs.max_queues.max(queues as u64);
         obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);

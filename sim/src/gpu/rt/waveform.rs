@@ -304,6 +304,7 @@ impl RtPort<'_> {
                     ..t.unit.idle_inputs()
                 };
                 t.cache.probe(true);
+                let phase = super::treelet::phase_index(t.unit.mode(&t.regs));
                 let out = t.unit.step_cached(&mut t.regs, &mut t.cache, &inputs);
                 let probe = t.cache.take_probe();
                 t.cache.probe(false);
@@ -319,6 +320,7 @@ impl RtPort<'_> {
                 );
                 self.stats.add(&out.counts.rt);
                 t.observer.counts.add(&out.counts);
+                t.observer.add_warp_cycles(phase, &out.counts.rt);
                 w.record_treelet(&inputs, &out, probe);
             }
         }
