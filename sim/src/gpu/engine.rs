@@ -33,7 +33,10 @@
 //! window the recorded RT unit steps the cycles it would have skipped one by one
 //! ([`crate::gpu::rt::waveform`]).
 
+use std::sync::Mutex;
 use std::time::Instant;
+
+use crossbeam_utils::CachePadded;
 
 use glam::Vec3;
 use vtq_hdl::rt_unit::{TraversalOrder, CHUNK_BYTES};
@@ -56,7 +59,7 @@ use crate::gpu::sm::{RayBudget, Sm};
 use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
 use crate::gpu::watchdog::Watchdog;
-use crate::gpu::workers::{Unit, Workers};
+use crate::gpu::workers::{lock, Unit, Workers};
 use crate::memory::{L1Port, MemorySystem};
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
@@ -465,7 +468,7 @@ fn step(
             node.posted = ops.len();
             let mut summary = Summary::of(node);
             summary.visit_ns = watch.ns();
-            *summaries[node.index].lock() = summary;
+            *lock(&summaries[node.index]) = summary;
         }
     }
 }
@@ -517,16 +520,7 @@ impl Summary {
 }
 
 /// A node's [`Summary`] behind its own lock, on cache lines of its own.
-#[derive(Debug, Default)]
-#[repr(align(128))]
-struct SummarySlot(std::sync::Mutex<Summary>);
-
-impl SummarySlot {
-    /// The summary, locked.
-    fn lock(&self) -> std::sync::MutexGuard<'_, Summary> {
-        self.0.lock().unwrap_or_else(|e| e.into_inner())
-    }
-}
+type SummarySlot = CachePadded<Mutex<Summary>>;
 
 impl<'a> Engine<'_, 'a> {
     /// Runs windows until the last SM falls idle with no CTA pending; returns the cycle count.
@@ -586,7 +580,7 @@ impl<'a> Engine<'_, 'a> {
         let chosen: Vec<bool> = (0..nodes.len()).map(&choose).collect();
         nodes.round(pre, |i| chosen[i], round);
         for (i, _) in chosen.iter().enumerate().filter(|(_, &c)| c) {
-            self.summaries[i] = *self.slots[i].lock();
+            self.summaries[i] = *lock(&self.slots[i]);
         }
         if let Some(p) = &mut self.profile {
             let parts: Vec<u64> = (0..pre).map(|j| self.l2.apply_ns(j)).collect();

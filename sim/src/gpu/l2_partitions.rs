@@ -13,7 +13,10 @@
 
 use std::sync::{Mutex, MutexGuard};
 
+use crossbeam_utils::CachePadded;
+
 use crate::gpu::parallelism::Stopwatch;
+use crate::gpu::workers::lock;
 use crate::memory::{L2Op, L2Partition, L2Side, MemStats, PartitionMap, Source};
 
 /// One partition with its scratch space.
@@ -37,12 +40,6 @@ struct Exchange {
     results: Vec<(u32, (u64, Source))>,
 }
 
-/// An [`Exchange`] behind its own lock, on cache lines of its own (SMs and partitions write
-/// neighbouring slots from different threads).
-#[derive(Debug, Default)]
-#[repr(align(128))]
-struct Slot(Mutex<Exchange>);
-
 /// The L2 partitions as jobs, each behind its own (uncontended) lock, and one exchange slot
 /// per partition and SM.
 #[derive(Debug)]
@@ -50,20 +47,18 @@ pub struct PartitionJobs {
     map: PartitionMap,
     sms: usize,
     parts: Vec<Mutex<Part>>,
-    /// Slot of partition `p` and SM `sm` at `p * sms + sm`.
-    slots: Vec<Slot>,
-}
-
-/// Locks a mutex (a panic elsewhere is propagated by the workers; the data is still usable).
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
+    /// Slot of partition `p` and SM `sm` at `p * sms + sm`, each behind its own lock on cache
+    /// lines of its own (SMs and partitions write neighbouring slots from different threads).
+    slots: Vec<CachePadded<Mutex<Exchange>>>,
 }
 
 impl PartitionJobs {
     /// The partitions of `l2`, serving `sms` SMs.
     pub fn new(l2: L2Side, sms: usize) -> Self {
         let (map, parts) = l2.into_partitions();
-        let slots = (0..parts.len() * sms).map(|_| Slot::default()).collect();
+        let slots = (0..parts.len() * sms)
+            .map(|_| CachePadded::new(Mutex::default()))
+            .collect();
         PartitionJobs {
             map,
             sms,
@@ -94,7 +89,7 @@ impl PartitionJobs {
 
     /// The slot of partition `p` and SM `sm`, locked.
     fn slot(&self, p: usize, sm: usize) -> MutexGuard<'_, Exchange> {
-        lock(&self.slots[p * self.sms + sm].0)
+        lock(&self.slots[p * self.sms + sm])
     }
 
     /// Posts SM `sm`'s operations `ops` of the window, the first of them being its operation

@@ -18,6 +18,8 @@
 //! briefly before they yield, and the calling thread works on the round too.
 
 use std::cell::UnsafeCell;
+
+use crossbeam_utils::CachePadded;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, MutexGuard};
 use std::thread::{self, Scope};
@@ -43,11 +45,6 @@ struct ParamCell<P>(UnsafeCell<Option<P>>);
 // So a write never overlaps a read, and every read sees the round's value.
 unsafe impl<P: Send + Sync> Sync for ParamCell<P> {}
 
-/// A unit's claim: the last epoch in which a thread claimed it, on a cache line of its own.
-#[derive(Default)]
-#[repr(align(128))]
-struct Claim(AtomicU64);
-
 /// Shared state of the rounds.
 struct Round<T, P, F> {
     /// The function run on each chosen item.
@@ -58,8 +55,9 @@ struct Round<T, P, F> {
     chosen: Vec<AtomicBool>,
     /// The most pre-jobs a round may have.
     max_pre: usize,
-    /// Per unit (pre-jobs `0..max_pre`, then items): the last epoch in which it was claimed.
-    claims: Vec<Claim>,
+    /// Per unit (pre-jobs `0..max_pre`, then items): the last epoch in which it was claimed,
+    /// on a cache line of its own.
+    claims: Vec<CachePadded<AtomicU64>>,
     /// Threads in all, the calling thread included.
     threads: usize,
     /// Pre-jobs of the current round.
@@ -83,7 +81,7 @@ impl<T, P, F: Fn(Unit<'_, T>, &P)> Round<T, P, F> {
     /// plain read first, so that threads looking for work do not take the line from the
     /// claiming one).
     fn claim(&self, u: usize, epoch: u64) -> bool {
-        let c = &self.claims[u].0;
+        let c = &self.claims[u];
         c.load(Ordering::Acquire) < epoch && c.fetch_max(epoch, Ordering::AcqRel) < epoch
     }
 
@@ -118,8 +116,9 @@ impl<T, P, F: Fn(Unit<'_, T>, &P)> Round<T, P, F> {
     }
 }
 
-/// Locks an item's mutex (a panic in a job poisons nothing that matters: it is propagated).
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+/// Locks a mutex of the engine's shared state (a panic in a job poisons nothing that matters:
+/// the workers propagate it, and the data is still usable).
+pub fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
@@ -159,7 +158,7 @@ impl<'s, T: Send, P: Clone + Send + Sync, F: Fn(Unit<'_, T>, &P) + Sync> Workers
             chosen: items.iter().map(|_| AtomicBool::new(false)).collect(),
             max_pre,
             claims: (0..max_pre + items.len())
-                .map(|_| Claim::default())
+                .map(|_| CachePadded::new(AtomicU64::new(0)))
                 .collect(),
             threads,
             items: items.into_iter().map(Mutex::new).collect(),
