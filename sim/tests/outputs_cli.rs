@@ -82,6 +82,7 @@ fn sim_checks_out_image_and_vcd() {
     let good = dir.join("stats.json");
     for extra in [
         vec!["--image", s(&bad)],
+        vec!["--ctas", s(&bad)],
         vec!["--vcd", s(&bad), "--vcd-cycles", "0..10"],
         vec!["--analytic", "--image", s(&bad)],
     ] {

@@ -12,6 +12,7 @@ use crate::cmd::options::{
 };
 use crate::config::SimConfig;
 use crate::gpu::rt::waveform::parse_cycles;
+use crate::gpu::sm::CtaSpan;
 use crate::gpu::stats::write_time_series;
 use crate::gpu::{SimOptions, VcdWindow};
 use crate::output::{check_file, write_or_keep, Failures};
@@ -37,6 +38,10 @@ pub struct SimArgs {
     /// Also write the simulated image (PNG).
     #[arg(long)]
     pub image: Option<PathBuf>,
+    /// Also write when each CTA ran (CSV `cta,sm,start,end`: the cycles from its warps' first
+    /// trace to its retirement), for studying load balance over the SMs (docs/stats.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["sample", "analytic"])]
+    pub ctas: Option<PathBuf>,
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
@@ -142,6 +147,14 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
             w.idle_steps
         );
     }
+    if let Some(path) = &args.ctas {
+        let written = failures.note(write_or_keep(path, |p| {
+            std::fs::write(p, cta_csv(&out.cta_spans))
+        }));
+        if written {
+            println!("wrote {}", path.display());
+        }
+    }
     if let Some(path) = &args.image {
         let written = failures.note(write_or_keep(path, |p| {
             write_png(p, cfg.workload.width, cfg.workload.height, &out.image).map(|_| ())
@@ -160,10 +173,25 @@ fn check_outputs(args: &SimArgs) -> anyhow::Result<()> {
     if args.sample.is_none() && !args.analytic {
         check_file(&time_series_path(&args.out))?;
     }
-    for path in args.image.iter().chain(&args.vcd) {
+    for path in args.image.iter().chain(&args.vcd).chain(&args.ctas) {
         check_file(path)?;
     }
     Ok(())
+}
+
+/// The CTA spans of a run, per SM, as CSV (`cta,sm,start,end`), in CTA order.
+fn cta_csv(spans: &[Vec<CtaSpan>]) -> String {
+    let mut rows: Vec<(usize, &CtaSpan)> = spans
+        .iter()
+        .enumerate()
+        .flat_map(|(sm, v)| v.iter().map(move |s| (sm, s)))
+        .collect();
+    rows.sort_by_key(|(_, s)| s.cta);
+    let mut out = String::from("cta,sm,start,end\n");
+    for (sm, s) in rows {
+        out += &format!("{},{},{},{}\n", s.cta, sm, s.start, s.end);
+    }
+    out
 }
 
 /// Writes the JSON text `json` to `path`, or keeps it in a fallback file the error names.

@@ -122,6 +122,8 @@ pub struct SimOutput {
     pub waveform: Option<WaveformSummary>,
     /// The parallelism report's timings (only with [`SimOptions::profile`]).
     pub parallelism: Option<ParallelProfile>,
+    /// Per SM, the CTAs that ran there, in the order they retired.
+    pub cta_spans: Vec<Vec<super::sm::CtaSpan>>,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.

@@ -159,7 +159,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         rays_issued,
         rays_completed,
         rays_hit: nodes.iter().map(|n| n.rays_hit).sum(),
-        ctas: nodes.iter().map(|n| n.sm.ctas_done).sum(),
+        ctas: nodes.iter().map(|n| n.sm.done.len() as u64).sum(),
         simt_efficiency: simt,
         bvh_l1_accesses: mem.bvh.l1_loads,
         bvh_l1_misses: mem.bvh.l1_misses,
@@ -226,6 +226,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         table_log: None,
         waveform: None,
         parallelism: None,
+        cta_spans: nodes.iter().map(|n| n.sm.done.clone()).collect(),
     }
 }
 

@@ -98,6 +98,20 @@ struct Cta {
     ready_at: u64,
     /// Cycle it got a slot to resume in.
     slot_at: u64,
+    /// Cycle its warps first started tracing (after launch and raygen).
+    started_at: u64,
+}
+
+/// When a CTA ran on its SM: from its warps' first trace (after launch and raygen) to its
+/// retirement (`vtq sim --ctas`; docs/accuracy.md uses it to locate the sampled tier's error).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CtaSpan {
+    /// CTA number (pixel tile).
+    pub cta: u32,
+    /// Cycle its warps started tracing.
+    pub start: u64,
+    /// Cycle it retired.
+    pub end: u64,
 }
 
 /// A CTA named by its virtual id on the SM and its CTA number (which places its saved state).
@@ -176,8 +190,8 @@ pub struct Sm {
     in_flight: u64,
     /// Most rays in flight at once.
     pub max_in_flight: u64,
-    /// CTAs that ran to completion here.
-    pub ctas_done: u64,
+    /// CTAs that ran to completion here, in the order they retired.
+    pub done: Vec<CtaSpan>,
     /// CTAs suspended.
     pub suspends: u64,
     /// CTAs resumed.
@@ -204,7 +218,7 @@ impl Sm {
             reserved: 0,
             in_flight: 0,
             max_in_flight: 0,
-            ctas_done: 0,
+            done: Vec::new(),
             suspends: 0,
             resumes: 0,
             timing: VirtTiming::default(),
@@ -350,6 +364,7 @@ impl Sm {
             suspended_at: 0,
             ready_at: 0,
             slot_at: 0,
+            started_at: start,
         });
         self.resident += 1;
         self.reserved += threads_live;
@@ -387,11 +402,18 @@ impl Sm {
                     let cta = self.cta_mut(id);
                     cta.live_warps -= 1;
                     if cta.live_warps == 0 {
-                        let left = cta.live_threads;
+                        let (left, span) = (
+                            cta.live_threads,
+                            CtaSpan {
+                                cta: cta.cta,
+                                start: cta.started_at,
+                                end: now,
+                            },
+                        );
                         self.ctas[id] = None;
                         self.resident -= 1;
                         self.reserved -= left;
-                        self.ctas_done += 1;
+                        self.done.push(span);
                         continue;
                     }
                 }
@@ -604,7 +626,7 @@ impl Sm {
             out,
             "CTAs resident {:?}, {} done; RT queue {:?}; next timer {:?}",
             in_phase(CtaPhase::Running),
-            self.ctas_done,
+            self.done.len(),
             self.ready,
             self.next_timer()
         );
@@ -655,7 +677,7 @@ mod tests {
         // Warps without threads end at their first timer; both CTAs retire.
         assert!(sm.run_timers(10).is_empty());
         assert!(sm.is_idle());
-        assert_eq!(sm.ctas_done, 2);
+        assert_eq!(sm.done.len(), 2);
         assert_eq!(sm.free_slots(), 2);
         sm.launch(9, warps(2), 20);
         assert_eq!(sm.warp(0).map(|w| w.cta_id), Some(0));
