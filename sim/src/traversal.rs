@@ -6,8 +6,9 @@
 //!   goes on the current-treelet stack if it lies in the ray's current treelet, otherwise at the
 //!   back of the other-treelet FIFO. When the current stack empties, the entry at the front of the
 //!   FIFO (the oldest) is fetched next; visiting it makes its treelet current, and every other
-//!   FIFO entry of that treelet moves onto the current stack at the same time, so each treelet is
-//!   entered at most once per ray.
+//!   FIFO entry of that treelet moves onto the current stack at the same time, so a treelet
+//!   that is one subtree (breadth-first formation) is entered at most once per ray; a packed
+//!   slot, which holds several, at most once per subtree (`crate::bvh::treelet`).
 //!
 //! The stepwise API ([`TraversalState`]) keeps one node in flight per ray, as the cycle-level
 //! simulator needs: [`TraversalState::next_fetch`] names the node (address, size, kind,

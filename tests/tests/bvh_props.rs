@@ -94,6 +94,22 @@ fn children(view: &InternalView, addr: u32) -> Vec<(u32, NodeKind, usize)> {
     out
 }
 
+/// The nodes where a ray may enter a treelet slot: the header, and every node whose parent lies
+/// in another slot.
+fn entry_points(bvh: &HwBvh) -> BTreeSet<u32> {
+    let mut out = BTreeSet::from([0]);
+    for n in bvh.nodes().iter().filter(|n| n.kind == NodeKind::Internal) {
+        let view =
+            InternalView::new(bvh.node_bytes(n.addr).expect("node bytes")).expect("internal");
+        for (c, _, _) in children(&view, n.addr) {
+            if bvh.treelet_of(c) != n.treelet {
+                out.insert(c);
+            }
+        }
+    }
+    out
+}
+
 /// Checks every structural invariant of a built BVH against its scene.
 fn check_layout(scene: &Scene, bvh: &HwBvh) -> Result<(), TestCaseError> {
     let p = *bvh.params();
@@ -205,12 +221,29 @@ fn check_ray(scene: &Scene, bvh: &HwBvh, ray: &Ray) -> Result<(), TestCaseError>
             prop_assert_eq!(f.treelet, f.addr / tb);
         }
         if order == Order::Treelet {
-            // Each treelet is entered at most once per ray.
+            // No node is fetched twice, and the ray enters a slot only at an entry point (the
+            // header, or a node whose parent lies in another slot). A breadth-first treelet is
+            // one subtree, so it is entered at most once; a packed slot holds several, and is
+            // entered at most once per subtree (sim/src/bvh/treelet.rs).
+            let entries = entry_points(bvh);
+            let mut fetched = BTreeSet::new();
             let mut seen = BTreeSet::new();
             let mut last = None;
             for f in &fetches {
+                prop_assert!(fetched.insert(f.addr), "node {} fetched twice", f.addr);
                 if last != Some(f.treelet) {
-                    prop_assert!(seen.insert(f.treelet), "treelet {} re-entered", f.treelet);
+                    prop_assert!(
+                        entries.contains(&f.addr),
+                        "treelet {} entered at node {}, not an entry point",
+                        f.treelet,
+                        f.addr
+                    );
+                    let again = !seen.insert(f.treelet);
+                    prop_assert!(
+                        !(again && bvh.params().formation == TreeletFormation::BreadthFirst),
+                        "breadth-first treelet {} re-entered",
+                        f.treelet
+                    );
                     last = Some(f.treelet);
                 }
             }

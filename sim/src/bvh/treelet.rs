@@ -13,9 +13,12 @@
 //! that its units root are small (the shared scenes' treelets are 6-11% full).
 //! [`TreeletFormation::Packed`] forms the same treelets, then packs consecutive ones (in
 //! formation order, so siblings share a slot) into one slot while their bytes fit (next fit).
-//! A slot then holds several subtrees; a ray still enters each slot at most once, because every
-//! treelet formed between two treelets of a slot is in that slot too, so no path leaves a slot
-//! and comes back to it.
+//! A slot then holds several subtrees, and a ray may enter it more than once: subtrees of one
+//! slot can hang below different slots, and a ray that finished the slot through one subtree
+//! meets another one later (the treelet order finishes the nodes of a slot it knows of, not those
+//! it has yet to reach). Each subtree is still entered at most once per ray, at its root (tested
+//! in `tests/tests/bvh_props.rs`); with breadth-first formation a slot is one subtree, so it is
+//! entered at most once.
 //!
 //! Treelet `i` occupies the `treelet_bytes`-aligned slot starting at address
 //! `i * treelet_bytes`, so a node's treelet is `addr / treelet_bytes` (the paper's 19-bit

@@ -374,7 +374,10 @@ struct SpillLayout {
 impl SpillLayout {
     /// Chunks per ray stack never need to exceed this: a chunk holds at least one entry, and a
     /// ray's stack holds at most (width - 1) x depth + 1 entries of its current treelet plus
-    /// one per treelet root (only treelet roots go on the other stack, each at most once).
+    /// one per treelet root (only treelet roots go on the other stack, each at most once). A
+    /// packed slot holds several subtrees, so this counts slots where it should count their
+    /// roots; chunks hold four entries each, so the bound keeps a factor of four in hand, and a
+    /// stack that outgrows it stops the run with an RT-unit fault naming `stack_spill_chunks`.
     fn needed(bvh: &HwBvh) -> u64 {
         let s = bvh.stats();
         (bvh.params().width as u64 - 1) * s.depth as u64 + 1 + s.treelets as u64
