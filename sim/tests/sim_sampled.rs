@@ -114,7 +114,14 @@ fn speedups_pair_the_replicates() {
         .zip(&pre.replicate_runs)
         .map(|(b, p)| b.stats.cycles as f64 / p.stats.cycles as f64)
         .collect();
-    assert_eq!(s.value, (ratios[0] + ratios[1]) / 2.0);
+    // Equal up to rounding: each replicate's cycles carry the same dispatch factor in both
+    // designs (the same CTAs, the same CTAs per SM), which cancels in the ratio.
+    let mean = (ratios[0] + ratios[1]) / 2.0;
+    assert!(
+        (s.value - mean).abs() <= 1e-12 * mean,
+        "{} vs {mean}",
+        s.value
+    );
     // The same CTAs ran on both designs: the same rays.
     for (b, p) in base.replicate_runs.iter().zip(&pre.replicate_runs) {
         assert_eq!(b.stats.rays, p.stats.rays);

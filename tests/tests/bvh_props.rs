@@ -607,15 +607,16 @@ fn cache_round_trip_and_corruption_recovery() {
     let (_, outcome) = build_cached(&scene, &other, Some(&dir)).expect("other params");
     assert_eq!(outcome, CacheOutcome::Built);
     // So does another treelet formation, and it loads back as that formation.
-    let packed = BvhParams {
-        formation: TreeletFormation::Packed,
+    assert_eq!(params.formation, TreeletFormation::Packed);
+    let bf = BvhParams {
+        formation: TreeletFormation::BreadthFirst,
         ..params
     };
-    let (p, outcome) = build_cached(&scene, &packed, Some(&dir)).expect("packed");
+    let (p, outcome) = build_cached(&scene, &bf, Some(&dir)).expect("breadth-first");
     assert_eq!(outcome, CacheOutcome::Built);
-    let (q, outcome) = build_cached(&scene, &packed, Some(&dir)).expect("packed again");
+    let (q, outcome) = build_cached(&scene, &bf, Some(&dir)).expect("breadth-first again");
     assert_eq!(outcome, CacheOutcome::Hit);
-    assert_eq!((p.params(), q.to_bytes()), (&packed, p.to_bytes()));
+    assert_eq!((p.params(), q.to_bytes()), (&bf, p.to_bytes()));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

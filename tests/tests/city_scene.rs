@@ -132,7 +132,9 @@ fn a_mid_size_city_builds_a_treelet_bvh() {
     let stats = bvh.stats();
     assert_eq!(stats.triangle_leaves, 50_000);
     assert_eq!(stats.excluded_prims, 0);
-    assert!(stats.treelets > 1_000, "{stats:?}");
+    // Packed treelets (the default): hundreds of nearly full 8 KB slots.
+    assert!(stats.treelets > 500, "{stats:?}");
+    assert!(stats.treelet_fill > 0.8, "{stats:?}");
     assert!(stats.bvh_bytes > 4_000_000, "{stats:?}");
     // The camera looks at the city: its view direction points into the scene bounds.
     let (lo, hi) = scene.bounds().expect("bounds");

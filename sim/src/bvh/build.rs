@@ -28,8 +28,8 @@ pub struct BvhParams {
     /// Maximum treelet size in bytes: a power of two, at least one full child group
     /// (`width` x internal node size) and at least 128 (default 8192, half the L1).
     pub treelet_bytes: u32,
-    /// How the BVH is partitioned into treelets (default: the treelet-prefetching code's
-    /// greedy breadth-first rule).
+    /// How the BVH is partitioned into treelets (default: the breadth-first treelets packed
+    /// into shared slots, as the paper's section 6.5 packs them).
     pub formation: TreeletFormation,
 }
 
@@ -38,7 +38,7 @@ impl Default for BvhParams {
         BvhParams {
             width: 6,
             treelet_bytes: 8192,
-            formation: TreeletFormation::BreadthFirst,
+            formation: TreeletFormation::Packed,
         }
     }
 }

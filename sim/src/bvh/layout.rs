@@ -888,7 +888,11 @@ mod tests {
 
     #[test]
     fn an_unaddressable_bvh_names_the_settings_that_fix_it() {
-        let m = unaddressable(1_731_481, &BvhParams::default());
+        let bf = BvhParams {
+            formation: TreeletFormation::BreadthFirst,
+            ..BvhParams::default()
+        };
+        let m = unaddressable(1_731_481, &bf);
         assert!(m.contains("1731481 treelets of 8192 bytes"), "{m}");
         assert!(
             m.contains("524288 treelet slots (19-bit treelet ids"),

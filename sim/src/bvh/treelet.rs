@@ -38,11 +38,14 @@ use super::{HEADER_BYTES, LEAF_BYTES};
 pub enum TreeletFormation {
     /// Greedy breadth-first fill, every unit left in the frontier of a closed treelet rooting a
     /// treelet of its own (the treelet-prefetching code of Chou et al., MICRO 2023, which the
-    /// paper used).
-    #[default]
+    /// paper used), one slot each: slots 6-12% full, too many of them to address a scene of
+    /// the paper's largest size.
     BreadthFirst,
     /// The breadth-first treelets, consecutive ones packed into one slot while they fit (next
-    /// fit in formation order): fuller treelets, fewer of them.
+    /// fit in formation order): fuller treelets, fewer of them. The default: the paper's
+    /// section 6.5 packs treelets "together in memory as suggested by Chou et al." so that
+    /// 19-bit treelet addresses cover its gigabyte BVHs.
+    #[default]
     Packed,
 }
 

@@ -367,9 +367,9 @@ impl Default for WorkloadConfig {
 pub struct BvhConfig {
     /// Children per internal node, 2..=8 (6, the public Vulkan-Sim build; the paper says 4).
     pub width: u32,
-    /// How the BVH is partitioned into treelets: `breadth_first` (the treelet-prefetching
-    /// code's greedy rule, which the paper used) or `packed` (the same treelets packed into
-    /// fuller slots).
+    /// How the BVH is partitioned into treelets: `packed` (the default: the breadth-first
+    /// treelets packed into fuller slots, as the paper's section 6.5 does) or `breadth_first`
+    /// (the treelet-prefetching code's greedy rule, one slot per treelet).
     pub treelet_formation: TreeletFormation,
 }
 

@@ -17,7 +17,9 @@ use vtq_sim::traversal::{trace, Order};
 use vtq_sim::workload::pathtracer::render;
 
 /// A small GPU in `mode` (`baseline` or `prefetch`): `sms` SMs, a `side` x `side` image, 4 KB
-/// L1s, 16 KB L2, 2 KB treelets, then the `extra` overrides.
+/// L1s, 16 KB L2, 2 KB treelets cut breadth-first (one slot each: the small scenes' packed
+/// treelets would fit in a few slots and leave the treelet hardware nothing to do), then the
+/// `extra` overrides.
 pub fn small_config(mode: &str, sms: u32, side: u32, extra: &[&str]) -> SimConfig {
     let mut sets: Vec<String> = [
         format!("mode.kind={mode}"),
@@ -27,6 +29,7 @@ pub fn small_config(mode: &str, sms: u32, side: u32, extra: &[&str]) -> SimConfi
         "memory.l1_bytes=4096".into(),
         "memory.l2_bytes=16384".into(),
         "hw.treelet_bytes=2048".into(),
+        "bvh.treelet_formation=breadth_first".into(),
         "sim.sample_interval=500".into(),
     ]
     .into();
