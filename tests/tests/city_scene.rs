@@ -141,3 +141,24 @@ fn a_mid_size_city_builds_a_treelet_bvh() {
     let cam = scene.camera;
     assert!(cam.look_at.cmpge(lo).all() && cam.look_at.cmple(hi).all());
 }
+
+/// The BVH build runs on rayon's threads (`obvhs`'s parallel PLOC, Morton sort and reinsertion,
+/// whose parallel paths start at 300-500 thousand primitives); its tree must not depend on how
+/// many threads there are, or a BVH built on a 2-core machine would differ from one built on a
+/// cluster node, and with it every cycle count.
+#[test]
+fn the_parallel_build_is_identical_on_any_number_of_threads() {
+    let scene = city(600_000);
+    let build = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool")
+            .install(|| HwBvh::build(&scene, &BvhParams::default()).expect("BVH builds"))
+            .to_bytes()
+    };
+    let one = build(1);
+    for threads in [2, 3, 16] {
+        assert!(build(threads) == one, "{threads} threads built another BVH");
+    }
+}

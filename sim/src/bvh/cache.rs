@@ -25,8 +25,9 @@ use crate::atomic_file::write_atomic;
 use crate::scene::Scene;
 
 /// Version of the serialized format and of the build algorithm; part of the cache key. Bump it
-/// whenever the layout, the builder or its settings change.
-pub const FORMAT_VERSION: u32 = 2;
+/// whenever the layout, the builder or its settings change (3: `obvhs` builds in parallel, whose
+/// trees differ from its serial build's).
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Bytes of the fixed part of a serialized BVH, before the treelet sizes.
 const HEAD: usize = 36;
