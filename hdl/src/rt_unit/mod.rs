@@ -263,12 +263,6 @@ pub fn spill_area(cfg: &HwConfig, params: &RtUnitParams) -> (u64, u64) {
     (start, start.saturating_add(bytes))
 }
 
-/// The RT unit's self-description for `cfg` and `params` (what `describe()` returns), without a
-/// datapath: for the Verilog and area generators.
-pub fn describe_rt_unit(cfg: &HwConfig, params: &RtUnitParams) -> Result<BlockDesc, RtUnitError> {
-    Ok(desc::describe(cfg, params, &checked_widths(cfg, params)?))
-}
-
 /// A ready lane's request this cycle (see the module documentation, "Stack spilling").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum LaneAction {
@@ -998,11 +992,6 @@ impl<D: NodeDatapath> RtUnit<D> {
     /// Whether `address` lies in the stack spill area.
     fn in_spill_area(&self, address: u64) -> bool {
         (self.spill.0..self.spill.1).contains(&address)
-    }
-
-    /// The stack spill area, `[start, end)`.
-    pub fn spill_range(&self) -> (u64, u64) {
-        self.spill
     }
 
     /// The 32 B hit-record store of a ray: t, hit id, two attribute words, ray id, zeros.

@@ -56,13 +56,6 @@ impl Estimate {
         self.interval().is_some_and(|(lo, hi)| lo <= x && x <= hi)
     }
 
-    /// The half-width relative to the value (`None` without an interval or for a value of 0).
-    pub fn relative_half_width(&self) -> Option<f64> {
-        self.half_width
-            .filter(|_| self.value != 0.0)
-            .map(|h| h / self.value.abs())
-    }
-
     /// `value ± half-width` with `digits` decimals (`value` alone without an interval).
     pub fn display(&self, digits: usize) -> String {
         match self.half_width {
