@@ -190,8 +190,14 @@ fn check_layout(scene: &Scene, bvh: &HwBvh) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-/// Traces `ray` in both orders and checks hits, fetch lists and the stepwise API.
-fn check_ray(scene: &Scene, bvh: &HwBvh, ray: &Ray) -> Result<(), TestCaseError> {
+/// Traces `ray` in both orders and checks hits, fetch lists and the stepwise API; `entries` are
+/// the BVH's [`entry_points`].
+fn check_ray(
+    scene: &Scene,
+    bvh: &HwBvh,
+    entries: &BTreeSet<u32>,
+    ray: &Ray,
+) -> Result<(), TestCaseError> {
     let reference = brute_force(scene, ray);
     let tb = bvh.params().treelet_bytes;
     for order in [Order::RayStationary, Order::Treelet] {
@@ -225,7 +231,6 @@ fn check_ray(scene: &Scene, bvh: &HwBvh, ray: &Ray) -> Result<(), TestCaseError>
             // header, or a node whose parent lies in another slot). A breadth-first treelet is
             // one subtree, so it is entered at most once; a packed slot holds several, and is
             // entered at most once per subtree (sim/src/bvh/treelet.rs).
-            let entries = entry_points(bvh);
             let mut fetched = BTreeSet::new();
             let mut seen = BTreeSet::new();
             let mut last = None;
@@ -399,8 +404,9 @@ proptest! {
         rays in prop::collection::vec(ray_spec(), 1..24),
     ) {
         let bvh = HwBvh::build(&scene, &params).expect("build");
+        let entries = entry_points(&bvh);
         for spec in rays {
-            check_ray(&scene, &bvh, &make_ray(&scene, spec))?;
+            check_ray(&scene, &bvh, &entries, &make_ray(&scene, spec))?;
         }
     }
 }
@@ -451,13 +457,14 @@ fn every_width_builds_and_traces_like_brute_force() {
                     "width {width}: {internal} internal nodes"
                 );
             }
+            let entries = entry_points(&bvh);
             let mut hits = 0;
             for i in 0..200 {
                 let a = i as f32 * 0.37;
                 let origin = Vec3::new(6.0 * a.cos(), 4.0 * (a * 0.7).sin(), 6.0 * a.sin());
                 let target = Vec3::new((a * 1.3).sin(), (a * 0.9).cos(), 0.5 * (a * 2.1).sin());
                 let ray = Ray::new(origin, target - origin);
-                check_ray(&scene, &bvh, &ray).expect("ray");
+                check_ray(&scene, &bvh, &entries, &ray).expect("ray");
                 hits += usize::from(trace(&bvh, &ray, Order::Treelet).is_some());
             }
             assert!(hits > 100, "width {width}: only {hits} of 200 rays hit");
