@@ -63,9 +63,10 @@ pub struct BenchArgs {
     /// identical statistics; speeds are reported against the first).
     #[arg(long, value_delimiter = ',', default_value = "1", value_parser = parse_threads)]
     pub threads: Vec<usize>,
-    /// With --sim: also run once on one thread with every round of the engine timed, and print
-    /// the parallelism report: where the time goes (parallel SM visits and L2 partitions,
-    /// serial sections) and the speedup the work-span bound predicts for 2 to 32 threads.
+    /// With --sim: also run once on one thread with the work of every SM node (per stretch of
+    /// cycles), memory partition and the coordinator timed, and print the parallelism report:
+    /// where the time goes and the speedup the work-span bound (with bounded lag) predicts for
+    /// 2 to 32 threads.
     #[arg(long, requires = "sim")]
     pub parallelism: bool,
 }

@@ -1,26 +1,21 @@
 //! The cycle loop. The GPU is a set of SM nodes ([`SmNode`]: an SM with its RT unit, CTA-state
 //! port and L1) around what they share: the CTA scheduler and the L2 with DRAM.
 //!
-//! # Windows
-//! An SM affects another only through the L2 and the CTA scheduler. Every access reaches the L2
-//! `l1_latency` cycles after its SM accepted it, in acceptance order, and no L2 result is needed
-//! before one L2 round trip (`l1_latency + l2_latency`, 226 cycles by Table 1) after its
-//! acceptance ([`crate::memory::l1`]). So the engine runs time in *windows* of at most one
-//! round trip: within a window every node visits its own cycles independently — on any of
-//! `threads` threads — while its L2 operations wait; at the end of the window the operations of
-//! all nodes go to the L2's memory partitions ([`crate::gpu::l2_partitions`]), which apply them
-//! at the start of the next window's first round, side by side, each in a fixed order (cycle,
-//! phase, SM, sequence: [`crate::memory::L2Op::key`]) — exactly the order in which one loop
-//! visiting every SM each cycle would have applied them, as partitions share no state — and the
-//! nodes settle their results before they go on. The next window starts at the earliest cycle
-//! any node has work (idle stretches are skipped whole), or where this one ended if a node
-//! waits for an L2 result of it.
-//!
-//! Within a window a node stops ([`crate::gpu::node::Halt`]) where it needs the engine: when it
-//! could take a new CTA (the scheduler hands CTAs out round-robin over the SMs with room in the
-//! same cycle, so the engine serves such stops in cycle order once every node has reached that
-//! cycle), and, once it holds no CTA and none is pending, before each further visit (made only
-//! if the run has not ended by then: it ends after the cycle in which the last SM fell idle).
+//! # Bounded lag
+//! An SM affects another only through the L2 and the CTA scheduler, and no L2 result is needed
+//! before one L2 round trip (`l1_latency + l2_latency`, 226 cycles by Table 1) after its access
+//! was accepted ([`crate::memory::l1`]). So every node visits its own cycles independently, on
+//! any of `threads` threads, up to one round trip past its oldest L2 operation whose result it
+//! does not have yet; the L2's memory partitions ([`crate::gpu::l2_partitions`]) apply the
+//! operations accepted before the cycle every node has reached, side by side, each in a fixed
+//! order (cycle, phase, SM, sequence: [`crate::memory::L2Op::key`]) — exactly the order in which
+//! one loop visiting every SM each cycle would have applied them — and the CTA scheduler serves
+//! the nodes' halts ([`crate::gpu::node::Halt`]) in cycle order: a node halts when it could
+//! take a new CTA (CTAs go out round-robin over the SMs with room in the same cycle, served once
+//! every node has reached that cycle) and, once it holds no CTA and none is pending, before each
+//! further visit (made only if the run has not ended by then: it ends after the cycle in which
+//! the last SM fell idle). There is no barrier: [`crate::gpu::coordinator`] says who waits for
+//! what.
 //!
 //! Within a node, idle cycles are skipped in SST's declocking style: after a visit the node
 //! records the next cycle it has work (its shader timers, a warp it can offer its RT unit,
@@ -33,10 +28,7 @@
 //! window the recorded RT unit steps the cycles it would have skipped one by one
 //! ([`crate::gpu::rt::waveform`]).
 
-use std::sync::Mutex;
 use std::time::Instant;
-
-use crossbeam_utils::CachePadded;
 
 use glam::Vec3;
 use vtq_hdl::rt_unit::{TraversalOrder, CHUNK_BYTES};
@@ -44,23 +36,22 @@ use vtq_hdl::rt_unit::{TraversalOrder, CHUNK_BYTES};
 use crate::bvh::HwBvh;
 use crate::config::{ModeKind, SimConfig};
 use crate::geometry::{Hit, Ray};
+use crate::gpu::coordinator;
 use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
 use crate::gpu::l2_partitions::PartitionJobs;
-use crate::gpu::node::{Ctx, HaltKind, SmNode};
-use crate::gpu::parallelism::{clock_reads, ParallelProfile, RoundKind, Serial, Stopwatch};
+use crate::gpu::node::{Ctx, SmNode};
+use crate::gpu::parallelism::ParallelProfile;
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::rt::waveform::{VcdWindow, Waveform, WaveformSummary, MAX_WINDOW_CYCLES};
 use crate::gpu::rt::{QueueSetup, RtPort};
-use crate::gpu::shader::{PathThread, ShaderTiming};
+use crate::gpu::shader::ShaderTiming;
 use crate::gpu::sm::{RayBudget, Sm};
 use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
-use crate::gpu::watchdog::Watchdog;
-use crate::gpu::workers::{lock, Unit, Workers};
-use crate::memory::{L1Port, MemorySystem};
+use crate::memory::MemorySystem;
 use crate::scene::Scene;
 use crate::workload::camera::CameraFrame;
 
@@ -87,7 +78,7 @@ pub struct SimOptions {
     /// Write the waveform of one SM's RT unit over a window of cycles as VCD
     /// ([`crate::gpu::rt::waveform`]); the results do not change.
     pub vcd: Option<VcdWindow>,
-    /// Time the engine's rounds and serial sections for the parallelism report
+    /// Time the nodes', memory partitions' and coordinator's work for the parallelism report
     /// ([`SimOutput::parallelism`]; meant for one-thread runs); the results do not change.
     pub profile: bool,
 }
@@ -299,27 +290,8 @@ pub fn simulate(
     };
     let start = Instant::now();
     let l2 = PartitionJobs::new(l2, nsms);
-    let slots: Vec<SummarySlot> = (0..nsms).map(|_| SummarySlot::default()).collect();
-    let mut engine = Engine {
-        ctx: &ctx,
-        scheduler,
-        l2: &l2,
-        slots: &slots,
-        summaries: nodes.iter().map(Summary::of).collect(),
-        l2_unapplied: false,
-        watchdog: Watchdog::new(cfg.sim.watchdog_cycles),
-        progress,
-        profile: options.profile.then(ParallelProfile::new),
-    };
-    let step = |unit: Unit<'_, SmNode>, round: &Round| step(&ctx, &l2, &slots, unit, round);
-    let (cycles, mut nodes) = Workers::with(options.threads.max(1), l2.len(), nodes, step, |w| {
-        engine.run(w)
-    });
-    // The last window's L2 operations count in the L2 and DRAM statistics, as every other
-    // window's do (nobody settles their results).
-    for p in 0..l2.len() {
-        l2.apply(p, false);
-    }
+    let outcome = coordinator::run(&ctx, &l2, nodes, scheduler, options.threads, progress);
+    let (cycles, mut nodes) = (outcome.cycles, outcome.nodes);
     let waveform_sm = options.vcd.as_ref().map(|w| w.sm);
     let cycles = match cycles {
         Ok(c) => c,
@@ -354,7 +326,7 @@ pub fn simulate(
     });
     out.table_log = table_log;
     out.waveform = waveform;
-    out.parallelism = engine.profile;
+    out.parallelism = outcome.profile;
     Ok(out)
 }
 
@@ -407,366 +379,5 @@ impl SpillLayout {
     /// First byte of SM `sm`'s area.
     fn base(&self, sm: usize) -> u64 {
         self.start + sm as u64 * self.per_sm
-    }
-}
-
-/// The parameter of a round of node visits.
-#[derive(Debug, Clone, Copy)]
-struct Round {
-    /// The end of the window (exclusive).
-    end: u64,
-    /// Whether CTAs are pending at the CTA scheduler.
-    pending: bool,
-    /// The first round of the window: nodes settle the last window and begin this one.
-    begin: bool,
-}
-
-/// What the nodes share, and the loop over windows.
-struct Engine<'r, 'a> {
-    ctx: &'r Ctx<'a>,
-    scheduler: CtaScheduler,
-    l2: &'r PartitionJobs,
-    /// The nodes' summary slots, written as their visits end.
-    slots: &'r [SummarySlot],
-    /// The nodes' summaries as of the last round each took part in.
-    summaries: Vec<Summary>,
-    /// The last window's L2 operations wait in the partitions, to be applied by the next
-    /// window's first round.
-    l2_unapplied: bool,
-    watchdog: Watchdog,
-    progress: Option<&'r indicatif::ProgressBar>,
-    /// The parallelism report's timings, in a profiled run.
-    profile: Option<ParallelProfile>,
-}
-
-/// The engine's view of the nodes between rounds.
-type Nodes<'w, 'a, F> = Workers<'w, SmNode<'a>, Round, F>;
-
-/// The function the workers run.
-trait StepFn<'a>: for<'u> Fn(Unit<'u, SmNode<'a>>, &Round) + Sync {}
-impl<'a, F: for<'u> Fn(Unit<'u, SmNode<'a>>, &Round) + Sync> StepFn<'a> for F {}
-
-/// One unit of a round (run on any thread): a memory partition applying the last window's L2
-/// operations (a pre-job), or a node's visits (which first takes its results of the last
-/// window, all partitions being done, when the round begins a window).
-fn step(
-    ctx: &Ctx,
-    l2: &PartitionJobs,
-    summaries: &[SummarySlot],
-    unit: Unit<'_, SmNode>,
-    round: &Round,
-) {
-    match unit {
-        Unit::Pre(p) => l2.apply(p, ctx.profile),
-        Unit::Item(node) => {
-            let watch = Stopwatch::start(ctx.profile);
-            if round.begin {
-                if !node.mem.ops().is_empty() {
-                    let mem = &mut node.mem;
-                    l2.results_for(node.index, |k, result| mem.set_result(k, result));
-                }
-                node.begin_window(ctx, round.end, round.pending);
-            }
-            node.run(ctx, round.end, round.pending);
-            let ops = node.mem.ops();
-            l2.post(node.index, node.posted, &ops[node.posted..]);
-            node.posted = ops.len();
-            let mut summary = Summary::of(node);
-            summary.visit_ns = watch.ns();
-            *lock(&summaries[node.index]) = summary;
-        }
-    }
-}
-
-/// What the engine reads of a node between rounds: the node writes it at the end of each of
-/// its visits, into a slot of its own, so that the engine reads one cache line per node
-/// instead of locking the node.
-#[derive(Debug, Clone, Copy, Default)]
-struct Summary {
-    /// The cycle of its first error, if any.
-    error: Option<u64>,
-    /// Where and why it halted, if it did.
-    halt: Option<(u64, HaltKind)>,
-    /// Whether its SM holds no CTA.
-    idle: bool,
-    /// [`SmNode::idle_since`].
-    idle_since: Option<u64>,
-    /// [`SmNode::next`].
-    next: u64,
-    /// Whether it has L2 operations in the window.
-    l2_ops: bool,
-    /// Whether it waits for an L2 result of the window (an operation or a deferred stall).
-    l2_wait: bool,
-    /// Pixels it finished.
-    pixels: usize,
-    /// [`SmNode::last_progress`].
-    last_progress: u64,
-    /// Nanoseconds of its last visits (profiled runs).
-    visit_ns: u64,
-}
-
-impl Summary {
-    /// The summary of `node` as it is.
-    fn of(node: &SmNode) -> Self {
-        let l2_ops = !node.mem.ops().is_empty();
-        Summary {
-            error: node.error.as_ref().map(|(c, _)| *c),
-            halt: node.halt.map(|h| (h.cycle, h.kind)),
-            idle: node.sm.is_idle(),
-            idle_since: node.idle_since,
-            next: node.next,
-            l2_ops,
-            l2_wait: l2_ops || node.mem.has_deferred_stall(),
-            pixels: node.pixels.len(),
-            last_progress: node.last_progress,
-            visit_ns: 0,
-        }
-    }
-}
-
-/// A node's [`Summary`] behind its own lock, on cache lines of its own.
-type SummarySlot = CachePadded<Mutex<Summary>>;
-
-impl<'a> Engine<'_, 'a> {
-    /// Runs windows until the last SM falls idle with no CTA pending; returns the cycle count.
-    fn run<F: StepFn<'a>>(&mut self, nodes: &mut Nodes<'_, 'a, F>) -> Result<u64, SimError> {
-        let window = L1Port::round_trip(&self.ctx.cfg.memory);
-        let reads_before = clock_reads();
-        let total = Stopwatch::start(self.profile.is_some());
-        let mut start = 0u64;
-        loop {
-            let end = start.saturating_add(window);
-            let pending = self.scheduler.pending() > 0;
-            if let Some(p) = &mut self.profile {
-                p.window();
-            }
-            let pre = if self.l2_unapplied { self.l2.len() } else { 0 };
-            self.l2_unapplied = false;
-            self.visit_round(
-                nodes,
-                pre,
-                |_| true,
-                Round {
-                    end,
-                    pending,
-                    begin: true,
-                },
-            );
-            let ended = self.serve_halts(nodes, end)?;
-            let next = self.end_window(end);
-            if let Some(cycles) = ended {
-                if let Some(p) = &mut self.profile {
-                    p.set_total(total.ns(), reads_before);
-                }
-                return Ok(cycles);
-            }
-            let deadline = self.watchdog.deadline();
-            if next >= deadline || end > deadline {
-                return Err(self.watchdog_error(nodes, deadline));
-            }
-            start = next;
-        }
-    }
-
-    /// Runs a round: the memory partitions `0..pre` apply their operations, then the nodes
-    /// `choose` selects visit their cycles; in a profiled run, records the units' times.
-    fn visit_round<F: StepFn<'a>>(
-        &mut self,
-        nodes: &mut Nodes<'_, 'a, F>,
-        pre: usize,
-        choose: impl Fn(usize) -> bool,
-        round: Round,
-    ) {
-        let kind = if round.begin {
-            RoundKind::Window
-        } else {
-            RoundKind::AfterHalt
-        };
-        let chosen: Vec<bool> = (0..nodes.len()).map(&choose).collect();
-        nodes.round(pre, |i| chosen[i], round);
-        for (i, _) in chosen.iter().enumerate().filter(|(_, &c)| c) {
-            self.summaries[i] = *lock(&self.slots[i]);
-        }
-        if let Some(p) = &mut self.profile {
-            let parts: Vec<u64> = (0..pre).map(|j| self.l2.apply_ns(j)).collect();
-            p.round(RoundKind::L2, &parts);
-            let times: Vec<u64> = (0..nodes.len())
-                .filter(|&i| chosen[i])
-                .map(|i| self.summaries[i].visit_ns)
-                .collect();
-            p.round(kind, &times);
-        }
-    }
-
-    /// Serves the nodes' halts of the window ending at `end` in cycle order, letting the
-    /// halted nodes go on after each, until every node has reached `end`. Returns the cycle
-    /// count when the run has ended.
-    fn serve_halts<F: StepFn<'a>>(
-        &mut self,
-        nodes: &mut Nodes<'_, 'a, F>,
-        end: u64,
-    ) -> Result<Option<u64>, SimError> {
-        loop {
-            let watch = Stopwatch::start(self.profile.is_some());
-            // The first error in (cycle, SM) order among the nodes that ran.
-            let mut first: Option<(u64, usize)> = None;
-            for (i, s) in self.summaries.iter().enumerate() {
-                if let Some(c) = s.error {
-                    if first.is_none_or(|(fc, _)| c < fc) {
-                        first = Some((c, i));
-                    }
-                }
-            }
-            if let Some((_, i)) = first {
-                let (_, e) = nodes.item(i).error.take().expect("its summary has it");
-                return Err(e);
-            }
-            let halts: Vec<Option<(u64, HaltKind)>> =
-                self.summaries.iter().map(|s| s.halt).collect();
-            let Some(t) = halts.iter().flatten().map(|h| h.0).min() else {
-                let ended = self.ended();
-                if let Some(p) = &mut self.profile {
-                    p.serial(Serial::Halts, watch.ns());
-                }
-                return Ok(ended);
-            };
-            // Every node is at cycle t or later: serve the CTA dispatch of cycle t.
-            let at = |i: usize, kind| halts[i] == Some((t, kind));
-            let dispatch: Vec<usize> = (0..nodes.len())
-                .filter(|&i| at(i, HaltKind::Dispatch))
-                .collect();
-            if !dispatch.is_empty() {
-                self.dispatch(nodes, t, &dispatch);
-            }
-            let pending = self.scheduler.pending() > 0;
-            // Visits of nodes idle for good happen only if the run goes on past cycle t: some
-            // CTA is pending, or some SM holds CTAs or fell idle at t or later.
-            let goes_on = pending
-                || self
-                    .summaries
-                    .iter()
-                    .any(|s| s.idle_since.is_none_or(|c| c >= t));
-            let mut go = vec![false; nodes.len()];
-            for i in 0..nodes.len() {
-                if halts[i].is_none_or(|(c, _)| c != t) {
-                    continue;
-                }
-                // A node served a dispatch may hold CTAs now (its summary predates it).
-                let idle = if dispatch.contains(&i) {
-                    nodes.item(i).sm.is_idle()
-                } else {
-                    self.summaries[i].idle
-                } && !pending;
-                if goes_on || !idle {
-                    go[i] = true;
-                } else {
-                    // Beyond the end of the run: the visit never happens.
-                    let mut n = nodes.item(i);
-                    n.halt = None;
-                    n.next = u64::MAX;
-                    self.summaries[i].halt = None;
-                    self.summaries[i].next = u64::MAX;
-                }
-            }
-            if let Some(p) = &mut self.profile {
-                p.serial(Serial::Halts, watch.ns());
-            }
-            self.visit_round(
-                nodes,
-                0,
-                |i| go[i],
-                Round {
-                    end,
-                    pending,
-                    begin: false,
-                },
-            );
-        }
-    }
-
-    /// When every node has reached the end of the window: the cycle count if the run has ended
-    /// (no CTA pending and every SM idle: it ends after the cycle the last one fell idle).
-    fn ended(&self) -> Option<u64> {
-        if self.scheduler.pending() > 0 {
-            return None;
-        }
-        let mut last = 0;
-        for s in &self.summaries {
-            last = last.max(s.idle_since?);
-        }
-        Some(last + 1)
-    }
-
-    /// Hands pending CTAs out at cycle `t` to the nodes halted for them (`halted`, in index
-    /// order), round-robin over the SMs; new CTAs' warps trace after launch and raygen.
-    fn dispatch<F>(&mut self, nodes: &Nodes<'_, 'a, F>, t: u64, halted: &[usize]) {
-        let ctx = self.ctx;
-        let mut free = vec![0; nodes.len()];
-        for &i in halted {
-            free[i] = nodes.item(i).sm.launchable();
-        }
-        let start = t + ctx.cfg.gpu.cta_launch_cycles as u64 + ctx.timing.raygen;
-        let warp_size = ctx.cfg.gpu.warp_size as usize;
-        for (sm, cta) in self.scheduler.dispatch(&mut free) {
-            let pixels = self.scheduler.pixels(cta);
-            let warps = pixels
-                .chunks(warp_size)
-                .map(|chunk| {
-                    chunk
-                        .iter()
-                        .map(|p| p.map(|p| PathThread::new(&ctx.frame, &ctx.settings, p)))
-                        .collect()
-                })
-                .collect();
-            nodes.item(sm).sm.launch(cta, warps, start);
-        }
-    }
-
-    /// Ends the window at `end`: notes whether the nodes posted L2 operations (the memory
-    /// partitions then apply them in (cycle, phase, SM, sequence) order as the next window's
-    /// first round begins, and the nodes take their results and settle), advances the progress
-    /// bar and the watchdog, and returns the earliest cycle at which a node may have work: its
-    /// next visit, or the window end if it waits for an L2 result of this window (never earlier
-    /// than the end) or for a stall's retry cycle.
-    fn end_window(&mut self, end: u64) -> u64 {
-        let watch = Stopwatch::start(self.profile.is_some());
-        let mut next = u64::MAX;
-        let (mut pixels, mut progress) = (0, 0);
-        for s in &self.summaries {
-            self.l2_unapplied |= s.l2_ops;
-            next = next.min(s.next);
-            if s.l2_wait {
-                next = end;
-            }
-            pixels += s.pixels;
-            progress = progress.max(s.last_progress);
-        }
-        if let Some(bar) = self.progress {
-            bar.set_position(pixels as u64);
-        }
-        self.watchdog.progress(progress);
-        if let Some(p) = &mut self.profile {
-            p.serial(Serial::WindowEnd, watch.ns());
-        }
-        next.max(end)
-    }
-
-    /// The watchdog's error at cycle `cycle` with every component's state.
-    fn watchdog_error<F>(&self, nodes: &Nodes<'_, 'a, F>, cycle: u64) -> SimError {
-        let mut dump = format!(
-            "CTA scheduler: {} of {} CTAs not dispatched\n",
-            self.scheduler.pending(),
-            self.scheduler.total()
-        );
-        let virtualization = self.ctx.cfg.mode.virtualization;
-        for i in 0..nodes.len() {
-            dump += &nodes.item(i).debug_state(virtualization, cycle);
-        }
-        dump += &format!("memory: {}\n", self.l2.debug_state(cycle));
-        SimError::Watchdog {
-            cycle,
-            last_progress: self.watchdog.last_progress(),
-            dump,
-        }
     }
 }

@@ -1,16 +1,19 @@
 //! The engine's L2 side: the memory partitions ([`crate::memory::L2Partition`]) as units of
-//! work that worker threads apply side by side at the end of each window.
+//! work that worker threads apply side by side, each as far as every SM has gone.
 //!
 //! Each SM posts its L2 operations to the partition of their line as it goes
-//! ([`PartitionJobs::post`], at the end of each of its visits, on its own thread) into a slot of
-//! its own per partition. In the first round of the next window each partition, as a pre-job on
-//! any thread (partitions share no state), takes the operations of its slots, sorts them into
-//! key order ([`crate::memory::L2Op::key`]) and applies them ([`PartitionJobs::apply`]),
-//! leaving each SM's results in that SM's slot; then every SM takes its own results
-//! ([`PartitionJobs::results_for`]) before it settles the window. Within a partition the order
-//! is the global key order restricted to it, so results are exactly those of one loop applying
-//! every operation in key order.
+//! ([`PartitionJobs::post`], on its own thread) into a slot of its own per partition, and then
+//! says how far it has gone (every operation accepted before that cycle is posted). A partition
+//! applies its operations *through* a cycle every SM has reached ([`PartitionJobs::apply`], on
+//! any thread: partitions share no state): it takes the operations of its slots accepted before
+//! that cycle, sorts them into key order ([`crate::memory::L2Op::key`]) and applies them,
+//! leaving each SM's results in that SM's slot; every SM takes its own results
+//! ([`PartitionJobs::results_for`]) before it needs them. Operations before a cycle are applied
+//! only once every SM has passed it, and in key order (cycle first), so within a partition the
+//! order is the global key order restricted to it, and the results are exactly those of one
+//! loop applying every operation in key order.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard};
 
 use crossbeam_utils::CachePadded;
@@ -23,21 +26,36 @@ use crate::memory::{L2Op, L2Partition, L2Side, MemStats, PartitionMap, Source};
 #[derive(Debug)]
 struct Part {
     part: L2Partition,
-    /// The window's operations of this partition: (operation, SM, index in the SM's window).
-    ops: Vec<(L2Op, u32, u32)>,
+    /// Operations being applied: (operation, SM).
+    ops: Vec<(L2Op, u32)>,
     /// Their results per SM, before they go to the SMs' slots.
-    results: Vec<Vec<(u32, (u64, Source))>>,
-    /// Nanoseconds the last [`PartitionJobs::apply`] took (profiled runs).
+    results: Vec<Vec<(u64, (u64, Source))>>,
+    /// Every operation accepted before this cycle is applied.
+    through: u64,
+    /// Nanoseconds of all applies (profiled runs).
     ns: u64,
+    /// Applies that did something.
+    applies: u64,
 }
 
-/// What one SM and one partition exchange in a window.
+/// What one SM and one partition exchange.
 #[derive(Debug, Default)]
 struct Exchange {
-    /// The SM's operations for the partition: (operation, index in the SM's window).
-    ops: Vec<(L2Op, u32)>,
-    /// The partition's results for the SM: (index in the SM's window, result).
-    results: Vec<(u32, (u64, Source))>,
+    /// The SM's operations for the partition not yet applied, in acceptance order (their
+    /// numbers are their `seq`).
+    ops: std::collections::VecDeque<L2Op>,
+    /// The partition's results for the SM not yet taken: (operation number, result).
+    results: Vec<(u64, (u64, Source))>,
+}
+
+/// One exchange slot with what its readers check before they take the lock.
+#[derive(Debug)]
+struct Slot {
+    exchange: Mutex<Exchange>,
+    /// The cycle of the oldest operation not yet taken (`u64::MAX`: none).
+    oldest: AtomicU64,
+    /// Results not yet taken.
+    results: AtomicU64,
 }
 
 /// The L2 partitions as jobs, each behind its own (uncontended) lock, and one exchange slot
@@ -49,7 +67,7 @@ pub struct PartitionJobs {
     parts: Vec<Mutex<Part>>,
     /// Slot of partition `p` and SM `sm` at `p * sms + sm`, each behind its own lock on cache
     /// lines of its own (SMs and partitions write neighbouring slots from different threads).
-    slots: Vec<CachePadded<Mutex<Exchange>>>,
+    slots: Vec<CachePadded<Slot>>,
 }
 
 impl PartitionJobs {
@@ -57,7 +75,13 @@ impl PartitionJobs {
     pub fn new(l2: L2Side, sms: usize) -> Self {
         let (map, parts) = l2.into_partitions();
         let slots = (0..parts.len() * sms)
-            .map(|_| CachePadded::new(Mutex::default()))
+            .map(|_| {
+                CachePadded::new(Slot {
+                    exchange: Mutex::default(),
+                    oldest: AtomicU64::new(u64::MAX),
+                    results: AtomicU64::new(0),
+                })
+            })
             .collect();
         PartitionJobs {
             map,
@@ -69,7 +93,9 @@ impl PartitionJobs {
                         part,
                         ops: Vec::new(),
                         results: vec![Vec::new(); sms],
+                        through: 0,
                         ns: 0,
+                        applies: 0,
                     })
                 })
                 .collect(),
@@ -82,63 +108,104 @@ impl PartitionJobs {
         self.parts.len()
     }
 
+    /// The partition of line `line`.
+    pub fn partition(&self, line: u64) -> usize {
+        self.map.partition(line)
+    }
+
     /// Whether there are none (never: an L2 has at least one partition).
     pub fn is_empty(&self) -> bool {
         self.parts.is_empty()
     }
 
-    /// The slot of partition `p` and SM `sm`, locked.
-    fn slot(&self, p: usize, sm: usize) -> MutexGuard<'_, Exchange> {
-        lock(&self.slots[p * self.sms + sm])
+    /// The slot of partition `p` and SM `sm`.
+    fn slot(&self, p: usize, sm: usize) -> &Slot {
+        &self.slots[p * self.sms + sm]
     }
 
-    /// Posts SM `sm`'s operations `ops` of the window, the first of them being its operation
-    /// number `first`, to their partitions (called with each new stretch of the SM's
-    /// operations, in acceptance order).
-    pub fn post(&self, sm: usize, first: usize, ops: &[L2Op]) {
-        for (k, op) in ops.iter().enumerate() {
+    /// Posts SM `sm`'s operations `ops` (the next in its acceptance order; each numbered by
+    /// its `seq`) to their partitions.
+    pub fn post(&self, sm: usize, ops: &[L2Op]) {
+        for op in ops {
             let p = self.map.partition(op.line);
-            self.slot(p, sm).ops.push((*op, (first + k) as u32));
+            let slot = self.slot(p, sm);
+            let mut ex = lock(&slot.exchange);
+            if ex.ops.is_empty() {
+                slot.oldest.store(op.cycle, Ordering::Release);
+            }
+            ex.ops.push_back(*op);
         }
     }
 
-    /// Applies partition `p`'s operations of the window in key order (on any thread), leaving
-    /// every SM's results (and only those) in its slot; times it if `profile`.
-    pub fn apply(&self, p: usize, profile: bool) {
+    /// Applies partition `p`'s operations accepted before cycle `through` (every SM has posted
+    /// all of them) in key order, on any thread, leaving every SM's results (and only those) in
+    /// its slot; times it if `profile`. Returns the cycle through which the partition has now
+    /// applied everything, or `None` if another thread is applying it.
+    pub fn apply(&self, p: usize, through: u64, profile: bool) -> Option<u64> {
         let watch = Stopwatch::start(profile);
-        let mut job = lock(&self.parts[p]);
+        let mut job = match self.parts[p].try_lock() {
+            Ok(job) => job,
+            Err(std::sync::TryLockError::Poisoned(e)) => e.into_inner(),
+            Err(std::sync::TryLockError::WouldBlock) => return None,
+        };
+        if through <= job.through {
+            return Some(job.through);
+        }
         let Part {
             part, ops, results, ..
         } = &mut *job;
         for sm in 0..self.sms {
-            let mut slot = self.slot(p, sm);
-            slot.results.clear();
-            ops.extend(slot.ops.drain(..).map(|(op, k)| (op, sm as u32, k)));
+            let slot = self.slot(p, sm);
+            if slot.oldest.load(Ordering::Acquire) >= through {
+                continue;
+            }
+            let mut ex = lock(&slot.exchange);
+            while ex.ops.front().is_some_and(|op| op.cycle < through) {
+                let op = ex.ops.pop_front().expect("checked above");
+                ops.push((op, sm as u32));
+            }
+            let oldest = ex.ops.front().map_or(u64::MAX, |op| op.cycle);
+            slot.oldest.store(oldest, Ordering::Release);
         }
-        ops.sort_unstable_by_key(|(op, _, _)| op.key());
-        for (op, sm, k) in ops.drain(..) {
-            results[sm as usize].push((k, part.apply(&op)));
+        ops.sort_unstable_by_key(|(op, _)| op.key());
+        for (op, sm) in ops.drain(..) {
+            results[sm as usize].push((op.seq, part.apply(&op)));
         }
         for (sm, r) in results.iter_mut().enumerate() {
             if !r.is_empty() {
-                self.slot(p, sm).results.append(r);
+                let slot = self.slot(p, sm);
+                let mut ex = lock(&slot.exchange);
+                ex.results.append(r);
+                slot.results
+                    .store(ex.results.len() as u64, Ordering::Release);
             }
         }
-        job.ns = watch.ns();
+        job.through = through;
+        job.ns += watch.ns();
+        job.applies += 1;
+        Some(through)
     }
 
-    /// Nanoseconds the last [`apply`](Self::apply) of partition `p` took (profiled runs).
-    pub fn apply_ns(&self, p: usize) -> u64 {
-        lock(&self.parts[p]).ns
+    /// Nanoseconds all [`apply`](Self::apply) calls of partition `p` took (profiled runs), and
+    /// how many applied something.
+    pub fn apply_ns(&self, p: usize) -> (u64, u64) {
+        let job = lock(&self.parts[p]);
+        (job.ns, job.applies)
     }
 
-    /// Hands SM `sm`'s results of the last applied window to `f(index, result)`, partition by
+    /// Hands SM `sm`'s results not yet taken to `f(operation number, result)`, partition by
     /// partition.
-    pub fn results_for(&self, sm: usize, mut f: impl FnMut(usize, (u64, Source))) {
+    pub fn results_for(&self, sm: usize, mut f: impl FnMut(u64, (u64, Source))) {
         for p in 0..self.parts.len() {
-            for &(k, result) in &self.slot(p, sm).results {
-                f(k as usize, result);
+            let slot = self.slot(p, sm);
+            if slot.results.load(Ordering::Acquire) == 0 {
+                continue;
             }
+            let mut ex = lock(&slot.exchange);
+            for (k, result) in ex.results.drain(..) {
+                f(k, result);
+            }
+            slot.results.store(0, Ordering::Release);
         }
     }
 

@@ -8,13 +8,15 @@
 //! blocks over a window of cycles), [`ray_memory`] (the memory contents
 //! the treelet hardware reads and writes), [`rt_fault`] (RT-unit errors in words), [`sm`] (CTA
 //! and warp slots), [`shader`] (raygen threads and shader timing), [`cta_scheduler`],
-//! [`engine`] (the cycle loop), [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of
+//! [`engine`] (the cycle loop: setting up a run), [`coordinator`] (the loop on any number of
+//! threads), [`l2_partitions`] (the L2's memory partitions as units of work), [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of
 //! the `prefetch` mode, which also serves the controller's preloads), [`queued_stacks`] (the
 //! traffic of queued rays' stacks, a modelling switch) and [`virtualization`] (ray
 //! virtualization's CTA-state traffic; suspending and resuming CTAs is in [`sm`]); [`error`]
 //! holds the error every component returns. Every design runs with or without ray
 //! virtualization.
 
+pub mod coordinator;
 pub mod cta_scheduler;
 pub mod datapath;
 pub mod engine;

@@ -19,6 +19,7 @@ use glam::Vec3;
 use crate::config::SimConfig;
 use crate::geometry::Ray;
 use crate::gpu::error::SimError;
+use crate::gpu::l2_partitions::PartitionJobs;
 use crate::gpu::rt::{RtPort, TracedWarp};
 use crate::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
 use crate::gpu::sm::{CtaRef, Resumed, Sm};
@@ -50,11 +51,12 @@ pub struct Ctx<'a> {
     pub timing: ShaderTiming,
     /// Record every traced ray.
     pub record_rays: bool,
-    /// Time each round of visits ([`SmNode::visit_ns`]) for the parallelism report.
+    /// Time the node's visits ([`SmNode::visit_ns`], [`SmNode::stretches`]) for the
+    /// parallelism report.
     pub profile: bool,
 }
 
-/// Why a node stopped before the end of a window.
+/// Why a node stopped for the coordinator ([`crate::gpu::coordinator`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum HaltKind {
     /// It has room for a new CTA and CTAs are pending: the CTA scheduler hands them out (its
@@ -108,11 +110,8 @@ pub struct SmNode<'a> {
     pub wake: u64,
     /// The next cycle to visit (its wake cycle; in lockstep every cycle).
     pub next: u64,
-    /// Where it stopped before the end of the window, if it did.
+    /// Where it stopped for the coordinator, if it did.
     pub halt: Option<Halt>,
-    /// The end of the window it is in (after the first window began): its L2 results are
-    /// settled when the next window begins.
-    pub unsettled: Option<u64>,
     /// The cycle of the visit after which it held no CTA (resident or suspended), while it
     /// holds none.
     pub idle_since: Option<u64>,
@@ -133,10 +132,13 @@ pub struct SmNode<'a> {
     pub ray_log: Vec<((u64, u8, usize, u64), TracedRay)>,
     /// Its time-series contributions, one per sample cycle so far.
     pub samples: Vec<NodeSample>,
-    /// Wall time of its last round of visits, in nanoseconds (with [`Ctx::profile`]).
+    /// CPU time of its visits so far, in nanoseconds (with [`Ctx::profile`]).
     pub visit_ns: u64,
-    /// How many of the window's L2 operations it has posted to the memory partitions.
-    pub posted: usize,
+    /// With [`Ctx::profile`]: per stretch of visits the engine ran, its first cycle, the cycle
+    /// it reached and its CPU time in nanoseconds.
+    pub stretches: Vec<(u64, u64, u64)>,
+    /// The number of its next L2 operation to post to the memory partitions.
+    pub posted: u64,
 }
 
 impl<'a> SmNode<'a> {
@@ -152,7 +154,6 @@ impl<'a> SmNode<'a> {
             wake: 0,
             next: 0,
             halt: None,
-            unsettled: None,
             idle_since: Some(0),
             error: None,
             visits: 0,
@@ -163,6 +164,7 @@ impl<'a> SmNode<'a> {
             ray_log: Vec::new(),
             samples: Vec::new(),
             visit_ns: 0,
+            stretches: Vec::new(),
             posted: 0,
         }
     }
@@ -172,9 +174,10 @@ impl<'a> SmNode<'a> {
         !pending && self.idle_since.is_some()
     }
 
-    /// Visits the node's cycles before `end` (CTAs `pending` at the CTA scheduler), first
-    /// finishing the visit it halted in if the engine let it go on; stops at a halt, an error
-    /// or `end`. Then records the samples before `end`.
+    /// Visits the node's cycles before `end` and before its L1 port's horizon (CTAs `pending`
+    /// at the CTA scheduler), first finishing the visit it halted in if the engine let it go
+    /// on; stops at a halt, an error or the bound. (Time-series samples are recorded at the
+    /// next visit or at the end: nothing they count changes in between.)
     pub fn run(&mut self, ctx: &Ctx, end: u64, pending: bool) {
         if let Some(halt) = self.halt.take() {
             let done = match halt.kind {
@@ -185,14 +188,12 @@ impl<'a> SmNode<'a> {
                 return;
             }
         }
-        while self.error.is_none() && self.halt.is_none() && self.next < end {
+        while self.error.is_none() && self.halt.is_none() && self.next < end.min(self.mem.horizon())
+        {
             let t = self.next;
             if !self.visit(ctx, t, pending, false) {
                 return;
             }
-        }
-        if self.error.is_none() && self.halt.is_none() {
-            self.record_samples(ctx.cfg, end.saturating_sub(1));
         }
     }
 
@@ -291,26 +292,25 @@ impl<'a> SmNode<'a> {
         true
     }
 
-    /// Starts a window ending at `end`: settles the last window's L2 results
-    /// ([`SmNode::unsettled`]; the engine has applied them and this node has taken its own),
-    /// and declares the window to the L1 port.
-    pub fn begin_window(&mut self, ctx: &Ctx, end: u64, pending: bool) {
-        if let Some(last) = self.unsettled.replace(end) {
-            self.settle(last, ctx.cfg.sim.lockstep, pending);
+    /// Takes the L2 results the memory partitions left for it ([`PartitionJobs::results_for`])
+    /// and settles its oldest operations that have them: the L1 port's placeholders, deferred
+    /// stalls' retry cycles, and its next visit (new responses are queued now). Not while
+    /// halted. Settling as soon as results arrive gives the same results as settling just
+    /// before they are needed ([`crate::memory::l1`]).
+    pub fn absorb(&mut self, l2: &PartitionJobs, lockstep: bool, pending: bool) {
+        debug_assert!(self.halt.is_none(), "a halted node absorbs nothing");
+        let before = self.mem.horizon();
+        let mem = &mut self.mem;
+        l2.results_for(self.index, |k, result| mem.set_result(k, result));
+        if self.mem.settle() == 0 {
+            return;
         }
-        self.mem.set_window_end(end);
-    }
-
-    /// Settles the L2 results of the window that ended at `end` (every operation has its
-    /// result): the L1 port's placeholders, deferred stalls' retry cycles, and the wake cycle
-    /// as of the end of that window (its responses are queued now).
-    pub fn settle(&mut self, end: u64, lockstep: bool, pending: bool) {
-        self.mem.settle();
-        self.posted = 0;
         self.rt.settle_retries(&self.mem);
-        self.wake = self.wake_cycle(end.saturating_sub(1), pending);
+        // Every visit before `from` is done and the new responses are at or after it.
+        let from = self.next.min(before);
+        self.wake = self.wake_cycle(from.saturating_sub(1), pending);
         self.next = if lockstep && !self.retired(pending) {
-            self.next.max(end)
+            self.next
         } else {
             self.wake
         };

@@ -1,13 +1,17 @@
-//! The parallelism report ([`ParallelProfile`]): measured in a one-thread run, it times every
-//! round of node visits per SM, every round of L2 partitions and every serial section of the
-//! engine (L2 hand-over, CTA dispatch and halts, the rest of the bookkeeping), and predicts the
-//! speedup on `N` threads by the work-span bound: the one-thread time over the serial time plus,
-//! for every round, its critical path when its units (in the order the worker threads claim
-//! them) are list-scheduled onto `N` threads.
+//! The parallelism report ([`ParallelProfile`]): measured in a one-thread run, it times the
+//! work of every SM node (per stretch of simulated cycles), of every memory partition and of the
+//! coordinator (halts, CTA dispatch, the end of the run, the watchdog), and predicts the speedup
+//! on `N` threads by a work-span bound: the one-thread time over the serial time plus the larger
+//! of the parallel work spread over `N` threads and the *lagged span*. The lagged span replays
+//! the nodes' measured work with a thread per node under the bounded-lag rule of
+//! [`crate::gpu::coordinator`]: time is cut into buckets of a quarter L2 round trip, and a node
+//! starts a bucket once it has finished the one before and every node has finished the bucket
+//! four before (a node may run one round trip past the slowest).
 //!
 //! Times are the thread's CPU time, so a busy machine (preemption) does not inflate them.
-//! The prediction is an upper bound of what the engine's structure allows: it counts no cost
-//! for handing a round to other threads, for cache traffic between cores or for a busy machine.
+//! The prediction is an upper bound: it counts no cost for handing work between threads, for
+//! cache traffic between cores or for a busy machine, and lets a node with no L2 operation in
+//! flight wait as if it had one.
 //! `vtq bench --sim --parallelism` prints it (docs/performance.md).
 
 use std::fmt::Write as _;
@@ -17,71 +21,27 @@ use std::time::Instant;
 /// Thread counts the report predicts.
 pub const PREDICTED_THREADS: [usize; 6] = [1, 2, 4, 8, 16, 32];
 
-/// Serial sections of the engine, timed separately.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Serial {
-    /// Ending a window: whether L2 operations wait, the next window's start, progress.
-    WindowEnd,
-    /// Serving halts: CTA dispatch, deciding which halted nodes go on.
-    Halts,
-    /// The rest of the loop: window bookkeeping, the watchdog, the progress bar.
-    Other,
-}
-
-/// Names of the [`Serial`] sections, in declaration order.
-const SERIAL_NAMES: [&str; 3] = [
-    "window end (L2 operations waiting, next start, progress)",
-    "halts (CTA dispatch, which halted SMs go on)",
-    "other (window bookkeeping, watchdog, progress)",
-];
-
-/// Kinds of parallel rounds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RoundKind {
-    /// The first round of a window: every SM visits its cycles.
-    Window,
-    /// A round after serving halts: the halted SMs go on.
-    AfterHalt,
-    /// The L2 partitions apply the last window's operations (pre-jobs of a window's first
-    /// round: the SMs start when all are done; one partition is serial work).
-    L2,
-}
-
-/// Names of the [`RoundKind`]s, in declaration order.
-const ROUND_NAMES: [&str; 3] = [
-    "SM visits, first round of a window",
-    "SM visits after a halt",
-    "L2 partitions",
-];
-
-/// Timings of a one-thread run, gathered as it goes.
+/// Timings of a one-thread run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ParallelProfile {
-    /// Nanoseconds in each [`Serial`] section.
-    serial_ns: [u64; 3],
-    /// Rounds of each [`RoundKind`].
-    rounds: [u64; 3],
-    /// Units run in rounds of each kind.
-    units: [u64; 3],
-    /// Nanoseconds of work in rounds of each kind (the units' times).
-    work_ns: [u64; 3],
-    /// Per predicted thread count: the sum over rounds of the round's makespan.
-    span_ns: [u64; PREDICTED_THREADS.len()],
-    /// The longest unit of each kind.
-    longest_unit_ns: [u64; 3],
-    /// Per unit index (SM), its work in first rounds of windows.
-    per_unit_ns: Vec<u64>,
-    /// Sum over first rounds of windows of their longest unit.
-    window_max_ns: u64,
-    /// Windows run.
-    windows: u64,
-    /// Time of the whole engine loop, less the profiling's own clock reads.
+    /// Per SM node, nanoseconds of its visits (and settling, posting, publishing).
+    per_sm_ns: Vec<u64>,
+    /// Per memory partition, nanoseconds of its applies.
+    per_partition_ns: Vec<u64>,
+    /// Nanoseconds of the coordinator's work.
+    coordinator_ns: u64,
+    /// Time of the whole loop, less the profiling's own clock reads.
     total_ns: u64,
     /// The clock reads' estimated time, taken out of `total_ns`.
     clock_ns: u64,
-    /// Nanoseconds of one clock read: a measured unit or section holds about one, taken out.
+    /// Nanoseconds of one clock read: a measured unit holds about one per measurement.
     read_ns: u64,
+    /// The lagged span: the nodes' work replayed with a thread each under bounded lag.
+    lagged_span_ns: u64,
 }
+
+/// Buckets per L2 round trip in the lagged span (a node may be this many buckets ahead).
+const LAG_BUCKETS: u64 = 4;
 
 /// A stopwatch of the calling thread's CPU time (on Unix; wall time elsewhere), so that time
 /// the thread spends preempted on a busy machine does not count as work.
@@ -156,69 +116,105 @@ impl ParallelProfile {
         }
     }
 
-    /// Adds `ns` (as a stopwatch measured it) to serial section `s`.
-    pub fn serial(&mut self, s: Serial, ns: u64) {
-        self.serial_ns[s as usize] += ns.saturating_sub(self.read_ns);
+    /// Nanoseconds of one clock read (to take out of each measurement).
+    pub fn read_ns(&self) -> u64 {
+        self.read_ns
     }
 
-    /// Counts one window.
-    pub fn window(&mut self) {
-        self.windows += 1;
+    /// Sets the work of each SM node and of each memory partition (already less their clock
+    /// reads).
+    pub fn set_units(&mut self, per_sm_ns: Vec<u64>, per_partition_ns: Vec<u64>) {
+        self.per_sm_ns = per_sm_ns;
+        self.per_partition_ns = per_partition_ns;
+    }
+
+    /// Sets the lagged span from each node's stretches of visits (first cycle, cycle reached,
+    /// nanoseconds) and the L2 round trip: each stretch's time is spread evenly over the
+    /// buckets it covers (at most one round trip of them).
+    pub fn set_stretches<'s>(
+        &mut self,
+        nodes: impl Iterator<Item = &'s [(u64, u64, u64)]>,
+        round_trip: u64,
+    ) {
+        let bucket = (round_trip / LAG_BUCKETS).max(1);
+        let mut costs: Vec<Vec<u64>> = Vec::new();
+        for stretches in nodes {
+            let mut cost: Vec<u64> = Vec::new();
+            // A stretch from `u64::MAX` visited nothing (a node with no visit to come).
+            for &(from, reached, ns) in stretches.iter().filter(|s| s.0 != u64::MAX) {
+                let first = from / bucket;
+                let last = reached
+                    .max(from.saturating_add(1))
+                    .min(from.saturating_add(round_trip))
+                    .saturating_sub(1)
+                    / bucket;
+                let n = last - first + 1;
+                if cost.len() <= last as usize {
+                    cost.resize(last as usize + 1, 0);
+                }
+                for (k, c) in cost[first as usize..=last as usize].iter_mut().enumerate() {
+                    *c += ns / n + u64::from((k as u64) < ns % n);
+                }
+            }
+            costs.push(cost);
+        }
+        self.lagged_span_ns = lagged_span(&costs, LAG_BUCKETS as usize);
+    }
+
+    /// Sets the coordinator's work (already less its clock reads).
+    pub fn set_serial(&mut self, ns: u64) {
+        self.coordinator_ns = ns;
     }
 
     /// Sets the time of the whole loop, taking out the estimated cost of the clock reads made
-    /// since the profile was created (`reads_before`: [`clock_reads`] then).
+    /// since `reads_before` ([`clock_reads`] then).
     pub fn set_total(&mut self, ns: u64, reads_before: u64) {
         let reads = clock_reads().saturating_sub(reads_before);
         self.clock_ns = reads * self.read_ns;
         self.total_ns = ns.saturating_sub(self.clock_ns);
     }
 
-    /// One round of kind `kind` whose units took `units` nanoseconds each (as stopwatches
-    /// measured them), in the order the worker threads claim them.
-    pub fn round(&mut self, kind: RoundKind, units: &[u64]) {
-        if units.is_empty() {
-            return;
-        }
-        let units: Vec<u64> = units
-            .iter()
-            .map(|u| u.saturating_sub(self.read_ns))
-            .collect();
-        let units = &units[..];
-        let k = kind as usize;
-        if kind == RoundKind::Window {
-            if self.per_unit_ns.len() < units.len() {
-                self.per_unit_ns.resize(units.len(), 0);
-            }
-            for (total, &u) in self.per_unit_ns.iter_mut().zip(units) {
-                *total += u;
-            }
-            self.window_max_ns += units.iter().copied().max().unwrap_or(0);
-        }
-        self.rounds[k] += 1;
-        self.units[k] += units.len() as u64;
-        self.work_ns[k] += units.iter().sum::<u64>();
-        self.longest_unit_ns[k] = self.longest_unit_ns[k].max(*units.iter().max().unwrap_or(&0));
-        for (span, &threads) in self.span_ns.iter_mut().zip(&PREDICTED_THREADS) {
-            *span += makespan(units, threads);
-        }
+    /// Nanoseconds of serial work: the coordinator's.
+    pub fn serial_total_ns(&self) -> u64 {
+        self.coordinator_ns
     }
 
-    /// Nanoseconds of serial work: the timed serial sections plus whatever of the loop's wall
-    /// time no round or section accounts for (the hand-over of rounds to the workers).
-    pub fn serial_total_ns(&self) -> u64 {
-        let timed: u64 = self.serial_ns.iter().sum::<u64>() + self.work_ns.iter().sum::<u64>();
-        self.serial_ns.iter().sum::<u64>() + self.total_ns.saturating_sub(timed)
+    /// Nanoseconds of the loop no unit accounts for: threads looking for work (every thread
+    /// does its own, so it counts as parallel work).
+    fn looking_ns(&self) -> u64 {
+        let timed = self.per_sm_ns.iter().sum::<u64>()
+            + self.per_partition_ns.iter().sum::<u64>()
+            + self.coordinator_ns;
+        self.total_ns.saturating_sub(timed)
+    }
+
+    /// Nanoseconds of parallel work: the nodes', the partitions' and looking for work.
+    fn parallel_ns(&self) -> u64 {
+        self.per_sm_ns.iter().sum::<u64>()
+            + self.per_partition_ns.iter().sum::<u64>()
+            + self.looking_ns()
     }
 
     /// The one-thread time the prediction starts from: serial time plus all work.
     pub fn one_thread_ns(&self) -> u64 {
-        self.serial_total_ns() + self.work_ns.iter().sum::<u64>()
+        self.serial_total_ns() + self.parallel_ns()
     }
 
-    /// Predicted time on `PREDICTED_THREADS[i]` threads.
-    fn predicted_ns(&self, i: usize) -> u64 {
-        self.serial_total_ns() + self.span_ns[i]
+    /// The longest chain of work: the busiest node or partition, or the lagged span.
+    fn span_ns(&self) -> u64 {
+        self.per_sm_ns
+            .iter()
+            .chain(&self.per_partition_ns)
+            .copied()
+            .max()
+            .unwrap_or(0)
+            .max(self.lagged_span_ns)
+    }
+
+    /// Predicted time on `n` threads.
+    fn predicted_ns(&self, n: usize) -> u64 {
+        let spread = self.parallel_ns().div_ceil(n.max(1) as u64);
+        self.serial_total_ns() + spread.max(self.span_ns())
     }
 
     /// Predicted speedups over one thread, one per entry of [`PREDICTED_THREADS`].
@@ -226,8 +222,14 @@ impl ParallelProfile {
         let one = self.one_thread_ns().max(1) as f64;
         PREDICTED_THREADS
             .iter()
-            .enumerate()
-            .map(|(i, &n)| (n, one / self.predicted_ns(i).max(1) as f64))
+            .map(|&n| {
+                let x = if n == 1 {
+                    1.0
+                } else {
+                    one / self.predicted_ns(n).max(1) as f64
+                };
+                (n, x)
+            })
             .collect()
     }
 
@@ -239,36 +241,38 @@ impl ParallelProfile {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "parallelism (one-thread run, {} windows, {:.1} ms in the engine loop):",
-            self.windows,
+            "parallelism (one-thread run, {:.1} ms in the loop):",
             ms(self.total_ns)
         );
-        for (k, name) in ROUND_NAMES.iter().enumerate() {
-            if self.rounds[k] == 0 {
-                continue;
-            }
-            let _ = writeln!(
-                s,
-                "  parallel  {name}: {:.1} ms ({:.1}%), {} rounds, {} units, mean unit {:.1} us, \
-                 longest {:.1} us",
-                ms(self.work_ns[k]),
-                pct(self.work_ns[k]),
-                self.rounds[k],
-                self.units[k],
-                self.work_ns[k] as f64 / self.units[k].max(1) as f64 / 1e3,
-                self.longest_unit_ns[k] as f64 / 1e3
-            );
-        }
-        for (k, name) in SERIAL_NAMES.iter().enumerate() {
-            let ns = if k == Serial::Other as usize {
-                self.serial_total_ns() - self.serial_ns.iter().sum::<u64>() + self.serial_ns[k]
-            } else {
-                self.serial_ns[k]
-            };
-            if ns > 0 || k == Serial::Other as usize {
-                let _ = writeln!(s, "  serial    {name}: {:.1} ms ({:.1}%)", ms(ns), pct(ns));
-            }
-        }
+        let sms: u64 = self.per_sm_ns.iter().sum();
+        let parts: u64 = self.per_partition_ns.iter().sum();
+        let _ = writeln!(
+            s,
+            "  parallel  SM nodes (visits, settling L2 results, posting operations): {:.1} ms \
+             ({:.1}%)",
+            ms(sms),
+            pct(sms)
+        );
+        let _ = writeln!(
+            s,
+            "  parallel  memory partitions (applying L2 operations): {:.1} ms ({:.1}%)",
+            ms(parts),
+            pct(parts)
+        );
+        let other = self.looking_ns();
+        let _ = writeln!(
+            s,
+            "  serial    coordinator (CTA dispatch, halts, end of run, watchdog): {:.1} ms \
+             ({:.1}%)",
+            ms(self.coordinator_ns),
+            pct(self.coordinator_ns)
+        );
+        let _ = writeln!(
+            s,
+            "  parallel  looking for work: {:.1} ms ({:.1}%)",
+            ms(other),
+            pct(other)
+        );
         let _ = writeln!(
             s,
             "  (the profile's own {:.1} ms of clock reads taken out of the loop's time)",
@@ -280,21 +284,19 @@ impl ParallelProfile {
             pct(self.serial_total_ns()),
             one / self.serial_total_ns().max(1) as f64
         );
-        if let (Some(&max), Some(&min)) =
-            (self.per_unit_ns.iter().max(), self.per_unit_ns.iter().min())
+        if let (Some(&max), Some(&min)) = (self.per_sm_ns.iter().max(), self.per_sm_ns.iter().min())
         {
-            let sms = self.per_unit_ns.len() as u64;
-            let mean = self.per_unit_ns.iter().sum::<u64>() / sms;
+            let mean = sms / self.per_sm_ns.len() as u64;
             let _ = writeln!(
                 s,
                 "  balance: work per SM over the run {:.1} / {:.1} / {:.1} ms (least / mean / \
-                 most); in a window the slowest SM takes {:.2}x the mean; without a barrier per \
-                 window the SM visits could take as little as the busiest SM's {:.1} ms",
+                 most); with a thread per SM, bounded lag takes {:.1} ms of it (the lagged \
+                 span: at most {:.2}x)",
                 ms(min),
                 ms(mean),
                 ms(max),
-                self.window_max_ns as f64 / mean.max(1) as f64,
-                ms(max),
+                ms(self.lagged_span_ns),
+                one / (self.serial_total_ns() + self.span_ns()).max(1) as f64
             );
         }
         let speedups: Vec<String> = self
@@ -312,30 +314,36 @@ impl ParallelProfile {
     }
 }
 
+/// The time the nodes' work `costs` (per node, nanoseconds per bucket of cycles) takes with a
+/// thread per node when a node starts bucket `k` only after finishing bucket `k - 1` and once
+/// every node has finished bucket `k - lag`.
+fn lagged_span(costs: &[Vec<u64>], lag: usize) -> u64 {
+    let buckets = costs.iter().map(Vec::len).max().unwrap_or(0);
+    // finish[k % (lag + 1)][node]: when the node finished bucket k.
+    let mut finish = vec![vec![0u64; costs.len()]; lag + 1];
+    let mut all_done = vec![0u64; lag + 1];
+    for k in 0..buckets {
+        let gate = if k >= lag {
+            all_done[(k - lag) % (lag + 1)]
+        } else {
+            0
+        };
+        let prev = (k + lag) % (lag + 1);
+        let mut latest = 0;
+        for (i, cost) in costs.iter().enumerate() {
+            let start = if k == 0 { 0 } else { finish[prev][i] }.max(gate);
+            let done = start + cost.get(k).copied().unwrap_or(0);
+            finish[k % (lag + 1)][i] = done;
+            latest = latest.max(done);
+        }
+        all_done[k % (lag + 1)] = latest;
+    }
+    all_done.iter().copied().max().unwrap_or(0)
+}
+
 /// Clock reads made by stopwatches so far (in every thread).
 pub fn clock_reads() -> u64 {
     CLOCK_READS.load(Ordering::Relaxed)
-}
-
-/// Time to run `units` (in claim order, each thread taking the next unit when it is free) on
-/// `threads` threads.
-fn makespan(units: &[u64], threads: usize) -> u64 {
-    if threads <= 1 {
-        return units.iter().sum();
-    }
-    if threads >= units.len() {
-        return units.iter().copied().max().unwrap_or(0);
-    }
-    let mut free = vec![0u64; threads];
-    for &u in units {
-        let (i, _) = free
-            .iter()
-            .enumerate()
-            .min_by_key(|&(_, &t)| t)
-            .expect("at least one thread");
-        free[i] += u;
-    }
-    free.into_iter().max().unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -343,44 +351,57 @@ mod tests {
     use super::*;
 
     #[test]
-    fn makespan_is_list_scheduling_in_claim_order() {
-        assert_eq!(makespan(&[5, 3, 2, 4], 1), 14);
-        // Threads: [5] [3, 2, 4]? No: 3 then 2 go to the free thread (t=3, t=5); 4 goes to the
-        // earliest free, thread 0 at 5 or thread 1 at 5 (the first): 9.
-        assert_eq!(makespan(&[5, 3, 2, 4], 2), 9);
-        assert_eq!(makespan(&[5, 3, 2, 4], 4), 5);
-        assert_eq!(makespan(&[5, 3, 2, 4], 32), 5);
-        assert_eq!(makespan(&[], 2), 0);
-    }
-
-    #[test]
-    fn prediction_follows_amdahl_for_even_units() {
+    fn prediction_is_the_work_span_bound() {
         let mut p = ParallelProfile::default();
-        // 100 rounds of 16 equal units of 10 ns, 400 ns serial.
-        for _ in 0..100 {
-            p.round(RoundKind::Window, &[10; 16]);
-        }
-        p.serial(Serial::Halts, 400);
-        p.total_ns = 16_400;
+        // 16 SMs of 1,000 ns but one of 4,000 ns, 16 partitions of 100 ns, 400 ns serial.
+        let mut sms = vec![1_000; 16];
+        sms[3] = 4_000;
+        p.set_units(sms, vec![100; 16]);
+        p.set_serial(400);
+        p.total_ns = 15_000 + 4_000 + 1_600 + 400;
+        assert_eq!(p.one_thread_ns(), 21_000);
         let s = p.predicted_speedups();
         assert_eq!(s[0], (1, 1.0));
-        // 16 threads: 400 + 100 x 10 = 1,400 ns against 16,400.
-        let (n, x) = s[4];
-        assert_eq!(n, 16);
-        assert!((x - 16_400.0 / 1_400.0).abs() < 1e-9, "{x}");
-        // 32 threads gain nothing over 16 with 16 units a round.
-        assert_eq!(s[5].1, x);
+        // 2 threads: 400 + 20,600 / 2 = 10,700.
+        assert!((s[1].1 - 21_000.0 / 10_700.0).abs() < 1e-9, "{:?}", s[1]);
+        // 16 threads: the busiest SM, 400 + 4,000.
+        assert!((s[4].1 - 21_000.0 / 4_400.0).abs() < 1e-9, "{:?}", s[4]);
+        assert_eq!(s[5].1, s[4].1);
         assert!(p.report().contains("predicted speedup"));
     }
 
     #[test]
-    fn unaccounted_loop_time_counts_as_serial() {
+    fn looking_for_work_counts_as_parallel_work() {
         let mut p = ParallelProfile::default();
-        p.round(RoundKind::AfterHalt, &[100, 100]);
-        p.serial(Serial::WindowEnd, 50);
+        p.set_units(vec![100, 100], vec![]);
+        p.set_serial(50);
         p.total_ns = 300;
-        // 300 - 200 - 50 = 50 ns of hand-over on top of the 50 timed.
-        assert_eq!(p.serial_total_ns(), 100);
+        // 300 - 200 - 50 = 50 ns of looking for work, spread like the nodes' work.
+        assert_eq!(p.serial_total_ns(), 50);
         assert_eq!(p.one_thread_ns(), 300);
+    }
+
+    #[test]
+    fn lagged_span_lets_bursts_on_different_nodes_overlap_within_the_lag() {
+        // Two nodes, each busy (10) in alternate buckets: with a lag of 4 buckets they overlap
+        // (each takes only its own 4 x 10); with a lag of 1 (a barrier per bucket) they run one
+        // after the other.
+        let a = vec![10, 0, 10, 0, 10, 0, 10, 0];
+        let b = vec![0, 10, 0, 10, 0, 10, 0, 10];
+        assert_eq!(lagged_span(&[a.clone(), b.clone()], 4), 40);
+        assert_eq!(lagged_span(&[a, b], 1), 80);
+        // One node alone: its own work.
+        assert_eq!(lagged_span(&[vec![5, 5, 5]], 4), 15);
+    }
+
+    #[test]
+    fn stretches_spread_over_the_buckets_they_cover() {
+        let mut p = ParallelProfile::default();
+        // Round trip 8: buckets of 2 cycles; a stretch of cycles 0..4 (two buckets) of 10 ns.
+        p.set_stretches([&[(0, 4, 10)][..]].into_iter(), 8);
+        assert_eq!(p.lagged_span_ns, 10);
+        // A stretch of a node with no visit to come counts nothing.
+        p.set_stretches([&[(0, 4, 10), (u64::MAX, u64::MAX, 3)][..]].into_iter(), 8);
+        assert_eq!(p.lagged_span_ns, 10);
     }
 }

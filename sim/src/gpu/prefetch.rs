@@ -165,7 +165,8 @@ impl<'a> Prefetcher<'a> {
         }
     }
 
-    /// After the L1's window was settled: makes a deferred stall's retry cycle real.
+    /// After the L1 port settled L2 results: makes a deferred stall's retry cycle real if that
+    /// settle resolved it.
     pub fn settle_retry(&mut self, mem: &L1Port) {
         self.retry_at = mem.resolve_retry(self.retry_at);
     }

@@ -210,7 +210,7 @@ mod tests {
         assert_eq!(port.next_event(4), None);
         for k in 0..mem.ops().len() {
             let result = l2.apply(&mem.ops()[k]);
-            mem.set_result(k, result);
+            mem.set_result(mem.first_op() + k as u64, result);
         }
         mem.settle();
         let loads: Vec<Response> = mem.pop_ready(u64::MAX >> 4).filter(|r| !r.store).collect();

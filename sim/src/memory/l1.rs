@@ -7,18 +7,20 @@
 //! before `l1_latency + l2_latency` cycles after its acceptance (the *L2 round trip*), so
 //! nothing the SM does in the meantime depends on its L2 result. The port therefore records the
 //! operation ([`L1Port::ops`]) and gives the access a placeholder completion cycle
-//! ([`PENDING_BASE`] + its index) that compares later than every real cycle; the caller applies
-//! the operations to the [`L2Side`](super::l2::L2Side) in [`L2Op::key`] order (merged over all
-//! SMs), hands the results back ([`L1Port::set_result`]) and calls [`L1Port::settle`], which
-//! replaces every placeholder by the real cycle and queues the responses. Between settles the
-//! port may run up to one L2 round trip past the first unsettled acceptance
-//! ([`L1Port::set_window_end`]): within that window a placeholder is always later than the
-//! cycle being simulated, so every decision it takes part in (a sector being filled, a line
-//! reserved, an MSHR busy) is the same as with the real cycle. The one value that may be needed
-//! earlier, the retry cycle of a stall when the earliest known fill is after the window, is
-//! itself a placeholder ([`RETRY_BASE`] + its index) resolved by the settle
-//! ([`L1Port::resolve_retry`]). Settling after every access gives the plain, immediate model
-//! ([`super::MemorySystem`]).
+//! ([`PENDING_BASE`] + the operation's number, counted over the whole run) that compares later
+//! than every real cycle; the caller applies the operations to the
+//! [`L2Side`](super::l2::L2Side) in [`L2Op::key`] order (merged over all SMs), hands the results
+//! back ([`L1Port::set_result`]) and calls [`L1Port::settle`], which replaces the placeholders
+//! of the oldest operations that have their results by the real cycles and queues their
+//! responses. The port may run up to one L2 round trip past its oldest unsettled acceptance
+//! ([`L1Port::horizon`]): before that cycle a placeholder is always later than the cycle being
+//! simulated, and so is the real cycle it stands for, so every decision it takes part in (a
+//! sector being filled, a line reserved, an MSHR busy) is the same whether the operation is
+//! settled or not — settling early (as soon as results arrive) or late gives the same results.
+//! The one value that may be needed earlier, the retry cycle of a stall when the earliest known
+//! fill is past the horizon, is itself a placeholder ([`RETRY_BASE`] + the stall's number)
+//! resolved by the settle that makes it certain ([`L1Port::resolve_retry`]). Settling after
+//! every access gives the plain, immediate model ([`super::MemorySystem`]).
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -32,13 +34,13 @@ use super::request::{
 use super::responses::ResponseQueue;
 use super::stats::MemStats;
 
-/// Placeholder completion cycles start here: operation `k` of the current window completes at
-/// `PENDING_BASE + k` until settled. Above every real cycle ([`MAX_CYCLE`]).
+/// Placeholder completion cycles start here: operation number `k` (counted over the run)
+/// completes at `PENDING_BASE + k` until settled. Above every real cycle ([`MAX_CYCLE`]).
 pub const PENDING_BASE: u64 = 1 << 62;
 
-/// Placeholder retry cycles start here: deferred stall `j` of the current window may retry at
-/// `RETRY_BASE + j` until settled ([`L1Port::resolve_retry`]). Above every real cycle, below
-/// [`PENDING_BASE`].
+/// Placeholder retry cycles start here: deferred stall number `j` (counted over the run) may
+/// retry at `RETRY_BASE + j` until resolved ([`L1Port::resolve_retry`]). Above every real
+/// cycle, below [`PENDING_BASE`].
 pub const RETRY_BASE: u64 = 1 << 61;
 
 /// What the L1 port made of an accepted access.
@@ -46,11 +48,11 @@ pub const RETRY_BASE: u64 = 1 << 61;
 pub enum Acceptance {
     /// Decided by the L1 alone: completion cycle and source are final.
     Known(Accepted),
-    /// Its completion depends on L2 operation `op` of the current window (its own, or the
-    /// fill it merged with, `merge`).
+    /// Its completion depends on unsettled L2 operation `op` (its own, or the fill it merged
+    /// with, `merge`).
     Pending {
-        /// Index of the operation in [`L1Port::ops`].
-        op: usize,
+        /// Number of the operation ([`L1Port::first_op`] numbers [`L1Port::ops`]' first).
+        op: u64,
         /// The access merged with that operation's L1 fill (source [`Source::L1Merge`]).
         merge: bool,
     },
@@ -65,7 +67,7 @@ struct Reply {
     respond: Option<(u64, Response)>,
 }
 
-/// One SM's L1, MSHRs and response queue, with its L2 operations of the current window.
+/// One SM's L1, MSHRs and response queue, with its unsettled L2 operations.
 #[derive(Debug, Clone)]
 pub struct L1Port {
     sm: u32,
@@ -80,21 +82,27 @@ pub struct L1Port {
     seq: u64,
     /// Cycle of the latest access.
     last_now: u64,
-    /// No placeholder of this window is needed before this cycle.
-    window_end: u64,
-    /// L2 operations of this window, in acceptance order.
+    /// The L2 round trip: an operation's result is never earlier than this after its
+    /// acceptance.
+    round_trip: u64,
+    /// Number of the first unsettled operation (`ops[0]`).
+    first: u64,
+    /// Unsettled L2 operations, in acceptance order.
     ops: Vec<L2Op>,
     /// What each operation does when settled.
     replies: Vec<Reply>,
     /// Each operation's result, once applied.
     results: Vec<Option<(u64, Source)>>,
-    /// Merges with fills of this window: (operation, acceptance number, response).
-    waiting: Vec<(usize, u64, Response)>,
-    /// Deferred stalls: for each, the candidates' fill cycles (a candidate is free once all
-    /// its values have passed; the retry cycle is the earliest candidate).
-    stalls: Vec<Vec<Vec<u64>>>,
-    /// The settled retry cycles of the last window's deferred stalls.
-    retries: Vec<u64>,
+    /// Merges with unsettled fills: (operation number, acceptance number, response).
+    waiting: Vec<(u64, u64, Response)>,
+    /// Unresolved deferred stalls: for each, its number and the candidates' fill cycles (a
+    /// candidate is free once all its values have passed; the retry cycle is the earliest
+    /// candidate).
+    stalls: Vec<(u64, Vec<Vec<u64>>)>,
+    /// Deferred stalls so far.
+    stalls_made: u64,
+    /// The deferred stalls resolved by the last settle: (number, retry cycle).
+    retries: Vec<(u64, u64)>,
     l1_latency: u64,
     l1_ways: u32,
     l1_mshrs: usize,
@@ -115,12 +123,14 @@ impl L1Port {
             due: u64::MAX,
             seq: 0,
             last_now: 0,
-            window_end: u64::MAX,
+            round_trip: Self::round_trip(cfg),
+            first: 0,
             ops: Vec::new(),
             replies: Vec::new(),
             results: Vec::new(),
             waiting: Vec::new(),
             stalls: Vec::new(),
+            stalls_made: 0,
             retries: Vec::new(),
             l1_latency: u64::from(cfg.l1_latency),
             l1_ways: cfg.l1_geometry().ways,
@@ -132,17 +142,19 @@ impl L1Port {
         }
     }
 
-    /// The longest window in cycles: an L2 result is never needed sooner than this after its
+    /// The L2 round trip in cycles: an L2 result is never needed sooner than this after its
     /// access was accepted.
     pub fn round_trip(cfg: &MemConfig) -> u64 {
         (u64::from(cfg.l1_latency) + u64::from(cfg.l2_latency)).max(1)
     }
 
-    /// Declares that no access before the next settle is accepted at or after `end`, and none
-    /// of this window before `end - round_trip`: placeholders are then later than every cycle
-    /// simulated before `end`.
-    pub fn set_window_end(&mut self, end: u64) {
-        self.window_end = end;
+    /// The first cycle this port may not simulate before its oldest unsettled operation is
+    /// settled (one round trip after that operation's acceptance; `u64::MAX` with none): every
+    /// placeholder, and the real cycle it stands for, is at or after it.
+    pub fn horizon(&self) -> u64 {
+        self.ops
+            .first()
+            .map_or(u64::MAX, |op| op.cycle.saturating_add(self.round_trip))
     }
 
     /// This SM's L1 counters (and prefetch counters); the L2 and DRAM ones are the L2's.
@@ -246,7 +258,7 @@ impl L1Port {
             _ => class.l1_merges += 1,
         }
         if done >= PENDING_BASE {
-            let op = (done - PENDING_BASE) as usize;
+            let op = done - PENDING_BASE;
             let (seq, response) = self.deferred_response(&req);
             self.waiting.push((op, seq, response));
             return Ok(Acceptance::Pending { op, merge: true });
@@ -298,7 +310,7 @@ impl L1Port {
                 }));
             }
         };
-        let pending = PENDING_BASE + self.ops.len() as u64;
+        let pending = PENDING_BASE + self.first + self.ops.len() as u64;
         if let Some(evicted) = self.l1.install(slot, line, sector, pending) {
             self.stats.prefetch.evicted_unused += u64::from(evicted.unused_prefetch.count_ones());
         }
@@ -320,23 +332,25 @@ impl L1Port {
 
     /// Whether `earliest`, the earliest candidate fill of a stall (placeholders compare later
     /// than real cycles), is its exact retry cycle for sure: a real cycle no later than the
-    /// window end, before which no pending fill completes.
+    /// horizon, before which no pending fill completes.
     fn exact(&self, earliest: u64) -> bool {
-        earliest < PENDING_BASE && earliest <= self.window_end
+        earliest < PENDING_BASE && earliest <= self.horizon()
     }
 
     /// The retry cycle of a stall whose candidates' fill cycles are `fills` and whose earliest
     /// candidate fill is `earliest`: `earliest` when no fill is pending, otherwise a deferred
-    /// retry settled with the window.
+    /// retry resolved by a later settle.
     fn defer(&mut self, earliest: u64, fills: Vec<Vec<u64>>) -> u64 {
         if fills.iter().flatten().all(|&f| f < PENDING_BASE) {
             return earliest;
         }
-        self.stalls.push(fills);
-        RETRY_BASE + self.stalls.len() as u64 - 1
+        let j = self.stalls_made;
+        self.stalls_made += 1;
+        self.stalls.push((j, fills));
+        RETRY_BASE + j
     }
 
-    /// Records an L2 operation and what settling it does; returns its index.
+    /// Records an L2 operation and what settling it does; returns its number.
     #[allow(clippy::too_many_arguments)]
     fn push_op(
         &mut self,
@@ -347,12 +361,13 @@ impl L1Port {
         req: &MemRequest,
         fill: bool,
         respond: Option<(u64, Response)>,
-    ) -> usize {
+    ) -> u64 {
+        let k = self.first + self.ops.len() as u64;
         self.ops.push(L2Op {
             cycle: now,
             phase,
             sm: self.sm,
-            seq: self.ops.len() as u64,
+            seq: k,
             line,
             sector,
             class: req.class,
@@ -360,7 +375,7 @@ impl L1Port {
         });
         self.replies.push(Reply { fill, respond });
         self.results.push(None);
-        self.ops.len() - 1
+        k
     }
 
     /// The response to `req`, numbered now, its cycle to be filled in when settled.
@@ -387,54 +402,65 @@ impl L1Port {
         self.due = self.due.min(done);
     }
 
-    /// Whether a stall of this window waits for the settle to know its retry cycle (which may
-    /// be any fill cycle after the window end).
+    /// Whether a stall waits for a settle to know its retry cycle (which may be any fill
+    /// cycle past the horizon).
     pub fn has_deferred_stall(&self) -> bool {
         !self.stalls.is_empty()
     }
 
-    /// This window's L2 operations, in acceptance order (to be applied in [`L2Op::key`] order
-    /// over all SMs).
+    /// The unsettled L2 operations, in acceptance order (to be applied in [`L2Op::key`] order
+    /// over all SMs); the first is number [`first_op`](Self::first_op).
     pub fn ops(&self) -> &[L2Op] {
         &self.ops
     }
 
-    /// Records the result of operation `op` ([`super::l2::L2Side::apply`]).
-    pub fn set_result(&mut self, op: usize, result: (u64, Source)) {
-        self.results[op] = Some(result);
+    /// The number of the first unsettled operation (every earlier one is settled).
+    pub fn first_op(&self) -> u64 {
+        self.first
     }
 
-    /// The result of operation `op` of this window, once set.
-    pub fn result(&self, op: usize) -> Option<(u64, Source)> {
-        self.results.get(op).copied().flatten()
+    /// Records the result of unsettled operation number `op` ([`super::l2::L2Side::apply`]).
+    pub fn set_result(&mut self, op: u64, result: (u64, Source)) {
+        self.results[(op - self.first) as usize] = Some(result);
     }
 
-    /// A value that may be a placeholder of this window, made real.
-    fn real(&self, value: u64) -> u64 {
-        if value >= PENDING_BASE {
-            self.results[(value - PENDING_BASE) as usize]
-                .expect("every operation of the window has its result before the settle")
-                .0
-        } else {
-            value
+    /// The result of unsettled operation number `op`, once set.
+    pub fn result(&self, op: u64) -> Option<(u64, Source)> {
+        let k = op.checked_sub(self.first)?;
+        self.results.get(k as usize).copied().flatten()
+    }
+
+    /// A value that may be a placeholder of one of the first `n` unsettled operations (all
+    /// with results), made real; any other value unchanged.
+    fn real(&self, value: u64, n: usize) -> u64 {
+        match value.checked_sub(PENDING_BASE + self.first) {
+            Some(k) if (k as usize) < n => {
+                self.results[k as usize]
+                    .expect("settled operations have their results")
+                    .0
+            }
+            _ => value,
         }
     }
 
-    /// Replaces every placeholder of this window by its operation's result (all results must
-    /// be set): fills the L1 sectors and MSHRs, queues the responses in acceptance order and
-    /// settles deferred stalls' retry cycles ([`resolve_retry`](Self::resolve_retry)). Starts
-    /// a new window.
-    pub fn settle(&mut self) {
-        if self.ops.is_empty() && self.stalls.is_empty() {
-            self.retries.clear();
-            return;
+    /// Settles the oldest unsettled operations that have their results (all of them once every
+    /// result is set), replacing their placeholders by the real cycles: fills the L1 sectors
+    /// and MSHRs, queues the responses (in acceptance order among equal cycles) and resolves
+    /// the deferred stalls whose retry cycle is now certain ([`resolve_retry`](Self::resolve_retry)
+    /// gives them until the next settle). Returns how many it settled.
+    pub fn settle(&mut self) -> usize {
+        self.retries.clear();
+        let n = self.results.iter().take_while(|r| r.is_some()).count();
+        if n == 0 && self.stalls.is_empty() {
+            return 0;
         }
-        for (k, reply) in self.replies.iter().enumerate() {
-            let (done, source) = self.results[k].expect("every operation has its result");
+        for k in 0..n {
+            let (done, source) = self.results[k].expect("counted above");
+            let reply = self.replies[k];
             let op = &self.ops[k];
             if reply.fill {
-                self.l1
-                    .settle_fill(op.line, op.sector, PENDING_BASE + k as u64, done);
+                let placeholder = PENDING_BASE + self.first + k as u64;
+                self.l1.settle_fill(op.line, op.sector, placeholder, done);
             }
             if let Some((seq, mut response)) = reply.respond {
                 response.cycle = done;
@@ -442,45 +468,69 @@ impl L1Port {
                 self.due = self.due.min(done);
             }
         }
-        if self.mshrs.iter().any(|&Reverse(f)| f >= PENDING_BASE) {
+        let settled = PENDING_BASE + self.first..PENDING_BASE + self.first + n as u64;
+        if self.mshrs.iter().any(|Reverse(f)| settled.contains(f)) {
             let fills: Vec<Reverse<u64>> = self
                 .mshrs
                 .iter()
-                .map(|&Reverse(f)| Reverse(self.real(f)))
+                .map(|&Reverse(f)| Reverse(self.real(f, n)))
                 .collect();
             self.mshrs = fills.into();
         }
-        for &(op, seq, mut response) in &self.waiting {
-            response.cycle = self.real(PENDING_BASE + op as u64);
+        let mut waiting = std::mem::take(&mut self.waiting);
+        waiting.retain(|&(op, seq, mut response)| {
+            if !settled.contains(&(PENDING_BASE + op)) {
+                return true;
+            }
+            response.cycle = self.real(PENDING_BASE + op, n);
             self.responses.push(seq, Source::L1Merge, response);
             self.due = self.due.min(response.cycle);
+            false
+        });
+        self.waiting = waiting;
+        let mut stalls = std::mem::take(&mut self.stalls);
+        for (_, candidates) in &mut stalls {
+            for f in candidates.iter_mut().flatten() {
+                *f = self.real(*f, n);
+            }
         }
-        self.retries = self
-            .stalls
-            .iter()
-            .map(|candidates| {
-                candidates
-                    .iter()
-                    .map(|fills| fills.iter().map(|&f| self.real(f)).max().unwrap_or(0))
-                    .min()
-                    .unwrap_or(0)
-            })
-            .collect();
-        self.ops.clear();
-        self.replies.clear();
-        self.results.clear();
-        self.waiting.clear();
-        self.stalls.clear();
+        self.ops.drain(..n);
+        self.replies.drain(..n);
+        self.results.drain(..n);
+        self.first += n as u64;
+        // A candidate with a pending fill frees at or after the horizon; one whose fills are
+        // all real frees when the last of them has passed.
+        let horizon = self.horizon();
+        stalls.retain(|(j, candidates)| {
+            let known = candidates
+                .iter()
+                .filter(|fills| fills.iter().all(|&f| f < PENDING_BASE))
+                .map(|fills| fills.iter().copied().max().unwrap_or(0))
+                .min();
+            let all_known = candidates
+                .iter()
+                .all(|fills| fills.iter().all(|&f| f < PENDING_BASE));
+            match known {
+                Some(retry) if all_known || retry <= horizon => {
+                    self.retries.push((*j, retry));
+                    false
+                }
+                _ => true,
+            }
+        });
+        self.stalls = stalls;
+        n
     }
 
-    /// A retry cycle from a stall: a deferred one ([`RETRY_BASE`] + j) of the window just
-    /// settled made real; any other value unchanged.
+    /// A retry cycle from a stall: a deferred one ([`RETRY_BASE`] + j) resolved by the last
+    /// settle made real; any other value unchanged.
     pub fn resolve_retry(&self, retry_at: u64) -> u64 {
         if (RETRY_BASE..PENDING_BASE).contains(&retry_at) {
+            let j = retry_at - RETRY_BASE;
             self.retries
-                .get((retry_at - RETRY_BASE) as usize)
-                .copied()
-                .unwrap_or(retry_at)
+                .iter()
+                .find(|&&(k, _)| k == j)
+                .map_or(retry_at, |&(_, r)| r)
         } else {
             retry_at
         }

@@ -81,10 +81,12 @@ impl MemorySystem {
         match port.access(now, 0, req)? {
             Acceptance::Known(accepted) => Ok(accepted),
             Acceptance::Pending { op, merge } => {
+                let first = port.first_op();
                 for k in 0..port.ops().len() {
-                    if port.result(k).is_none() {
+                    let id = first + k as u64;
+                    if port.result(id).is_none() {
                         let result = self.l2.apply(&port.ops()[k]);
-                        port.set_result(k, result);
+                        port.set_result(id, result);
                     }
                 }
                 let (done, source) = port.result(op).expect("applied above");

@@ -497,8 +497,8 @@ impl<'a> RtPort<'a> {
         }
     }
 
-    /// After the L1's window was settled: makes a deferred stall's retry cycle real (here and
-    /// in the prefetcher).
+    /// After the L1 port settled L2 results: makes a deferred stall's retry cycle real if that
+    /// settle resolved it (here and in the prefetcher).
     pub fn settle_retries(&mut self, mem: &L1Port) {
         self.retry_at = mem.resolve_retry(self.retry_at);
         if let Some(p) = self.prefetcher.as_mut() {
