@@ -140,8 +140,10 @@ impl ParallelProfile {
         let mut costs: Vec<Vec<u64>> = Vec::new();
         for stretches in nodes {
             let mut cost: Vec<u64> = Vec::new();
-            // A stretch from `u64::MAX` visited nothing (a node with no visit to come).
-            for &(from, reached, ns) in stretches.iter().filter(|s| s.0 != u64::MAX) {
+            // A stretch that starts at or past what it reached, or past every real cycle (a
+            // node with no visit to come), visited nothing.
+            let visited = |s: &&(u64, u64, u64)| s.0 < s.1 && s.0 < 1 << 60;
+            for &(from, reached, ns) in stretches.iter().filter(visited) {
                 let first = from / bucket;
                 let last = reached
                     .max(from.saturating_add(1))
