@@ -73,16 +73,19 @@ mod tests {
             let done = AtomicBool::new(false);
             let count = AtomicU64::new(0);
             let seen = Mutex::new(vec![false; threads]);
+            // Done once 1000 units ran and every thread (the calling one too) ran one: the
+            // run ends only if every thread works.
             run_threads(threads, &done, |me, t| {
                 assert_eq!(t, threads);
-                lock(&seen)[me] = true;
-                if count.fetch_add(1, Ordering::AcqRel) + 1 >= 1000 {
+                let mut seen = lock(&seen);
+                seen[me] = true;
+                if count.fetch_add(1, Ordering::AcqRel) + 1 >= 1000 && seen.iter().all(|&s| s) {
                     done.store(true, Ordering::Release);
                 }
                 true
             });
             assert!(count.load(Ordering::Acquire) >= 1000);
-            assert!(lock(&seen)[0], "the calling thread works too");
+            assert!(lock(&seen).iter().all(|&s| s));
         }
     }
 
