@@ -225,7 +225,10 @@ pub fn run<'a>(
             crate::memory::L1Port::round_trip(&ctx.cfg.memory),
         );
         p.set_units(
-            nodes.iter().map(|n| n.visit_ns).collect(),
+            nodes
+                .iter()
+                .map(|n| n.stretches.iter().map(|s| s.2).sum())
+                .collect(),
             (0..l2.len())
                 .map(|j| {
                     let (ns, applies) = l2.apply_ns(j);
@@ -402,7 +405,6 @@ impl<'a> Shared<'_, 'a> {
         }
         if ctx.profile {
             let ns = watch.ns().saturating_sub(self.read_ns);
-            node.visit_ns += ns;
             let reached = b.reached.load(Ordering::Acquire);
             node.stretches.push((from, reached, ns));
         }

@@ -51,8 +51,7 @@ pub struct Ctx<'a> {
     pub timing: ShaderTiming,
     /// Record every traced ray.
     pub record_rays: bool,
-    /// Time the node's visits ([`SmNode::visit_ns`], [`SmNode::stretches`]) for the
-    /// parallelism report.
+    /// Time the node's visits ([`SmNode::stretches`]) for the parallelism report.
     pub profile: bool,
 }
 
@@ -132,8 +131,6 @@ pub struct SmNode<'a> {
     pub ray_log: Vec<((u64, u8, usize, u64), TracedRay)>,
     /// Its time-series contributions, one per sample cycle so far.
     pub samples: Vec<NodeSample>,
-    /// CPU time of its visits so far, in nanoseconds (with [`Ctx::profile`]).
-    pub visit_ns: u64,
     /// With [`Ctx::profile`]: per stretch of visits the engine ran, its first cycle, the cycle
     /// it reached and its CPU time in nanoseconds.
     pub stretches: Vec<(u64, u64, u64)>,
@@ -163,7 +160,6 @@ impl<'a> SmNode<'a> {
             rays_hit: 0,
             ray_log: Vec::new(),
             samples: Vec::new(),
-            visit_ns: 0,
             stretches: Vec::new(),
             posted: 0,
         }
