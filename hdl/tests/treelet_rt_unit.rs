@@ -264,8 +264,10 @@ struct Outcome {
 }
 
 /// Runs `rays` rays through a treelet RT unit of `cfg` with `features`: a reference copy steps
-/// with `eval` every cycle; the fast copy steps with `step_cached` and skips the cycles its
-/// `idle_cycles` allows when nothing arrives, and must match the reference throughout. With
+/// with `eval` every cycle; the fast copy steps with `step_cached` (odd cycles) or
+/// `step_cached_into` an output bundle kept across cycles, as a simulator does (even cycles),
+/// and skips the cycles its `idle_cycles` allows when nothing arrives, and must match the
+/// reference throughout. With
 /// `probe`, the fast copy is probed ([`TreeletRtUnitCache::probe`]) and every step's probe is
 /// checked against the reference ([`check_probe`]).
 fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe: bool) -> Outcome {
@@ -288,6 +290,7 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
     let mut modes = vec![u.mode(&reference)];
     let resp_ports = u.rt_unit().params().resp_ports;
     let (mut now, mut skipped) = (0u64, 0u64);
+    let mut kept = u.empty_outputs();
     while env.finished.len() < rays as usize || !env.owner.is_empty() || u.mode(&fast) != Mode::Done
     {
         assert!(
@@ -325,7 +328,12 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
         let resp_max = u.resp_free(&fast).min(resp_ports) as usize;
         let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max);
         let (want, next) = u.eval(&reference, &inputs);
-        let out = u.step_cached(&mut fast, &mut cache, &inputs);
+        let out = if now % 2 == 0 {
+            u.step_cached_into(&mut fast, &mut cache, &inputs, &mut kept);
+            kept.clone()
+        } else {
+            u.step_cached(&mut fast, &mut cache, &inputs)
+        };
         assert_eq!(out, want, "step_cached outputs, cycle {now}");
         assert_eq!(fast, next, "step_cached registers, cycle {now}");
         match cache.take_probe() {

@@ -359,10 +359,11 @@ impl<D: NodeDatapath> RtUnit<D> {
         let s = regs.slots.get(slot as usize).filter(|s| s.valid)?;
         let m = &cache.masks[slot as usize];
         let not_quiet = m.busy();
-        // At most warp_size distinct treelets: a fixed bank, searched linearly.
-        let mut treelets = [0u64; 64];
         let mut found = 0;
         if distinct {
+            // At most warp_size distinct treelets: a fixed bank, searched linearly (filled only
+            // when asked for: clearing it costs more than the rest of the summary).
+            let mut treelets = [0u64; 64];
             for l in bits(m.traversing) {
                 if let Some(n) = s.lanes[l].ray.next_node() {
                     let t = self.treelet_of(n.address);

@@ -40,8 +40,11 @@
 //! `eval`s ([`crate::compose::settle`]). [`TreeletRtUnit::step_cached`] evaluates the same kernel
 //! stages once in dependency order, in place, with the RT unit's lane cache and a dry run of
 //! the controller kept in a [`TreeletRtUnitCache`] by its owner: a cycle in which the dry run
-//! found the controller idle counts only in its mode, and tables with nothing to do are not
-//! stepped. Tests check the fast path against `eval`. [`TreeletRtUnit::idle_cycles`] and
+//! found the controller idle counts only in its mode, a dry run whose controller neither
+//! stepped nor sees new inputs reuses the last one's verdict (a pure function of the same
+//! registers and inputs), tables with nothing to do are not stepped, and the controller's and
+//! RT unit's input bundles and the outputs ([`TreeletRtUnit::step_cached_into`]) are filled in
+//! place. Tests check the fast path against `eval`. [`TreeletRtUnit::idle_cycles`] and
 //! [`TreeletRtUnit::skip`] let a simulator jump over cycles in which nothing but counters and
 //! delays change.
 //!
@@ -116,8 +119,13 @@ pub struct TreeletRtUnitRegs {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TreeletRtUnitCache {
     rt: RtCache,
-    /// The controller inputs of the last dry run.
-    dry: Option<ControllerInputs>,
+    /// The controller inputs of the last dry run (meaningful while `dry_valid`; kept for its
+    /// storage otherwise).
+    dry: Option<Box<ControllerInputs>>,
+    /// The storage the next dry run fills before it compares it with `dry` (swapped with it).
+    dry_spare: Option<Box<ControllerInputs>>,
+    /// `dry` holds the inputs the last dry run computed from the current registers.
+    dry_valid: bool,
     /// The dry run found the controller idle with `dry` (no output, registers unchanged).
     idle: bool,
     /// The controller would act in the next cycle even if nothing else changed.
@@ -161,6 +169,8 @@ impl TreeletRtUnitCache {
         TreeletRtUnitCache {
             rt: RtCache::of(&regs.rt),
             dry: None,
+            dry_spare: None,
+            dry_valid: false,
             idle: false,
             awake: true,
             tables: None,
@@ -200,21 +210,26 @@ impl TreeletRtUnitCache {
 
     /// Records one cycle's table inputs.
     fn log_tables(&mut self, ct: &CountTableIn, qt: &QueueTableIn) {
-        let Some(log) = self.tables.as_mut() else {
-            return;
-        };
-        let idle = ct.op == crate::count_table::CountOp::Nop
-            && qt.op == crate::queue_table::QueueOp::Nop
-            && !qt.refill_valid;
-        if log.count.is_empty() && idle {
-            log.skipped += 1;
-            log.first_cycle = log.skipped;
-            return;
-        }
-        if log.count.len() < log.limit {
-            log.count.push(*ct);
-            log.queue.push(*qt);
-        }
+        log_tables(&mut self.tables, ct, qt);
+    }
+}
+
+/// Appends one cycle's table inputs to `tables`, while recording.
+fn log_tables(tables: &mut Option<TableLog>, ct: &CountTableIn, qt: &QueueTableIn) {
+    let Some(log) = tables.as_mut() else {
+        return;
+    };
+    let idle = ct.op == crate::count_table::CountOp::Nop
+        && qt.op == crate::queue_table::QueueOp::Nop
+        && !qt.refill_valid;
+    if log.count.is_empty() && idle {
+        log.skipped += 1;
+        log.first_cycle = log.skipped;
+        return;
+    }
+    if log.count.len() < log.limit {
+        log.count.push(*ct);
+        log.queue.push(*qt);
     }
 }
 
@@ -314,7 +329,7 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             n <= self.idle_cycles(regs, cache),
             "skip beyond the idle cycles"
         );
-        cache.dry = None;
+        cache.dry_valid = false;
         cache.probed = None;
         if cache.tables.is_some() {
             let (ct, qt) = (
@@ -354,7 +369,28 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         cache: &mut TreeletRtUnitCache,
         inputs: &TreeletRtUnitInputs,
     ) -> TreeletRtUnitOutputs {
-        wiring::step_in_place(self, regs, cache, inputs)
+        let mut out = wiring::empty_outputs(self);
+        wiring::step_in_place(self, regs, cache, inputs, &mut out);
+        out
+    }
+
+    /// An output bundle carrying nothing, for [`step_cached_into`](Self::step_cached_into) to
+    /// write into.
+    pub fn empty_outputs(&self) -> TreeletRtUnitOutputs {
+        wiring::empty_outputs(self)
+    }
+
+    /// [`step_cached`](Self::step_cached) writing the outputs into `out` (whatever it held
+    /// before), reusing its lists' storage: a simulator keeps one bundle per unit, so a cycle
+    /// allocates nothing for its outputs.
+    pub fn step_cached_into(
+        &self,
+        regs: &mut TreeletRtUnitRegs,
+        cache: &mut TreeletRtUnitCache,
+        inputs: &TreeletRtUnitInputs,
+        out: &mut TreeletRtUnitOutputs,
+    ) {
+        wiring::step_in_place(self, regs, cache, inputs, out);
     }
 
     /// The children's instance names and descriptions, for a Verilog top module that

@@ -463,7 +463,7 @@ pub(super) fn kernel<D: NodeDatapath>(
 }
 
 /// Outputs with nothing happening.
-fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtUnitOutputs {
+pub(super) fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtUnitOutputs {
     TreeletRtUnitOutputs {
         widths: u.widths,
         sm_accepted: None,
@@ -478,6 +478,23 @@ fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtUnitOutputs 
         fault: None,
         counts: TreeletCounts::default(),
     }
+}
+
+/// Resets `out` to [`empty_outputs`] keeping its lists' storage, so a step that writes into a
+/// bundle it is given allocates nothing for them.
+fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut TreeletRtUnitOutputs) {
+    out.widths = u.widths;
+    out.sm_accepted = None;
+    out.requests.clear();
+    out.finished.clear();
+    out.parked.clear();
+    out.preload = None;
+    out.spill_push = None;
+    out.spill_pop = false;
+    out.errors = 0;
+    out.first_error = None;
+    out.fault = None;
+    out.counts = TreeletCounts::default();
 }
 
 /// Stage 0: ray records that arrived join their fills.
@@ -545,10 +562,25 @@ fn controller_inputs<D: NodeDatapath>(
     p: &Peeks,
     offering: bool,
 ) -> (ControllerInputs, bool) {
+    let mut inp = u.ctl.idle_inputs();
+    let restart = controller_inputs_into(u, g, p, offering, &mut inp);
+    (inp, restart)
+}
+
+/// [`controller_inputs`] written into `inp` (every field but the widths, so its old contents do
+/// not matter if it came from this controller's `idle_inputs`):
+/// the fast path keeps one bundle and fills it in place. Returns whether the controller
+/// restarts.
+fn controller_inputs_into<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &GlueRegs,
+    p: &Peeks,
+    offering: bool,
+    inp: &mut ControllerInputs,
+) -> bool {
     let restart = p.mode == Mode::Done && offering;
     let mode = if restart { Mode::Initial } else { p.mode };
-    let mut inp = u.ctl.idle_inputs();
-    set_offering(g, mode, &mut inp, offering);
+    set_offering(g, mode, inp, offering);
     inp.rt_idle =
         u.rt.is_empty(p.rt) && g.builds.iter().all(Option::is_none) && g.events.is_empty();
     inp.wb_free_slot = (0..g.uses.len() as u32)
@@ -598,6 +630,8 @@ fn controller_inputs<D: NodeDatapath>(
     }
     inp.init_report = best_init;
     inp.active_report = best_active;
+    inp.warp_done = None;
+    inp.enqueue = None;
     match g.events.front() {
         Some(Event::WarpDone(s)) => inp.warp_done = Some(*s),
         Some(&Event::Enqueue { ray, treelet }) => {
@@ -608,8 +642,8 @@ fn controller_inputs<D: NodeDatapath>(
     inp.ct = p.ct;
     inp.ct_evict = g.ct_evict;
     inp.qt = p.qt;
-    inp.qt_done = g.qt_done.clone();
-    (inp, restart)
+    inp.qt_done.clone_from(&g.qt_done);
+    restart
 }
 
 /// Stage 2: from the controller's outputs (`None`: it did nothing but wait this cycle), the
@@ -887,12 +921,13 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     regs: &mut TreeletRtUnitRegs,
     cache: &mut TreeletRtUnitCache,
     inputs: &TreeletRtUnitInputs,
-) -> TreeletRtUnitOutputs {
+    out: &mut TreeletRtUnitOutputs,
+) {
     debug_assert!(
         cache.rt.consistent(&regs.rt),
         "stale RT-unit cache: it must follow every change of the registers"
     );
-    let mut out = empty_outputs(u);
+    reset_outputs(u, out);
     let TreeletRtUnitRegs {
         rt,
         ctl,
@@ -910,24 +945,29 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     let restart = peeks.mode == Mode::Done && offering;
     // The dry run of the last step computed the controller's inputs from these registers,
     // unless cycles were skipped since (they change the RT unit's delays) or it restarts.
-    let (ctl_in, reused) = match cache.dry.take() {
-        Some(mut inp) if !restart => {
-            set_offering(g, peeks.mode, &mut inp, offering);
-            debug_assert_eq!(
-                inp,
-                controller_inputs(u, g, &peeks, offering).0,
-                "stale cached controller inputs"
-            );
-            (inp, true)
-        }
-        _ => (controller_inputs(u, g, &peeks, offering).0, false),
-    };
+    // Its bundle lives in the cache and is filled in place.
+    let reused = cache.dry_valid && !restart;
+    cache.dry_valid = false;
+    let ctl_in = &mut **cache
+        .dry
+        .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
+    if reused {
+        set_offering(g, peeks.mode, ctl_in, offering);
+        debug_assert_eq!(
+            *ctl_in,
+            controller_inputs(u, g, &peeks, offering).0,
+            "stale cached controller inputs"
+        );
+    } else {
+        controller_inputs_into(u, g, &peeks, offering, ctl_in);
+    }
+    let ctl_in: &ControllerInputs = ctl_in;
     let mode = if restart { Mode::Initial } else { peeks.mode };
     let idle = reused && cache.idle && !(offering && admitting(mode));
     let ctl_out = if idle {
         debug_assert!(
             {
-                let (o, n) = u.ctl.eval(ctl, &ctl_in);
+                let (o, n) = u.ctl.eval(ctl, ctl_in);
                 !acts(&o, &n, ctl)
             },
             "the controller was not idle"
@@ -938,56 +978,57 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         // The next-state function into the scratch registers, then the clock edge (a swap):
         // `eval` without copying the registers' storage.
         let scratch = cache.scratch.get_or_insert_with(|| Box::new(ctl.clone()));
-        let o = u.ctl.next_into(ctl, &ctl_in, scratch);
+        let o = u.ctl.next_into(ctl, ctl_in, scratch);
         std::mem::swap(ctl, &mut **scratch);
-        out.counts.ctl.observe(&ctl_in, &o);
+        out.counts.ctl.observe(ctl_in, &o);
         Some(o)
     };
     out.counts.restarts += u64::from(restart);
     // The RT unit's input bundle lives in the cache so its storage is reused every cycle.
-    let mut rt_in = cache.rt_inputs.take().unwrap_or_else(|| u.rt.idle_inputs());
+    let rt_in = cache.rt_inputs.get_or_insert_with(|| u.rt.idle_inputs());
     let (ct_in, qt_in) = children_inputs(
         u,
         g,
         &peeks,
         inputs,
         restart,
-        &ctl_in,
+        ctl_in,
         ctl_out.as_ref(),
-        &mut out,
-        &mut rt_in,
+        out,
+        rt_in,
     );
     let qt_busy = !peeks.qt.ready;
-    cache.log_tables(&ct_in, &qt_in);
+    super::log_tables(&mut cache.tables, &ct_in, &qt_in);
     // Tables with no op and nothing in progress are not stepped: their registers would not
     // change and their outputs would carry nothing.
     let ct_out = (ct_in.op != CountOp::Nop || u.ct.busy(ct)).then(|| u.ct.step(ct, &ct_in));
     let qt_out =
         (qt_in.op != QueueOp::Nop || qt_in.refill_valid || qt_busy).then(|| u.qt.step(qt, &qt_in));
-    let rt_out = u.rt.step_cached(rt, &mut cache.rt, &rt_in);
-    after_children(g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, &mut out);
+    let rt_out = u.rt.step_cached(rt, &mut cache.rt, rt_in);
+    after_children(g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, out);
     if let Some(start) = probe_regs {
-        let ins = (&ctl_in, &ct_in, &qt_in, &rt_in);
+        let ins = (ctl_in, &ct_in, &qt_in, &*rt_in);
         let outs = (ctl_out.as_ref(), ct_out.as_ref(), qt_out.as_ref(), &rt_out);
         cache.probed = Some(probe::cycle(u, (ctl, ct, qt), start, ins, outs));
     }
-    cache.rt_inputs = Some(rt_in);
-    dry_run(u, regs, cache);
-    out
+    dry_run(u, regs, cache, idle);
 }
 
 /// After a step: whether the controller, evaluated on the new registers with no SM warp
 /// offered, would act (so the next cycle may not be skipped), keeping its inputs for the next
 /// step. A count-table scan does not wake it: while the scan runs the controller's inputs do
 /// not change (the pointers stay stale); the scan's `Nop` cycles are stepped by `skip` and its
-/// end bounds `idle_cycles`.
+/// end bounds `idle_cycles`. `was_idle`: the step left the controller's registers unchanged
+/// and it is idle on the inputs in `cache.dry` (the step's); if the new inputs equal them, it
+/// is still idle and is not evaluated again.
 fn dry_run<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     regs: &TreeletRtUnitRegs,
     cache: &mut TreeletRtUnitCache,
+    was_idle: bool,
 ) {
     cache.idle = false;
-    cache.dry = None;
+    cache.dry_valid = false;
     let g = &regs.glue;
     if !u.qt.status(&regs.qt).ready
         || g.qt_done.is_some()
@@ -998,13 +1039,31 @@ fn dry_run<D: NodeDatapath>(
         return;
     }
     let peeks = Peeks::of(u, regs, &cache.rt);
-    let inp = controller_inputs(u, g, &peeks, false).0;
+    let new = cache
+        .dry_spare
+        .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
+    controller_inputs_into(u, g, &peeks, false, new);
+    if was_idle && cache.dry.as_ref() == Some(new) {
+        debug_assert!(
+            {
+                let (o, n) = u.ctl.eval(&regs.ctl, new);
+                !acts(&o, &n, &regs.ctl)
+            },
+            "an idle controller with unchanged registers and inputs acts"
+        );
+        cache.dry_valid = true;
+        cache.idle = true;
+        cache.awake = false;
+        return;
+    }
+    std::mem::swap(&mut cache.dry, &mut cache.dry_spare);
+    let inp = cache.dry.as_deref().expect("filled above");
     let scratch = cache
         .scratch
         .get_or_insert_with(|| Box::new(regs.ctl.clone()));
-    let o = u.ctl.next_into(&regs.ctl, &inp, scratch);
+    let o = u.ctl.next_into(&regs.ctl, inp, scratch);
     let acts = acts(&o, scratch, &regs.ctl);
-    cache.dry = Some(inp);
+    cache.dry_valid = true;
     cache.idle = !acts;
     cache.awake = acts;
 }

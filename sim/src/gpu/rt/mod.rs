@@ -172,8 +172,10 @@ impl<'a> RtPort<'a> {
                 let cache = TreeletRtUnitCache::of(&regs);
                 let wake = unit.idle_cycles(&regs, &cache);
                 let inputs = unit.idle_inputs();
+                let outputs = unit.empty_outputs();
                 let treelet = Treelet {
                     inputs,
+                    outputs,
                     unit,
                     regs,
                     cache,

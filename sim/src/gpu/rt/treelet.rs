@@ -8,7 +8,7 @@ use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{RtStats, CHUNK_BYTES};
 use vtq_hdl::treelet_rt_unit::{
     RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
-    TreeletRtUnitRegs,
+    TreeletRtUnitOutputs, TreeletRtUnitRegs,
 };
 
 use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
@@ -95,6 +95,8 @@ pub(super) struct Treelet<'a> {
     pub(super) arrived: Vec<RayLoad>,
     /// The input bundle, reused every step.
     pub(super) inputs: TreeletRtUnitInputs,
+    /// The output bundle, reused every step.
+    pub(super) outputs: TreeletRtUnitOutputs,
     /// SM warp and lane of each ray id in use.
     pub(super) owners: Vec<Option<(usize, u32)>>,
     /// SM warps with rays still traversing, by warp id.
@@ -131,6 +133,7 @@ impl<'a> RtPort<'a> {
         let Hardware::Treelet(t) = &mut self.hw else {
             unreachable!("a treelet port")
         };
+        let t = &mut **t;
         if let Some(reason) = t.fault.take() {
             return Err(SimError::Queues { sm, reason });
         }
@@ -149,9 +152,11 @@ impl<'a> RtPort<'a> {
             t.cache.probe(true);
         }
         let during = phase_index(t.unit.mode(&t.regs));
-        let out = t.unit.step_cached(&mut t.regs, &mut t.cache, inputs);
+        t.unit
+            .step_cached_into(&mut t.regs, &mut t.cache, inputs, &mut t.outputs);
+        let out = &t.outputs;
         if let (true, Some(w)) = (record, self.waveform.as_mut()) {
-            w.record_treelet(inputs, &out, t.cache.take_probe());
+            w.record_treelet(inputs, out, t.cache.take_probe());
             t.cache.probe(false);
         }
         self.stats.add(&out.counts.rt);
@@ -235,7 +240,8 @@ impl<'a> RtPort<'a> {
         cycle.done = t.completed.pop_front();
         // Taken out while the requests are queued (queueing borrows the port), put back after.
         let mut stacks = t.stacks.take();
-        for r in &out.requests {
+        let requests = std::mem::take(&mut t.outputs.requests);
+        for r in &requests {
             match *r {
                 TreeletRequest::RayLoad { slot, ray, address } => {
                     self.requests.push_back(
@@ -260,6 +266,7 @@ impl<'a> RtPort<'a> {
         }
         if let Hardware::Treelet(t) = &mut self.hw {
             t.stacks = stacks;
+            t.outputs.requests = requests;
         }
         Ok(cycle)
     }
