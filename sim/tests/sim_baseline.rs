@@ -28,6 +28,23 @@ fn check_baseline(name: &str, sms: u32, side: u32) {
         out.stats.ctas,
         4 * (side as u64 / 8) * (side as u64 / 8) / 4
     );
+    // SIMT efficiency per warp: every warp carried at most 32 rays and every ray was in one,
+    // and the mean of per-warp ratios is a ratio like the per-cycle one.
+    let s = &out.stats;
+    assert!(
+        s.rt_warps >= s.rays_issued.div_ceil(32),
+        "{} warps",
+        s.rt_warps
+    );
+    assert!(s.rt_warps <= s.rays_issued, "{} warps", s.rt_warps);
+    assert!(s.simt_efficiency_per_warp > 0.0 && s.simt_efficiency_per_warp <= 1.0);
+    // Per tenth of the run: ten ratios, and where warps were resident the per-cycle measure.
+    assert_eq!(s.simt_efficiency_deciles.len(), 10);
+    assert!(s
+        .simt_efficiency_deciles
+        .iter()
+        .all(|e| (0.0..=1.0).contains(e)));
+    assert!(s.simt_efficiency_deciles.iter().any(|&e| e > 0.0));
 }
 
 #[test]

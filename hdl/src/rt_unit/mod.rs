@@ -1313,6 +1313,20 @@ impl<D: NodeDatapath> RtUnit<D> {
             .sum()
     }
 
+    /// Per warp-buffer slot, the rays traversing in it (`None` for a slot holding no warp): a
+    /// register-only output, for observers that follow each warp (e.g. SIMT efficiency averaged
+    /// per warp).
+    pub fn slot_lanes<'a>(
+        &self,
+        regs: &'a RtUnitRegs,
+        cache: &'a RtCache,
+    ) -> impl Iterator<Item = Option<u32>> + 'a {
+        regs.slots
+            .iter()
+            .zip(&cache.masks)
+            .map(|(s, m)| s.valid.then(|| m.traversing.count_ones()))
+    }
+
     /// A one-line summary of the registers, for a watchdog's dump.
     pub fn debug_state(&self, regs: &RtUnitRegs, cache: &RtCache) -> String {
         let slots: Vec<String> = regs

@@ -290,6 +290,16 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         self.rt.resp_free(&regs.rt)
     }
 
+    /// Per warp-buffer slot, the rays traversing in it (`None`: no warp); see
+    /// [`crate::rt_unit::RtUnit::slot_lanes`].
+    pub fn slot_lanes<'a>(
+        &self,
+        regs: &'a TreeletRtUnitRegs,
+        cache: &'a TreeletRtUnitCache,
+    ) -> impl Iterator<Item = Option<u32>> + 'a {
+        self.rt.slot_lanes(&regs.rt, &cache.rt)
+    }
+
     /// Rays traversing in the warp buffer.
     pub fn traversing_rays(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
         self.rt.traversing_rays(&regs.rt, &cache.rt)

@@ -6,7 +6,7 @@ use glam::Vec3;
 use crate::bvh::HwBvh;
 use crate::config::ModeKind;
 use crate::gpu::engine::SimOutput;
-use crate::gpu::node::{Ctx, SmNode};
+use crate::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::gpu::rt::QueueObserver;
 use crate::gpu::sm::VirtTiming;
 use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
@@ -52,6 +52,11 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         rt.add(node.rt.hw_stats());
         mem.add(node.mem.stats());
     }
+    // Summed in SM order: the same float sum for any thread count.
+    let warp_simt = nodes
+        .iter()
+        .map(|n| n.rt.warp_simt().totals())
+        .fold((0.0, 0u64), |(s, w), (a, b)| (s + a, w + b));
     let rays_issued: u64 = nodes.iter().map(|n| n.rt.rays_issued).sum();
     let rays_completed: u64 = nodes.iter().map(|n| n.rt.rays_completed).sum();
     let l2_misses = AccessClass::ALL
@@ -138,6 +143,12 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     let interval = cfg.sim.sample_interval;
     let deciles = miss_rate_deciles(interval, cycles, nodes, false);
     let deciles_preloads = miss_rate_deciles(interval, cycles, nodes, true);
+    let simt_deciles = ratio_deciles(interval, cycles, nodes, |s: &NodeSample| {
+        (
+            s.active_thread_cycles,
+            s.warp_cycles * cfg.hw.warp_size as u64,
+        )
+    });
     let mut virt = VirtTiming::default();
     for node in nodes {
         let t = node.sm.timing;
@@ -161,6 +172,13 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         rays_hit: nodes.iter().map(|n| n.rays_hit).sum(),
         ctas: nodes.iter().map(|n| n.sm.done.len() as u64).sum(),
         simt_efficiency: simt,
+        simt_efficiency_per_warp: if warp_simt.1 == 0 {
+            0.0
+        } else {
+            warp_simt.0 / warp_simt.1 as f64
+        },
+        rt_warps: warp_simt.1,
+        simt_efficiency_deciles: simt_deciles,
         bvh_l1_accesses: mem.bvh.l1_loads,
         bvh_l1_misses: mem.bvh.l1_misses,
         bvh_l1_merges: mem.bvh.l1_merges,
@@ -257,15 +275,35 @@ fn time_series(interval: u64, cycles: u64, nodes: &[SmNode]) -> Vec<Sample> {
 }
 
 /// The BVH L1 miss rate in each tenth of a run of `cycles` cycles sampled every `interval`
-/// cycles: decile `d` sums the nodes' samples whose interval (the `interval` cycles before the
-/// sample's cycle) starts in `[d x cycles / 10, (d + 1) x cycles / 10)`; `with_prefetches`
-/// counts L1 prefetches (treelet preloads) as accesses and those that fetched a sector as
-/// misses. Empty without samples.
+/// cycles ([`ratio_deciles`]); `with_prefetches` counts L1 prefetches (treelet preloads) as accesses
+/// and those that fetched a sector as misses. Empty without samples.
 fn miss_rate_deciles(
     interval: u64,
     cycles: u64,
     nodes: &[SmNode],
     with_prefetches: bool,
+) -> Vec<f64> {
+    ratio_deciles(interval, cycles, nodes, |s| {
+        if with_prefetches {
+            (
+                s.bvh_l1_misses + s.prefetch_misses,
+                s.bvh_l1_loads + s.prefetches,
+            )
+        } else {
+            (s.bvh_l1_misses, s.bvh_l1_loads)
+        }
+    })
+}
+
+/// A ratio of two counters in each tenth of a run of `cycles` cycles sampled every `interval`
+/// cycles: `counters` gives a sample's (numerator, denominator) so far; decile `d` sums the
+/// nodes' increments over the samples whose interval (the `interval` cycles before the sample's
+/// cycle) starts in `[d x cycles / 10, (d + 1) x cycles / 10)`. Empty without samples.
+fn ratio_deciles(
+    interval: u64,
+    cycles: u64,
+    nodes: &[SmNode],
+    counters: impl Fn(&NodeSample) -> (u64, u64),
 ) -> Vec<f64> {
     if interval == 0 {
         return Vec::new();
@@ -277,21 +315,17 @@ fn miss_rate_deciles(
     let mut sums = [(0u64, 0u64); 10];
     let mut last = (0u64, 0u64);
     for k in 0..n {
-        let (mut misses, mut accesses) = (0, 0);
+        let (mut num, mut den) = (0, 0);
         for node in nodes {
-            let s = node.samples[k];
-            misses += s.bvh_l1_misses;
-            accesses += s.bvh_l1_loads;
-            if with_prefetches {
-                misses += s.prefetch_misses;
-                accesses += s.prefetches;
-            }
+            let (a, b) = counters(&node.samples[k]);
+            num += a;
+            den += b;
         }
         let start = k as u64 * interval;
         let d = ((start as u128 * 10 / cycles as u128) as usize).min(9);
-        sums[d].0 += misses - last.0;
-        sums[d].1 += accesses - last.1;
-        last = (misses, accesses);
+        sums[d].0 += num - last.0;
+        sums[d].1 += den - last.1;
+        last = (num, den);
     }
     sums.iter().map(|&(m, a)| ratio(m, a)).collect()
 }

@@ -9,7 +9,7 @@
 //! the treelet hardware reads and writes), [`rt_fault`] (RT-unit errors in words), [`sm`] (CTA
 //! and warp slots), [`shader`] (raygen threads and shader timing), [`cta_scheduler`],
 //! [`engine`] (the cycle loop: setting up a run), [`coordinator`] (the loop on any number of
-//! threads), [`l2_partitions`] (the L2's memory partitions as units of work), [`watchdog`], [`stats`], [`prefetch`] (the treelet prefetcher of
+//! threads), [`l2_partitions`] (the L2's memory partitions as units of work), [`watchdog`], [`stats`], [`warp_simt`] (SIMT efficiency averaged per RT-unit warp), [`prefetch`] (the treelet prefetcher of
 //! the `prefetch` mode, which also serves the controller's preloads), [`queued_stacks`] (the
 //! traffic of queued rays' stacks, a modelling switch) and [`virtualization`] (ray
 //! virtualization's CTA-state traffic; suspending and resuming CTAs is in [`sm`]); [`error`]
@@ -34,6 +34,7 @@ pub mod shader;
 pub mod sm;
 pub mod stats;
 pub mod virtualization;
+pub mod warp_simt;
 pub mod watchdog;
 pub mod workers;
 

@@ -88,6 +88,10 @@ pub struct NodeSample {
     pub prefetches: u64,
     /// ... that missed the L1 and fetched their sector.
     pub prefetch_misses: u64,
+    /// RT-unit warp cycles before the sample's boundary.
+    pub warp_cycles: u64,
+    /// Traversing lanes summed over them.
+    pub active_thread_cycles: u64,
 }
 
 /// One SM with its RT unit, CTA-state port and L1, and what it produced.
@@ -324,14 +328,22 @@ impl<'a> SmNode<'a> {
             return;
         }
         let stats = self.mem.stats();
-        let sample = NodeSample {
-            bvh_l1_loads: stats.bvh.l1_loads,
-            bvh_l1_misses: stats.bvh.l1_misses,
-            active_rays: self.rt.active_rays(),
-            prefetches: stats.prefetch.requests,
-            prefetch_misses: stats.prefetch.issued,
-        };
-        self.samples.resize(due as usize, sample);
+        // Every sample this visit records: the L1's counters do not change between visits;
+        // the RT unit's warp cycles do (idle cycles it has not caught up yet), so each sample
+        // takes them at its own boundary, as a lockstep run would.
+        while (self.samples.len() as u64) < due {
+            let boundary = (self.samples.len() as u64 + 1) * interval;
+            let (warp_cycles, active_thread_cycles) = self.rt.warp_counters_until(boundary);
+            self.samples.push(NodeSample {
+                bvh_l1_loads: stats.bvh.l1_loads,
+                bvh_l1_misses: stats.bvh.l1_misses,
+                active_rays: self.rt.active_rays(),
+                prefetches: stats.prefetch.requests,
+                prefetch_misses: stats.prefetch.issued,
+                warp_cycles,
+                active_thread_cycles,
+            });
+        }
     }
 
     /// Fills in the samples up to cycle `t` at the end of the run.

@@ -201,6 +201,16 @@ pub struct SimStats {
     pub ctas: u64,
     /// RT-unit SIMT efficiency: traversing rays / warp size per RT-unit warp cycle.
     pub simt_efficiency: f64,
+    /// RT-unit SIMT efficiency averaged per warp instead, as Vulkan-Sim's RT unit reports it
+    /// ([`crate::gpu::warp_simt`]): the mean over RT-unit warps of each warp's traversing
+    /// lane-cycles / (warp size x its cycles in the unit).
+    pub simt_efficiency_per_warp: f64,
+    /// RT-unit warps that mean is over (warp-buffer occupancies, cut at repacking fills).
+    pub rt_warps: u64,
+    /// `simt_efficiency` in each tenth of the run (from the `sim.sample_interval` samples, as
+    /// `bvh_l1_miss_rate_deciles`; an RT unit's skipped idle cycles count in the sample its
+    /// next visit records).
+    pub simt_efficiency_deciles: Vec<f64>,
     /// BVH demand loads looked up in the L1s.
     pub bvh_l1_accesses: u64,
     /// ... that missed the L1 (a new sector fetch; merges with a pending fill are not misses).

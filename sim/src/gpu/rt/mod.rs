@@ -30,6 +30,7 @@ use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::gpu::rt_fault::RtFault;
+use crate::gpu::warp_simt::WarpSimt;
 use crate::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
 
 mod plain;
@@ -123,6 +124,8 @@ pub struct RtPort<'a> {
     address_bits: u32,
     /// The RT unit's statistics, summed from its per-cycle counts.
     stats: RtStats,
+    /// SIMT efficiency per warp, as Vulkan-Sim averages it.
+    warp_simt: WarpSimt,
     /// Most requests queued at once.
     pub max_queue: u64,
     /// Rays issued.
@@ -207,6 +210,7 @@ impl<'a> RtPort<'a> {
             spill: SpillMemory::default(),
             address_bits: hw.address_bits,
             stats: RtStats::default(),
+            warp_simt: WarpSimt::new(hw.warp_buffer_size as usize),
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
@@ -277,6 +281,50 @@ impl<'a> RtPort<'a> {
     /// The RT unit's statistics.
     pub fn hw_stats(&self) -> &RtStats {
         &self.stats
+    }
+
+    /// RT-unit warp cycles and traversing lanes summed over them, through cycle `end - 1`
+    /// (`end >= at`): the counters so far plus the idle cycles from `at` to `end` not caught up
+    /// yet, which add each resident warp and its traversing lanes per cycle (as a skip would).
+    pub fn warp_counters_until(&self, end: u64) -> (u64, u64) {
+        let n = end.saturating_sub(self.at);
+        let (mut warps, mut lanes) = (0u64, 0u64);
+        if n > 0 {
+            let per_slot: Vec<Option<u32>> = match &self.hw {
+                Hardware::Plain(p) => p.unit.slot_lanes(&p.regs, &p.cache).collect(),
+                Hardware::Treelet(t) => t.unit.slot_lanes(&t.regs, &t.cache).collect(),
+            };
+            for l in per_slot.into_iter().flatten() {
+                warps += 1;
+                lanes += u64::from(l);
+            }
+        }
+        (
+            self.stats.warp_cycles + n * warps,
+            self.stats.active_thread_cycles + n * lanes,
+        )
+    }
+
+    /// SIMT efficiency averaged per warp ([`WarpSimt`]).
+    pub fn warp_simt(&self) -> &WarpSimt {
+        &self.warp_simt
+    }
+
+    /// Follows the warp-buffer slots over the next `n` cycles, in the registers' current state
+    /// (the start of the cycle `at`; before a step or a skip of those cycles).
+    pub(super) fn observe_warps(&mut self, n: u64) {
+        match &self.hw {
+            Hardware::Plain(p) => {
+                let warp_size = p.unit.config().warp_size;
+                self.warp_simt
+                    .observe(n, p.unit.slot_lanes(&p.regs, &p.cache), warp_size)
+            }
+            Hardware::Treelet(t) => {
+                let warp_size = t.unit.config().warp_size;
+                self.warp_simt
+                    .observe(n, t.unit.slot_lanes(&t.regs, &t.cache), warp_size)
+            }
+        }
     }
 
     /// Rays traversing in the warp buffer.
@@ -418,6 +466,7 @@ impl<'a> RtPort<'a> {
         if n == 0 {
             return;
         }
+        self.observe_warps(n);
         match &mut self.hw {
             Hardware::Plain(p) => {
                 let counts = p.unit.skip(&mut p.regs, &mut p.cache, n);
@@ -444,6 +493,7 @@ impl<'a> RtPort<'a> {
         warp: Option<(usize, &[Option<Ray>])>,
     ) -> Result<RtCycle, SimError> {
         self.catch_up(now);
+        self.observe_warps(1);
         self.at = now + 1;
         let cycle = if matches!(self.hw, Hardware::Plain(_)) {
             self.step_plain(now, sm, warp)?

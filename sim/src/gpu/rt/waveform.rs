@@ -281,6 +281,9 @@ impl RtPort<'_> {
     /// ray record (the queue table's spill FIFO head is presented as always).
     fn idle_step(&mut self, c: u64) {
         debug_assert_eq!(c, self.at, "idle steps follow the registers");
+        if self.waveform.is_some() {
+            self.observe_warps(1);
+        }
         self.at = c + 1;
         let Some(w) = self.waveform.as_mut() else {
             return;
