@@ -471,6 +471,29 @@ impl HwBvh {
         &self.image[off..off + len as usize]
     }
 
+    /// Asks the host's caches for the image bytes at BVH address `addr` ahead of their use, so
+    /// copying a node's bytes into a memory response later does not wait for host memory. A
+    /// hint without effect on results; an address outside the image is ignored.
+    pub(crate) fn prefetch_bytes(&self, addr: u64) {
+        let t = (addr >> self.shift) as usize;
+        let Some(&base) = self.slot_offset.get(t) else {
+            return;
+        };
+        let off = base + (addr & (self.params.treelet_bytes as u64 - 1)) as usize;
+        if let Some(byte) = self.image.get(off) {
+            // SAFETY: a prefetch reads nothing the program sees and cannot fault; SSE, which it
+            // needs, is part of every x86_64 target. The pointer is into the image anyway.
+            #[cfg(target_arch = "x86_64")]
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    (byte as *const u8).cast::<i8>(),
+                );
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let _ = byte;
+        }
+    }
+
     /// Used bytes of each treelet, in order (for serialization).
     pub(crate) fn treelet_sizes(&self) -> Vec<u32> {
         self.treelets.iter().map(|t| t.bytes).collect()

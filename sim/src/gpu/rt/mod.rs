@@ -515,6 +515,11 @@ impl<'a> RtPort<'a> {
         if req.kind == RequestKind::StackSpill {
             self.spill.store(req.address, req.data);
         }
+        if req.kind == RequestKind::NodeLoad {
+            // The response copies these bytes tens to hundreds of cycles later: ask the host's
+            // caches for them now (a hint only; it changes no result).
+            self.bvh.prefetch_bytes(req.address);
+        }
         self.requests.push_back(if req.is_store() {
             MemRequest::store(req.address, CHUNK_BYTES, class, req.tag as u64)
         } else {
