@@ -201,9 +201,9 @@ pub struct SimStats {
     pub ctas: u64,
     /// RT-unit SIMT efficiency: traversing rays / warp size per RT-unit warp cycle.
     pub simt_efficiency: f64,
-    /// RT-unit SIMT efficiency averaged per warp instead, as Vulkan-Sim's RT unit reports it
-    /// ([`crate::gpu::warp_simt`]): the mean over RT-unit warps of each warp's traversing
-    /// lane-cycles / (warp size x its cycles in the unit).
+    /// RT-unit SIMT efficiency averaged per warp instead, as the paper's simulator lineage
+    /// reports it ([`crate::gpu::warp_simt`]): the mean over RT-unit warps of each warp's
+    /// traversing lane-cycles / (warp size x its cycles in the unit).
     pub simt_efficiency_per_warp: f64,
     /// RT-unit warps that mean is over (warp-buffer occupancies, cut at repacking fills).
     pub rt_warps: u64,

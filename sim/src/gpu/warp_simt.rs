@@ -1,8 +1,9 @@
-//! SIMT efficiency averaged per RT-unit warp ([`WarpSimt`]), the way the RT unit of Vulkan-Sim
-//! (the paper's simulator) averages it, beside vtq's own measure averaged per warp cycle.
+//! SIMT efficiency averaged per RT-unit warp ([`WarpSimt`]), the way the RT-unit model of the
+//! paper's simulator lineage averages it (docs/fidelity.md gives the source and its caveat),
+//! beside vtq's own measure averaged per warp cycle.
 //!
 //! vtq's `simt_efficiency` is the ratio of sums: traversing lanes over `warp_size` x RT-unit
-//! warp cycles, every warp cycle weighing the same. Vulkan-Sim's RT unit computes one ratio per
+//! warp cycles, every warp cycle weighing the same. That RT-unit model computes one ratio per
 //! warp when the warp leaves the unit — the cycles each of its threads spent before its trace
 //! completed, over `warp_size` x the warp's cycles in the unit — and reports the mean over warps
 //! (`rt_total_simt_efficiency / rt_total_warps`), every warp weighing the same: a warp held for

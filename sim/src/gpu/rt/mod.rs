@@ -124,7 +124,7 @@ pub struct RtPort<'a> {
     address_bits: u32,
     /// The RT unit's statistics, summed from its per-cycle counts.
     stats: RtStats,
-    /// SIMT efficiency per warp, as Vulkan-Sim averages it.
+    /// SIMT efficiency averaged per warp ([`WarpSimt`]).
     warp_simt: WarpSimt,
     /// Most requests queued at once.
     pub max_queue: u64,
@@ -288,17 +288,17 @@ impl<'a> RtPort<'a> {
     /// yet, which add each resident warp and its traversing lanes per cycle (as a skip would).
     pub fn warp_counters_until(&self, end: u64) -> (u64, u64) {
         let n = end.saturating_sub(self.at);
-        let (mut warps, mut lanes) = (0u64, 0u64);
-        if n > 0 {
-            let per_slot: Vec<Option<u32>> = match &self.hw {
-                Hardware::Plain(p) => p.unit.slot_lanes(&p.regs, &p.cache).collect(),
-                Hardware::Treelet(t) => t.unit.slot_lanes(&t.regs, &t.cache).collect(),
-            };
-            for l in per_slot.into_iter().flatten() {
-                warps += 1;
-                lanes += u64::from(l);
-            }
-        }
+        // Resident warps and their traversing lanes.
+        let tally = |slots: &mut dyn Iterator<Item = Option<u32>>| {
+            slots
+                .flatten()
+                .fold((0u64, 0u64), |(w, l), lanes| (w + 1, l + u64::from(lanes)))
+        };
+        let (warps, lanes) = match &self.hw {
+            _ if n == 0 => (0, 0),
+            Hardware::Plain(p) => tally(&mut p.unit.slot_lanes(&p.regs, &p.cache)),
+            Hardware::Treelet(t) => tally(&mut t.unit.slot_lanes(&t.regs, &t.cache)),
+        };
         (
             self.stats.warp_cycles + n * warps,
             self.stats.active_thread_cycles + n * lanes,
