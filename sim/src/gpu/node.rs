@@ -328,6 +328,7 @@ impl<'a> SmNode<'a> {
             return;
         }
         let stats = self.mem.stats();
+        let active_rays = self.rt.active_rays();
         // Every sample this visit records: the L1's counters do not change between visits;
         // the RT unit's warp cycles do (idle cycles it has not caught up yet), so each sample
         // takes them at its own boundary, as a lockstep run would.
@@ -337,7 +338,7 @@ impl<'a> SmNode<'a> {
             self.samples.push(NodeSample {
                 bvh_l1_loads: stats.bvh.l1_loads,
                 bvh_l1_misses: stats.bvh.l1_misses,
-                active_rays: self.rt.active_rays(),
+                active_rays,
                 prefetches: stats.prefetch.requests,
                 prefetch_misses: stats.prefetch.issued,
                 warp_cycles,

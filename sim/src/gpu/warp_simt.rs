@@ -23,22 +23,25 @@ pub struct WarpSimt {
     sum: f64,
     /// Closed warps.
     warps: u64,
+    /// Lanes of a full warp.
+    warp_size: u32,
 }
 
 impl WarpSimt {
-    /// Follows a warp buffer of `slots` slots.
-    pub fn new(slots: usize) -> Self {
+    /// Follows a warp buffer of `slots` slots of `warp_size` lanes.
+    pub fn new(slots: usize, warp_size: u32) -> Self {
         WarpSimt {
             open: vec![(0, 0, 0); slots],
             sum: 0.0,
             warps: 0,
+            warp_size,
         }
     }
 
     /// Adds `n` cycles in which the slots hold `lanes` (per slot: traversing lanes, `None` for
-    /// an empty slot), closing the warps that left or were refilled since the last call;
-    /// `warp_size` lanes make a full warp.
-    pub fn observe(&mut self, n: u64, lanes: impl Iterator<Item = Option<u32>>, warp_size: u32) {
+    /// an empty slot), closing the warps that left or were refilled since the last call.
+    pub fn observe(&mut self, n: u64, lanes: impl Iterator<Item = Option<u32>>) {
+        let warp_size = self.warp_size;
         for (o, l) in self.open.iter_mut().zip(lanes) {
             let (cycles, lane_cycles, last) = *o;
             match l {
@@ -74,18 +77,18 @@ mod tests {
 
     #[test]
     fn each_warp_weighs_the_same() {
-        let mut w = WarpSimt::new(2);
+        let mut w = WarpSimt::new(2, 4);
         // Slot 0: a full warp for 10 cycles, then 1 lane for 90 (one straggler), then empty.
-        w.observe(10, [Some(4)].into_iter(), 4);
-        w.observe(90, [Some(1)].into_iter(), 4);
-        w.observe(1, [None].into_iter(), 4);
+        w.observe(10, [Some(4)].into_iter());
+        w.observe(90, [Some(1)].into_iter());
+        w.observe(1, [None].into_iter());
         let (sum, warps) = w.totals();
         assert_eq!(warps, 1);
         // (40 + 90) / (4 x 100).
         assert!((sum - 0.325).abs() < 1e-12, "{sum}");
         // A short full warp in slot 1 then weighs as much as the long one.
-        w.observe(5, [None, Some(4)].into_iter(), 4);
-        w.observe(1, [None, None].into_iter(), 4);
+        w.observe(5, [None, Some(4)].into_iter());
+        w.observe(1, [None, None].into_iter());
         let (sum, warps) = w.totals();
         assert_eq!(warps, 2);
         assert!((sum / warps as f64 - (0.325 + 1.0) / 2.0).abs() < 1e-12);
@@ -93,13 +96,13 @@ mod tests {
 
     #[test]
     fn an_appended_fill_starts_a_new_warp() {
-        let mut w = WarpSimt::new(1);
-        w.observe(3, [Some(2)].into_iter(), 4);
-        w.observe(2, [Some(1)].into_iter(), 4);
+        let mut w = WarpSimt::new(1, 4);
+        w.observe(3, [Some(2)].into_iter());
+        w.observe(2, [Some(1)].into_iter());
         // Lanes appended: the 5-cycle warp closes, a new one starts.
-        w.observe(4, [Some(4)].into_iter(), 4);
+        w.observe(4, [Some(4)].into_iter());
         assert_eq!(w.totals().1, 1);
-        w.observe(1, [None].into_iter(), 4);
+        w.observe(1, [None].into_iter());
         let (sum, warps) = w.totals();
         assert_eq!(warps, 2);
         // (6 + 2) / (4 x 5) + 16 / (4 x 4).

@@ -210,7 +210,7 @@ impl<'a> RtPort<'a> {
             spill: SpillMemory::default(),
             address_bits: hw.address_bits,
             stats: RtStats::default(),
-            warp_simt: WarpSimt::new(hw.warp_buffer_size as usize),
+            warp_simt: WarpSimt::new(hw.warp_buffer_size as usize, hw.warp_size),
             max_queue: 0,
             rays_issued: 0,
             rays_completed: 0,
@@ -314,16 +314,12 @@ impl<'a> RtPort<'a> {
     /// (the start of the cycle `at`; before a step or a skip of those cycles).
     pub(super) fn observe_warps(&mut self, n: u64) {
         match &self.hw {
-            Hardware::Plain(p) => {
-                let warp_size = p.unit.config().warp_size;
-                self.warp_simt
-                    .observe(n, p.unit.slot_lanes(&p.regs, &p.cache), warp_size)
-            }
-            Hardware::Treelet(t) => {
-                let warp_size = t.unit.config().warp_size;
-                self.warp_simt
-                    .observe(n, t.unit.slot_lanes(&t.regs, &t.cache), warp_size)
-            }
+            Hardware::Plain(p) => self
+                .warp_simt
+                .observe(n, p.unit.slot_lanes(&p.regs, &p.cache)),
+            Hardware::Treelet(t) => self
+                .warp_simt
+                .observe(n, t.unit.slot_lanes(&t.regs, &t.cache)),
         }
     }
 
