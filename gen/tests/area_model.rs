@@ -149,7 +149,7 @@ fn scaling_changes_widths_and_sizes_consistently() {
 
 #[test]
 fn sram_model_is_near_cacti_7() {
-    // CACTI 7 reference areas (mm^2) of 1RW arrays, FACTS.md "Area model anchors".
+    // CACTI 7 reference areas (mm^2) of 1RW arrays.
     let points = [
         (1, 45.0, 0.0040),
         (4, 45.0, 0.0150),

@@ -13,7 +13,8 @@ use vtq_hdl::{Block, HwConfig, Signals};
 mod common;
 use common::{node, words, ToyDatapath, Tree, ALL};
 
-/// Default test latencies (FACTS.md): internal node and triangle leaf / hit.
+/// Default test latencies (Vulkan-Sim's treelet-prefetching configuration): internal node and
+/// triangle leaf / hit.
 const L_INTERNAL: u64 = 4;
 const L_TRIANGLE: u64 = 4;
 

@@ -1,5 +1,5 @@
 //! The accuracy benchmark (`vtq accuracy`, docs/accuracy.md): for each scene and design, full
-//! detail against the sampled tier at several settings and the analytical tier — wall time,
+//! detail against the sampled tier at several settings — wall time,
 //! speed-up over full detail, error of cycles, error of each design's speedup over the baseline,
 //! and whether the 95% interval held the full-detail value — with the mean and worst case per
 //! setting, a CSV of the rows and a plot of run time against error.
@@ -8,7 +8,6 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::analytic::{self, FrameTrace};
 use crate::bvh::HwBvh;
 use crate::config::SimConfig;
 use crate::gpu::{simulate, SimError, SimOptions};
@@ -23,8 +22,6 @@ pub enum Tier {
     Full,
     /// The sampled tier at `FRACTIONxREPLICATES`.
     Sampled(String),
-    /// The analytical tier.
-    Analytical,
 }
 
 impl Tier {
@@ -33,7 +30,6 @@ impl Tier {
         match self {
             Tier::Full => "full".into(),
             Tier::Sampled(s) => format!("sampled {s}"),
-            Tier::Analytical => "analytical".into(),
         }
     }
 }
@@ -47,8 +43,7 @@ pub struct Row {
     pub design: String,
     /// Tier.
     pub tier: Tier,
-    /// Wall-clock seconds (the sampled tier's include the functional profile, the analytical
-    /// tier's its functional trace).
+    /// Wall-clock seconds (the sampled tier's include the functional profile).
     pub wall: f64,
     /// Full detail's wall over this one's.
     pub time_speedup: f64,
@@ -101,13 +96,9 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     let start = Instant::now();
     let profile = Profile::new(scene, plan.bvh, first)?;
     let profile_wall = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let trace = FrameTrace::new(scene, plan.bvh, first)?;
-    let trace_wall = start.elapsed().as_secs_f64();
-    // Per design: (full cycles, full wall), per setting the sampled result, the analytical one.
+    // Per design: (full cycles, full wall), per setting the sampled result.
     let mut full = Vec::new();
     let mut sampled = Vec::new();
-    let mut analytical = Vec::new();
     for d in plan.designs {
         let t = Instant::now();
         let options = SimOptions {
@@ -129,8 +120,6 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
             per.push((s, t.elapsed().as_secs_f64() + profile_wall));
         }
         sampled.push(per);
-        let a = analytic::estimate(&d.config, plan.bvh, &trace);
-        analytical.push((a.timing.cycles, a.model_seconds + trace_wall));
     }
     let mut rows = Vec::new();
     let reference = full[0].0;
@@ -172,9 +161,6 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
             let speedup = (i > 0).then(|| paired_speedup(&sampled[0][k].0, s));
             rows.push(row(Tier::Sampled(spec.clone()), *w, s.cycles, speedup));
         }
-        let (a, w) = analytical[i];
-        let speedup = (i > 0).then(|| exact(analytical[0].0 / a.max(1.0)));
-        rows.push(row(Tier::Analytical, w, exact(a), speedup));
     }
     Ok(rows)
 }
@@ -350,7 +336,8 @@ mod tests {
         let rows = [
             row(Tier::Full, 100.0, None),
             row(Tier::Sampled("1/16x4".into()), 110.0, Some(20.0)),
-            row(Tier::Analytical, 80.0, None),
+            // One replicate: an estimate with no interval.
+            row(Tier::Sampled("1/16x1".into()), 80.0, None),
         ];
         let chart = chart(&rows);
         let points: Vec<&Point> = chart.series.iter().flat_map(|s| &s.points).collect();

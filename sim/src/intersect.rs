@@ -779,14 +779,9 @@ mod tests {
     #[test]
     fn offset_moves_strictly_to_normal_side() {
         let normals = sphere_dirs(64);
-        let mut rng_state = 0x2545_f491_u64;
-        let mut next = || {
-            // xorshift64: deterministic pseudo-random values in [0, 1).
-            rng_state ^= rng_state << 13;
-            rng_state ^= rng_state >> 7;
-            rng_state ^= rng_state << 17;
-            (rng_state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::splitmix::SplitMix64::new(0x2545_f491);
+        // Deterministic pseudo-random values in [0, 1).
+        let mut next = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
         for mag in [0.0, 1e-3, 0.02, 0.5, 1.0, 37.0, 1e3, 3e4, 1e5] {
             for &n in &normals {
                 let p = DVec3::new(next() * 2.0 - 1.0, next() * 2.0 - 1.0, next() * 2.0 - 1.0);

@@ -2,11 +2,11 @@
 //! path-traced workload, the `vtq` command line, and the fuzzing of its parsers.
 
 pub mod accuracy;
-pub mod analytic;
 pub mod atomic_file;
 pub mod bvh;
 pub mod cmd;
 pub mod config;
+pub mod designs;
 pub mod figure5;
 pub mod fuzz;
 pub mod geometry;
@@ -19,6 +19,7 @@ pub mod rays_csv;
 pub mod reproduce;
 pub mod sample;
 pub mod scene;
+pub mod splitmix;
 pub mod sweep;
 pub mod traversal;
 pub mod workload;

@@ -40,8 +40,8 @@ enum Command {
     /// run, so a rerun resumes), locally, as one shard or as a Slurm job array; or collect the
     /// results into one CSV table (--collect).
     Sweep(sweep::SweepArgs),
-    /// Run time against error: full detail, the sampled tier at several settings and the
-    /// analytical tier on each scene and design, with a CSV and a plot (docs/accuracy.md).
+    /// Run time against error: full detail and the sampled tier at several settings on each
+    /// scene and design, with a CSV and a plot (docs/accuracy.md).
     Accuracy(accuracy::AccuracyArgs),
     /// The paper's Figure 5 analytical model: potential treelet speedup against concurrent rays,
     /// from the functional node-fetch traces of the workload's rays.

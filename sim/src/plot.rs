@@ -494,7 +494,7 @@ mod tests {
                     ],
                 },
                 Series {
-                    name: "analytical".into(),
+                    name: "one replicate".into(),
                     points: vec![point(0.1, 20.0, "wknd")],
                 },
             ],

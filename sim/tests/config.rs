@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use vtq_sim::config::{ConfigError, ModeKind, SimConfig};
+use vtq_sim::config::{ConfigError, ModeKind, SimConfig, TreeletPrefetch};
 
 /// The workspace's `configs/` folder.
 fn configs_dir() -> PathBuf {
@@ -67,7 +67,8 @@ fn defaults_are_the_papers_table_1_baseline() {
     assert_eq!((c.memory.l2_bytes, c.memory.l2_ways), (128 * 1024, 16));
     assert_eq!(c.memory.l2_latency, 187);
     assert_eq!(c.hw.warp_buffer_size, 1);
-    // FACTS.md: DRAM latency, ptxas registers, intersection latencies, 6-wide BVH, prefetcher.
+    // Vulkan-Sim: DRAM latency (RTX 3070 config), intersection latencies, 6-wide BVH; paper
+    // section 6.6: ptxas registers; Chou et al.'s treelet-prefetching code: prefetcher.
     assert_eq!(c.memory.dram_latency, 254);
     assert_eq!(c.gpu.raygen_regs_per_thread, 10);
     let l = c.rt.latencies;
@@ -130,6 +131,7 @@ fn every_shipped_config_loads_and_validates() {
         "queues-naive.toml",
         "queues-grouping.toml",
         "queues-repack16.toml",
+        "vtq-prefetch.toml",
     ] {
         assert!(names.iter().any(|n| n == expected), "missing {expected}");
     }
@@ -168,6 +170,47 @@ fn shipped_configs_select_the_papers_designs() {
         assert_eq!(c.memory, base.memory, "{name}");
         assert_eq!(c.workload, base.workload, "{name}");
     }
+}
+
+/// VTQ with treelet prefetching is VTQ plus the prefetcher's switches, and the switch means
+/// something only beside the treelet RT unit.
+#[test]
+fn vtq_prefetch_is_vtq_with_the_prefetcher_watching_its_rays() {
+    let vtq = load_shipped("vtq.toml", &[]).unwrap();
+    let both = load_shipped("vtq-prefetch.toml", &[]).unwrap();
+    assert_eq!(both.mode.treelet_prefetch, TreeletPrefetch::RayStationary);
+    assert_eq!(both.mode.prefetch_threshold, 0.75);
+    assert!(both.mode.prefetcher() && both.mode.treelet_queues());
+    assert!(both.mode.units().contains(&"prefetcher"));
+    assert!(!vtq.mode.units().contains(&"prefetcher"));
+    let mut same = both.clone();
+    same.mode.treelet_prefetch = TreeletPrefetch::Off;
+    assert_eq!(same, vtq, "only the switch differs");
+    let all = load_shipped("vtq-prefetch.toml", &["mode.treelet_prefetch=all"]).unwrap();
+    assert_eq!(all.mode.treelet_prefetch, TreeletPrefetch::All);
+    // Not beside the plain RT unit: the prefetch design's prefetcher always runs.
+    for kind in ["baseline", "prefetch"] {
+        let e = assert_key_error(
+            load_set(&[
+                &format!("mode.kind={kind}"),
+                "mode.treelet_prefetch=ray_stationary",
+            ]),
+            "mode.treelet_prefetch",
+        );
+        assert!(e.to_string().contains("only treelet queues use it"), "{e}");
+    }
+    // The threshold needs a prefetcher that uses it.
+    let e = assert_key_error(
+        load_shipped("vtq.toml", &["mode.prefetch_threshold=0.5"]),
+        "mode.prefetch_threshold",
+    );
+    assert!(
+        e.to_string().contains("mode.treelet_prefetch = \"off\""),
+        "{e}"
+    );
+    let c = load_shipped("vtq-prefetch.toml", &["mode.prefetch_threshold=0.5"]).unwrap();
+    assert_eq!(c.mode.prefetch_threshold, 0.5);
+    assert!(load_set(&["mode.kind=queues", "mode.treelet_prefetch=sometimes"]).is_err());
 }
 
 #[test]

@@ -84,7 +84,7 @@ fn sim_checks_out_image_and_vcd() {
         vec!["--image", s(&bad)],
         vec!["--ctas", s(&bad)],
         vec!["--vcd", s(&bad), "--vcd-cycles", "0..10"],
-        vec!["--analytic", "--image", s(&bad)],
+        vec!["--sample", "1/2x2", "--image", s(&bad)],
     ] {
         let mut args = vec!["sim", "--scene", "wknd", "--out", s(&good)];
         args.extend(extra);

@@ -76,13 +76,14 @@ fn reproduce_writes_every_figure_and_resumes() {
     let dir = scratch("page");
     let out = dir.join("page");
     let log = reproduce(&dir, &out, &[]);
-    // 7 designs (baseline, prefetch, vtq, naive, grouping, repack 16, vtq with free suspends)
-    // on 2 scenes: each distinct run once.
+    // 9 designs (baseline, prefetch, vtq, naive, grouping, repack 16, vtq with free suspends,
+    // vtq with treelet prefetching in the ray-stationary phases and in all) on 2 scenes: each
+    // distinct run once.
     assert!(
-        log.contains("reproduce: 14 points; 0 already done"),
+        log.contains("reproduce: 18 points; 0 already done"),
         "{log}"
     );
-    assert!(log.contains("ran 14 (14 ok, 0 failed)"), "{log}");
+    assert!(log.contains("ran 18 (18 ok, 0 failed)"), "{log}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();
     for stem in [
@@ -98,6 +99,7 @@ fn reproduce_writes_every_figure_and_resumes() {
         "fig14",
         "fig15",
         "fig16",
+        "ext-vtq-prefetch",
     ] {
         for ext in ["svg", "png"] {
             let path = out.join(format!("figures/{stem}.{ext}"));
@@ -137,7 +139,7 @@ fn reproduce_writes_every_figure_and_resumes() {
     // A second run draws from the store and runs nothing; the page is the same.
     let again = reproduce(&dir, &out, &[]);
     assert!(
-        again.contains("14 already done") && again.contains("ran 0"),
+        again.contains("18 already done") && again.contains("ran 0"),
         "{again}"
     );
     let html_again = std::fs::read_to_string(out.join("index.html")).unwrap();
@@ -187,7 +189,7 @@ fn reproduce_reuses_what_a_sweep_stored() {
     );
     // Baseline, prefetch and VTQ on both scenes were stored by the sweep.
     assert!(
-        log.contains("reproduce: 14 points; 6 already done"),
+        log.contains("reproduce: 18 points; 6 already done"),
         "{log}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

@@ -59,7 +59,7 @@ fn cornell_hits_and_image_equal_the_functional_tracer() {
 
 /// The functional tracer's hardware order visits exactly the nodes the RT units test: over
 /// every traced ray, its fetches per node kind sum to the simulation's test counts (so the
-/// sampled tier's profile and the analytical tier's trace count the simulated work).
+/// sampled tier's profile counts the simulated work).
 #[test]
 fn hardware_order_visits_the_rt_units_nodes() {
     for scene in ["wknd", "cornell"] {

@@ -173,6 +173,27 @@ fn skipping_idle_cycles_matches_lockstep() {
     }
 }
 
+/// VTQ with treelet prefetching (`configs/vtq-prefetch.toml`): the prefetcher beside the
+/// treelet RT unit watches its rays in the ray-stationary phases, or in all; every ray is still
+/// traced exactly, skipping idle cycles equals lockstep, and the popularity rule queues treelets
+/// (never without the switch).
+#[test]
+fn vtq_with_treelet_prefetching_traces_every_ray_exactly() {
+    let alone = check_against_functional("wknd", &cfg(VTQ, 2, 32, &[]));
+    assert_eq!(alone.stats.prefetcher_treelets, 0);
+    for watch in ["ray_stationary", "all"] {
+        let switch = format!("mode.treelet_prefetch={watch}");
+        let out = check_against_functional("wknd", &cfg(VTQ, 2, 32, &[&switch]));
+        check_queue_stats(&out);
+        assert!(out.stats.active_units.iter().any(|u| u == "prefetcher"));
+        assert!(
+            out.stats.prefetcher_treelets > 0,
+            "{watch}: nothing prefetched"
+        );
+        check_skip_matches_lockstep(&cfg(VTQ, 2, 24, &[&switch]));
+    }
+}
+
 /// Two runs of one configuration give identical statistics, images and ray logs.
 #[test]
 fn runs_are_deterministic() {

@@ -1,14 +1,12 @@
 //! The sampled tier (docs/accuracy.md): deterministic for a seed, exactly full detail when the
 //! sample is the whole workload, skipping idle cycles equal to lockstep inside its replicates,
-//! a paired speedup from the same CTA samples, and one-line errors for bad settings; and the
-//! analytical tier's estimate is deterministic and positive.
+//! a paired speedup from the same CTA samples, and one-line errors for bad settings.
 
 mod common;
 
 use std::process::Command;
 
 use common::{setup, small_config};
-use vtq_sim::analytic;
 use vtq_sim::config::SimConfig;
 use vtq_sim::gpu::stats::comparable_json;
 use vtq_sim::gpu::{simulate, SimOptions};
@@ -125,26 +123,6 @@ fn speedups_pair_the_replicates() {
     }
 }
 
-#[test]
-fn analytical_estimates_are_deterministic() {
-    for (mode, extra) in [
-        ("baseline", &[][..]),
-        ("prefetch", &[][..]),
-        (
-            "queues",
-            &["mode.grouping=true", "mode.virtualization=true"][..],
-        ),
-    ] {
-        let cfg = small_config(mode, 4, 24, extra);
-        let (scene, bvh) = setup("cornell", &cfg);
-        let (a, _) = analytic::trace_and_estimate(&scene, &bvh, &cfg).unwrap();
-        let (b, _) = analytic::trace_and_estimate(&scene, &bvh, &cfg).unwrap();
-        assert_eq!(a.timing, b.timing, "{mode}");
-        assert!(a.timing.cycles > 0.0, "{mode}");
-        assert!((0.0..=1.0).contains(&a.timing.bvh_l1_miss_rate));
-    }
-}
-
 /// Bad sample settings are one-line errors naming the problem.
 #[test]
 fn bad_sample_settings_are_one_line_errors() {
@@ -210,12 +188,13 @@ fn accuracy_and_sampled_compare_commands() {
         "{stdout}\n{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    for needle in ["sampled 1/2x2", "analytical", "cyc err avg", "in 95%"] {
+    for needle in ["sampled 1/2x2", "cyc err avg", "in 95%"] {
         assert!(stdout.contains(needle), "'{needle}' in {stdout}");
     }
     let csv = std::fs::read_to_string(dir.join("accuracy.csv")).unwrap();
-    // A header, then 3 designs x (full, one setting, analytical).
-    assert_eq!(csv.lines().count(), 1 + 3 * 3, "{csv}");
+    // A header, then 3 designs x (full, one setting); the analytical tier is retired.
+    assert_eq!(csv.lines().count(), 1 + 3 * 2, "{csv}");
+    assert!(!stdout.contains("analytical"), "{stdout}");
     assert!(
         csv.lines().skip(1).all(|l| l.starts_with("cornell,")),
         "{csv}"

@@ -44,7 +44,8 @@
 //! treelet boundary when the fill brings that top back.
 //!
 //! # Traversal order
-//! The two-stack treelet order (FACTS.md "Treelets"): a child in the ray's current treelet
+//! The two-stack treelet order (the treelet-prefetching code of Chou et al., MICRO 2023): a
+//! child in the ray's current treelet
 //! (address >> log2(treelet_bytes)) goes on the current stack, any other child on the
 //! other-treelet stack; children are pushed so that the first in visit order is on top. When the
 //! current stack is empty the top of the other stack is popped and its treelet becomes the

@@ -11,14 +11,14 @@ pub const CHUNK_BYTES: u32 = 32;
 /// Mask of the byte-offset bits within a chunk (an address is chunk aligned when these are 0).
 pub const CHUNK_MASK: u64 = CHUNK_BYTES as u64 - 1;
 
-/// Largest node the RT unit fetches, in 32 B chunks (a 128 B instance leaf, FACTS.md "BVH format").
+/// Largest node the RT unit fetches, in 32 B chunks (a 128 B instance leaf, Vulkan-Sim layout).
 pub const MAX_NODE_CHUNKS: usize = 4;
 
 /// Stack entries in one 32 B spill chunk: four 64-bit slots, bottom entry first (see
 /// [`pack_spill_chunk`]).
 pub const STACK_ENTRIES_PER_CHUNK: usize = 4;
 
-/// 32-bit words of a ray record: origin xyz, direction xyz, tmin, tmax (32 B, FACTS.md).
+/// 32-bit words of a ray record: origin xyz, direction xyz, tmin, tmax (32 B, paper section 6.5).
 pub const RAY_WORDS: usize = 8;
 
 /// Index of the tmin word in [`RayWords`].
@@ -179,7 +179,7 @@ pub fn unpack_spill_chunk(data: &[u8; CHUNK_BYTES as usize]) -> Vec<NodeEntry> {
         .collect()
 }
 
-/// Intersection-test latencies in cycles per node kind, from FACTS.md "RT unit timing" (the
+/// Intersection-test latencies in cycles per node kind, from Vulkan-Sim's RT-unit model (the
 /// public Vulkan-Sim treelet-prefetching configuration): header 2, internal 4, instance leaf 4,
 /// primitive-leaf descriptor 2, triangle (quad) leaf 4, triangle hit 4, procedural 4.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -300,6 +300,16 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         self.rt.slot_lanes(&regs.rt, &cache.rt)
     }
 
+    /// The next node address of every ray traversing in the warp buffer (what a treelet
+    /// prefetcher beside the unit watches); see [`crate::rt_unit::RtUnit::next_addresses`].
+    pub fn next_addresses<'a>(
+        &self,
+        regs: &'a TreeletRtUnitRegs,
+        cache: &'a TreeletRtUnitCache,
+    ) -> impl Iterator<Item = u64> + 'a {
+        self.rt.next_addresses(&regs.rt, &cache.rt)
+    }
+
     /// Rays traversing in the warp buffer.
     pub fn traversing_rays(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
         self.rt.traversing_rays(&regs.rt, &cache.rt)

@@ -8,85 +8,12 @@ use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 
-use super::treelet::TreeletFormation;
-use super::BvhError;
+use super::{BvhError, BvhParams};
 use crate::scene::{Scene, Sphere};
 
 /// Largest accepted magnitude of a vertex coordinate or sphere extent. Larger values would make
 /// box surface areas overflow `f32` inside the builder; scenes beyond it are rejected.
 pub const MAX_COORD: f32 = 1.0e18;
-
-/// Smallest and largest supported BVH width.
-pub const WIDTH_RANGE: std::ops::RangeInclusive<u32> = 2..=8;
-
-/// Build parameters of the hardware BVH (part of the cache key).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct BvhParams {
-    /// Children per internal node, 2..=8 (default 6). Widths up to 6 use 64 B internal nodes,
-    /// 7 and 8 use 128 B internal nodes.
-    pub width: u32,
-    /// Maximum treelet size in bytes: a power of two, at least one full child group
-    /// (`width` x internal node size) and at least 128 (default 8192, half the L1).
-    pub treelet_bytes: u32,
-    /// How the BVH is partitioned into treelets (default: the breadth-first treelets packed
-    /// into shared slots, as the paper's section 6.5 packs them).
-    pub formation: TreeletFormation,
-}
-
-impl Default for BvhParams {
-    fn default() -> Self {
-        BvhParams {
-            width: 6,
-            treelet_bytes: 8192,
-            formation: TreeletFormation::Packed,
-        }
-    }
-}
-
-impl BvhParams {
-    /// Largest accepted treelet size (1 GiB).
-    pub const MAX_TREELET_BYTES: u32 = 1 << 30;
-
-    /// Bytes of one internal node at this width (64 for widths up to 6, else 128).
-    pub fn internal_node_bytes(&self) -> u32 {
-        if self.width <= 6 {
-            64
-        } else {
-            128
-        }
-    }
-
-    /// Checks the parameters, naming the offending one.
-    pub fn validate(&self) -> Result<(), BvhError> {
-        if !WIDTH_RANGE.contains(&self.width) {
-            return Err(BvhError::Params(format!(
-                "BVH width {} is out of range (must be 2..=8)",
-                self.width
-            )));
-        }
-        let tb = self.treelet_bytes;
-        if !tb.is_power_of_two() {
-            return Err(BvhError::Params(format!(
-                "treelet size {tb} bytes is not a power of two"
-            )));
-        }
-        let min = (self.width * self.internal_node_bytes()).max(128);
-        if tb < min {
-            return Err(BvhError::Params(format!(
-                "treelet size {tb} bytes is smaller than one child group of a {}-wide BVH \
-                 ({min} bytes)",
-                self.width
-            )));
-        }
-        if tb > Self::MAX_TREELET_BYTES {
-            return Err(BvhError::Params(format!(
-                "treelet size {tb} bytes exceeds the maximum of {} bytes",
-                Self::MAX_TREELET_BYTES
-            )));
-        }
-        Ok(())
-    }
-}
 
 /// A node of the collapsed tree, before layout.
 #[derive(Debug, Clone)]
@@ -198,7 +125,19 @@ fn check_range(kind: &str, id: usize, lo: Vec3, hi: Vec3) -> Result<(), BvhError
 
 /// Builds the collapsed `width`-wide tree over the scene's usable primitives.
 pub(crate) fn build_wide_tree(scene: &Scene, params: &BvhParams) -> Result<WideTree, BvhError> {
+    build_wide_tree_every(scene, params, 1)
+}
+
+/// Builds the collapsed tree over every `stride`-th primitive (triangles, then spheres, by
+/// index): `stride = 1` is the scene's tree; a larger stride a sample of it, for estimating
+/// the full tree's treelets before building it ([`super::layout::preflight`]).
+pub(crate) fn build_wide_tree_every(
+    scene: &Scene,
+    params: &BvhParams,
+    stride: usize,
+) -> Result<WideTree, BvhError> {
     params.validate()?;
+    let stride = stride.max(1);
     let ntri = scene.triangles.len();
     let total = scene.prim_count();
     if total > u32::MAX as usize / 2 {
@@ -207,8 +146,10 @@ pub(crate) fn build_wide_tree(scene: &Scene, params: &BvhParams) -> Result<WideT
             u32::MAX / 2
         )));
     }
-    let mut leaves: Vec<WideNode> = Vec::with_capacity(total);
-    for (i, tri) in scene.triangles.iter().enumerate() {
+    let mut leaves: Vec<WideNode> = Vec::with_capacity(total.div_ceil(stride));
+    let mut examined = 0usize;
+    for (i, tri) in scene.triangles.iter().enumerate().step_by(stride) {
+        examined += 1;
         if let Some(&bad) = tri.iter().find(|&&p| p as usize >= scene.positions.len()) {
             return Err(BvhError::Geometry(format!(
                 "triangle {i} references vertex {bad}, but the scene has {} positions",
@@ -226,7 +167,16 @@ pub(crate) fn build_wide_tree(scene: &Scene, params: &BvhParams) -> Result<WideT
             verts,
         });
     }
-    for (i, s) in scene.spheres.iter().enumerate() {
+    // The spheres continue the triangles' primitive numbering in the sample.
+    let first_sphere = (stride - ntri % stride) % stride;
+    for (i, s) in scene
+        .spheres
+        .iter()
+        .enumerate()
+        .skip(first_sphere)
+        .step_by(stride)
+    {
+        examined += 1;
         if !sphere_is_usable(s) {
             continue;
         }
@@ -238,7 +188,7 @@ pub(crate) fn build_wide_tree(scene: &Scene, params: &BvhParams) -> Result<WideT
             radius: s.radius,
         });
     }
-    let excluded = (total - leaves.len()) as u32;
+    let excluded = (examined - leaves.len()) as u32;
     if leaves.is_empty() {
         return Ok(WideTree {
             nodes: Vec::new(),

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use super::{BvhError, BvhParams, HwBvh, TreeletFormation};
 use crate::atomic_file::write_atomic;
-use crate::scene::Scene;
+use crate::scene::{hash_geometry, Scene};
 
 /// Version of the serialized format and of the build algorithm; part of the cache key. Bump it
 /// whenever the layout, the builder or its settings change (3: `obvhs` builds in parallel, whose
@@ -62,31 +62,6 @@ pub fn cache_key(scene: &Scene, params: &BvhParams) -> blake3::Hash {
     h.update(&params.formation.code().to_le_bytes());
     hash_geometry(&mut h, scene);
     h.finalize()
-}
-
-/// Feeds the scene geometry a BVH is built from into `h`: vertex positions, triangles and
-/// spheres (centres and radii), each list preceded by its length. Shared by the BVH cache key
-/// and the scene content hash of the sweep result store.
-pub fn hash_geometry(h: &mut blake3::Hasher, scene: &Scene) {
-    h.update(&(scene.positions.len() as u64).to_le_bytes());
-    for p in &scene.positions {
-        for x in p.to_array() {
-            h.update(&x.to_le_bytes());
-        }
-    }
-    h.update(&(scene.triangles.len() as u64).to_le_bytes());
-    for t in &scene.triangles {
-        for i in t {
-            h.update(&i.to_le_bytes());
-        }
-    }
-    h.update(&(scene.spheres.len() as u64).to_le_bytes());
-    for s in &scene.spheres {
-        for x in s.center.to_array() {
-            h.update(&x.to_le_bytes());
-        }
-        h.update(&s.radius.to_le_bytes());
-    }
 }
 
 /// The default cache folder: `$VTQ_CACHE_DIR`, else `$XDG_CACHE_HOME/vtq`, else

@@ -43,8 +43,9 @@
 
 use glam::Vec3;
 
+use super::address_space;
 use super::build::{build_wide_tree, WideNode, WideTree};
-use super::treelet::{self, TreeletFormation, TreeletInfo, Unit};
+use super::treelet::{self, TreeletInfo, Unit};
 use super::{BvhError, BvhParams};
 pub use super::{HEADER_BYTES, LEAF_BYTES};
 use crate::scene::Scene;
@@ -404,6 +405,7 @@ pub struct HwBvh {
 impl HwBvh {
     /// Builds the BVH of a scene (obvhs binary build, collapse, layout, treelets).
     pub fn build(scene: &Scene, params: &BvhParams) -> Result<HwBvh, BvhError> {
+        address_space::preflight(scene, params)?;
         let tree = build_wide_tree(scene, params)?;
         let (treelet_sizes, image) = lay_out(&tree, params)?;
         HwBvh::from_image(*params, &treelet_sizes, image)
@@ -780,44 +782,13 @@ fn encode_sphere(center: Vec3, radius: f32, prim: u32) -> Vec<u8> {
     b
 }
 
-/// Why `treelets` treelets of `params` cannot be addressed, and which settings fix it.
-fn unaddressable(treelets: usize, params: &BvhParams) -> String {
-    let tb = params.treelet_bytes as u64;
-    let slots = (1u64 << 32) / tb;
-    let id_bits = 32 - tb.trailing_zeros();
-    let mut fixes = Vec::new();
-    if params.formation == TreeletFormation::BreadthFirst {
-        fixes.push(
-            "`--set bvh.treelet_formation=packed` packs the breadth-first formation's small \
-             treelets into shared slots (the paper's section 6.5: treelets \"packed together in \
-             memory\" so 19-bit treelet addresses suffice; same tables and widths, fewer and \
-             fuller treelets)"
-                .to_string(),
-        );
-    }
-    fixes.push(format!(
-        "`--treelet-bytes {}` doubles the slot (treelet ids of {} bits, narrower count- and \
-         queue-table tags, but treelets larger than half the 16 KB L1 the paper sizes them to)",
-        2 * tb,
-        id_bits - 1
-    ));
-    format!(
-        "{treelets} treelets of {tb} bytes exceed the 32-bit BVH address space, which holds \
-         {slots} treelet slots ({id_bits}-bit treelet ids, the width of the treelet count and \
-         queue tables' tags); {}",
-        fixes.join("; or ")
-    )
-}
-
 /// Places the tree's nodes into treelets and encodes the compact image.
 /// Returns the used bytes of each treelet and the image.
 fn lay_out(tree: &WideTree, params: &BvhParams) -> Result<(Vec<u32>, Vec<u8>), BvhError> {
     let ib = params.internal_node_bytes();
     let tb = params.treelet_bytes;
     let parts = treelet::partition(tree, ib, tb, params.formation);
-    if parts.len() as u64 * tb as u64 > 1u64 << 32 {
-        return Err(BvhError::TooLarge(unaddressable(parts.len(), params)));
-    }
+    address_space::check(parts.len(), params)?;
     // Addresses: node index -> address; child group of node -> address of its first child.
     let mut addr = vec![0u32; tree.nodes.len()];
     let mut group_addr = vec![0u32; tree.nodes.len()];
@@ -908,29 +879,6 @@ fn lay_out(tree: &WideTree, params: &BvhParams) -> Result<(Vec<u32>, Vec<u8>), B
 mod tests {
     use super::*;
     use proptest::prelude::*;
-
-    #[test]
-    fn an_unaddressable_bvh_names_the_settings_that_fix_it() {
-        let bf = BvhParams {
-            formation: TreeletFormation::BreadthFirst,
-            ..BvhParams::default()
-        };
-        let m = unaddressable(1_731_481, &bf);
-        assert!(m.contains("1731481 treelets of 8192 bytes"), "{m}");
-        assert!(
-            m.contains("524288 treelet slots (19-bit treelet ids"),
-            "{m}"
-        );
-        assert!(m.contains("bvh.treelet_formation=packed"), "{m}");
-        assert!(m.contains("--treelet-bytes 16384"), "{m}");
-        let packed = BvhParams {
-            formation: TreeletFormation::Packed,
-            ..BvhParams::default()
-        };
-        let m = unaddressable(600_000, &packed);
-        assert!(!m.contains("treelet_formation"), "already packed: {m}");
-        assert!(m.contains("treelet ids of 18 bits"), "{m}");
-    }
 
     /// Encodes one axis the way internal nodes do and checks the decoded interval.
     fn check_axis(lo: f32, hi: f32, clo: f32, chi: f32) -> Result<(), TestCaseError> {

@@ -2,9 +2,11 @@
 //! byte-addressed memory image in the Intel/Vulkan-Sim style (see `layout`), partitioned into
 //! treelets (see [`treelet`]) and cached on disk (see `cache`).
 
+pub mod address_space;
 pub mod build;
 pub mod cache;
 pub mod layout;
+pub mod params;
 pub mod treelet;
 
 /// Size of the BVH header.
@@ -12,9 +14,10 @@ pub const HEADER_BYTES: u32 = 64;
 /// Size of a triangle or procedural leaf.
 pub const LEAF_BYTES: u32 = 64;
 
-pub use build::{sphere_bounds, sphere_is_usable, triangle_bounds, triangle_is_usable, BvhParams};
+pub use build::{sphere_bounds, sphere_is_usable, triangle_bounds, triangle_is_usable};
 pub use cache::{build_cached, default_cache_dir, CacheOutcome};
 pub use layout::{BvhStats, HwBvh, NodeInfo, NodeKind};
+pub use params::{BvhParams, WIDTH_RANGE};
 pub use treelet::TreeletFormation;
 
 /// Why a BVH could not be built, loaded or cached.

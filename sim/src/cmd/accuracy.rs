@@ -1,6 +1,6 @@
-//! `vtq accuracy`: run time against error. For each scene and design, full detail, the sampled
-//! tier at several settings and the analytical tier (docs/accuracy.md); prints the rows and the
-//! mean and worst case per setting, writes them as CSV and JSON, and plots run time against
+//! `vtq accuracy`: run time against error. For each scene and design, full detail and the
+//! sampled tier at several settings (docs/accuracy.md); prints the rows and the mean and worst
+//! case per setting, writes them as CSV and JSON, and plots run time against
 //! error (SVG and PNG).
 
 use std::path::PathBuf;
@@ -9,8 +9,8 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use crate::accuracy::{benchmark, chart, csv, summarize, Design, Plan, Row};
-use crate::cmd::compare::resolve_design;
 use crate::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
+use crate::designs;
 use crate::output::{check_dir, write_or_keep, Failures};
 use crate::plot::write_scatter;
 
@@ -90,7 +90,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         .designs
         .iter()
         .map(|spec| {
-            resolve_design(spec, &args.set).map(|d| Design {
+            designs::resolve(spec, &args.set).map(|d| Design {
                 label: d.label,
                 config: d.config,
             })

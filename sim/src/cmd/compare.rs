@@ -3,9 +3,9 @@
 //! one table: cycles, speedup over the baseline, BVH L1 miss rate, SIMT efficiency, the phase
 //! split and wall time, plus whether every design produced the identical image.
 //!
-//! The three paper configurations (`configs/{baseline,prefetch,vtq}.toml`) are embedded in the
-//! binary, so the command works from any directory; other configuration files are named by
-//! path. Designs run concurrently (`--jobs`), each simulation on `--threads` threads (1 by
+//! The built-in designs ([`crate::designs`]: the paper's three and VTQ with treelet
+//! prefetching) are embedded in the binary, so the command works from any directory; other
+//! configuration files are named by path. Designs run concurrently (`--jobs`), each simulation on `--threads` threads (1 by
 //! default); every statistic except wall time is deterministic and independent of both.
 
 use std::io::IsTerminal;
@@ -20,38 +20,11 @@ use glam::Vec3;
 
 use crate::bvh::HwBvh;
 use crate::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
-use crate::config::SimConfig;
+use crate::designs::{self, Design};
 use crate::gpu::{simulate, SimOptions, SimStats};
 use crate::output::{check_file, write_or_keep};
 use crate::sample::{paired_speedup, simulate_sampled, Profile};
 use crate::scene::Scene;
-
-/// A configuration compiled into the binary: its design name, the file it was read from
-/// (relative to the workspace root) and the file's text.
-struct BuiltIn {
-    name: &'static str,
-    path: &'static str,
-    toml: &'static str,
-}
-
-/// The paper's three designs, in the default order of `--designs`.
-const BUILT_INS: [BuiltIn; 3] = [
-    BuiltIn {
-        name: "baseline",
-        path: "configs/baseline.toml",
-        toml: include_str!("../../../configs/baseline.toml"),
-    },
-    BuiltIn {
-        name: "prefetch",
-        path: "configs/prefetch.toml",
-        toml: include_str!("../../../configs/prefetch.toml"),
-    },
-    BuiltIn {
-        name: "vtq",
-        path: "configs/vtq.toml",
-        toml: include_str!("../../../configs/vtq.toml"),
-    },
-];
 
 /// The design whose cycles the speedups divide, when it is among `--designs`.
 const BASELINE: &str = "baseline";
@@ -63,8 +36,9 @@ pub struct CompareArgs {
     /// ../shared/scenes, a scene folder path or a `.obj` file (see `vtq scenes`).
     #[arg(long)]
     pub scene: String,
-    /// Designs to simulate, in table order: `baseline`, `prefetch` and `vtq` (built in: the
-    /// configs/ files of those names) or paths of configuration files (TOML, docs/config.md).
+    /// Designs to simulate, in table order: built-in names (`baseline`, `prefetch`, `vtq`,
+    /// `vtq-prefetch`: the configs/ files of those names) or paths of configuration files
+    /// (TOML, docs/config.md).
     #[arg(
         long,
         value_delimiter = ',',
@@ -129,16 +103,6 @@ impl CompareArgs {
     }
 }
 
-/// One design to simulate.
-pub(crate) struct Design {
-    /// Its name in the table and the JSON (`baseline`, or a configuration file's stem).
-    pub(crate) label: String,
-    /// Where its configuration came from.
-    pub(crate) source: String,
-    /// The configuration, overrides applied.
-    pub(crate) config: SimConfig,
-}
-
 /// Width of the design column of the tables: the longest label, at least the header's.
 fn label_width(designs: &[Design]) -> usize {
     designs
@@ -147,42 +111,6 @@ fn label_width(designs: &[Design]) -> usize {
         .max()
         .unwrap_or(0)
         .max("design".len())
-}
-
-/// A built-in configuration with `overrides` applied, read as [`SimConfig::load`] reads its file.
-fn built_in_config(built_in: &BuiltIn, overrides: &[String]) -> anyhow::Result<SimConfig> {
-    let origin = Path::new(built_in.path);
-    Ok(SimConfig::load_str(origin, built_in.toml, overrides)?)
-}
-
-/// Resolves one `--designs` entry: a built-in name, or else a configuration file path.
-pub(crate) fn resolve_design(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
-    let spec = spec.trim();
-    let context = || format!("design '{spec}'");
-    if let Some(built_in) = BUILT_INS.iter().find(|b| b.name == spec) {
-        return Ok(Design {
-            label: built_in.name.to_string(),
-            source: format!("built-in {}", built_in.path),
-            config: built_in_config(built_in, overrides).with_context(context)?,
-        });
-    }
-    let path = Path::new(spec);
-    let looks_like_path = spec.contains(['/', '\\']) || spec.ends_with(".toml");
-    if spec.is_empty() || !(looks_like_path || path.is_file()) {
-        let names: Vec<&str> = BUILT_INS.iter().map(|b| b.name).collect();
-        bail!(
-            "unknown design '{spec}': expected one of {} or the path of a configuration file",
-            names.join(", ")
-        );
-    }
-    let label = path
-        .file_stem()
-        .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
-    Ok(Design {
-        label,
-        source: spec.to_string(),
-        config: SimConfig::load(Some(path), overrides).with_context(context)?,
-    })
 }
 
 /// What one design's simulation gave.
@@ -321,7 +249,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     let designs = args
         .designs
         .iter()
-        .map(|spec| resolve_design(spec, &overrides))
+        .map(|spec| designs::resolve(spec, &overrides))
         .collect::<anyhow::Result<Vec<Design>>>()?;
     let Some(first) = designs.first() else {
         bail!("--designs is empty");
@@ -660,39 +588,6 @@ fn compare_sampled(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn embedded_configs_equal_the_files() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        for b in &BUILT_INS {
-            let on_disk = std::fs::read_to_string(root.join(b.path)).unwrap();
-            assert_eq!(b.toml, on_disk, "{} is stale in the binary", b.path);
-        }
-    }
-
-    #[test]
-    fn built_in_configs_load_as_their_files_do() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let sets = vec!["width=16".to_string(), "gpu.sms=2".to_string()];
-        for b in &BUILT_INS {
-            let from_file = SimConfig::load(Some(&root.join(b.path)), &sets).unwrap();
-            assert_eq!(built_in_config(b, &sets).unwrap(), from_file, "{}", b.path);
-        }
-        // The built-ins differ from each other, so the file's keys were applied.
-        let configs: Vec<SimConfig> = BUILT_INS
-            .iter()
-            .map(|b| built_in_config(b, &[]).unwrap())
-            .collect();
-        assert_ne!(configs[0], configs[1]);
-        assert_ne!(configs[1], configs[2]);
-    }
-
-    #[test]
-    fn unknown_design_names_the_choices() {
-        let err = resolve_design("fastest", &[]).err().unwrap().to_string();
-        assert!(err.contains("unknown design 'fastest'"), "{err}");
-        assert!(err.contains("baseline, prefetch, vtq"), "{err}");
-    }
 
     #[test]
     fn image_difference_finds_the_first_and_counts() {

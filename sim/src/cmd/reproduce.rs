@@ -18,6 +18,7 @@ use crate::bvh::BvhParams;
 use crate::config::SimConfig;
 use crate::figure5::{model, Figure5Row};
 use crate::output::check_dir;
+use crate::reproduce::beyond;
 use crate::reproduce::figures::{self, Figure};
 use crate::reproduce::page::Page;
 use crate::reproduce::tables;
@@ -137,7 +138,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             }
         }
     };
-    let figure_fns: [(&str, &str, FigureFn); 8] = [
+    let figure_fns: [(&str, &str, FigureFn); 9] = [
         ("fig01", "Figure 1", figures::figure1),
         ("fig10", "Figure 10", figures::figure10),
         ("fig11", "Figure 11", figures::figure11),
@@ -146,6 +147,11 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         ("fig14", "Figure 14", figures::figure14),
         ("fig15", "Figure 15", figures::figure15),
         ("fig16", "Figure 16", figures::figure16),
+        (
+            "ext-vtq-prefetch",
+            "VTQ with treelet prefetching",
+            beyond::vtq_prefetch,
+        ),
     ];
     let mut figures: Vec<Figure> = figure_fns
         .iter()

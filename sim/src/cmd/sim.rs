@@ -40,7 +40,7 @@ pub struct SimArgs {
     pub image: Option<PathBuf>,
     /// Also write when each CTA ran (CSV `cta,sm,start,end`: the cycles from its warps' first
     /// trace to its retirement), for studying load balance over the SMs (docs/stats.md).
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["sample", "analytic"])]
+    #[arg(long, value_name = "FILE", conflicts_with = "sample")]
     pub ctas: Option<PathBuf>,
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
@@ -54,10 +54,6 @@ pub struct SimArgs {
     /// `1/8x4`; without a value the `[sample]` section's settings.
     #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
     pub sample: Option<String>,
-    /// The analytical tier instead of full detail: cycles estimated from the functional trace
-    /// with a timing model and a functional cache model (docs/accuracy.md; no interval).
-    #[arg(long, conflicts_with = "sample")]
-    pub analytic: bool,
     /// Also write a waveform (VCD, for GTKWave) of the RT unit hardware of SM --vcd-sm over
     /// the cycles --vcd-cycles: each block's ports and registers, every cycle (docs/hardware.md).
     /// The statistics do not change.
@@ -105,9 +101,6 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         return run_sampled(args, &scene, &bvh, &cfg);
     }
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
-    if args.analytic {
-        return run_analytic(args, &scene, &bvh, &cfg);
-    }
     let options = SimOptions {
         threads: args.threads,
         vcd,
@@ -170,7 +163,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
 /// time series of a full-detail run, the image, the waveform), so that a bad path fails at once.
 fn check_outputs(args: &SimArgs) -> anyhow::Result<()> {
     check_file(&args.out)?;
-    if args.sample.is_none() && !args.analytic {
+    if args.sample.is_none() {
         check_file(&time_series_path(&args.out))?;
     }
     for path in args.image.iter().chain(&args.vcd).chain(&args.ctas) {
@@ -224,40 +217,6 @@ fn run_sampled(
         s.bvh_l1_miss_rate.display(3),
         s.profile_seconds + s.sim_seconds,
         s.profile_seconds
-    );
-    println!("wrote {}", args.out.display());
-    Ok(())
-}
-
-/// `vtq sim --analytic`: the analytical tier's estimate, written as JSON (docs/accuracy.md).
-fn run_analytic(
-    args: &SimArgs,
-    scene: &crate::scene::Scene,
-    bvh: &crate::bvh::HwBvh,
-    cfg: &SimConfig,
-) -> anyhow::Result<()> {
-    let (a, traced) = crate::analytic::trace_and_estimate(scene, bvh, cfg)
-        .with_context(|| format!("tracing scene '{}'", scene.name))?;
-    let doc = serde_json::json!({
-        "scene": scene.name,
-        "mode": cfg.mode.kind.name(),
-        "estimate": "analytical",
-        "cycles": a.timing.cycles,
-        "bvh_l1_miss_rate": a.timing.bvh_l1_miss_rate,
-        "simt_efficiency": a.timing.simt_efficiency,
-        "trace_seconds": traced,
-        "model_seconds": a.model_seconds,
-    });
-    let json = serde_json::to_string_pretty(&doc).context("serializing the estimate")?;
-    write_json(&args.out, &(json + "\n"))?;
-    println!(
-        "sim (analytical estimate, no interval): cycles {:.0}, SIMT efficiency {:.3}, BVH L1 miss \
-         rate {:.3}; {:.2} s wall ({:.2} s trace)",
-        a.timing.cycles,
-        a.timing.simt_efficiency,
-        a.timing.bvh_l1_miss_rate,
-        traced + a.model_seconds,
-        traced
     );
     println!("wrote {}", args.out.display());
     Ok(())

@@ -1,5 +1,5 @@
 //! The simulator's configuration ([`SimConfig`]): one TOML file of sections, each parameter
-//! documented with its default (the paper's Table 1 GPU, FACTS.md timing, or a stated modelling
+//! documented with its default (the paper's Table 1 GPU, Vulkan-Sim timing, or a stated modelling
 //! assumption; docs/config.md lists them all), `--set key=value` overrides, and validation that
 //! names the offending key, its value and why it is rejected.
 //!
@@ -26,17 +26,20 @@ use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::rt_unit::{Latencies, RtUnitError, RtUnitParams};
 use vtq_hdl::HwConfig;
 
-use crate::bvh::build::WIDTH_RANGE;
+use crate::bvh::WIDTH_RANGE;
 use crate::bvh::{BvhParams, TreeletFormation};
 use crate::memory::{MemConfig, MemConfigError};
-use crate::sample::SampleConfig;
 use crate::workload::pathtracer::RenderSettings;
 
+mod mode;
 mod overrides;
+mod sample;
 mod virtualization;
 
+pub use mode::{ModeConfig, ModeKind, TreeletPrefetch};
 pub use overrides::parse_override_value;
 use overrides::{apply_override, merge, Origin};
+pub use sample::SampleConfig;
 pub use virtualization::{RestorePolicy, SuspendPolicy, VirtualizationConfig};
 
 /// Workload keys that `--set` also accepts without their `workload.` prefix (`--set width=64`).
@@ -242,7 +245,8 @@ impl Default for GpuConfig {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RtConfig {
-    /// `[rt.latencies]`: intersection-test cycles per node kind (FACTS.md: header 2,
+    /// `[rt.latencies]`: intersection-test cycles per node kind (Vulkan-Sim's treelet-prefetching
+    /// configuration: header 2,
     /// internal 4, instance_leaf 4, primitive_descriptor 2, triangle_leaf 4, triangle_hit 4,
     /// procedural 4).
     pub latencies: Latencies,
@@ -266,70 +270,6 @@ impl Default for RtConfig {
             resp_fifo_depth: p.resp_fifo_depth,
             resp_ports: p.resp_ports,
             queued_stack_traffic: false,
-        }
-    }
-}
-
-/// The design being simulated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ModeKind {
-    /// The baseline RT unit: ray-stationary traversal in the two-stack treelet order.
-    #[default]
-    Baseline,
-    /// The baseline plus the treelet prefetcher of Chou et al. (MICRO 2023).
-    Prefetch,
-    /// Treelet queues (paper sections 3 and 4), with the switches of [`ModeConfig`].
-    Queues,
-}
-
-impl ModeKind {
-    /// The name used in configuration files.
-    pub fn name(self) -> &'static str {
-        match self {
-            ModeKind::Baseline => "baseline",
-            ModeKind::Prefetch => "prefetch",
-            ModeKind::Queues => "queues",
-        }
-    }
-}
-
-impl fmt::Display for ModeKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// `[mode]`: the design and its feature switches. A switch that means nothing for the chosen
-/// `kind` is rejected by validation rather than ignored. Warp repacking is switched by
-/// `hw.repack_threshold` (0 = off), not here.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ModeConfig {
-    /// The design: `baseline`, `prefetch` or `queues`.
-    pub kind: ModeKind,
-    /// Ray virtualization (section 3.1): a CTA is suspended once all its threads have issued
-    /// their rays, freeing its slot for a new CTA, up to `hw.max_rays` rays in flight per SM.
-    pub virtualization: bool,
-    /// Group underpopulated treelet queues into ray-stationary warps (section 4.4); `queues`
-    /// only. Off is the naive treelet-queue design.
-    pub grouping: bool,
-    /// Preload the next treelet and its rays while the current one drains (section 4.3);
-    /// `queues` only.
-    pub preload: bool,
-    /// Treelet prefetcher policy: prefetch the most popular next treelet once it holds at least
-    /// this fraction of the RT unit's rays (FACTS.md: 0.75); `prefetch` only.
-    pub prefetch_threshold: f64,
-}
-
-impl Default for ModeConfig {
-    fn default() -> Self {
-        ModeConfig {
-            kind: ModeKind::Baseline,
-            virtualization: false,
-            grouping: false,
-            preload: false,
-            prefetch_threshold: 0.75,
         }
     }
 }
@@ -679,7 +619,7 @@ impl SimConfig {
         self.validate_hw_ranges()?;
         let hw = &self.hw;
         let cta_rays = self.gpu.max_ctas_per_sm as u64 * self.gpu.threads_per_cta as u64;
-        if (self.mode.virtualization || self.mode.kind == ModeKind::Queues)
+        if (self.mode.virtualization || self.mode.treelet_queues())
             && (hw.max_rays as u64) < cta_rays
         {
             return Err(invalid(
@@ -688,143 +628,6 @@ impl SimConfig {
                 format!(
                     "fewer than the rays the SM's CTA slots issue at once (gpu.max_ctas_per_sm x \
                      gpu.threads_per_cta = {cta_rays})"
-                ),
-            ));
-        }
-        Ok(())
-    }
-
-    /// Checks the mode's switches against its kind, and the queue features against each other.
-    fn validate_mode(&self) -> Result<(), ConfigError> {
-        let m = &self.mode;
-        let kind = m.kind;
-        if !m.virtualization {
-            if let Some((key, value)) = self.virtualization.changed_key() {
-                return Err(invalid(
-                    key,
-                    value,
-                    "only ray virtualization uses it, and mode.virtualization is false",
-                ));
-            }
-        }
-        let t = m.prefetch_threshold;
-        if !(t.is_finite() && t > 0.0 && t <= 1.0) {
-            return Err(invalid(
-                "mode.prefetch_threshold",
-                t,
-                "must be a fraction in (0, 1]",
-            ));
-        }
-        if kind != ModeKind::Prefetch && t != ModeConfig::default().prefetch_threshold {
-            return Err(invalid(
-                "mode.prefetch_threshold",
-                t,
-                format!("only the treelet prefetcher uses it, and mode.kind is \"{kind}\""),
-            ));
-        }
-        if kind != ModeKind::Queues {
-            for (key, on) in [
-                ("mode.grouping", m.grouping),
-                ("mode.preload", m.preload),
-                ("rt.queued_stack_traffic", self.rt.queued_stack_traffic),
-            ] {
-                if on {
-                    return Err(invalid(
-                        key,
-                        on,
-                        format!("only treelet queues use it, and mode.kind is \"{kind}\""),
-                    ));
-                }
-            }
-            let hw = &self.hw;
-            let d = HwConfig::default();
-            let queue_only = [
-                (
-                    "count_table_entries",
-                    hw.count_table_entries,
-                    d.count_table_entries,
-                ),
-                (
-                    "queue_table_entries",
-                    hw.queue_table_entries,
-                    d.queue_table_entries,
-                ),
-                (
-                    "underpopulation_threshold",
-                    hw.underpopulation_threshold,
-                    d.underpopulation_threshold,
-                ),
-                ("repack_threshold", hw.repack_threshold, d.repack_threshold),
-                (
-                    "max_resident_treelets",
-                    hw.max_resident_treelets,
-                    d.max_resident_treelets,
-                ),
-                (
-                    "divergence_threshold",
-                    hw.divergence_threshold,
-                    d.divergence_threshold,
-                ),
-                (
-                    "preload_threshold_warps",
-                    hw.preload_threshold_warps,
-                    d.preload_threshold_warps,
-                ),
-            ];
-            for (key, value, default) in queue_only {
-                if value != default {
-                    return Err(invalid(
-                        &format!("hw.{key}"),
-                        value,
-                        format!(
-                            "only the treelet-queue hardware uses it, and mode.kind is \
-                             \"{kind}\" (leave it at {default} or set mode.kind = \"queues\")"
-                        ),
-                    ));
-                }
-            }
-            return Ok(());
-        }
-        let hw = &self.hw;
-        if hw.repack_threshold > 0 && !m.grouping {
-            return Err(invalid(
-                "hw.repack_threshold",
-                hw.repack_threshold,
-                "warp repacking refills warps from the grouped underpopulated queues (paper \
-                 section 4.5), so it needs mode.grouping = true; 0 disables repacking",
-            ));
-        }
-        if hw.repack_threshold > 0 && !m.virtualization {
-            return Err(invalid(
-                "hw.repack_threshold",
-                hw.repack_threshold,
-                "warp repacking fetches new rays from memory, which needs ray virtualization \
-                 (mode.virtualization = true, paper section 4.5); 0 disables repacking",
-            ));
-        }
-        if !m.preload && hw.preload_threshold_warps != HwConfig::default().preload_threshold_warps {
-            return Err(invalid(
-                "hw.preload_threshold_warps",
-                hw.preload_threshold_warps,
-                "only preloading uses it, and mode.preload is false",
-            ));
-        }
-        if m.preload && hw.max_resident_treelets < 2 {
-            return Err(invalid(
-                "hw.max_resident_treelets",
-                hw.max_resident_treelets,
-                "preloading (mode.preload = true) needs room for a second resident treelet",
-            ));
-        }
-        let resident = hw.max_resident_treelets as u64 * hw.treelet_bytes as u64;
-        if resident > self.memory.l1_bytes as u64 {
-            return Err(invalid(
-                "hw.max_resident_treelets",
-                hw.max_resident_treelets,
-                format!(
-                    "{} resident treelets of hw.treelet_bytes = {} need {resident} bytes, more \
-                     than the L1 (memory.l1_bytes = {})",
-                    hw.max_resident_treelets, hw.treelet_bytes, self.memory.l1_bytes
                 ),
             ));
         }

@@ -2,36 +2,29 @@
 //! `1e39`, huge indices, `\`, CR, byte-order marks, ...), deletion, duplication, repetition,
 //! truncation, line edits and splicing with another seed.
 
+use crate::splitmix::SplitMix64;
+
 /// Inputs are cut to this many bytes after mutation, so that every case stays quick.
 pub const MAX_INPUT: usize = 64 * 1024;
 
-/// SplitMix64: small, fast and fully determined by its seed (the generator `city:N` uses too),
-/// so a fuzz run is reproduced exactly by its seed.
+/// The fuzzer's random numbers: [`SplitMix64`], so a fuzz run is reproduced exactly by its seed.
 #[derive(Debug, Clone)]
-pub struct Rng(u64);
+pub struct Rng(SplitMix64);
 
 impl Rng {
     /// A generator started from `seed`.
     pub fn new(seed: u64) -> Rng {
-        Rng(seed)
+        Rng(SplitMix64::new(seed))
     }
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// A number in `0..n` (0 when `n` is 0).
     pub fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (((self.next_u64() >> 32) * n as u64) >> 32) as usize
-        }
+        self.0.below(n as u64) as usize
     }
 
     /// True with probability `percent` / 100.

@@ -30,26 +30,23 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
 use vtq_hdl::rt_unit::{TraversalOrder, CHUNK_BYTES};
 
 use crate::bvh::HwBvh;
-use crate::config::{ModeKind, SimConfig};
-use crate::geometry::{Hit, Ray};
+use crate::config::SimConfig;
 use crate::gpu::coordinator;
 use crate::gpu::cta_scheduler::CtaScheduler;
 use crate::gpu::error::SimError;
 use crate::gpu::finish::{finish, Finished};
 use crate::gpu::l2_partitions::PartitionJobs;
 use crate::gpu::node::{Ctx, SmNode};
-use crate::gpu::parallelism::ParallelProfile;
+use crate::gpu::output::SimOutput;
 use crate::gpu::prefetch::Prefetcher;
 use crate::gpu::queued_stacks::QueuedStacks;
-use crate::gpu::rt::waveform::{VcdWindow, Waveform, WaveformSummary, MAX_WINDOW_CYCLES};
+use crate::gpu::rt::waveform::{VcdWindow, Waveform, MAX_WINDOW_CYCLES};
 use crate::gpu::rt::{QueueSetup, RtPort};
 use crate::gpu::shader::ShaderTiming;
 use crate::gpu::sm::{RayBudget, Sm};
-use crate::gpu::stats::{Sample, SimStats};
 use crate::gpu::virtualization::CtaStatePort;
 use crate::memory::MemorySystem;
 use crate::scene::Scene;
@@ -81,40 +78,6 @@ pub struct SimOptions {
     /// Time the nodes', memory partitions' and coordinator's work for the parallelism report
     /// ([`SimOutput::parallelism`]; meant for one-thread runs); the results do not change.
     pub profile: bool,
-}
-
-/// One traced ray and the closest hit the RT unit found.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TracedRay {
-    /// Pixel of the thread that traced it.
-    pub pixel: u32,
-    /// The ray.
-    pub ray: Ray,
-    /// Its closest hit (`None`: a miss).
-    pub hit: Option<Hit>,
-}
-
-/// The result of a simulation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SimOutput {
-    /// Statistics.
-    pub stats: SimStats,
-    /// Linear radiance per pixel, row-major, as [`crate::workload::pathtracer::render`] gives.
-    pub image: Vec<Vec3>,
-    /// Samples whose radiance was NaN or infinite (written black).
-    pub nonfinite_samples: u64,
-    /// The time series (every `sim.sample_interval` cycles).
-    pub time_series: Vec<Sample>,
-    /// Every traced ray in completion order (only with [`SimOptions::record_rays`]).
-    pub ray_log: Vec<TracedRay>,
-    /// The recorded table inputs (only with [`SimOptions::record_tables`] in queues mode).
-    pub table_log: Option<vtq_hdl::treelet_rt_unit::TableLog>,
-    /// The waveform written (only with [`SimOptions::vcd`]).
-    pub waveform: Option<WaveformSummary>,
-    /// The parallelism report's timings (only with [`SimOptions::profile`]).
-    pub parallelism: Option<ParallelProfile>,
-    /// Per SM, the CTAs that ran there, in the order they retired.
-    pub cta_spans: Vec<Vec<super::sm::CtaSpan>>,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
@@ -201,8 +164,9 @@ pub fn simulate(
             Some(spill.base(sm)),
             spill.chunks,
         );
-        let queues = (cfg.mode.kind == ModeKind::Queues).then(|| QueueSetup {
+        let queues = cfg.mode.treelet_queues().then(|| QueueSetup {
             features: cfg.controller_features(),
+            prefetch: cfg.mode.treelet_prefetch,
             ray_base: records + (nsms + sm) as u64 * per_sm,
             stack_base: cfg
                 .rt
@@ -217,12 +181,7 @@ pub fn simulate(
             queues,
         )
         .map_err(|source| SimError::Rt { sm, source })?;
-        let prefetch = match cfg.mode.kind {
-            ModeKind::Baseline => false,
-            ModeKind::Prefetch => true,
-            ModeKind::Queues => cfg.mode.preload,
-        };
-        if prefetch {
+        if cfg.mode.prefetcher() {
             rt = rt.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold));
         }
         if let Some((record, cycles)) = options.record_tables {

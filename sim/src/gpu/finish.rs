@@ -4,9 +4,8 @@
 use glam::Vec3;
 
 use crate::bvh::HwBvh;
-use crate::config::ModeKind;
-use crate::gpu::engine::SimOutput;
 use crate::gpu::node::{Ctx, NodeSample, SmNode};
+use crate::gpu::output::SimOutput;
 use crate::gpu::rt::QueueObserver;
 use crate::gpu::sm::VirtTiming;
 use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
@@ -76,23 +75,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     if bvh.has_procedural() {
         units.push("rt_datapath.procedural");
     }
-    match cfg.mode.kind {
-        ModeKind::Baseline => {}
-        ModeKind::Prefetch => units.push("prefetcher"),
-        ModeKind::Queues => {
-            units.extend([
-                "treelet_controller",
-                "treelet_count_table",
-                "treelet_queue_table",
-            ]);
-            if cfg.mode.preload {
-                units.push("treelet_preloader");
-            }
-        }
-    }
-    if cfg.mode.virtualization {
-        units.push("virtualization");
-    }
+    units.extend(cfg.mode.units());
     units.extend(["memory.l1", "memory.l2", "memory.dram"]);
     let warp_size = cfg.hw.warp_size;
     let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
@@ -223,6 +206,11 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
             }
             t
         },
+        prefetcher_treelets: nodes
+            .iter()
+            .filter_map(|n| n.rt.prefetcher())
+            .map(|p| p.treelets_queued)
+            .sum(),
         prefetches_issued: mem.prefetch.issued,
         prefetches_used: mem.prefetch.used,
         prefetches_unused_evicted: mem.prefetch.evicted_unused,

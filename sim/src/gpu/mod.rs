@@ -8,7 +8,7 @@
 //! blocks over a window of cycles), [`ray_memory`] (the memory contents
 //! the treelet hardware reads and writes), [`rt_fault`] (RT-unit errors in words), [`sm`] (CTA
 //! and warp slots), [`shader`] (raygen threads and shader timing), [`cta_scheduler`],
-//! [`engine`] (the cycle loop: setting up a run), [`coordinator`] (the loop on any number of
+//! [`engine`] (the cycle loop: setting up a run), [`output`] (what a run returns), [`coordinator`] (the loop on any number of
 //! threads), [`l2_partitions`] (the L2's memory partitions as units of work), [`watchdog`], [`stats`], [`warp_simt`] (SIMT efficiency averaged per RT-unit warp), [`prefetch`] (the treelet prefetcher of
 //! the `prefetch` mode, which also serves the controller's preloads), [`queued_stacks`] (the
 //! traffic of queued rays' stacks, a modelling switch) and [`virtualization`] (ray
@@ -24,6 +24,7 @@ pub mod error;
 pub mod finish;
 pub mod l2_partitions;
 pub mod node;
+pub mod output;
 pub mod parallelism;
 pub mod prefetch;
 pub mod queued_stacks;
@@ -38,7 +39,8 @@ pub mod warp_simt;
 pub mod watchdog;
 pub mod workers;
 
-pub use engine::{simulate, SimOptions, SimOutput, TracedRay};
+pub use engine::{simulate, SimOptions};
+pub use output::{SimOutput, TracedRay};
 pub use rt::waveform::VcdWindow;
 pub use stats::{SimStats, HOST_DEPENDENT_KEYS};
 

@@ -1,5 +1,5 @@
-//! The treelet prefetcher of Chou et al. (MICRO 2023), the paper's comparison point (FACTS.md
-//! "Treelets"): one per SM, beside the RT unit. After every RT-unit step it counts the treelet
+//! The treelet prefetcher of Chou et al. (MICRO 2023), the paper's comparison point (its public
+//! code): one per SM, beside the RT unit. After every RT-unit step it counts the treelet
 //! of each traversing ray's next node over all warps in the warp buffer; when the most popular
 //! treelet (ties: lowest treelet id) holds at least `mode.prefetch_threshold` of those rays, it
 //! queues every 32 B sector of that treelet's nodes. Queued sectors go to the L1 as prefetches
@@ -39,7 +39,8 @@ pub struct Prefetcher<'a> {
     queue: VecDeque<u64>,
     /// First cycle the head of `queue` may be offered again after an L1 stall.
     retry_at: u64,
-    /// Treelets queued for prefetching.
+    /// Treelets its popularity rule queued for prefetching ([`Prefetcher::observe`]; the
+    /// treelet controller's preloads are counted by the controller).
     pub treelets_queued: u64,
     /// The next accesses of the last observation (debug builds check that skipped
     /// observations saw the same).
@@ -121,6 +122,7 @@ impl<'a> Prefetcher<'a> {
         if self.history.len() > HISTORY {
             self.history.pop_front();
         }
+        self.treelets_queued += 1;
         self.queue_treelet(treelet);
     }
 
@@ -130,7 +132,6 @@ impl<'a> Prefetcher<'a> {
         let Some(&info) = self.bvh.treelets().get(treelet as usize) else {
             return;
         };
-        self.treelets_queued += 1;
         let (base, end) = (info.base as u64, info.base as u64 + info.bytes as u64);
         let step = CHUNK_BYTES as u64;
         self.queue

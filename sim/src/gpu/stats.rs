@@ -266,8 +266,12 @@ pub struct SimStats {
     pub queues: QueueTotals,
     /// Most requests waiting in one SM's memory access queue (back-pressure from the L1).
     pub max_access_queue: u64,
-    /// Treelet prefetches that missed the L1 and fetched their sector (0 outside `prefetch`
-    /// mode; prefetches of sectors already in the L1 are dropped and not counted).
+    /// Treelets the treelet prefetcher's popularity rule queued (the `prefetch` design, and
+    /// `queues` with `mode.treelet_prefetch`; VTQ's preloads are `queues.preloads`).
+    pub prefetcher_treelets: u64,
+    /// L1 prefetches (the prefetcher's sectors and VTQ's treelet preloads) that missed the L1
+    /// and fetched their sector (prefetches of sectors already in the L1 are dropped and not
+    /// counted).
     pub prefetches_issued: u64,
     /// Prefetched sectors later used by a demand load.
     pub prefetches_used: u64,

@@ -18,7 +18,7 @@ use crate::plot::{
 /// The baseline GPU's configuration file.
 const BASELINE: &str = "configs/baseline.toml";
 /// Treelet prefetching.
-const PREFETCH: &str = "configs/prefetch.toml";
+pub(super) const PREFETCH: &str = "configs/prefetch.toml";
 /// The full design (repacking below 22 active rays).
 pub(super) const VTQ: &str = "configs/vtq.toml";
 /// Treelet queues without grouping or repacking (also the permanent treelet-stationary mode of
@@ -134,7 +134,7 @@ fn categories(names: &[String], how: Mean) -> Vec<String> {
 }
 
 /// A reference line.
-fn paper(name: &str, value: f64) -> Reference {
+pub(super) fn paper(name: &str, value: f64) -> Reference {
     Reference {
         name: name.to_string(),
         value,
@@ -196,7 +196,7 @@ fn per_scene(r: &Results, scenes: &[&str], design: &str, pointer: &str) -> Vec<O
 
 /// A bar chart `id` of the speedups over the baseline of `designs` (legend name, configuration
 /// file) per scene with their geometric mean, and its table.
-fn speedup_bars(
+pub(super) fn speedup_bars(
     r: &Results,
     out: &Path,
     id: &str,

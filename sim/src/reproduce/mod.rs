@@ -10,6 +10,7 @@
 //! SVG and PNG with the paper's published values drawn beside vtq's, on an HTML page and its
 //! Markdown twin ([`page`]).
 
+pub mod beyond;
 pub mod figures;
 pub mod page;
 pub mod tables;
@@ -24,7 +25,7 @@ use crate::config::SimConfig;
 use crate::sweep::{PreparedScene, ResultStore, RunKey, RunStatus, SweepSpec};
 
 /// The experiment files (stems in `configs/experiments/`) the figures are computed from.
-pub const FIGURE_EXPERIMENTS: [&str; 8] = [
+pub const FIGURE_EXPERIMENTS: [&str; 9] = [
     "fig01-baseline",
     "fig10-speedup",
     "fig11-treelet-stationary",
@@ -33,6 +34,7 @@ pub const FIGURE_EXPERIMENTS: [&str; 8] = [
     "fig14-15-phases",
     "fig16-virtualization",
     "sec65-queues",
+    "ext-vtq-prefetch",
 ];
 
 /// Whether `scene` is a built-in (generated) scene rather than a scene folder: built-ins are

@@ -3,7 +3,8 @@
 //! L2 and DRAM bandwidth) running stratified samples of the frame's CTAs, chosen by a functional
 //! profile of each CTA's work, in independent replicates whose spread gives 95% intervals.
 //!
-//! - [`settings`]: the `[sample]` configuration section and the scale model it makes.
+//! - the `[sample]` configuration section and the scale model it makes are the configuration's
+//!   ([`crate::config::SampleConfig`]).
 //! - [`profile`]: the functional profile (rays and node fetches per CTA).
 //! - [`strata`]: stratified CTA samples.
 //! - [`dispatch`]: the CTA-level dispatch model that carries a scale model's cycles to the GPU's.
@@ -14,10 +15,9 @@ pub mod dispatch;
 pub mod estimate;
 pub mod profile;
 pub mod run;
-pub mod settings;
 pub mod strata;
 
+pub use crate::config::SampleConfig;
 pub use estimate::Estimate;
 pub use profile::Profile;
 pub use run::{paired_speedup, simulate_sampled, SampledStats};
-pub use settings::SampleConfig;

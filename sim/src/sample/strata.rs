@@ -3,31 +3,7 @@
 //! so every sample spreads over the whole range of work (cheap sky tiles, expensive geometry
 //! tiles) in the frame's proportions. Draws are deterministic for a seed and replicate.
 
-/// SplitMix64: a small deterministic generator for the draws.
-#[derive(Debug, Clone)]
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `0..n` (`n > 0`).
-    fn below(&mut self, n: u64) -> u64 {
-        // Rejection keeps it exactly uniform.
-        let zone = u64::MAX - u64::MAX % n;
-        loop {
-            let x = self.next();
-            if x < zone {
-                return x % n;
-            }
-        }
-    }
-}
+use crate::splitmix::SplitMix64;
 
 /// The CTAs (indices into `costs`, sorted ascending) of replicate `replicate`'s stratified
 /// sample of `fraction` of them (at least one), drawn with `seed`. With `fraction` 1 it is every
@@ -40,11 +16,12 @@ pub fn stratified_sample(costs: &[u64], fraction: f64, seed: u64, replicate: u32
     let n = ((total as f64 * fraction).round() as usize).clamp(1, total);
     let mut order: Vec<u32> = (0..total as u32).collect();
     order.sort_by_key(|&c| (costs[c as usize], c));
-    let mut rng = SplitMix(seed ^ (u64::from(replicate) + 1).wrapping_mul(0xd1b5_4a32_d192_ed03));
+    let mut rng =
+        SplitMix64::new(seed ^ (u64::from(replicate) + 1).wrapping_mul(0xd1b5_4a32_d192_ed03));
     let mut out: Vec<u32> = (0..n)
         .map(|i| {
             let (lo, hi) = (i * total / n, (i + 1) * total / n);
-            order[lo + rng.below((hi - lo) as u64) as usize]
+            order[lo + rng.below_exact((hi - lo) as u64) as usize]
         })
         .collect();
     out.sort_unstable();

@@ -5,7 +5,6 @@
 use glam::Vec3;
 
 use super::{city, Camera, Material, Scene, SceneError, Sphere};
-use crate::workload::rng::{LCG_A, LCG_C};
 
 /// Names of the built-in scenes, in listing order (`city` stands for the `city:N` family).
 pub const BUILTIN_NAMES: [&str; 3] = ["wknd", "cornell", "city"];
@@ -54,7 +53,13 @@ pub fn builtin_counts(name: &str) -> Option<(usize, usize)> {
     Some((scene.triangles.len(), scene.spheres.len()))
 }
 
-/// The LCG of the path tracer (FACTS.md: multiplier 1664525, increment 1013904223), producing
+/// LCG multiplier (Numerical Recipes), as in LumiBench (its path tracer, `workload::rng`, and
+/// its scene generator use the same LCG).
+pub const LCG_A: u32 = 1_664_525;
+/// LCG increment (Numerical Recipes), as in LumiBench.
+pub const LCG_C: u32 = 1_013_904_223;
+
+/// The LCG of LumiBench's path tracer (multiplier 1664525, increment 1013904223), producing
 /// floats in `[0, 1)` as `(state & 0xFFFFFF) / 2^24`.
 struct Lcg(u32);
 

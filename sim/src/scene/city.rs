@@ -20,6 +20,7 @@
 use glam::Vec3;
 
 use super::{Camera, Scene, SceneError};
+use crate::splitmix::SplitMix64 as Rng;
 
 mod geometry;
 
@@ -141,35 +142,6 @@ pub fn city(n: u32) -> Scene {
     }
 }
 
-/// SplitMix64: the generator's random numbers.
-struct Rng(u64);
-
-impl Rng {
-    /// The next 64 random bits.
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// A float in `[0, 1)` (24 random bits).
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / 16_777_216.0
-    }
-
-    /// A float in `[lo, hi)`.
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// An integer in `0..n` (`n > 0`).
-    fn below(&mut self, n: u32) -> u32 {
-        (((self.next_u64() >> 32) * n as u64) >> 32) as u32
-    }
-}
-
 /// A horizontal painted or metal quad just above the street.
 #[derive(Debug, Clone, Copy)]
 struct Flat {
@@ -205,7 +177,7 @@ impl Plan {
     fn new(n: u32) -> Plan {
         let detail = n >= DETAIL_FROM;
         let g = ((n as f64 / TRIS_PER_BLOCK).sqrt().round() as u32).max(1);
-        let mut rng = Rng(CITY_SEED);
+        let mut rng = Rng::new(CITY_SEED);
         let mut plan = Plan {
             g,
             walls: Vec::new(),
@@ -270,7 +242,7 @@ impl Plan {
         let material = if glass {
             DARK
         } else {
-            WALL0 + rng.below(WALL_COLOURS.len() as u32)
+            WALL0 + rng.below(WALL_COLOURS.len() as u64) as u32
         };
         let tiered = h > 45.0 && rng.unit() < 0.5;
         let mut parts = vec![(foot, SLAB, SLAB + h)];

@@ -4,7 +4,6 @@
 use glam::Vec3;
 
 use super::{Material, Scene};
-use crate::bvh::cache::hash_geometry;
 
 /// Version of what [`Scene::content_hash`] covers; bump it when a field is added.
 const CONTENT_HASH_VERSION: u32 = 1;
@@ -64,6 +63,31 @@ impl Scene {
         h.update(&c.fov_y_deg.to_le_bytes());
         h.update(&[u8::from(self.sky)]);
         h.finalize()
+    }
+}
+
+/// Feeds the scene geometry a BVH is built from into `h`: vertex positions, triangles and
+/// spheres (centres and radii), each list preceded by its length. Shared by the BVH cache key
+/// (`bvh::cache`) and the scene content hash of the sweep result store.
+pub fn hash_geometry(h: &mut blake3::Hasher, scene: &Scene) {
+    h.update(&(scene.positions.len() as u64).to_le_bytes());
+    for p in &scene.positions {
+        for x in p.to_array() {
+            h.update(&x.to_le_bytes());
+        }
+    }
+    h.update(&(scene.triangles.len() as u64).to_le_bytes());
+    for t in &scene.triangles {
+        for i in t {
+            h.update(&i.to_le_bytes());
+        }
+    }
+    h.update(&(scene.spheres.len() as u64).to_le_bytes());
+    for s in &scene.spheres {
+        for x in s.center.to_array() {
+            h.update(&x.to_le_bytes());
+        }
+        h.update(&s.radius.to_le_bytes());
     }
 }
 

@@ -146,6 +146,7 @@ impl Scene {
 pub mod builtin;
 pub mod city;
 mod content_hash;
+pub use content_hash::hash_geometry;
 pub mod geometry;
 pub mod gltf;
 pub mod load;

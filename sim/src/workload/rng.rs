@@ -24,10 +24,7 @@ pub fn tea(rounds: u32, v0: u32, v1: u32) -> u32 {
     v0
 }
 
-/// LCG multiplier (Numerical Recipes), as in LumiBench.
-pub const LCG_A: u32 = 1_664_525;
-/// LCG increment (Numerical Recipes), as in LumiBench.
-pub const LCG_C: u32 = 1_013_904_223;
+pub use crate::scene::builtin::{LCG_A, LCG_C};
 
 /// One path's random-number stream: an LCG state seeded by TEA.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -193,6 +193,7 @@ impl<'a> RtPort<'a> {
                         .stack_base
                         .map(|base| QueuedStacks::new(base, hw.max_rays, hw.stack_depth)),
                     observer: QueueObserver::default(),
+                    prefetch: setup.prefetch,
                 };
                 (Hardware::Treelet(Box::new(treelet)), wake)
             }

@@ -1,6 +1,7 @@
 //! The treelet RT unit's cycle in an [`RtPort`] (queues mode): SM warps offered on its ports
 //! and their rays' hits collected per SM warp, memory requests and ray records, the ray-record
-//! store and the spill FIFO, preloads handed to the preloader, and the statistics observer.
+//! store and the spill FIFO, preloads handed to the preloader, the treelet prefetcher watching
+//! the rays (`mode.treelet_prefetch`), and the statistics observer.
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -12,6 +13,7 @@ use vtq_hdl::treelet_rt_unit::{
 };
 
 use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
+use crate::config::TreeletPrefetch;
 use crate::geometry::{Hit, Ray};
 use crate::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::gpu::error::SimError;
@@ -69,6 +71,8 @@ pub struct QueueSetup {
     /// Where queued rays' stacks go, when they move through memory
     /// (`rt.queued_stack_traffic`): the address of this SM's area ([`QueuedStacks`]).
     pub stack_base: Option<u64>,
+    /// In which phases the port's treelet prefetcher watches the rays (`mode.treelet_prefetch`).
+    pub prefetch: TreeletPrefetch,
 }
 
 /// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
@@ -109,6 +113,8 @@ pub(super) struct Treelet<'a> {
     pub(super) stacks: Option<QueuedStacks>,
     /// The statistics observer.
     pub(super) observer: QueueObserver,
+    /// In which phases the prefetcher watches the rays.
+    pub(super) prefetch: TreeletPrefetch,
 }
 
 impl<'a> RtPort<'a> {
@@ -208,8 +214,15 @@ impl<'a> RtPort<'a> {
         if out.spill_pop {
             t.spill_fifo.pop();
         }
-        if let (Some(treelet), Some(p)) = (out.preload, self.prefetcher.as_mut()) {
-            p.queue_treelet(treelet);
+        if let Some(p) = self.prefetcher.as_mut() {
+            if let Some(treelet) = out.preload {
+                p.queue_treelet(treelet);
+            }
+            // Every stepped cycle of a watched phase: observing unchanged rays again changes
+            // nothing (the prefetcher's rule), so skipped idle cycles need no observation.
+            if t.prefetch.watches(t.unit.mode(&t.regs)) {
+                p.observe(t.unit.next_addresses(&t.regs, &t.cache));
+            }
         }
         for f in &out.finished {
             let Some((warp, lane)) = t.owners.get_mut(f.ray as usize).and_then(Option::take) else {

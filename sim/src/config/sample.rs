@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{ConfigError, SimConfig};
+use super::{ConfigError, SimConfig};
 
 /// Largest number of replicates.
 pub const MAX_REPLICATES: u32 = 256;
