@@ -99,7 +99,21 @@ fn check_queue_stats(out: &SimOutput) {
     assert!(s.phases.treelet_stationary.warp_cycles > 0);
     for p in phases {
         assert!((0.0..=1.0).contains(&p.simt_efficiency), "{p:?}");
+        // Every lane of every warp cycle is active, finished, parked or empty.
+        let l = &p.lanes;
+        assert_eq!(
+            p.active_thread_cycles + l.finished + l.parked + l.empty,
+            p.warp_cycles * 32,
+            "{p:?}"
+        );
+        assert!(l.memory_wait <= p.active_thread_cycles, "{p:?}");
     }
+    // Treelet-stationary warps park their lanes at the treelet's boundary.
+    assert!(s.phases.treelet_stationary.lanes.parked > 0);
+    assert_eq!(
+        phases.iter().map(|p| p.lanes.parked).sum::<u64>(),
+        s.rt.parked_lane_cycles
+    );
     // Every ray an SM issued stored its record once; every ray that entered a queue left it
     // again and had its record loaded once.
     let q = &s.queues;

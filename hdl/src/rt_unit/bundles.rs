@@ -642,6 +642,14 @@ pub struct RtStats {
     pub active_thread_cycles: u64,
     /// Sum over cycles of valid warps (RT-unit warp cycles).
     pub warp_cycles: u64,
+    /// Of the traversing lanes, those waiting for a node in flight (a load requested, its
+    /// data not all back): memory waits inside `active_thread_cycles`.
+    pub waiting_lane_cycles: u64,
+    /// Sum over cycles and valid warps of lanes whose ray has finished (the warp still holds
+    /// the slot for its other lanes).
+    pub done_lane_cycles: u64,
+    /// Sum over cycles and valid warps of lanes parked at a treelet boundary.
+    pub parked_lane_cycles: u64,
     /// 32 B load requests issued.
     pub requests: u64,
     /// Hit-record stores issued.
@@ -665,6 +673,9 @@ impl RtStats {
     pub fn add(&mut self, c: &RtStats) {
         self.active_thread_cycles += c.active_thread_cycles;
         self.warp_cycles += c.warp_cycles;
+        self.waiting_lane_cycles += c.waiting_lane_cycles;
+        self.done_lane_cycles += c.done_lane_cycles;
+        self.parked_lane_cycles += c.parked_lane_cycles;
         self.requests += c.requests;
         self.stores += c.stores;
         self.stack_spills += c.stack_spills;

@@ -457,6 +457,9 @@ impl<D: NodeDatapath> RtUnit<D> {
             }
             counts.warp_cycles += n;
             counts.active_thread_cycles += n * u64::from(m.traversing.count_ones());
+            counts.waiting_lane_cycles += n * u64::from((m.traversing & m.in_flight).count_ones());
+            counts.done_lane_cycles += n * u64::from(m.done.count_ones());
+            counts.parked_lane_cycles += n * u64::from(m.parked.count_ones());
             for l in bits(m.delayed) {
                 let lane = &mut slot.lanes[l];
                 lane.delay = (lane.delay as u64).saturating_sub(n) as u32;
@@ -589,6 +592,9 @@ impl<D: NodeDatapath> RtUnit<D> {
             if slot.valid {
                 counts.warp_cycles += 1;
                 counts.active_thread_cycles += u64::from(m.traversing.count_ones());
+                counts.waiting_lane_cycles += u64::from((m.traversing & m.in_flight).count_ones());
+                counts.done_lane_cycles += u64::from(m.done.count_ones());
+                counts.parked_lane_cycles += u64::from(m.parked.count_ones());
             }
         }
 

@@ -221,6 +221,12 @@ crate::bundle! {
         Out sig count_warps (bits_for(w.slots as u64)) = this.counts.warp_cycles;
         /// traversing lanes of the valid warps this cycle (active-thread cycles)
         Out sig count_active (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.active_thread_cycles;
+        /// of those, lanes waiting for a node in flight
+        Out sig count_waiting (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.waiting_lane_cycles;
+        /// lanes of the valid warps whose ray has finished
+        Out sig count_done_lanes (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.done_lane_cycles;
+        /// lanes of the valid warps parked at a treelet boundary
+        Out sig count_parked_lanes (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.parked_lane_cycles;
         /// a node-chunk load was requested
         Out sig count_request (1) = this.counts.requests;
         /// a hit-record store was requested

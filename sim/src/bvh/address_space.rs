@@ -97,10 +97,12 @@ fn unaddressable(treelets: &str, params: &BvhParams) -> String {
         );
     }
     fixes.push(format!(
-        "`--treelet-bytes {}` doubles the slot (treelet ids of {} bits, narrower count- and \
-         queue-table tags, but treelets larger than half the 16 KB L1 the paper sizes them to)",
+        "`--treelet-bytes {}` doubles the slot (treelet ids of {} bits: one bit less in every \
+         count- and queue-table tag, `vtq area --set hw.treelet_bytes={}` gives the tables' \
+         storage and area; but treelets larger than half the 16 KB L1 the paper sizes them to)",
         2 * tb,
-        id_bits - 1
+        id_bits - 1,
+        2 * tb
     ));
     format!(
         "{treelets} of {tb} bytes exceed the 32-bit BVH address space, which holds {} treelet \
@@ -130,6 +132,7 @@ mod tests {
         );
         assert!(m.contains("bvh.treelet_formation=packed"), "{m}");
         assert!(m.contains("--treelet-bytes 16384"), "{m}");
+        assert!(m.contains("vtq area --set hw.treelet_bytes=16384"), "{m}");
         let packed = BvhParams {
             formation: TreeletFormation::Packed,
             ..BvhParams::default()

@@ -8,7 +8,7 @@ use crate::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::gpu::output::SimOutput;
 use crate::gpu::rt::QueueObserver;
 use crate::gpu::sm::VirtTiming;
-use crate::gpu::stats::{PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
+use crate::gpu::stats::{LaneCycles, PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
 use crate::memory::{AccessClass, MemStats};
 
 /// What [`finish`] needs of a run that ended.
@@ -80,21 +80,34 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     let warp_size = cfg.hw.warp_size;
     let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
     let queues: Vec<&QueueObserver> = nodes.iter().filter_map(|n| n.rt.queue_stats()).collect();
-    let phase_stats = |cycles, intersection_tests, warp_cycles, active_thread_cycles| PhaseStats {
+    // (cycles, tests, warp cycles, active, waiting, finished, parked lane cycles)
+    let phase_stats = |(cycles, intersection_tests, warp_cycles, active, wait, done, parked): (
+        u64,
+        u64,
+        u64,
+        u64,
+        u64,
+        u64,
+        u64,
+    )| PhaseStats {
         cycles,
         intersection_tests,
         warp_cycles,
-        active_thread_cycles,
-        simt_efficiency: ratio(active_thread_cycles, warp_cycles * warp_size as u64),
+        active_thread_cycles: active,
+        simt_efficiency: ratio(active, warp_cycles * warp_size as u64),
+        lanes: LaneCycles::of(warp_cycles, warp_size, active, wait, done, parked),
     };
     let phases = if queues.is_empty() {
         Phases {
-            ray_stationary: phase_stats(
+            ray_stationary: phase_stats((
                 cycles,
                 rt.total_tests(),
                 rt.warp_cycles,
                 rt.active_thread_cycles,
-            ),
+                rt.waiting_lane_cycles,
+                rt.done_lane_cycles,
+                rt.parked_lane_cycles,
+            )),
             ..Phases::default()
         }
     } else {
@@ -103,12 +116,15 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         let n = queues.len() as u64;
         let phase = |i: usize, cycles: &dyn Fn(&QueueObserver) -> u64| {
             let sum = |f: &dyn Fn(&QueueObserver) -> u64| queues.iter().map(|q| f(q)).sum::<u64>();
-            phase_stats(
+            phase_stats((
                 sum(cycles) / n,
                 sum(&|q| q.tests[i]),
                 sum(&|q| q.warp_cycles[i]),
                 sum(&|q| q.active_thread_cycles[i]),
-            )
+                sum(&|q| q.waiting_lane_cycles[i]),
+                sum(&|q| q.done_lane_cycles[i]),
+                sum(&|q| q.parked_lane_cycles[i]),
+            ))
         };
         Phases {
             initial: phase(0, &|q| q.counts.ctl.cycles_initial),

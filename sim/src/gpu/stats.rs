@@ -32,6 +32,44 @@ pub struct PhaseStats {
     /// SIMT efficiency in the phase: `active_thread_cycles / (warp_cycles x warp_size)` (0
     /// with no warp cycles).
     pub simt_efficiency: f64,
+    /// Where the lanes of those warp cycles were.
+    pub lanes: LaneCycles,
+}
+
+/// The lanes of RT-unit warp cycles by what they held, summed over warp cycles and lanes:
+/// `warp_cycles x warp_size` = active (`active_thread_cycles`) + `finished` + `parked` +
+/// `empty`. What keeps SIMT efficiency below 1 (docs/fidelity.md, issue 23).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct LaneCycles {
+    /// Active lanes waiting for a node in flight (counted active: the paper's "threads
+    /// traversing" include them).
+    pub memory_wait: u64,
+    /// Lanes whose ray has finished while the warp still holds the slot for its other lanes.
+    pub finished: u64,
+    /// Lanes parked at a treelet boundary, waiting for the warp to leave the treelet.
+    pub parked: u64,
+    /// Lanes holding no ray (a warp issued with fewer rays, or lanes a repack left empty).
+    pub empty: u64,
+}
+
+impl LaneCycles {
+    /// The breakdown of `warp_cycles` warp cycles of `warp_size` lanes with `active` active,
+    /// `memory_wait` of them waiting, `finished` and `parked` lane cycles.
+    pub fn of(
+        warp_cycles: u64,
+        warp_size: u32,
+        active: u64,
+        memory_wait: u64,
+        finished: u64,
+        parked: u64,
+    ) -> LaneCycles {
+        LaneCycles {
+            memory_wait,
+            finished,
+            parked,
+            empty: (warp_cycles * warp_size as u64).saturating_sub(active + finished + parked),
+        }
+    }
 }
 
 /// The three traversal phases of treelet queues (paper section 3.2). The baseline has only
@@ -107,6 +145,12 @@ pub struct RtTotals {
     pub warp_cycles: u64,
     /// Sum over warp cycles of traversing rays.
     pub active_thread_cycles: u64,
+    /// Of those, rays waiting for a node in flight.
+    pub waiting_lane_cycles: u64,
+    /// Sum over warp cycles of lanes whose ray had finished.
+    pub done_lane_cycles: u64,
+    /// Sum over warp cycles of lanes parked at a treelet boundary.
+    pub parked_lane_cycles: u64,
     /// 32 B node-load requests.
     pub load_requests: u64,
     /// 32 B hit-record stores.
@@ -130,6 +174,9 @@ impl RtTotals {
         self.warps += s.warps_done;
         self.warp_cycles += s.warp_cycles;
         self.active_thread_cycles += s.active_thread_cycles;
+        self.waiting_lane_cycles += s.waiting_lane_cycles;
+        self.done_lane_cycles += s.done_lane_cycles;
+        self.parked_lane_cycles += s.parked_lane_cycles;
         self.load_requests += s.requests;
         self.stores += s.stores;
         self.stack_spills += s.stack_spills;

@@ -17,8 +17,9 @@ use super::spec::{leaves, value_text};
 /// cancelled or has not run).
 pub const MISSING: &str = "missing";
 
-/// Headline statistics read directly from the statistics JSON: (column, JSON pointer).
-const DIRECT: [(&str, &str); 33] = [
+/// Headline statistics read directly from the statistics JSON: (column, JSON pointer). A test
+/// (`sim/tests/stats_docs.rs`) checks that every pointer reads a statistic `vtq sim` writes.
+pub const DIRECT: [(&str, &str); 33] = [
     ("cycles", "/cycles"),
     ("rays", "/rays"),
     ("rays_hit", "/rays_hit"),

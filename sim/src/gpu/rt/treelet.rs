@@ -35,6 +35,12 @@ pub struct QueueObserver {
     pub warp_cycles: [u64; 3],
     /// Traversing lanes summed over those warp cycles, per phase as `warp_cycles`.
     pub active_thread_cycles: [u64; 3],
+    /// Of those, lanes waiting for a node in flight, per phase.
+    pub waiting_lane_cycles: [u64; 3],
+    /// Lanes whose ray had finished, summed over those warp cycles, per phase.
+    pub done_lane_cycles: [u64; 3],
+    /// Lanes parked at a treelet boundary, summed over those warp cycles, per phase.
+    pub parked_lane_cycles: [u64; 3],
     /// Most treelet queues tracked by the count table at once.
     pub max_queues: u64,
     /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
@@ -47,6 +53,9 @@ impl QueueObserver {
     pub(super) fn add_warp_cycles(&mut self, phase: usize, counts: &RtStats) {
         self.warp_cycles[phase] += counts.warp_cycles;
         self.active_thread_cycles[phase] += counts.active_thread_cycles;
+        self.waiting_lane_cycles[phase] += counts.waiting_lane_cycles;
+        self.done_lane_cycles[phase] += counts.done_lane_cycles;
+        self.parked_lane_cycles[phase] += counts.parked_lane_cycles;
     }
 }
 
