@@ -144,6 +144,13 @@ impl ModeConfig {
         }
     }
 
+    /// Whether the treelet prefetcher's popularity rule runs (the prefetch design's prefetcher,
+    /// or the one beside the treelet RT unit with `treelet_prefetch` on), so that
+    /// `prefetch_threshold` means something.
+    pub fn popularity_prefetch(&self) -> bool {
+        self.kind == ModeKind::Prefetch || self.treelet_prefetch != TreeletPrefetch::Off
+    }
+
     /// The design's own units beside each SM's RT unit, as the statistics' `units` list names
     /// them (docs/stats.md).
     pub fn units(&self) -> Vec<&'static str> {
@@ -158,7 +165,7 @@ impl ModeConfig {
                 units.push("treelet_preloader");
             }
         }
-        if self.kind == ModeKind::Prefetch || self.treelet_prefetch != TreeletPrefetch::Off {
+        if self.popularity_prefetch() {
             units.push("prefetcher");
         }
         if self.virtualization {
@@ -190,8 +197,7 @@ impl SimConfig {
                 "must be a fraction in (0, 1]",
             ));
         }
-        let prefetching = kind == ModeKind::Prefetch || m.treelet_prefetch != TreeletPrefetch::Off;
-        if !prefetching && t != ModeConfig::default().prefetch_threshold {
+        if !m.popularity_prefetch() && t != ModeConfig::default().prefetch_threshold {
             return Err(invalid(
                 "mode.prefetch_threshold",
                 t,

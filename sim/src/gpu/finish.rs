@@ -8,7 +8,7 @@ use crate::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::gpu::output::SimOutput;
 use crate::gpu::rt::QueueObserver;
 use crate::gpu::sm::VirtTiming;
-use crate::gpu::stats::{LaneCycles, PhaseStats, Phases, QueueTotals, RtTotals, Sample, SimStats};
+use crate::gpu::stats::{Phases, QueueTotals, RtTotals, Sample, SimStats, WarpLanes};
 use crate::memory::{AccessClass, MemStats};
 
 /// What [`finish`] needs of a run that ended.
@@ -80,34 +80,16 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     let warp_size = cfg.hw.warp_size;
     let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
     let queues: Vec<&QueueObserver> = nodes.iter().filter_map(|n| n.rt.queue_stats()).collect();
-    // (cycles, tests, warp cycles, active, waiting, finished, parked lane cycles)
-    let phase_stats = |(cycles, intersection_tests, warp_cycles, active, wait, done, parked): (
-        u64,
-        u64,
-        u64,
-        u64,
-        u64,
-        u64,
-        u64,
-    )| PhaseStats {
-        cycles,
-        intersection_tests,
-        warp_cycles,
-        active_thread_cycles: active,
-        simt_efficiency: ratio(active, warp_cycles * warp_size as u64),
-        lanes: LaneCycles::of(warp_cycles, warp_size, active, wait, done, parked),
-    };
     let phases = if queues.is_empty() {
+        let all = WarpLanes {
+            warp_cycles: rt.warp_cycles,
+            active: rt.active_thread_cycles,
+            waiting: rt.waiting_lane_cycles,
+            done: rt.done_lane_cycles,
+            parked: rt.parked_lane_cycles,
+        };
         Phases {
-            ray_stationary: phase_stats((
-                cycles,
-                rt.total_tests(),
-                rt.warp_cycles,
-                rt.active_thread_cycles,
-                rt.waiting_lane_cycles,
-                rt.done_lane_cycles,
-                rt.parked_lane_cycles,
-            )),
+            ray_stationary: all.phase(cycles, rt.total_tests(), warp_size),
             ..Phases::default()
         }
     } else {
@@ -116,15 +98,11 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         let n = queues.len() as u64;
         let phase = |i: usize, cycles: &dyn Fn(&QueueObserver) -> u64| {
             let sum = |f: &dyn Fn(&QueueObserver) -> u64| queues.iter().map(|q| f(q)).sum::<u64>();
-            phase_stats((
-                sum(cycles) / n,
-                sum(&|q| q.tests[i]),
-                sum(&|q| q.warp_cycles[i]),
-                sum(&|q| q.active_thread_cycles[i]),
-                sum(&|q| q.waiting_lane_cycles[i]),
-                sum(&|q| q.done_lane_cycles[i]),
-                sum(&|q| q.parked_lane_cycles[i]),
-            ))
+            let mut lanes = WarpLanes::default();
+            for q in &queues {
+                lanes.add(&q.lanes[i]);
+            }
+            lanes.phase(sum(cycles) / n, sum(&|q| q.tests[i]), warp_size)
         };
         Phases {
             initial: phase(0, &|q| q.counts.ctl.cycles_initial),

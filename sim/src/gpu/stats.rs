@@ -52,22 +52,63 @@ pub struct LaneCycles {
     pub empty: u64,
 }
 
-impl LaneCycles {
-    /// The breakdown of `warp_cycles` warp cycles of `warp_size` lanes with `active` active,
-    /// `memory_wait` of them waiting, `finished` and `parked` lane cycles.
-    pub fn of(
-        warp_cycles: u64,
-        warp_size: u32,
-        active: u64,
-        memory_wait: u64,
-        finished: u64,
-        parked: u64,
-    ) -> LaneCycles {
-        LaneCycles {
-            memory_wait,
-            finished,
-            parked,
-            empty: (warp_cycles * warp_size as u64).saturating_sub(active + finished + parked),
+/// RT-unit warp cycles and what their lanes held, summed over cycles (and SMs): the counters
+/// of one phase, or of a whole run, that [`WarpLanes::phase`] turns into [`PhaseStats`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WarpLanes {
+    /// Warp cycles (cycles x resident warps).
+    pub warp_cycles: u64,
+    /// Traversing lanes summed over them.
+    pub active: u64,
+    /// Of those, lanes waiting for a node in flight.
+    pub waiting: u64,
+    /// Lanes whose ray had finished.
+    pub done: u64,
+    /// Lanes parked at a treelet boundary.
+    pub parked: u64,
+}
+
+impl WarpLanes {
+    /// The lane counters of the RT unit's statistics increments `s`.
+    pub fn of(s: &RtStats) -> WarpLanes {
+        WarpLanes {
+            warp_cycles: s.warp_cycles,
+            active: s.active_thread_cycles,
+            waiting: s.waiting_lane_cycles,
+            done: s.done_lane_cycles,
+            parked: s.parked_lane_cycles,
+        }
+    }
+
+    /// Adds `o`.
+    pub fn add(&mut self, o: &WarpLanes) {
+        self.warp_cycles += o.warp_cycles;
+        self.active += o.active;
+        self.waiting += o.waiting;
+        self.done += o.done;
+        self.parked += o.parked;
+    }
+
+    /// The statistics of a phase of `cycles` cycles and `intersection_tests` tests whose warp
+    /// cycles (of `warp_size` lanes) these are.
+    pub fn phase(&self, cycles: u64, intersection_tests: u64, warp_size: u32) -> PhaseStats {
+        let lanes = self.warp_cycles * warp_size as u64;
+        PhaseStats {
+            cycles,
+            intersection_tests,
+            warp_cycles: self.warp_cycles,
+            active_thread_cycles: self.active,
+            simt_efficiency: if lanes == 0 {
+                0.0
+            } else {
+                self.active as f64 / lanes as f64
+            },
+            lanes: LaneCycles {
+                memory_wait: self.waiting,
+                finished: self.done,
+                parked: self.parked,
+                empty: lanes.saturating_sub(self.active + self.done + self.parked),
+            },
         }
     }
 }

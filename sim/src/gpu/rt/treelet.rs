@@ -19,6 +19,7 @@ use crate::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::gpu::error::SimError;
 use crate::gpu::queued_stacks::QueuedStacks;
 use crate::gpu::ray_memory::{RayStore, SpillFifo};
+use crate::gpu::stats::WarpLanes;
 use crate::memory::{AccessClass, MemRequest};
 
 /// The statistics observer beside one SM's treelet RT unit: its summed events, its tests per
@@ -30,17 +31,9 @@ pub struct QueueObserver {
     /// Intersection tests per phase (the controller's mode after the cycle of the test):
     /// initial, treelet stationary, final ray stationary.
     pub tests: [u64; 3],
-    /// RT-unit warp cycles per phase (the controller's mode during the cycle, the mode its
-    /// cycle counters use), in the order of `tests`.
-    pub warp_cycles: [u64; 3],
-    /// Traversing lanes summed over those warp cycles, per phase as `warp_cycles`.
-    pub active_thread_cycles: [u64; 3],
-    /// Of those, lanes waiting for a node in flight, per phase.
-    pub waiting_lane_cycles: [u64; 3],
-    /// Lanes whose ray had finished, summed over those warp cycles, per phase.
-    pub done_lane_cycles: [u64; 3],
-    /// Lanes parked at a treelet boundary, summed over those warp cycles, per phase.
-    pub parked_lane_cycles: [u64; 3],
+    /// RT-unit warp cycles and what their lanes held, per phase (the controller's mode during
+    /// the cycle, the mode its cycle counters use), in the order of `tests`.
+    pub lanes: [WarpLanes; 3],
     /// Most treelet queues tracked by the count table at once.
     pub max_queues: u64,
     /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
@@ -48,14 +41,10 @@ pub struct QueueObserver {
 }
 
 impl QueueObserver {
-    /// Adds the warp cycles and traversing lanes of `counts` (one cycle's, or a skip's) to
-    /// phase `phase` (an index of [`phase_index`]).
+    /// Adds the warp cycles and lanes of `counts` (one cycle's, or a skip's) to phase `phase`
+    /// (an index of [`phase_index`]).
     pub(super) fn add_warp_cycles(&mut self, phase: usize, counts: &RtStats) {
-        self.warp_cycles[phase] += counts.warp_cycles;
-        self.active_thread_cycles[phase] += counts.active_thread_cycles;
-        self.waiting_lane_cycles[phase] += counts.waiting_lane_cycles;
-        self.done_lane_cycles[phase] += counts.done_lane_cycles;
-        self.parked_lane_cycles[phase] += counts.parked_lane_cycles;
+        self.lanes[phase].add(&WarpLanes::of(counts));
     }
 }
 
