@@ -152,6 +152,27 @@ fn the_composed_treelet_rt_unit_lints_clean() {
             c.name
         );
     }
+    // What the wiring reads of the RT unit are its status ports, wired like any other port.
+    let wiring_text = &top[1].1;
+    for port in [
+        "status_valid",
+        "status_held",
+        "status_quiescent",
+        "status_order",
+        "status_traversing",
+        "status_busy",
+        "status_distinct",
+        "status_inactive",
+    ] {
+        assert!(
+            top_text.contains(&format!(".{port}(rt_{port})")),
+            "the top connects the RT unit's {port}"
+        );
+        assert!(
+            wiring_text.contains(&format!("rt_{port},")),
+            "the wiring takes the RT unit's {port}"
+        );
+    }
     modules.extend(top);
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-composed");
     std::fs::create_dir_all(&dir).unwrap();

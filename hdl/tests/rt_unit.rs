@@ -1519,9 +1519,36 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                         );
                     }
                 }
+                // The status ports: each slot's state and summary by their definition (distinct
+                // next treelets for treelet-continue warps only), inactive lanes by scan.
+                let count_distinct = sim.cycle.is_multiple_of(2);
+                let status = sim.unit.status(regs, &sim.cache, count_distinct);
+                assert_eq!(status.slots.len(), cfg.warp_buffer_size as usize);
+                for (k, st) in status.slots.iter().enumerate() {
+                    let slot = &regs.slots[k];
+                    let want = slot.valid.then(|| {
+                        let distinct =
+                            count_distinct && slot.order == TraversalOrder::TreeletContinue;
+                        let inactive = slot
+                            .lanes
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, l)| l.status == LaneStatus::Inactive)
+                            .fold(0u64, |m, (i, _)| m | 1 << i);
+                        (
+                            slot.order,
+                            slot.held,
+                            slot_summary_by_scan(&sim.unit, regs, k as u32, distinct),
+                            inactive,
+                        )
+                    });
+                    let got = st.map(|st| (st.order, st.held, Some(st.summary), st.inactive));
+                    assert_eq!(got, want, "seed {seed} cycle {} slot {k}", sim.cycle);
+                }
                 let valid: Vec<u32> = (0..cfg.warp_buffer_size)
                     .filter(|&s| regs.slots[s as usize].valid)
                     .collect();
+                assert_eq!(status.is_empty(), valid.is_empty());
                 if next_ray >= RAYS && valid.is_empty() {
                     break;
                 }

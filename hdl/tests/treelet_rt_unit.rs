@@ -298,7 +298,7 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
             "no end after {now} cycles: {}",
             u.debug_state(&fast)
         );
-        let offer = env.offer(u.sm_ready(&fast), cfg.warp_size as usize);
+        let offer = env.offer(u.sm_ready(&fast, &cache), cfg.warp_size as usize);
         // Cycles with nothing arriving and nothing offered may be skipped by the fast copy.
         let idle = u.idle_cycles(&fast, &cache);
         if offer.is_none() && env.quiet(now) && idle > 0 {

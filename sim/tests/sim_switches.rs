@@ -316,3 +316,37 @@ fn fidelity_statistics_are_consistent() {
     assert!(out.stats.bvh_l1_miss_rate_deciles.is_empty());
     assert_eq!(out.stats.virtualization, Default::default());
 }
+
+/// SM warps kept out of the treelet-stationary mode (`mode.admit_in_treelet_stationary =
+/// false`): the same rays, hits and image; in that mode the RT unit then tests fewer nodes for
+/// warps other than treelet warps; exact skipping idle cycles and on any threads; only treelet
+/// queues take the switch.
+#[test]
+fn sm_warps_kept_out_of_treelet_mode_change_only_timing() {
+    let admit = vtq(1, 32, &[]);
+    let keep_out = vtq(1, 32, &["mode.admit_in_treelet_stationary=false"]);
+    check_against_functional("wknd", &keep_out);
+    let (a, b) = same_results("wknd", &admit, &keep_out);
+    // Tests made in treelet-stationary mode by warps not in treelet-stop order.
+    let others = |o: &SimOutput| {
+        let ts = o.stats.phases.treelet_stationary.intersection_tests;
+        ts.saturating_sub(o.stats.rt.treelet_order_tests)
+    };
+    assert!(a.stats.rt.treelet_order_tests > 0);
+    assert!(
+        others(&b) < others(&a),
+        "keeping SM warps out leaves fewer other warps' tests in treelet-stationary mode"
+    );
+    assert_ne!(a.stats.cycles, b.stats.cycles);
+    check_skip_matches_lockstep(&keep_out);
+    check_deterministic(&vtq(2, 32, &["mode.admit_in_treelet_stationary=false"]));
+    let e = SimConfig::load(
+        None,
+        &["mode.admit_in_treelet_stationary=false".to_string()],
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("mode.admit_in_treelet_stationary"),
+        "{e}"
+    );
+}

@@ -86,6 +86,12 @@ pub struct ControllerFeatures {
     pub group_underpopulated: bool,
     /// Preload the next treelet and its rays' records while the current one drains (section 4.3).
     pub preload: bool,
+    /// Admit the SM's warps into the RT unit in treelet-stationary mode too (they start their
+    /// initial phase beside the treelet warps, sharing the warp buffer). Off: SM warps wait
+    /// while the controller is treelet stationary, as they do in the final ray-stationary
+    /// phase; an experiment on what the treelet-stationary phase processes (docs/fidelity.md,
+    /// Figure 15), not a design of the paper's.
+    pub admit_in_treelet_stationary: bool,
 }
 
 impl ControllerFeatures {
@@ -93,11 +99,13 @@ impl ControllerFeatures {
     pub const NAIVE: ControllerFeatures = ControllerFeatures {
         group_underpopulated: false,
         preload: true,
+        admit_in_treelet_stationary: true,
     };
     /// The full design (grouping and preloading; repacking per the configuration).
     pub const FULL: ControllerFeatures = ControllerFeatures {
         group_underpopulated: true,
         preload: true,
+        admit_in_treelet_stationary: true,
     };
 }
 

@@ -662,6 +662,11 @@ pub struct RtStats {
     pub merged: u64,
     /// Node tests per kind, indexed by [`super::NodeKind::code`].
     pub tests: [u64; 6],
+    /// Of those, tests by lanes of warps in [`TraversalOrder::TreeletStop`] order: treelet
+    /// warps (filled from a treelet queue) and initial-phase warps the treelet controller
+    /// terminated, finishing their current treelet (treelet-stationary traversal, counted by
+    /// the warp's order rather than by the controller's mode).
+    pub treelet_order_tests: u64,
     /// Triangle tests that reported a hit.
     pub hits: u64,
     /// Warps completed.
@@ -684,6 +689,7 @@ impl RtStats {
         for (t, n) in self.tests.iter_mut().zip(c.tests) {
             *t += n;
         }
+        self.treelet_order_tests += c.treelet_order_tests;
         self.hits += c.hits;
         self.warps_done += c.warps_done;
     }

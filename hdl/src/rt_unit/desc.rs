@@ -3,7 +3,7 @@
 
 use super::bundles::{errors, LaneStatus, RtUnitRegs, TraversalOrder};
 use super::node::{NodeEntry, NodeKind, MAX_NODE_CHUNKS, RAY_WORDS};
-use super::ports::{RtUnitInputs, Widths, DATA_BITS, HIT_BITS};
+use super::ports::{RtUnitInputs, RtUnitStatus, Widths, DATA_BITS, HIT_BITS};
 use super::RtUnitParams;
 use crate::bits::{bits_for, clog2};
 use crate::block::Signal;
@@ -19,7 +19,9 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
     let delay = w.delay;
     let lanes = cfg.warp_buffer_size * n;
 
-    let ports = RtUnitInputs::block_ports(w);
+    // The cycle's ports, then the register-only status ports the treelet wiring reads.
+    let mut ports = RtUnitInputs::block_ports(w);
+    ports.extend(RtUnitStatus::ports(w));
 
     let registers = vec![
         reg(

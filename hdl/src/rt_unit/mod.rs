@@ -90,7 +90,7 @@ pub use node::{
     NodeKind, RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
     STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
-pub use ports::{RtUnitInputs, RtUnitOutputs, Widths};
+pub use ports::{RtUnitInputs, RtUnitOutputs, RtUnitStatus, SlotStatus, Widths};
 
 use crate::bits::{bits_for, clog2};
 use crate::block::{Block, Signal};
@@ -1181,6 +1181,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             .datapath
             .test(&lane.ray.words, lane.ray.hit.as_ref(), node, data);
         stats.tests[node.kind.code() as usize] += 1;
+        stats.treelet_order_tests += u64::from(order == TraversalOrder::TreeletStop);
         let best = lane.ray.hit;
         let accepted = result
             .hit
@@ -1258,56 +1259,49 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 }
 
-/// The register-only view of one occupied warp-buffer slot that the treelet wiring reads
-/// ([`RtUnit::slot_peek`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SlotPeek {
-    /// The warp's traversal order.
-    pub order: TraversalOrder,
-    /// Held by a repack.
-    pub held: bool,
-    /// Its lanes' summary.
-    pub summary: SlotSummary,
-}
-
 impl<D: NodeDatapath> RtUnit<D> {
-    /// Whether slot `slot` holds a warp.
-    pub fn slot_valid(&self, regs: &RtUnitRegs, slot: u32) -> bool {
-        regs.slots.get(slot as usize).is_some_and(|s| s.valid)
+    /// The register-only output ports for these registers (and their lane cache `cache`); the
+    /// distinct next treelets (`status_distinct`) are counted only with `distinct` (0
+    /// otherwise): the treelet wiring reads them only in modes that terminate divergent warps,
+    /// and counting them is the costly part.
+    pub fn status(&self, regs: &RtUnitRegs, cache: &RtCache, distinct: bool) -> RtUnitStatus {
+        let mut status = RtUnitStatus {
+            widths: self.widths,
+            slots: Vec::new(),
+        };
+        self.status_into(regs, cache, distinct, &mut status);
+        status
     }
 
-    /// Slot `slot`'s order, hold and lane summary (`None` for an empty or nonexistent slot); the
-    /// distinct next treelets are counted only with `distinct`.
-    pub fn slot_peek(
+    /// [`RtUnit::status`] written into `status` (its slot list reused: the fast path keeps
+    /// one bundle).
+    pub fn status_into(
         &self,
         regs: &RtUnitRegs,
         cache: &RtCache,
-        slot: u32,
         distinct: bool,
-    ) -> Option<SlotPeek> {
-        let summary = self.slot_summary(regs, cache, slot, distinct)?;
-        let s = &regs.slots[slot as usize];
-        Some(SlotPeek {
-            order: s.order,
-            held: s.held,
-            summary,
-        })
-    }
-
-    /// Bit `l` set for each inactive lane of slot `slot` (where a repack fill may append).
-    pub fn inactive_lanes(&self, regs: &RtUnitRegs, slot: u32) -> u64 {
-        regs.slots.get(slot as usize).map_or(0, |s| {
-            s.lanes
-                .iter()
-                .enumerate()
-                .filter(|(_, l)| l.status == LaneStatus::Inactive)
-                .fold(0, |m, (i, _)| m | 1 << i)
-        })
-    }
-
-    /// Whether the warp buffer holds no warp.
-    pub fn is_empty(&self, regs: &RtUnitRegs) -> bool {
-        regs.slots.iter().all(|s| !s.valid)
+        status: &mut RtUnitStatus,
+    ) {
+        status.widths = self.widths;
+        status.slots.clear();
+        status
+            .slots
+            .extend(regs.slots.iter().enumerate().map(|(k, s)| {
+                let distinct = distinct && s.order == TraversalOrder::TreeletContinue;
+                let summary = self.slot_summary(regs, cache, k as u32, distinct)?;
+                let m = &cache.masks[k];
+                let lanes = if s.lanes.len() >= 64 {
+                    u64::MAX
+                } else {
+                    (1u64 << s.lanes.len()) - 1
+                };
+                Some(SlotStatus {
+                    order: s.order,
+                    held: s.held,
+                    summary,
+                    inactive: lanes & !(m.traversing | m.done | m.parked),
+                })
+            }));
     }
 
     /// Rays traversing in the warp buffer.

@@ -8,7 +8,7 @@
 
 use super::bundles::{
     errors, BoundaryEvent, ErrorRecord, IssueTarget, MemRequest, MemResponse, RayOutcome,
-    RayRecord, RequestKind, RtStats, TraversalOrder, WarpDone, WarpIssue,
+    RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
 };
 use super::node::{NodeEntry, CHUNK_BYTES, RAY_WORDS};
 use crate::bits::bits_for;
@@ -249,10 +249,80 @@ crate::bundle! {
         Out sig count_tests_triangle_leaf (bits_for(w.warp_size as u64)) = this.counts.tests[4];
         /// procedural tests completed
         Out sig count_tests_procedural (bits_for(w.warp_size as u64)) = this.counts.tests[5];
+        /// of the tests completed, those of lanes in warps in treelet-stop order
+        Out sig count_tests_treelet_order (bits_for(w.warp_size as u64)) = this.counts.treelet_order_tests;
         /// triangle tests that produced a new closest hit
         Out sig count_hits (bits_for(w.warp_size as u64)) = this.counts.hits;
         /// a warp completed
         Out sig count_warp_done (1) = this.counts.warps_done;
+    }
+}
+
+/// The register-only state of one occupied warp-buffer slot, as the RT unit's status ports
+/// carry it ([`RtUnitStatus`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SlotStatus {
+    /// The warp's traversal order.
+    pub order: TraversalOrder,
+    /// Held by a repack.
+    pub held: bool,
+    /// Its lanes' summary; `distinct_next_treelets` is counted for a warp in
+    /// [`TraversalOrder::TreeletContinue`] order only, and only when asked for (0 otherwise:
+    /// [`super::RtUnit::status`]).
+    pub summary: SlotSummary,
+    /// Bit `l` set for each lane holding no ray (where a repack fill may append).
+    pub inactive: u64,
+}
+
+crate::bundle! {
+    /// The RT unit's register-only output ports ([`super::RtUnit::status`]): what the warp
+    /// buffer holds at the start of the cycle, before the cycle's inputs are known. The treelet
+    /// RT unit's wiring reads these (free slot, idle, the controller's initial-phase and
+    /// active-lane reports, where a repack fill appends) and nothing else of the unit's state.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    pub struct RtUnitStatus (Out, w: Widths, this) {
+        /// Per warp-buffer slot: its warp's status (`None`: the slot holds no warp).
+        pub slots: Vec<Option<SlotStatus>>,
+    }
+    ports {
+        /// per slot: the slot holds a warp (registers only)
+        sig status_valid (w.slots) = mask(w.slots, |s| this.slot(s).is_some());
+        /// per slot: its warp is held by a repack (registers only)
+        sig status_held (w.slots) = mask(w.slots, |s| this.slot(s).is_some_and(|x| x.held));
+        /// per slot: every lane is quiescent, so the warp completes this cycle unless held (registers only)
+        sig status_quiescent (w.slots) = mask(w.slots, |s| this.slot(s).is_some_and(|x| x.summary.quiescent));
+        /// per slot: its warp's traversal order (registers only)
+        lanes status_order (TraversalOrder::BITS, w.slots) = |s: usize| {
+            this.slot(s).map_or(0, |x| x.order.code())
+        };
+        /// per slot: lanes traversing (registers only)
+        lanes status_traversing (bits_for(w.warp_size as u64), w.slots) = |s: usize| {
+            this.slot(s).map_or(0, |x| x.summary.traversing as u64)
+        };
+        /// per slot: lanes a repack cannot release yet (traversing, parked, or finished with a node, delay or store outstanding; registers only)
+        lanes status_busy (bits_for(w.warp_size as u64), w.slots) = |s: usize| {
+            this.slot(s).map_or(0, |x| x.summary.busy as u64)
+        };
+        /// per slot: distinct treelets of the traversing lanes' next nodes, for a warp in treelet-continue order (0 otherwise; registers only; the simulator evaluates it only in the controller modes that read it, initial and treelet-stationary)
+        lanes status_distinct (bits_for(w.warp_size as u64), w.slots) = |s: usize| {
+            this.slot(s).map_or(0, |x| x.summary.distinct_next_treelets as u64)
+        };
+        /// per slot, per lane: the lane holds no ray (registers only)
+        lanes status_inactive (w.warp_size, w.slots) = |s: usize| {
+            this.slot(s).map_or(0, |x| x.inactive)
+        };
+    }
+}
+
+impl RtUnitStatus {
+    /// Slot `s`'s status, if it holds a warp.
+    pub fn slot(&self, s: usize) -> Option<&SlotStatus> {
+        self.slots.get(s)?.as_ref()
+    }
+
+    /// Whether the warp buffer holds no warp.
+    pub fn is_empty(&self) -> bool {
+        self.slots.iter().all(Option::is_none)
     }
 }
 

@@ -15,10 +15,12 @@
 //! 1. Ray records that arrived are placed in the fills being built.
 //! 2. The controller's inputs come from registers only: the count table's and queue table's
 //!    status ([`crate::count_table::CountTable::status`], [`crate::queue_table::QueueTable::status`]),
-//!    their answers of the previous cycle (registered here), the RT unit's slot summaries
-//!    ([`crate::rt_unit::RtUnit::slot_summary`]: the initial-phase warp with the most distinct next
-//!    treelets, ties to the lowest slot, and, for repacking, the final-phase warp with the fewest
-//!    busy lanes, skipping warps that complete this cycle), the first pending event (an
+//!    their answers of the previous cycle (registered here), the RT unit's status ports
+//!    ([`crate::rt_unit::RtUnitStatus`], register-only outputs: per slot its warp's order, hold,
+//!    lane summary and inactive lanes; they give the free slot, whether the unit is idle, the
+//!    initial-phase warp with the most distinct next treelets, ties to the lowest slot, and, for
+//!    repacking, the final-phase warp with the fewest busy lanes, skipping warps that complete
+//!    this cycle; nothing else of the RT unit's registers is read), the first pending event (an
 //!    enqueue or a warp done) and whether the SM offers a warp (its waiting warps count as
 //!    initial-phase warps and keep `launch_done` low). A controller that is `done` restarts when
 //!    the SM offers a warp (its `restart` port): each wave of rays goes through the phases again.
@@ -119,6 +121,13 @@ pub struct TreeletRtUnitRegs {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TreeletRtUnitCache {
     rt: RtCache,
+    /// The RT unit's status ports (register-only outputs) of the current registers while
+    /// `rt_status_current`; kept for their storage otherwise.
+    rt_status: crate::rt_unit::RtUnitStatus,
+    /// `Some(distinct)`: `rt_status` is that of the current registers, with the distinct
+    /// next treelets counted if `distinct` (set by the dry run at the end of a step, cleared by
+    /// a step's start and by a skip).
+    rt_status_current: Option<bool>,
     /// The controller inputs of the last dry run (meaningful while `dry_valid`; kept for its
     /// storage otherwise).
     dry: Option<Box<ControllerInputs>>,
@@ -168,6 +177,11 @@ impl TreeletRtUnitCache {
     pub fn of(regs: &TreeletRtUnitRegs) -> Self {
         TreeletRtUnitCache {
             rt: RtCache::of(&regs.rt),
+            rt_status: crate::rt_unit::RtUnitStatus {
+                widths: Default::default(),
+                slots: Vec::new(),
+            },
+            rt_status_current: None,
             dry: None,
             dry_spare: None,
             dry_valid: false,
@@ -280,8 +294,17 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
     /// The `sm_ready` output for these registers: an SM warp may be offered (SM warps are
     /// admitted in this mode, a slot nobody owns is free and a warp's worth of ray ids is free;
     /// the controller may still reserve the slot in the cycle).
-    pub fn sm_ready(&self, regs: &TreeletRtUnitRegs) -> bool {
-        wiring::sm_ready(self, regs)
+    pub fn sm_ready(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> bool {
+        if let Some(distinct) = cache.rt_status_current {
+            debug_assert_eq!(
+                cache.rt_status,
+                self.rt.status(&regs.rt, &cache.rt, distinct),
+                "stale RT-unit status ports"
+            );
+            wiring::sm_ready(self, regs, &cache.rt_status)
+        } else {
+            wiring::sm_ready(self, regs, &self.rt.status(&regs.rt, &cache.rt, false))
+        }
     }
 
     /// The `resp_free` output: free entries of the RT unit's response FIFO (memory delivers no
@@ -350,6 +373,7 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             "skip beyond the idle cycles"
         );
         cache.dry_valid = false;
+        cache.rt_status_current = None;
         cache.probed = None;
         if cache.tables.is_some() {
             let (ct, qt) = (
@@ -464,8 +488,9 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         regs: &TreeletRtUnitRegs,
         inputs: &TreeletRtUnitInputs,
     ) -> (TreeletRtUnitOutputs, TreeletRtUnitRegs) {
-        let rt_cache = RtCache::of(&regs.rt);
-        let peeks = wiring::Peeks::of(self, regs, &rt_cache);
+        let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
+        let rt_status = self.rt.status(&regs.rt, &RtCache::of(&regs.rt), distinct);
+        let peeks = wiring::Peeks::of(self, regs, &rt_status);
         let idle = wiring::ChildInputs::idle(self);
         let q0 = wiring::eval_children(self, regs, &idle).0;
         let settled = settle(

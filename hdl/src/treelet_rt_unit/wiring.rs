@@ -27,7 +27,7 @@ use crate::queue_table::{
 };
 use crate::rt_unit::{
     IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtCache, RtUnitInputs, RtUnitOutputs,
-    RtUnitRegs, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    RtUnitRegs, RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 
 /// Who owns a warp-buffer slot, as the wiring sees it.
@@ -341,42 +341,48 @@ pub(super) fn register_descs(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<Reg
     ]
 }
 
-/// The children's register-only outputs and the RT unit's lane cache, read by the kernel
-/// before the children's inputs are known.
+/// The children's register-only output ports, read by the kernel before the children's inputs
+/// are known: the RT unit's status ports, the tables' status and the controller's mode.
 pub(super) struct Peeks<'a> {
-    rt: &'a RtUnitRegs,
-    rt_cache: &'a RtCache,
+    rt: &'a RtUnitStatus,
     ct: CountTableStatus,
     qt: QueueTableStatus,
     /// The controller's mode register.
     mode: Mode,
+    /// SM warps are admitted in treelet-stationary mode (a controller feature).
+    admit_ts: bool,
 }
 
 impl<'a> Peeks<'a> {
-    /// The peeks of the children's registers, with the RT unit's cache `rt_cache`.
+    /// Whether SM warps are admitted in mode `mode` ([`admitting`]).
+    fn admits(&self, mode: Mode) -> bool {
+        admits_in(mode, self.admit_ts)
+    }
+
+    /// The peeks with the RT unit's status ports `rt` and the other children's registers.
     pub(super) fn new<D: NodeDatapath>(
         u: &TreeletRtUnit<D>,
-        (rt, rt_cache): (&'a RtUnitRegs, &'a RtCache),
+        rt: &'a RtUnitStatus,
         ctl: &ControllerRegs,
         ct: &CountTableRegs,
         qt: &QueueTableRegs,
     ) -> Self {
         Peeks {
             rt,
-            rt_cache,
             ct: u.ct.status(ct),
             qt: u.qt.status(qt),
             mode: u.ctl.mode(ctl, false),
+            admit_ts: u.ctl.features().admit_in_treelet_stationary,
         }
     }
 
-    /// The peeks of `regs` with the RT unit's cache `rt_cache`.
+    /// The peeks of `regs` with the RT unit's status ports `rt` (of `regs.rt`).
     pub(super) fn of<D: NodeDatapath>(
         u: &TreeletRtUnit<D>,
-        regs: &'a TreeletRtUnitRegs,
-        rt_cache: &'a RtCache,
+        regs: &TreeletRtUnitRegs,
+        rt: &'a RtUnitStatus,
     ) -> Self {
-        Peeks::new(u, (&regs.rt, rt_cache), &regs.ctl, &regs.ct, &regs.qt)
+        Peeks::new(u, rt, &regs.ctl, &regs.ct, &regs.qt)
     }
 }
 
@@ -523,20 +529,53 @@ fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
     }
 }
 
-/// Whether SM warps are admitted in controller mode `mode`: not in the final ray-stationary
-/// phase, which traverses the rays it grouped "until all of them have finished traversal
-/// completely before fetching new rays to process" (section 4.4).
-fn admitting(mode: Mode) -> bool {
-    mode != Mode::FinalRayStationary
+/// Whether the controller's reports this cycle read the RT unit's distinct-treelet counts
+/// (`status_distinct`): in the modes that terminate divergent warps, the mode after a restart
+/// if the SM `offering` a warp restarts a `done` controller.
+pub(super) fn reads_distinct<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    ctl: &ControllerRegs,
+    offering: bool,
+) -> bool {
+    u.ctl.mode(ctl, offering).terminates_divergent_warps()
 }
 
-/// The `sm_ready` output (see [`TreeletRtUnit::sm_ready`]).
-pub(super) fn sm_ready<D: NodeDatapath>(u: &TreeletRtUnit<D>, regs: &TreeletRtUnitRegs) -> bool {
+/// Whether SM warps are admitted in controller mode `mode`: not in the final ray-stationary
+/// phase, which traverses the rays it grouped "until all of them have finished traversal
+/// completely before fetching new rays to process" (section 4.4), nor in the
+/// treelet-stationary mode when the controller's features keep them out of it.
+fn admitting<D: NodeDatapath>(u: &TreeletRtUnit<D>, mode: Mode) -> bool {
+    admits_in(mode, u.ctl.features().admit_in_treelet_stationary)
+}
+
+/// [`admitting`] with the treelet-stationary switch `admit_ts`.
+fn admits_in(mode: Mode, admit_ts: bool) -> bool {
+    match mode {
+        Mode::FinalRayStationary => false,
+        Mode::TreeletStationary => admit_ts,
+        Mode::Initial | Mode::Done => true,
+    }
+}
+
+/// The `sm_ready` output (see [`TreeletRtUnit::sm_ready`]), with the RT unit's status ports
+/// `rt`.
+pub(super) fn sm_ready<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+    rt: &RtUnitStatus,
+) -> bool {
     let g = &regs.glue;
-    admitting(u.ctl.mode(&regs.ctl, false))
+    admitting(u, u.ctl.mode(&regs.ctl, false))
         && g.ids.len() >= u.cfg.warp_size
-        && (0..g.uses.len() as u32)
-            .any(|s| g.uses[s as usize] == SlotUse::Free && !u.rt.slot_valid(&regs.rt, s))
+        && free_slot(g, rt, None).is_some()
+}
+
+/// The lowest slot the wiring has not given out and whose RT-unit slot holds no warp, other
+/// than `reserved`.
+fn free_slot(g: &GlueRegs, rt: &RtUnitStatus, reserved: Option<u32>) -> Option<u32> {
+    (0..g.uses.len() as u32).find(|&s| {
+        g.uses[s as usize] == SlotUse::Free && rt.slot(s as usize).is_none() && reserved != Some(s)
+    })
 }
 
 /// Whether the wiring has work in the next cycle whatever the children do: events to report
@@ -547,8 +586,9 @@ pub(super) fn glue_busy(g: &GlueRegs) -> bool {
 
 /// Sets the controller inputs that depend on whether the SM offers a warp: its waiting warps
 /// count as initial-phase warps and keep `launch_done` low while SM warps are admitted.
-fn set_offering(g: &GlueRegs, mode: Mode, inp: &mut ControllerInputs, offering: bool) {
-    let waiting = offering && admitting(mode);
+/// `admits`: SM warps are admitted in the controller's mode ([`admitting`]).
+fn set_offering(g: &GlueRegs, admits: bool, inp: &mut ControllerInputs, offering: bool) {
+    let waiting = offering && admits;
     inp.launch_done = !waiting;
     inp.initial_warps = g.uses.contains(&SlotUse::Initial) || waiting;
     inp.restart = offering;
@@ -563,7 +603,7 @@ fn controller_inputs<D: NodeDatapath>(
     offering: bool,
 ) -> (ControllerInputs, bool) {
     let mut inp = u.ctl.idle_inputs();
-    let restart = controller_inputs_into(u, g, p, offering, &mut inp);
+    let restart = controller_inputs_into(g, p, offering, &mut inp);
     (inp, restart)
 }
 
@@ -571,8 +611,7 @@ fn controller_inputs<D: NodeDatapath>(
 /// not matter if it came from this controller's `idle_inputs`):
 /// the fast path keeps one bundle and fills it in place. Returns whether the controller
 /// restarts.
-fn controller_inputs_into<D: NodeDatapath>(
-    u: &TreeletRtUnit<D>,
+fn controller_inputs_into(
     g: &GlueRegs,
     p: &Peeks,
     offering: bool,
@@ -580,27 +619,25 @@ fn controller_inputs_into<D: NodeDatapath>(
 ) -> bool {
     let restart = p.mode == Mode::Done && offering;
     let mode = if restart { Mode::Initial } else { p.mode };
-    set_offering(g, mode, inp, offering);
-    inp.rt_idle =
-        u.rt.is_empty(p.rt) && g.builds.iter().all(Option::is_none) && g.events.is_empty();
-    inp.wb_free_slot = (0..g.uses.len() as u32)
-        .find(|&s| g.uses[s as usize] == SlotUse::Free && !u.rt.slot_valid(p.rt, s));
+    set_offering(g, p.admits(mode), inp, offering);
+    inp.rt_idle = p.rt.is_empty() && g.builds.iter().all(Option::is_none) && g.events.is_empty();
+    inp.wb_free_slot = free_slot(g, p.rt, None);
     let mut best_init: Option<InitReport> = None;
     let mut best_active: Option<ActiveReport> = None;
     for (s, use_) in g.uses.iter().enumerate() {
         let slot = s as u32;
-        let Some(view) = u.rt.slot_peek(p.rt, p.rt_cache, slot, false) else {
+        let Some(view) = p.rt.slot(s) else {
             continue;
         };
         let initial = *use_ == SlotUse::Initial
             && view.order != TraversalOrder::TreeletStop
             && mode.terminates_divergent_warps();
-        let sum = if initial {
-            u.rt.slot_peek(p.rt, p.rt_cache, slot, true)
-                .map_or(view.summary, |v| v.summary)
-        } else {
-            view.summary
-        };
+        // The RT unit counts distinct next treelets for warps in treelet-continue order, which
+        // an initial-phase warp not stopped keeps; they matter only to an initial report.
+        let mut sum = view.summary;
+        if !initial {
+            sum.distinct_next_treelets = 0;
+        }
         if sum.quiescent && !view.held {
             continue; // completes this cycle
         }
@@ -688,10 +725,8 @@ fn children_inputs<D: NodeDatapath>(
     rt_in.repack = ctl_out.and_then(|o| o.repack);
     rt_in.issue = finished_build(u, g, p);
     let reserve = ctl_out.and_then(|o| o.reserve);
-    if rt_in.issue.is_none() && admitting(mode) {
-        let slot = (0..g.uses.len() as u32).find(|&s| {
-            g.uses[s as usize] == SlotUse::Free && !u.rt.slot_valid(p.rt, s) && reserve != Some(s)
-        });
+    if rt_in.issue.is_none() && admitting(u, mode) {
+        let slot = free_slot(g, p.rt, reserve);
         if let (Some(slot), Some(lanes)) = (slot, inputs.sm_warp.as_ref()) {
             rt_in.issue = admit(u, g, slot, lanes, out);
         }
@@ -768,12 +803,14 @@ fn finished_build<D: NodeDatapath>(
             IssueTarget::Slot(slot),
             u64::MAX,
         ),
-        FillKind::Repack => (
-            u.rt.slot_peek(p.rt, p.rt_cache, slot, false)
-                .map_or(TraversalOrder::RayStationary, |v| v.order),
-            IssueTarget::Append { slot, last: true },
-            u.rt.inactive_lanes(p.rt, slot),
-        ),
+        FillKind::Repack => {
+            let view = p.rt.slot(s);
+            (
+                view.map_or(TraversalOrder::RayStationary, |v| v.order),
+                IssueTarget::Append { slot, last: true },
+                view.map_or(0, |v| v.inactive),
+            )
+        }
     };
     let mut free_lanes = (0..warp_size).filter(|&l| free >> l & 1 == 1);
     let mut placed = 0;
@@ -941,7 +978,20 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         .then(|| probe::start_regs(u, (rt, ctl, ct, qt), g));
     place_records(g, &inputs.ray_records);
     let offering = inputs.sm_warp.is_some();
-    let peeks = Peeks::new(u, (rt, &cache.rt), ctl, ct, qt);
+    // The RT unit's status ports: computed by the dry run at the end of the last step unless
+    // cycles were skipped since or the mode that reads the distinct-treelet counts differs.
+    let distinct = reads_distinct(u, ctl, offering);
+    if cache.rt_status_current == Some(distinct) {
+        debug_assert_eq!(
+            cache.rt_status,
+            u.rt.status(rt, &cache.rt, distinct),
+            "stale RT-unit status ports"
+        );
+    } else {
+        u.rt.status_into(rt, &cache.rt, distinct, &mut cache.rt_status);
+    }
+    cache.rt_status_current = None;
+    let peeks = Peeks::new(u, &cache.rt_status, ctl, ct, qt);
     let restart = peeks.mode == Mode::Done && offering;
     // The dry run of the last step computed the controller's inputs from these registers,
     // unless cycles were skipped since (they change the RT unit's delays) or it restarts.
@@ -952,18 +1002,18 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         .dry
         .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
     if reused {
-        set_offering(g, peeks.mode, ctl_in, offering);
+        set_offering(g, peeks.admits(peeks.mode), ctl_in, offering);
         debug_assert_eq!(
             *ctl_in,
             controller_inputs(u, g, &peeks, offering).0,
             "stale cached controller inputs"
         );
     } else {
-        controller_inputs_into(u, g, &peeks, offering, ctl_in);
+        controller_inputs_into(g, &peeks, offering, ctl_in);
     }
     let ctl_in: &ControllerInputs = ctl_in;
     let mode = if restart { Mode::Initial } else { peeks.mode };
-    let idle = reused && cache.idle && !(offering && admitting(mode));
+    let idle = reused && cache.idle && !(offering && admitting(u, mode));
     let ctl_out = if idle {
         debug_assert!(
             {
@@ -1029,6 +1079,9 @@ fn dry_run<D: NodeDatapath>(
 ) {
     cache.idle = false;
     cache.dry_valid = false;
+    let distinct = reads_distinct(u, &regs.ctl, false);
+    u.rt.status_into(&regs.rt, &cache.rt, distinct, &mut cache.rt_status);
+    cache.rt_status_current = Some(distinct);
     let g = &regs.glue;
     if !u.qt.status(&regs.qt).ready
         || g.qt_done.is_some()
@@ -1038,11 +1091,11 @@ fn dry_run<D: NodeDatapath>(
         cache.awake = true;
         return;
     }
-    let peeks = Peeks::of(u, regs, &cache.rt);
+    let peeks = Peeks::of(u, regs, &cache.rt_status);
     let new = cache
         .dry_spare
         .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
-    controller_inputs_into(u, g, &peeks, false, new);
+    controller_inputs_into(g, &peeks, false, new);
     if was_idle && cache.dry.as_ref() == Some(new) {
         debug_assert!(
             {

@@ -709,11 +709,13 @@ impl SimConfig {
         }
     }
 
-    /// The treelet controller's feature switches (`mode.grouping`, `mode.preload`).
+    /// The treelet controller's feature switches (`mode.grouping`, `mode.preload`,
+    /// `mode.admit_in_treelet_stationary`).
     pub fn controller_features(&self) -> ControllerFeatures {
         ControllerFeatures {
             group_underpopulated: self.mode.grouping,
             preload: self.mode.preload,
+            admit_in_treelet_stationary: self.mode.admit_in_treelet_stationary,
         }
     }
 

@@ -66,6 +66,11 @@ pub struct ModeConfig {
     /// The treelet prefetcher beside the treelet RT unit too, watching its rays in some
     /// phases (VTQ with treelet prefetching, `configs/vtq-prefetch.toml`); `queues` only.
     pub treelet_prefetch: TreeletPrefetch,
+    /// SM warps enter the RT unit in treelet-stationary mode too (default `true`, as vtq reads
+    /// section 4: only the final ray-stationary phase keeps them out). `false`, `queues`
+    /// only, keeps them waiting while the controller is treelet stationary: an experiment on
+    /// what that phase processes (docs/fidelity.md, Figure 15).
+    pub admit_in_treelet_stationary: bool,
 }
 
 impl Default for ModeConfig {
@@ -77,6 +82,7 @@ impl Default for ModeConfig {
             preload: false,
             prefetch_threshold: 0.75,
             treelet_prefetch: TreeletPrefetch::Off,
+            admit_in_treelet_stationary: true,
         }
     }
 }
@@ -234,6 +240,16 @@ impl SimConfig {
                         format!("only treelet queues use it, and mode.kind is \"{kind}\""),
                     ));
                 }
+            }
+            if !m.admit_in_treelet_stationary {
+                return Err(invalid(
+                    "mode.admit_in_treelet_stationary",
+                    false,
+                    format!(
+                        "only treelet queues have a treelet-stationary mode, and mode.kind is \
+                         \"{kind}\""
+                    ),
+                ));
             }
             let hw = &self.hw;
             let d = HwConfig::default();

@@ -204,6 +204,11 @@ pub struct RtTotals {
     pub merged: u64,
     /// Node tests by kind (header, internal, triangle_leaf, procedural, ...).
     pub tests: std::collections::BTreeMap<String, u64>,
+    /// Of all node tests, those made by lanes of warps in treelet-stop order (treelet warps,
+    /// and initial-phase warps terminated into the queues finishing their current treelet):
+    /// Figure 15's treelet-stationary tests counted by traversal order, beside
+    /// `phases.treelet_stationary.intersection_tests` (by the controller's mode).
+    pub treelet_order_tests: u64,
     /// Triangle tests that produced a new closest hit (the RT unit's `hits` counter; sphere
     /// hits are not counted there).
     pub triangle_hits: u64,
@@ -224,6 +229,7 @@ impl RtTotals {
         self.stack_fills += s.stack_fills;
         self.merged += s.merged;
         self.triangle_hits += s.hits;
+        self.treelet_order_tests += s.treelet_order_tests;
         for kind in NodeKind::ALL {
             let n = s.tests[kind.code() as usize];
             if n > 0 {

@@ -690,9 +690,10 @@ pub fn figure14(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     })
 }
 
-/// Figure 15: VTQ's intersection tests per traversal phase.
+/// Figure 15: VTQ's intersection tests per traversal phase, and in the table also the share
+/// made by warps in treelet-stop order (`rt.treelet_order_tests`).
 pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
-    let (img, table) = phase_bars(
+    let (img, mut table) = phase_bars(
         r,
         out,
         "fig15",
@@ -704,13 +705,38 @@ pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             paper("paper: treelet-stationary max 52%", 52.0),
         ],
     )?;
+    let scenes = r.scenes();
+    let by_order: Vec<Option<f64>> = scenes
+        .iter()
+        .map(|scene| {
+            let stats = r.stats(scene, VTQ, &[])?;
+            let tests: f64 = stats
+                .pointer("/rt/tests")?
+                .as_object()?
+                .values()
+                .filter_map(serde_json::Value::as_f64)
+                .sum();
+            let order = num(&stats, "/rt/treelet_order_tests")?;
+            (tests > 0.0).then(|| order / tests)
+        })
+        .collect();
+    let by_order = with_mean(&scenes, by_order, Mean::Arithmetic);
+    table
+        .header
+        .push("treelet-stop warps' tests (by traversal order)".into());
+    for (row, v) in table.rows.iter_mut().zip(by_order) {
+        row.push(v.map_or_else(|| "-".into(), |x| format!("{:.1}%", 100.0 * x)));
+    }
     Ok(Figure {
         id: "fig15".into(),
         title: "Figure 15: intersection tests per traversal phase".into(),
         caption: "Share of VTQ's intersection tests done in each phase, stacked with the \
                   treelet-stationary part at the bottom so that the paper's values read against \
                   its top. The paper: the treelet-stationary phase processes 15% of the tests on \
-                  average and up to 52%."
+                  average and up to 52%. The table's last column counts the tests by the warp's \
+                  traversal order instead of the controller's mode: those of treelet warps and \
+                  terminated initial warps (treelet-stop order), the other reading of the \
+                  paper's \"ray traversal modes\" (docs/fidelity.md)."
             .into(),
         images: vec![img],
         table,

@@ -157,6 +157,7 @@ impl<'a> RtPort<'a> {
                 let inputs = unit.idle_inputs();
                 let plain = Plain {
                     slot_warp: vec![None; hw.warp_buffer_size as usize],
+                    status: unit.status(&regs, &cache, false),
                     unit,
                     regs,
                     cache,
@@ -275,7 +276,7 @@ impl<'a> RtPort<'a> {
     pub fn issue_ready(&self) -> bool {
         match &self.hw {
             Hardware::Plain(p) => p.unit.issue_ready(&p.regs),
-            Hardware::Treelet(t) => t.unit.sm_ready(&t.regs),
+            Hardware::Treelet(t) => t.unit.sm_ready(&t.regs, &t.cache),
         }
     }
 

@@ -2,7 +2,7 @@
 //! responses fed into its FIFO, its request queued, a completed warp's hits returned; the
 //! treelet prefetcher (prefetch mode) observes it.
 
-use vtq_hdl::rt_unit::{RtCache, RtUnit, RtUnitInputs, RtUnitRegs, WarpIssue};
+use vtq_hdl::rt_unit::{RtCache, RtUnit, RtUnitInputs, RtUnitRegs, RtUnitStatus, WarpIssue};
 use vtq_hdl::trace::BlockCycle;
 
 use super::{rt_error, waveform, Hardware, RtCycle, RtPort, TracedWarp};
@@ -20,6 +20,8 @@ pub(super) struct Plain<'a> {
     pub(super) inputs: RtUnitInputs,
     /// SM warp slot held by each warp-buffer slot.
     pub(super) slot_warp: Vec<Option<usize>>,
+    /// The RT unit's status ports, computed when a warp is offered (kept for their storage).
+    pub(super) status: RtUnitStatus,
 }
 
 impl<'a> RtPort<'a> {
@@ -32,11 +34,16 @@ impl<'a> RtPort<'a> {
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
         let record = self.recording(now);
-        let Hardware::Plain(p) = &self.hw else {
+        let Hardware::Plain(p) = &mut self.hw else {
             unreachable!("a plain port")
         };
         let warp_size = p.unit.config().warp_size as usize;
-        let free = (0..p.slot_warp.len() as u32).find(|&s| !p.unit.slot_valid(&p.regs, s));
+        // A new warp goes to the lowest slot the status ports show free.
+        let free = warp.and_then(|_| {
+            p.unit.status_into(&p.regs, &p.cache, false, &mut p.status);
+            (0..p.slot_warp.len()).find(|&s| p.status.slot(s).is_none())
+        });
+        let free = free.map(|s| s as u32);
         let issue = match (warp, free) {
             (Some((idx, rays)), Some(slot)) => Some((
                 idx,
