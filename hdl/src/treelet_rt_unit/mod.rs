@@ -125,8 +125,8 @@ pub struct TreeletRtUnitCache {
     /// `rt_status_current`; kept for their storage otherwise.
     rt_status: crate::rt_unit::RtUnitStatus,
     /// `Some(distinct)`: `rt_status` is that of the current registers, with the distinct
-    /// next treelets counted if `distinct` (set by the dry run at the end of a step, cleared by
-    /// a step's start and by a skip).
+    /// next treelets counted if `distinct` (set by the dry run at the end of a step and by a
+    /// skip that ends a delay, cleared by a step's start).
     rt_status_current: Option<bool>,
     /// The controller inputs of the last dry run (meaningful while `dry_valid`; kept for its
     /// storage otherwise).
@@ -373,7 +373,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             "skip beyond the idle cycles"
         );
         cache.dry_valid = false;
-        cache.rt_status_current = None;
         cache.probed = None;
         if cache.tables.is_some() {
             let (ct, qt) = (
@@ -388,6 +387,14 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         // controller reads.
         let delay_ends = n >= self.rt.idle_cycles(&regs.rt, &cache.rt);
         counts.rt = self.rt.skip(&mut regs.rt, &mut cache.rt, n);
+        // The status ports change only where a delay ends (the lanes' other state and the
+        // controller's mode stay); then they are computed again, so they stay current.
+        if delay_ends {
+            let distinct = wiring::reads_distinct(self, &regs.ctl, false);
+            self.rt
+                .status_into(&regs.rt, &cache.rt, distinct, &mut cache.rt_status);
+            cache.rt_status_current = Some(distinct);
+        }
         let mut left = n;
         let scanning = self.ct.busy(&regs.ct);
         while left > 0 && self.ct.busy(&regs.ct) {
