@@ -350,3 +350,39 @@ fn sm_warps_kept_out_of_treelet_mode_change_only_timing() {
         "{e}"
     );
 }
+
+/// The tail after the last CTA dispatch: it starts at the first sample boundary at or after
+/// the last CTA's dispatch (its first trace less launch and raygen), counts part of the RT
+/// units' warp cycles, and is the same skipping idle cycles as in lockstep and on any threads;
+/// without samples it counts nothing.
+#[test]
+fn the_tail_after_the_last_dispatch_is_counted_from_the_samples() {
+    // One SM with two CTA slots: CTAs are dispatched one after another over the run.
+    let cfg = small_config(
+        "baseline",
+        1,
+        32,
+        &["gpu.max_ctas_per_sm=2", "sim.sample_interval=100"],
+    );
+    let (scene, bvh) = setup("wknd", &cfg);
+    let out = run(&scene, &bvh, &cfg);
+    let (s, t) = (&out.stats, &out.stats.tail);
+    let lead = cfg.gpu.cta_launch_cycles as u64;
+    let last_start = out.cta_spans[0].iter().map(|c| c.start).max().unwrap();
+    assert!(t.last_dispatch > 0 && t.last_dispatch + lead <= last_start);
+    assert_eq!(t.from_cycle, t.last_dispatch.div_ceil(100) * 100);
+    assert_eq!(t.cycles, s.cycles - t.from_cycle);
+    assert!(t.warp_cycles > 0 && t.warp_cycles < s.rt.warp_cycles);
+    assert!(t.active_thread_cycles <= t.warp_cycles * cfg.hw.warp_size as u64);
+    check_skip_matches_lockstep(&cfg);
+    check_deterministic(&cfg);
+    let none = small_config(
+        "baseline",
+        1,
+        32,
+        &["gpu.max_ctas_per_sm=2", "sim.sample_interval=0"],
+    );
+    let (scene, bvh) = setup("wknd", &none);
+    let t = run(&scene, &bvh, &none).stats.tail;
+    assert_eq!((t.cycles, t.warp_cycles, t.from_cycle), (0, 0, s.cycles));
+}

@@ -8,7 +8,7 @@ use crate::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::gpu::output::SimOutput;
 use crate::gpu::rt::QueueObserver;
 use crate::gpu::sm::VirtTiming;
-use crate::gpu::stats::{Phases, QueueTotals, RtTotals, Sample, SimStats, WarpLanes};
+use crate::gpu::stats::{Phases, QueueTotals, RtTotals, Sample, SimStats, TailStats, WarpLanes};
 use crate::memory::{AccessClass, MemStats};
 
 /// What [`finish`] needs of a run that ended.
@@ -126,6 +126,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
             s.warp_cycles * cfg.hw.warp_size as u64,
         )
     });
+    let tail = tail_stats(ctx, cycles, nodes);
     let mut virt = VirtTiming::default();
     for node in nodes {
         let t = node.sm.timing;
@@ -169,6 +170,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         l2_misses,
         dram_bytes: mem.dram.read_bytes + mem.dram.write_bytes,
         phases,
+        tail,
         max_queues: queues.iter().map(|q| q.max_queues).max().unwrap_or(0),
         max_queues_above_threshold: queues
             .iter()
@@ -310,6 +312,46 @@ fn ratio_deciles(
         last = (num, den);
     }
     sums.iter().map(|&(m, a)| ratio(m, a)).collect()
+}
+
+/// The tail after the last CTA dispatch ([`TailStats`]): the RT units' warp counters at the
+/// end of the run less their samples at the first sample boundary at or after it.
+fn tail_stats(ctx: &Ctx, cycles: u64, nodes: &[SmNode]) -> TailStats {
+    let cfg = ctx.cfg;
+    let lead = cfg.gpu.cta_launch_cycles as u64 + ctx.timing.raygen;
+    let last_dispatch = nodes
+        .iter()
+        .flat_map(|n| n.sm.done.iter())
+        .map(|span| span.start.saturating_sub(lead))
+        .max()
+        .unwrap_or(0);
+    let interval = cfg.sim.sample_interval;
+    let from_cycle = if interval == 0 {
+        cycles
+    } else {
+        (last_dispatch.div_ceil(interval) * interval).min(cycles)
+    };
+    let (mut warp_cycles, mut active) = (0, 0);
+    if from_cycle < cycles {
+        for node in nodes {
+            let (w, a) = node.rt.warp_counters_until(cycles);
+            // Sample `k` holds the counters of the cycles before `(k + 1) x interval`.
+            let (w0, a0) = (from_cycle / interval)
+                .checked_sub(1)
+                .and_then(|k| node.samples.get(k as usize))
+                .map_or((0, 0), |s| (s.warp_cycles, s.active_thread_cycles));
+            warp_cycles += w.saturating_sub(w0);
+            active += a.saturating_sub(a0);
+        }
+    }
+    TailStats {
+        last_dispatch,
+        from_cycle,
+        cycles: cycles - from_cycle,
+        warp_cycles,
+        active_thread_cycles: active,
+        simt_efficiency: ratio(active, warp_cycles * cfg.hw.warp_size as u64),
+    }
 }
 
 /// `num / den`, 0 when `den` is 0.

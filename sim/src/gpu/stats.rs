@@ -125,6 +125,27 @@ pub struct Phases {
     pub ray_stationary: PhaseStats,
 }
 
+/// The tail of a run: from the last CTA dispatch to the end, when the SMs drain the rays in
+/// flight with no new work coming (issue 23: where SIMT efficiency is lost).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct TailStats {
+    /// Cycle of the last CTA dispatch (its warps' first trace less the CTA launch and raygen
+    /// cycles).
+    pub last_dispatch: u64,
+    /// First cycle counted: the first `sim.sample_interval` boundary at or after
+    /// `last_dispatch` (the RT units' counters are sampled there; `cycles` when there are no
+    /// samples, so the tail then counts nothing).
+    pub from_cycle: u64,
+    /// Cycles from `from_cycle` to the end of the run.
+    pub cycles: u64,
+    /// RT-unit warp cycles in them, summed over the SMs.
+    pub warp_cycles: u64,
+    /// Traversing lanes summed over those warp cycles.
+    pub active_thread_cycles: u64,
+    /// `active_thread_cycles / (warp_cycles x hw.warp_size)` (0 without warp cycles).
+    pub simt_efficiency: f64,
+}
+
 /// Treelet-controller and treelet-queue counters summed over all SMs (the events of each SM's
 /// treelet RT unit, summed by its observer).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -329,6 +350,9 @@ pub struct SimStats {
     pub dram_bytes: u64,
     /// Cycles and intersection tests per traversal phase.
     pub phases: Phases,
+    /// The tail of the run after the last CTA was dispatched: its RT-unit warp cycles and
+    /// SIMT efficiency.
+    pub tail: TailStats,
     /// Most treelet queues at once (treelet-queue mode; 0 in the baseline).
     pub max_queues: u64,
     /// Most treelet queues above the underpopulation threshold at once (0 in the baseline).
