@@ -41,9 +41,8 @@ impl<'a> RtPort<'a> {
         // A new warp goes to the lowest slot the status ports show free.
         let free = warp.and_then(|_| {
             p.unit.status_into(&p.regs, &p.cache, false, &mut p.status);
-            (0..p.slot_warp.len()).find(|&s| p.status.slot(s).is_none())
+            (0..p.slot_warp.len() as u32).find(|&s| p.status.slot(s as usize).is_none())
         });
-        let free = free.map(|s| s as u32);
         let issue = match (warp, free) {
             (Some((idx, rays)), Some(slot)) => Some((
                 idx,
