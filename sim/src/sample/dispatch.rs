@@ -41,30 +41,31 @@ pub fn makespan(work: &[f64], sms: usize, resident: usize) -> f64 {
     }
     let mut end = 0.0f64;
     loop {
-        // The SM whose first resident finishes first.
-        let mut best: Option<(f64, usize)> = None;
+        // The SM whose first resident finishes first, and that resident.
+        let mut best: Option<(f64, usize, usize)> = None;
         for (s, r) in residents.iter().enumerate() {
-            let Some(min) = r.iter().copied().reduce(f64::min) else {
+            let Some((i, &min)) = r.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)) else {
                 continue;
             };
             let t = clock[s] + min * r.len() as f64;
-            if best.is_none_or(|(bt, _)| t < bt) {
-                best = Some((t, s));
+            if best.is_none_or(|(bt, _, _)| t < bt) {
+                best = Some((t, s, i));
             }
         }
-        let Some((t, s)) = best else {
+        let Some((t, s, i)) = best else {
             break;
         };
-        let n = residents[s].len() as f64;
-        let done = (t - clock[s]) / n;
         clock[s] = t;
         end = end.max(t);
+        // The finishing CTA leaves (removed by position, so every step retires one CTA even
+        // when rounding leaves its remaining work a hair above zero), with any that finish
+        // with it; the others have done as much work as it had left.
         let r = &mut residents[s];
+        let done = r.swap_remove(i);
         for w in r.iter_mut() {
             *w -= done;
         }
-        // The finishing CTA (and any that finish with it) leaves; new ones take its place.
-        let eps = done.abs() * 1e-12 + 1e-12;
+        let eps = done.abs() * 1e-12;
         r.retain(|&w| w > eps);
         while r.len() < resident && next < work.len() {
             r.push(work[next]);
@@ -115,5 +116,23 @@ mod tests {
         assert!((makespan(&work, 2, 4) - 12.0).abs() < 1e-9);
         // One at a time: SM 1 finishes its 1s early and takes the later CTAs.
         assert!(makespan(&work, 2, 1) < 12.0 - 1e-9);
+    }
+
+    #[test]
+    fn large_costs_that_round_to_no_progress_still_finish() {
+        // Costs in cycles (about a million per SM) drawn as a run's measured CTA costs are:
+        // subtracting what finished from each resident leaves remainders of a few 1e-11 that
+        // the SM's clock (about 1e6) cannot advance by. The model once looped forever on such
+        // a remainder; now each step retires a CTA, and the result lies between the bounds of
+        // perfect balance (total / SMs) and one SM doing everything.
+        let mut rng = crate::splitmix::SplitMix64::new(1);
+        let work: Vec<f64> = (0..1024)
+            .map(|_| f64::from(rng.range(100.0, 5000.0)) * f64::from(rng.range(10.0, 61.0)))
+            .collect();
+        let total: f64 = work.iter().sum();
+        for (sms, resident) in [(16, 16), (16, 4), (1, 64), (16, 64)] {
+            let m = makespan(&work, sms, resident);
+            assert!(m >= total / sms as f64 * (1.0 - 1e-9) && m <= total * (1.0 + 1e-9));
+        }
     }
 }
