@@ -18,6 +18,7 @@ use serde::Serialize;
 use std::collections::{BTreeSet, VecDeque};
 use vtq_hdl::count_table::{CountOp, CountTable, CountTableIn, CountTableRegs};
 use vtq_hdl::queue_table::{QueueOp, QueueState, QueueTable, QueueTableIn, QueueTableRegs};
+use vtq_hdl::splitmix::SplitMix64;
 use vtq_hdl::{Block, HwConfig};
 
 /// What a stimulus stream exercised, counted on the Rust block's outputs. Fields that do not
@@ -78,24 +79,17 @@ impl std::fmt::Display for Coverage {
     }
 }
 
-/// A small deterministic generator (xorshift64*).
-struct Rng(u64);
+/// The workspace's seeded generator with the draws the stimulus needs.
+struct Rng(SplitMix64);
 
 impl Rng {
     fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1)
-    }
-
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+        Rng(SplitMix64::new(seed))
     }
 
     /// Uniform in 0..n (n > 0).
     fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
+        self.0.below_exact(n)
     }
 
     /// True with probability `percent` / 100.

@@ -7,6 +7,7 @@ use vtq_gen::cosim::{cosim_block, record, run_cosim, write_testbench, CosimOptio
 use vtq_gen::synth::lint;
 use vtq_gen::tools::or_skip;
 use vtq_gen::GenError;
+use vtq_hdl::splitmix::SplitMix64;
 use vtq_hdl::{Block, BlockDesc, Signal};
 
 /// The counter: `count` is the register (a Moore output); `wrap` is high in a cycle where the
@@ -127,15 +128,13 @@ fn counter_v(broken: bool) -> String {
     COUNTER_V.replace("NEXT", next)
 }
 
-/// Deterministic pseudo-random inputs (xorshift64*): enable most of the time, load rarely.
+/// Deterministic pseudo-random inputs (the workspace's SplitMix64): enable most of the time,
+/// load rarely.
 fn inputs(cycles: usize, seed: u64) -> Vec<CounterIn> {
-    let mut s = seed;
+    let mut rng = SplitMix64::new(seed);
     (0..cycles)
         .map(|_| {
-            s ^= s >> 12;
-            s ^= s << 25;
-            s ^= s >> 27;
-            let r = s.wrapping_mul(0x2545_f491_4f6c_dd1d);
+            let r = rng.next_u64();
             CounterIn {
                 widths: (),
                 en: r & 7 != 0,

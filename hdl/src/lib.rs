@@ -22,6 +22,7 @@ pub mod memory;
 pub mod mode;
 pub mod queue_table;
 pub mod rt_unit;
+pub mod splitmix;
 pub mod trace;
 pub mod treelet_rt_unit;
 pub mod warp_repacking;

@@ -1,7 +1,8 @@
 //! SplitMix64 (Steele, Lea and Flood, "Fast splittable pseudorandom number generators", OOPSLA
-//! 2014): vtq's one seeded generator, small, fast and fully determined by its seed. The
-//! generated cities (`city:N`), the sampled tier's CTA draws and the fuzzer's inputs use it, so
-//! each is reproduced exactly by its seed. (The path tracer's per-pixel random numbers are
+//! 2014): vtq's one seeded generator, small, fast and fully determined by its seed. It lives in
+//! the lowest crate so that every crate and test shares it: the generated cities (`city:N`), the
+//! sampled tier's CTA draws, the fuzzer's inputs, `vtq-gen`'s co-simulation stimulus and the
+//! randomized tests use it, so each is reproduced exactly by its seed. It is not hardware. (The path tracer's per-pixel random numbers are
 //! LumiBench's TEA-seeded LCG, `workload/rng.rs`, part of the workload's definition.)
 
 /// The generator's state.

@@ -8,6 +8,7 @@ use vtq_hdl::rt_unit::{
     RtCache, RtStats, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams, RtUnitRegs, SlotSummary,
     Split, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
+use vtq_hdl::splitmix::SplitMix64;
 use vtq_hdl::{Block, HwConfig, Signals};
 
 mod common;
@@ -1339,23 +1340,6 @@ fn repack_releases_finished_lanes_holds_the_warp_and_an_append_refills_it() {
         .all(|(_, o)| *o == RayOutcome::Finished));
 }
 
-/// Deterministic xorshift generator for the randomized run below.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-
-    /// A value in `0..n`.
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
 /// `idle_cycles` as a scan of every lane (the definition the unit's lane summaries replace).
 fn idle_cycles_by_scan(regs: &RtUnitRegs) -> u64 {
     if !regs.fifo.is_empty() || regs.split.is_some() {
@@ -1415,14 +1399,14 @@ fn slot_summary_by_scan(
 
 /// A random DAG of toy nodes, one per 128 B (two per 256 B treelet): node `i`'s children are
 /// later nodes, so every path ends. Returns the tree and the nodes (node 0 is the root).
-fn random_tree(rng: &mut Rng, count: usize) -> (Tree, Vec<NodeEntry>) {
+fn random_tree(rng: &mut SplitMix64, count: usize) -> (Tree, Vec<NodeEntry>) {
     // The root is a 128 B node with three children, so every ray does some work.
     let sizes: Vec<u32> = (0..count)
         .map(|i| {
             if i == 0 {
                 128
             } else {
-                32 * (1 + rng.below(4) as u32)
+                32 * (1 + rng.below_exact(4) as u32)
             }
         })
         .collect();
@@ -1433,10 +1417,10 @@ fn random_tree(rng: &mut Rng, count: usize) -> (Tree, Vec<NodeEntry>) {
         let n = if i == 0 {
             max
         } else {
-            rng.below(max as u64 + 1) as usize
+            rng.below_exact(max as u64 + 1) as usize
         };
         let picked: Vec<usize> = (0..n)
-            .map(|_| i + 1 + rng.below((count - 1 - i) as u64) as usize)
+            .map(|_| i + 1 + rng.below_exact((count - 1 - i) as u64) as usize)
             .collect();
         let kind = if picked.is_empty() {
             NodeKind::TriangleLeaf
@@ -1452,11 +1436,15 @@ fn random_tree(rng: &mut Rng, count: usize) -> (Tree, Vec<NodeEntry>) {
             .iter()
             .map(|&j| {
                 // Every ray visits the root's children; bit 0 keeps some ray on every edge.
-                let mask = if i == 0 { ALL } else { rng.next() as u8 | 1 };
+                let mask = if i == 0 {
+                    ALL
+                } else {
+                    rng.next_u64() as u8 | 1
+                };
                 (nodes[j], mask)
             })
             .collect();
-        tree.add(nodes[i], rng.below(3) == 0, &kids);
+        tree.add(nodes[i], rng.below_exact(3) == 0, &kids);
     }
     (tree, nodes)
 }
@@ -1483,11 +1471,11 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
             ..RtUnitParams::default()
         };
         {
-            let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ seed);
+            let mut rng = SplitMix64::new(seed);
             let (tree, nodes) = random_tree(&mut rng, 24);
             let mut mem = Memory::new(tree, 3 + seed);
             for n in &nodes {
-                mem.extra.insert(n.address, rng.below(6));
+                mem.extra.insert(n.address, rng.below_exact(6));
             }
             let mut sim = Sim::new(cfg.clone(), params.clone(), mem);
             let mut next_ray = 0u32;
@@ -1560,14 +1548,15 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                     w.target = IssueTarget::Append { slot, last: true };
                     issue = Some(w);
                     fills += 1;
-                } else if next_ray < RAYS && sim.unit.issue_ready(regs) && rng.below(4) == 0 {
-                    let order = TraversalOrder::ALL[rng.below(3) as usize];
+                } else if next_ray < RAYS && sim.unit.issue_ready(regs) && rng.below_exact(4) == 0 {
+                    let order = TraversalOrder::ALL[rng.below_exact(3) as usize];
                     let lanes = (0..8)
                         .map(|_| {
                             let id = next_ray;
                             next_ray += 1;
-                            (rng.below(5) != 0)
-                                .then(|| RayRecord::new(id, words(rng.below(8) as u32), nodes[0]))
+                            (rng.below_exact(5) != 0).then(|| {
+                                RayRecord::new(id, words(rng.below_exact(8) as u32), nodes[0])
+                            })
                         })
                         .collect();
                     issue = Some(warp(order, 8, lanes));
@@ -1585,8 +1574,8 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                             .is_some_and(|m| !m.quiescent)
                     })
                     .collect();
-                if !busy.is_empty() && rng.below(150) == 0 {
-                    stop = Some(busy[rng.below(busy.len() as u64) as usize]);
+                if !busy.is_empty() && rng.below_exact(150) == 0 {
+                    stop = Some(busy[rng.below_exact(busy.len() as u64) as usize]);
                     stops += 1;
                 }
                 let unheld: Vec<u32> = valid
@@ -1594,10 +1583,10 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                     .copied()
                     .filter(|&s| !regs.slots[s as usize].held)
                     .collect();
-                if fill_due.is_empty() && !unheld.is_empty() && rng.below(100) == 0 {
-                    let s = unheld[rng.below(unheld.len() as u64) as usize];
+                if fill_due.is_empty() && !unheld.is_empty() && rng.below_exact(100) == 0 {
+                    let s = unheld[rng.below_exact(unheld.len() as u64) as usize];
                     repack = Some(s);
-                    fill_due.push((sim.cycle + 1 + rng.below(30), s));
+                    fill_due.push((sim.cycle + 1 + rng.below_exact(30), s));
                     repacks += 1;
                 }
                 sim.step_with(|i| {

@@ -19,7 +19,7 @@ pub mod rays_csv;
 pub mod reproduce;
 pub mod sample;
 pub mod scene;
-pub mod splitmix;
+pub use vtq_hdl::splitmix;
 pub mod sweep;
 pub mod traversal;
 pub mod workload;
