@@ -9,12 +9,13 @@
 //! The RT unit releases the lanes and takes the fill into them; the controller decides.
 
 use crate::mode::Mode;
-use crate::rt_unit::{Lane, LaneStatus};
 
-/// Whether a repack releases `lane`: its ray is done and nothing of it (a node or stack fill
-/// in flight, an intersection delay, a hit-record store) is outstanding.
-pub fn releases(lane: &Lane) -> bool {
-    lane.status == LaneStatus::Done && lane.quiescent()
+/// Whether a repack releases a lane, from its predicates: its ray is `done` and the lane is
+/// `quiescent` (nothing of it — a node or stack fill in flight, an intersection delay, a
+/// hit-record store — is outstanding). Plain predicates, so this rule needs nothing of the RT
+/// unit's types (the RT unit imports it, not the other way round).
+pub fn releases(done: bool, quiescent: bool) -> bool {
+    done && quiescent
 }
 
 /// The lanes a repack keeps, from a slot's lane predicate masks (bit `l` for lane `l`): the

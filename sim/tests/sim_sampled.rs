@@ -219,3 +219,21 @@ fn accuracy_and_sampled_compare_commands() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_frame_whose_ctas_are_all_resident_at_once_is_flagged() {
+    // 24x24: 9 CTAs, fewer than 4 SMs hold at once in any design.
+    let small = sampled("cornell", &sampled_config("baseline", "1/4x2", &[]), 2);
+    assert!(small.every_cta_resident);
+    // 128x128: 256 CTAs; the baseline holds 4 x its CTA slots at once, VTQ with ray
+    // virtualization as many as its ray budget covers (all of them with 4096 rays per SM).
+    let base = sampled_config("baseline", "1/4x2", &["width=128", "height=128"]);
+    assert!(!sampled("cornell", &base, 2).every_cta_resident);
+    let mut vtq = common::small_vtq(4, 128, &[]);
+    vtq.sample.apply_spec("1/4x2").unwrap();
+    assert!(sampled("cornell", &vtq, 2).every_cta_resident);
+    // With a ray budget of its CTA slots' rays (16 x 64), VTQ holds no more CTAs than they do.
+    let mut tight = common::small_vtq(4, 128, &["hw.max_rays=1024"]);
+    tight.sample.apply_spec("1/4x2").unwrap();
+    assert!(!sampled("cornell", &tight, 2).every_cta_resident);
+}

@@ -771,10 +771,11 @@ impl<D: NodeDatapath> RtUnit<D> {
             .lanes
             .iter_mut()
             .map(|lane| {
-                crate::warp_repacking::releases(lane).then(|| {
-                    lane.status = LaneStatus::Inactive;
-                    (std::mem::take(&mut lane.ray), RayOutcome::Finished)
-                })
+                crate::warp_repacking::releases(lane.status == LaneStatus::Done, lane.quiescent())
+                    .then(|| {
+                        lane.status = LaneStatus::Inactive;
+                        (std::mem::take(&mut lane.ray), RayOutcome::Finished)
+                    })
             })
             .collect();
         c.masks[s as usize] = LaneMasks::of(&slot.lanes);

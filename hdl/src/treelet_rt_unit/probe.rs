@@ -2,8 +2,7 @@
 //! a cycle of the fast path, kept out of its code (cold, never inlined), so the fast path costs
 //! nothing extra when nobody probes.
 
-use super::wiring::glue_signals;
-use super::{GlueRegs, TreeletRtUnit};
+use super::TreeletRtUnit;
 use crate::block::{Block, Signal};
 use crate::controller::{ControllerInputs, ControllerOutputs, ControllerRegs};
 use crate::count_table::{CountTableIn, CountTableOut, CountTableRegs};
@@ -26,7 +25,8 @@ pub struct ProbeCycle {
 }
 
 /// The probe's registers at the start of a cycle: the children's (`rt`, `ctl`, `ct`, `qt`) and
-/// the wiring's (kept out of the fast path's code).
+/// the wiring's, `glue`, as the wiring describes them (kept out of the fast path's code; the
+/// probe knows nothing of the wiring's registers).
 #[cold]
 #[inline(never)]
 pub(super) fn start_regs<D: NodeDatapath>(
@@ -37,14 +37,14 @@ pub(super) fn start_regs<D: NodeDatapath>(
         &CountTableRegs,
         &QueueTableRegs,
     ),
-    g: &GlueRegs,
+    glue: Vec<Signal>,
 ) -> [Vec<Signal>; 5] {
     [
         u.rt.reg_signals(rt),
         u.ctl.reg_signals(ctl),
         u.ct.reg_signals(ct),
         u.qt.reg_signals(qt),
-        glue_signals(g),
+        glue,
     ]
 }
 

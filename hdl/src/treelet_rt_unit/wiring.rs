@@ -975,7 +975,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     // The probe's registers, as they are at the start of the cycle.
     let probe_regs = cache
         .probe
-        .then(|| probe::start_regs(u, (rt, ctl, ct, qt), g));
+        .then(|| probe::start_regs(u, (rt, ctl, ct, qt), glue_signals(g)));
     place_records(g, &inputs.ray_records);
     let offering = inputs.sm_warp.is_some();
     // The RT unit's status ports: computed by the dry run at the end of the last step unless

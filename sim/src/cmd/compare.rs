@@ -559,6 +559,19 @@ fn compare_sampled(
          speedup = {} cycles / design cycles, paired per replicate",
         designs[reference].label
     );
+    let striped: Vec<&str> = designs
+        .iter()
+        .zip(&results)
+        .filter(|(_, (r, _))| r.as_ref().is_ok_and(|e| e.every_cta_resident))
+        .map(|(d, _)| d.label.as_str())
+        .collect();
+    if !striped.is_empty() {
+        println!(
+            "caution ({}): {}",
+            striped.join(", "),
+            crate::sample::STRIPE_CAUTION
+        );
+    }
     if let Some(path) = &args.json {
         let doc = serde_json::json!({
             "scene": scene.name,

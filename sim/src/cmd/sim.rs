@@ -218,6 +218,9 @@ fn run_sampled(
         s.profile_seconds + s.sim_seconds,
         s.profile_seconds
     );
+    if s.every_cta_resident {
+        println!("caution: {}", crate::sample::STRIPE_CAUTION);
+    }
     println!("wrote {}", args.out.display());
     Ok(())
 }

@@ -21,3 +21,11 @@ pub use crate::config::SampleConfig;
 pub use estimate::Estimate;
 pub use profile::Profile;
 pub use run::{paired_speedup, simulate_sampled, SampledStats};
+
+/// What `vtq sim --sample` and `vtq compare --sample` print when
+/// [`SampledStats::every_cta_resident`] holds.
+pub const STRIPE_CAUTION: &str = "every CTA is resident on its SM at once in this \
+     design and frame, so each SM runs a fixed stripe of CTAs and the run ends with the slowest \
+     stripe, which a CTA sample does not see: the 95% interval covers sampling noise only and \
+     may miss full detail by much more (docs/accuracy.md; check one scene against full detail, \
+     or simulate a larger frame)";

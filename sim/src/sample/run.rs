@@ -54,6 +54,12 @@ pub struct SampledStats {
     pub replicates: u32,
     /// Seed of the samples.
     pub seed: u64,
+    /// Whether every CTA of the frame is resident on its SM at once in this design (its SMs'
+    /// resident CTAs, [`resident_ctas`], cover the frame): each SM then runs a fixed stripe of
+    /// CTAs, the run ends with the slowest stripe, and a stratified sample, which mixes the
+    /// stripes, cannot see which one that is. The intervals cover the sampling noise only and
+    /// have missed full detail most often in this case (docs/accuracy.md).
+    pub every_cta_resident: bool,
     /// Rays of the whole frame (exact, from the functional profile).
     pub rays: u64,
     /// Cycles of the whole frame.
@@ -187,6 +193,7 @@ fn combine(
         scale_sms: cfg.sample.scale_sms(cfg.gpu.sms).unwrap_or(1),
         replicates: cfg.sample.replicates,
         seed: cfg.sample.seed,
+        every_cta_resident: resident_ctas(cfg) * cfg.gpu.sms as usize >= profile.ctas.len(),
         rays: profile.work(None).rays,
         cycles: each(&|r| r.cycles),
         bvh_l1_miss_rate: each(&|r| r.stats.bvh_l1_miss_rate),
