@@ -48,6 +48,19 @@ pub fn should_repack(
         && rays_waiting
 }
 
+/// Whether a repack is withheld for want of rays: everything [`should_repack`] asks but rays
+/// to refill with — the controller is in the final ray-stationary phase with repacking enabled
+/// and reports a warp with fewer than `repack_threshold` active rays (at least one), but the
+/// queues and the spare buffer are empty (the pool has drained, as at the end of each bounce).
+pub fn withheld_for_want_of_rays(
+    mode: Mode,
+    active_rays: u32,
+    repack_threshold: u32,
+    rays_waiting: bool,
+) -> bool {
+    !rays_waiting && should_repack(mode, active_rays, repack_threshold, true)
+}
+
 /// Idle lanes of a warp with `active_rays` active rays: how many rays a repack asks for.
 pub fn lanes_to_refill(active_rays: u32, warp_size: u32) -> u32 {
     warp_size.saturating_sub(active_rays)
@@ -65,6 +78,21 @@ mod tests {
     use super::*;
 
     const FRS: Mode = Mode::FinalRayStationary;
+
+    #[test]
+    fn a_repack_is_withheld_only_for_want_of_rays() {
+        assert!(withheld_for_want_of_rays(FRS, 5, 22, false));
+        assert!(!withheld_for_want_of_rays(FRS, 5, 22, true)); // it repacks
+        assert!(!withheld_for_want_of_rays(FRS, 22, 22, false)); // not below the threshold
+        assert!(!withheld_for_want_of_rays(FRS, 0, 22, false)); // an empty warp completes
+        assert!(!withheld_for_want_of_rays(FRS, 5, 0, false)); // repacking off
+        assert!(!withheld_for_want_of_rays(
+            Mode::TreeletStationary,
+            5,
+            22,
+            false
+        ));
+    }
 
     #[test]
     fn threshold_22_repacks_21_not_22() {

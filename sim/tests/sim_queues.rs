@@ -225,3 +225,23 @@ fn a_wider_warp_buffer_traces_every_ray_exactly() {
     let (skip, _) = check_skip_matches_lockstep(&cfg(NAIVE, 1, 24, &["hw.warp_buffer_size=2"]));
     check_queue_stats(&skip);
 }
+
+/// Cycles in which a repack waits for rays (`queues.repack_starved_cycles`: a warp below the
+/// threshold in the final phase, the queues and spare buffer empty) are counted in skipped idle
+/// cycles as in stepped ones, and never without repacking or without a final phase.
+#[test]
+fn repacks_withheld_for_want_of_rays_count_in_skipped_cycles_too() {
+    let (skip, lock) = check_skip_matches_lockstep(&cfg(VTQ, 2, 24, &[]));
+    let starved = skip.stats.queues.repack_starved_cycles;
+    assert!(starved > 0, "no repack waited for rays");
+    assert_eq!(starved, lock.stats.queues.repack_starved_cycles);
+    // Not more cycles than the SMs spent in the final phase (`phases` cycles are per SM).
+    assert!(starved <= 2 * skip.stats.phases.ray_stationary.cycles);
+    for off in [
+        cfg(VTQ, 2, 24, &["hw.repack_threshold=0"]),
+        cfg(NAIVE, 2, 24, &[]),
+    ] {
+        let (out, _) = check_skip_matches_lockstep(&off);
+        assert_eq!(out.stats.queues.repack_starved_cycles, 0);
+    }
+}

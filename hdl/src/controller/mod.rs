@@ -292,6 +292,10 @@ pub struct ControllerStats {
     pub grouped_warps: u64,
     /// Warps repacked.
     pub repacks: u64,
+    /// Cycles in which a repack was withheld for want of rays
+    /// ([`crate::warp_repacking::withheld_for_want_of_rays`]): a warp below the repack threshold
+    /// waited while the queues and the spare buffer were empty.
+    pub repack_starved_cycles: u64,
     /// Count-table evictions seen.
     pub evictions: u64,
 }
@@ -328,6 +332,7 @@ impl ControllerStats {
         self.treelet_warps += c.treelet_warps;
         self.grouped_warps += c.grouped_warps;
         self.repacks += c.repacks;
+        self.repack_starved_cycles += c.repack_starved_cycles;
         self.evictions += c.evictions;
     }
 
@@ -391,6 +396,26 @@ impl TreeletController {
         } else {
             regs.mode
         }
+    }
+
+    /// Whether the queues or the spare buffer hold rays (registers only).
+    pub fn rays_waiting(&self, regs: &ControllerRegs) -> bool {
+        regs.queued_rays > 0 || regs.spare_count > 0
+    }
+
+    /// Whether, in a cycle starting with registers `regs` and inputs `inputs`, a repack is
+    /// withheld for want of rays ([`crate::warp_repacking::withheld_for_want_of_rays`], on the
+    /// active-lane report): what [`ControllerStats::repack_starved_cycles`] counts. A function of
+    /// registers and inputs, like an output, kept off the ports (nothing in the hardware reads it).
+    pub fn repack_withheld(&self, regs: &ControllerRegs, inputs: &ControllerInputs) -> bool {
+        inputs.active_report.is_some_and(|r| {
+            crate::warp_repacking::withheld_for_want_of_rays(
+                regs.mode,
+                r.active,
+                self.cfg.repack_threshold,
+                self.rays_waiting(regs),
+            )
+        })
     }
 
     /// A one-line summary of the registers, for a watchdog's dump.

@@ -50,7 +50,7 @@ impl TreeletController {
         let free_slot = inputs.wb_free_slot.filter(|&s| s < self.widths.warp_slots);
         let ts = regs.mode == Mode::TreeletStationary;
         let frs = regs.mode == Mode::FinalRayStationary;
-        let rays_waiting = regs.queued_rays > 0 || regs.spare_count > 0;
+        let rays_waiting = self.rays_waiting(regs);
 
         // 1. Bring a spilled ray back while the table has room, so pops find every ray.
         if inputs.qt.ready && inputs.qt.spilled > 0 && inputs.qt.free_entries > 0 {

@@ -372,6 +372,11 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             n <= self.idle_cycles(regs, cache),
             "skip beyond the idle cycles"
         );
+        // Registers hold through the skipped cycles but for delays that end only at its end, so
+        // the first cycle's repack verdict is every skipped cycle's.
+        if self.repack_withheld_at(regs, cache) {
+            counts.ctl.repack_starved_cycles += n;
+        }
         cache.dry_valid = false;
         cache.probed = None;
         if cache.tables.is_some() {
@@ -409,6 +414,44 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         cache.awake |= delay_ends || (scanning && !self.ct.busy(&regs.ct));
         counts.ctl.count_cycles(self.ctl.mode(&regs.ctl, false), n);
         counts
+    }
+
+    /// Whether a cycle starting with `regs` withholds a repack for want of rays
+    /// ([`TreeletController::repack_withheld`] on the inputs the wiring would give it); for
+    /// idle cycles, whose controller is not evaluated. Cheap unless the controller is in the
+    /// final ray-stationary phase with an empty pool.
+    fn repack_withheld_at(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> bool {
+        let mode = self.ctl.mode(&regs.ctl, false);
+        if mode != crate::mode::Mode::FinalRayStationary
+            || self.ctl.rays_waiting(&regs.ctl)
+            || !crate::warp_repacking::repack_enabled(self.ctl.config().repack_threshold)
+        {
+            return false;
+        }
+        // The last dry run's inputs, computed from these registers, hold the report (it does
+        // not depend on whether the SM offers a warp).
+        if let Some(dry) = cache.dry.as_deref().filter(|_| cache.dry_valid) {
+            let withheld = self.ctl.repack_withheld(&regs.ctl, dry);
+            debug_assert_eq!(withheld, {
+                let status = self.rt.status(&regs.rt, &cache.rt, false);
+                let peeks = wiring::Peeks::new(self, &status, &regs.ctl, &regs.ct, &regs.qt);
+                let mut inputs = self.ctl.idle_inputs();
+                inputs.active_report = wiring::active_report(&regs.glue, &peeks, mode);
+                self.ctl.repack_withheld(&regs.ctl, &inputs)
+            });
+            return withheld;
+        }
+        let fresh;
+        let status = if cache.rt_status_current.is_some() {
+            &cache.rt_status
+        } else {
+            fresh = self.rt.status(&regs.rt, &cache.rt, false);
+            &fresh
+        };
+        let peeks = wiring::Peeks::new(self, status, &regs.ctl, &regs.ct, &regs.qt);
+        let mut inputs = self.ctl.idle_inputs();
+        inputs.active_report = wiring::active_report(&regs.glue, &peeks, mode);
+        self.ctl.repack_withheld(&regs.ctl, &inputs)
     }
 
     /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same

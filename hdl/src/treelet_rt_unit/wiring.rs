@@ -446,6 +446,7 @@ pub(super) fn kernel<D: NodeDatapath>(
     let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
     out.counts.restarts += u64::from(restart);
     out.counts.ctl.observe(&ctl_in, &q.0);
+    out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(&regs.ctl, &ctl_in));
     let mut rt_in = u.rt.idle_inputs();
     let (ct_in, qt_in) = children_inputs(
         u,
@@ -607,6 +608,39 @@ fn controller_inputs<D: NodeDatapath>(
     (inp, restart)
 }
 
+/// The controller's active-lane report in mode `mode`: in the final ray-stationary phase, the
+/// warp with the fewest lanes a repack cannot release (`status_busy`) among those that neither
+/// complete this cycle, are held, are being built nor stop at treelet boundaries.
+pub(super) fn active_report(g: &GlueRegs, p: &Peeks, mode: Mode) -> Option<ActiveReport> {
+    if mode != Mode::FinalRayStationary {
+        return None;
+    }
+    let mut best: Option<ActiveReport> = None;
+    for s in 0..g.uses.len() {
+        let Some(view) = p.rt.slot(s) else {
+            continue;
+        };
+        let sum = &view.summary;
+        // A warp that completes this cycle (quiescent, not held), one held by a repack, one
+        // being built or one stopping at treelet boundaries is not reported.
+        if sum.quiescent
+            || view.held
+            || g.builds[s].is_some()
+            || view.order == TraversalOrder::TreeletStop
+        {
+            continue;
+        }
+        let r = ActiveReport {
+            slot: s as u32,
+            active: sum.busy,
+        };
+        if best.is_none_or(|b| r.active < b.active) {
+            best = Some(r);
+        }
+    }
+    best
+}
+
 /// [`controller_inputs`] written into `inp` (every field but the widths, so its old contents do
 /// not matter if it came from this controller's `idle_inputs`):
 /// the fast path keeps one bundle and fills it in place. Returns whether the controller
@@ -623,7 +657,6 @@ fn controller_inputs_into(
     inp.rt_idle = p.rt.is_empty() && g.builds.iter().all(Option::is_none) && g.events.is_empty();
     inp.wb_free_slot = free_slot(g, p.rt, None);
     let mut best_init: Option<InitReport> = None;
-    let mut best_active: Option<ActiveReport> = None;
     for (s, use_) in g.uses.iter().enumerate() {
         let slot = s as u32;
         let Some(view) = p.rt.slot(s) else {
@@ -651,22 +684,9 @@ fn controller_inputs_into(
                 best_init = Some(r);
             }
         }
-        if mode == Mode::FinalRayStationary
-            && !view.held
-            && g.builds[s].is_none()
-            && view.order != TraversalOrder::TreeletStop
-        {
-            let r = ActiveReport {
-                slot,
-                active: sum.busy,
-            };
-            if best_active.is_none_or(|b| r.active < b.active) {
-                best_active = Some(r);
-            }
-        }
     }
     inp.init_report = best_init;
-    inp.active_report = best_active;
+    inp.active_report = active_report(g, p, mode);
     inp.warp_done = None;
     inp.enqueue = None;
     match g.events.front() {
@@ -1014,6 +1034,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     let ctl_in: &ControllerInputs = ctl_in;
     let mode = if restart { Mode::Initial } else { peeks.mode };
     let idle = reused && cache.idle && !(offering && admitting(u, mode));
+    out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(ctl, ctl_in));
     let ctl_out = if idle {
         debug_assert!(
             {

@@ -164,6 +164,10 @@ pub struct QueueTotals {
     pub grouped_warps: u64,
     /// Warps repacked.
     pub repacks: u64,
+    /// Cycles (summed over the SMs) in which a repack was withheld for want of rays: in the final
+    /// ray-stationary phase a warp was below `hw.repack_threshold` while the queues and the
+    /// spare buffer were empty (the pool drained, as at the end of each bounce).
+    pub repack_starved_cycles: u64,
     /// Spilled rays brought back into the queue table.
     pub refills: u64,
     /// 32 B ray-record loads for treelet, grouped and repacked warps.
@@ -191,6 +195,7 @@ impl QueueTotals {
         self.treelet_warps += ctl.treelet_warps;
         self.grouped_warps += ctl.grouped_warps;
         self.repacks += ctl.repacks;
+        self.repack_starved_cycles += ctl.repack_starved_cycles;
         self.refills += q.refills;
         self.ray_loads += q.ray_loads;
         self.ray_stores += q.ray_stores;

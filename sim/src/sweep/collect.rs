@@ -19,7 +19,7 @@ pub const MISSING: &str = "missing";
 
 /// Headline statistics read directly from the statistics JSON: (column, JSON pointer). A test
 /// (`sim/tests/stats_docs.rs`) checks that every pointer reads a statistic `vtq sim` writes.
-pub const DIRECT: [(&str, &str); 33] = [
+pub const DIRECT: [(&str, &str); 34] = [
     ("cycles", "/cycles"),
     ("rays", "/rays"),
     ("rays_hit", "/rays_hit"),
@@ -53,6 +53,7 @@ pub const DIRECT: [(&str, &str); 33] = [
     ("treelet_warps", "/queues/treelet_warps"),
     ("grouped_warps", "/queues/grouped_warps"),
     ("repacks", "/queues/repacks"),
+    ("repack_starved_cycles", "/queues/repack_starved_cycles"),
     ("stack_spills", "/rt/stack_spills"),
     ("ray_stack_accesses", "/memory/ray_stack/l1_bypasses"),
     ("bvh_bytes", "/bvh/bvh_bytes"),
