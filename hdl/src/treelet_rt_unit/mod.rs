@@ -428,30 +428,24 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         {
             return false;
         }
-        // The last dry run's inputs, computed from these registers, hold the report (it does
-        // not depend on whether the SM offers a warp).
-        if let Some(dry) = cache.dry.as_deref().filter(|_| cache.dry_valid) {
-            let withheld = self.ctl.repack_withheld(&regs.ctl, dry);
-            debug_assert_eq!(withheld, {
-                let status = self.rt.status(&regs.rt, &cache.rt, false);
-                let peeks = wiring::Peeks::new(self, &status, &regs.ctl, &regs.ct, &regs.qt);
-                let mut inputs = self.ctl.idle_inputs();
-                inputs.active_report = wiring::active_report(&regs.glue, &peeks, mode);
-                self.ctl.repack_withheld(&regs.ctl, &inputs)
-            });
-            return withheld;
-        }
-        let fresh;
-        let status = if cache.rt_status_current.is_some() {
-            &cache.rt_status
-        } else {
-            fresh = self.rt.status(&regs.rt, &cache.rt, false);
-            &fresh
+        // The report the wiring would give the controller, from the RT unit's status ports.
+        let evaluated = || {
+            let status = self.rt.status(&regs.rt, &cache.rt, false);
+            let peeks = wiring::Peeks::new(self, &status, &regs.ctl, &regs.ct, &regs.qt);
+            let mut inputs = self.ctl.idle_inputs();
+            inputs.active_report = wiring::active_report(&regs.glue, &peeks, mode);
+            self.ctl.repack_withheld(&regs.ctl, &inputs)
         };
-        let peeks = wiring::Peeks::new(self, status, &regs.ctl, &regs.ct, &regs.qt);
-        let mut inputs = self.ctl.idle_inputs();
-        inputs.active_report = wiring::active_report(&regs.glue, &peeks, mode);
-        self.ctl.repack_withheld(&regs.ctl, &inputs)
+        // The last dry run's inputs, computed from these registers, hold the same report (it
+        // does not depend on whether the SM offers a warp), without evaluating the status.
+        match cache.dry.as_deref().filter(|_| cache.dry_valid) {
+            Some(dry) => {
+                let withheld = self.ctl.repack_withheld(&regs.ctl, dry);
+                debug_assert_eq!(withheld, evaluated(), "the dry run's report is stale");
+                withheld
+            }
+            None => evaluated(),
+        }
     }
 
     /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
