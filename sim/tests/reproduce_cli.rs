@@ -135,6 +135,14 @@ fn reproduce_writes_every_figure_and_resumes() {
     assert_eq!(lines.len(), 4, "{csv}");
     assert!(lines[1].starts_with("wknd,") && lines[3].starts_with("geo. mean,"));
     assert!(!csv.contains(",-"), "a missing value: {csv}");
+    // Figure 13's table gives, beside the SIMT columns, how often the repack pool was empty.
+    let fig13 = std::fs::read_to_string(out.join("tables/fig13.csv")).unwrap();
+    let header = fig13.lines().next().unwrap();
+    assert!(
+        header.contains("pool empty: repack below 16")
+            && header.contains("pool empty: repack below 22 (VTQ)"),
+        "{fig13}"
+    );
 
     // A second run draws from the store and runs nothing; the page is the same.
     let again = reproduce(&dir, &out, &[]);

@@ -576,6 +576,29 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     for (row, extra) in table.rows.iter_mut().zip(&per_warp_table.rows) {
         row.extend(extra[1..].iter().cloned());
     }
+    // How much of the final phase a warp below the threshold waited with no ray to refill it
+    // (docs/fidelity.md, "Repacks withheld for want of rays").
+    let starved: Vec<BarSeries> = designs[1..]
+        .iter()
+        .map(|&(name, cfg)| BarSeries {
+            name: name.to_string(),
+            values: with_mean(
+                &scenes,
+                scenes
+                    .iter()
+                    .map(|s| starved_share(&r.stats(s, cfg, &[])?))
+                    .collect(),
+                m,
+            ),
+        })
+        .collect();
+    let starved_table = series_table("scene", &cats_m, &starved, |v| cell(v, 3));
+    for h in &starved_table.header[1..] {
+        table.header.push(format!("pool empty: {h}"));
+    }
+    for (row, extra) in table.rows.iter_mut().zip(&starved_table.rows) {
+        row.extend(extra[1..].iter().cloned());
+    }
     Ok(Figure {
         id: "fig13".into(),
         title: "Figure 13: warp repacking".into(),
@@ -584,11 +607,24 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   active rays (speedups: geometric means; SIMT: arithmetic). The paper: 0.95x, \
                   1.84x, 1.95x; SIMT 0.37 (baseline), 0.33 without repacking, 0.82 at 22. The \
                   table also gives SIMT efficiency averaged per RT-unit warp, as the paper's \
-                  simulator lineage averages it (docs/fidelity.md)."
+                  simulator lineage averages it, and the share of the final ray-stationary \
+                  phase in which a warp below the threshold waited with the queues empty \
+                  (`queues.repack_starved_cycles` per SM over the phase's cycles; \
+                  docs/fidelity.md)."
             .into(),
         images: vec![a, b],
         table,
     })
+}
+
+/// The share of the final ray-stationary phase in which a repack was withheld for want of rays:
+/// `queues.repack_starved_cycles` (summed over the SMs) per SM over the phase's cycles (averaged
+/// over the SMs); `None` without a final phase.
+fn starved_share(stats: &Json) -> Option<f64> {
+    let sms = stats.pointer("/sm_finish_cycles")?.as_array()?.len() as f64;
+    let phase = num(stats, "/phases/ray_stationary/cycles")?;
+    let starved = num(stats, "/queues/repack_starved_cycles")?;
+    (phase > 0.0 && sms > 0.0).then(|| starved / sms / phase)
 }
 
 /// The three phases' shares of `field` (`cycles` or `intersection_tests`) in VTQ, per scene.
