@@ -141,6 +141,18 @@ pub(super) fn paper(name: &str, value: f64) -> Reference {
     }
 }
 
+/// Appends `series` to `table` as columns named `prefix: <series>` (three decimals), one row
+/// per category of `cats` (the table's rows, in the same order).
+fn append_columns(table: &mut Table, prefix: &str, cats: &[String], series: &[BarSeries]) {
+    let extra = series_table("scene", cats, series, |v| cell(v, 3));
+    for h in &extra.header[1..] {
+        table.header.push(format!("{prefix}: {h}"));
+    }
+    for (row, more) in table.rows.iter_mut().zip(&extra.rows) {
+        row.extend(more[1..].iter().cloned());
+    }
+}
+
 /// A table with one row per category and one column per series.
 fn series_table(
     first: &str,
@@ -549,13 +561,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             y_range: Some(RATE),
         },
     )?;
-    let simt_table = series_table("scene", &cats_m, &simt, |v| cell(v, 3));
-    for h in &simt_table.header[1..] {
-        table.header.push(format!("SIMT: {h}"));
-    }
-    for (row, extra) in table.rows.iter_mut().zip(&simt_table.rows) {
-        row.extend(extra[1..].iter().cloned());
-    }
+    append_columns(&mut table, "SIMT", &cats_m, &simt);
     // Beside vtq's per-cycle measure, the per-warp mean the paper's simulator lineage reports
     // (docs/fidelity.md, "SIMT efficiency averaged per warp").
     let per_warp: Vec<BarSeries> = std::iter::once(("baseline", BASELINE))
@@ -569,13 +575,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             ),
         })
         .collect();
-    let per_warp_table = series_table("scene", &cats_m, &per_warp, |v| cell(v, 3));
-    for h in &per_warp_table.header[1..] {
-        table.header.push(format!("SIMT per warp: {h}"));
-    }
-    for (row, extra) in table.rows.iter_mut().zip(&per_warp_table.rows) {
-        row.extend(extra[1..].iter().cloned());
-    }
+    append_columns(&mut table, "SIMT per warp", &cats_m, &per_warp);
     // How much of the final phase a warp below the threshold waited with no ray to refill it
     // (docs/fidelity.md, "Repacks withheld for want of rays").
     let starved: Vec<BarSeries> = designs[1..]
@@ -592,13 +592,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             ),
         })
         .collect();
-    let starved_table = series_table("scene", &cats_m, &starved, |v| cell(v, 3));
-    for h in &starved_table.header[1..] {
-        table.header.push(format!("pool empty: {h}"));
-    }
-    for (row, extra) in table.rows.iter_mut().zip(&starved_table.rows) {
-        row.extend(extra[1..].iter().cloned());
-    }
+    append_columns(&mut table, "pool empty", &cats_m, &starved);
     Ok(Figure {
         id: "fig13".into(),
         title: "Figure 13: warp repacking".into(),
