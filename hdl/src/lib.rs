@@ -10,6 +10,7 @@ pub mod bounded;
 pub mod bundle;
 pub mod compose;
 pub mod config;
+pub mod counters;
 pub mod describe;
 
 pub use bits::{bits_for, clog2, UBits, WidthError};

@@ -275,12 +275,12 @@ fn single_ray_three_node_path_completes_on_the_derived_cycle() {
     assert_eq!(&store.data[4..8], &0x300u32.to_le_bytes());
     assert_eq!(&store.data[16..20], &7u32.to_le_bytes());
     let st = &sim.stats;
-    assert_eq!(st.requests, 5);
+    assert_eq!(st.load_requests, 5);
     assert_eq!(st.stores, 1);
     assert_eq!(st.tests[NodeKind::Internal.code() as usize], 2);
     assert_eq!(st.tests[NodeKind::TriangleLeaf.code() as usize], 1);
-    assert_eq!(st.hits, 1);
-    assert_eq!(st.warps_done, 1);
+    assert_eq!(st.triangle_hits, 1);
+    assert_eq!(st.warps, 1);
 }
 
 #[test]
@@ -398,7 +398,7 @@ fn scheduler_priority_chunks_then_stores_then_oldest_warp() {
     assert_eq!(lanes[1].in_flight.unwrap().leader, 0);
     assert_eq!(lanes[1].in_flight.unwrap().node, r1);
     assert_eq!(stats.merged, 1);
-    assert_eq!(stats.requests, 5);
+    assert_eq!(stats.load_requests, 5);
     assert_eq!(stats.stores, 2);
 }
 
@@ -664,7 +664,7 @@ fn response_fifo_loses_nothing_when_it_fills() {
         assert_eq!(rec.hit.unwrap().hit_id, 0x800 + 0x40 * i as u32);
     }
     assert_eq!(sim.stats.tests[NodeKind::Internal.code() as usize], 4);
-    assert_eq!(sim.stats.hits, 4);
+    assert_eq!(sim.stats.triangle_hits, 4);
     assert_eq!(sim.stats.stores, 4);
 }
 
@@ -1122,7 +1122,7 @@ fn ties_in_t_go_to_the_smaller_hit_id() {
     let (rec, _) = sim.done[0].1.lanes[0].as_ref().unwrap();
     assert_eq!(rec.hit.unwrap().hit_id, 0x200);
     // Hits 0x300 then 0x200 were stored; 0x280 ties with a larger id and is dropped.
-    assert_eq!(sim.stats.hits, 2);
+    assert_eq!(sim.stats.triangle_hits, 2);
     assert_eq!(sim.stats.stores, 2);
 }
 

@@ -1,28 +1,23 @@
-//! vtq's simulator crate: scenes, the hardware BVH layout and treelets, robust traversal, the
-//! path-traced workload, the `vtq` command line, and the fuzzing of its parsers.
+//! vtq's simulator crate, in four layers, each a folder that imports only from the layers
+//! listed before it:
+//!
+//! - [`model`]: the simulator core — scenes, the hardware BVH and its treelets, robust
+//!   traversal, the path-traced workload, the configuration and the design registry, the
+//!   memory system and the cycle-exact GPU that steps the hardware blocks of `vtq-hdl`;
+//! - [`estimate`]: the estimate tiers built on the model — the sampled tier and the paper's
+//!   Figure 5 analytical model;
+//! - [`experiment`]: experiment tooling — sweeps and their result store, `vtq reproduce`'s
+//!   figures and tables, the accuracy benchmark, and charts;
+//! - [`cli`]: the `vtq` command line, its output files and ray CSVs, and the fuzzing of the
+//!   parsers of user input.
 
-pub mod accuracy;
-pub mod atomic_file;
-pub mod bvh;
-pub mod cmd;
-pub mod config;
-pub mod designs;
-pub mod figure5;
-pub mod fuzz;
-pub mod geometry;
-pub mod gpu;
-pub mod intersect;
-pub mod memory;
-pub mod output;
-pub mod plot;
-pub mod rays_csv;
-pub mod reproduce;
-pub mod sample;
-pub mod scene;
-pub use vtq_hdl::splitmix;
-pub mod sweep;
-pub mod traversal;
-pub mod workload;
+pub mod model;
 
-pub use geometry::{Hit, Ray};
-pub use scene::{Camera, Material, Scene, SceneError, Sphere};
+pub mod estimate;
+
+pub mod experiment;
+
+pub mod cli;
+
+pub use model::geometry::{Hit, Ray};
+pub use model::scene::{Camera, Material, Scene, SceneError, Sphere};

@@ -6,7 +6,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use vtq_sim::cmd::{
+use vtq_sim::cli::cmd::{
     accuracy, area, bench, compare, cosim, figure5, fuzz, render, reproduce, scenes, sim, sweep,
     trace, verilog,
 };

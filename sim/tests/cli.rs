@@ -7,11 +7,11 @@ use std::process::{Command, Output};
 use glam::Vec3;
 use vtq_gen::synth::lint;
 use vtq_gen::tools::{or_skip, CI_ENV};
-use vtq_sim::bvh::{BvhParams, HwBvh};
-use vtq_sim::geometry::Ray;
-use vtq_sim::rays_csv::write_rays;
-use vtq_sim::scene::load::load_scene;
-use vtq_sim::traversal::{trace, Order};
+use vtq_sim::cli::rays_csv::write_rays;
+use vtq_sim::model::bvh::{BvhParams, HwBvh};
+use vtq_sim::model::geometry::Ray;
+use vtq_sim::model::scene::load::load_scene;
+use vtq_sim::model::traversal::{trace, Order};
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
@@ -155,7 +155,7 @@ fn render_writes_a_png_of_the_requested_size() {
         "--no-cache",
     ]);
     assert!(out.status.success());
-    let rays = vtq_sim::rays_csv::read_rays(&rays_path).unwrap();
+    let rays = vtq_sim::cli::rays_csv::read_rays(&rays_path).unwrap();
     assert!(
         rays.len() >= 30 && rays.len() <= 30 * 4,
         "{} rays",

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use serde_json::Value;
-use vtq_sim::gpu::HOST_DEPENDENT_KEYS;
+use vtq_sim::model::gpu::HOST_DEPENDENT_KEYS;
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {

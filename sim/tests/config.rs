@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use vtq_sim::config::{ConfigError, ModeKind, SimConfig, TreeletPrefetch};
+use vtq_sim::model::config::{ConfigError, ModeKind, SimConfig, TreeletPrefetch};
 
 /// The workspace's `configs/` folder.
 fn configs_dir() -> PathBuf {

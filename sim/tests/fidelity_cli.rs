@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use vtq_sim::sweep::SweepSpec;
+use vtq_sim::experiment::sweep::SweepSpec;
 
 /// The workspace root (configs/ lives there).
 fn workspace_root() -> PathBuf {

@@ -8,9 +8,9 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Duration;
 
-use vtq_sim::fuzz::mutate::Rng;
-use vtq_sim::fuzz::targets::{run, Outcome};
-use vtq_sim::fuzz::{fuzz_parser, fuzz_target, seeds, FuzzOptions, Parser};
+use vtq_sim::cli::fuzz::mutate::Rng;
+use vtq_sim::cli::fuzz::targets::{run, Outcome};
+use vtq_sim::cli::fuzz::{fuzz_parser, fuzz_target, seeds, FuzzOptions, Parser};
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {

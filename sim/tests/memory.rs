@@ -3,12 +3,12 @@
 
 use std::collections::VecDeque;
 
-use vtq_sim::memory::l1::RETRY_BASE;
-use vtq_sim::memory::{
+use vtq_sim::model::memory::l1::RETRY_BASE;
+use vtq_sim::model::memory::{
     Acceptance, AccessClass, AccessError, L1Port, MemConfig, MemConfigError, MemRequest, MemStats,
     MemorySystem, Response, SectorState, Source, StallReason,
 };
-use vtq_sim::splitmix::SplitMix64;
+use vtq_sim::model::splitmix::SplitMix64;
 
 const LINE: u64 = 128;
 
@@ -881,7 +881,7 @@ fn skipping_to_next_event_matches_stepping_every_cycle() {
         assert_eq!(accepted, delivered + s.prefetch.issued);
 
         // The stream exercised every mechanism.
-        let total = |f: fn(&vtq_sim::memory::ClassStats) -> u64| {
+        let total = |f: fn(&vtq_sim::model::memory::ClassStats) -> u64| {
             AccessClass::ALL.iter().map(|&c| f(s.class(c))).sum::<u64>()
         };
         assert!(

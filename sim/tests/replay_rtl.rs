@@ -11,7 +11,7 @@ use vtq_gen::rtl::{count_table_verilog, queue_table_verilog};
 use vtq_gen::tools::or_skip;
 use vtq_hdl::count_table::{CountOp, CountTable};
 use vtq_hdl::queue_table::{QueueOp, QueueTable};
-use vtq_sim::gpu::{simulate, SimOptions};
+use vtq_sim::model::gpu::{simulate, SimOptions};
 
 #[test]
 fn a_real_runs_table_traffic_matches_the_rtl() {

@@ -11,8 +11,9 @@ use common::{
 };
 use std::collections::BTreeMap;
 
-use vtq_sim::gpu::{simulate, SimError, SimOptions};
-use vtq_sim::traversal::{trace_with_fetches, Order};
+use vtq_hdl::rt_unit::NodeKind;
+use vtq_sim::model::gpu::{simulate, SimError, SimOptions};
+use vtq_sim::model::traversal::{trace_with_fetches, Order};
 
 /// Hits and image equal the functional tracer's; the RT units' requests and stores all
 /// reached the L1, and every 8x8 tile ran as one CTA.
@@ -76,7 +77,10 @@ fn hardware_order_visits_the_rt_units_nodes() {
                 *counts.entry(format!("{:?}", f.kind)).or_default() += 1;
             }
         }
-        let simulated = |k: &str| out.stats.rt.tests.get(k).copied().unwrap_or(0);
+        let simulated = |k: &str| {
+            let kind = NodeKind::ALL.into_iter().find(|n| n.name() == k);
+            out.stats.rt.tests_of(kind.expect("a node kind"))
+        };
         assert_eq!(
             counts.get("Header").copied().unwrap_or(0),
             simulated("header"),

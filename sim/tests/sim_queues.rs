@@ -9,7 +9,7 @@ mod common;
 use common::{
     check_against_functional, check_deterministic, check_skip_matches_lockstep, small_config,
 };
-use vtq_sim::gpu::SimOutput;
+use vtq_sim::model::gpu::SimOutput;
 
 /// The overrides of each variant (the configs/ files' switches).
 const NAIVE: &[&str] = &[
@@ -46,7 +46,7 @@ const NO_VIRT: &[&str] = &[
 
 /// A small queues-mode configuration: `variant` switches, treelet phase reachable (a low
 /// divergence and underpopulation threshold for the small images), then `extra`.
-fn cfg(variant: &[&str], sms: u32, side: u32, extra: &[&str]) -> vtq_sim::config::SimConfig {
+fn cfg(variant: &[&str], sms: u32, side: u32, extra: &[&str]) -> vtq_sim::model::config::SimConfig {
     let mut sets: Vec<&str> = variant.to_vec();
     sets.extend([
         "hw.divergence_threshold=2",
@@ -116,10 +116,10 @@ fn check_queue_stats(out: &SimOutput) {
     );
     // Every ray an SM issued stored its record once; every ray that entered a queue left it
     // again and had its record loaded once.
-    let q = &s.queues;
+    let q = &s.queues.counts;
     assert_eq!(q.ray_stores, s.rays_issued);
-    assert!(q.terminated_warps > 0 && q.enqueued_rays > 0);
-    assert_eq!(q.ray_loads, q.enqueued_rays);
+    assert!(q.ctl.terminated_warps > 0 && q.ctl.enqueued_rays > 0);
+    assert_eq!(q.ray_loads, q.ctl.enqueued_rays);
     assert_eq!(s.memory.ray_record.l1_bypasses, q.ray_loads + q.ray_stores);
     assert!(q.restarts >= 1);
 }
@@ -143,7 +143,7 @@ fn naive_grouping_and_repack_variants_trace_every_ray_exactly() {
         let out = check_against_functional("wknd", &cfg(variant, 1, 24, &[]));
         check_queue_stats(&out);
         let finals = out.stats.phases.ray_stationary.intersection_tests;
-        let q = &out.stats.queues;
+        let q = &out.stats.queues.counts.ctl;
         match name {
             "naive" => {
                 assert_eq!(finals, 0, "naive queues never group underpopulated queues");
@@ -212,7 +212,7 @@ fn vtq_with_treelet_prefetching_traces_every_ray_exactly() {
 #[test]
 fn runs_are_deterministic() {
     let out = check_deterministic(&cfg(VTQ, 4, 16, &["bounces=2"]));
-    assert!(out.stats.queues.enqueued_rays > 0);
+    assert!(out.stats.queues.counts.ctl.enqueued_rays > 0);
 }
 
 /// A warp buffer of several slots: SM warps, treelet warps, grouped and repacked warps share
@@ -232,9 +232,9 @@ fn a_wider_warp_buffer_traces_every_ray_exactly() {
 #[test]
 fn repacks_withheld_for_want_of_rays_count_in_skipped_cycles_too() {
     let (skip, lock) = check_skip_matches_lockstep(&cfg(VTQ, 2, 24, &[]));
-    let starved = skip.stats.queues.repack_starved_cycles;
+    let starved = skip.stats.queues.counts.ctl.repack_starved_cycles;
     assert!(starved > 0, "no repack waited for rays");
-    assert_eq!(starved, lock.stats.queues.repack_starved_cycles);
+    assert_eq!(starved, lock.stats.queues.counts.ctl.repack_starved_cycles);
     // Not more cycles than the SMs spent in the final phase (`phases` cycles are per SM).
     assert!(starved <= 2 * skip.stats.phases.ray_stationary.cycles);
     for off in [
@@ -242,6 +242,6 @@ fn repacks_withheld_for_want_of_rays_count_in_skipped_cycles_too() {
         cfg(NAIVE, 2, 24, &[]),
     ] {
         let (out, _) = check_skip_matches_lockstep(&off);
-        assert_eq!(out.stats.queues.repack_starved_cycles, 0);
+        assert_eq!(out.stats.queues.counts.ctl.repack_starved_cycles, 0);
     }
 }

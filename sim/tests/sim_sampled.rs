@@ -7,10 +7,10 @@ mod common;
 use std::process::Command;
 
 use common::{setup, small_config};
-use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::stats::comparable_json;
-use vtq_sim::gpu::{simulate, SimOptions};
-use vtq_sim::sample::{paired_speedup, simulate_sampled, Profile, SampledStats};
+use vtq_sim::estimate::sample::{paired_speedup, simulate_sampled, Profile, SampledStats};
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::stats::comparable_json;
+use vtq_sim::model::gpu::{simulate, SimOptions};
 
 /// A sampled configuration: `mode` on 4 SMs, 24x24, `spec` (FRACTIONxREPLICATES).
 fn sampled_config(mode: &str, spec: &str, extra: &[&str]) -> SimConfig {
@@ -28,7 +28,7 @@ fn comparable(s: &SampledStats) -> serde_json::Value {
     o.remove("sim_seconds");
     for r in o["replicate_runs"].as_array_mut().unwrap() {
         let stats = r["stats"].as_object_mut().unwrap();
-        for k in vtq_sim::gpu::HOST_DEPENDENT_KEYS {
+        for k in vtq_sim::model::gpu::HOST_DEPENDENT_KEYS {
             stats.remove(k);
         }
     }
@@ -91,7 +91,7 @@ fn skipping_equals_lockstep_in_sampled_runs() {
     let a = sampled("wknd", &cfg, 1);
     let b = sampled("wknd", &lock, 1);
     for (x, y) in a.replicate_runs.iter().zip(&b.replicate_runs) {
-        let strip = |s: &vtq_sim::gpu::SimStats| {
+        let strip = |s: &vtq_sim::model::gpu::SimStats| {
             let mut v = comparable_json(s);
             v.as_object_mut().unwrap().remove("config");
             v

@@ -10,9 +10,9 @@ use std::path::Path;
 
 use common::{check_scene_against_functional, check_scene_skip_matches_lockstep, run, strip};
 use glam::Vec3;
-use vtq_sim::bvh::HwBvh;
-use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::SimOutput;
+use vtq_sim::model::bvh::HwBvh;
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::SimOutput;
 use vtq_sim::{Material, Scene};
 
 /// Nested open boxes around the camera: shell `k` is a cube of half-size `1.35^k` (five faces
@@ -60,7 +60,7 @@ fn nested_shells(shells: u32) -> Scene {
                 emit: Vec3::splat(4.0),
             },
         ],
-        camera: vtq_sim::scene::Camera {
+        camera: vtq_sim::model::scene::Camera {
             eye: Vec3::new(0.1, 0.2, -0.3),
             look_at: Vec3::new(0.3, 0.1, 1.0),
             up: Vec3::Y,
@@ -191,9 +191,9 @@ fn a_ray_outgrowing_its_spill_area_is_named_in_words() {
             ],
         );
         let bvh = HwBvh::build(&scene, &cfg.bvh_params()).unwrap();
-        let err = vtq_sim::gpu::simulate(&scene, &bvh, &cfg, Default::default(), None);
+        let err = vtq_sim::model::gpu::simulate(&scene, &bvh, &cfg, Default::default(), None);
         match err {
-            Err(vtq_sim::gpu::SimError::Setup(msg)) => {
+            Err(vtq_sim::model::gpu::SimError::Setup(msg)) => {
                 assert!(msg.contains("hw.address_bits"), "{msg}");
                 continue;
             }

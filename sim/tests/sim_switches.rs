@@ -11,10 +11,10 @@ use common::{
     check_against_functional, check_deterministic, check_same_results, check_skip_matches_lockstep,
     run, setup, small_config, small_vtq,
 };
-use vtq_sim::bvh::TreeletFormation;
-use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::SimOutput;
-use vtq_sim::memory::AccessClass;
+use vtq_sim::model::bvh::TreeletFormation;
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::SimOutput;
+use vtq_sim::model::memory::AccessClass;
 
 /// The baseline with ray virtualization on one SM with two CTA slots and room for 16 CTAs'
 /// rays, a `side` x `side` image, then `extra`: CTAs wait for slots to resume.
@@ -176,7 +176,7 @@ fn queued_stack_traffic_adds_bytes_not_results() {
     assert!(st.l1_bypasses > 0, "no queued stack moved");
     assert_eq!((st.l1_loads, st.l1_stores), (0, 0), "stacks bypass the L1");
     assert_eq!(st.l2_accesses, st.l1_bypasses);
-    assert!(b.stats.queues.enqueued_rays > 0);
+    assert!(b.stats.queues.counts.ctl.enqueued_rays > 0);
     assert_eq!(
         st.l1_bypasses,
         b.stats.queues.stack_stores + b.stats.queues.stack_loads
@@ -201,7 +201,7 @@ fn queued_stack_stores_and_loads_balance() {
     let q = &out.stats.queues;
     assert!(q.stack_stores > 0);
     assert_eq!(q.stack_stores, q.stack_loads);
-    assert_eq!(q.ray_loads, q.enqueued_rays);
+    assert_eq!(q.counts.ray_loads, q.counts.ctl.enqueued_rays);
 }
 
 /// Packed treelets: fewer, fuller treelets; the same hits and image in every design.

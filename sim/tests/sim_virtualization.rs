@@ -11,8 +11,8 @@ use common::{
     check_against_functional, check_deterministic, check_same_results, check_skip_matches_lockstep,
     run, setup, small_config, STARVED_MEMORY,
 };
-use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::{simulate, SimError, SimOptions, SimOutput};
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::{simulate, SimError, SimOptions, SimOutput};
 
 /// `mode` with ray virtualization on one SM, a `side` x `side` image, then `extra`.
 fn virt_config(mode: &str, side: u32, extra: &[&str]) -> SimConfig {

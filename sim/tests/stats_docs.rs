@@ -1,6 +1,7 @@
 //! The statistics JSON against its documentation and its readers: every key `vtq sim` writes
-//! (top level, `rt`, each phase) is in docs/stats.md, and every headline column `vtq sweep
-//! --collect` reads (`sweep::collect::DIRECT`) is a statistic `vtq sim` writes, in every design.
+//! (top level, `rt`, `queues`, each phase) is in docs/stats.md, every `rt` key it documents is
+//! written, and every headline column `vtq sweep --collect` reads (`sweep::collect::DIRECT`) is
+//! a statistic `vtq sim` writes, in every design.
 
 mod common;
 
@@ -8,8 +9,8 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use common::{setup, small_config, small_vtq};
-use vtq_sim::gpu::{simulate, SimOptions};
-use vtq_sim::sweep::collect::DIRECT;
+use vtq_sim::experiment::sweep::collect::DIRECT;
+use vtq_sim::model::gpu::{simulate, SimOptions};
 
 /// The keys docs/stats.md's table under the heading `heading` documents: every `` `name` `` in
 /// the first cell of its rows.
@@ -64,6 +65,23 @@ fn every_statistic_is_documented_and_every_collected_column_exists() {
             missing.is_empty(),
             "{mode}: undocumented rt keys {missing:?}"
         );
+        let stale: Vec<_> = rt.difference(&keys(&json["rt"])).cloned().collect();
+        assert!(
+            stale.is_empty(),
+            "{mode}: docs/stats.md documents rt keys vtq sim does not write: {stale:?}"
+        );
+        // The `queues` object's keys (the treelet RT units' counters, declared once in
+        // vtq-hdl) are listed in the `queues` row's text.
+        let queues_row = phases_doc
+            .lines()
+            .find(|l| l.starts_with("| `queues` |"))
+            .expect("a `queues` row in docs/stats.md");
+        for key in keys(&json["queues"]) {
+            assert!(
+                queues_row.contains(&format!("`{key}`")),
+                "{mode}: queues key {key} undocumented"
+            );
+        }
         // Each phase's keys are listed in the `phases` row's text.
         for key in keys(&json["phases"]["ray_stationary"]) {
             assert!(

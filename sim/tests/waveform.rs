@@ -15,9 +15,9 @@ use common::{check_identical, setup, small_config, small_vtq};
 use vtq_gen::tools::{or_skip, run as run_tool};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::trace::{read_vcd, VcdTrace};
-use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::rt::waveform::parse_cycles;
-use vtq_sim::gpu::{simulate, SimError, SimOptions, SimOutput, VcdWindow};
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::rt::waveform::parse_cycles;
+use vtq_sim::model::gpu::{simulate, SimError, SimOptions, SimOutput, VcdWindow};
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {

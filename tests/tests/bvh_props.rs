@@ -6,13 +6,13 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 use proptest::prelude::*;
-use vtq_sim::bvh::layout::{decode_sphere, decode_triangle, InternalView};
-use vtq_sim::bvh::{
+use vtq_sim::model::bvh::layout::{decode_sphere, decode_triangle, InternalView};
+use vtq_sim::model::bvh::{
     build_cached, sphere_bounds, sphere_is_usable, triangle_bounds, triangle_is_usable, BvhParams,
     CacheOutcome, HwBvh, NodeKind, TreeletFormation,
 };
-use vtq_sim::intersect::{ray_sphere, ray_triangle, RayPrecomp};
-use vtq_sim::traversal::{trace, trace_with_fetches, Order, TraversalState};
+use vtq_sim::model::intersect::{ray_sphere, ray_triangle, RayPrecomp};
+use vtq_sim::model::traversal::{trace, trace_with_fetches, Order, TraversalState};
 use vtq_sim::{Hit, Ray, Scene, Sphere};
 use vtq_tests::{icosphere, mesh_scene};
 
@@ -230,7 +230,7 @@ fn check_ray(
             // No node is fetched twice, and the ray enters a slot only at an entry point (the
             // header, or a node whose parent lies in another slot). A breadth-first treelet is
             // one subtree, so it is entered at most once; a packed slot holds several, and is
-            // entered at most once per subtree (sim/src/bvh/treelet.rs).
+            // entered at most once per subtree (sim/src/model/bvh/treelet.rs).
             let mut fetched = BTreeSet::new();
             let mut seen = BTreeSet::new();
             let mut last = None;

@@ -1,11 +1,13 @@
 //! The generated `city:N` scene family: spec parsing and errors, exact triangle counts,
 //! determinism, geometry quality and a BVH build.
 
-use vtq_sim::bvh::{triangle_is_usable, BvhParams, HwBvh};
-use vtq_sim::scene::builtin::builtin;
-use vtq_sim::scene::city::{city, parse_spec, DEFAULT_TRIANGLES, MAX_TRIANGLES, MIN_TRIANGLES};
-use vtq_sim::scene::load::load_scene;
-use vtq_sim::scene::{Scene, SceneError};
+use vtq_sim::model::bvh::{triangle_is_usable, BvhParams, HwBvh};
+use vtq_sim::model::scene::builtin::builtin;
+use vtq_sim::model::scene::city::{
+    city, parse_spec, DEFAULT_TRIANGLES, MAX_TRIANGLES, MIN_TRIANGLES,
+};
+use vtq_sim::model::scene::load::load_scene;
+use vtq_sim::model::scene::{Scene, SceneError};
 
 /// Positions as bit patterns, for exact comparison.
 fn position_bits(scene: &Scene) -> Vec<[u32; 3]> {
@@ -117,7 +119,7 @@ fn no_degenerate_or_unused_geometry() {
             .filter(|&&m| {
                 matches!(
                     scene.materials[m as usize],
-                    vtq_sim::scene::Material::Metal { .. }
+                    vtq_sim::model::scene::Material::Metal { .. }
                 )
             })
             .count();

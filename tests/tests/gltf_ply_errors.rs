@@ -7,7 +7,7 @@ use std::path::Path;
 
 use scene_writers::{glb, gltf, manifest, ply, room, temp_dir, write, PlyFormat};
 use serde_json::{json, Value};
-use vtq_sim::scene::load::load_scene_with_report;
+use vtq_sim::model::scene::load::load_scene_with_report;
 
 /// The one-line error of loading `path`, which must fail and name the file.
 fn load_err(path: &Path) -> String {

@@ -12,13 +12,13 @@ use scene_writers::{
     glb, gltf, gltf_embedded, manifest, obj, ply, room, temp_dir, write, Mesh, PlyFormat, MTL,
 };
 use serde_json::json;
-use vtq_sim::bvh::HwBvh;
-use vtq_sim::config::SimConfig;
-use vtq_sim::gpu::stats::comparable_json;
-use vtq_sim::gpu::{simulate, SimOptions};
-use vtq_sim::scene::load::{load_scene_with_report, LoadedScene};
-use vtq_sim::scene::Scene;
-use vtq_sim::workload::pathtracer::render;
+use vtq_sim::model::bvh::HwBvh;
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::stats::comparable_json;
+use vtq_sim::model::gpu::{simulate, SimOptions};
+use vtq_sim::model::scene::load::{load_scene_with_report, LoadedScene};
+use vtq_sim::model::scene::Scene;
+use vtq_sim::model::workload::pathtracer::render;
 
 /// Load `path` as a scene spec, which must succeed.
 fn load(path: &Path) -> LoadedScene {

@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use vtq_sim::scene::load::{load_scene_with_report, LoadedScene};
-use vtq_sim::scene::report::LoadReport;
+use vtq_sim::model::scene::load::{load_scene_with_report, LoadedScene};
+use vtq_sim::model::scene::report::LoadReport;
 use vtq_sim::{Material, Scene};
 
 /// A fresh, empty temporary folder unique to this process and `tag`.

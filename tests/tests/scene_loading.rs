@@ -4,9 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use vtq_sim::scene::builtin::{cornell, wknd};
-use vtq_sim::scene::load::{list_scenes, load_scene, CountSource, SceneKind};
-use vtq_sim::scene::manifest::Manifest;
+use vtq_sim::model::scene::builtin::{cornell, wknd};
+use vtq_sim::model::scene::load::{list_scenes, load_scene, CountSource, SceneKind};
+use vtq_sim::model::scene::manifest::Manifest;
 use vtq_sim::{Material, Scene, SceneError};
 
 /// A fresh, empty temporary folder unique to this process and `tag`.

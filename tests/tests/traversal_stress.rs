@@ -3,8 +3,8 @@
 //! degenerate triangles are never hit.
 
 use glam::Vec3;
-use vtq_sim::bvh::{BvhParams, HwBvh};
-use vtq_sim::traversal::{trace, trace_with_fetches, Order, TraversalState};
+use vtq_sim::model::bvh::{BvhParams, HwBvh};
+use vtq_sim::model::traversal::{trace, trace_with_fetches, Order, TraversalState};
 use vtq_sim::Ray;
 use vtq_tests::{icosphere, mesh_scene};
 

@@ -2,12 +2,12 @@
 //! radiance, and determinism (repeat renders and serial vs parallel renders are bit-identical).
 
 use glam::Vec3;
-use vtq_sim::scene::{Camera, Material, Scene, Sphere};
-use vtq_sim::workload::camera::CameraFrame;
-use vtq_sim::workload::pathtracer::{
+use vtq_sim::model::scene::{Camera, Material, Scene, Sphere};
+use vtq_sim::model::workload::camera::CameraFrame;
+use vtq_sim::model::workload::pathtracer::{
     render, render_serial, sky, BruteForce, PathState, Render, RenderSettings, Tracer,
 };
-use vtq_sim::workload::rng::{tea, Rng};
+use vtq_sim::model::workload::rng::{tea, Rng};
 
 /// TEA written independently of the crate: 64-bit arithmetic, masked to 32 bits after every
 /// step (the low 32 bits of a sum or XOR depend only on the low 32 bits of the operands).

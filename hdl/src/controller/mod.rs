@@ -266,38 +266,49 @@ pub struct FillCommand {
     pub rays: Vec<u32>,
 }
 
-/// The controller's statistics, counted by an observer beside the block from its ports (not
-/// registers of the block).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-pub struct ControllerStats {
-    /// Cycles spent in the initial phase.
-    pub cycles_initial: u64,
-    /// Cycles spent treelet-stationary.
-    pub cycles_treelet: u64,
-    /// Cycles spent in the final ray-stationary phase.
-    pub cycles_final: u64,
-    /// Initial-phase warps terminated into the queues.
-    pub terminated_warps: u64,
-    /// Active rays of those warps.
-    pub terminated_rays: u64,
-    /// Rays inserted into the queues.
-    pub enqueued_rays: u64,
-    /// Treelets claimed from the count table (made resident).
-    pub claims: u64,
-    /// Preloads issued.
-    pub preloads: u64,
-    /// Treelet warps dispatched.
-    pub treelet_warps: u64,
-    /// Ray-stationary warps grouped from underpopulated queues.
-    pub grouped_warps: u64,
-    /// Warps repacked.
-    pub repacks: u64,
-    /// Cycles in which a repack was withheld for want of rays
-    /// ([`crate::warp_repacking::withheld_for_want_of_rays`]): a warp below the repack threshold
-    /// waited while the queues and the spare buffer were empty.
-    pub repack_starved_cycles: u64,
-    /// Count-table evictions seen.
-    pub evictions: u64,
+crate::counters! {
+    /// The controller's statistics, counted by an observer beside the block from its ports (not
+    /// registers of the block). The simulator's statistics report them summed over its SMs: the
+    /// counters the `queues` object of docs/stats.md lists under these names; the rest are
+    /// reported elsewhere (`serde(skip)`, each says where).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+    pub struct ControllerStats {
+        /// Cycles spent in the initial phase (reported as `phases.initial.cycles`).
+        #[serde(skip)]
+        pub cycles_initial: u64,
+        /// Cycles spent treelet-stationary (`phases.treelet_stationary.cycles`).
+        #[serde(skip)]
+        pub cycles_treelet: u64,
+        /// Cycles spent in the final ray-stationary phase (`phases.ray_stationary.cycles`).
+        #[serde(skip)]
+        pub cycles_final: u64,
+        /// Initial-phase warps terminated into the queues (they diverged).
+        pub terminated_warps: u64,
+        /// Active rays of those warps (not in the statistics JSON: `enqueued_rays` counts
+        /// every ray inserted).
+        #[serde(skip)]
+        pub terminated_rays: u64,
+        /// Rays inserted into the treelet queues.
+        pub enqueued_rays: u64,
+        /// Treelets made resident (claimed from the count table).
+        pub claims: u64,
+        /// Treelets preloaded behind the current one.
+        pub preloads: u64,
+        /// Treelet warps dispatched (one queue entry each, treelet-stationary).
+        pub treelet_warps: u64,
+        /// Ray-stationary warps grouped from underpopulated queues.
+        pub grouped_warps: u64,
+        /// Warps repacked.
+        pub repacks: u64,
+        /// Cycles in which a repack was withheld for want of rays
+        /// ([`crate::warp_repacking::withheld_for_want_of_rays`]): in the final ray-stationary
+        /// phase a warp was below the repack threshold while the queues and the spare buffer
+        /// were empty (the pool drained, as at the end of each bounce).
+        pub repack_starved_cycles: u64,
+        /// Count-table evictions seen (reported as `count_table_evictions`).
+        #[serde(skip)]
+        pub evictions: u64,
+    }
 }
 
 impl ControllerStats {
@@ -317,23 +328,6 @@ impl ControllerStats {
             self.treelet_warps += u64::from(f.kind == FillKind::Treelet);
             self.grouped_warps += u64::from(f.kind == FillKind::Grouped && f.first);
         }
-    }
-
-    /// Adds the counters of `c`.
-    pub fn add(&mut self, c: &ControllerStats) {
-        self.cycles_initial += c.cycles_initial;
-        self.cycles_treelet += c.cycles_treelet;
-        self.cycles_final += c.cycles_final;
-        self.terminated_warps += c.terminated_warps;
-        self.terminated_rays += c.terminated_rays;
-        self.enqueued_rays += c.enqueued_rays;
-        self.claims += c.claims;
-        self.preloads += c.preloads;
-        self.treelet_warps += c.treelet_warps;
-        self.grouped_warps += c.grouped_warps;
-        self.repacks += c.repacks;
-        self.repack_starved_cycles += c.repack_starved_cycles;
-        self.evictions += c.evictions;
     }
 
     /// Counts `n` cycles in `mode` (cycles in which the controller did nothing but wait count

@@ -633,65 +633,67 @@ pub struct Split {
     pub next_chunk: u8,
 }
 
-/// Statistics counters of an RT unit. Not registers of the block: each cycle's increments leave
-/// it on [`super::RtUnitOutputs::counts`] (and [`super::RtUnit::skip`] returns those of skipped idle
-/// cycles), and an observer beside the block sums them with [`RtStats::add`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-pub struct RtStats {
-    /// Sum over cycles and valid warps of traversing lanes.
-    pub active_thread_cycles: u64,
-    /// Sum over cycles of valid warps (RT-unit warp cycles).
-    pub warp_cycles: u64,
-    /// Of the traversing lanes, those waiting for a node in flight (a load requested, its
-    /// data not all back): memory waits inside `active_thread_cycles`.
-    pub waiting_lane_cycles: u64,
-    /// Sum over cycles and valid warps of lanes whose ray has finished (the warp still holds
-    /// the slot for its other lanes).
-    pub done_lane_cycles: u64,
-    /// Sum over cycles and valid warps of lanes parked at a treelet boundary.
-    pub parked_lane_cycles: u64,
-    /// 32 B load requests issued.
-    pub requests: u64,
-    /// Hit-record stores issued.
-    pub stores: u64,
-    /// 32 B stack spills (stores of stack entries to the ray's spill area).
-    pub stack_spills: u64,
-    /// 32 B stack fills (loads of spilled stack entries back onto the lane's stack).
-    pub stack_fills: u64,
-    /// Lanes served by another lane's request (merged within a warp).
-    pub merged: u64,
-    /// Node tests per kind, indexed by [`super::NodeKind::code`].
-    pub tests: [u64; 6],
-    /// Of those, tests by lanes of warps in [`TraversalOrder::TreeletStop`] order: treelet
-    /// warps (filled from a treelet queue) and initial-phase warps the treelet controller
-    /// terminated, finishing their current treelet (treelet-stationary traversal, counted by
-    /// the warp's order rather than by the controller's mode).
-    pub treelet_order_tests: u64,
-    /// Triangle tests that reported a hit.
-    pub hits: u64,
-    /// Warps completed.
-    pub warps_done: u64,
+crate::counters! {
+    /// Statistics counters of an RT unit. Not registers of the block: each cycle's increments
+    /// leave it on [`super::RtUnitOutputs::counts`] (and [`super::RtUnit::skip`] returns those of
+    /// skipped idle cycles), and an observer beside the block sums them with [`RtStats::add`].
+    /// The simulator's statistics report the sum over its SMs as they are (the `rt` object of
+    /// docs/stats.md, in this order and with these names).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+    pub struct RtStats {
+        /// Warps completed (issued to and completed by the unit).
+        pub warps: u64,
+        /// Sum over cycles of valid warps (RT-unit warp cycles).
+        pub warp_cycles: u64,
+        /// Sum over cycles and valid warps of traversing lanes.
+        pub active_thread_cycles: u64,
+        /// Of the traversing lanes, those waiting for a node in flight (a load requested, its
+        /// data not all back): memory waits inside `active_thread_cycles`.
+        pub waiting_lane_cycles: u64,
+        /// Sum over cycles and valid warps of lanes whose ray has finished (the warp still holds
+        /// the slot for its other lanes).
+        pub done_lane_cycles: u64,
+        /// Sum over cycles and valid warps of lanes parked at a treelet boundary.
+        pub parked_lane_cycles: u64,
+        /// 32 B node-load requests issued.
+        pub load_requests: u64,
+        /// 32 B hit-record stores issued.
+        pub stores: u64,
+        /// 32 B stack spills (stores of stack entries to the ray's spill area).
+        pub stack_spills: u64,
+        /// 32 B stack fills (loads of spilled stack entries back onto the lane's stack).
+        pub stack_fills: u64,
+        /// Lanes served by another lane's request (merged within a warp).
+        pub merged: u64,
+        /// Node tests per kind, indexed by [`super::NodeKind::code`] (reported by kind name,
+        /// kinds never tested left out).
+        #[serde(serialize_with = "tests_by_kind")]
+        pub tests: [u64; 6],
+        /// Of those, tests by lanes of warps in [`TraversalOrder::TreeletStop`] order: treelet
+        /// warps (filled from a treelet queue) and initial-phase warps the treelet controller
+        /// terminated, finishing their current treelet (treelet-stationary traversal, counted by
+        /// the warp's order rather than by the controller's mode).
+        pub treelet_order_tests: u64,
+        /// Triangle tests that reported a new closest hit (sphere hits are not counted here).
+        pub triangle_hits: u64,
+    }
+}
+
+/// [`RtStats::tests`] as a map from [`super::NodeKind::name`] to count, in name order, without
+/// the kinds never tested.
+fn tests_by_kind<S: serde::Serializer>(tests: &[u64; 6], s: S) -> Result<S::Ok, S::Error> {
+    let by_name: std::collections::BTreeMap<&str, u64> = super::NodeKind::ALL
+        .iter()
+        .map(|k| (k.name(), tests[k.code() as usize]))
+        .filter(|&(_, n)| n > 0)
+        .collect();
+    serde::Serialize::serialize(&by_name, s)
 }
 
 impl RtStats {
-    /// Adds the increments `c` (one cycle's, or a skip's) to these counters.
-    pub fn add(&mut self, c: &RtStats) {
-        self.active_thread_cycles += c.active_thread_cycles;
-        self.warp_cycles += c.warp_cycles;
-        self.waiting_lane_cycles += c.waiting_lane_cycles;
-        self.done_lane_cycles += c.done_lane_cycles;
-        self.parked_lane_cycles += c.parked_lane_cycles;
-        self.requests += c.requests;
-        self.stores += c.stores;
-        self.stack_spills += c.stack_spills;
-        self.stack_fills += c.stack_fills;
-        self.merged += c.merged;
-        for (t, n) in self.tests.iter_mut().zip(c.tests) {
-            *t += n;
-        }
-        self.treelet_order_tests += c.treelet_order_tests;
-        self.hits += c.hits;
-        self.warps_done += c.warps_done;
+    /// Node tests of kind `kind`.
+    pub fn tests_of(&self, kind: super::NodeKind) -> u64 {
+        self.tests[kind.code() as usize]
     }
 
     /// Node tests of every kind.

@@ -822,7 +822,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         let s = r.age.remove(pos);
         let slot = &mut r.slots[s as usize];
         slot.valid = false;
-        counts.warps_done += 1;
+        counts.warps += 1;
         let lanes = slot
             .lanes
             .iter_mut()
@@ -858,7 +858,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                     ..split
                 });
             }
-            counts.requests += 1;
+            counts.load_requests += 1;
             return Some(load_request(&split.node, chunk, split.tag));
         }
         for &s in &r.age {
@@ -952,7 +952,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                     next_chunk: 1,
                 });
             }
-            counts.requests += 1;
+            counts.load_requests += 1;
             return Some(load_request(&node, 0, tag));
         }
         None
@@ -1191,7 +1191,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             lane.ray.hit = Some(hit);
             lane.store_pending = true;
             if node.kind == NodeKind::TriangleLeaf {
-                stats.hits += 1;
+                stats.triangle_hits += 1;
             }
         }
         lane.delay = self.params.latencies.of(node.kind, accepted.is_some());

@@ -228,7 +228,7 @@ crate::bundle! {
         /// lanes of the valid warps parked at a treelet boundary
         Out sig count_parked_lanes (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.parked_lane_cycles;
         /// a node-chunk load was requested
-        Out sig count_request (1) = this.counts.requests;
+        Out sig count_request (1) = this.counts.load_requests;
         /// a hit-record store was requested
         Out sig count_store (1) = this.counts.stores;
         /// a stack spill was requested
@@ -252,9 +252,9 @@ crate::bundle! {
         /// of the tests completed, those of lanes in warps in treelet-stop order
         Out sig count_tests_treelet_order (bits_for(w.warp_size as u64)) = this.counts.treelet_order_tests;
         /// triangle tests that produced a new closest hit
-        Out sig count_hits (bits_for(w.warp_size as u64)) = this.counts.hits;
+        Out sig count_hits (bits_for(w.warp_size as u64)) = this.counts.triangle_hits;
         /// a warp completed
-        Out sig count_warp_done (1) = this.counts.warps_done;
+        Out sig count_warp_done (1) = this.counts.warps;
     }
 }
 

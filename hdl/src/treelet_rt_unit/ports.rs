@@ -11,6 +11,7 @@ use crate::rt_unit::{
     RtStats, Widths, RAY_WORDS,
 };
 use crate::Block;
+use serde::Serialize;
 
 /// Widths of the treelet RT unit's fields, derived from the configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,38 +108,33 @@ pub struct FinishedRay {
     pub hit: Option<Hit>,
 }
 
-/// One cycle's statistics events of a treelet RT unit (increments; an observer sums them). The
-/// observer attributes the RT unit's tests to the controller's mode after the cycle and keeps
-/// the largest number of queues from the block's register-only outputs
-/// ([`super::TreeletRtUnit::mode`], [`super::TreeletRtUnit::queues`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct TreeletCounts {
-    /// The RT unit's.
-    pub rt: RtStats,
-    /// The controller's.
-    pub ctl: ControllerStats,
-    /// Queue-table inserts that spilled to memory.
-    pub spills: u64,
-    /// Spilled rays brought back.
-    pub refills: u64,
-    /// 32 B ray-record loads for treelet, grouped and repack warps.
-    pub ray_loads: u64,
-    /// 32 B ray-record stores when SM warps issue.
-    pub ray_stores: u64,
-    /// Controller restarts from `done` when an SM warp arrives.
-    pub restarts: u64,
-}
-
-impl TreeletCounts {
-    /// Adds the increments `c`.
-    pub fn add(&mut self, c: &TreeletCounts) {
-        self.rt.add(&c.rt);
-        self.ctl.add(&c.ctl);
-        self.spills += c.spills;
-        self.refills += c.refills;
-        self.ray_loads += c.ray_loads;
-        self.ray_stores += c.ray_stores;
-        self.restarts += c.restarts;
+crate::counters! {
+    /// One cycle's statistics events of a treelet RT unit (increments; an observer sums them).
+    /// The observer attributes the RT unit's tests to the controller's mode after the cycle and
+    /// keeps the largest number of queues from the block's register-only outputs
+    /// ([`super::TreeletRtUnit::mode`], [`super::TreeletRtUnit::queues`]). The simulator's
+    /// statistics report their sum over the SMs as the `queues` object of docs/stats.md (with
+    /// the controller's counters inline); the rest are reported elsewhere (`serde(skip)`).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+    pub struct TreeletCounts {
+        /// The RT unit's (reported in the `rt` object with the other SMs' RT units).
+        #[serde(skip)]
+        pub rt: RtStats,
+        /// The controller's.
+        #[serde(flatten)]
+        pub ctl: ControllerStats,
+        /// Queue-table inserts that spilled to memory (reported as `queue_table_spills`).
+        #[serde(skip)]
+        pub spills: u64,
+        /// Spilled rays brought back into the queue table.
+        pub refills: u64,
+        /// 32 B ray-record loads for treelet, grouped and repacked warps.
+        pub ray_loads: u64,
+        /// 32 B ray-record stores when SM warps issue their rays.
+        pub ray_stores: u64,
+        /// Controller restarts from `done` when new warps arrive (an idle controller is `done`,
+        /// so the first warp of a run counts too; then one per wave of rays).
+        pub restarts: u64,
     }
 }
 

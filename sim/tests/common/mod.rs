@@ -6,15 +6,15 @@
 // Each test binary compiles this module on its own and uses only part of it.
 #![allow(dead_code)]
 
-use vtq_sim::bvh::HwBvh;
-use vtq_sim::config::SimConfig;
-use vtq_sim::geometry::Hit;
-use vtq_sim::gpu::stats::comparable_json;
-use vtq_sim::gpu::{simulate, SimOptions, SimOutput};
-use vtq_sim::scene::load::load_scene;
-use vtq_sim::scene::Scene;
-use vtq_sim::traversal::{trace, Order};
-use vtq_sim::workload::pathtracer::render;
+use vtq_sim::model::bvh::HwBvh;
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::geometry::Hit;
+use vtq_sim::model::gpu::stats::comparable_json;
+use vtq_sim::model::gpu::{simulate, SimOptions, SimOutput};
+use vtq_sim::model::scene::load::load_scene;
+use vtq_sim::model::scene::Scene;
+use vtq_sim::model::traversal::{trace, Order};
+use vtq_sim::model::workload::pathtracer::render;
 
 /// A small GPU in `mode` (`baseline` or `prefetch`): `sms` SMs, a `side` x `side` image, 4 KB
 /// L1s, 16 KB L2, 2 KB treelets cut breadth-first (one slot each: the small scenes' packed

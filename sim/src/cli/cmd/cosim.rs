@@ -1,0 +1,277 @@
+//! `vtq cosim`: co-simulates the generated RTL of the treelet count table and the treelet queue
+//! table against the Rust blocks, cycle by cycle, with Icarus Verilog or Verilator: on the seeded
+//! random stimulus of [`vtq_gen::stimulus`], or (`--scene`) on the real traffic of a simulation:
+//! the tables' input ports of one SM's treelet RT unit, recorded cycle by cycle from reset and
+//! replayed as the testbench's stimulus.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use vtq_gen::cosim::{record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
+use vtq_gen::rtl::{count_table_verilog, queue_table_verilog};
+use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
+use vtq_gen::GenError;
+use vtq_hdl::HwConfig;
+
+use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
+use crate::model::gpu::{simulate, SimOptions};
+use vtq_hdl::count_table::CountTable;
+use vtq_hdl::queue_table::QueueTable;
+
+/// Which table(s) to co-simulate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BlockChoice {
+    /// The treelet count table.
+    Count,
+    /// The treelet queue table.
+    Queue,
+    /// Both tables.
+    All,
+}
+
+/// Which simulator runs the testbench.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SimulatorChoice {
+    /// Icarus Verilog (`iverilog` + `vvp`, Debian package `iverilog`).
+    Icarus,
+    /// Verilator (`verilator --binary`, Debian package `verilator`): slow to compile, fast to run.
+    Verilator,
+}
+
+impl SimulatorChoice {
+    fn simulator(self) -> Simulator {
+        match self {
+            SimulatorChoice::Icarus => Simulator::Icarus,
+            SimulatorChoice::Verilator => Simulator::Verilator,
+        }
+    }
+}
+
+/// Options of `vtq cosim`.
+#[derive(Debug, Args)]
+pub struct CosimArgs {
+    #[command(flatten)]
+    pub config: ConfigArgs,
+    /// Table(s) to co-simulate.
+    #[arg(long, value_enum, default_value_t = BlockChoice::All)]
+    pub block: BlockChoice,
+    /// Cycles of random stimulus per table.
+    #[arg(long, default_value_t = 100_000)]
+    pub cycles: usize,
+    /// Stimulus seed (the count table uses SEED, the queue table SEED + 1).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Simulator to run the testbench with.
+    #[arg(long, value_enum, default_value_t = SimulatorChoice::Icarus)]
+    pub simulator: SimulatorChoice,
+    /// Directory for the RTL, testbench, vectors and simulator files, kept afterwards
+    /// [default: a temporary directory, removed when every table matches].
+    #[arg(long)]
+    pub work_dir: Option<PathBuf>,
+    /// Replay real traffic instead of random stimulus: simulate this scene (with `--config`,
+    /// which must be a queues design) and record the tables' inputs of SM `--sm` for `--cycles`
+    /// cycles from the first op either table gets (before it they only get nops from reset).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// The SM whose tables are recorded with `--scene`.
+    #[arg(long, default_value_t = 0)]
+    pub sm: usize,
+    /// The BVH cache (with `--scene`).
+    #[command(flatten)]
+    pub cache: CacheArgs,
+}
+
+/// The Debian/Ubuntu package that provides `tool`.
+fn package_of(tool: &str) -> &'static str {
+    match tool {
+        "verilator" | "./obj_dir/cosim" => "verilator",
+        "yosys" => "yosys",
+        _ => "iverilog",
+    }
+}
+
+/// A missing simulator becomes an error naming the tool and the package to install.
+fn explain_missing(e: GenError) -> anyhow::Error {
+    match &e {
+        GenError::ToolMissing { tool } => anyhow::anyhow!(
+            "{tool} is not installed (not found on PATH); install it with `apt-get install {}`",
+            package_of(tool)
+        ),
+        _ => e.into(),
+    }
+}
+
+/// Writes `text` as `<dir>/<module>.v` and co-simulates `trace` against it in `dir`.
+fn cosim_table(
+    dir: &Path,
+    trace: &Trace,
+    text: &str,
+    simulator: Simulator,
+) -> anyhow::Result<CosimResult> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let source = dir.join(format!("{}.v", trace.module));
+    std::fs::write(&source, text).with_context(|| format!("writing {}", source.display()))?;
+    let opts = CosimOptions {
+        simulator,
+        ..CosimOptions::icarus(dir)
+    };
+    run_cosim(trace, &[source], &opts).map_err(explain_missing)
+}
+
+/// One table's stimulus, trace and RTL.
+struct Job {
+    trace: Trace,
+    /// What the stimulus covered, in words.
+    coverage: String,
+    verilog: String,
+}
+
+/// Builds the stimulus, records the Rust block and generates the RTL of each chosen table.
+fn jobs(hw: &HwConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
+    let mut out = Vec::new();
+    if args.block != BlockChoice::Queue {
+        let (table, inputs, coverage) = count_table_inputs(hw, args.cycles, args.seed)?;
+        out.push(Job {
+            trace: record(&table, inputs)?,
+            coverage: coverage.to_string(),
+            verilog: count_table_verilog(hw)?,
+        });
+    }
+    if args.block != BlockChoice::Count {
+        let seed = args.seed.wrapping_add(1);
+        let (table, inputs, coverage) = queue_table_inputs(hw, args.cycles, seed)?;
+        out.push(Job {
+            trace: record(&table, inputs)?,
+            coverage: coverage.to_string(),
+            verilog: queue_table_verilog(hw)?,
+        });
+    }
+    Ok(out)
+}
+
+/// The jobs of a replay of real traffic: simulates `scene` and records SM `args.sm`'s table
+/// inputs.
+fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
+    let cfg = args.config.load()?;
+    let scene = load_scene(scene)?;
+    let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
+    let options = SimOptions {
+        record_tables: Some((args.sm, args.cycles)),
+        ..SimOptions::default()
+    };
+    let out = simulate(&scene, &bvh, &cfg, options, None)
+        .with_context(|| format!("simulating scene '{}'", scene.name))?;
+    let log = out
+        .table_log
+        .context("the simulation recorded no table inputs")?;
+    let hw = &cfg.hw;
+    let what = |ops: String| {
+        format!(
+            "real traffic: cycles {}..{} of SM {} in scene {} ({}, {} cycles in all; before, \
+             only nops from reset): {ops}",
+            log.first_cycle,
+            log.first_cycle + log.count.len() as u64,
+            args.sm,
+            scene.name,
+            cfg.mode.kind.name(),
+            out.stats.cycles
+        )
+    };
+    let mut count_ops = [0u64; 3];
+    for i in &log.count {
+        count_ops[i.op.kind_code() as usize] += 1;
+    }
+    let mut queue_ops = [0u64; 6];
+    let mut refills = 0;
+    for i in &log.queue {
+        queue_ops[i.op.kind_code() as usize] += 1;
+        refills += u64::from(i.refill_valid);
+    }
+    let mut jobs = Vec::new();
+    if args.block != BlockChoice::Queue {
+        let ops = format!(
+            "{} adds, {} removes, {} nop cycles",
+            count_ops[1], count_ops[2], count_ops[0]
+        );
+        jobs.push(Job {
+            trace: record(&CountTable::new(hw)?, log.count.iter().copied())?,
+            coverage: what(ops),
+            verilog: count_table_verilog(hw)?,
+        });
+    }
+    if args.block != BlockChoice::Count {
+        let ops = format!(
+            "{} inserts, {} pops, {} pop_any, {} refills ({} answered), {} nop cycles",
+            queue_ops[1], queue_ops[2], queue_ops[3], queue_ops[5], refills, queue_ops[0]
+        );
+        jobs.push(Job {
+            trace: record(&QueueTable::new(hw)?, log.queue.iter().copied())?,
+            coverage: what(ops),
+            verilog: queue_table_verilog(hw)?,
+        });
+    }
+    Ok(jobs)
+}
+
+/// Run `vtq cosim`.
+pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
+    if args.cycles == 0 {
+        bail!("--cycles must be at least 1");
+    }
+    let jobs = match &args.scene {
+        Some(scene) => replay_jobs(scene, args)?,
+        None => jobs(&args.config.load_hardware()?.hw, args)?,
+    };
+    let simulator = args.simulator.simulator();
+    let (root, temporary) = match &args.work_dir {
+        Some(dir) => (dir.clone(), false),
+        None => (
+            std::env::temp_dir().join(format!("vtq-cosim-{}", std::process::id())),
+            true,
+        ),
+    };
+    let mut failed = Vec::new();
+    for job in jobs {
+        let module = job.trace.module.clone();
+        let start = Instant::now();
+        let result = cosim_table(&root.join(&module), &job.trace, &job.verilog, simulator)
+            .with_context(|| format!("co-simulating {module}"))?;
+        println!(
+            "{module}: {} cycles compared, {} mismatches ({simulator:?}, {:.1} s)",
+            result.cycles,
+            result.mismatches,
+            start.elapsed().as_secs_f64()
+        );
+        println!("  stimulus: {}", job.coverage);
+        if let Some(m) = result.reported.first() {
+            println!(
+                "  first mismatch: cycle {} signal {} expected {} got {}",
+                m.cycle, m.signal, m.expected, m.got
+            );
+        }
+        if result.cycles != job.trace.cycles() as u64 {
+            bail!(
+                "{module}: the testbench compared {} cycles of the {} recorded",
+                result.cycles,
+                job.trace.cycles()
+            );
+        }
+        if !result.passed() {
+            failed.push(format!("{module} ({} mismatches)", result.mismatches));
+        }
+    }
+    if !failed.is_empty() {
+        bail!(
+            "the RTL differs from the Rust model: {}; files kept in {}",
+            failed.join(", "),
+            root.display()
+        );
+    }
+    if temporary {
+        // Best effort: the verdict is already printed.
+        let _ = std::fs::remove_dir_all(&root);
+    }
+    Ok(())
+}

@@ -1,0 +1,321 @@
+//! `vtq reproduce --out DIR`: runs the paper's experiment matrix (the experiment files of
+//! `configs/experiments/` that docs/fidelity.md defines) over the scenes given through the
+//! result store, then draws the paper's figures with its published values beside vtq's and
+//! writes `DIR/index.html` and `DIR/index.md` (docs/reproducing.md).
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use vtq_gen::area_report;
+
+use super::area::area_params;
+use super::options::{build_bvh, CacheArgs};
+use super::runner::{prepare_scenes, Runner};
+use crate::cli::output::check_dir;
+use crate::estimate::figure5::{model, Figure5Row};
+use crate::experiment::reproduce::beyond;
+use crate::experiment::reproduce::figures::{self, Figure};
+use crate::experiment::reproduce::page::Page;
+use crate::experiment::reproduce::tables;
+use crate::experiment::reproduce::{
+    check_experiments_dir, default_experiments_dir, load_experiment, project_root, scene_labels,
+    Results, FIGURE_EXPERIMENTS,
+};
+use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse};
+use crate::model::bvh::BvhParams;
+use crate::model::config::SimConfig;
+use crate::model::scene::Scene;
+use crate::model::workload::pathtracer::render;
+
+/// Options of `vtq reproduce`.
+#[derive(Debug, Args)]
+pub struct ReproduceArgs {
+    /// Output folder: index.html, index.md, figures/ (SVG and PNG), tables/ (CSV).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Scene (repeatable) [default: the experiment files' scenes: every shared scene and wknd].
+    #[arg(long = "scene", value_name = "SCENE")]
+    pub scenes: Vec<String>,
+    /// Results folder (one result file per run, shared with `vtq sweep --results`)
+    /// [default: OUT/results].
+    #[arg(long, value_name = "DIR")]
+    pub results: Option<PathBuf>,
+    /// The folder of the paper's experiment files [default: configs/experiments].
+    #[arg(long, value_name = "DIR")]
+    pub experiments: Option<PathBuf>,
+    /// Override one configuration key in every run, e.g. `--set width=64` (repeatable; the
+    /// page says so).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Runs at once, one thread each [default: the available cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub jobs: Option<u32>,
+    /// Run points whose stored result is a failure again.
+    #[arg(long)]
+    pub retry_failed: bool,
+    /// The BVH build cache.
+    #[command(flatten)]
+    pub cache: CacheArgs,
+}
+
+/// Run `vtq reproduce`.
+pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
+    let start = Instant::now();
+    check_dir(&args.out)?;
+    if let Some(results) = &args.results {
+        check_dir(results)?;
+    }
+    let experiments = args
+        .experiments
+        .clone()
+        .unwrap_or_else(default_experiments_dir);
+    check_experiments_dir(&experiments)?;
+    let root = project_root(&experiments);
+
+    // Every experiment's points, each distinct run once.
+    let mut points: Vec<Point> = Vec::new();
+    let mut seen = HashSet::new();
+    for name in FIGURE_EXPERIMENTS {
+        let mut spec = load_experiment(&experiments, name, &args.scenes)?;
+        spec.set.extend(args.set.iter().cloned());
+        for p in spec
+            .points()
+            .with_context(|| format!("experiment {name}"))?
+        {
+            if seen.insert((p.scene.clone(), p.config.to_toml()?)) {
+                points.push(Point {
+                    index: points.len(),
+                    label: format!("{name}: {}", p.label),
+                    ..p
+                });
+            }
+        }
+    }
+    let scenes = prepare_scenes(&points)?;
+    let results_dir = args
+        .results
+        .clone()
+        .unwrap_or_else(|| args.out.join("results"));
+    let store = ResultStore::new(&results_dir);
+    let runner = Runner {
+        name: "reproduce",
+        store: &store,
+        reuse: if args.retry_failed {
+            Reuse::RetryFailed
+        } else {
+            Reuse::Recorded
+        },
+        jobs: args.jobs,
+        cache: &args.cache,
+    };
+    let selected: Vec<&Point> = points.iter().collect();
+    let failed = runner.run(&selected, &scenes, points.len(), "")?;
+
+    // The figures, from the stored runs (with --set, looked up with the same overrides).
+    let figures_dir = args.out.join("figures");
+    std::fs::create_dir_all(&figures_dir)
+        .with_context(|| format!("creating {}", figures_dir.display()))?;
+    let results = Results::new(&store, &scenes, root.clone()).with_sets(&args.set);
+    let out = args.out.as_path();
+    // A figure that cannot be drawn leaves a note on the page instead of stopping the others
+    // (the runs are stored: a rerun draws it without running them again).
+    let mut undrawn: Vec<String> = Vec::new();
+    let mut drawn = |id: &str, title: &str, figure: anyhow::Result<Figure>| match figure {
+        Ok(f) => f,
+        Err(e) => {
+            let why = format!("{e:#}");
+            eprintln!("reproduce: error: {title} was not drawn: {why}");
+            undrawn.push(format!("{title}: {why}"));
+            Figure {
+                id: id.to_string(),
+                title: title.to_string(),
+                caption: format!("Not drawn: {why}"),
+                images: Vec::new(),
+                table: Default::default(),
+            }
+        }
+    };
+    let figure_fns: [(&str, &str, FigureFn); 9] = [
+        ("fig01", "Figure 1", figures::figure1),
+        ("fig10", "Figure 10", figures::figure10),
+        ("fig11", "Figure 11", figures::figure11),
+        ("fig12", "Figure 12", figures::figure12),
+        ("fig13", "Figure 13", figures::figure13),
+        ("fig14", "Figure 14", figures::figure14),
+        ("fig15", "Figure 15", figures::figure15),
+        ("fig16", "Figure 16", figures::figure16),
+        (
+            "ext-vtq-prefetch",
+            "VTQ with treelet prefetching",
+            beyond::vtq_prefetch,
+        ),
+    ];
+    let mut figures: Vec<Figure> = figure_fns
+        .iter()
+        .map(|(id, title, f)| drawn(id, title, f(&results, out)))
+        .collect();
+    let vtq = SimConfig::load(Some(&root.join("configs/vtq.toml")), &args.set)?;
+    let fig5 =
+        figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));
+    figures.insert(0, drawn("fig05", "Figure 5", fig5));
+    let area = area_report(&vtq.hw, &area_params(&vtq))?;
+    let page = Page {
+        title: "vtq: the paper's figures reproduced".into(),
+        intro: intro(
+            args,
+            &experiments,
+            &results_dir,
+            &scenes,
+            points.len(),
+            &failed,
+            start.elapsed().as_secs_f64(),
+        ),
+        figures,
+        tables: vec![
+            (
+                "Section 6.5: treelet queues at once".into(),
+                "The most treelet queues the count table tracked at once in VTQ and the most \
+                 holding at least the underpopulation threshold (127) rays; a full table (600 \
+                 entries) evicts its smallest queue. The paper: at most 549 and 13."
+                    .into(),
+                tables::section65(&results),
+            ),
+            (
+                "Section 6.5: storage and area of the tables".into(),
+                "The analytical area model of docs/area.md (`vtq area`) at the VTQ \
+                 configuration: the paper gives 2.2 KB for the count table, 6.29 KB for the \
+                 queue table and 128 KB of ray records."
+                    .into(),
+                tables::area_table(&area),
+            ),
+        ],
+    };
+    page.write(out)?;
+    println!(
+        "reproduce: {} runs ({} failed), {} figures; wrote {} and {} in {:.1} s",
+        points.len(),
+        failed.len(),
+        page.figures.len(),
+        out.join("index.html").display(),
+        out.join("index.md").display(),
+        start.elapsed().as_secs_f64()
+    );
+    let mut problems = Vec::new();
+    if !undrawn.is_empty() {
+        problems.push(format!(
+            "{} figure(s) not drawn ({}); the results are stored in {}: a rerun draws them \
+             without running again",
+            undrawn.len(),
+            undrawn.join("; "),
+            results_dir.display()
+        ));
+    }
+    if !failed.is_empty() {
+        problems.push(format!(
+            "{} runs failed ({}); the figures leave them out (shown as `-`); their errors are in \
+             their result files; --retry-failed runs them again",
+            failed.len(),
+            failed.join("; ")
+        ));
+    }
+    if !problems.is_empty() {
+        anyhow::bail!("{}", problems.join("; "));
+    }
+    Ok(())
+}
+
+/// A figure of the page drawn from the stored runs into the output folder.
+type FigureFn = fn(&Results<'_>, &Path) -> anyhow::Result<Figure>;
+
+/// Batch sizes of the Figure 5 model: one warp up to the whole GPU's 16 x 4096 rays.
+const FIGURE5_RAYS: [u64; 9] = [32, 128, 512, 1024, 2048, 4096, 8192, 16384, 65536];
+
+/// The Figure 5 model's rows of every scene (by its name, [`scene_labels`]), from its
+/// functional render under `cfg`.
+fn figure5_rows(
+    scenes: &[PreparedScene],
+    cfg: &SimConfig,
+    cache: &CacheArgs,
+) -> anyhow::Result<Vec<(String, Vec<Figure5Row>)>> {
+    let build = |scene: &Scene, params: &BvhParams| build_bvh(scene, params, cache);
+    scenes
+        .iter()
+        .zip(scene_labels(scenes))
+        .map(|(s, name)| {
+            let bvh = s.bvh(&cfg.bvh_params(), &build)?;
+            let rendered = render(&s.scene, bvh.as_ref(), &cfg.render_settings(), None)
+                .with_context(|| format!("rendering scene '{}' for Figure 5", s.spec))?;
+            let rows = model(&bvh, &rendered, cfg.gpu.threads_per_cta, &FIGURE5_RAYS);
+            Ok((name, rows))
+        })
+        .collect()
+}
+
+/// The page's opening paragraphs: what was run, how, and how to rerun it.
+fn intro(
+    args: &ReproduceArgs,
+    experiments: &Path,
+    results: &Path,
+    scenes: &[PreparedScene],
+    runs: usize,
+    failed: &[String],
+    seconds: f64,
+) -> Vec<String> {
+    // Each scene by its name, with what it was given as where that differs.
+    let names: Vec<String> = scenes
+        .iter()
+        .zip(scene_labels(scenes))
+        .map(|(s, name)| {
+            if name.eq_ignore_ascii_case(&s.spec) {
+                name
+            } else {
+                format!("{name} (`{}`)", s.spec)
+            }
+        })
+        .collect();
+    let mut intro = vec![
+        format!(
+            "The figures of Chou & Aamodt, Virtualized Treelet Queues (ASPLOS 2025), measured by \
+             vtq {} on {} ({} distinct runs of the experiment files in `{}`; docs/fidelity.md \
+             explains every deviation). Dashed lines are the paper's published values where it \
+             gives numbers (the paper simulated all of LumiBench in Vulkan-Sim; the shared scenes \
+             are smaller subsets). Means leave the built-in scenes out.",
+            crate::experiment::sweep::key::VTQ_VERSION,
+            names.join(", "),
+            runs,
+            experiments.display()
+        ),
+        format!(
+            "Rerun: `vtq reproduce --out {}{}` (results are stored in `{}`, so a rerun only \
+             draws, and an interrupted one resumes). This page took {seconds:.0} s including the \
+             runs that were not stored yet.",
+            args.out.display(),
+            args.scenes
+                .iter()
+                .map(|s| format!(" --scene {s}"))
+                .chain(args.set.iter().map(|s| format!(" --set {s}")))
+                .collect::<String>(),
+            results.display()
+        ),
+    ];
+    if !args.set.is_empty() {
+        intro.push(format!(
+            "Every run has these overrides: {}.",
+            args.set
+                .iter()
+                .map(|s| format!("`{s}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    if !failed.is_empty() {
+        intro.push(format!(
+            "Failed runs (left out of the figures): {}.",
+            failed.join("; ")
+        ));
+    }
+    intro
+}

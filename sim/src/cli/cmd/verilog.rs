@@ -1,0 +1,70 @@
+//! `vtq verilog`: Verilog-2005 for every hardware block at the configured sizes — complete RTL
+//! for the treelet count table and the treelet queue table, skeletons with every port, register
+//! and state for the treelet controller and the RT unit, and the composed treelet RT unit: a top
+//! module instantiating the four with its wiring module (a skeleton).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use vtq_gen::compose::{composite_modules, Instance};
+use vtq_hdl::controller::ControllerFeatures;
+use vtq_hdl::rt_unit::NoDatapath;
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
+use vtq_hdl::Block;
+
+use super::options::ConfigArgs;
+use crate::model::config::SimConfig;
+
+/// Options of `vtq verilog`.
+#[derive(Debug, Args)]
+pub struct VerilogArgs {
+    #[command(flatten)]
+    pub config: ConfigArgs,
+    /// Directory to write one `<module>.v` per block into (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Every block's module as (module name, Verilog text): the tables, the controller and the RT
+/// unit, then the composed treelet RT unit's top and wiring modules.
+pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
+    let mut out = vtq_gen::rtl::table_modules(&cfg.hw)?;
+    let params = TreeletRtUnitParams {
+        rt: cfg.rt_unit_params(
+            0,
+            None,
+            vtq_hdl::rt_unit::RtUnitParams::default().stack_spill_chunks,
+        ),
+        features: ControllerFeatures::FULL,
+        ray_base: 0,
+    };
+    let unit = TreeletRtUnit::new(cfg.hw.clone(), params, NoDatapath)?;
+    let children: Vec<Instance> = unit
+        .children()
+        .into_iter()
+        .map(|(name, desc)| Instance {
+            name: name.to_string(),
+            desc,
+        })
+        .collect();
+    for child in &children[..2] {
+        out.push((child.desc.name.clone(), vtq_gen::emit_module(&child.desc)?));
+    }
+    out.extend(composite_modules(&unit.describe(), &children)?);
+    Ok(out)
+}
+
+/// Run `vtq verilog`.
+pub fn run(args: &VerilogArgs) -> anyhow::Result<()> {
+    let cfg = args.config.load_hardware()?;
+    crate::cli::output::check_dir(&args.out)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    for (name, text) in modules(&cfg)? {
+        let path = args.out.join(format!("{name}.v"));
+        std::fs::write(&path, &text).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {} ({} lines)", path.display(), text.lines().count());
+    }
+    Ok(())
+}

@@ -1,0 +1,12 @@
+//! The `vtq` command line, listed bottom-up: the checks and fallbacks of its output files and
+//! the ray and hit CSV files, the fuzzing of the parsers of user input, then the commands.
+
+// Files the commands read and write.
+pub mod output;
+pub mod rays_csv;
+
+// Fuzzing of the parsers of user input.
+pub mod fuzz;
+
+// One module per command.
+pub mod cmd;

@@ -1,0 +1,365 @@
+//! The accuracy benchmark (`vtq accuracy`, docs/accuracy.md): for each scene and design, full
+//! detail against the sampled tier at several settings — wall time,
+//! speed-up over full detail, error of cycles, error of each design's speedup over the baseline,
+//! and whether the 95% interval held the full-detail value — with the mean and worst case per
+//! setting, a CSV of the rows and a plot of run time against error.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::estimate::sample::{paired_speedup, simulate_sampled, Estimate, Profile, SampleConfig};
+use crate::experiment::plot::{Point, Scatter, Series};
+use crate::model::bvh::HwBvh;
+use crate::model::config::SimConfig;
+use crate::model::gpu::{simulate, SimError, SimOptions};
+use crate::model::scene::Scene;
+
+/// The tier of a row.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub enum Tier {
+    /// Full detail (the reference).
+    Full,
+    /// The sampled tier at `FRACTIONxREPLICATES`.
+    Sampled(String),
+}
+
+impl Tier {
+    /// Its name in tables and plots.
+    pub fn name(&self) -> String {
+        match self {
+            Tier::Full => "full".into(),
+            Tier::Sampled(s) => format!("sampled {s}"),
+        }
+    }
+}
+
+/// One design on one scene at one tier.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Row {
+    /// Scene.
+    pub scene: String,
+    /// Design label.
+    pub design: String,
+    /// Tier.
+    pub tier: Tier,
+    /// Wall-clock seconds (the sampled tier's include the functional profile).
+    pub wall: f64,
+    /// Full detail's wall over this one's.
+    pub time_speedup: f64,
+    /// Cycles (estimate).
+    pub cycles: f64,
+    /// Half-width of the 95% interval of the cycles (sampled tier).
+    pub cycles_half_width: Option<f64>,
+    /// Relative error of the cycles against full detail.
+    pub cycles_error: f64,
+    /// Whether the interval held full detail's cycles (`None` without an interval).
+    pub cycles_covered: Option<bool>,
+    /// Speedup over the baseline (estimate; `None` for the baseline itself).
+    pub speedup: Option<f64>,
+    /// Half-width of its 95% interval.
+    pub speedup_half_width: Option<f64>,
+    /// Its relative error against full detail's speedup.
+    pub speedup_error: Option<f64>,
+    /// Whether the interval held full detail's speedup.
+    pub speedup_covered: Option<bool>,
+}
+
+/// A design to benchmark: its label and configuration.
+#[derive(Debug, Clone)]
+pub struct Design {
+    /// Label (the first design is the speedup reference).
+    pub label: String,
+    /// Configuration.
+    pub config: SimConfig,
+}
+
+/// What a benchmark of one scene needs.
+#[derive(Debug, Clone)]
+pub struct Plan<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its BVH (every design must use its build parameters).
+    pub bvh: &'a HwBvh,
+    /// The designs, reference first.
+    pub designs: &'a [Design],
+    /// Sampled settings `FRACTIONxREPLICATES`.
+    pub settings: &'a [String],
+    /// Threads for full detail's SMs and the sampled tier's replicates.
+    pub threads: usize,
+}
+
+/// Runs every tier on one scene; rows in (design, tier) order.
+pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
+    let scene = plan.scene;
+    let first = &plan.designs[0].config;
+    let start = Instant::now();
+    let profile = Profile::new(scene, plan.bvh, first)?;
+    let profile_wall = start.elapsed().as_secs_f64();
+    // Per design: (full cycles, full wall), per setting the sampled result.
+    let mut full = Vec::new();
+    let mut sampled = Vec::new();
+    for d in plan.designs {
+        let t = Instant::now();
+        let options = SimOptions {
+            threads: plan.threads,
+            ..SimOptions::default()
+        };
+        let out = simulate(scene, plan.bvh, &d.config, options, None)?;
+        full.push((out.stats.cycles as f64, t.elapsed().as_secs_f64()));
+        let mut per = Vec::new();
+        for spec in plan.settings {
+            let mut cfg = d.config.clone();
+            cfg.sample = SampleConfig {
+                seed: d.config.sample.seed,
+                ..SampleConfig::default()
+            };
+            cfg.sample.apply_spec(spec).map_err(SimError::Setup)?;
+            let t = Instant::now();
+            let s = simulate_sampled(scene, plan.bvh, &cfg, &profile, plan.threads)?;
+            per.push((s, t.elapsed().as_secs_f64() + profile_wall));
+        }
+        sampled.push(per);
+    }
+    let mut rows = Vec::new();
+    let reference = full[0].0;
+    for (i, d) in plan.designs.iter().enumerate() {
+        let (cycles, wall) = full[i];
+        let true_speedup = (i > 0).then(|| reference / cycles.max(1.0));
+        let row = |tier: Tier, w: f64, c: Estimate, s: Option<Estimate>| {
+            let err = |e: f64, t: f64| e / t - 1.0;
+            Row {
+                scene: scene.name.clone(),
+                design: d.label.clone(),
+                tier,
+                wall: w,
+                time_speedup: wall / w.max(1e-9),
+                cycles: c.value,
+                cycles_half_width: c.half_width,
+                cycles_error: err(c.value, cycles),
+                cycles_covered: c.half_width.map(|_| c.contains(cycles)),
+                speedup: s.map(|s| s.value),
+                speedup_half_width: s.and_then(|s| s.half_width),
+                speedup_error: s.zip(true_speedup).map(|(s, t)| err(s.value, t)),
+                speedup_covered: s
+                    .zip(true_speedup)
+                    .and_then(|(s, t)| s.half_width.map(|_| s.contains(t))),
+            }
+        };
+        let exact = |v: f64| Estimate {
+            value: v,
+            half_width: None,
+        };
+        rows.push(row(
+            Tier::Full,
+            wall,
+            exact(cycles),
+            true_speedup.map(exact),
+        ));
+        for (k, spec) in plan.settings.iter().enumerate() {
+            let (s, w) = &sampled[i][k];
+            let speedup = (i > 0).then(|| paired_speedup(&sampled[0][k].0, s));
+            rows.push(row(Tier::Sampled(spec.clone()), *w, s.cycles, speedup));
+        }
+    }
+    Ok(rows)
+}
+
+/// Mean and worst of `values` (0 for none).
+fn mean_worst(values: &[f64]) -> (f64, f64) {
+    if values.is_empty() {
+        return (0.0, 0.0);
+    }
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    (mean, values.iter().copied().fold(0.0, f64::max))
+}
+
+/// A tier's summary over all scenes and designs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// Tier name.
+    pub tier: String,
+    /// Rows summarized.
+    pub rows: usize,
+    /// Mean speed-up over full detail (wall time).
+    pub mean_time_speedup: f64,
+    /// Smallest speed-up over full detail.
+    pub min_time_speedup: f64,
+    /// Mean |relative error| of cycles.
+    pub mean_cycles_error: f64,
+    /// Worst |relative error| of cycles.
+    pub worst_cycles_error: f64,
+    /// Mean |relative error| of speedups over the baseline.
+    pub mean_speedup_error: f64,
+    /// Worst |relative error| of speedups.
+    pub worst_speedup_error: f64,
+    /// Share of intervals (cycles and speedups) that held full detail's value (`None`: no
+    /// intervals).
+    pub coverage: Option<f64>,
+}
+
+/// The summary of each tier of `rows` (full detail excluded), in order of first appearance.
+pub fn summarize(rows: &[Row]) -> Vec<Summary> {
+    let mut tiers: Vec<String> = Vec::new();
+    for r in rows {
+        let t = r.tier.name();
+        if r.tier != Tier::Full && !tiers.contains(&t) {
+            tiers.push(t);
+        }
+    }
+    tiers
+        .into_iter()
+        .map(|tier| {
+            let of: Vec<&Row> = rows.iter().filter(|r| r.tier.name() == tier).collect();
+            let cycles: Vec<f64> = of.iter().map(|r| r.cycles_error.abs()).collect();
+            let speedups: Vec<f64> = of
+                .iter()
+                .filter_map(|r| r.speedup_error.map(f64::abs))
+                .collect();
+            let covered: Vec<bool> = of
+                .iter()
+                .flat_map(|r| [r.cycles_covered, r.speedup_covered])
+                .flatten()
+                .collect();
+            let times: Vec<f64> = of.iter().map(|r| r.time_speedup).collect();
+            let (mean_c, worst_c) = mean_worst(&cycles);
+            let (mean_s, worst_s) = mean_worst(&speedups);
+            Summary {
+                tier,
+                rows: of.len(),
+                mean_time_speedup: times.iter().sum::<f64>() / times.len().max(1) as f64,
+                min_time_speedup: times.iter().copied().fold(f64::INFINITY, f64::min),
+                mean_cycles_error: mean_c,
+                worst_cycles_error: worst_c,
+                mean_speedup_error: mean_s,
+                worst_speedup_error: worst_s,
+                coverage: (!covered.is_empty())
+                    .then(|| covered.iter().filter(|&&c| c).count() as f64 / covered.len() as f64),
+            }
+        })
+        .collect()
+}
+
+/// The rows as CSV with a header line.
+pub fn csv(rows: &[Row]) -> String {
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v}"));
+    let flag = |v: Option<bool>| v.map_or(String::new(), |v| v.to_string());
+    let mut out = String::from(
+        "scene,design,tier,wall_seconds,time_speedup,cycles,cycles_half_width,cycles_error,\
+         cycles_covered,speedup,speedup_half_width,speedup_error,speedup_covered\n",
+    );
+    for r in rows {
+        out += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.scene,
+            r.design,
+            r.tier.name(),
+            r.wall,
+            r.time_speedup,
+            r.cycles,
+            opt(r.cycles_half_width),
+            r.cycles_error,
+            flag(r.cycles_covered),
+            opt(r.speedup),
+            opt(r.speedup_half_width),
+            opt(r.speedup_error),
+            flag(r.speedup_covered),
+        );
+    }
+    out
+}
+
+/// The run-time-against-error chart of `rows`: log wall time on x, the signed error of cycles
+/// against full detail in percent on y, with the sampled tier's 95% intervals as error bars
+/// (full detail at 0), one series per tier, one marker shape per scene.
+pub fn chart(rows: &[Row]) -> Scatter {
+    let mut series: Vec<Series> = Vec::new();
+    for r in rows {
+        let name = r.tier.name();
+        let point = Point {
+            x: r.wall.max(1e-3),
+            y: 100.0 * r.cycles_error,
+            label: r.scene.clone(),
+            interval: error_interval(r),
+        };
+        match series.iter_mut().find(|s| s.name == name) {
+            Some(s) => s.points.push(point),
+            None => series.push(Series {
+                name,
+                points: vec![point],
+            }),
+        }
+    }
+    Scatter {
+        title: "vtq accuracy: run time against error of cycles".into(),
+        x_label: "wall time per design run (s)".into(),
+        y_label: "error of cycles vs full detail (%, 95% interval)".into(),
+        x_log: true,
+        y_log: false,
+        joined: false,
+        series,
+    }
+}
+
+/// The 95% interval of a row's error of cycles in percent (`None` without an interval): the
+/// interval of its cycles over full detail's cycles (the estimate over one plus its error).
+fn error_interval(r: &Row) -> Option<(f64, f64)> {
+    let full = r.cycles / (1.0 + r.cycles_error);
+    let hw = r.cycles_half_width?;
+    (full.is_finite() && full > 0.0).then(|| {
+        let err = |c: f64| 100.0 * (c / full - 1.0);
+        (err(r.cycles - hw), err(r.cycles + hw))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_chart_draws_the_sampled_tiers_intervals() {
+        let row = |tier: Tier, cycles: f64, half_width: Option<f64>| Row {
+            scene: "WKND".into(),
+            design: "baseline".into(),
+            tier,
+            wall: 1.0,
+            time_speedup: 1.0,
+            cycles,
+            cycles_half_width: half_width,
+            cycles_error: cycles / 100.0 - 1.0,
+            cycles_covered: half_width.map(|h| (cycles - h..=cycles + h).contains(&100.0)),
+            speedup: None,
+            speedup_half_width: None,
+            speedup_error: None,
+            speedup_covered: None,
+        };
+        let rows = [
+            row(Tier::Full, 100.0, None),
+            row(Tier::Sampled("1/16x4".into()), 110.0, Some(20.0)),
+            // One replicate: an estimate with no interval.
+            row(Tier::Sampled("1/16x1".into()), 80.0, None),
+        ];
+        let chart = chart(&rows);
+        let points: Vec<&Point> = chart.series.iter().flat_map(|s| &s.points).collect();
+        assert_eq!(points[0].interval, None);
+        let (lo, hi) = points[1].interval.expect("the sampled estimate's interval");
+        assert!((points[1].y - 10.0).abs() < 1e-9);
+        assert!(
+            (lo + 10.0).abs() < 1e-9 && (hi - 30.0).abs() < 1e-9,
+            "{lo} {hi}"
+        );
+        // The error is signed, so an interval shows whether it holds full detail (0).
+        assert!((points[2].y + 20.0).abs() < 1e-9);
+        // The axis holds the estimates; an interval reaching more than half their span beyond
+        // them runs off it.
+        let (_, y) = chart.axes();
+        assert!(y.lo <= -20.0 && y.hi >= 10.0 && y.hi < 30.0, "{y:?}");
+        let narrower = [
+            rows[0].clone(),
+            row(Tier::Sampled("1/16x4".into()), 110.0, Some(12.0)),
+            rows[2].clone(),
+        ];
+        let (_, y) = super::chart(&narrower).axes();
+        assert!(y.lo <= -20.0 && y.hi >= 22.0, "{y:?}");
+    }
+}

@@ -1,0 +1,242 @@
+//! `vtq reproduce`: the paper's experiment matrix run through the result store, and its figures
+//! (docs/reproducing.md).
+//!
+//! The experiments are the sweep files of `configs/experiments/` that `docs/fidelity.md` defines
+//! ([`FIGURE_EXPERIMENTS`]): one definition per experiment, shared by `vtq sweep --spec`, the
+//! fidelity study and this command. Their points run into a [`ResultStore`], so a reproduction
+//! that is interrupted resumes, and a point any sweep already ran is not run again. The figures
+//! ([`figures`]) and the section 6.5 tables ([`tables`]) read the stored statistics through
+//! [`Results`], which names each scene by its own name ([`scene_labels`]), and are written as
+//! SVG and PNG with the paper's published values drawn beside vtq's, on an HTML page and its
+//! Markdown twin ([`page`]).
+
+pub mod beyond;
+pub mod figures;
+pub mod page;
+pub mod tables;
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use serde_json::Value as Json;
+
+use crate::experiment::sweep::{PreparedScene, ResultStore, RunKey, RunStatus, SweepSpec};
+use crate::model::config::SimConfig;
+
+/// The experiment files (stems in `configs/experiments/`) the figures are computed from.
+pub const FIGURE_EXPERIMENTS: [&str; 9] = [
+    "fig01-baseline",
+    "fig10-speedup",
+    "fig11-treelet-stationary",
+    "fig12-grouping",
+    "fig13-repack",
+    "fig14-15-phases",
+    "fig16-virtualization",
+    "sec65-queues",
+    "ext-vtq-prefetch",
+];
+
+/// Whether `scene` is a built-in (generated) scene rather than a scene folder: built-ins are
+/// drawn for reference but left out of the means, as in docs/fidelity.md.
+pub fn is_builtin(scene: &str) -> bool {
+    let lower = scene.to_ascii_lowercase();
+    lower == "wknd" || lower == "cornell" || lower.starts_with("city")
+}
+
+/// The names the figures and tables give `scenes`: each scene's own name (a scene folder's
+/// `name` in its scene.toml, else the folder's name; a built-in's name; an `.obj` file's stem),
+/// never the path it was given by. Scenes that share a name are numbered (`LANDS-1`,
+/// `LANDS-2`).
+pub fn scene_labels(scenes: &[PreparedScene]) -> Vec<String> {
+    let names: Vec<&str> = scenes.iter().map(|s| s.scene.name.as_str()).collect();
+    unique_labels(&names)
+}
+
+/// `names`, those that occur more than once numbered in order (`A-1`, `A-2`).
+fn unique_labels(names: &[&str]) -> Vec<String> {
+    let mut seen: HashMap<&str, usize> = HashMap::new();
+    names
+        .iter()
+        .map(|&name| {
+            if names.iter().filter(|&&n| n == name).count() < 2 {
+                return name.to_string();
+            }
+            let k = seen.entry(name).or_default();
+            *k += 1;
+            format!("{name}-{k}")
+        })
+        .collect()
+}
+
+/// `label` as a file name: letters, digits, `-` and `_` kept, everything else (a path's
+/// slashes, a `city:4M`'s colon, spaces) turned into `_`.
+pub fn file_safe(label: &str) -> String {
+    label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// One experiment's sweep file, its configuration paths resolved against the project root and
+/// its scenes replaced by the command line's when given.
+pub fn load_experiment(
+    experiments: &Path,
+    name: &str,
+    scenes: &[String],
+) -> anyhow::Result<SweepSpec> {
+    let path = experiments.join(format!("{name}.toml"));
+    let mut spec = SweepSpec::from_file(&path)?;
+    let root = project_root(experiments);
+    for config in &mut spec.configs {
+        if config.is_relative() {
+            *config = root.join(&*config);
+        }
+    }
+    if !scenes.is_empty() {
+        spec.scenes = scenes.to_vec();
+    }
+    Ok(spec)
+}
+
+/// The project root of an experiments folder (`<root>/configs/experiments`): the folder that
+/// the experiment files' configuration paths (`configs/...`) are relative to.
+pub fn project_root(experiments: &Path) -> PathBuf {
+    experiments
+        .parent()
+        .and_then(Path::parent)
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// The stored statistics of the experiments' runs, looked up by scene, base configuration and
+/// overrides (each lookup hashes the configuration into its [`RunKey`], so any run of the same
+/// configuration is found, whichever sweep stored it).
+pub struct Results<'a> {
+    store: &'a ResultStore,
+    scenes: &'a [PreparedScene],
+    root: PathBuf,
+    /// Overrides of every run (`vtq reproduce --set`).
+    sets: Vec<String>,
+    /// Statistics looked up so far, by scene, configuration file and overrides.
+    loaded: RefCell<HashMap<String, Option<Json>>>,
+}
+
+impl<'a> Results<'a> {
+    /// Results in `store` of runs on `scenes`, with configuration files relative to `root`.
+    pub fn new(store: &'a ResultStore, scenes: &'a [PreparedScene], root: PathBuf) -> Self {
+        Results {
+            store,
+            scenes,
+            root,
+            sets: Vec::new(),
+            loaded: RefCell::new(HashMap::new()),
+        }
+    }
+
+    /// The same results, with `sets` (`key=value`) applied to every lookup before its own.
+    pub fn with_sets(mut self, sets: &[String]) -> Self {
+        self.sets = sets.to_vec();
+        self
+    }
+
+    /// The scenes as given (what [`Results::stats`] looks up), in order.
+    pub fn scenes(&self) -> Vec<&str> {
+        self.scenes.iter().map(|s| s.spec.as_str()).collect()
+    }
+
+    /// The scenes' names for figures and tables, in the order of [`Results::scenes`]
+    /// ([`scene_labels`]).
+    pub fn labels(&self) -> Vec<String> {
+        scene_labels(self.scenes)
+    }
+
+    /// The statistics of `scene` simulated with the configuration file `base` (relative to the
+    /// project root, e.g. `configs/vtq.toml`) and the overrides `sets` (`key=value`), or `None`
+    /// when that run is not stored or failed.
+    pub fn stats(&self, scene: &str, base: &str, sets: &[&str]) -> Option<Json> {
+        // Figures ask for the same runs again and again: cached by the question.
+        let question = format!("{scene}\n{base}\n{}", sets.join("\n"));
+        if let Some(found) = self.loaded.borrow().get(&question) {
+            return found.clone();
+        }
+        let found = self.lookup(scene, base, sets);
+        self.loaded.borrow_mut().insert(question, found.clone());
+        found
+    }
+
+    /// [`Results::stats`] without the cache: the configuration loaded, hashed with the scene
+    /// into its key and the stored run read.
+    fn lookup(&self, scene: &str, base: &str, sets: &[&str]) -> Option<Json> {
+        let prepared = self.scenes.iter().find(|s| s.spec == scene)?;
+        let path = self.root.join(base);
+        let text = std::fs::read_to_string(&path).ok()?;
+        let sets: Vec<String> = self
+            .sets
+            .iter()
+            .cloned()
+            .chain(sets.iter().map(|s| s.to_string()))
+            .collect();
+        let config =
+            SimConfig::load_unvalidated(Some((path.as_path(), text.as_str())), &sets).ok()?;
+        let key = RunKey::new(&prepared.hash, &config).ok()?;
+        self.store
+            .load(&key)
+            .ok()
+            .flatten()
+            .filter(|r| r.status == RunStatus::Ok)
+            .and_then(|r| r.stats().cloned())
+    }
+}
+
+/// The default experiments folder: `configs/experiments` under the working directory, else
+/// beside the source tree this binary was built from.
+pub fn default_experiments_dir() -> PathBuf {
+    let here = PathBuf::from("configs/experiments");
+    if here.is_dir() {
+        return here;
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/experiments")
+}
+
+/// Checks that `dir` holds every experiment file the figures need.
+pub fn check_experiments_dir(dir: &Path) -> anyhow::Result<()> {
+    for name in FIGURE_EXPERIMENTS {
+        let path = dir.join(format!("{name}.toml"));
+        if !path.is_file() {
+            anyhow::bail!(
+                "experiment file {} is missing (--experiments names the folder of the paper's \
+                 experiment files, configs/experiments in the project)",
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenes_are_named_by_their_own_names_and_files_never_by_paths() {
+        assert_eq!(
+            unique_labels(&["LANDS", "wknd", "LANDS", "SHIP"]),
+            ["LANDS-1", "wknd", "LANDS-2", "SHIP"]
+        );
+        for name in ["city:4M", "/work/shared/scenes/lands", "a b/c\\d", "LANDS"] {
+            let file = file_safe(name);
+            assert!(
+                !file.contains('/') && !file.contains('\\') && !file.contains(':'),
+                "{file}"
+            );
+        }
+        assert_eq!(file_safe("city:4M"), "city_4M");
+        assert_eq!(file_safe("../scenes/lands"), "___scenes_lands");
+    }
+}

@@ -1,0 +1,284 @@
+//! The treelet RT unit's cycle in an [`RtPort`] (queues mode): SM warps offered on its ports
+//! and their rays' hits collected per SM warp, memory requests and ray records, the ray-record
+//! store and the spill FIFO, preloads handed to the preloader, the treelet prefetcher watching
+//! the rays (`mode.treelet_prefetch`), and the statistics observer.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use vtq_hdl::mode::Mode;
+use vtq_hdl::rt_unit::{RtStats, CHUNK_BYTES};
+use vtq_hdl::treelet_rt_unit::{
+    RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
+    TreeletRtUnitOutputs, TreeletRtUnitRegs,
+};
+
+use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
+use crate::model::config::TreeletPrefetch;
+use crate::model::geometry::{Hit, Ray};
+use crate::model::gpu::datapath::{hit_from_hw, BvhDatapath};
+use crate::model::gpu::error::SimError;
+use crate::model::gpu::queued_stacks::QueuedStacks;
+use crate::model::gpu::ray_memory::{RayStore, SpillFifo};
+use crate::model::gpu::stats::WarpLanes;
+use crate::model::memory::{AccessClass, MemRequest};
+
+/// The statistics observer beside one SM's treelet RT unit: its summed events, its tests per
+/// traversal phase and the largest number of queues.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct QueueObserver {
+    /// The treelet RT unit's events, summed (the RT unit's part is also in [`RtPort::hw_stats`]).
+    pub counts: TreeletCounts,
+    /// Intersection tests per phase (the controller's mode after the cycle of the test):
+    /// initial, treelet stationary, final ray stationary.
+    pub tests: [u64; 3],
+    /// RT-unit warp cycles and what their lanes held, per phase (the controller's mode during
+    /// the cycle, the mode its cycle counters use), in the order of `tests`.
+    pub lanes: [WarpLanes; 3],
+    /// Most treelet queues tracked by the count table at once.
+    pub max_queues: u64,
+    /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
+    pub max_queues_above_threshold: u64,
+}
+
+impl QueueObserver {
+    /// Adds the warp cycles and lanes of `counts` (one cycle's, or a skip's) to phase `phase`
+    /// (an index of [`phase_index`]).
+    pub(super) fn add_warp_cycles(&mut self, phase: usize, counts: &RtStats) {
+        self.lanes[phase].add(&WarpLanes::of(counts));
+    }
+}
+
+/// The index of the controller's mode `mode` in [`QueueObserver`]'s per-phase counters: initial
+/// (and done, a drained controller), treelet stationary, final ray stationary.
+pub(super) fn phase_index(mode: Mode) -> usize {
+    match mode {
+        Mode::Initial | Mode::Done => 0,
+        Mode::TreeletStationary => 1,
+        Mode::FinalRayStationary => 2,
+    }
+}
+
+/// The queues design's treelet hardware for [`RtPort::new`]: the controller's feature switches
+/// and where this SM's ray records start.
+#[derive(Debug, Clone, Copy)]
+pub struct QueueSetup {
+    /// The controller's feature switches.
+    pub features: vtq_hdl::controller::ControllerFeatures,
+    /// Byte address of this SM's ray id 0's 32 B ray record.
+    pub ray_base: u64,
+    /// Where queued rays' stacks go, when they move through memory
+    /// (`rt.queued_stack_traffic`): the address of this SM's area ([`QueuedStacks`]).
+    pub stack_base: Option<u64>,
+    /// In which phases the port's treelet prefetcher watches the rays (`mode.treelet_prefetch`).
+    pub prefetch: TreeletPrefetch,
+}
+
+/// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct PendingWarp {
+    /// Per lane that carried a ray: `Some(closest hit)` (`Some(None)`, a miss, until the ray
+    /// finishes); `None` for idle lanes.
+    hits: Vec<Option<Option<Hit>>>,
+    /// Rays still out.
+    left: u32,
+}
+
+/// The treelet RT unit with its registers, cache and surroundings.
+#[derive(Debug, Clone)]
+pub(super) struct Treelet<'a> {
+    pub(super) unit: TreeletRtUnit<BvhDatapath<'a>>,
+    pub(super) regs: TreeletRtUnitRegs,
+    pub(super) cache: TreeletRtUnitCache,
+    /// Records of rays waiting in the treelet queues.
+    pub(super) store: RayStore,
+    /// The queue table's spill FIFO.
+    pub(super) spill_fifo: SpillFifo,
+    /// Ray records that arrived, for the next step.
+    pub(super) arrived: Vec<RayLoad>,
+    /// The input bundle, reused every step.
+    pub(super) inputs: TreeletRtUnitInputs,
+    /// The output bundle, reused every step.
+    pub(super) outputs: TreeletRtUnitOutputs,
+    /// SM warp and lane of each ray id in use.
+    pub(super) owners: Vec<Option<(usize, u32)>>,
+    /// SM warps with rays still traversing, by warp id.
+    pub(super) pending: BTreeMap<usize, PendingWarp>,
+    /// SM warps whose rays have all finished, returned one per cycle.
+    pub(super) completed: VecDeque<TracedWarp>,
+    /// A ray-record response the store could not answer (reported at the next step).
+    pub(super) fault: Option<String>,
+    /// The traffic of queued rays' stacks (`rt.queued_stack_traffic`; `None`: free).
+    pub(super) stacks: Option<QueuedStacks>,
+    /// The statistics observer.
+    pub(super) observer: QueueObserver,
+    /// In which phases the prefetcher watches the rays.
+    pub(super) prefetch: TreeletPrefetch,
+}
+
+impl<'a> RtPort<'a> {
+    /// A cycle `now` of the treelet RT unit (out of line: the plain RT unit's step stays small
+    /// enough to inline into the node's visit).
+    #[inline(never)]
+    pub(super) fn step_treelet(
+        &mut self,
+        now: u64,
+        sm: usize,
+        warp: Option<(usize, &[Option<Ray>])>,
+    ) -> Result<RtCycle, SimError> {
+        let mut cycle = RtCycle::default();
+        let record = self.recording(now);
+        let lanes = match (&self.hw, warp) {
+            (Hardware::Treelet(t), Some((_, rays))) => {
+                let warp_size = t.unit.config().warp_size as usize;
+                Some(self.warp_lanes(0, rays, warp_size))
+            }
+            _ => None,
+        };
+        let Hardware::Treelet(t) = &mut self.hw else {
+            unreachable!("a treelet port")
+        };
+        let t = &mut **t;
+        if let Some(reason) = t.fault.take() {
+            return Err(SimError::Queues { sm, reason });
+        }
+        let rt = t.unit.rt_unit();
+        let ports = t.unit.resp_free(&t.regs).min(rt.params().resp_ports);
+        let n = (ports as usize).min(self.responses.len());
+        // The input bundle is reused every cycle, so feeding it does not allocate.
+        let inputs = &mut t.inputs;
+        inputs.sm_warp = lanes;
+        inputs.responses.clear();
+        inputs.responses.extend(self.responses.drain(..n));
+        inputs.ray_records.clear();
+        std::mem::swap(&mut inputs.ray_records, &mut t.arrived);
+        inputs.spill_head = t.spill_fifo.head();
+        if record {
+            t.cache.probe(true);
+        }
+        let during = phase_index(t.unit.mode(&t.regs));
+        t.unit
+            .step_cached_into(&mut t.regs, &mut t.cache, inputs, &mut t.outputs);
+        let out = &t.outputs;
+        if let (true, Some(w)) = (record, self.waveform.as_mut()) {
+            w.record_treelet(inputs, out, t.cache.take_probe());
+            t.cache.probe(false);
+        }
+        self.stats.add(&out.counts.rt);
+        let obs = &mut t.observer;
+        obs.counts.add(&out.counts);
+        obs.add_warp_cycles(during, &out.counts.rt);
+        obs.tests[phase_index(t.unit.mode(&t.regs))] += out.counts.rt.total_tests();
+        let (queues, above) = t.unit.queues(&t.regs);
+        obs.max_queues = obs.max_queues.max(queues as u64);
+        obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
+        if let Some(record) = out.first_error {
+            let owner = t.owners.get(record.ray_id as usize).copied().flatten();
+            return Err(rt_error(sm, record, owner, self.address_bits));
+        }
+        if let Some(fault) = &out.fault {
+            return Err(SimError::Queues {
+                sm,
+                reason: fault.to_string(),
+            });
+        }
+        if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
+            let active = ids.iter().flatten().count();
+            self.rays_issued += active as u64;
+            for (lane, id) in ids.iter().enumerate() {
+                if let Some(id) = id {
+                    t.owners[*id as usize] = Some((idx, lane as u32));
+                }
+            }
+            let hits = (0..ids.len())
+                .map(|l| rays.get(l).copied().flatten().map(|_| None))
+                .collect::<Vec<_>>();
+            if active == 0 {
+                t.completed.push_back(TracedWarp { warp: idx, hits });
+            } else {
+                let left = active as u32;
+                t.pending.insert(idx, PendingWarp { hits, left });
+            }
+            cycle.accepted = Some(idx);
+        }
+        for r in &out.parked {
+            if let Some(q) = t.stacks.as_mut() {
+                self.requests.extend(q.park(r));
+            }
+            t.store.park(r.clone());
+        }
+        if let Some(entry) = out.spill_push {
+            t.spill_fifo.push(entry);
+        }
+        if out.spill_pop {
+            t.spill_fifo.pop();
+        }
+        if let Some(p) = self.prefetcher.as_mut() {
+            if let Some(treelet) = out.preload {
+                p.queue_treelet(treelet);
+            }
+            // Every stepped cycle of a watched phase: observing unchanged rays again changes
+            // nothing (the prefetcher's rule), so skipped idle cycles need no observation.
+            if t.prefetch.watches(t.unit.mode(&t.regs)) {
+                p.observe(t.unit.next_addresses(&t.regs, &t.cache));
+            }
+        }
+        for f in &out.finished {
+            let Some((warp, lane)) = t.owners.get_mut(f.ray as usize).and_then(Option::take) else {
+                return Err(SimError::Queues {
+                    sm,
+                    reason: format!("ray {} finished but no SM warp waits for it", f.ray),
+                });
+            };
+            let Some(PendingWarp { hits, left }) = t.pending.get_mut(&warp) else {
+                return Err(SimError::Queues {
+                    sm,
+                    reason: format!("a ray of SM warp {warp} finished twice"),
+                });
+            };
+            if let Some(h) = hits.get_mut(lane as usize) {
+                *h = Some(f.hit.as_ref().map(hit_from_hw));
+            }
+            *left -= 1;
+            self.rays_completed += 1;
+            if *left == 0 {
+                let done = t.pending.remove(&warp).expect("present");
+                t.completed.push_back(TracedWarp {
+                    warp,
+                    hits: done.hits,
+                });
+            }
+        }
+        cycle.done = t.completed.pop_front();
+        // Taken out while the requests are queued (queueing borrows the port), put back after.
+        let mut stacks = t.stacks.take();
+        let requests = std::mem::take(&mut t.outputs.requests);
+        for r in &requests {
+            match *r {
+                TreeletRequest::RayLoad { slot, ray, address } => {
+                    self.requests.push_back(
+                        MemRequest::load(
+                            address,
+                            CHUNK_BYTES,
+                            AccessClass::RayRecord,
+                            RAY_LOAD_TAG | (ray as u64) << 16 | slot as u64,
+                        )
+                        .bypassing_l1(),
+                    );
+                    if let Some(q) = stacks.as_mut() {
+                        self.requests.extend(q.load(ray));
+                    }
+                }
+                TreeletRequest::RayStore { address, .. } => self.requests.push_back(
+                    MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
+                        .bypassing_l1(),
+                ),
+                TreeletRequest::Rt(req) => self.push_request(&req),
+            }
+        }
+        if let Hardware::Treelet(t) = &mut self.hw {
+            t.stacks = stacks;
+            t.outputs.requests = requests;
+        }
+        Ok(cycle)
+    }
+}
