@@ -36,8 +36,9 @@
 use crate::bits::bits_for;
 use crate::block::{Block, Signal};
 use crate::config::{ConfigError, HwConfig};
-use crate::describe::{reg, BlockDesc, FsmDesc};
+use crate::describe::{BlockDesc, FsmDesc};
 use crate::memory::{MemPorts, Memory};
+use crate::registers::RegTable;
 
 /// Entries the scan engine reads per cycle unless configured otherwise.
 pub const DEFAULT_SCAN_WIDTH: u32 = 8;
@@ -636,29 +637,7 @@ impl Block for CountTable {
     }
 
     fn reg_signals(&self, r: &CountTableRegs) -> Vec<Signal> {
-        let w = self.widths;
-        let mut s = vec![
-            Signal::new("state", 1, r.scanning as u64),
-            Signal::new("scan_pos", w.index, r.scan_pos as u64),
-        ];
-        for (p, x) in [
-            ("max", &r.max),
-            ("min", &r.min),
-            ("run_max", &r.run_max),
-            ("run_min", &r.run_min),
-        ] {
-            s.push(Signal::new(format!("{p}_valid"), 1, x.valid as u64));
-            s.push(Signal::new(format!("{p}_idx"), w.index, x.idx as u64));
-            s.push(Signal::new(format!("{p}_treelet"), w.treelet, x.treelet));
-            s.push(Signal::new(
-                format!("{p}_count_m1"),
-                w.count_m1,
-                x.count_m1 as u64,
-            ));
-        }
-        s.push(Signal::new("occupancy", w.entries, r.occupancy as u64));
-        s.push(Signal::new("above", w.entries, r.above as u64));
-        s
+        self.registers().signals(r)
     }
 
     fn describe(&self) -> BlockDesc {
@@ -667,48 +646,7 @@ impl Block for CountTable {
         let regs = self.reset();
         let mut ports = CountTableIn::ports(&w);
         ports.extend(CountTableOut::ports(&w));
-        let mut registers = vec![
-            reg("state", 1, 1, "FSM state (IDLE/SCAN)"),
-            reg(
-                "scan_pos",
-                w.index,
-                1,
-                "first entry the scan reads this cycle",
-            ),
-        ];
-        for p in ["max", "min", "run_max", "run_min"] {
-            registers.push(reg(
-                &format!("{p}_valid"),
-                1,
-                1,
-                &format!("{p} pointer valid"),
-            ));
-            registers.push(reg(
-                &format!("{p}_idx"),
-                w.index,
-                1,
-                &format!("{p} entry index"),
-            ));
-            registers.push(reg(
-                &format!("{p}_treelet"),
-                w.treelet,
-                1,
-                &format!("{p} entry treelet"),
-            ));
-            registers.push(reg(
-                &format!("{p}_count_m1"),
-                w.count_m1,
-                1,
-                &format!("{p} entry count - 1"),
-            ));
-        }
-        registers.push(reg("occupancy", w.entries, 1, "valid entries"));
-        registers.push(reg(
-            "above",
-            w.entries,
-            1,
-            "entries at or above the underpopulation threshold",
-        ));
+        let registers = self.registers().descs();
         BlockDesc {
             name: "treelet_count_table".into(),
             doc: "Treelet count table (sections 4.2, 4.4, 6.5): rays per treelet, the largest \
@@ -791,6 +729,64 @@ pub struct CountTableStatus {
 }
 
 impl CountTable {
+    /// The registers (all but the entry memory): their descriptions and trace signals, declared
+    /// once.
+    fn registers(&self) -> RegTable<'static, CountTableRegs> {
+        let w = self.widths;
+        let mut t = RegTable::new();
+        t.one("state", 1, "FSM state (IDLE/SCAN)", |r: &CountTableRegs| {
+            r.scanning as u64
+        })
+        .one(
+            "scan_pos",
+            w.index,
+            "first entry the scan reads this cycle",
+            |r| r.scan_pos as u64,
+        );
+        let pointers: [(&str, fn(&CountTableRegs) -> &Extreme); 4] = [
+            ("max", |r| &r.max),
+            ("min", |r| &r.min),
+            ("run_max", |r| &r.run_max),
+            ("run_min", |r| &r.run_min),
+        ];
+        for (p, x) in pointers {
+            t.one(
+                &format!("{p}_valid"),
+                1,
+                &format!("{p} pointer valid"),
+                move |r| x(r).valid as u64,
+            )
+            .one(
+                &format!("{p}_idx"),
+                w.index,
+                &format!("{p} entry index"),
+                move |r| x(r).idx as u64,
+            )
+            .one(
+                &format!("{p}_treelet"),
+                w.treelet,
+                &format!("{p} entry treelet"),
+                move |r| x(r).treelet,
+            )
+            .one(
+                &format!("{p}_count_m1"),
+                w.count_m1,
+                &format!("{p} entry count - 1"),
+                move |r| x(r).count_m1 as u64,
+            );
+        }
+        t.one("occupancy", w.entries, "valid entries", |r| {
+            r.occupancy as u64
+        })
+        .one(
+            "above",
+            w.entries,
+            "entries at or above the underpopulation threshold",
+            |r| r.above as u64,
+        );
+        t
+    }
+
     /// The register-only outputs for these registers.
     pub fn status(&self, r: &CountTableRegs) -> CountTableStatus {
         CountTableStatus {

@@ -22,6 +22,7 @@ pub mod count_table;
 pub mod memory;
 pub mod mode;
 pub mod queue_table;
+pub mod registers;
 pub mod rt_unit;
 pub mod splitmix;
 pub mod trace;

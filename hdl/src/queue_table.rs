@@ -46,8 +46,9 @@ use crate::bits::{bits_for, clog2};
 use crate::block::{Block, Signal};
 use crate::bounded::BoundedVec;
 use crate::config::{ConfigError, HwConfig};
-use crate::describe::{reg, BlockDesc, FsmDesc};
+use crate::describe::{BlockDesc, FsmDesc};
 use crate::memory::{MemCycle, MemPorts, Memory};
+use crate::registers::RegTable;
 
 /// Operation presented to the queue table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -744,37 +745,7 @@ impl Block for QueueTable {
     }
 
     fn reg_signals(&self, r: &QueueTableRegs) -> Vec<Signal> {
-        let w = self.widths;
-        let c = &r.ctl;
-        let mut s = vec![
-            Signal::new("state", 3, c.state as u64),
-            Signal::new("walk_op", 2, c.walk_op as u64),
-            Signal::new("key_treelet", w.treelet, c.key_treelet),
-            Signal::new("key_ray", w.ray, c.key_ray as u64),
-            Signal::new("head_valid", 1, c.head.valid as u64),
-            Signal::new("head_idx", w.index, c.head.idx as u64),
-            Signal::new("cur", w.index, c.cur as u64),
-            Signal::new("prev_valid", 1, c.prev_valid as u64),
-            Signal::new("prev", w.index, c.prev as u64),
-            Signal::new("prev_treelet", w.treelet, c.prev_treelet),
-            Signal::new("prev_count_m1", w.count_m1, c.prev_count_m1 as u64),
-            Signal::new("target", w.index, c.target as u64),
-            Signal::new("acc", w.total, c.acc as u64),
-            Signal::new("walked", w.entries, c.walked as u64),
-            Signal::new("pop_count_m1", w.count_m1, c.pop_count_m1 as u64),
-            Signal::new("pop_treelet", w.treelet, c.pop_treelet),
-            Signal::new("free_count", w.entries, c.free_count as u64),
-            Signal::new("spilled", w.spilled, c.spilled as u64),
-        ];
-        // The valid bits as 64-bit words, entry 0 in bit 0 of `valid_0`.
-        for (k, chunk) in r.valid.chunks(64).enumerate() {
-            let word = chunk
-                .iter()
-                .enumerate()
-                .fold(0u64, |acc, (i, &v)| acc | ((v as u64) << i));
-            s.push(Signal::new(format!("valid_{k}"), chunk.len() as u32, word));
-        }
-        s
+        self.registers().signals(r)
     }
 
     fn describe(&self) -> BlockDesc {
@@ -783,42 +754,7 @@ impl Block for QueueTable {
         let regs = self.reset();
         let mut ports = QueueTableIn::ports(&w);
         ports.extend(QueueTableOut::ports(&w));
-        let registers = vec![
-            reg("state", 3, 1, "FSM state"),
-            reg(
-                "walk_op",
-                2,
-                1,
-                "op the walk serves: 0 Insert, 1 Pop, 2 Count, 3 PopAny",
-            ),
-            reg("key_treelet", w.treelet, 1, "treelet of the current op"),
-            reg("key_ray", w.ray, 1, "ray of the current Insert/Refill"),
-            reg("head_valid", 1, 1, "bucket head at op start is valid"),
-            reg("head_idx", w.index, 1, "bucket head at op start"),
-            reg(
-                "cur",
-                w.index,
-                1,
-                "entry whose meta word arrives this cycle",
-            ),
-            reg("prev_valid", 1, 1, "an entry precedes cur"),
-            reg("prev", w.index, 1, "entry preceding cur"),
-            reg("prev_treelet", w.treelet, 1, "its treelet"),
-            reg("prev_count_m1", w.count_m1, 1, "its count - 1"),
-            reg("target", w.index, 1, "PopAny's entry"),
-            reg("acc", w.total, 1, "Count's running sum"),
-            reg("walked", w.entries, 1, "entries read in this walk"),
-            reg("pop_count_m1", w.count_m1, 1, "popped entry's count - 1"),
-            reg("pop_treelet", w.treelet, 1, "popped entry's treelet"),
-            reg("free_count", w.entries, 1, "free entries"),
-            reg("spilled", w.spilled, 1, "rays spilled and not refilled"),
-            reg(
-                "valid",
-                1,
-                c.queue_table_entries,
-                "entry valid bits (free list = complement)",
-            ),
-        ];
+        let registers = self.registers().descs();
         let ray_fields: Vec<(String, u32)> = (0..w.lanes)
             .rev()
             .map(|i| (format!("ray_{i}"), w.ray))
@@ -918,6 +854,79 @@ pub struct PopResult {
 }
 
 impl QueueTable {
+    /// The registers (the scalar registers and the valid bits; the heads, metadata and rays
+    /// are memories): their descriptions and trace signals, declared once.
+    fn registers(&self) -> RegTable<'static, QueueTableRegs> {
+        let w = self.widths;
+        let mut t = RegTable::new();
+        t.one("state", 3, "FSM state", |r: &QueueTableRegs| {
+            r.ctl.state as u64
+        })
+        .one(
+            "walk_op",
+            2,
+            "op the walk serves: 0 Insert, 1 Pop, 2 Count, 3 PopAny",
+            |r| r.ctl.walk_op as u64,
+        )
+        .one("key_treelet", w.treelet, "treelet of the current op", |r| {
+            r.ctl.key_treelet
+        })
+        .one("key_ray", w.ray, "ray of the current Insert/Refill", |r| {
+            r.ctl.key_ray as u64
+        })
+        .one("head_valid", 1, "bucket head at op start is valid", |r| {
+            r.ctl.head.valid as u64
+        })
+        .one("head_idx", w.index, "bucket head at op start", |r| {
+            r.ctl.head.idx as u64
+        })
+        .one(
+            "cur",
+            w.index,
+            "entry whose meta word arrives this cycle",
+            |r| r.ctl.cur as u64,
+        )
+        .one("prev_valid", 1, "an entry precedes cur", |r| {
+            r.ctl.prev_valid as u64
+        })
+        .one("prev", w.index, "entry preceding cur", |r| {
+            r.ctl.prev as u64
+        })
+        .one("prev_treelet", w.treelet, "its treelet", |r| {
+            r.ctl.prev_treelet
+        })
+        .one("prev_count_m1", w.count_m1, "its count - 1", |r| {
+            r.ctl.prev_count_m1 as u64
+        })
+        .one("target", w.index, "PopAny's entry", |r| r.ctl.target as u64)
+        .one("acc", w.total, "Count's running sum", |r| r.ctl.acc as u64)
+        .one("walked", w.entries, "entries read in this walk", |r| {
+            r.ctl.walked as u64
+        })
+        .one(
+            "pop_count_m1",
+            w.count_m1,
+            "popped entry's count - 1",
+            |r| r.ctl.pop_count_m1 as u64,
+        )
+        .one("pop_treelet", w.treelet, "popped entry's treelet", |r| {
+            r.ctl.pop_treelet
+        })
+        .one("free_count", w.entries, "free entries", |r| {
+            r.ctl.free_count as u64
+        })
+        .one("spilled", w.spilled, "rays spilled and not refilled", |r| {
+            r.ctl.spilled as u64
+        })
+        .bits(
+            "valid",
+            self.cfg.queue_table_entries,
+            "entry valid bits (free list = complement)",
+            |r, i| r.valid[i],
+        );
+        t
+    }
+
     /// The register-only outputs for these registers.
     pub fn status(&self, r: &QueueTableRegs) -> QueueTableStatus {
         QueueTableStatus {

@@ -14,7 +14,7 @@ pub(super) fn describe(
 ) -> BlockDesc {
     let mut ports = ControllerInputs::ports(w);
     ports.extend(ControllerOutputs::ports(w));
-    let registers = regs::registers(w);
+    let registers = regs::table(w).descs();
     let n = w.resident_entries;
     let flag = |b: bool| b as u64;
     BlockDesc {

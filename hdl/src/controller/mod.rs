@@ -611,7 +611,7 @@ impl Block for TreeletController {
         (out, n)
     }
     fn reg_signals(&self, regs: &ControllerRegs) -> Vec<Signal> {
-        regs::signals(regs, &self.widths)
+        regs::table(&self.widths).signals(regs)
     }
 
     fn describe(&self) -> BlockDesc {

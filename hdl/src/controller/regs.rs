@@ -1,14 +1,13 @@
 //! The treelet controller's registers: the mode and sequencer FSMs, the resident-treelet list,
 //! per-slot bookkeeping, the fill sequence, the spare buffer and a pending count-table remove,
-//! with their signals and their descriptions. Nothing else: its statistics are counted by an
-//! observer from its output ports ([`super::ControllerStats::observe`]).
+//! with their signals and descriptions declared once ([`table`]). Nothing else: its statistics
+//! are counted by an observer from its output ports ([`super::ControllerStats::observe`]).
 
 use serde::Serialize;
 
 use super::{ControllerWidths, FillKind, Seq};
-use crate::block::Signal;
-use crate::describe::{reg, RegDesc};
 use crate::mode::Mode;
+use crate::registers::RegTable;
 
 /// One entry of the resident-treelet list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -131,175 +130,155 @@ impl ControllerRegs {
     }
 }
 
-/// The register descriptions for widths `w`.
-pub(super) fn registers(w: &ControllerWidths) -> Vec<RegDesc> {
-    let n = w.resident_entries;
-    let slots = w.warp_slots;
-    vec![
-        reg("mode", Mode::BITS, 1, "Traversal mode FSM."),
-        reg("seq", Seq::BITS, 1, "Queue-table sequencer FSM."),
-        reg(
-            "queued_rays",
-            w.ray_total,
-            1,
-            "Rays in the queue table (exact).",
-        ),
-        reg("res_valid", 1, n, "Resident list: entry valid."),
-        reg(
-            "res_treelet",
-            w.treelet,
-            n,
-            "Resident list: treelet address.",
-        ),
-        reg(
-            "res_count",
-            w.ray_total,
-            n,
-            "Resident list: rays still queued for it.",
-        ),
-        reg(
-            "res_warps",
-            w.warps,
-            n,
-            "Resident list: its treelet warps in flight.",
-        ),
-        reg(
-            "res_head",
-            w.resident_index,
-            1,
-            "Oldest resident entry (current treelet).",
-        ),
-        reg(
-            "res_tail",
-            w.resident_index,
-            1,
-            "Next resident entry to allocate.",
-        ),
-        reg(
-            "slot_terminated",
-            1,
-            slots,
-            "Warp-buffer slot holds a terminated warp still sending its rays to the queues.",
-        ),
-        reg(
-            "slot_treelet_warp",
-            1,
-            slots,
-            "Warp-buffer slot holds a dispatched treelet warp.",
-        ),
-        reg(
-            "slot_res_valid",
-            1,
-            slots,
-            "That warp belongs to a resident entry.",
-        ),
-        reg("slot_res", w.resident_index, slots, "Which resident entry."),
-        reg(
-            "fill_kind",
-            FillKind::BITS,
-            1,
-            "Fill sequence: what is being built.",
-        ),
-        reg("fill_slot", w.slot, 1, "Fill sequence: target slot."),
-        reg(
-            "fill_res_valid",
-            1,
-            1,
-            "Fill sequence: popping a resident treelet.",
-        ),
-        reg(
-            "fill_res",
-            w.resident_index,
-            1,
-            "Fill sequence: which resident entry.",
-        ),
-        reg(
-            "fill_need",
-            w.lanes,
-            1,
-            "Fill sequence: lanes still to fill.",
-        ),
-        reg(
-            "fill_started",
-            1,
-            1,
-            "Fill sequence: the slot already received rays (or is a repack).",
-        ),
-        reg("spare_count", w.lane, 1, "Valid rays in the spare buffer."),
-        reg(
-            "spare_rays",
-            w.ray,
-            w.warp_size - 1,
-            "Spare buffer: popped rays that did not fit the warp being filled.",
-        ),
-        reg("prm_valid", 1, 1, "A count-table remove is pending."),
-        reg("prm_treelet", w.treelet, 1, "Its treelet."),
-        reg(
-            "prm_count",
-            w.ray_total,
-            1,
-            "Rays still to remove (a warp's worth per cycle).",
-        ),
-    ]
-}
-
-/// Appends `name_<i>` signals for a register bank of `count` entries.
-fn lanes(out: &mut Vec<Signal>, name: &str, width: u32, count: u32, value: impl Fn(usize) -> u64) {
-    for i in 0..count as usize {
-        out.push(Signal::new(format!("{name}_{i}"), width, value(i)));
-    }
-}
-
-/// The registers `r` as trace signals, for widths `w`.
-pub(super) fn signals(r: &ControllerRegs, w: &ControllerWidths) -> Vec<Signal> {
+/// The controller's registers for widths `w`: their descriptions and trace signals, declared
+/// once.
+pub(super) fn table(w: &ControllerWidths) -> RegTable<'static, ControllerRegs> {
     let b = |v: bool| v as u64;
-    let n = w.resident_entries;
-    let slots = w.warp_slots;
-    let prm = r.pending_remove;
-    let mut s = vec![
-        Signal::new("mode", Mode::BITS, r.mode.encoding()),
-        Signal::new("seq", Seq::BITS, r.seq as u64),
-        Signal::new("queued_rays", w.ray_total, r.queued_rays as u64),
-    ];
-    lanes(&mut s, "res_valid", 1, n, |i| b(r.res[i].valid));
-    lanes(&mut s, "res_treelet", w.treelet, n, |i| {
-        r.res[i].treelet as u64
-    });
-    lanes(&mut s, "res_count", w.ray_total, n, |i| {
-        r.res[i].count as u64
-    });
-    lanes(&mut s, "res_warps", w.warps, n, |i| r.res[i].warps as u64);
-    s.push(Signal::new("res_head", w.resident_index, r.res_head as u64));
-    s.push(Signal::new("res_tail", w.resident_index, r.res_tail as u64));
-    lanes(&mut s, "slot_terminated", 1, slots, |i| {
-        b(r.slots[i].terminated)
-    });
-    lanes(&mut s, "slot_treelet_warp", 1, slots, |i| {
-        b(r.slots[i].treelet_warp)
-    });
-    lanes(&mut s, "slot_res_valid", 1, slots, |i| {
-        b(r.slots[i].resident.is_some())
-    });
-    lanes(&mut s, "slot_res", w.resident_index, slots, |i| {
-        r.slots[i].resident.unwrap_or(0) as u64
-    });
-    let f = &r.fill;
-    s.extend([
-        Signal::new("fill_kind", FillKind::BITS, f.kind as u64),
-        Signal::new("fill_slot", w.slot, f.slot as u64),
-        Signal::new("fill_res_valid", 1, b(f.resident.is_some())),
-        Signal::new("fill_res", w.resident_index, f.resident.unwrap_or(0) as u64),
-        Signal::new("fill_need", w.lanes, f.need as u64),
-        Signal::new("fill_started", 1, b(f.started)),
-        Signal::new("spare_count", w.lane, r.spare_count as u64),
-    ]);
-    lanes(&mut s, "spare_rays", w.ray, w.warp_size - 1, |i| {
-        r.spare_rays[i] as u64
-    });
-    s.extend([
-        Signal::new("prm_valid", 1, b(prm.is_some())),
-        Signal::new("prm_treelet", w.treelet, prm.map_or(0, |p| p.0) as u64),
-        Signal::new("prm_count", w.ray_total, prm.map_or(0, |p| p.1) as u64),
-    ]);
-    s
+    let (n, slots, spare) = (w.resident_entries, w.warp_slots, w.warp_size - 1);
+    let mut t = RegTable::new();
+    t.one(
+        "mode",
+        Mode::BITS,
+        "Traversal mode FSM.",
+        |r: &ControllerRegs| r.mode.encoding(),
+    )
+    .one("seq", Seq::BITS, "Queue-table sequencer FSM.", |r| {
+        r.seq as u64
+    })
+    .one(
+        "queued_rays",
+        w.ray_total,
+        "Rays in the queue table (exact).",
+        |r| r.queued_rays as u64,
+    )
+    .bank(
+        "res_valid",
+        1,
+        n,
+        "Resident list: entry valid.",
+        move |r, i| b(r.res[i].valid),
+    )
+    .bank(
+        "res_treelet",
+        w.treelet,
+        n,
+        "Resident list: treelet address.",
+        |r, i| r.res[i].treelet as u64,
+    )
+    .bank(
+        "res_count",
+        w.ray_total,
+        n,
+        "Resident list: rays still queued for it.",
+        |r, i| r.res[i].count as u64,
+    )
+    .bank(
+        "res_warps",
+        w.warps,
+        n,
+        "Resident list: its treelet warps in flight.",
+        |r, i| r.res[i].warps as u64,
+    )
+    .one(
+        "res_head",
+        w.resident_index,
+        "Oldest resident entry (current treelet).",
+        |r| r.res_head as u64,
+    )
+    .one(
+        "res_tail",
+        w.resident_index,
+        "Next resident entry to allocate.",
+        |r| r.res_tail as u64,
+    )
+    .bank(
+        "slot_terminated",
+        1,
+        slots,
+        "Warp-buffer slot holds a terminated warp still sending its rays to the queues.",
+        move |r, i| b(r.slots[i].terminated),
+    )
+    .bank(
+        "slot_treelet_warp",
+        1,
+        slots,
+        "Warp-buffer slot holds a dispatched treelet warp.",
+        move |r, i| b(r.slots[i].treelet_warp),
+    )
+    .bank(
+        "slot_res_valid",
+        1,
+        slots,
+        "That warp belongs to a resident entry.",
+        move |r, i| b(r.slots[i].resident.is_some()),
+    )
+    .bank(
+        "slot_res",
+        w.resident_index,
+        slots,
+        "Which resident entry.",
+        |r, i| r.slots[i].resident.unwrap_or(0) as u64,
+    )
+    .one(
+        "fill_kind",
+        FillKind::BITS,
+        "Fill sequence: what is being built.",
+        |r| r.fill.kind as u64,
+    )
+    .one("fill_slot", w.slot, "Fill sequence: target slot.", |r| {
+        r.fill.slot as u64
+    })
+    .one(
+        "fill_res_valid",
+        1,
+        "Fill sequence: popping a resident treelet.",
+        move |r| b(r.fill.resident.is_some()),
+    )
+    .one(
+        "fill_res",
+        w.resident_index,
+        "Fill sequence: which resident entry.",
+        |r| r.fill.resident.unwrap_or(0) as u64,
+    )
+    .one(
+        "fill_need",
+        w.lanes,
+        "Fill sequence: lanes still to fill.",
+        |r| r.fill.need as u64,
+    )
+    .one(
+        "fill_started",
+        1,
+        "Fill sequence: the slot already received rays (or is a repack).",
+        move |r| b(r.fill.started),
+    )
+    .one(
+        "spare_count",
+        w.lane,
+        "Valid rays in the spare buffer.",
+        |r| r.spare_count as u64,
+    )
+    .bank(
+        "spare_rays",
+        w.ray,
+        spare,
+        "Spare buffer: popped rays that did not fit the warp being filled.",
+        |r, i| r.spare_rays[i] as u64,
+    )
+    .one(
+        "prm_valid",
+        1,
+        "A count-table remove is pending.",
+        move |r| b(r.pending_remove.is_some()),
+    )
+    .one("prm_treelet", w.treelet, "Its treelet.", |r| {
+        r.pending_remove.map_or(0, |p| p.0) as u64
+    })
+    .one(
+        "prm_count",
+        w.ray_total,
+        "Rays still to remove (a warp's worth per cycle).",
+        |r| r.pending_remove.map_or(0, |p| p.1) as u64,
+    );
+    t
 }
