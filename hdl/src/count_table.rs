@@ -743,7 +743,8 @@ impl CountTable {
             "first entry the scan reads this cycle",
             |r| r.scan_pos as u64,
         );
-        let pointers: [(&str, fn(&CountTableRegs) -> &Extreme); 4] = [
+        type Pointer = fn(&CountTableRegs) -> &Extreme;
+        let pointers: [(&str, Pointer); 4] = [
             ("max", |r| &r.max),
             ("min", |r| &r.min),
             ("run_max", |r| &r.run_max),

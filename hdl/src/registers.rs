@@ -7,15 +7,18 @@
 use crate::block::Signal;
 use crate::describe::RegDesc;
 
+/// Reads entry `i` of a bank from the register bundle.
+type EntryFn<'a, R, T> = Box<dyn Fn(&R, usize) -> T + 'a>;
+
 /// How a row's value is traced.
 enum Trace<'a, R> {
     /// One register, traced under its name.
     One(Box<dyn Fn(&R) -> u64 + 'a>),
     /// A bank of registers, entry `i` traced as `<name>_<i>`.
-    Bank(Box<dyn Fn(&R, usize) -> u64 + 'a>),
+    Bank(EntryFn<'a, R, u64>),
     /// A bank of 1-bit registers traced packed 64 to a signal: entry `i` is bit `i % 64` of
     /// `<name>_<i / 64>`.
-    Bits(Box<dyn Fn(&R, usize) -> bool + 'a>),
+    Bits(EntryFn<'a, R, bool>),
     /// Described, not traced (wide state a waveform cannot usefully show, such as whole ray
     /// records).
     Untraced,
