@@ -19,6 +19,9 @@ enum Trace<'a, R> {
     /// A bank of 1-bit registers traced packed 64 to a signal: entry `i` is bit `i % 64` of
     /// `<name>_<i / 64>`.
     Bits(EntryFn<'a, R, bool>),
+    /// A bank of `rows x cols` registers, entry `(i, j)` traced as `<name>_<i>_<j>` (row-major
+    /// in the bank: entry `i * cols + j`).
+    Grid(u32, EntryFn<'a, R, u64>),
     /// Described, not traced (wide state a waveform cannot usefully show, such as whole ray
     /// records).
     Untraced,
@@ -84,6 +87,28 @@ impl<'a, R> RegTable<'a, R> {
         self
     }
 
+    /// A bank of `rows x cols` registers of `width` bits (per slot, per lane), entry `(i, j)`
+    /// being `value(regs, i, j)`.
+    pub fn grid(
+        &mut self,
+        name: &str,
+        width: u32,
+        (rows, cols): (u32, u32),
+        doc: &str,
+        value: impl Fn(&R, usize, usize) -> u64 + 'a,
+    ) -> &mut Self {
+        let c = cols as usize;
+        let value = move |r: &R, k: usize| value(r, k / c, k % c);
+        self.push(
+            name,
+            width,
+            rows * cols,
+            doc,
+            Trace::Grid(cols, Box::new(value)),
+        );
+        self
+    }
+
     /// A bank of `count` 1-bit registers, traced packed into 64-bit words.
     pub fn bits(
         &mut self,
@@ -129,6 +154,13 @@ impl<'a, R> RegTable<'a, R> {
                         out.push(Signal::new(format!("{}_{k}", d.name), width, word));
                     }
                 }
+                Trace::Grid(cols, value) => {
+                    let c = *cols as usize;
+                    out.extend((0..d.count as usize).map(|k| {
+                        let name = format!("{}_{}_{}", d.name, k / c, k % c);
+                        Signal::new(name, d.width, value(regs, k))
+                    }))
+                }
                 Trace::Untraced => {}
             }
         }
@@ -152,6 +184,9 @@ mod tests {
         t.one("state", 3, "FSM", |r| r.state)
             .bank("bank", 8, 2, "two", |r, i| r.bank[i])
             .bits("valid", 70, "valid bits", |r, i| r.valid[i])
+            .grid("lane", 2, (2, 3), "per slot, per lane", |_, i, j| {
+                (10 * i + j) as u64
+            })
             .untraced("wide", 128, 4, "not traced");
         let names: Vec<_> = t.descs().into_iter().map(|d| (d.name, d.count)).collect();
         assert_eq!(
@@ -160,6 +195,7 @@ mod tests {
                 ("state".to_string(), 1),
                 ("bank".to_string(), 2),
                 ("valid".to_string(), 70),
+                ("lane".to_string(), 6),
                 ("wide".to_string(), 4)
             ]
         );
@@ -184,6 +220,12 @@ mod tests {
                 ("bank_1".to_string(), 8, 9),
                 ("valid_0".to_string(), 64, 1),
                 ("valid_1".to_string(), 6, 2),
+                ("lane_0_0".to_string(), 2, 0),
+                ("lane_0_1".to_string(), 2, 1),
+                ("lane_0_2".to_string(), 2, 2),
+                ("lane_1_0".to_string(), 2, 10),
+                ("lane_1_1".to_string(), 2, 11),
+                ("lane_1_2".to_string(), 2, 12),
             ]
         );
     }

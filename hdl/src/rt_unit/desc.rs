@@ -1,181 +1,25 @@
 //! The RT unit's self-description (ports from its port bundles, registers, memories, lane state
-//! machine, timing) and its registers' trace signals.
+//! machine, timing), its registers declared once with their trace signals ([`registers`]).
 
 use super::bundles::{errors, LaneStatus, RtUnitRegs, TraversalOrder};
 use super::node::{NodeEntry, NodeKind, MAX_NODE_CHUNKS, RAY_WORDS};
 use super::ports::{RtUnitInputs, RtUnitStatus, Widths, DATA_BITS, HIT_BITS};
 use super::RtUnitParams;
 use crate::bits::{bits_for, clog2};
-use crate::block::Signal;
 use crate::config::HwConfig;
-use crate::describe::{reg, BlockDesc, FsmDesc, MemDesc};
+use crate::describe::{BlockDesc, FsmDesc, MemDesc};
+use crate::registers::RegTable;
 
 /// Builds the block description for `cfg` and `params`.
 pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> BlockDesc {
-    let n = cfg.warp_size;
+    let lanes = cfg.warp_buffer_size * cfg.warp_size;
     let entry = NodeEntry::bits(cfg.address_bits);
-    let sp = bits_for(cfg.stack_depth as u64);
-    let words = RAY_WORDS as u32 * 32;
-    let delay = w.delay;
-    let lanes = cfg.warp_buffer_size * n;
 
     // The cycle's ports, then the register-only status ports the treelet wiring reads.
     let mut ports = RtUnitInputs::block_ports(w);
     ports.extend(RtUnitStatus::ports(w));
 
-    let registers = vec![
-        reg(
-            "slot_valid",
-            1,
-            cfg.warp_buffer_size,
-            "warp-buffer slot holds a warp",
-        ),
-        reg(
-            "slot_order",
-            TraversalOrder::BITS,
-            cfg.warp_buffer_size,
-            "traversal order of the slot's warp",
-        ),
-        reg(
-            "slot_held",
-            1,
-            cfg.warp_buffer_size,
-            "the slot's warp is being repacked: it does not complete until the fill's last append",
-        ),
-        reg(
-            "age_order",
-            w.slot,
-            cfg.warp_buffer_size,
-            "valid slots, oldest first (scheduler and completion priority)",
-        ),
-        reg(
-            "age_count",
-            bits_for(cfg.warp_buffer_size as u64),
-            1,
-            "valid entries of age_order",
-        ),
-        reg(
-            "split_valid",
-            1,
-            1,
-            "chunks of the node being requested remain (highest scheduler priority)",
-        ),
-        reg("split_tag", w.tag, 1, "tag of the node being requested"),
-        reg(
-            "split_node",
-            entry,
-            1,
-            "node being requested (address, kind, chunks - 1)",
-        ),
-        reg("split_chunk", 2, 1, "next chunk of the node to request"),
-        reg(
-            "fifo_head",
-            clog2(params.resp_fifo_depth as u64),
-            1,
-            "response-FIFO read pointer",
-        ),
-        reg(
-            "fifo_tail",
-            clog2(params.resp_fifo_depth as u64),
-            1,
-            "response-FIFO write pointer",
-        ),
-        reg("fifo_count", w.fifo_count, 1, "response-FIFO occupancy"),
-        reg("errors", errors::BITS, 1, "sticky error flags"),
-        reg(
-            "first_error",
-            1 + 3 + w.slot + w.lane + w.ray_id + 128,
-            1,
-            "capture of the first error: valid, kind, slot, lane, ray id, value, limit",
-        ),
-        reg(
-            "lane_status",
-            2,
-            lanes,
-            "per lane: inactive / traversing / done / parked",
-        ),
-        reg("lane_ray_id", w.ray_id, lanes, "per lane: ray id"),
-        reg(
-            "lane_ray_words",
-            words,
-            lanes,
-            "per lane: origin, direction, tmin, tmax (f32 bits)",
-        ),
-        reg("lane_hit_valid", 1, lanes, "per lane: a hit was found"),
-        reg(
-            "lane_hit",
-            HIT_BITS,
-            lanes,
-            "per lane: closest hit t, hit id, two attributes",
-        ),
-        reg(
-            "lane_cur_treelet",
-            w.treelet,
-            lanes,
-            "per lane: the ray's current treelet",
-        ),
-        reg(
-            "lane_cur_sp",
-            sp,
-            lanes,
-            "per lane: current-treelet stack depth",
-        ),
-        reg(
-            "lane_other_sp",
-            sp,
-            lanes,
-            "per lane: other-treelet stack depth",
-        ),
-        reg(
-            "lane_cur_spilled",
-            w.spilled,
-            lanes,
-            "per lane: current-treelet stack chunks in the spill area",
-        ),
-        reg(
-            "lane_other_spilled",
-            w.spilled,
-            lanes,
-            "per lane: other-treelet stack chunks in the spill area",
-        ),
-        reg(
-            "lane_filling",
-            2,
-            lanes,
-            "per lane: stack fill in flight: 0 none, 1 current-treelet, 2 other-treelet",
-        ),
-        reg("lane_node_valid", 1, lanes, "per lane: a node is in flight"),
-        reg(
-            "lane_node",
-            entry,
-            lanes,
-            "per lane: the node in flight (address, kind, chunks - 1)",
-        ),
-        reg(
-            "lane_node_leader",
-            w.lane,
-            lanes,
-            "per lane: lane whose request fetches the node (merging)",
-        ),
-        reg(
-            "lane_chunks_returned",
-            MAX_NODE_CHUNKS as u32,
-            lanes,
-            "per lane: chunks of the node returned",
-        ),
-        reg(
-            "lane_delay",
-            delay,
-            lanes,
-            "per lane: intersection-delay countdown",
-        ),
-        reg(
-            "lane_store_pending",
-            1,
-            lanes,
-            "per lane: hit-record store waiting",
-        ),
-    ];
+    let registers = registers(cfg, params, w).descs();
 
     let stack = |name: &str, doc: &str| MemDesc {
         name: name.to_string(),
@@ -272,56 +116,187 @@ fn entry_fields(address_bits: u32) -> Vec<(String, u32)> {
     ]
 }
 
-/// The registers `r` as trace signals, for widths `w`.
-pub(super) fn reg_signals(r: &RtUnitRegs, w: &Widths) -> Vec<Signal> {
-    let mut v = Vec::new();
-    for (s, slot) in r.slots.iter().enumerate() {
-        v.push(Signal::new(format!("slot_valid_{s}"), 1, slot.valid as u64));
-        v.push(Signal::new(
-            format!("slot_order_{s}"),
-            TraversalOrder::BITS,
-            slot.order.code(),
-        ));
-        v.push(Signal::new(format!("slot_held_{s}"), 1, slot.held as u64));
-    }
-    for k in 0..r.slots.len() {
-        v.push(Signal::new(
-            format!("age_order_{k}"),
-            w.slot,
-            r.age.get(k).map_or(0, |&s| s as u64),
-        ));
-    }
-    v.push(Signal::new(
+/// The RT unit's registers for `cfg`, `params` and widths `w`: their descriptions and trace
+/// signals, declared once. Per-slot state is traced per slot (`<name>_<slot>`), per-lane state
+/// per slot and lane (`<name>_<slot>_<lane>`); ray records, hits, stack pointers and the other
+/// per-lane registers are described but not traced, and the response FIFO's pointers are
+/// described only (the model keeps the FIFO as a queue; its occupancy is traced).
+pub(super) fn registers(
+    cfg: &HwConfig,
+    params: &RtUnitParams,
+    w: &Widths,
+) -> RegTable<'static, RtUnitRegs> {
+    let n = cfg.warp_size;
+    let entry = NodeEntry::bits(cfg.address_bits);
+    let sp = bits_for(cfg.stack_depth as u64);
+    let words = RAY_WORDS as u32 * 32;
+    let delay = w.delay;
+    let lanes = cfg.warp_buffer_size * n;
+    let mut t = RegTable::new();
+    t.bank(
+        "slot_valid",
+        1,
+        cfg.warp_buffer_size,
+        "warp-buffer slot holds a warp",
+        |r: &RtUnitRegs, s| r.slots[s].valid as u64,
+    )
+    .bank(
+        "slot_order",
+        TraversalOrder::BITS,
+        cfg.warp_buffer_size,
+        "traversal order of the slot's warp",
+        |r, s| r.slots[s].order.code(),
+    )
+    .bank(
+        "slot_held",
+        1,
+        cfg.warp_buffer_size,
+        "the slot's warp is being repacked: it does not complete until the fill's last append",
+        |r, s| r.slots[s].held as u64,
+    )
+    .bank(
+        "age_order",
+        w.slot,
+        cfg.warp_buffer_size,
+        "valid slots, oldest first (scheduler and completion priority)",
+        |r, k| r.age.get(k).map_or(0, |&s| s as u64),
+    )
+    .one(
         "age_count",
-        bits_for(r.slots.len() as u64),
-        r.age.len() as u64,
-    ));
-    let split = r.split.as_ref();
-    v.extend([
-        Signal::new("split_valid", 1, split.is_some() as u64),
-        Signal::new("split_tag", w.tag, split.map_or(0, |s| s.tag as u64)),
-        Signal::new(
-            "split_node",
-            NodeEntry::bits(w.address),
-            split.map_or(0, |s| s.node.encode()),
-        ),
-        Signal::new("split_chunk", 2, split.map_or(0, |s| s.next_chunk as u64)),
-        Signal::new("fifo_count", w.fifo_count, r.fifo.len() as u64),
-        Signal::new("errors", errors::BITS, r.errors as u64),
-    ]);
-    for (s, slot) in r.slots.iter().enumerate() {
-        for (l, lane) in slot.lanes.iter().enumerate() {
-            v.push(Signal::new(
-                format!("lane_status_{s}_{l}"),
-                2,
-                lane.status.code(),
-            ));
-            v.push(Signal::new(
-                format!("lane_delay_{s}_{l}"),
-                w.delay,
-                lane.delay as u64,
-            ));
-        }
-    }
-    v
+        bits_for(cfg.warp_buffer_size as u64),
+        "valid entries of age_order",
+        |r| r.age.len() as u64,
+    )
+    .one(
+        "split_valid",
+        1,
+        "chunks of the node being requested remain (highest scheduler priority)",
+        |r| r.split.is_some() as u64,
+    )
+    .one("split_tag", w.tag, "tag of the node being requested", |r| {
+        r.split.as_ref().map_or(0, |s| s.tag as u64)
+    })
+    .one(
+        "split_node",
+        entry,
+        "node being requested (address, kind, chunks - 1)",
+        |r| r.split.as_ref().map_or(0, |s| s.node.encode()),
+    )
+    .one("split_chunk", 2, "next chunk of the node to request", |r| {
+        r.split.as_ref().map_or(0, |s| s.next_chunk as u64)
+    })
+    .untraced(
+        "fifo_head",
+        clog2(params.resp_fifo_depth as u64),
+        1,
+        "response-FIFO read pointer",
+    )
+    .untraced(
+        "fifo_tail",
+        clog2(params.resp_fifo_depth as u64),
+        1,
+        "response-FIFO write pointer",
+    )
+    .one("fifo_count", w.fifo_count, "response-FIFO occupancy", |r| {
+        r.fifo.len() as u64
+    })
+    .one("errors", errors::BITS, "sticky error flags", |r| {
+        r.errors as u64
+    })
+    .untraced(
+        "first_error",
+        1 + 3 + w.slot + w.lane + w.ray_id + 128,
+        1,
+        "capture of the first error: valid, kind, slot, lane, ray id, value, limit",
+    )
+    .grid(
+        "lane_status",
+        2,
+        (cfg.warp_buffer_size, n),
+        "per lane: inactive / traversing / done / parked",
+        |r, s, l| r.slots[s].lanes[l].status.code(),
+    )
+    .untraced("lane_ray_id", w.ray_id, lanes, "per lane: ray id")
+    .untraced(
+        "lane_ray_words",
+        words,
+        lanes,
+        "per lane: origin, direction, tmin, tmax (f32 bits)",
+    )
+    .untraced("lane_hit_valid", 1, lanes, "per lane: a hit was found")
+    .untraced(
+        "lane_hit",
+        HIT_BITS,
+        lanes,
+        "per lane: closest hit t, hit id, two attributes",
+    )
+    .untraced(
+        "lane_cur_treelet",
+        w.treelet,
+        lanes,
+        "per lane: the ray's current treelet",
+    )
+    .untraced(
+        "lane_cur_sp",
+        sp,
+        lanes,
+        "per lane: current-treelet stack depth",
+    )
+    .untraced(
+        "lane_other_sp",
+        sp,
+        lanes,
+        "per lane: other-treelet stack depth",
+    )
+    .untraced(
+        "lane_cur_spilled",
+        w.spilled,
+        lanes,
+        "per lane: current-treelet stack chunks in the spill area",
+    )
+    .untraced(
+        "lane_other_spilled",
+        w.spilled,
+        lanes,
+        "per lane: other-treelet stack chunks in the spill area",
+    )
+    .untraced(
+        "lane_filling",
+        2,
+        lanes,
+        "per lane: stack fill in flight: 0 none, 1 current-treelet, 2 other-treelet",
+    )
+    .untraced("lane_node_valid", 1, lanes, "per lane: a node is in flight")
+    .untraced(
+        "lane_node",
+        entry,
+        lanes,
+        "per lane: the node in flight (address, kind, chunks - 1)",
+    )
+    .untraced(
+        "lane_node_leader",
+        w.lane,
+        lanes,
+        "per lane: lane whose request fetches the node (merging)",
+    )
+    .untraced(
+        "lane_chunks_returned",
+        MAX_NODE_CHUNKS as u32,
+        lanes,
+        "per lane: chunks of the node returned",
+    )
+    .grid(
+        "lane_delay",
+        delay,
+        (cfg.warp_buffer_size, n),
+        "per lane: intersection-delay countdown",
+        |r, s, l| r.slots[s].lanes[l].delay as u64,
+    )
+    .untraced(
+        "lane_store_pending",
+        1,
+        lanes,
+        "per lane: hit-record store waiting",
+    );
+    t
 }

@@ -1408,7 +1408,7 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
     }
 
     fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {
-        desc::reg_signals(regs, &self.widths)
+        desc::registers(&self.cfg, &self.params, &self.widths).signals(regs)
     }
 
     fn describe(&self) -> BlockDesc {
