@@ -248,6 +248,11 @@ fn log_tables(tables: &mut Option<TableLog>, ct: &CountTableIn, qt: &QueueTableI
 }
 
 impl<D: NodeDatapath> TreeletRtUnit<D> {
+    /// The wiring's registers `g` as trace signals ([`wiring::registers`]).
+    fn glue_signals(&self, g: &GlueRegs) -> Vec<Signal> {
+        wiring::registers(&self.cfg, &self.widths).signals(g)
+    }
+
     /// A treelet RT unit for `cfg` and `params` testing nodes with `datapath`; checks both.
     pub fn new(
         cfg: HwConfig,
@@ -566,7 +571,7 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
             ("ctl", self.ctl.reg_signals(&regs.ctl)),
             ("ct", self.ct.reg_signals(&regs.ct)),
             ("qt", self.qt.reg_signals(&regs.qt)),
-            ("glue", wiring::glue_signals(&regs.glue)),
+            ("glue", self.glue_signals(&regs.glue)),
         ] {
             s.extend(child.into_iter().map(|sig| Signal {
                 name: format!("{prefix}_{}", sig.name),

@@ -12,7 +12,7 @@ use super::{
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs, TreeletRtUnitWidths,
 };
 use crate::bits::bits_for;
-use crate::block::{Block, Signal};
+use crate::block::Block;
 use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::HwConfig;
 use crate::controller::{
@@ -20,11 +20,11 @@ use crate::controller::{
     FillKind, InitReport,
 };
 use crate::count_table::{CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus};
-use crate::describe::{reg, RegDesc};
 use crate::mode::Mode;
 use crate::queue_table::{
     PopResult, QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus,
 };
+use crate::registers::RegTable;
 use crate::rt_unit::{
     IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtCache, RtUnitInputs, RtUnitOutputs,
     RtUnitRegs, RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
@@ -257,88 +257,89 @@ pub fn event_depth(cfg: &HwConfig) -> usize {
     cfg.warp_buffer_size as usize * (cfg.warp_size as usize + 1)
 }
 
-/// The wiring's registers `g` as trace signals.
-pub(super) fn glue_signals(g: &GlueRegs) -> Vec<Signal> {
-    let mut s = Vec::new();
-    for (i, u) in g.uses.iter().enumerate() {
-        s.push(Signal::new(format!("slot_use_{i}"), 2, u.code()));
-    }
-    for (i, b) in g.builds.iter().enumerate() {
-        s.push(Signal::new(
-            format!("build_valid_{i}"),
-            1,
-            b.is_some() as u64,
-        ));
-        s.push(Signal::new(
-            format!("build_loading_{i}"),
-            16,
-            b.as_ref().map_or(0, |b| b.loading as u64),
-        ));
-    }
-    s.push(Signal::new("event_count", 16, g.events.len() as u64));
-    s.push(Signal::new("free_ids", 32, g.ids.len() as u64));
-    s
-}
-
-/// The wiring's register descriptions.
-pub(super) fn register_descs(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<RegDesc> {
+/// The wiring's registers for `cfg` and widths `w`: their descriptions and trace signals,
+/// declared once. Traced: the slots' owners, whether each slot has a fill and its records still
+/// loading, and the event FIFO's and the id pool's occupancies; the fills' rays and records,
+/// the events, the tables' registered answers and the free-id bitmap are described only.
+pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'static, GlueRegs> {
     let slots = cfg.warp_buffer_size;
     let lanes = bits_for(cfg.warp_size as u64);
     let events = event_depth(cfg) as u32;
-    vec![
-        reg(
-            "slot_use",
-            2,
-            slots,
-            "per slot: free / initial-phase SM warp / controller fill / closing",
-        ),
-        reg(
-            "build_kind",
-            FillKind::BITS,
-            slots,
-            "per slot: what the fill builds",
-        ),
-        reg(
-            "build_rays",
-            w.ray,
-            slots * cfg.warp_size,
-            "per slot: the fill's ray ids",
-        ),
-        reg(
-            "build_records",
-            w.record,
-            slots * cfg.warp_size,
-            "per slot: the fill's loaded ray records",
-        ),
-        reg("build_count", lanes, slots, "per slot: the fill's rays"),
-        reg(
-            "build_loading",
-            lanes,
-            slots,
-            "per slot: records not yet arrived",
-        ),
-        reg("build_last", 1, slots, "per slot: the fill is closed"),
-        reg(
-            "events",
-            1 + w.ray + w.treelet,
-            events,
-            "events for the controller (FIFO): enqueue (ray, treelet) or warp done (slot)",
-        ),
-        reg(
-            "last_ct_evict",
-            1 + w.treelet,
-            1,
-            "the count table's eviction of the previous cycle",
-        ),
-        reg(
-            "last_qt_done",
-            1 + w.treelet + lanes + w.ray * cfg.warp_size,
-            1,
-            "the queue table's answer of the previous cycle",
-        ),
-        reg("free_ids", 1, cfg.max_rays, "free ray ids (lowest first)"),
-        reg("fault", 1, 1, "an inconsistency was found (sticky)"),
-    ]
+    let mut t = RegTable::new();
+    t.bank(
+        "slot_use",
+        2,
+        slots,
+        "per slot: free / initial-phase SM warp / controller fill / closing",
+        |g: &GlueRegs, i| g.uses[i].code(),
+    )
+    .bank(
+        "build_valid",
+        1,
+        slots,
+        "per slot: a fill is being built",
+        |g, i| g.builds[i].is_some() as u64,
+    )
+    .untraced(
+        "build_kind",
+        FillKind::BITS,
+        slots,
+        "per slot: what the fill builds",
+    )
+    .untraced(
+        "build_rays",
+        w.ray,
+        slots * cfg.warp_size,
+        "per slot: the fill's ray ids",
+    )
+    .untraced(
+        "build_records",
+        w.record,
+        slots * cfg.warp_size,
+        "per slot: the fill's loaded ray records",
+    )
+    .untraced("build_count", lanes, slots, "per slot: the fill's rays")
+    .bank(
+        "build_loading",
+        lanes,
+        slots,
+        "per slot: records not yet arrived",
+        |g, i| g.builds[i].as_ref().map_or(0, |b| b.loading as u64),
+    )
+    .untraced("build_last", 1, slots, "per slot: the fill is closed")
+    .untraced(
+        "events",
+        1 + w.ray + w.treelet,
+        events,
+        "events for the controller (FIFO): enqueue (ray, treelet) or warp done (slot)",
+    )
+    .one(
+        "event_count",
+        bits_for(events as u64),
+        "valid entries of the event FIFO",
+        |g| g.events.len() as u64,
+    )
+    .untraced(
+        "last_ct_evict",
+        1 + w.treelet,
+        1,
+        "the count table's eviction of the previous cycle",
+    )
+    .untraced(
+        "last_qt_done",
+        1 + w.treelet + lanes + w.ray * cfg.warp_size,
+        1,
+        "the queue table's answer of the previous cycle",
+    )
+    .untraced("free_ids", 1, cfg.max_rays, "free ray ids (lowest first)")
+    .one(
+        "free_count",
+        bits_for(cfg.max_rays as u64),
+        "free ray ids (the bitmap's population count)",
+        |g| g.ids.len() as u64,
+    )
+    .untraced("fault", 1, 1, "an inconsistency was found (sticky)");
+    t
 }
 
 /// The children's register-only output ports, read by the kernel before the children's inputs
@@ -995,7 +996,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     // The probe's registers, as they are at the start of the cycle.
     let probe_regs = cache
         .probe
-        .then(|| probe::start_regs(u, (rt, ctl, ct, qt), glue_signals(g)));
+        .then(|| probe::start_regs(u, (rt, ctl, ct, qt), u.glue_signals(g)));
     place_records(g, &inputs.ray_records);
     let offering = inputs.sm_warp.is_some();
     // The RT unit's status ports: computed by the dry run at the end of the last step unless
