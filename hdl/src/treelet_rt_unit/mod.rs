@@ -53,17 +53,25 @@
 //! # Statistics
 //! No statistics registers: each cycle's events leave on [`TreeletRtUnitOutputs::counts`]
 //! ([`TreeletCounts`]), and [`TreeletRtUnit::skip`] returns those of skipped cycles.
+//!
+//! # Files
+//! `ports` (the port bundles and widths), `glue` (the wiring's registers, declared once),
+//! `wiring` (the kernel's stages), `fast_path` (the stages once, children stepped in place),
+//! `probe` (the probe that checks the fast path against the definition), this file (the block,
+//! its cache, idle skipping).
 
+mod fast_path;
+mod glue;
 mod ports;
 mod probe;
 mod wiring;
 
+pub use glue::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 pub use ports::{
     FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnitInputs, TreeletRtUnitOutputs,
     TreeletRtUnitWidths,
 };
 pub use probe::ProbeCycle;
-pub use wiring::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 
 use crate::block::{Block, Signal};
 use crate::compose::settle;
@@ -248,9 +256,9 @@ fn log_tables(tables: &mut Option<TableLog>, ct: &CountTableIn, qt: &QueueTableI
 }
 
 impl<D: NodeDatapath> TreeletRtUnit<D> {
-    /// The wiring's registers `g` as trace signals ([`wiring::registers`]).
+    /// The wiring's registers `g` as trace signals ([`glue::registers`]).
     fn glue_signals(&self, g: &GlueRegs) -> Vec<Signal> {
-        wiring::registers(&self.cfg, &self.widths).signals(g)
+        glue::registers(&self.cfg, &self.widths).signals(g)
     }
 
     /// A treelet RT unit for `cfg` and `params` testing nodes with `datapath`; checks both.
@@ -463,7 +471,7 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         inputs: &TreeletRtUnitInputs,
     ) -> TreeletRtUnitOutputs {
         let mut out = wiring::empty_outputs(self);
-        wiring::step_in_place(self, regs, cache, inputs, &mut out);
+        fast_path::step_in_place(self, regs, cache, inputs, &mut out);
         out
     }
 
@@ -483,7 +491,7 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         inputs: &TreeletRtUnitInputs,
         out: &mut TreeletRtUnitOutputs,
     ) {
-        wiring::step_in_place(self, regs, cache, inputs, out);
+        fast_path::step_in_place(self, regs, cache, inputs, out);
     }
 
     /// The children's instance names and descriptions, for a Verilog top module that

@@ -298,7 +298,7 @@ pub(super) fn describe<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> BlockDesc {
             ("ray_base".into(), u.ray_base),
         ],
         ports,
-        registers: super::wiring::registers(&u.cfg, w).descs(),
+        registers: super::glue::registers(&u.cfg, w).descs(),
         memories: vec![],
         fsms: vec![],
         timing: vec![format!(

@@ -1,362 +1,45 @@
-//! The treelet RT unit's wiring: its registers ([`GlueRegs`]) and its kernel, written as three
-//! stages in dependency order — the controller's inputs from registers
+//! The treelet RT unit's wiring kernel over its registers ([`GlueRegs`], in `glue.rs`), written
+//! as three stages in dependency order — the controller's inputs from registers
 //! ([`controller_inputs`]), the children's inputs from the controller's outputs
 //! ([`children_inputs`]), the block's outputs and next registers from the children's outputs
 //! ([`after_children`]). [`kernel`] chains them for [`crate::compose::settle`] (the block's
-//! `eval`); [`step_in_place`] runs them once with the children stepped in place (the fast path).
+//! `eval`); `fast_path.rs` runs them once with the children stepped in place.
 
-use std::fmt;
-
+use super::glue::{Build, Event, GlueFault, GlueRegs, SlotUse};
 use super::{
-    probe, FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
-    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs, TreeletRtUnitWidths,
+    FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitInputs,
+    TreeletRtUnitOutputs, TreeletRtUnitRegs,
 };
-use crate::bits::bits_for;
 use crate::block::Block;
-use crate::bounded::{BoundedDeque, BoundedVec};
-use crate::config::HwConfig;
+use crate::bounded::BoundedVec;
 use crate::controller::{
     ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
     FillKind, InitReport,
 };
 use crate::count_table::{CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus};
 use crate::mode::Mode;
-use crate::queue_table::{
-    PopResult, QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus,
-};
-use crate::registers::RegTable;
+use crate::queue_table::{QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus};
 use crate::rt_unit::{
     IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtCache, RtUnitInputs, RtUnitOutputs,
     RtUnitRegs, RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
-
-/// Who owns a warp-buffer slot, as the wiring sees it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SlotUse {
-    /// Free for an SM warp or a controller fill (code 0).
-    Free,
-    /// An SM warp in its initial traversal phase, possibly terminated (code 1).
-    Initial,
-    /// A warp the controller filled (treelet or grouped), building or traversing (code 2).
-    Controller,
-    /// Its warp completed; enqueues and `warp_done` still to deliver (code 3).
-    Closing,
-}
-
-impl SlotUse {
-    /// The encoding.
-    fn code(self) -> u64 {
-        match self {
-            SlotUse::Free => 0,
-            SlotUse::Initial => 1,
-            SlotUse::Controller => 2,
-            SlotUse::Closing => 3,
-        }
-    }
-}
-
-/// A fill the controller is giving to a slot: its rays, and their records as they arrive.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Build {
-    /// What the fill builds.
-    pub kind: FillKind,
-    /// Ray ids, in the order they are placed in the slot's lanes (at most `warp_size`).
-    pub rays: BoundedVec<u32>,
-    /// The loaded record of each ray (`None` until it arrives; at most `warp_size`).
-    pub records: BoundedVec<Option<RayRecord>>,
-    /// Records not yet arrived.
-    pub loading: u32,
-    /// The controller closed the fill.
-    pub last: bool,
-}
-
-/// Something the RT unit reports to the controller after a warp completes, in order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Event {
-    /// A ray stopped at a treelet boundary: insert it into that treelet's queue.
-    Enqueue {
-        /// Ray id.
-        ray: u32,
-        /// The treelet it needs next.
-        treelet: u32,
-    },
-    /// The slot's warp has sent all its rays.
-    WarpDone(u32),
-}
-
-/// An inconsistency the wiring found (a modelling bug, reported rather than giving wrong
-/// numbers).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum GlueFault {
-    /// A ray left the RT unit with an id that is not in use.
-    UnknownRay(u32),
-    /// A table raised its error output for an op.
-    TableError(&'static str),
-    /// A fill could not place all of its rays.
-    Unplaced {
-        /// The slot.
-        slot: u32,
-        /// Rays placed.
-        placed: usize,
-        /// Rays of the fill.
-        rays: usize,
-    },
-    /// A ray record arrived for a fill that did not ask for it.
-    UnexpectedRecord {
-        /// The slot named.
-        slot: u32,
-        /// The ray.
-        ray: u32,
-    },
-    /// A register array of the wiring was full (its depth is too small for the protocol).
-    Full {
-        /// The array.
-        what: &'static str,
-        /// Its depth.
-        depth: usize,
-    },
-}
-
-impl fmt::Display for GlueFault {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            GlueFault::UnknownRay(id) => {
-                write!(f, "ray id {id} left the RT unit but is not in use")
-            }
-            GlueFault::TableError(what) => write!(f, "{what}"),
-            GlueFault::Unplaced { slot, placed, rays } => write!(
-                f,
-                "a fill of slot {slot} placed {placed} of its {rays} rays"
-            ),
-            GlueFault::UnexpectedRecord { slot, ray } => {
-                write!(
-                    f,
-                    "a record of ray {ray} arrived for slot {slot}, which did not ask for it"
-                )
-            }
-            GlueFault::Full { what, depth } => {
-                write!(f, "the wiring's {what} ({depth} entries) overflowed")
-            }
-        }
-    }
-}
-
-/// The ray-record slots of an SM (`max_rays` ray ids) as a bitmap of free ids; the lowest free
-/// id is given first (a priority encoder).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct IdPool {
-    free: Box<[u64]>,
-    count: u32,
-}
-
-impl IdPool {
-    /// Every id below `n` free.
-    fn new(n: u32) -> Self {
-        let mut free = vec![u64::MAX; (n as usize).div_ceil(64)];
-        if !n.is_multiple_of(64) {
-            *free.last_mut().expect("at least one word") = (1u64 << (n % 64)) - 1;
-        }
-        IdPool {
-            free: free.into(),
-            count: n,
-        }
-    }
-
-    /// Free ids.
-    pub fn len(&self) -> u32 {
-        self.count
-    }
-
-    /// Whether no id is free.
-    pub fn is_empty(&self) -> bool {
-        self.count == 0
-    }
-
-    /// Whether `id` is in use.
-    fn in_use(&self, id: u32) -> bool {
-        self.free
-            .get(id as usize / 64)
-            .is_some_and(|w| w >> (id % 64) & 1 == 0)
-    }
-
-    /// Takes the lowest free id.
-    fn take(&mut self) -> Option<u32> {
-        let (i, w) = self.free.iter_mut().enumerate().find(|(_, w)| **w != 0)?;
-        let bit = w.trailing_zeros();
-        *w &= !(1 << bit);
-        self.count -= 1;
-        Some(i as u32 * 64 + bit)
-    }
-
-    /// Frees `id`.
-    fn give(&mut self, id: u32) {
-        if let Some(w) = self.free.get_mut(id as usize / 64) {
-            if *w >> (id % 64) & 1 == 0 {
-                *w |= 1 << (id % 64);
-                self.count += 1;
-            }
-        }
-    }
-}
-
-/// The wiring's registers.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct GlueRegs {
-    /// Who owns each warp-buffer slot (`warp_buffer_size` entries).
-    pub uses: Box<[SlotUse]>,
-    /// The fill being built in each slot (`warp_buffer_size` entries).
-    pub builds: Box<[Option<Build>]>,
-    /// Events for the controller, oldest first: a FIFO of depth
-    /// [`event_depth`]` = warp_buffer_size x (warp_size + 1)` (one enqueue per ray and one warp
-    /// done per slot).
-    pub events: BoundedDeque<Event>,
-    /// The count table's eviction of the previous cycle.
-    pub ct_evict: Option<u32>,
-    /// The queue table's answer of the previous cycle.
-    pub qt_done: Option<PopResult>,
-    /// Free ray ids.
-    pub ids: IdPool,
-    /// The first inconsistency found (sticky).
-    pub fault: Option<GlueFault>,
-}
-
-impl GlueRegs {
-    /// The registers after reset.
-    pub fn reset(cfg: &HwConfig) -> Self {
-        let slots = cfg.warp_buffer_size as usize;
-        GlueRegs {
-            uses: vec![SlotUse::Free; slots].into(),
-            builds: vec![None; slots].into(),
-            events: BoundedDeque::new(event_depth(cfg)),
-            ct_evict: None,
-            qt_done: None,
-            ids: IdPool::new(cfg.max_rays),
-            fault: None,
-        }
-    }
-
-    /// Records an inconsistency (the first one is kept).
-    fn set_fault(&mut self, fault: GlueFault) {
-        self.fault.get_or_insert(fault);
-    }
-
-    /// Appends an event for the controller (a fault if the FIFO is full).
-    fn push_event(&mut self, event: Event) {
-        if let Err(full) = self.events.push_back(event) {
-            self.set_fault(GlueFault::Full {
-                what: "event FIFO",
-                depth: full.capacity,
-            });
-        }
-    }
-}
-
-/// Depth of the wiring's event FIFO: one enqueue per ray and one warp done per warp-buffer
-/// slot (`warp_buffer_size x (warp_size + 1)`).
-pub fn event_depth(cfg: &HwConfig) -> usize {
-    cfg.warp_buffer_size as usize * (cfg.warp_size as usize + 1)
-}
-
-/// The wiring's registers for `cfg` and widths `w`: their descriptions and trace signals,
-/// declared once. Traced: the slots' owners, whether each slot has a fill and its records still
-/// loading, and the event FIFO's and the id pool's occupancies; the fills' rays and records,
-/// the events, the tables' registered answers and the free-id bitmap are described only.
-pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'static, GlueRegs> {
-    let slots = cfg.warp_buffer_size;
-    let lanes = bits_for(cfg.warp_size as u64);
-    let events = event_depth(cfg) as u32;
-    let mut t = RegTable::new();
-    t.bank(
-        "slot_use",
-        2,
-        slots,
-        "per slot: free / initial-phase SM warp / controller fill / closing",
-        |g: &GlueRegs, i| g.uses[i].code(),
-    )
-    .bank(
-        "build_valid",
-        1,
-        slots,
-        "per slot: a fill is being built",
-        |g, i| g.builds[i].is_some() as u64,
-    )
-    .untraced(
-        "build_kind",
-        FillKind::BITS,
-        slots,
-        "per slot: what the fill builds",
-    )
-    .untraced(
-        "build_rays",
-        w.ray,
-        slots * cfg.warp_size,
-        "per slot: the fill's ray ids",
-    )
-    .untraced(
-        "build_records",
-        w.record,
-        slots * cfg.warp_size,
-        "per slot: the fill's loaded ray records",
-    )
-    .untraced("build_count", lanes, slots, "per slot: the fill's rays")
-    .bank(
-        "build_loading",
-        lanes,
-        slots,
-        "per slot: records not yet arrived",
-        |g, i| g.builds[i].as_ref().map_or(0, |b| b.loading as u64),
-    )
-    .untraced("build_last", 1, slots, "per slot: the fill is closed")
-    .untraced(
-        "events",
-        1 + w.ray + w.treelet,
-        events,
-        "events for the controller (FIFO): enqueue (ray, treelet) or warp done (slot)",
-    )
-    .one(
-        "event_count",
-        bits_for(events as u64),
-        "valid entries of the event FIFO",
-        |g| g.events.len() as u64,
-    )
-    .untraced(
-        "last_ct_evict",
-        1 + w.treelet,
-        1,
-        "the count table's eviction of the previous cycle",
-    )
-    .untraced(
-        "last_qt_done",
-        1 + w.treelet + lanes + w.ray * cfg.warp_size,
-        1,
-        "the queue table's answer of the previous cycle",
-    )
-    .untraced("free_ids", 1, cfg.max_rays, "free ray ids (lowest first)")
-    .one(
-        "free_count",
-        bits_for(cfg.max_rays as u64),
-        "free ray ids (the bitmap's population count)",
-        |g| g.ids.len() as u64,
-    )
-    .untraced("fault", 1, 1, "an inconsistency was found (sticky)");
-    t
-}
 
 /// The children's register-only output ports, read by the kernel before the children's inputs
 /// are known: the RT unit's status ports, the tables' status and the controller's mode.
 pub(super) struct Peeks<'a> {
     rt: &'a RtUnitStatus,
     ct: CountTableStatus,
-    qt: QueueTableStatus,
+    /// The queue table's status.
+    pub(super) qt: QueueTableStatus,
     /// The controller's mode register.
-    mode: Mode,
+    pub(super) mode: Mode,
     /// SM warps are admitted in treelet-stationary mode (a controller feature).
     admit_ts: bool,
 }
 
 impl<'a> Peeks<'a> {
     /// Whether SM warps are admitted in mode `mode` ([`admitting`]).
-    fn admits(&self, mode: Mode) -> bool {
+    pub(super) fn admits(&self, mode: Mode) -> bool {
         admits_in(mode, self.admit_ts)
     }
 
@@ -490,7 +173,7 @@ pub(super) fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtU
 
 /// Resets `out` to [`empty_outputs`] keeping its lists' storage, so a step that writes into a
 /// bundle it is given allocates nothing for them.
-fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut TreeletRtUnitOutputs) {
+pub(super) fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut TreeletRtUnitOutputs) {
     out.widths = u.widths;
     out.sm_accepted = None;
     out.requests.clear();
@@ -506,7 +189,7 @@ fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut TreeletRtUnitO
 }
 
 /// Stage 0: ray records that arrived join their fills.
-fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
+pub(super) fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
     for load in records {
         let placed = g
             .builds
@@ -546,7 +229,7 @@ pub(super) fn reads_distinct<D: NodeDatapath>(
 /// phase, which traverses the rays it grouped "until all of them have finished traversal
 /// completely before fetching new rays to process" (section 4.4), nor in the
 /// treelet-stationary mode when the controller's features keep them out of it.
-fn admitting<D: NodeDatapath>(u: &TreeletRtUnit<D>, mode: Mode) -> bool {
+pub(super) fn admitting<D: NodeDatapath>(u: &TreeletRtUnit<D>, mode: Mode) -> bool {
     admits_in(mode, u.ctl.features().admit_in_treelet_stationary)
 }
 
@@ -589,7 +272,7 @@ pub(super) fn glue_busy(g: &GlueRegs) -> bool {
 /// Sets the controller inputs that depend on whether the SM offers a warp: its waiting warps
 /// count as initial-phase warps and keep `launch_done` low while SM warps are admitted.
 /// `admits`: SM warps are admitted in the controller's mode ([`admitting`]).
-fn set_offering(g: &GlueRegs, admits: bool, inp: &mut ControllerInputs, offering: bool) {
+pub(super) fn set_offering(g: &GlueRegs, admits: bool, inp: &mut ControllerInputs, offering: bool) {
     let waiting = offering && admits;
     inp.launch_done = !waiting;
     inp.initial_warps = g.uses.contains(&SlotUse::Initial) || waiting;
@@ -598,7 +281,7 @@ fn set_offering(g: &GlueRegs, admits: bool, inp: &mut ControllerInputs, offering
 
 /// Stage 1: the controller's inputs, from registers only, and whether it restarts (a
 /// controller that is `done` restarts when the SM offers a warp).
-fn controller_inputs<D: NodeDatapath>(
+pub(super) fn controller_inputs<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &GlueRegs,
     p: &Peeks,
@@ -646,7 +329,7 @@ pub(super) fn active_report(g: &GlueRegs, p: &Peeks, mode: Mode) -> Option<Activ
 /// not matter if it came from this controller's `idle_inputs`):
 /// the fast path keeps one bundle and fills it in place. Returns whether the controller
 /// restarts.
-fn controller_inputs_into(
+pub(super) fn controller_inputs_into(
     g: &GlueRegs,
     p: &Peeks,
     offering: bool,
@@ -709,7 +392,7 @@ fn controller_inputs_into(
 /// caller may reuse its storage); fills start loading their records, a complete fill is
 /// issued, or else an offered SM warp may enter.
 #[allow(clippy::too_many_arguments)]
-fn children_inputs<D: NodeDatapath>(
+pub(super) fn children_inputs<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
     p: &Peeks,
@@ -893,7 +576,7 @@ fn admit<D: NodeDatapath>(
 /// hits and free their ids, rays stopped at a boundary leave their records to the store and are
 /// queued for enqueueing, then the slot's `warp_done`.
 /// A table that was not stepped (`None`: no op and nothing in progress) answers nothing.
-fn after_children(
+pub(super) fn after_children(
     g: &mut GlueRegs,
     ct: Option<&CountTableOut>,
     qt: Option<&QueueTableOut>,
@@ -954,193 +637,6 @@ fn unpack(g: &mut GlueRegs, done: &WarpDone, out: &mut TreeletRtUnitOutputs) {
             }
         }
     }
-}
-
-/// Whether a controller cycle did anything: an output other than its mode, or a register
-/// change (`regs` before, `next` after).
-fn acts(out: &ControllerOutputs, next: &ControllerRegs, regs: &ControllerRegs) -> bool {
-    out.ct_op != CountOp::Nop
-        || out.qt_op != QueueOp::Nop
-        || out.fill.is_some()
-        || out.terminate.is_some()
-        || out.repack.is_some()
-        || out.preload.is_some()
-        || out.reserve.is_some()
-        || out.enq_ready
-        || out.claim
-        || next != regs
-}
-
-/// The fast path: the kernel's stages once, in dependency order, with the children stepped in
-/// place (the RT unit with its lane cache, tables with nothing to do not at all, a controller
-/// the last dry run found idle only counted in its mode).
-pub(super) fn step_in_place<D: NodeDatapath>(
-    u: &TreeletRtUnit<D>,
-    regs: &mut TreeletRtUnitRegs,
-    cache: &mut TreeletRtUnitCache,
-    inputs: &TreeletRtUnitInputs,
-    out: &mut TreeletRtUnitOutputs,
-) {
-    debug_assert!(
-        cache.rt.consistent(&regs.rt),
-        "stale RT-unit cache: it must follow every change of the registers"
-    );
-    reset_outputs(u, out);
-    let TreeletRtUnitRegs {
-        rt,
-        ctl,
-        ct,
-        qt,
-        glue: g,
-    } = regs;
-    // The probe's registers, as they are at the start of the cycle.
-    let probe_regs = cache
-        .probe
-        .then(|| probe::start_regs(u, (rt, ctl, ct, qt), u.glue_signals(g)));
-    place_records(g, &inputs.ray_records);
-    let offering = inputs.sm_warp.is_some();
-    // The RT unit's status ports: computed by the dry run at the end of the last step unless
-    // cycles were skipped since or the mode that reads the distinct-treelet counts differs.
-    let distinct = reads_distinct(u, ctl, offering);
-    if cache.rt_status_current == Some(distinct) {
-        debug_assert_eq!(
-            cache.rt_status,
-            u.rt.status(rt, &cache.rt, distinct),
-            "stale RT-unit status ports"
-        );
-    } else {
-        u.rt.status_into(rt, &cache.rt, distinct, &mut cache.rt_status);
-    }
-    cache.rt_status_current = None;
-    let peeks = Peeks::new(u, &cache.rt_status, ctl, ct, qt);
-    let restart = peeks.mode == Mode::Done && offering;
-    // The dry run of the last step computed the controller's inputs from these registers,
-    // unless cycles were skipped since (they change the RT unit's delays) or it restarts.
-    // Its bundle lives in the cache and is filled in place.
-    let reused = cache.dry_valid && !restart;
-    cache.dry_valid = false;
-    let ctl_in = &mut **cache
-        .dry
-        .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
-    if reused {
-        set_offering(g, peeks.admits(peeks.mode), ctl_in, offering);
-        debug_assert_eq!(
-            *ctl_in,
-            controller_inputs(u, g, &peeks, offering).0,
-            "stale cached controller inputs"
-        );
-    } else {
-        controller_inputs_into(g, &peeks, offering, ctl_in);
-    }
-    let ctl_in: &ControllerInputs = ctl_in;
-    let mode = if restart { Mode::Initial } else { peeks.mode };
-    let idle = reused && cache.idle && !(offering && admitting(u, mode));
-    out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(ctl, ctl_in));
-    let ctl_out = if idle {
-        debug_assert!(
-            {
-                let (o, n) = u.ctl.eval(ctl, ctl_in);
-                !acts(&o, &n, ctl)
-            },
-            "the controller was not idle"
-        );
-        out.counts.ctl.count_cycles(mode, 1);
-        None
-    } else {
-        // The next-state function into the scratch registers, then the clock edge (a swap):
-        // `eval` without copying the registers' storage.
-        let scratch = cache.scratch.get_or_insert_with(|| Box::new(ctl.clone()));
-        let o = u.ctl.next_into(ctl, ctl_in, scratch);
-        std::mem::swap(ctl, &mut **scratch);
-        out.counts.ctl.observe(ctl_in, &o);
-        Some(o)
-    };
-    out.counts.restarts += u64::from(restart);
-    // The RT unit's input bundle lives in the cache so its storage is reused every cycle.
-    let rt_in = cache.rt_inputs.get_or_insert_with(|| u.rt.idle_inputs());
-    let (ct_in, qt_in) = children_inputs(
-        u,
-        g,
-        &peeks,
-        inputs,
-        restart,
-        ctl_in,
-        ctl_out.as_ref(),
-        out,
-        rt_in,
-    );
-    let qt_busy = !peeks.qt.ready;
-    super::log_tables(&mut cache.tables, &ct_in, &qt_in);
-    // Tables with no op and nothing in progress are not stepped: their registers would not
-    // change and their outputs would carry nothing.
-    let ct_out = (ct_in.op != CountOp::Nop || u.ct.busy(ct)).then(|| u.ct.step(ct, &ct_in));
-    let qt_out =
-        (qt_in.op != QueueOp::Nop || qt_in.refill_valid || qt_busy).then(|| u.qt.step(qt, &qt_in));
-    let rt_out = u.rt.step_cached(rt, &mut cache.rt, rt_in);
-    after_children(g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, out);
-    if let Some(start) = probe_regs {
-        let ins = (ctl_in, &ct_in, &qt_in, &*rt_in);
-        let outs = (ctl_out.as_ref(), ct_out.as_ref(), qt_out.as_ref(), &rt_out);
-        cache.probed = Some(probe::cycle(u, (ctl, ct, qt), start, ins, outs));
-    }
-    dry_run(u, regs, cache, idle);
-}
-
-/// After a step: whether the controller, evaluated on the new registers with no SM warp
-/// offered, would act (so the next cycle may not be skipped), keeping its inputs for the next
-/// step. A count-table scan does not wake it: while the scan runs the controller's inputs do
-/// not change (the pointers stay stale); the scan's `Nop` cycles are stepped by `skip` and its
-/// end bounds `idle_cycles`. `was_idle`: the step left the controller's registers unchanged
-/// and it is idle on the inputs in `cache.dry` (the step's); if the new inputs equal them, it
-/// is still idle and is not evaluated again.
-fn dry_run<D: NodeDatapath>(
-    u: &TreeletRtUnit<D>,
-    regs: &TreeletRtUnitRegs,
-    cache: &mut TreeletRtUnitCache,
-    was_idle: bool,
-) {
-    cache.idle = false;
-    cache.dry_valid = false;
-    let distinct = reads_distinct(u, &regs.ctl, false);
-    u.rt.status_into(&regs.rt, &cache.rt, distinct, &mut cache.rt_status);
-    cache.rt_status_current = Some(distinct);
-    let g = &regs.glue;
-    if !u.qt.status(&regs.qt).ready
-        || g.qt_done.is_some()
-        || g.ct_evict.is_some()
-        || !g.events.is_empty()
-    {
-        cache.awake = true;
-        return;
-    }
-    let peeks = Peeks::of(u, regs, &cache.rt_status);
-    let new = cache
-        .dry_spare
-        .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
-    controller_inputs_into(g, &peeks, false, new);
-    if was_idle && cache.dry.as_ref() == Some(new) {
-        debug_assert!(
-            {
-                let (o, n) = u.ctl.eval(&regs.ctl, new);
-                !acts(&o, &n, &regs.ctl)
-            },
-            "an idle controller with unchanged registers and inputs acts"
-        );
-        cache.dry_valid = true;
-        cache.idle = true;
-        cache.awake = false;
-        return;
-    }
-    std::mem::swap(&mut cache.dry, &mut cache.dry_spare);
-    let inp = cache.dry.as_deref().expect("filled above");
-    let scratch = cache
-        .scratch
-        .get_or_insert_with(|| Box::new(regs.ctl.clone()));
-    let o = u.ctl.next_into(&regs.ctl, inp, scratch);
-    let acts = acts(&o, scratch, &regs.ctl);
-    cache.dry_valid = true;
-    cache.idle = !acts;
-    cache.awake = acts;
 }
 
 /// A summary of the registers for a watchdog's dump.
