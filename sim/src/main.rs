@@ -7,8 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use vtq_sim::cli::cmd::{
-    accuracy, area, bench, compare, cosim, figure5, fuzz, render, reproduce, scenes, sim, sweep,
-    trace, verilog,
+    accuracy, area, bench, compare, cosim, designs, figure5, fuzz, render, reproduce, scenes, sim,
+    sweep, trace, verilog,
 };
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
@@ -33,6 +33,9 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Simulate the workload on the cycle-exact GPU model and write its statistics.
     Sim(sim::SimArgs),
+    /// List the designs vtq knows by name (or the given configuration files): what each puts
+    /// beside every SM's RT unit and the keys in which it differs from the baseline.
+    Designs(designs::DesignsArgs),
     /// Simulate one scene on several designs (baseline, prefetch, vtq, or configuration files)
     /// and print cycles, speedups, miss rates, SIMT efficiency and the phase split side by side.
     Compare(compare::CompareArgs),
@@ -83,6 +86,7 @@ fn main() -> ExitCode {
         Command::Trace(args) => trace::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Sim(args) => sim::run(args),
+        Command::Designs(args) => designs::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::Accuracy(args) => accuracy::run(args),

@@ -300,3 +300,27 @@ fn default_designs_include_vtq() {
     assert!(vtq["stats"]["cta_suspends"].as_u64().unwrap() > 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `vtq designs` lists the registry from any folder, names what each design puts beside the
+/// SMs and what it changes, and refuses an unknown design with the choices.
+#[test]
+fn designs_lists_the_registry_and_refuses_unknown_names() {
+    let dir = temp_dir("designs");
+    let out = vtq_in(&dir, &["designs"]);
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    for name in ["baseline", "prefetch", "vtq", "vtq-prefetch"] {
+        assert!(
+            text.contains(&format!("\n{name}: ")) || text.starts_with(&format!("{name}: ")),
+            "{text}"
+        );
+    }
+    assert!(text.contains("mode.kind = \"queues\""), "{text}");
+    assert!(text.contains("treelet_controller"), "{text}");
+    let file = workspace_root().join("configs/queues-repack16.toml");
+    let out = vtq_in(&dir, &["designs", "--design", file.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("hw.repack_threshold = 16"), "{text}");
+    let out = vtq_in(&dir, &["designs", "--design", "fastest"]);
+    assert_one_line_error(&out, "unknown design 'fastest'");
+}

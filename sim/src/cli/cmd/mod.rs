@@ -5,6 +5,7 @@ pub mod area;
 pub mod bench;
 pub mod compare;
 pub mod cosim;
+pub mod designs;
 pub mod figure5;
 pub mod fuzz;
 pub mod options;
