@@ -46,9 +46,13 @@ use crate::bits::{bits_for, clog2};
 use crate::block::{Block, Signal};
 use crate::bounded::BoundedVec;
 use crate::config::{ConfigError, HwConfig};
-use crate::describe::{BlockDesc, FsmDesc};
-use crate::memory::{MemCycle, MemPorts, Memory};
-use crate::registers::RegTable;
+use crate::describe::BlockDesc;
+use crate::memory::{MemPorts, Memory};
+
+mod desc;
+mod walk;
+
+use walk::Cycle;
 
 /// Operation presented to the queue table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -343,21 +347,6 @@ pub struct QueueTable {
     widths: QueueTableWidths,
 }
 
-/// One cycle's memory guards and pending updates.
-struct Cycle<'a> {
-    heads: MemCycle<'a, HeadWord>,
-    meta: MemCycle<'a, MetaWord>,
-    rays: MemCycle<'a, Box<[u32]>>,
-    /// Priority encoder: lowest free entry.
-    first_free: Option<usize>,
-    /// Priority encoder: lowest valid entry.
-    first_valid: Option<usize>,
-    nx: QueueCtl,
-    out: QueueTableOut,
-    set_valid: Option<usize>,
-    clear_valid: Option<usize>,
-}
-
 impl QueueTable {
     /// A queue table for `cfg` with the largest power-of-two number of buckets not above the
     /// number of entries.
@@ -434,168 +423,6 @@ impl QueueTable {
 
     fn entries(&self) -> usize {
         self.cfg.queue_table_entries as usize
-    }
-
-    /// Starts an Insert (or a refilled ray's insertion): read the bucket head, then allocate at
-    /// once (empty bucket) or walk.
-    fn start_insert(&self, cx: &mut Cycle, treelet: u64, ray: u32) {
-        let h = self.bucket(treelet);
-        let hw = cx.heads.read(h);
-        cx.nx.key_treelet = treelet;
-        cx.nx.key_ray = ray;
-        cx.nx.head = hw;
-        if hw.valid {
-            self.begin_walk(cx, WalkOp::Insert, hw.idx);
-        } else {
-            self.allocate(cx, treelet, ray, hw);
-        }
-    }
-
-    /// Starts a walk at entry `first` (its `meta` word arrives next cycle).
-    fn begin_walk(&self, cx: &mut Cycle, op: WalkOp, first: u32) {
-        cx.meta.issue_read(0, first as usize);
-        cx.nx.state = QueueState::Walk;
-        cx.nx.walk_op = op;
-        cx.nx.cur = first;
-        cx.nx.prev_valid = false;
-        cx.nx.walked = 0;
-        cx.nx.acc = 0;
-    }
-
-    /// Links a new entry holding `ray` at the head of the treelet's chain, or spills the ray
-    /// when no entry is free. Finishes the op.
-    fn allocate(&self, cx: &mut Cycle, treelet: u64, ray: u32, head: HeadWord) {
-        match cx.first_free {
-            Some(f) => {
-                cx.meta.write(
-                    f,
-                    MetaWord {
-                        treelet,
-                        count_m1: 0,
-                        next_valid: head.valid,
-                        next: head.idx,
-                    },
-                );
-                cx.rays.write_lane(f, 0, ray);
-                cx.heads.write(
-                    self.bucket(treelet),
-                    HeadWord {
-                        valid: true,
-                        idx: f as u32,
-                    },
-                );
-                cx.set_valid = Some(f);
-                cx.nx.free_count -= 1;
-            }
-            None => {
-                cx.out.spill_valid = true;
-                cx.out.spill_treelet = treelet;
-                cx.out.spill_ray = ray;
-                cx.nx.spilled += 1;
-            }
-        }
-        self.finish(cx);
-    }
-
-    fn finish(&self, cx: &mut Cycle) {
-        cx.out.done = true;
-        cx.nx.state = QueueState::Idle;
-    }
-
-    /// Moves the walk to the next entry of the chain.
-    fn advance(&self, cx: &mut Cycle, c: &QueueCtl, m: &MetaWord) {
-        cx.meta.issue_read(0, m.next as usize);
-        cx.nx.prev_valid = true;
-        cx.nx.prev = c.cur;
-        cx.nx.prev_treelet = m.treelet;
-        cx.nx.prev_count_m1 = m.count_m1;
-        cx.nx.cur = m.next;
-    }
-
-    /// One walk step: the `meta` word of `c.cur` is on the read port.
-    fn walk(&self, cx: &mut Cycle, c: &QueueCtl) {
-        let m = *cx.meta.rdata(0);
-        let walked = c.walked + 1;
-        cx.nx.walked = walked;
-        cx.out.walk_len = walked;
-        let matched = match c.walk_op {
-            WalkOp::PopAny => c.cur == c.target,
-            _ => m.treelet == c.key_treelet,
-        };
-        match c.walk_op {
-            WalkOp::Insert => {
-                if matched && m.count_m1 + 1 < self.cfg.warp_size {
-                    let cur = c.cur as usize;
-                    cx.rays
-                        .write_lane(cur, (m.count_m1 + 1) as usize, c.key_ray);
-                    cx.meta.write(
-                        cur,
-                        MetaWord {
-                            count_m1: m.count_m1 + 1,
-                            ..m
-                        },
-                    );
-                    self.finish(cx);
-                } else if matched || !m.next_valid {
-                    self.allocate(cx, c.key_treelet, c.key_ray, c.head);
-                } else {
-                    self.advance(cx, c, &m);
-                }
-            }
-            WalkOp::Pop | WalkOp::PopAny => {
-                if matched {
-                    let next = HeadWord {
-                        valid: m.next_valid,
-                        idx: m.next,
-                    };
-                    if c.prev_valid {
-                        cx.meta.write(
-                            c.prev as usize,
-                            MetaWord {
-                                treelet: c.prev_treelet,
-                                count_m1: c.prev_count_m1,
-                                next_valid: next.valid,
-                                next: next.idx,
-                            },
-                        );
-                    } else {
-                        cx.heads.write(self.bucket(c.key_treelet), next);
-                    }
-                    cx.clear_valid = Some(c.cur as usize);
-                    cx.nx.free_count += 1;
-                    cx.rays.issue_read(0, c.cur as usize);
-                    cx.nx.pop_count_m1 = m.count_m1;
-                    cx.nx.pop_treelet = m.treelet;
-                    cx.nx.state = QueueState::PopRays;
-                } else if m.next_valid {
-                    self.advance(cx, c, &m);
-                } else {
-                    cx.out.error = c.walk_op == WalkOp::PopAny;
-                    self.finish(cx);
-                }
-            }
-            WalkOp::Count => {
-                let acc = c.acc + if matched { m.count_m1 + 1 } else { 0 };
-                if m.next_valid {
-                    cx.nx.acc = acc;
-                    self.advance(cx, c, &m);
-                } else {
-                    cx.out.count_result = acc;
-                    self.finish(cx);
-                }
-            }
-        }
-    }
-
-    /// Starts a Pop or Count of `treelet` in `IDLE`.
-    fn start_lookup(&self, cx: &mut Cycle, op: WalkOp, treelet: u64) {
-        let hw = cx.heads.read(self.bucket(treelet));
-        cx.nx.key_treelet = treelet;
-        if hw.valid {
-            self.begin_walk(cx, op, hw.idx);
-        } else {
-            self.finish(cx);
-        }
     }
 }
 
@@ -749,82 +576,7 @@ impl Block for QueueTable {
     }
 
     fn describe(&self) -> BlockDesc {
-        let w = self.widths;
-        let c = &self.cfg;
-        let regs = self.reset();
-        let mut ports = QueueTableIn::ports(&w);
-        ports.extend(QueueTableOut::ports(&w));
-        let registers = self.registers().descs();
-        let ray_fields: Vec<(String, u32)> = (0..w.lanes)
-            .rev()
-            .map(|i| (format!("ray_{i}"), w.ray))
-            .collect();
-        BlockDesc {
-            name: "treelet_queue_table".into(),
-            doc: "Treelet queue table (section 4.2, Figure 9): a hash table with chaining of \
-                  entries holding a treelet address and up to one warp of ray ids; duplicate \
-                  entries per treelet; overflow spills rays to memory."
-                .into(),
-            params: vec![
-                ("queue_table_entries".into(), c.queue_table_entries as u64),
-                ("buckets".into(), self.buckets as u64),
-                ("warp_size".into(), c.warp_size as u64),
-                ("max_rays".into(), c.max_rays as u64),
-                ("treelet_addr_bits".into(), w.treelet as u64),
-                ("ray_id_bits".into(), w.ray as u64),
-            ],
-            ports,
-            registers,
-            memories: vec![
-                regs.heads.desc(
-                    "heads",
-                    vec![("valid".into(), 1), ("idx".into(), w.index)],
-                    "Chain head per hash bucket (flip-flops).",
-                ),
-                regs.meta.desc(
-                    "meta",
-                    vec![
-                        ("treelet".into(), w.treelet),
-                        ("count_m1".into(), w.count_m1),
-                        ("next_valid".into(), 1),
-                        ("next".into(), w.index),
-                    ],
-                    "Entry metadata: treelet, fill count - 1, chain link (SRAM).",
-                ),
-                regs.rays.desc(
-                    "rays",
-                    ray_fields,
-                    "Entry ray ids, one lane per warp slot, with a write enable per lane (SRAM).",
-                ),
-            ],
-            fsms: vec![FsmDesc {
-                name: "state".into(),
-                states: ["IDLE", "WALK", "ANY_META", "POP_RAYS", "REFILL_WAIT"]
-                    .map(String::from)
-                    .to_vec(),
-                width: 3,
-            }],
-            timing: vec![
-                "One op at a time: accepted in IDLE (ready), done pulses with the results, ready \
-                 again the next cycle. A chain walk reads one meta word per cycle (SRAM read \
-                 latency 1). k = position of the treelet's first entry in its chain, L = chain \
-                 length."
-                    .into(),
-                "Insert: 1 cycle (empty bucket), else 1 + k (1 + L if the treelet has no \
-                 entry); spills in its last cycle when no entry is free."
-                    .into(),
-                "Pop: 2 + k cycles; not found: 1 (empty bucket) or 1 + L.".into(),
-                "PopAny: 3 + k cycles (k in the popped entry's chain); empty table: 1.".into(),
-                "Count: 1 (empty bucket) or 1 + L.".into(),
-                "Refill: 1 if nothing is spilled; else 1 + wait for the answer, then the Insert \
-                 cost starting in the answer cycle."
-                    .into(),
-                format!(
-                    "Hash: XOR of the {}-bit treelet address in {}-bit groups from the LSB into {} buckets.",
-                    w.treelet, w.bucket, self.buckets
-                ),
-            ],
-        }
+        self.description()
     }
 }
 
@@ -854,79 +606,6 @@ pub struct PopResult {
 }
 
 impl QueueTable {
-    /// The registers (the scalar registers and the valid bits; the heads, metadata and rays
-    /// are memories): their descriptions and trace signals, declared once.
-    fn registers(&self) -> RegTable<'static, QueueTableRegs> {
-        let w = self.widths;
-        let mut t = RegTable::new();
-        t.one("state", 3, "FSM state", |r: &QueueTableRegs| {
-            r.ctl.state as u64
-        })
-        .one(
-            "walk_op",
-            2,
-            "op the walk serves: 0 Insert, 1 Pop, 2 Count, 3 PopAny",
-            |r| r.ctl.walk_op as u64,
-        )
-        .one("key_treelet", w.treelet, "treelet of the current op", |r| {
-            r.ctl.key_treelet
-        })
-        .one("key_ray", w.ray, "ray of the current Insert/Refill", |r| {
-            r.ctl.key_ray as u64
-        })
-        .one("head_valid", 1, "bucket head at op start is valid", |r| {
-            r.ctl.head.valid as u64
-        })
-        .one("head_idx", w.index, "bucket head at op start", |r| {
-            r.ctl.head.idx as u64
-        })
-        .one(
-            "cur",
-            w.index,
-            "entry whose meta word arrives this cycle",
-            |r| r.ctl.cur as u64,
-        )
-        .one("prev_valid", 1, "an entry precedes cur", |r| {
-            r.ctl.prev_valid as u64
-        })
-        .one("prev", w.index, "entry preceding cur", |r| {
-            r.ctl.prev as u64
-        })
-        .one("prev_treelet", w.treelet, "its treelet", |r| {
-            r.ctl.prev_treelet
-        })
-        .one("prev_count_m1", w.count_m1, "its count - 1", |r| {
-            r.ctl.prev_count_m1 as u64
-        })
-        .one("target", w.index, "PopAny's entry", |r| r.ctl.target as u64)
-        .one("acc", w.total, "Count's running sum", |r| r.ctl.acc as u64)
-        .one("walked", w.entries, "entries read in this walk", |r| {
-            r.ctl.walked as u64
-        })
-        .one(
-            "pop_count_m1",
-            w.count_m1,
-            "popped entry's count - 1",
-            |r| r.ctl.pop_count_m1 as u64,
-        )
-        .one("pop_treelet", w.treelet, "popped entry's treelet", |r| {
-            r.ctl.pop_treelet
-        })
-        .one("free_count", w.entries, "free entries", |r| {
-            r.ctl.free_count as u64
-        })
-        .one("spilled", w.spilled, "rays spilled and not refilled", |r| {
-            r.ctl.spilled as u64
-        })
-        .bits(
-            "valid",
-            self.cfg.queue_table_entries,
-            "entry valid bits (free list = complement)",
-            |r, i| r.valid[i],
-        );
-        t
-    }
-
     /// The register-only outputs for these registers.
     pub fn status(&self, r: &QueueTableRegs) -> QueueTableStatus {
         QueueTableStatus {
