@@ -5,7 +5,7 @@
 //! [`RegTable::signals`]) both come from the one table, so they cannot drift apart.
 
 use crate::block::Signal;
-use crate::describe::RegDesc;
+use crate::describe::{reg, RegDesc};
 
 /// Reads entry `i` of a bank from the register bundle.
 type EntryFn<'a, R, T> = Box<dyn Fn(&R, usize) -> T + 'a>;
@@ -52,12 +52,7 @@ impl<'a, R> RegTable<'a, R> {
 
     fn push(&mut self, name: &str, width: u32, count: u32, doc: &str, trace: Trace<'a, R>) {
         self.rows.push(Row {
-            desc: RegDesc {
-                name: name.to_string(),
-                width,
-                count,
-                doc: doc.to_string(),
-            },
+            desc: reg(name, width, count, doc),
             trace,
         });
     }
