@@ -296,20 +296,18 @@ impl BoxTester {
     }
 
     /// Tests the children of the internal node `view` at `addr` against the ray, culling against
-    /// the closest hit distance so far (`best_t`) as [`trace`] does; appends the kept children
-    /// (address and kind) closest first to `out` and returns the number of box tests.
+    /// the closest hit distance so far (`best_t`) as [`trace`] does; returns the kept children
+    /// (address and kind) closest first and the number of box tests.
     pub fn children(
         &self,
         view: &InternalView,
         addr: u32,
         best_t: Option<f32>,
-        out: &mut Vec<(u32, NodeKind)>,
-    ) -> u32 {
+    ) -> (impl ExactSizeIterator<Item = (u32, NodeKind)>, u32) {
         let bound = best_t.map_or(self.tmax, |t| t.min(self.tmax));
         let cull_bound = pad(bound, self.slack_base, true);
         let (hits, n, tests) = hit_children(&self.slab, view, addr, self.lo_bound, cull_bound);
-        out.extend(hits[..n].iter().map(|e| (e.addr, e.kind)));
-        tests
+        (hits.into_iter().take(n).map(|e| (e.addr, e.kind)), tests)
     }
 }
 

@@ -125,17 +125,15 @@ impl NodeDatapath for BvhDatapath<'_> {
             }
             HwKind::Internal => {
                 if let Some(view) = InternalView::new(data) {
-                    // Allocates only when some child is kept.
-                    let mut kept = Vec::new();
-                    BoxTester::new(self.bvh.header(), &ray).children(
+                    // Allocates only when some child is kept, exactly as many as are kept.
+                    let (kept, _) = BoxTester::new(self.bvh.header(), &ray).children(
                         &view,
                         node.address as u32,
                         best_t,
-                        &mut kept,
                     );
                     result
                         .children
-                        .extend(kept.into_iter().map(|(a, k)| self.entry(a, k)));
+                        .extend(kept.map(|(a, k)| self.entry(a, k)));
                 }
             }
             HwKind::TriangleLeaf => {
