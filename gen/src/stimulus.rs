@@ -13,6 +13,8 @@
 //! behaviours (evictions, scans, stalls, spills, refills, pops, errors) happened, so a test can
 //! check that a stream exercises the whole table.
 
+pub mod controller;
+
 use crate::error::GenError;
 use serde::Serialize;
 use std::collections::{BTreeSet, VecDeque};
