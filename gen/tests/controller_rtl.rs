@@ -274,3 +274,11 @@ fn controller_rtl_follows_the_configuration() {
         .to_string();
     assert!(err.contains("max_resident_treelets"), "{err}");
 }
+
+#[test]
+fn small_controller_snapshot() {
+    insta::assert_snapshot!(
+        "controller_small",
+        controller_verilog(&small(), ControllerFeatures::FULL).unwrap()
+    );
+}
