@@ -57,6 +57,9 @@ pub struct Trace {
     pub inputs: Vec<SignalInfo>,
     /// Output signals, in the order of the output bundle.
     pub outputs: Vec<SignalInfo>,
+    /// The module's ports in the order of the block description, each with the signals it is
+    /// made of.
+    pub ports: Vec<PortConn>,
     /// Values, row-major: per cycle the inputs, then the outputs.
     values: Vec<u64>,
 }
@@ -106,6 +109,7 @@ pub fn record<B: Block>(
                 module: desc.name.clone(),
                 inputs: infos(&ins),
                 outputs: infos(&outs),
+                ports: Vec::new(),
                 values: Vec::new(),
             }),
         };
@@ -134,42 +138,117 @@ pub fn record<B: Block>(
         t.values
             .extend(ins.iter().chain(outs.iter()).map(|s| s.value));
     }
-    let trace = trace.ok_or_else(|| fail("no input cycles to simulate".to_string()))?;
-    for (dir, sigs) in [(Dir::In, &trace.inputs), (Dir::Out, &trace.outputs)] {
-        for s in sigs.iter() {
-            if !is_identifier(&s.name) || s.name == "clk" || s.name == "rst" {
-                return Err(fail(format!(
-                    "signal `{}` cannot be a Verilog port name",
-                    s.name
-                )));
-            }
-            match desc.port(&s.name) {
-                Some(p) if p.dir == dir && p.width == s.width => {}
-                Some(p) => {
-                    return Err(fail(format!(
-                        "signal `{}` ({:?}, {} bits) disagrees with its port ({:?}, {} bits)",
-                        s.name, dir, s.width, p.dir, p.width
-                    )))
-                }
-                None => {
-                    return Err(fail(format!(
-                        "signal `{}` is not a port of the block description",
-                        s.name
-                    )))
-                }
-            }
+    let mut trace = trace.ok_or_else(|| fail("no input cycles to simulate".to_string()))?;
+    for s in trace.inputs.iter().chain(trace.outputs.iter()) {
+        if !is_identifier(&s.name) || s.name == "clk" || s.name == "rst" {
+            return Err(fail(format!(
+                "signal `{}` cannot be a Verilog port name",
+                s.name
+            )));
         }
     }
-    if let Some(p) = desc.ports.iter().find(|p| {
-        !trace.inputs.iter().any(|s| s.name == p.name)
-            && !trace.outputs.iter().any(|s| s.name == p.name)
-    }) {
-        return Err(fail(format!(
-            "port `{}` has no signal in the port bundles",
-            p.name
-        )));
-    }
+    trace.ports = connect_ports(&desc, &trace.inputs, &trace.outputs).map_err(fail)?;
     Ok(trace)
+}
+
+/// How one port of the module is connected in the testbench: the traced signals it is made of,
+/// most significant first. A plain port is one signal of its name and width; a packed port
+/// (the `lanes` rows of [`vtq_hdl::bundle!`]: `width x count` bits, lane `i` in bits
+/// `[i*width +: width]`) is traced as the signals `<port>_0` .. `<port>_<count-1>` and connected
+/// as their concatenation, lane `count - 1` first.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct PortConn {
+    /// Port name.
+    pub name: String,
+    /// An output port (an input otherwise).
+    pub output: bool,
+    /// The signals, most significant first.
+    pub signals: Vec<String>,
+}
+
+/// Matches the traced signals with the description's ports: every port is one signal of its
+/// name, direction and width, or the lanes `<port>_<i>` of a packed port; every signal belongs
+/// to exactly one port.
+fn connect_ports(
+    desc: &vtq_hdl::BlockDesc,
+    inputs: &[SignalInfo],
+    outputs: &[SignalInfo],
+) -> Result<Vec<PortConn>, String> {
+    let mut used: std::collections::BTreeSet<(bool, &str)> = Default::default();
+    let mut conns = Vec::new();
+    for p in &desc.ports {
+        let output = p.dir == Dir::Out;
+        let (sigs, other) = if output {
+            (outputs, inputs)
+        } else {
+            (inputs, outputs)
+        };
+        let found = sigs
+            .iter()
+            .find(|s| s.name == p.name)
+            .map(|s| (s, output))
+            .or_else(|| {
+                other
+                    .iter()
+                    .find(|s| s.name == p.name)
+                    .map(|s| (s, !output))
+            });
+        if let Some((s, s_output)) = found {
+            if s_output != output || s.width != p.width {
+                return Err(format!(
+                    "signal `{}` ({}, {} bits) disagrees with its port ({:?}, {} bits)",
+                    s.name,
+                    if s_output { "Out" } else { "In" },
+                    s.width,
+                    p.dir,
+                    p.width
+                ));
+            }
+            used.insert((output, s.name.as_str()));
+            conns.push(PortConn {
+                name: p.name.clone(),
+                output,
+                signals: vec![s.name.clone()],
+            });
+            continue;
+        }
+        // A packed port: its lanes `<port>_0`, `<port>_1`, ... in order, of equal widths.
+        let mut lanes: Vec<&SignalInfo> = Vec::new();
+        while let Some(s) = sigs
+            .iter()
+            .find(|s| s.name == format!("{}_{}", p.name, lanes.len()))
+        {
+            lanes.push(s);
+        }
+        let bits: u64 = lanes.iter().map(|s| s.width as u64).sum();
+        let even = lanes.iter().all(|s| s.width == lanes[0].width);
+        if lanes.is_empty() || !even || bits != p.width as u64 {
+            return Err(format!(
+                "port `{}` has no signal in the port bundles",
+                p.name
+            ));
+        }
+        for s in &lanes {
+            used.insert((output, s.name.as_str()));
+        }
+        conns.push(PortConn {
+            name: p.name.clone(),
+            output,
+            signals: lanes.iter().rev().map(|s| s.name.clone()).collect(),
+        });
+    }
+    for (output, sigs) in [(false, inputs), (true, outputs)] {
+        if let Some(s) = sigs
+            .iter()
+            .find(|s| !used.contains(&(output, s.name.as_str())))
+        {
+            return Err(format!(
+                "signal `{}` is not a port of the block description",
+                s.name
+            ));
+        }
+    }
+    Ok(conns)
 }
 
 fn infos(sigs: &[Signal]) -> Vec<SignalInfo> {
@@ -364,18 +443,14 @@ pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
         "        .clk(clk)".to_string(),
         "        .rst(rst)".to_string(),
     ];
-    conns.extend(
-        trace
-            .inputs
-            .iter()
-            .map(|s| format!("        .{0}(i_{0})", s.name)),
-    );
-    conns.extend(
-        trace
-            .outputs
-            .iter()
-            .map(|s| format!("        .{0}(o_{0})", s.name)),
-    );
+    conns.extend(trace.ports.iter().map(|p| {
+        let prefix = if p.output { "o_" } else { "i_" };
+        let sigs: Vec<String> = p.signals.iter().map(|s| format!("{prefix}{s}")).collect();
+        match sigs.as_slice() {
+            [one] => format!("        .{}({one})", p.name),
+            _ => format!("        .{}({{{}}})", p.name, sigs.join(", ")),
+        }
+    }));
     let _ = writeln!(v, "{}", conns.join(",\n"));
     let _ = writeln!(v, "    );");
     let _ = writeln!(v);

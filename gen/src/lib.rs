@@ -5,8 +5,9 @@
 //! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
 //! - [`compose`]: the top module of a composed block (its children and a wiring module).
 //! - [`area`]: the analytical storage and area model of the paper's section 6.5.
-//! - [`rtl`]: complete RTL of the treelet count table and treelet queue table.
-//! - [`stimulus`]: seeded random stimulus and reactive test benches for the two tables.
+//! - [`rtl`]: complete RTL of the treelet count table, treelet queue table and treelet controller.
+//! - [`stimulus`]: seeded random stimulus and reactive test benches for the two tables and (its
+//!   [`stimulus::controller`]) the treelet controller.
 //! - [`synth`]: Yosys synthesis statistics and Verilator lint as structured results.
 //! - [`emit`]: the Verilog text writer; [`tools`]: running the external tools;
 //!   [`error`]: the crate's error type.

@@ -12,6 +12,11 @@
 //! Besides the inputs, each generator returns a [`Coverage`]: how often the interesting
 //! behaviours (evictions, scans, stalls, spills, refills, pops, errors) happened, so a test can
 //! check that a stream exercises the whole table.
+//!
+//! The treelet controller's stimulus is in [`controller`]: a reactive environment of the real
+//! Rust tables and a model of the RT unit, with its own [`controller::ControllerCoverage`].
+
+pub mod controller;
 
 use crate::error::GenError;
 use serde::Serialize;

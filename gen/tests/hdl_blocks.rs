@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 use vtq_gen::compose::{composite_modules, Instance};
-use vtq_gen::rtl::table_modules;
+use vtq_gen::rtl::rtl_modules;
 use vtq_gen::synth::{lint, synthesize};
 use vtq_gen::tools::or_skip;
 use vtq_gen::verilog::MAX_WIDTH;
@@ -116,9 +116,9 @@ fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
     assert!(synth.warnings.is_empty(), "{}: {synth:?}", d.name);
 }
 
-/// The composed treelet RT unit's top module instantiates the tables' complete RTL, the
-/// controller's and the RT unit's skeletons and its wiring module (a skeleton), connected
-/// port by port; all of it lints clean under `verilator --lint-only -Wall`.
+/// The composed treelet RT unit's top module instantiates the tables' and the controller's
+/// complete RTL, the RT unit's skeleton and its wiring module (a skeleton), connected port by
+/// port; all of it lints clean under `verilator --lint-only -Wall`.
 #[test]
 fn the_composed_treelet_rt_unit_lints_clean() {
     let cfg = HwConfig::default();
@@ -136,11 +136,8 @@ fn the_composed_treelet_rt_unit_lints_clean() {
             desc,
         })
         .collect();
-    let mut modules = table_modules(&cfg).unwrap();
-    for c in children
-        .iter()
-        .filter(|c| c.name == "rt" || c.name == "ctl")
-    {
+    let mut modules = rtl_modules(&cfg, ControllerFeatures::FULL).unwrap();
+    for c in children.iter().filter(|c| c.name == "rt") {
         modules.push((c.desc.name.clone(), emit_module(&c.desc).unwrap()));
     }
     let top = composite_modules(&unit.describe(), &children).unwrap();

@@ -577,6 +577,50 @@ fn cosim_matches_on_a_small_configuration() {
 }
 
 #[test]
+fn cosim_of_the_controller_matches_on_a_small_configuration() {
+    let dir = temp_dir("cosim-controller");
+    let out = vtq(&[
+        "cosim",
+        "--block",
+        "controller",
+        "--cycles",
+        "2000",
+        "--set",
+        "hw.count_table_entries=4",
+        "--set",
+        "hw.queue_table_entries=6",
+        "--set",
+        "hw.max_rays=64",
+        "--set",
+        "hw.underpopulation_threshold=8",
+        "--set",
+        "hw.divergence_threshold=2",
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success()
+        && stderr.contains("is not installed")
+        && std::env::var_os(CI_ENV).is_none()
+    {
+        eprintln!("skipping: {}", stderr.trim());
+        return;
+    }
+    assert!(out.status.success(), "{stdout}{stderr}");
+    let line = line_starting(&stdout, "treelet_controller: ");
+    assert!(
+        line.contains("2000 cycles compared, 0 mismatches"),
+        "{line}"
+    );
+    assert!(stdout.contains("modes: initial"), "{stdout}");
+    assert!(
+        !stdout.contains("treelet_count_table"),
+        "only the controller: {stdout}"
+    );
+}
+
+#[test]
 fn hardware_commands_reject_bad_configurations_in_one_line() {
     let dir = temp_dir("bad-hw-config");
     let out_dir = dir.to_str().unwrap();

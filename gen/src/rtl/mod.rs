@@ -1,6 +1,6 @@
-//! Complete, synthesizable Verilog-2005 RTL for the blocks whose behaviour is simple enough to
-//! write out in full: the treelet count table ([`count_table_verilog`]) and the treelet queue
-//! table ([`queue_table_verilog`]).
+//! Complete, synthesizable Verilog-2005 RTL for the blocks generated in full: the treelet count
+//! table ([`count_table_verilog`]), the treelet queue table ([`queue_table_verilog`]) and the
+//! treelet controller ([`controller_verilog`]).
 //!
 //! Each module is built from the Rust block's [`vtq_hdl::Block::describe`]: the module name,
 //! the header comment and the port list come from g1's emitter ([`crate::verilog`]), and every
@@ -8,7 +8,7 @@
 //! and parameters by name), so the RTL cannot drift from the Rust block; a description that
 //! lacks an item the body needs is a [`GenError::InvalidDesc`].
 //!
-//! Conventions shared by both bodies (and [`crate::cosim`]'s timing convention):
+//! Conventions shared by the bodies (and [`crate::cosim`]'s timing convention):
 //! - every register of the description is `<name>_q` with its next value `<name>_d`, computed
 //!   by combinational `always @*` blocks; one clocked block loads all of them, and synchronous
 //!   active-high `rst` loads the values of the Rust `Block::reset()`;
@@ -16,18 +16,36 @@
 //! - memories are `reg [W-1:0] name [0:D-1]` with synchronous writes; latency-1 (SRAM) reads
 //!   go through a registered read-data word; flip-flop arrays are reset like the Rust model.
 
+mod controller;
 mod count_table;
 mod queue_table;
 
+pub use controller::controller_verilog;
 pub use count_table::count_table_verilog;
 pub use queue_table::queue_table_verilog;
 
 use crate::emit::{one_line, range, VerilogWriter};
 use crate::error::GenError;
 use crate::verilog::{emit_header, emit_ports, validate_desc};
+use vtq_hdl::controller::{ControllerFeatures, TreeletController};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
 use vtq_hdl::{Block, BlockDesc, Dir, HwConfig, MemDesc};
+
+/// The complete RTL of every block generated in full for `cfg`: both tables and the treelet
+/// controller with `features`, as `(module name, Verilog text)` pairs (count table, queue
+/// table, controller); write each to `<module name>.v`.
+pub fn rtl_modules(
+    cfg: &HwConfig,
+    features: ControllerFeatures,
+) -> Result<Vec<(String, String)>, GenError> {
+    let mut out = table_modules(cfg)?;
+    let name = TreeletController::new(cfg.clone(), features)?
+        .describe()
+        .name;
+    out.push((name, controller_verilog(cfg, features)?));
+    Ok(out)
+}
 
 /// The complete RTL of both tables for `cfg`, as `(module name, Verilog text)` pairs (count
 /// table first); write each to `<module name>.v`.
@@ -164,38 +182,58 @@ fn fill(template: &str, vars: &[(&str, String)]) -> String {
     out
 }
 
+/// Bits of register (or bank) `r` as one packed vector: a bank of `count` registers of `width`
+/// bits holds register i in bits `[i*width +: width]`.
+fn reg_bits(r: &vtq_hdl::RegDesc) -> u32 {
+    r.count * r.width
+}
+
 /// The register declarations (`<name>_q` and `<name>_d` for every register of the
-/// description; a bank of one-bit registers becomes a packed vector) and the clocked block
+/// description; a bank of registers becomes a packed vector, register i in bits
+/// `[i*width +: width]`) and the clocked block
 /// that loads them, with `reset` giving the reset value of each register that does not reset
 /// to zero.
 fn emit_registers(w: &mut VerilogWriter, desc: &BlockDesc, reset: &[(&str, String)]) {
+    emit_registers_as(w, desc, reset, range);
+}
+
+/// [`emit_registers`] with every register declared as a vector, `[0:0]` for one bit too (so
+/// the body may index a bank of one register of one bit).
+fn emit_vector_registers(w: &mut VerilogWriter, desc: &BlockDesc) {
+    emit_registers_as(w, desc, &[], vector_range);
+}
+
+/// `[W-1:0] ` for every width, `[0:0] ` for one bit.
+fn vector_range(width: u32) -> String {
+    format!("[{}:0] ", width.max(1) - 1)
+}
+
+/// [`emit_registers`] declaring each register with `range_of(bits)`.
+fn emit_registers_as(
+    w: &mut VerilogWriter,
+    desc: &BlockDesc,
+    reset: &[(&str, String)],
+    range_of: fn(u32) -> String,
+) {
     w.line("");
     w.comment(
         "Registers of the block description: `<name>_q` holds the register, `<name>_d` is its \
          next value, computed combinationally below.",
     );
     for r in &desc.registers {
-        let width = if r.count > 1 {
-            debug_assert_eq!(
-                r.width, 1,
-                "banks of wide registers are not used by the RTL"
-            );
-            r.count
-        } else {
-            r.width
-        };
-        let doc = if r.count > 1 {
-            format!("{} (bit i = register i)", r.doc)
-        } else {
-            r.doc.clone()
+        let width = reg_bits(r);
+        let doc = match (r.count, r.width) {
+            (1, _) => r.doc.clone(),
+            (_, 1) => format!("{} (bit i = register i)", r.doc),
+            (_, w) => format!("{} (register i in bits [i*{w} +: {w}])", r.doc),
         };
         w.line(format!(
             "reg {}{}_q; // {}",
-            range(width),
+            range_of(width),
             r.name,
             one_line(&doc)
         ));
-        w.line(format!("reg {}{}_d;", range(width), r.name));
+        w.line(format!("reg {}{}_d;", range_of(width), r.name));
     }
     w.line("");
     w.line("always @(posedge clk) begin : p_registers");
@@ -203,7 +241,7 @@ fn emit_registers(w: &mut VerilogWriter, desc: &BlockDesc, reset: &[(&str, Strin
     w.line("if (rst) begin");
     w.indent();
     for r in &desc.registers {
-        let width = if r.count > 1 { r.count } else { r.width };
+        let width = reg_bits(r);
         let value = reset
             .iter()
             .find(|(n, _)| *n == r.name)

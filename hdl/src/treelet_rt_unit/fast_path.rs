@@ -97,6 +97,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         controller_inputs_into(g, &peeks, offering, ctl_in);
     }
     let ctl_in: &ControllerInputs = ctl_in;
+    super::log_controller(&mut cache.tables, ctl_in);
     let mode = if restart { Mode::Initial } else { peeks.mode };
     let idle = reused && cache.idle && !(offering && admitting(u, mode));
     out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(ctl, ctl_in));

@@ -164,7 +164,9 @@ pub struct TreeletRtUnitCache {
 /// The treelet count table's and queue table's input ports, cycle by cycle (a `Nop` in every
 /// cycle a table was not stepped or skipped): real traffic to replay against their RTL. It
 /// starts at the first cycle in which either table gets an op: until then both get only `Nop`s
-/// from reset, which leave them in their reset state, so a replay from reset is exact.
+/// from reset, which leave them in their reset state, so a replay from reset is exact. Beside
+/// them, the treelet controller's input ports from reset (its registers change without table
+/// ops, so its log starts at the first cycle).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct TableLog {
     /// Cycles to record at most.
@@ -177,6 +179,10 @@ pub struct TableLog {
     pub count: Vec<CountTableIn>,
     /// The queue table's inputs.
     pub queue: Vec<QueueTableIn>,
+    /// The treelet controller's inputs of the first `limit` cycles from reset, every cycle (a
+    /// skipped idle cycle has the inputs the wiring gives the controller with no SM warp
+    /// offered, those of the cycle the skip starts in).
+    pub controller: Vec<ControllerInputs>,
 }
 
 impl TreeletRtUnitCache {
@@ -233,6 +239,13 @@ impl TreeletRtUnitCache {
     /// Records one cycle's table inputs.
     fn log_tables(&mut self, ct: &CountTableIn, qt: &QueueTableIn) {
         log_tables(&mut self.tables, ct, qt);
+    }
+}
+
+/// Appends one cycle's controller inputs to `tables`, while recording (up to its limit).
+fn log_controller(tables: &mut Option<TableLog>, inputs: &ControllerInputs) {
+    if let Some(log) = tables.as_mut().filter(|l| l.controller.len() < l.limit) {
+        log.controller.push(inputs.clone());
     }
 }
 
@@ -389,6 +402,21 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         // the first cycle's repack verdict is every skipped cycle's.
         if self.repack_withheld_at(regs, cache) {
             counts.ctl.repack_starved_cycles += n;
+        }
+        if cache
+            .tables
+            .as_ref()
+            .is_some_and(|l| l.controller.len() < l.limit)
+        {
+            // The controller's inputs hold through the skipped cycles (they end before a delay
+            // ends or a scan publishes): those the wiring gives it now, with no SM warp.
+            let distinct = wiring::reads_distinct(self, &regs.ctl, false);
+            let status = self.rt.status(&regs.rt, &cache.rt, distinct);
+            let peeks = wiring::Peeks::of(self, regs, &status);
+            let (inputs, _) = wiring::controller_inputs(self, &regs.glue, &peeks, false);
+            for _ in 0..n {
+                log_controller(&mut cache.tables, &inputs);
+            }
         }
         cache.dry_valid = false;
         cache.probed = None;

@@ -1,8 +1,9 @@
-//! `vtq cosim`: co-simulates the generated RTL of the treelet count table and the treelet queue
-//! table against the Rust blocks, cycle by cycle, with Icarus Verilog or Verilator: on the seeded
-//! random stimulus of [`vtq_gen::stimulus`], or (`--scene`) on the real traffic of a simulation:
-//! the tables' input ports of one SM's treelet RT unit, recorded cycle by cycle from reset and
-//! replayed as the testbench's stimulus.
+//! `vtq cosim`: co-simulates the generated RTL of the treelet count table, the treelet queue
+//! table and the treelet controller against the Rust blocks, cycle by cycle, with Icarus Verilog
+//! or Verilator: on the seeded random stimulus of [`vtq_gen::stimulus`] (for the controller, its
+//! reactive environment [`vtq_gen::stimulus::controller`]), or (`--scene`) on the real traffic of
+//! a simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle by cycle
+//! from reset and replayed as the testbench's stimulus.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -10,25 +11,54 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use vtq_gen::cosim::{record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
-use vtq_gen::rtl::{count_table_verilog, queue_table_verilog};
+use vtq_gen::rtl::{controller_verilog, count_table_verilog, queue_table_verilog};
+use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
 use vtq_gen::GenError;
-use vtq_hdl::HwConfig;
+use vtq_hdl::controller::{
+    ControllerFeatures, ControllerInputs, ControllerStats, TreeletController,
+};
+use vtq_hdl::mode::Mode;
+use vtq_hdl::queue_table::QueueOp;
+use vtq_hdl::Block;
 
 use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
+use crate::model::config::{ModeKind, SimConfig};
 use crate::model::gpu::{simulate, SimOptions};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
 
-/// Which table(s) to co-simulate.
+/// Which block(s) to co-simulate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum BlockChoice {
     /// The treelet count table.
     Count,
     /// The treelet queue table.
     Queue,
-    /// Both tables.
+    /// Both tables (the default).
+    Tables,
+    /// The treelet controller.
+    Controller,
+    /// Both tables and the controller.
     All,
+}
+
+impl BlockChoice {
+    fn count(self) -> bool {
+        matches!(
+            self,
+            BlockChoice::Count | BlockChoice::Tables | BlockChoice::All
+        )
+    }
+    fn queue(self) -> bool {
+        matches!(
+            self,
+            BlockChoice::Queue | BlockChoice::Tables | BlockChoice::All
+        )
+    }
+    fn controller(self) -> bool {
+        matches!(self, BlockChoice::Controller | BlockChoice::All)
+    }
 }
 
 /// Which simulator runs the testbench.
@@ -54,13 +84,15 @@ impl SimulatorChoice {
 pub struct CosimArgs {
     #[command(flatten)]
     pub config: ConfigArgs,
-    /// Table(s) to co-simulate.
-    #[arg(long, value_enum, default_value_t = BlockChoice::All)]
+    /// Block(s) to co-simulate.
+    #[arg(long, value_enum, default_value_t = BlockChoice::Tables)]
     pub block: BlockChoice,
-    /// Cycles of random stimulus per table.
+    /// Cycles of random stimulus per block; with `--scene`, cycles recorded (the tables' from
+    /// their first op, the controller's from reset).
     #[arg(long, default_value_t = 100_000)]
     pub cycles: usize,
-    /// Stimulus seed (the count table uses SEED, the queue table SEED + 1).
+    /// Stimulus seed (the count table uses SEED, the queue table SEED + 1, the controller
+    /// SEED + 2).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Simulator to run the testbench with.
@@ -71,11 +103,12 @@ pub struct CosimArgs {
     #[arg(long)]
     pub work_dir: Option<PathBuf>,
     /// Replay real traffic instead of random stimulus: simulate this scene (with `--config`,
-    /// which must be a queues design) and record the tables' inputs of SM `--sm` for `--cycles`
-    /// cycles from the first op either table gets (before it they only get nops from reset).
+    /// which must be a queues design) and record the inputs of SM `--sm` for `--cycles` cycles:
+    /// the tables' from the first op either table gets (before it they only get nops from
+    /// reset), the controller's from reset.
     #[arg(long)]
     pub scene: Option<String>,
-    /// The SM whose tables are recorded with `--scene`.
+    /// The SM whose blocks are recorded with `--scene`.
     #[arg(long, default_value_t = 0)]
     pub sm: usize,
     /// The BVH cache (with `--scene`).
@@ -128,10 +161,20 @@ struct Job {
     verilog: String,
 }
 
-/// Builds the stimulus, records the Rust block and generates the RTL of each chosen table.
-fn jobs(hw: &HwConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
+/// The controller's design features of a configuration: its own for a queues design, the full
+/// design otherwise.
+fn features(cfg: &SimConfig) -> ControllerFeatures {
+    match cfg.mode.kind {
+        ModeKind::Queues => cfg.controller_features(),
+        _ => ControllerFeatures::FULL,
+    }
+}
+
+/// Builds the stimulus, records the Rust block and generates the RTL of each chosen block.
+fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
+    let hw = &cfg.hw;
     let mut out = Vec::new();
-    if args.block != BlockChoice::Queue {
+    if args.block.count() {
         let (table, inputs, coverage) = count_table_inputs(hw, args.cycles, args.seed)?;
         out.push(Job {
             trace: record(&table, inputs)?,
@@ -139,13 +182,23 @@ fn jobs(hw: &HwConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             verilog: count_table_verilog(hw)?,
         });
     }
-    if args.block != BlockChoice::Count {
+    if args.block.queue() {
         let seed = args.seed.wrapping_add(1);
         let (table, inputs, coverage) = queue_table_inputs(hw, args.cycles, seed)?;
         out.push(Job {
             trace: record(&table, inputs)?,
             coverage: coverage.to_string(),
             verilog: queue_table_verilog(hw)?,
+        });
+    }
+    if args.block.controller() {
+        let seed = args.seed.wrapping_add(2);
+        let features = features(cfg);
+        let (ctl, inputs, coverage) = controller_inputs(hw, features, args.cycles, seed)?;
+        out.push(Job {
+            trace: record(&ctl, inputs)?,
+            coverage: coverage.to_string(),
+            verilog: controller_verilog(hw, features)?,
         });
     }
     Ok(out)
@@ -190,7 +243,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         refills += u64::from(i.refill_valid);
     }
     let mut jobs = Vec::new();
-    if args.block != BlockChoice::Queue {
+    if args.block.count() {
         let ops = format!(
             "{} adds, {} removes, {} nop cycles",
             count_ops[1], count_ops[2], count_ops[0]
@@ -201,7 +254,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             verilog: count_table_verilog(hw)?,
         });
     }
-    if args.block != BlockChoice::Count {
+    if args.block.queue() {
         let ops = format!(
             "{} inserts, {} pops, {} pop_any, {} refills ({} answered), {} nop cycles",
             queue_ops[1], queue_ops[2], queue_ops[3], queue_ops[5], refills, queue_ops[0]
@@ -212,7 +265,59 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             verilog: queue_table_verilog(hw)?,
         });
     }
+    if args.block.controller() {
+        let features = cfg.controller_features();
+        let ctl = TreeletController::new(hw.clone(), features)?;
+        let summary = replay_summary(&ctl, &log.controller);
+        jobs.push(Job {
+            trace: record(&ctl, log.controller.iter().cloned())?,
+            coverage: format!(
+                "real traffic: cycles 0..{} of SM {} in scene {} ({}, {} cycles in all), from \
+                 reset: {summary}",
+                log.controller.len(),
+                args.sm,
+                scene.name,
+                cfg.mode.kind.name(),
+                out.stats.cycles
+            ),
+            verilog: controller_verilog(hw, features)?,
+        });
+    }
     Ok(jobs)
+}
+
+/// What a replayed controller stream does, in words: its cycles per mode and its actions,
+/// counted by running the Rust block over it.
+fn replay_summary(ctl: &TreeletController, inputs: &[ControllerInputs]) -> String {
+    let mut regs = ctl.reset();
+    let mut stats = ControllerStats::default();
+    let mut modes = [0u64; 4];
+    let mut pops = 0u64;
+    for i in inputs {
+        let out = ctl.step(&mut regs, i);
+        modes[out.mode as usize] += 1;
+        pops += u64::from(matches!(out.qt_op, QueueOp::Pop { .. } | QueueOp::PopAny));
+        stats.observe(i, &out);
+    }
+    let modes: Vec<String> = Mode::ALL
+        .iter()
+        .zip(modes)
+        .map(|(m, c)| format!("{} {c}", m.name()))
+        .collect();
+    format!(
+        "modes: {}; {} terminations, {} enqueues, {} claims, {} preloads, {} pops, {} treelet \
+         warps, {} grouped warps, {} repacks, {} evictions",
+        modes.join(", "),
+        stats.terminated_warps,
+        stats.enqueued_rays,
+        stats.claims,
+        stats.preloads,
+        pops,
+        stats.treelet_warps,
+        stats.grouped_warps,
+        stats.repacks,
+        stats.evictions
+    )
 }
 
 /// Run `vtq cosim`.
@@ -222,7 +327,7 @@ pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
     }
     let jobs = match &args.scene {
         Some(scene) => replay_jobs(scene, args)?,
-        None => jobs(&args.config.load_hardware()?.hw, args)?,
+        None => jobs(&args.config.load_hardware()?, args)?,
     };
     let simulator = args.simulator.simulator();
     let (root, temporary) = match &args.work_dir {

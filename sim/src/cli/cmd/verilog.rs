@@ -1,7 +1,8 @@
 //! `vtq verilog`: Verilog-2005 for every hardware block at the configured sizes — complete RTL
-//! for the treelet count table and the treelet queue table, skeletons with every port, register
-//! and state for the treelet controller and the RT unit, and the composed treelet RT unit: a top
-//! module instantiating the four with its wiring module (a skeleton).
+//! for the treelet count table, the treelet queue table and the treelet controller (with the
+//! configuration's design features when it is a queues design, the full design otherwise), a
+//! skeleton with every port, register and state for the RT unit, and the composed treelet RT
+//! unit: a top module instantiating the four with its wiring module (a skeleton).
 
 use std::path::PathBuf;
 
@@ -14,7 +15,7 @@ use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
 use vtq_hdl::Block;
 
 use super::options::ConfigArgs;
-use crate::model::config::SimConfig;
+use crate::model::config::{ModeKind, SimConfig};
 
 /// Options of `vtq verilog`.
 #[derive(Debug, Args)]
@@ -26,17 +27,21 @@ pub struct VerilogArgs {
     pub out: PathBuf,
 }
 
-/// Every block's module as (module name, Verilog text): the tables, the controller and the RT
-/// unit, then the composed treelet RT unit's top and wiring modules.
+/// Every block's module as (module name, Verilog text): the tables and the controller (full
+/// RTL), the RT unit (a skeleton), then the composed treelet RT unit's top and wiring modules.
 pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
-    let mut out = vtq_gen::rtl::table_modules(&cfg.hw)?;
+    let features = match cfg.mode.kind {
+        ModeKind::Queues => cfg.controller_features(),
+        _ => ControllerFeatures::FULL,
+    };
+    let mut out = vtq_gen::rtl::rtl_modules(&cfg.hw, features)?;
     let params = TreeletRtUnitParams {
         rt: cfg.rt_unit_params(
             0,
             None,
             vtq_hdl::rt_unit::RtUnitParams::default().stack_spill_chunks,
         ),
-        features: ControllerFeatures::FULL,
+        features,
         ray_base: 0,
     };
     let unit = TreeletRtUnit::new(cfg.hw.clone(), params, NoDatapath)?;
@@ -48,9 +53,9 @@ pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
             desc,
         })
         .collect();
-    for child in &children[..2] {
-        out.push((child.desc.name.clone(), vtq_gen::emit_module(&child.desc)?));
-    }
+    // The RT unit (the first child) is the one block still emitted as a skeleton.
+    let rt = &children[0].desc;
+    out.push((rt.name.clone(), vtq_gen::emit_module(rt)?));
     out.extend(composite_modules(&unit.describe(), &children)?);
     Ok(out)
 }
