@@ -403,18 +403,18 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         if self.repack_withheld_at(regs, cache) {
             counts.ctl.repack_starved_cycles += n;
         }
-        if cache
+        let room = cache
             .tables
             .as_ref()
-            .is_some_and(|l| l.controller.len() < l.limit)
-        {
+            .map_or(0, |l| l.limit.saturating_sub(l.controller.len()) as u64);
+        if room > 0 {
             // The controller's inputs hold through the skipped cycles (they end before a delay
             // ends or a scan publishes): those the wiring gives it now, with no SM warp.
             let distinct = wiring::reads_distinct(self, &regs.ctl, false);
             let status = self.rt.status(&regs.rt, &cache.rt, distinct);
             let peeks = wiring::Peeks::of(self, regs, &status);
             let (inputs, _) = wiring::controller_inputs(self, &regs.glue, &peeks, false);
-            for _ in 0..n {
+            for _ in 0..n.min(room) {
                 log_controller(&mut cache.tables, &inputs);
             }
         }
