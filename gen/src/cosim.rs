@@ -38,6 +38,15 @@ pub const TESTBENCH_TOP: &str = "cosim_tb";
 pub const VECTORS_FILE: &str = "cosim_vectors.hex";
 /// File the testbench is written to (inside the work directory).
 pub const TESTBENCH_FILE: &str = "cosim_tb.v";
+/// File the RTL simulation's waveform is dumped to with [`CosimOptions::vcd`] (inside the work
+/// directory).
+pub const RTL_VCD_FILE: &str = "rtl.vcd";
+/// File name [`write_rust_vcd`]'s callers use for the Rust block's waveform of the same run.
+pub const RUST_VCD_FILE: &str = "rust.vcd";
+/// Clock cycles of reset before cycle 0: cycle `k` of a run occupies `[10 (k + 2), 10 (k + 3))`
+/// ns in the testbench, and [`write_rust_vcd`] numbers its cycles from here so both waveforms
+/// put cycle `k` at the same time.
+pub const RESET_CYCLES: u64 = 2;
 
 /// Name and width of one traced signal.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -60,6 +69,10 @@ pub struct Trace {
     /// The module's ports in the order of the block description, each with the signals it is
     /// made of.
     pub ports: Vec<PortConn>,
+    /// The Rust block's register signals ([`Block::reg_signals`]) that are single registers of
+    /// the block description (the RTL's `<name>_q`); the waveform of [`CosimOptions::vcd`]
+    /// shows them under the same names.
+    pub registers: Vec<SignalInfo>,
     /// Values, row-major: per cycle the inputs, then the outputs.
     values: Vec<u64>,
 }
@@ -110,6 +123,7 @@ pub fn record<B: Block>(
                 inputs: infos(&ins),
                 outputs: infos(&outs),
                 ports: Vec::new(),
+                registers: desc_registers(&desc, &block.reg_signals(&block.reset())),
                 values: Vec::new(),
             }),
         };
@@ -251,6 +265,21 @@ fn connect_ports(
     Ok(conns)
 }
 
+/// The register signals of `regs` that are single registers of `desc` of the same width.
+fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<SignalInfo> {
+    regs.iter()
+        .filter(|s| {
+            desc.registers
+                .iter()
+                .any(|r| r.name == s.name && r.count == 1 && r.width == s.width)
+        })
+        .map(|s| SignalInfo {
+            name: s.name.clone(),
+            width: s.width,
+        })
+        .collect()
+}
+
 fn infos(sigs: &[Signal]) -> Vec<SignalInfo> {
     sigs.iter()
         .map(|s| SignalInfo {
@@ -301,6 +330,10 @@ pub struct CosimOptions {
     pub work_dir: PathBuf,
     /// Mismatches printed individually (all are counted).
     pub max_reported: u32,
+    /// Dump the RTL simulation's waveform to [`RTL_VCD_FILE`] in the work directory: the ports
+    /// in scopes `inputs` and `outputs` and the registers the Rust trace names the same in scope
+    /// `regs` (as [`vtq_hdl::trace`] names them), plus the DUT's own signals in scope `dut`.
+    pub vcd: bool,
 }
 
 impl CosimOptions {
@@ -310,6 +343,7 @@ impl CosimOptions {
             simulator: Simulator::Icarus,
             work_dir: work_dir.into(),
             max_reported: 10,
+            vcd: false,
         }
     }
 }
@@ -396,6 +430,55 @@ pub fn vectors(trace: &Trace) -> String {
 
 /// The self-checking testbench for `trace` (see the module documentation for its timing).
 pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
+    testbench(trace, max_reported, None)
+}
+
+/// The testbench of [`write_testbench`] that also dumps the waveform to [`RTL_VCD_FILE`]: the
+/// ports under the Rust trace's scopes and names (`inputs.<signal>`, `outputs.<signal>`; a
+/// packed port's lanes one signal each), the registers in `registers` as `regs.<name>` (the
+/// DUT's `<name>_q`), and the DUT's own signals (scope `dut`, one level).
+pub fn write_testbench_with_vcd(
+    trace: &Trace,
+    max_reported: u32,
+    registers: &[SignalInfo],
+) -> String {
+    testbench(trace, max_reported, Some(registers))
+}
+
+/// The waveform scopes of the testbench: named generate blocks of wires that mirror the Rust
+/// trace's scopes.
+fn vcd_scopes(trace: &Trace, registers: &[SignalInfo]) -> String {
+    let mut v = String::new();
+    let _ = writeln!(
+        v,
+        "    // Waveform scopes named like the Rust trace's (vtq_hdl::trace): inputs, outputs, regs."
+    );
+    // (scope, signals, source prefix, source suffix)
+    let groups: [(&str, &[SignalInfo], &str, &str); 3] = [
+        ("inputs", &trace.inputs, "i_", ""),
+        ("outputs", &trace.outputs, "o_", ""),
+        ("regs", registers, "dut.", "_q"),
+    ];
+    for (scope, sigs, prefix, suffix) in groups {
+        if sigs.is_empty() {
+            continue;
+        }
+        let _ = writeln!(v, "    generate if (1) begin : {scope}");
+        for s in sigs {
+            let _ = writeln!(
+                v,
+                "        wire {}{} = {prefix}{}{suffix};",
+                range(s.width),
+                s.name,
+                s.name
+            );
+        }
+        let _ = writeln!(v, "    end endgenerate");
+    }
+    v
+}
+
+fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[SignalInfo]>) -> String {
     let total: u32 = trace
         .inputs
         .iter()
@@ -421,7 +504,8 @@ pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
         v,
         "// Vectors: {VECTORS_FILE}, one line per cycle: inputs then expected outputs."
     );
-    let _ = writeln!(v, "`timescale 1ns/1ps");
+    // 1 ns precision: every delay is whole nanoseconds, and the waveform's times are in ns.
+    let _ = writeln!(v, "`timescale 1ns/1ns");
     let _ = writeln!(v, "module {TESTBENCH_TOP};");
     let _ = writeln!(v, "    localparam integer CYCLES = {};", trace.cycles());
     let _ = writeln!(v, "    localparam integer MAX_REPORTED = {max_reported};");
@@ -464,7 +548,28 @@ pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
     let _ = writeln!(v, "        end");
     let _ = writeln!(v, "    endtask");
     let _ = writeln!(v);
+    if let Some(registers) = vcd {
+        v.push_str(&vcd_scopes(trace, registers));
+        let _ = writeln!(v);
+    }
     let _ = writeln!(v, "    initial begin");
+    if let Some(registers) = vcd {
+        let _ = writeln!(v, "        $dumpfile(\"{RTL_VCD_FILE}\");");
+        let _ = writeln!(
+            v,
+            "        $dumpvars(0, {TESTBENCH_TOP}.clk, {TESTBENCH_TOP}.rst, {TESTBENCH_TOP}.cycle);"
+        );
+        for (scope, n) in [
+            ("inputs", trace.inputs.len()),
+            ("outputs", trace.outputs.len()),
+            ("regs", registers.len()),
+        ] {
+            if n > 0 {
+                let _ = writeln!(v, "        $dumpvars(1, {TESTBENCH_TOP}.{scope});");
+            }
+        }
+        let _ = writeln!(v, "        $dumpvars(1, {TESTBENCH_TOP}.dut);");
+    }
     let _ = writeln!(v, "        $readmemh(\"{VECTORS_FILE}\", vectors);");
     let _ = writeln!(v, "        mismatches = 0;");
     for s in &trace.inputs {
@@ -549,16 +654,31 @@ pub fn run_cosim(
     let dir = std::fs::canonicalize(dir)
         .map_err(|e| GenError::io(format!("resolving {}", dir.display()), e))?;
     write_file(&dir.join(VECTORS_FILE), &vectors(trace))?;
-    write_file(
-        &dir.join(TESTBENCH_FILE),
-        &write_testbench(trace, opts.max_reported),
-    )?;
     let mut files = vec![TESTBENCH_FILE.to_string()];
+    let mut texts = String::new();
     for s in sources {
         let abs = std::fs::canonicalize(s)
             .map_err(|e| GenError::io(format!("finding Verilog source {}", s.display()), e))?;
+        if opts.vcd {
+            texts += &std::fs::read_to_string(&abs)
+                .map_err(|e| GenError::io(format!("reading {}", abs.display()), e))?;
+        }
         files.push(abs.display().to_string());
     }
+    let tb = if opts.vcd {
+        // Only the registers the RTL declares as `<name>_q` (a hierarchical reference to a
+        // missing one would not compile).
+        let registers: Vec<SignalInfo> = trace
+            .registers
+            .iter()
+            .filter(|r| declares(&texts, &format!("{}_q", r.name)))
+            .cloned()
+            .collect();
+        write_testbench_with_vcd(trace, opts.max_reported, &registers)
+    } else {
+        write_testbench(trace, opts.max_reported)
+    };
+    write_file(&dir.join(TESTBENCH_FILE), &tb)?;
     let files: Vec<&str> = files.iter().map(String::as_str).collect();
     let output = match opts.simulator {
         Simulator::Icarus => {
@@ -582,12 +702,61 @@ pub fn run_cosim(
                 "-o",
                 "cosim",
             ];
+            if opts.vcd {
+                args.push("--trace");
+            }
             args.extend(&files);
             run("verilator", &args, &dir, false)?;
             run("./obj_dir/cosim", &[], &dir, false)?.0.stdout
         }
     };
     parse_result(&output, opts.simulator, &trace.module)
+}
+
+/// `text` declares `name` as a `reg` (a line `reg [..] name;`, a comment may follow).
+fn declares(text: &str, name: &str) -> bool {
+    text.lines().any(|l| {
+        let l = l.trim_start();
+        l.starts_with("reg ")
+            && l.split("//")
+                .next()
+                .unwrap_or("")
+                .trim_end()
+                .ends_with(&format!(" {name};"))
+    })
+}
+
+/// Writes the Rust block's waveform of a run of `block` from reset over `inputs` to `path`
+/// ([`vtq_hdl::trace`]'s scopes `inputs`, `outputs` and `regs` under the block's name), its
+/// cycles numbered from [`RESET_CYCLES`] so that cycle `k` lies at the same time as in the RTL
+/// waveform of [`CosimOptions::vcd`]. Returns the cycles written.
+pub fn write_rust_vcd<B: Block>(
+    block: &B,
+    inputs: impl IntoIterator<Item = B::Inputs>,
+    path: &std::path::Path,
+) -> Result<u64, GenError> {
+    let name = block.describe().name;
+    let fail = |e: vtq_hdl::trace::TraceError| GenError::Cosim {
+        block: name.clone(),
+        reason: format!("writing {}: {e}", path.display()),
+    };
+    let file = std::fs::File::create(path)
+        .map_err(|e| GenError::io(format!("creating {}", path.display()), e))?;
+    let mut vcd =
+        vtq_hdl::trace::VcdStream::new(std::io::BufWriter::new(file), &name, RESET_CYCLES)
+            .with_comment("Rust block of a vtq cosim run: cycle k at 10 (k + 2) ns, as in rtl.vcd");
+    let mut regs = block.reset();
+    for inp in inputs {
+        let (out, next) = block.eval(&regs, &inp);
+        let mut scopes = Vec::with_capacity(3);
+        vtq_hdl::trace::BlockCycle::new(&inp, &out, block.reg_signals(&regs))
+            .push_scopes("", &mut scopes);
+        vcd.record(&scopes).map_err(fail)?;
+        regs = next;
+    }
+    let cycles = vcd.cycles() as u64;
+    vcd.finish().map_err(fail)?;
+    Ok(cycles)
 }
 
 /// Records `block` over `inputs` and co-simulates it against the Verilog `sources`.
