@@ -32,6 +32,11 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use vtq_hdl::{Block, Dir, Signal, Signals};
 
+mod waveform;
+
+pub use waveform::write_rust_vcd;
+use waveform::{declares, vcd_scopes};
+
 /// Name of the generated testbench module.
 pub const TESTBENCH_TOP: &str = "cosim_tb";
 /// File the vectors are written to (inside the work directory).
@@ -445,39 +450,6 @@ pub fn write_testbench_with_vcd(
     testbench(trace, max_reported, Some(registers))
 }
 
-/// The waveform scopes of the testbench: named generate blocks of wires that mirror the Rust
-/// trace's scopes.
-fn vcd_scopes(trace: &Trace, registers: &[SignalInfo]) -> String {
-    let mut v = String::new();
-    let _ = writeln!(
-        v,
-        "    // Waveform scopes named like the Rust trace's (vtq_hdl::trace): inputs, outputs, regs."
-    );
-    // (scope, signals, source prefix, source suffix)
-    let groups: [(&str, &[SignalInfo], &str, &str); 3] = [
-        ("inputs", &trace.inputs, "i_", ""),
-        ("outputs", &trace.outputs, "o_", ""),
-        ("regs", registers, "dut.", "_q"),
-    ];
-    for (scope, sigs, prefix, suffix) in groups {
-        if sigs.is_empty() {
-            continue;
-        }
-        let _ = writeln!(v, "    generate if (1) begin : {scope}");
-        for s in sigs {
-            let _ = writeln!(
-                v,
-                "        wire {}{} = {prefix}{}{suffix};",
-                range(s.width),
-                s.name,
-                s.name
-            );
-        }
-        let _ = writeln!(v, "    end endgenerate");
-    }
-    v
-}
-
 fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[SignalInfo]>) -> String {
     let total: u32 = trace
         .inputs
@@ -711,52 +683,6 @@ pub fn run_cosim(
         }
     };
     parse_result(&output, opts.simulator, &trace.module)
-}
-
-/// `text` declares `name` as a `reg` (a line `reg [..] name;`, a comment may follow).
-fn declares(text: &str, name: &str) -> bool {
-    text.lines().any(|l| {
-        let l = l.trim_start();
-        l.starts_with("reg ")
-            && l.split("//")
-                .next()
-                .unwrap_or("")
-                .trim_end()
-                .ends_with(&format!(" {name};"))
-    })
-}
-
-/// Writes the Rust block's waveform of a run of `block` from reset over `inputs` to `path`
-/// ([`vtq_hdl::trace`]'s scopes `inputs`, `outputs` and `regs` under the block's name), its
-/// cycles numbered from [`RESET_CYCLES`] so that cycle `k` lies at the same time as in the RTL
-/// waveform of [`CosimOptions::vcd`]. Returns the cycles written.
-pub fn write_rust_vcd<B: Block>(
-    block: &B,
-    inputs: impl IntoIterator<Item = B::Inputs>,
-    path: &std::path::Path,
-) -> Result<u64, GenError> {
-    let name = block.describe().name;
-    let fail = |e: vtq_hdl::trace::TraceError| GenError::Cosim {
-        block: name.clone(),
-        reason: format!("writing {}: {e}", path.display()),
-    };
-    let file = std::fs::File::create(path)
-        .map_err(|e| GenError::io(format!("creating {}", path.display()), e))?;
-    let mut vcd =
-        vtq_hdl::trace::VcdStream::new(std::io::BufWriter::new(file), &name, RESET_CYCLES)
-            .with_comment("Rust block of a vtq cosim run: cycle k at 10 (k + 2) ns, as in rtl.vcd");
-    let mut regs = block.reset();
-    for inp in inputs {
-        let (out, next) = block.eval(&regs, &inp);
-        let mut scopes = Vec::with_capacity(3);
-        vtq_hdl::trace::BlockCycle::new(&inp, &out, block.reg_signals(&regs))
-            .push_scopes("", &mut scopes);
-        vcd.record(&scopes).map_err(fail)?;
-        regs = next;
-    }
-    let cycles = vcd.cycles() as u64;
-    vcd.finish().map_err(fail)?;
-    Ok(cycles)
 }
 
 /// Records `block` over `inputs` and co-simulates it against the Verilog `sources`.
