@@ -74,10 +74,10 @@ pub struct Trace {
     /// The module's ports in the order of the block description, each with the signals it is
     /// made of.
     pub ports: Vec<PortConn>,
-    /// The Rust block's register signals ([`Block::reg_signals`]) that are single registers of
-    /// the block description (the RTL's `<name>_q`); the waveform of [`CosimOptions::vcd`]
-    /// shows them under the same names.
-    pub registers: Vec<SignalInfo>,
+    /// The Rust block's register signals ([`Block::reg_signals`]) that are registers of the
+    /// block description, with where the RTL holds them; the waveform of
+    /// [`CosimOptions::vcd`] shows them under the same names.
+    pub registers: Vec<RegSignal>,
     /// Values, row-major: per cycle the inputs, then the outputs.
     values: Vec<u64>,
 }
@@ -270,17 +270,60 @@ fn connect_ports(
     Ok(conns)
 }
 
-/// The register signals of `regs` that are single registers of `desc` of the same width.
-fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<SignalInfo> {
-    regs.iter()
-        .filter(|s| {
-            desc.registers
+/// A register signal of the Rust block and the RTL register that holds it: `<rtl>_q`, or for
+/// register `i` of a bank of `count` registers (the Rust signal `<rtl>_<i>`) the bits
+/// `[i*width +: width]` of the packed `<rtl>_q` (the convention of [`crate::rtl`]); a bank of
+/// bits is traced in 64-bit words, word `k` the bits `[64k +: 64]`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RegSignal {
+    /// The Rust signal's name.
+    pub name: String,
+    /// Width in bits.
+    pub width: u32,
+    /// The description's register (the RTL's `<rtl>_q`).
+    pub rtl: String,
+    /// The signal's least significant bit in a bank's packed vector; `None` for a single
+    /// register.
+    pub lsb: Option<u32>,
+}
+
+/// The register signals of `regs` that are registers of `desc`: single registers by name and
+/// width, bank members as `<bank>_<i>` (words of a bank of bits as `<bank>_<k>`); a grid's
+/// `<bank>_<row>_<col>` members are left out.
+fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<RegSignal> {
+    let place = |s: &Signal| -> Option<(String, Option<u32>)> {
+        let single = desc
+            .registers
+            .iter()
+            .any(|r| r.name == s.name && r.count == 1 && r.width == s.width);
+        if single {
+            return Some((s.name.clone(), None));
+        }
+        let (bank, i) = s.name.rsplit_once('_')?;
+        let i: u32 = i.parse().ok()?;
+        let r = desc.registers.iter().find(|r| r.name == bank)?;
+        // A bank of bits is traced as 64-bit words `<bank>_<k>` (word 0 is min(64, count) bits
+        // wide); any other bank one signal per member.
+        let bits = r.width == 1
+            && regs
                 .iter()
-                .any(|r| r.name == s.name && r.count == 1 && r.width == s.width)
-        })
-        .map(|s| SignalInfo {
-            name: s.name.clone(),
-            width: s.width,
+                .any(|t| t.name == format!("{bank}_0") && t.width == r.count.min(64));
+        let lsb = if bits { i * 64 } else { i * r.width };
+        let fits = if bits {
+            s.width == (r.count - lsb.min(r.count)).min(64)
+        } else {
+            s.width == r.width && i < r.count
+        };
+        (fits && s.width > 0).then(|| (bank.to_string(), Some(lsb)))
+    };
+    regs.iter()
+        .filter_map(|s| {
+            place(s).map(|(rtl, lsb)| RegSignal {
+                name: s.name.clone(),
+                width: s.width,
+                rtl,
+                lsb,
+            })
         })
         .collect()
 }
@@ -441,16 +484,16 @@ pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
 /// The testbench of [`write_testbench`] that also dumps the waveform to [`RTL_VCD_FILE`]: the
 /// ports under the Rust trace's scopes and names (`inputs.<signal>`, `outputs.<signal>`; a
 /// packed port's lanes one signal each), the registers in `registers` as `regs.<name>` (the
-/// DUT's `<name>_q`), and the DUT's own signals (scope `dut`, one level).
+/// DUT's `<rtl>_q` or a bank member's bits of it), and the DUT's own signals (scope `dut`, one level).
 pub fn write_testbench_with_vcd(
     trace: &Trace,
     max_reported: u32,
-    registers: &[SignalInfo],
+    registers: &[RegSignal],
 ) -> String {
     testbench(trace, max_reported, Some(registers))
 }
 
-fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[SignalInfo]>) -> String {
+fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> String {
     let total: u32 = trace
         .inputs
         .iter()
@@ -640,10 +683,10 @@ pub fn run_cosim(
     let tb = if opts.vcd {
         // Only the registers the RTL declares as `<name>_q` (a hierarchical reference to a
         // missing one would not compile).
-        let registers: Vec<SignalInfo> = trace
+        let registers: Vec<RegSignal> = trace
             .registers
             .iter()
-            .filter(|r| declares(&texts, &format!("{}_q", r.name)))
+            .filter(|r| declares(&texts, &format!("{}_q", r.rtl)))
             .cloned()
             .collect();
         write_testbench_with_vcd(trace, opts.max_reported, &registers)

@@ -1,15 +1,18 @@
 //! The RTL co-simulation's waveform (`CosimOptions::vcd`) beside the Rust block's
 //! (`write_rust_vcd`): the same scopes and signal names, and cycle `k` at the same time in both,
-//! on the treelet count table and the treelet queue table at a small configuration.
+//! on the treelet count table, the treelet queue table and the treelet controller at a small
+//! configuration.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use vtq_gen::cosim::{
     record, run_cosim, write_rust_vcd, CosimOptions, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
 };
-use vtq_gen::rtl::table_modules;
+use vtq_gen::rtl::rtl_modules;
+use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
 use vtq_gen::tools::or_skip;
+use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::HwConfig;
 
 /// Cycles co-simulated per table.
@@ -130,8 +133,15 @@ impl Vcd {
 #[test]
 fn rtl_waveform_carries_the_rust_trace_names_and_values() {
     let cfg = small();
-    let modules: BTreeMap<String, String> = table_modules(&cfg).unwrap().into_iter().collect();
-    for module in ["treelet_count_table", "treelet_queue_table"] {
+    let modules: BTreeMap<String, String> = rtl_modules(&cfg, ControllerFeatures::FULL)
+        .unwrap()
+        .into_iter()
+        .collect();
+    for module in [
+        "treelet_count_table",
+        "treelet_queue_table",
+        "treelet_controller",
+    ] {
         let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("vtq-vcd-{module}"));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
@@ -142,11 +152,17 @@ fn rtl_waveform_carries_the_rust_trace_names_and_values() {
             let (b, inputs, _) = count_table_inputs(&cfg, CYCLES, 3).unwrap();
             let written = write_rust_vcd(&b, inputs.iter().copied(), &rust_vcd).unwrap();
             (record(&b, inputs).unwrap(), written)
-        } else {
+        } else if module.contains("queue") {
             let (b, inputs, _) = queue_table_inputs(&cfg, CYCLES, 4).unwrap();
             let written = write_rust_vcd(&b, inputs.iter().copied(), &rust_vcd).unwrap();
             (record(&b, inputs).unwrap(), written)
+        } else {
+            let (b, inputs, _) =
+                controller_inputs(&cfg, ControllerFeatures::FULL, CYCLES, 5).unwrap();
+            let written = write_rust_vcd(&b, inputs.iter().cloned(), &rust_vcd).unwrap();
+            (record(&b, inputs).unwrap(), written)
         };
+        assert!(!trace.registers.is_empty(), "{module}");
         assert_eq!(written, CYCLES as u64);
         let opts = CosimOptions {
             vcd: true,
@@ -173,10 +189,17 @@ fn rtl_waveform_carries_the_rust_trace_names_and_values() {
             let name = format!("outputs.{}", s.name);
             assert_eq!(rtl_names.get(&name), Some(&s.width), "{module}: {name}");
         }
+        // Every register the Rust trace shows is in the RTL waveform (a bank's members as
+        // slices of the packed `<bank>_q`).
         let regs: Vec<&String> = rtl_names
             .keys()
             .filter(|n| n.starts_with("regs."))
             .collect();
+        let rust_regs: Vec<&String> = rust_names
+            .keys()
+            .filter(|n| n.starts_with("regs."))
+            .collect();
+        assert_eq!(regs, rust_regs, "{module}");
         assert!(
             regs.len() >= 3,
             "{module}: registers in the RTL waveform: {regs:?}"

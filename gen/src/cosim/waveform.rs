@@ -2,7 +2,7 @@
 //! mirror the Rust trace's, and the Rust block's own waveform of the same run
 //! ([`write_rust_vcd`]), its cycles numbered so that both put cycle `k` at the same time.
 
-use super::{SignalInfo, Trace, RESET_CYCLES};
+use super::{RegSignal, SignalInfo, Trace, RESET_CYCLES};
 use crate::emit::range;
 use crate::error::GenError;
 use std::fmt::Write as _;
@@ -10,31 +10,39 @@ use vtq_hdl::Block;
 
 /// The waveform scopes of the testbench: named generate blocks of wires that mirror the Rust
 /// trace's scopes.
-pub(super) fn vcd_scopes(trace: &Trace, registers: &[SignalInfo]) -> String {
+pub(super) fn vcd_scopes(trace: &Trace, registers: &[RegSignal]) -> String {
     let mut v = String::new();
     let _ = writeln!(
         v,
         "    // Waveform scopes named like the Rust trace's (vtq_hdl::trace): inputs, outputs, regs."
     );
-    // (scope, signals, source prefix, source suffix)
-    let groups: [(&str, &[SignalInfo], &str, &str); 3] = [
-        ("inputs", &trace.inputs, "i_", ""),
-        ("outputs", &trace.outputs, "o_", ""),
-        ("regs", registers, "dut.", "_q"),
+    let ports = |sigs: &[SignalInfo], prefix: &str| -> Vec<(String, u32, String)> {
+        sigs.iter()
+            .map(|s| (s.name.clone(), s.width, format!("{prefix}{}", s.name)))
+            .collect()
+    };
+    let regs: Vec<(String, u32, String)> = registers
+        .iter()
+        .map(|r| {
+            let source = match r.lsb {
+                None => format!("dut.{}_q", r.rtl),
+                Some(lsb) => format!("dut.{}_q[{lsb} +: {}]", r.rtl, r.width),
+            };
+            (r.name.clone(), r.width, source)
+        })
+        .collect();
+    let groups = [
+        ("inputs", ports(&trace.inputs, "i_")),
+        ("outputs", ports(&trace.outputs, "o_")),
+        ("regs", regs),
     ];
-    for (scope, sigs, prefix, suffix) in groups {
+    for (scope, sigs) in groups {
         if sigs.is_empty() {
             continue;
         }
         let _ = writeln!(v, "    generate if (1) begin : {scope}");
-        for s in sigs {
-            let _ = writeln!(
-                v,
-                "        wire {}{} = {prefix}{}{suffix};",
-                range(s.width),
-                s.name,
-                s.name
-            );
+        for (name, width, source) in sigs {
+            let _ = writeln!(v, "        wire {}{name} = {source};", range(width));
         }
         let _ = writeln!(v, "    end endgenerate");
     }
