@@ -2,11 +2,70 @@
 //! mirror the Rust trace's, and the Rust block's own waveform of the same run
 //! ([`write_rust_vcd`]), its cycles numbered so that both put cycle `k` at the same time.
 
-use super::{RegSignal, SignalInfo, Trace, RESET_CYCLES};
+use super::{SignalInfo, Trace, RESET_CYCLES};
 use crate::emit::range;
 use crate::error::GenError;
+use serde::Serialize;
 use std::fmt::Write as _;
-use vtq_hdl::Block;
+use vtq_hdl::{Block, Signal};
+
+/// A register signal of the Rust block and the RTL register that holds it: `<rtl>_q`, or for
+/// register `i` of a bank of `count` registers (the Rust signal `<rtl>_<i>`) the bits
+/// `[i*width +: width]` of the packed `<rtl>_q` (the convention of [`crate::rtl`]); a bank of
+/// bits is traced in 64-bit words, word `k` the bits `[64k +: 64]`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RegSignal {
+    /// The Rust signal's name.
+    pub name: String,
+    /// Width in bits.
+    pub width: u32,
+    /// The description's register (the RTL's `<rtl>_q`).
+    pub rtl: String,
+    /// The signal's least significant bit in a bank's packed vector; `None` for a single
+    /// register.
+    pub lsb: Option<u32>,
+}
+
+/// The register signals of `regs` that are registers of `desc`: single registers by name and
+/// width, bank members as `<bank>_<i>` (words of a bank of bits as `<bank>_<k>`); a grid's
+/// `<bank>_<row>_<col>` members are left out.
+pub(super) fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<RegSignal> {
+    let place = |s: &Signal| -> Option<(String, Option<u32>)> {
+        let single = desc
+            .registers
+            .iter()
+            .any(|r| r.name == s.name && r.count == 1 && r.width == s.width);
+        if single {
+            return Some((s.name.clone(), None));
+        }
+        let (bank, i) = s.name.rsplit_once('_')?;
+        let i: u32 = i.parse().ok()?;
+        let r = desc.registers.iter().find(|r| r.name == bank)?;
+        // A bank of bits is traced as 64-bit words `<bank>_<k>` (word 0 is min(64, count) bits
+        // wide); any other bank one signal per member.
+        let bits = r.width == 1
+            && regs
+                .iter()
+                .any(|t| t.name == format!("{bank}_0") && t.width == r.count.min(64));
+        let lsb = if bits { i * 64 } else { i * r.width };
+        let fits = if bits {
+            s.width == (r.count - lsb.min(r.count)).min(64)
+        } else {
+            s.width == r.width && i < r.count
+        };
+        (fits && s.width > 0).then(|| (bank.to_string(), Some(lsb)))
+    };
+    regs.iter()
+        .filter_map(|s| {
+            place(s).map(|(rtl, lsb)| RegSignal {
+                name: s.name.clone(),
+                width: s.width,
+                rtl,
+                lsb,
+            })
+        })
+        .collect()
+}
 
 /// The waveform scopes of the testbench: named generate blocks of wires that mirror the Rust
 /// trace's scopes.
