@@ -32,12 +32,26 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use vtq_hdl::{Block, Dir, Signal, Signals};
 
+mod waveform;
+
+use waveform::{declares, desc_registers, vcd_scopes};
+pub use waveform::{write_rust_vcd, RegSignal};
+
 /// Name of the generated testbench module.
 pub const TESTBENCH_TOP: &str = "cosim_tb";
 /// File the vectors are written to (inside the work directory).
 pub const VECTORS_FILE: &str = "cosim_vectors.hex";
 /// File the testbench is written to (inside the work directory).
 pub const TESTBENCH_FILE: &str = "cosim_tb.v";
+/// File the RTL simulation's waveform is dumped to with [`CosimOptions::vcd`] (inside the work
+/// directory).
+pub const RTL_VCD_FILE: &str = "rtl.vcd";
+/// File name [`write_rust_vcd`]'s callers use for the Rust block's waveform of the same run.
+pub const RUST_VCD_FILE: &str = "rust.vcd";
+/// Clock cycles of reset before cycle 0: cycle `k` of a run occupies `[10 (k + 2), 10 (k + 3))`
+/// ns in the testbench, and [`write_rust_vcd`] numbers its cycles from here so both waveforms
+/// put cycle `k` at the same time.
+pub const RESET_CYCLES: u64 = 2;
 
 /// Name and width of one traced signal.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -60,6 +74,10 @@ pub struct Trace {
     /// The module's ports in the order of the block description, each with the signals it is
     /// made of.
     pub ports: Vec<PortConn>,
+    /// The Rust block's register signals ([`Block::reg_signals`]) that are registers of the
+    /// block description, with where the RTL holds them; the waveform of
+    /// [`CosimOptions::vcd`] shows them under the same names.
+    pub registers: Vec<RegSignal>,
     /// Values, row-major: per cycle the inputs, then the outputs.
     values: Vec<u64>,
 }
@@ -110,6 +128,7 @@ pub fn record<B: Block>(
                 inputs: infos(&ins),
                 outputs: infos(&outs),
                 ports: Vec::new(),
+                registers: desc_registers(&desc, &block.reg_signals(&block.reset())),
                 values: Vec::new(),
             }),
         };
@@ -301,6 +320,10 @@ pub struct CosimOptions {
     pub work_dir: PathBuf,
     /// Mismatches printed individually (all are counted).
     pub max_reported: u32,
+    /// Dump the RTL simulation's waveform to [`RTL_VCD_FILE`] in the work directory: the ports
+    /// in scopes `inputs` and `outputs` and the registers the Rust trace names the same in scope
+    /// `regs` (as [`vtq_hdl::trace`] names them), plus the DUT's own signals in scope `dut`.
+    pub vcd: bool,
 }
 
 impl CosimOptions {
@@ -310,6 +333,7 @@ impl CosimOptions {
             simulator: Simulator::Icarus,
             work_dir: work_dir.into(),
             max_reported: 10,
+            vcd: false,
         }
     }
 }
@@ -396,6 +420,22 @@ pub fn vectors(trace: &Trace) -> String {
 
 /// The self-checking testbench for `trace` (see the module documentation for its timing).
 pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
+    testbench(trace, max_reported, None)
+}
+
+/// The testbench of [`write_testbench`] that also dumps the waveform to [`RTL_VCD_FILE`]: the
+/// ports under the Rust trace's scopes and names (`inputs.<signal>`, `outputs.<signal>`; a
+/// packed port's lanes one signal each), the registers in `registers` as `regs.<name>` (the
+/// DUT's `<rtl>_q` or a bank member's bits of it), and the DUT's own signals (scope `dut`, one level).
+pub fn write_testbench_with_vcd(
+    trace: &Trace,
+    max_reported: u32,
+    registers: &[RegSignal],
+) -> String {
+    testbench(trace, max_reported, Some(registers))
+}
+
+fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> String {
     let total: u32 = trace
         .inputs
         .iter()
@@ -421,7 +461,8 @@ pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
         v,
         "// Vectors: {VECTORS_FILE}, one line per cycle: inputs then expected outputs."
     );
-    let _ = writeln!(v, "`timescale 1ns/1ps");
+    // 1 ns precision: every delay is whole nanoseconds, and the waveform's times are in ns.
+    let _ = writeln!(v, "`timescale 1ns/1ns");
     let _ = writeln!(v, "module {TESTBENCH_TOP};");
     let _ = writeln!(v, "    localparam integer CYCLES = {};", trace.cycles());
     let _ = writeln!(v, "    localparam integer MAX_REPORTED = {max_reported};");
@@ -464,7 +505,28 @@ pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
     let _ = writeln!(v, "        end");
     let _ = writeln!(v, "    endtask");
     let _ = writeln!(v);
+    if let Some(registers) = vcd {
+        v.push_str(&vcd_scopes(trace, registers));
+        let _ = writeln!(v);
+    }
     let _ = writeln!(v, "    initial begin");
+    if let Some(registers) = vcd {
+        let _ = writeln!(v, "        $dumpfile(\"{RTL_VCD_FILE}\");");
+        let _ = writeln!(
+            v,
+            "        $dumpvars(0, {TESTBENCH_TOP}.clk, {TESTBENCH_TOP}.rst, {TESTBENCH_TOP}.cycle);"
+        );
+        for (scope, n) in [
+            ("inputs", trace.inputs.len()),
+            ("outputs", trace.outputs.len()),
+            ("regs", registers.len()),
+        ] {
+            if n > 0 {
+                let _ = writeln!(v, "        $dumpvars(1, {TESTBENCH_TOP}.{scope});");
+            }
+        }
+        let _ = writeln!(v, "        $dumpvars(1, {TESTBENCH_TOP}.dut);");
+    }
     let _ = writeln!(v, "        $readmemh(\"{VECTORS_FILE}\", vectors);");
     let _ = writeln!(v, "        mismatches = 0;");
     for s in &trace.inputs {
@@ -549,16 +611,31 @@ pub fn run_cosim(
     let dir = std::fs::canonicalize(dir)
         .map_err(|e| GenError::io(format!("resolving {}", dir.display()), e))?;
     write_file(&dir.join(VECTORS_FILE), &vectors(trace))?;
-    write_file(
-        &dir.join(TESTBENCH_FILE),
-        &write_testbench(trace, opts.max_reported),
-    )?;
     let mut files = vec![TESTBENCH_FILE.to_string()];
+    let mut texts = String::new();
     for s in sources {
         let abs = std::fs::canonicalize(s)
             .map_err(|e| GenError::io(format!("finding Verilog source {}", s.display()), e))?;
+        if opts.vcd {
+            texts += &std::fs::read_to_string(&abs)
+                .map_err(|e| GenError::io(format!("reading {}", abs.display()), e))?;
+        }
         files.push(abs.display().to_string());
     }
+    let tb = if opts.vcd {
+        // Only the registers the RTL declares as `<name>_q` (a hierarchical reference to a
+        // missing one would not compile).
+        let registers: Vec<RegSignal> = trace
+            .registers
+            .iter()
+            .filter(|r| declares(&texts, &format!("{}_q", r.rtl)))
+            .cloned()
+            .collect();
+        write_testbench_with_vcd(trace, opts.max_reported, &registers)
+    } else {
+        write_testbench(trace, opts.max_reported)
+    };
+    write_file(&dir.join(TESTBENCH_FILE), &tb)?;
     let files: Vec<&str> = files.iter().map(String::as_str).collect();
     let output = match opts.simulator {
         Simulator::Icarus => {
@@ -582,6 +659,9 @@ pub fn run_cosim(
                 "-o",
                 "cosim",
             ];
+            if opts.vcd {
+                args.push("--trace");
+            }
             args.extend(&files);
             run("verilator", &args, &dir, false)?;
             run("./obj_dir/cosim", &[], &dir, false)?.0.stdout

@@ -5,6 +5,9 @@
 //! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
 //! - [`compose`]: the top module of a composed block (its children and a wiring module).
 //! - [`area`]: the analytical storage and area model of the paper's section 6.5.
+//! - [`logic_area`]: NAND2 equivalents and logic area of synthesized RTL (Yosys cell counts
+//!   priced with NanGate45 cell areas); [`logic_report`]: the synthesized-logic table of
+//!   `vtq area --synth` (every block with complete RTL beside the storage model).
 //! - [`rtl`]: complete RTL of the treelet count table, treelet queue table and treelet controller.
 //! - [`stimulus`]: seeded random stimulus and reactive test benches for the two tables and (its
 //!   [`stimulus::controller`]) the treelet controller.
@@ -17,6 +20,8 @@ pub mod compose;
 pub mod cosim;
 pub mod emit;
 pub mod error;
+pub mod logic_area;
+pub mod logic_report;
 pub mod rtl;
 pub mod stimulus;
 pub mod synth;
@@ -26,5 +31,7 @@ pub mod verilog;
 pub use area::{area_report, AreaParams, AreaReport};
 pub use cosim::{cosim_block, record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
 pub use error::GenError;
-pub use synth::{lint, synthesize, LintReport, SynthReport};
+pub use logic_area::{logic_area, LogicArea};
+pub use logic_report::{logic_report, LogicReport};
+pub use synth::{lint, synthesize, synthesize_logic, LintReport, SynthReport};
 pub use verilog::{emit_module, validate_desc, write_module};

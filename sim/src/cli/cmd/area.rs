@@ -1,13 +1,15 @@
 //! `vtq area`: storage sizes and area estimates of the treelet-queue structures (paper 6.5)
-//! from the analytical model of docs/area.md, optionally beside Yosys synthesis of the tables.
+//! from the analytical model of docs/area.md, optionally (`--synth`) beside the synthesized logic
+//! area of every block with complete RTL (Yosys, priced in NanGate45 NAND2 equivalents).
 
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use vtq_gen::{area_report, AreaParams, AreaReport, SynthReport};
+use vtq_gen::{area_report, logic_report, AreaParams, AreaReport, LogicReport};
+use vtq_hdl::controller::ControllerFeatures;
 
 use super::options::ConfigArgs;
-use crate::model::config::SimConfig;
+use crate::model::config::{ModeKind, SimConfig};
 
 /// Options of `vtq area`.
 #[derive(Debug, Args)]
@@ -17,8 +19,8 @@ pub struct AreaArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Also synthesize the generated RTL of the two tables with Yosys (generic `synth`) and
-    /// report cell and flip-flop counts.
+    /// Also synthesize every block with complete RTL (count table, queue table, controller)
+    /// with Yosys and report cells, flip-flops, NAND2 equivalents and logic area at 45/22 nm.
     #[arg(long)]
     pub synth: bool,
 }
@@ -37,22 +39,26 @@ pub fn area_params(cfg: &SimConfig) -> AreaParams {
 #[derive(Debug, Serialize)]
 struct AreaJson {
     model: AreaReport,
-    synthesis: Vec<SynthReport>,
+    synthesis: Option<LogicReport>,
 }
 
-/// Synthesizes the two tables' RTL in a scratch directory.
-fn synthesize_tables(cfg: &SimConfig) -> anyhow::Result<Vec<SynthReport>> {
+/// The controller's design features of a configuration: its own for a queues design, the full
+/// design otherwise (as `vtq verilog` writes it).
+fn features(cfg: &SimConfig) -> ControllerFeatures {
+    match cfg.mode.kind {
+        ModeKind::Queues => cfg.controller_features(),
+        _ => ControllerFeatures::FULL,
+    }
+}
+
+/// Synthesizes every block with complete RTL in a scratch directory.
+fn synthesize_blocks(cfg: &SimConfig, model: &AreaReport) -> anyhow::Result<LogicReport> {
     let dir = std::env::temp_dir().join(format!("vtq-area-synth-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut reports = Vec::new();
-    for (name, text) in vtq_gen::rtl::table_modules(&cfg.hw)? {
-        let path = dir.join(format!("{name}.v"));
-        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
-        reports.push(vtq_gen::synthesize(&[path], &name, &dir)?);
-    }
+    let report = logic_report(&cfg.hw, features(cfg), model, &dir);
     // Best effort: the reports are already in memory.
     let _ = std::fs::remove_dir_all(&dir);
-    Ok(reports)
+    Ok(report?)
 }
 
 /// Run `vtq area`.
@@ -60,9 +66,9 @@ pub fn run(args: &AreaArgs) -> anyhow::Result<()> {
     let cfg = args.config.load_hardware()?;
     let model = area_report(&cfg.hw, &area_params(&cfg))?;
     let synthesis = if args.synth {
-        synthesize_tables(&cfg).context("yosys synthesis of the table RTL")?
+        Some(synthesize_blocks(&cfg, &model).context("yosys synthesis of the blocks' RTL")?)
     } else {
-        Vec::new()
+        None
     };
     if args.json {
         println!(
@@ -72,16 +78,9 @@ pub fn run(args: &AreaArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     print!("{model}");
-    for s in &synthesis {
-        println!(
-            "yosys {}: {} cells, {} flip-flops, {} latches, {} memory bits{}",
-            s.top,
-            s.cells,
-            s.flip_flops,
-            s.latches,
-            s.memory_bits,
-            if s.is_clean() { "" } else { " (warnings)" }
-        );
+    if let Some(s) = &synthesis {
+        println!();
+        print!("{s}");
     }
     Ok(())
 }

@@ -10,7 +10,10 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
-use vtq_gen::cosim::{record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
+use vtq_gen::cosim::{
+    record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, Simulator, Trace, RESET_CYCLES,
+    RTL_VCD_FILE, RUST_VCD_FILE,
+};
 use vtq_gen::rtl::{controller_verilog, count_table_verilog, queue_table_verilog};
 use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
@@ -111,6 +114,12 @@ pub struct CosimArgs {
     /// The SM whose blocks are recorded with `--scene`.
     #[arg(long, default_value_t = 0)]
     pub sm: usize,
+    /// Also write each block's waveforms, kept in its directory under the work directory:
+    /// `rtl.vcd` (the RTL simulation's, dumped by the testbench) and `rust.vcd` (the Rust
+    /// block's), with the same scopes and signal names for the ports and the registers the RTL
+    /// names the same, and cycle k at 10 (k + 2) ns in both.
+    #[arg(long)]
+    pub vcd: bool,
     /// The BVH cache (with `--scene`).
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -142,15 +151,32 @@ fn cosim_table(
     trace: &Trace,
     text: &str,
     simulator: Simulator,
+    vcd: bool,
 ) -> anyhow::Result<CosimResult> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let source = dir.join(format!("{}.v", trace.module));
     std::fs::write(&source, text).with_context(|| format!("writing {}", source.display()))?;
     let opts = CosimOptions {
         simulator,
+        vcd,
         ..CosimOptions::icarus(dir)
     };
     run_cosim(trace, &[source], &opts).map_err(explain_missing)
+}
+
+/// Writes the Rust block's waveform of a job's run to a path (`vtq cosim --vcd`).
+type RustVcd = Box<dyn Fn(&Path) -> Result<u64, GenError>>;
+
+/// The [`RustVcd`] of `block` over `inputs` when `wanted`.
+fn rust_vcd<B>(block: &B, inputs: &[B::Inputs], wanted: bool) -> Option<RustVcd>
+where
+    B: Block + Clone + 'static,
+    B::Inputs: Clone + 'static,
+{
+    wanted.then(|| {
+        let (block, inputs) = (block.clone(), inputs.to_vec());
+        Box::new(move |path: &Path| write_rust_vcd(&block, inputs.iter().cloned(), path)) as RustVcd
+    })
 }
 
 /// One table's stimulus, trace and RTL.
@@ -159,6 +185,8 @@ struct Job {
     /// What the stimulus covered, in words.
     coverage: String,
     verilog: String,
+    /// The Rust block's waveform writer, with `--vcd`.
+    rust_vcd: Option<RustVcd>,
 }
 
 /// The controller's design features of a configuration: its own for a queues design, the full
@@ -177,6 +205,7 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     if args.block.count() {
         let (table, inputs, coverage) = count_table_inputs(hw, args.cycles, args.seed)?;
         out.push(Job {
+            rust_vcd: rust_vcd(&table, &inputs, args.vcd),
             trace: record(&table, inputs)?,
             coverage: coverage.to_string(),
             verilog: count_table_verilog(hw)?,
@@ -186,6 +215,7 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let seed = args.seed.wrapping_add(1);
         let (table, inputs, coverage) = queue_table_inputs(hw, args.cycles, seed)?;
         out.push(Job {
+            rust_vcd: rust_vcd(&table, &inputs, args.vcd),
             trace: record(&table, inputs)?,
             coverage: coverage.to_string(),
             verilog: queue_table_verilog(hw)?,
@@ -196,6 +226,7 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let features = features(cfg);
         let (ctl, inputs, coverage) = controller_inputs(hw, features, args.cycles, seed)?;
         out.push(Job {
+            rust_vcd: rust_vcd(&ctl, &inputs, args.vcd),
             trace: record(&ctl, inputs)?,
             coverage: coverage.to_string(),
             verilog: controller_verilog(hw, features)?,
@@ -248,8 +279,10 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             "{} adds, {} removes, {} nop cycles",
             count_ops[1], count_ops[2], count_ops[0]
         );
+        let table = CountTable::new(hw)?;
         jobs.push(Job {
-            trace: record(&CountTable::new(hw)?, log.count.iter().copied())?,
+            rust_vcd: rust_vcd(&table, &log.count, args.vcd),
+            trace: record(&table, log.count.iter().copied())?,
             coverage: what(ops),
             verilog: count_table_verilog(hw)?,
         });
@@ -259,8 +292,10 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             "{} inserts, {} pops, {} pop_any, {} refills ({} answered), {} nop cycles",
             queue_ops[1], queue_ops[2], queue_ops[3], queue_ops[5], refills, queue_ops[0]
         );
+        let table = QueueTable::new(hw)?;
         jobs.push(Job {
-            trace: record(&QueueTable::new(hw)?, log.queue.iter().copied())?,
+            rust_vcd: rust_vcd(&table, &log.queue, args.vcd),
+            trace: record(&table, log.queue.iter().copied())?,
             coverage: what(ops),
             verilog: queue_table_verilog(hw)?,
         });
@@ -270,6 +305,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let ctl = TreeletController::new(hw.clone(), features)?;
         let summary = replay_summary(&ctl, &log.controller);
         jobs.push(Job {
+            rust_vcd: rust_vcd(&ctl, &log.controller, args.vcd),
             trace: record(&ctl, log.controller.iter().cloned())?,
             coverage: format!(
                 "real traffic: cycles 0..{} of SM {} in scene {} ({}, {} cycles in all), from \
@@ -341,7 +377,8 @@ pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
     for job in jobs {
         let module = job.trace.module.clone();
         let start = Instant::now();
-        let result = cosim_table(&root.join(&module), &job.trace, &job.verilog, simulator)
+        let dir = root.join(&module);
+        let result = cosim_table(&dir, &job.trace, &job.verilog, simulator, args.vcd)
             .with_context(|| format!("co-simulating {module}"))?;
         println!(
             "{module}: {} cycles compared, {} mismatches ({simulator:?}, {:.1} s)",
@@ -350,6 +387,15 @@ pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
             start.elapsed().as_secs_f64()
         );
         println!("  stimulus: {}", job.coverage);
+        if let Some(write) = &job.rust_vcd {
+            let rust = dir.join(RUST_VCD_FILE);
+            write(&rust).with_context(|| format!("writing {}", rust.display()))?;
+            println!(
+                "  waveforms: {} (RTL), {} (Rust); cycle k at 10 (k + {RESET_CYCLES}) ns in both",
+                dir.join(RTL_VCD_FILE).display(),
+                rust.display()
+            );
+        }
         if let Some(m) = result.reported.first() {
             println!(
                 "  first mismatch: cycle {} signal {} expected {} got {}",
@@ -374,7 +420,7 @@ pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
             root.display()
         );
     }
-    if temporary {
+    if temporary && !args.vcd {
         // Best effort: the verdict is already printed.
         let _ = std::fs::remove_dir_all(&root);
     }

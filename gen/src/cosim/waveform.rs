@@ -1,0 +1,155 @@
+//! The waveforms of a co-simulation run (`CosimOptions::vcd`): the testbench's scopes that
+//! mirror the Rust trace's, and the Rust block's own waveform of the same run
+//! ([`write_rust_vcd`]), its cycles numbered so that both put cycle `k` at the same time.
+
+use super::{SignalInfo, Trace, RESET_CYCLES};
+use crate::emit::range;
+use crate::error::GenError;
+use serde::Serialize;
+use std::fmt::Write as _;
+use vtq_hdl::{Block, Signal};
+
+/// A register signal of the Rust block and the RTL register that holds it: `<rtl>_q`, or for
+/// register `i` of a bank of `count` registers (the Rust signal `<rtl>_<i>`) the bits
+/// `[i*width +: width]` of the packed `<rtl>_q` (the convention of [`crate::rtl`]); a bank of
+/// bits is traced in 64-bit words, word `k` the bits `[64k +: 64]`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct RegSignal {
+    /// The Rust signal's name.
+    pub name: String,
+    /// Width in bits.
+    pub width: u32,
+    /// The description's register (the RTL's `<rtl>_q`).
+    pub rtl: String,
+    /// The signal's least significant bit in a bank's packed vector; `None` for a single
+    /// register.
+    pub lsb: Option<u32>,
+}
+
+/// The register signals of `regs` that are registers of `desc`: single registers by name and
+/// width, bank members as `<bank>_<i>` (words of a bank of bits as `<bank>_<k>`); a grid's
+/// `<bank>_<row>_<col>` members are left out.
+pub(super) fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<RegSignal> {
+    let place = |s: &Signal| -> Option<(String, Option<u32>)> {
+        let single = desc
+            .registers
+            .iter()
+            .any(|r| r.name == s.name && r.count == 1 && r.width == s.width);
+        if single {
+            return Some((s.name.clone(), None));
+        }
+        let (bank, i) = s.name.rsplit_once('_')?;
+        let i: u32 = i.parse().ok()?;
+        let r = desc.registers.iter().find(|r| r.name == bank)?;
+        // A bank of bits is traced as 64-bit words `<bank>_<k>` (word 0 is min(64, count) bits
+        // wide); any other bank one signal per member.
+        let bits = r.width == 1
+            && regs
+                .iter()
+                .any(|t| t.name == format!("{bank}_0") && t.width == r.count.min(64));
+        let lsb = if bits { i * 64 } else { i * r.width };
+        let fits = if bits {
+            s.width == (r.count - lsb.min(r.count)).min(64)
+        } else {
+            s.width == r.width && i < r.count
+        };
+        (fits && s.width > 0).then(|| (bank.to_string(), Some(lsb)))
+    };
+    regs.iter()
+        .filter_map(|s| {
+            place(s).map(|(rtl, lsb)| RegSignal {
+                name: s.name.clone(),
+                width: s.width,
+                rtl,
+                lsb,
+            })
+        })
+        .collect()
+}
+
+/// The waveform scopes of the testbench: named generate blocks of wires that mirror the Rust
+/// trace's scopes.
+pub(super) fn vcd_scopes(trace: &Trace, registers: &[RegSignal]) -> String {
+    let mut v = String::new();
+    let _ = writeln!(
+        v,
+        "    // Waveform scopes named like the Rust trace's (vtq_hdl::trace): inputs, outputs, regs."
+    );
+    let ports = |sigs: &[SignalInfo], prefix: &str| -> Vec<(String, u32, String)> {
+        sigs.iter()
+            .map(|s| (s.name.clone(), s.width, format!("{prefix}{}", s.name)))
+            .collect()
+    };
+    let regs: Vec<(String, u32, String)> = registers
+        .iter()
+        .map(|r| {
+            let source = match r.lsb {
+                None => format!("dut.{}_q", r.rtl),
+                Some(lsb) => format!("dut.{}_q[{lsb} +: {}]", r.rtl, r.width),
+            };
+            (r.name.clone(), r.width, source)
+        })
+        .collect();
+    let groups = [
+        ("inputs", ports(&trace.inputs, "i_")),
+        ("outputs", ports(&trace.outputs, "o_")),
+        ("regs", regs),
+    ];
+    for (scope, sigs) in groups {
+        if sigs.is_empty() {
+            continue;
+        }
+        let _ = writeln!(v, "    generate if (1) begin : {scope}");
+        for (name, width, source) in sigs {
+            let _ = writeln!(v, "        wire {}{name} = {source};", range(width));
+        }
+        let _ = writeln!(v, "    end endgenerate");
+    }
+    v
+}
+
+/// `text` declares `name` as a `reg` (a line `reg [..] name;`, a comment may follow).
+pub(super) fn declares(text: &str, name: &str) -> bool {
+    text.lines().any(|l| {
+        let l = l.trim_start();
+        l.starts_with("reg ")
+            && l.split("//")
+                .next()
+                .unwrap_or("")
+                .trim_end()
+                .ends_with(&format!(" {name};"))
+    })
+}
+
+/// Writes the Rust block's waveform of a run of `block` from reset over `inputs` to `path`
+/// ([`vtq_hdl::trace`]'s scopes `inputs`, `outputs` and `regs` under the block's name), its
+/// cycles numbered from [`RESET_CYCLES`] so that cycle `k` lies at the same time as in the RTL
+/// waveform of [`CosimOptions::vcd`]. Returns the cycles written.
+pub fn write_rust_vcd<B: Block>(
+    block: &B,
+    inputs: impl IntoIterator<Item = B::Inputs>,
+    path: &std::path::Path,
+) -> Result<u64, GenError> {
+    let name = block.describe().name;
+    let fail = |e: vtq_hdl::trace::TraceError| GenError::Cosim {
+        block: name.clone(),
+        reason: format!("writing {}: {e}", path.display()),
+    };
+    let file = std::fs::File::create(path)
+        .map_err(|e| GenError::io(format!("creating {}", path.display()), e))?;
+    let mut vcd =
+        vtq_hdl::trace::VcdStream::new(std::io::BufWriter::new(file), &name, RESET_CYCLES)
+            .with_comment("Rust block of a vtq cosim run: cycle k at 10 (k + 2) ns, as in rtl.vcd");
+    let mut regs = block.reset();
+    for inp in inputs {
+        let (out, next) = block.eval(&regs, &inp);
+        let mut scopes = Vec::with_capacity(3);
+        vtq_hdl::trace::BlockCycle::new(&inp, &out, block.reg_signals(&regs))
+            .push_scopes("", &mut scopes);
+        vcd.record(&scopes).map_err(fail)?;
+        regs = next;
+    }
+    let cycles = vcd.cycles() as u64;
+    vcd.finish().map_err(fail)?;
+    Ok(cycles)
+}

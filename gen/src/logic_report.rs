@@ -1,0 +1,245 @@
+//! The synthesized-logic report of `vtq area --synth`: every block with complete RTL (the
+//! treelet count table, the treelet queue table and the treelet controller) synthesized with
+//! [`crate::synth::synthesize_logic`] and priced with [`crate::logic_area`], beside the storage
+//! model of [`crate::area`] and the paper's section 6.5 figures.
+//!
+//! The blocks are synthesized in parallel (one Yosys process each). The RT unit has no RTL yet
+//! (its module is a skeleton), so the report states no overhead over the baseline RT unit.
+
+use crate::area::{AreaReport, NODES_NM};
+use crate::error::GenError;
+use crate::logic_area::{logic_area, LogicArea, NAND2_X1_45NM_UM2};
+use crate::synth::{synthesize_logic, SynthReport};
+use serde::Serialize;
+use std::fmt;
+use std::path::Path;
+use std::time::Instant;
+use vtq_hdl::controller::{ControllerFeatures, TreeletController};
+use vtq_hdl::count_table::CountTable;
+use vtq_hdl::queue_table::QueueTable;
+use vtq_hdl::{Block, BlockDesc, HwConfig};
+
+/// What the report says about the RT unit, whose RTL is a skeleton.
+pub const RT_UNIT_NOTE: &str = "rt_unit: no RTL yet (its Verilog is a skeleton: ports and \
+     registers, outputs tied to zero), so the baseline RT unit's logic area and the treelet \
+     hardware's overhead over it are not stated";
+
+/// The paper's own figures (section 6.5): storage sizes only; it gives no logic or mm^2 area.
+pub const PAPER_NOTE: &str = "paper (section 6.5): treelet count table 2.2 KB (600 x (19 + 12) \
+     b), treelet queue table 6.29 KB (128 x (19 + 32 x 12) b, in the L1), ray records 128 KB (in \
+     the L2); it reports no logic area, gate count or mm^2";
+
+/// One synthesized block.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BlockLogic {
+    /// Yosys' statistics.
+    pub synth: SynthReport,
+    /// Its NAND2 equivalents and area.
+    pub logic: LogicArea,
+    /// Bits of the latency-1 memories (SRAM arrays) Yosys kept as memories: storage, in the
+    /// storage model's table, not in the logic area.
+    pub sram_bits: u64,
+    /// The storage model's structure this block holds (`None` for the controller).
+    pub structure: Option<String>,
+    /// Seconds Yosys took.
+    pub seconds: f64,
+}
+
+/// The report: the blocks and their sum.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LogicReport {
+    /// Count table, queue table, controller.
+    pub blocks: Vec<BlockLogic>,
+    /// Sum of the blocks' NAND2 equivalents.
+    pub total_nand2_eq: f64,
+    /// Sum of the blocks' areas per node of [`NODES_NM`]: (node, mm^2).
+    pub total_mm2: Vec<(f64, f64)>,
+    /// Storage-model area of each block's structure at each node as SRAM, (name, [(node,
+    /// mm^2)]), from the [`AreaReport`] given.
+    pub storage_sram_mm2: Vec<(String, Vec<(f64, f64)>)>,
+    /// [`RT_UNIT_NOTE`].
+    pub rt_unit: String,
+    /// [`PAPER_NOTE`].
+    pub paper: String,
+}
+
+/// Bits of `desc`'s memories read with latency 1 or more (SRAM arrays).
+fn sram_bits(desc: &BlockDesc) -> u64 {
+    desc.memories
+        .iter()
+        .filter(|m| m.read_latency >= 1)
+        .map(|m| m.depth as u64 * m.width as u64)
+        .sum()
+}
+
+/// Synthesizes the three blocks of `cfg` (the controller with `features`) in `work_dir` (which
+/// must exist), one Yosys process each in parallel, and prices them beside `storage`.
+pub fn logic_report(
+    cfg: &HwConfig,
+    features: ControllerFeatures,
+    storage: &AreaReport,
+    work_dir: &Path,
+) -> Result<LogicReport, GenError> {
+    let descs = [
+        CountTable::new(cfg)?.describe(),
+        QueueTable::new(cfg)?.describe(),
+        TreeletController::new(cfg.clone(), features)?.describe(),
+    ];
+    let structures = [
+        Some("treelet count table"),
+        Some("treelet queue table"),
+        None,
+    ];
+    let modules = crate::rtl::rtl_modules(cfg, features)?;
+    let mut files = Vec::new();
+    for (name, text) in &modules {
+        let path = work_dir.join(format!("{name}.v"));
+        crate::tools::write_file(&path, text)?;
+        files.push((name.clone(), path));
+    }
+    let results: Vec<Result<(SynthReport, f64), GenError>> = std::thread::scope(|s| {
+        let handles: Vec<_> = files
+            .iter()
+            .map(|(name, path)| {
+                s.spawn(move || {
+                    let start = Instant::now();
+                    let r = synthesize_logic(std::slice::from_ref(path), name, work_dir)?;
+                    Ok((r, start.elapsed().as_secs_f64()))
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a synthesis thread panicked"))
+            .collect()
+    });
+    let mut blocks = Vec::new();
+    for ((result, desc), structure) in results.into_iter().zip(&descs).zip(structures) {
+        let (synth, seconds) = result?;
+        let sram = if synth.memory_cells > 0 {
+            sram_bits(desc)
+        } else {
+            0
+        };
+        blocks.push(BlockLogic {
+            logic: logic_area(&synth),
+            synth,
+            sram_bits: sram,
+            structure: structure.map(str::to_string),
+            seconds,
+        });
+    }
+    let total_nand2_eq = blocks.iter().map(|b| b.logic.nand2_eq).sum();
+    let total_mm2 = NODES_NM
+        .iter()
+        .enumerate()
+        .map(|(i, &f)| (f, blocks.iter().map(|b| b.logic.area_mm2[i].1).sum()))
+        .collect();
+    let storage_sram_mm2 = storage
+        .structures
+        .iter()
+        .filter(|s| structures.contains(&Some(s.name.as_str())))
+        .map(|s| {
+            (
+                s.name.clone(),
+                s.area.iter().map(|a| (a.feature_nm, a.sram_mm2)).collect(),
+            )
+        })
+        .collect();
+    Ok(LogicReport {
+        blocks,
+        total_nand2_eq,
+        total_mm2,
+        storage_sram_mm2,
+        rt_unit: RT_UNIT_NOTE.to_string(),
+        paper: PAPER_NOTE.to_string(),
+    })
+}
+
+/// `x` with three significant digits.
+fn sig3(x: f64) -> String {
+    if x == 0.0 {
+        return "0".to_string();
+    }
+    let digits = 2 - x.abs().log10().floor() as i32;
+    format!("{x:.prec$}", prec = digits.max(0) as usize)
+}
+
+impl fmt::Display for LogicReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "Synthesized logic (Yosys generic synthesis, gen::synth::LOGIC_SCRIPT; NAND2 eq. = \
+             NanGate45 cell area / NAND2_X1 {NAND2_X1_45NM_UM2} um^2; 22 nm = 45 nm x (22/45)^2; \
+             cells only, no routing)"
+        )?;
+        write!(
+            f,
+            "{:<20} {:>7} {:>10} {:>10} {:>9}",
+            "block", "cells", "flip-flops", "NAND2 eq.", "(of FFs)"
+        )?;
+        for nm in NODES_NM {
+            write!(f, " {:>11}", format!("mm^2 {nm}nm"))?;
+        }
+        writeln!(f, " {:>9} {:>6}", "SRAM kept", "yosys")?;
+        for b in &self.blocks {
+            write!(
+                f,
+                "{:<20} {:>7} {:>10} {:>10.0} {:>9.0}",
+                b.synth.top,
+                b.synth.cells,
+                b.synth.flip_flops,
+                b.logic.nand2_eq,
+                b.logic.flip_flop_nand2_eq
+            )?;
+            for (_, a) in &b.logic.area_mm2 {
+                write!(f, " {:>11}", sig3(*a))?;
+            }
+            let sram = if b.sram_bits > 0 {
+                format!("{} b", b.sram_bits)
+            } else {
+                "-".to_string()
+            };
+            writeln!(f, " {:>9} {:>5.1}s", sram, b.seconds)?;
+        }
+        write!(
+            f,
+            "{:<20} {:>7} {:>10} {:>10.0} {:>9}",
+            "treelet hardware",
+            self.blocks.iter().map(|b| b.synth.cells).sum::<u64>(),
+            self.blocks.iter().map(|b| b.synth.flip_flops).sum::<u64>(),
+            self.total_nand2_eq,
+            ""
+        )?;
+        for (_, a) in &self.total_mm2 {
+            write!(f, " {:>11}", sig3(*a))?;
+        }
+        writeln!(f)?;
+        for b in &self.blocks {
+            if !b.logic.unpriced.is_empty() {
+                writeln!(
+                    f,
+                    "warning: {}: cells without a price: {:?}",
+                    b.synth.top, b.logic.unpriced
+                )?;
+            }
+            if !b.synth.is_clean() {
+                writeln!(f, "warning: {}: Yosys warnings or latches", b.synth.top)?;
+            }
+        }
+        writeln!(
+            f,
+            "(the count table's RTL keeps its entries in flip-flops, a CAM with scan ports: its \
+             logic includes its storage; the queue table's SRAM arrays are storage, not logic)"
+        )?;
+        for (name, areas) in &self.storage_sram_mm2 {
+            let list: Vec<String> = areas
+                .iter()
+                .map(|(nm, a)| format!("{} mm^2 at {nm} nm", sig3(*a)))
+                .collect();
+            writeln!(f, "storage model, {name} as SRAM: {}", list.join(", "))?;
+        }
+        writeln!(f, "{}", self.rt_unit)?;
+        writeln!(f, "{}", self.paper)
+    }
+}

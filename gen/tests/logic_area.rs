@@ -1,0 +1,96 @@
+//! The synthesized-logic report (`vtq area --synth`) at a small configuration: every block with
+//! complete RTL synthesizes with `synthesize_logic` into priced cells only, the queue table's
+//! SRAM arrays stay memories, the NAND2 equivalents are bounded by the cell counts, and the
+//! report states no RT-unit overhead.
+
+use std::path::PathBuf;
+use std::time::Instant;
+use vtq_gen::area::{area_report, AreaParams};
+use vtq_gen::logic_area::{cell_area_45nm, NAND2_X1_45NM_UM2};
+use vtq_gen::logic_report::{logic_report, RT_UNIT_NOTE};
+use vtq_gen::tools::or_skip;
+use vtq_hdl::controller::ControllerFeatures;
+use vtq_hdl::queue_table::QueueTable;
+use vtq_hdl::{Block, HwConfig};
+
+/// 4-lane warps, 64 rays, a 4-entry count table and a 6-entry queue table: each block
+/// synthesizes in a few seconds.
+fn small() -> HwConfig {
+    HwConfig {
+        count_table_entries: 4,
+        queue_table_entries: 6,
+        max_rays: 64,
+        warp_size: 4,
+        underpopulation_threshold: 5,
+        repack_threshold: 3,
+        divergence_threshold: 1,
+        max_resident_treelets: 3,
+        warp_buffer_size: 3,
+        preload_threshold_warps: 1,
+        ..HwConfig::default()
+    }
+}
+
+#[test]
+fn every_block_with_rtl_is_priced() {
+    let cfg = small();
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-logic-area");
+    std::fs::create_dir_all(&dir).unwrap();
+    let storage = area_report(&cfg, &AreaParams::default()).unwrap();
+    let start = Instant::now();
+    let Some(r) = or_skip(logic_report(&cfg, ControllerFeatures::FULL, &storage, &dir)).unwrap()
+    else {
+        return;
+    };
+    eprintln!("{r}({:.1} s)", start.elapsed().as_secs_f64());
+    let names: Vec<&str> = r.blocks.iter().map(|b| b.synth.top.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "treelet_count_table",
+            "treelet_queue_table",
+            "treelet_controller"
+        ]
+    );
+    // The cheapest priced cell is an inverter (2/3 NAND2), the dearest a flip-flop with enable,
+    // synchronous reset and a falling clock (10 NAND2).
+    let max_eq = cell_area_45nm("$_SDFFCE_NP0P_").unwrap() / NAND2_X1_45NM_UM2;
+    for b in &r.blocks {
+        let (s, l) = (&b.synth, &b.logic);
+        assert!(s.is_clean(), "{}: {s:?}", s.top);
+        assert!(l.unpriced.is_empty(), "{}: {:?}", s.top, l.unpriced);
+        assert!(s.flip_flops > 0 && s.cells > s.flip_flops, "{s:?}");
+        // Every flip-flop is at least a DFF_X1 (17/3 NAND2).
+        assert!(l.flip_flop_nand2_eq >= s.flip_flops as f64 * 17.0 / 3.0 - 1e-6);
+        assert!(l.nand2_eq > l.flip_flop_nand2_eq);
+        let logic_cells = (s.cells - s.memory_cells) as f64;
+        assert!(l.nand2_eq >= logic_cells * 2.0 / 3.0 - 1e-6, "{}", s.top);
+        assert!(l.nand2_eq <= logic_cells * max_eq, "{}", s.top);
+        assert!((l.area_45nm_um2 - l.nand2_eq * NAND2_X1_45NM_UM2).abs() < 1e-6);
+        assert_eq!(l.area_mm2.len(), 2);
+        assert!(l.area_mm2[1].1 < l.area_mm2[0].1 / 4.0);
+    }
+    // The queue table's two SRAM arrays (meta, rays) stay memories: storage, not logic.
+    let q = &r.blocks[1];
+    assert_eq!(q.synth.memory_cells, 2, "{:?}", q.synth.cells_by_type);
+    let desc = QueueTable::new(&cfg).unwrap().describe();
+    let sram: u64 = desc
+        .memories
+        .iter()
+        .filter(|m| m.read_latency >= 1)
+        .map(|m| (m.depth * m.width) as u64)
+        .sum();
+    assert_eq!(q.sram_bits, sram);
+    assert!(sram > 0);
+    assert_eq!(r.blocks[0].synth.memory_cells, 0);
+    assert_eq!(r.blocks[0].sram_bits, 0);
+    // The sum, the storage model beside it, and no invented RT-unit figure.
+    let sum: f64 = r.blocks.iter().map(|b| b.logic.nand2_eq).sum();
+    assert!((r.total_nand2_eq - sum).abs() < 1e-6);
+    assert_eq!(r.storage_sram_mm2.len(), 2);
+    let text = r.to_string();
+    assert!(text.contains("treelet hardware"), "{text}");
+    assert!(text.contains(RT_UNIT_NOTE), "{text}");
+    assert!(text.contains("6.29 KB"), "{text}");
+    assert!(!text.contains("warning"), "{text}");
+}
