@@ -131,9 +131,7 @@ impl NodeDatapath for BvhDatapath<'_> {
                         node.address as u32,
                         best_t,
                     );
-                    result
-                        .children
-                        .extend(kept.map(|(a, k)| self.entry(a, k)));
+                    result.children.extend(kept.map(|(a, k)| self.entry(a, k)));
                 }
             }
             HwKind::TriangleLeaf => {
