@@ -5,6 +5,9 @@
 //! paper's; broken RTL lines that the co-simulation must catch; `verilator --lint-only -Wall`
 //! and Yosys synthesis without latches or warnings.
 
+mod common;
+
+use common::small;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vtq_gen::cosim::{record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
@@ -19,25 +22,6 @@ use vtq_hdl::{Block, HwConfig};
 const ICARUS_CYCLES: usize = 8_000;
 /// Cycles of the Verilator co-simulation.
 const VERILATOR_CYCLES: usize = 3_000;
-
-/// The small configuration: 4-lane warps, 64 rays, a 4-entry count table (it evicts) and a
-/// 6-entry queue table (it spills), 3 warp-buffer slots and 3 resident entries (neither a power
-/// of two: the slot range checks and the resident list's wrap are exercised).
-fn small() -> HwConfig {
-    HwConfig {
-        count_table_entries: 4,
-        queue_table_entries: 6,
-        max_rays: 64,
-        warp_size: 4,
-        underpopulation_threshold: 5,
-        repack_threshold: 3,
-        divergence_threshold: 1,
-        max_resident_treelets: 3,
-        warp_buffer_size: 3,
-        preload_threshold_warps: 1,
-        ..HwConfig::default()
-    }
-}
 
 /// No preloading and no repacking (the RTL's constant-folded branches).
 const NO_PRELOAD: ControllerFeatures = ControllerFeatures {

@@ -3,6 +3,9 @@
 //! SRAM arrays stay memories, the NAND2 equivalents are bounded by the cell counts, and the
 //! report states no RT-unit overhead.
 
+mod common;
+
+use common::small;
 use std::path::PathBuf;
 use std::time::Instant;
 use vtq_gen::area::{area_report, AreaParams};
@@ -11,25 +14,7 @@ use vtq_gen::logic_report::{logic_report, RT_UNIT_NOTE};
 use vtq_gen::tools::or_skip;
 use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::queue_table::QueueTable;
-use vtq_hdl::{Block, HwConfig};
-
-/// 4-lane warps, 64 rays, a 4-entry count table and a 6-entry queue table: each block
-/// synthesizes in a few seconds.
-fn small() -> HwConfig {
-    HwConfig {
-        count_table_entries: 4,
-        queue_table_entries: 6,
-        max_rays: 64,
-        warp_size: 4,
-        underpopulation_threshold: 5,
-        repack_threshold: 3,
-        divergence_threshold: 1,
-        max_resident_treelets: 3,
-        warp_buffer_size: 3,
-        preload_threshold_warps: 1,
-        ..HwConfig::default()
-    }
-}
+use vtq_hdl::Block;
 
 #[test]
 fn every_block_with_rtl_is_priced() {
