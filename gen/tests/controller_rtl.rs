@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::small;
+use common::{small, write_verilog};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vtq_gen::cosim::{record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
@@ -31,14 +31,6 @@ const NO_PRELOAD: ControllerFeatures = ControllerFeatures {
 
 fn work_dir(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("vtq-gen-controller-rtl-{name}"))
-}
-
-/// Writes `text` as `<dir>/<module>.v`.
-fn write_verilog(dir: &Path, module: &str, text: &str) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    let path = dir.join(format!("{module}.v"));
-    std::fs::write(&path, text).unwrap();
-    path
 }
 
 /// Co-simulates `trace` against `source`; `None` when the simulator is not installed.

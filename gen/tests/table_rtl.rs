@@ -10,6 +10,9 @@
 //! table is idle, stores spilled rays in a FIFO and answers each refill request after a random
 //! latency with the oldest one, as `hdl/tests/queue_table_props.rs` does).
 
+mod common;
+
+use common::write_verilog;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vtq_gen::cosim::{record, run_cosim, CosimOptions, Simulator, Trace};
@@ -47,14 +50,6 @@ fn configs() -> [(&'static str, HwConfig); 2] {
 
 fn work_dir(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("vtq-gen-table-rtl-{name}"))
-}
-
-/// Writes `text` as `<dir>/<module>.v`.
-fn write_verilog(dir: &Path, module: &str, text: &str) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    let path = dir.join(format!("{module}.v"));
-    std::fs::write(&path, text).unwrap();
-    path
 }
 
 /// Co-simulates `trace` against `source` and asserts zero mismatches; false when the

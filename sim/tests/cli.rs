@@ -433,6 +433,23 @@ fn vtq_ok(args: &[&str]) -> String {
     stdout
 }
 
+/// The output of a `vtq cosim` command that must succeed; `None` (the test skips) when the
+/// HDL simulator is not installed, outside CI.
+fn vtq_cosim(args: &[&str]) -> Option<String> {
+    let out = vtq(args);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success()
+        && stderr.contains("is not installed")
+        && std::env::var_os(CI_ENV).is_none()
+    {
+        eprintln!("skipping: {}", stderr.trim());
+        return None;
+    }
+    assert!(out.status.success(), "{stdout}{stderr}");
+    Some(stdout)
+}
+
 /// The line of `text` that starts with `start`.
 fn line_starting<'a>(text: &'a str, start: &str) -> &'a str {
     text.lines()
@@ -540,7 +557,7 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
 #[test]
 fn cosim_matches_on_a_small_configuration() {
     let dir = temp_dir("cosim");
-    let out = vtq(&[
+    let Some(stdout) = vtq_cosim(&[
         "cosim",
         "--cycles",
         "3000",
@@ -555,17 +572,9 @@ fn cosim_matches_on_a_small_configuration() {
         "--work-dir",
         dir.to_str().unwrap(),
         "--vcd",
-    ]);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    if !out.status.success()
-        && stderr.contains("is not installed")
-        && std::env::var_os(CI_ENV).is_none()
-    {
-        eprintln!("skipping: {}", stderr.trim());
+    ]) else {
         return;
-    }
-    assert!(out.status.success(), "{stdout}{stderr}");
+    };
     for (module, ports) in [
         ("treelet_count_table", ["op_treelet", "evict_valid"]),
         ("treelet_queue_table", ["op_ray", "spill_valid"]),
@@ -659,7 +668,7 @@ fn area_synth_prices_every_block_with_rtl() {
 #[test]
 fn cosim_of_the_controller_matches_on_a_small_configuration() {
     let dir = temp_dir("cosim-controller");
-    let out = vtq(&[
+    let Some(stdout) = vtq_cosim(&[
         "cosim",
         "--block",
         "controller",
@@ -677,17 +686,9 @@ fn cosim_of_the_controller_matches_on_a_small_configuration() {
         "hw.divergence_threshold=2",
         "--work-dir",
         dir.to_str().unwrap(),
-    ]);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    if !out.status.success()
-        && stderr.contains("is not installed")
-        && std::env::var_os(CI_ENV).is_none()
-    {
-        eprintln!("skipping: {}", stderr.trim());
+    ]) else {
         return;
-    }
-    assert!(out.status.success(), "{stdout}{stderr}");
+    };
     let line = line_starting(&stdout, "treelet_controller: ");
     assert!(
         line.contains("2000 cycles compared, 0 mismatches"),

@@ -1,6 +1,16 @@
-//! Shared by the controller RTL and logic-area tests.
+//! Shared by the RTL tests (each test crate uses a part of it).
+#![allow(dead_code)]
 
+use std::path::{Path, PathBuf};
 use vtq_hdl::HwConfig;
+
+/// Writes `text` as `<dir>/<module>.v`.
+pub fn write_verilog(dir: &Path, module: &str, text: &str) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join(format!("{module}.v"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
 
 /// The small configuration of the controller's RTL tests: 4-lane warps, 64 rays, a 4-entry count
 /// table (it evicts) and a 6-entry queue table (it spills), 3 warp-buffer slots and 3 resident
