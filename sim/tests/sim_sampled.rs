@@ -1,13 +1,15 @@
 //! The sampled tier (docs/accuracy.md): deterministic for a seed, exactly full detail when the
 //! sample is the whole workload, skipping idle cycles equal to lockstep inside its replicates,
-//! a paired speedup from the same CTA samples, and one-line errors for bad settings.
+//! a paired speedup from the same CTA samples, stripe sampling where every CTA is resident, and
+//! one-line errors for bad settings.
 
 mod common;
 
 use std::process::Command;
 
 use common::{setup, small_config};
-use vtq_sim::estimate::sample::{paired_speedup, simulate_sampled, Profile, SampledStats};
+use vtq_sim::estimate::sample::stripes::ranked;
+use vtq_sim::estimate::sample::{paired_speedup, simulate_sampled, Method, Profile, SampledStats};
 use vtq_sim::model::config::SimConfig;
 use vtq_sim::model::gpu::stats::comparable_json;
 use vtq_sim::model::gpu::{simulate, SimOptions};
@@ -43,10 +45,12 @@ fn sampled(name: &str, cfg: &SimConfig, threads: usize) -> SampledStats {
 
 #[test]
 fn sampled_runs_are_deterministic_on_any_thread_count() {
-    let cfg = sampled_config("baseline", "1/4x3", &[]);
+    // Stratified samples (a 24x24 frame is all resident at once: stripes unless turned off).
+    let cfg = sampled_config("baseline", "1/4x3", &["sample.stripes=false"]);
     let a = sampled("cornell", &cfg, 1);
     let b = sampled("cornell", &cfg, 2);
     assert_eq!(comparable(&a), comparable(&b));
+    assert_eq!(a.method, Method::Strata);
     assert_eq!(a.replicate_runs.len(), 3);
     assert!(a.cycles.half_width.is_some());
     // Another seed draws other samples.
@@ -103,13 +107,20 @@ fn skipping_equals_lockstep_in_sampled_runs() {
 
 #[test]
 fn speedups_pair_the_replicates() {
-    let base = sampled("cornell", &sampled_config("baseline", "1/2x2", &[]), 1);
-    let pre = sampled("cornell", &sampled_config("prefetch", "1/2x2", &[]), 1);
+    let strata = ["sample.stripes=false"];
+    let base = sampled("cornell", &sampled_config("baseline", "1/2x2", &strata), 1);
+    let pre = sampled("cornell", &sampled_config("prefetch", "1/2x2", &strata), 1);
     let s = paired_speedup(&base, &pre);
     let pairs = || base.replicate_runs.iter().zip(&pre.replicate_runs);
     // Exactly the mean of the replicates' ratios of extrapolated cycles.
     let ratios: Vec<f64> = pairs().map(|(b, p)| b.cycles / p.cycles).collect();
     assert_eq!(s.value, (ratios[0] + ratios[1]) / 2.0);
+    // Its interval: the ratios' Student-t half-width plus both designs' bias bounds.
+    let t = vtq_sim::estimate::sample::Estimate::of(&ratios)
+        .half_width
+        .unwrap();
+    let bias = s.value * (base.bias_bound + pre.bias_bound);
+    assert!((s.half_width.unwrap() - (t + bias)).abs() < 1e-12);
     // Each replicate's cycles carry the same dispatch factor in both designs (the same CTAs,
     // the same CTAs per SM), so the ratio is that of the scale models' cycles, up to rounding.
     for ((b, p), r) in pairs().zip(&ratios) {
@@ -135,6 +146,7 @@ fn bad_sample_settings_are_one_line_errors() {
         ("32/16", "sample.fraction"),
         ("3/16", "whole number of SMs"),
         ("1/4x0", "sample.replicates"),
+        ("1/2x4", "need 32 stripes but the GPU has 16"),
         ("quarter", "--sample `quarter`"),
     ] {
         let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
@@ -194,10 +206,40 @@ fn accuracy_and_sampled_compare_commands() {
     let csv = std::fs::read_to_string(dir.join("accuracy.csv")).unwrap();
     // A header, then 3 designs x (full, one setting); the analytical tier is retired.
     assert_eq!(csv.lines().count(), 1 + 3 * 2, "{csv}");
+    // 16x16 on 4 SMs: 4 CTAs, all resident: stripes, as the method column says.
+    let methods: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap())
+        .collect();
+    assert_eq!(
+        methods,
+        ["", "stripes", "", "stripes", "", "stripes"],
+        "{csv}"
+    );
     assert!(!stdout.contains("analytical"), "{stdout}");
     assert!(
         csv.lines().skip(1).all(|l| l.starts_with("cornell,")),
         "{csv}"
+    );
+    // The design's own `[sample]` keys other than the setting's hold: stripes off.
+    let off = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args(["accuracy", "--scene", "cornell", "--settings", "1/2x2"])
+        .args(["--designs", "baseline", "--set", "sample.stripes=false"])
+        .args(small)
+        .arg("--out")
+        .arg(dir.join("off"))
+        .output()
+        .unwrap();
+    assert!(
+        off.status.success(),
+        "{}",
+        String::from_utf8_lossy(&off.stderr)
+    );
+    let off_csv = std::fs::read_to_string(dir.join("off/accuracy.csv")).unwrap();
+    assert!(
+        off_csv.lines().nth(2).unwrap().contains(",strata,"),
+        "{off_csv}"
     );
     let png = std::fs::read(dir.join("accuracy.png")).unwrap();
     assert_eq!(&png[..4], b"\x89PNG");
@@ -236,4 +278,73 @@ fn a_frame_whose_ctas_are_all_resident_at_once_is_flagged() {
     let mut tight = common::small_vtq(4, 128, &["hw.max_rays=1024"]);
     tight.sample.apply_spec("1/4x2").unwrap();
     assert!(!sampled("cornell", &tight, 2).every_cta_resident);
+}
+
+/// Where every CTA is resident, the replicates simulate the whole stripes the profile ranks
+/// slowest, together in one scale model, and the estimate is the slowest stripe's cycles with
+/// the validated bound as its interval; the same on any thread count.
+#[test]
+fn stripe_sampling_simulates_the_stripes_ranked_slowest() {
+    // 128x128 on 4 SMs: 256 CTAs, all resident under VTQ with ray virtualization.
+    let mut cfg = common::small_vtq(4, 128, &[]);
+    cfg.sample.apply_spec("1/4x2").unwrap();
+    let (scene, bvh) = setup("cornell", &cfg);
+    let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
+    assert_eq!(profile.stripes.len(), 4);
+    let s = simulate_sampled(&scene, &bvh, &cfg, &profile, 1).unwrap();
+    assert_eq!(s.method, Method::Stripes);
+    // The two replicates' stripes ran together: one scale model of 2 SMs.
+    assert_eq!((s.replicates, s.scale_sms), (1, 2));
+    let run = &s.replicate_runs[0];
+    let mut first_two = ranked(&profile.stripes)[..2].to_vec();
+    first_two.sort_unstable();
+    assert_eq!(run.stripes, first_two);
+    let stripe_ctas = (0..256u32).filter(|c| first_two.contains(&(c % 4))).count();
+    assert_eq!(run.ctas, stripe_ctas);
+    // Whole stripes need no carrying to the frame: the slowest stripe is the estimate.
+    assert_eq!(s.cycles.value, run.stats.cycles as f64);
+    assert_eq!(run.cycles, run.stats.cycles as f64);
+    let h = s.cycles.half_width.unwrap();
+    assert!((h - s.cycles.value * cfg.sample.stripe_bound).abs() < 1e-6);
+    // Every ranked stripe's footprint and work come from the profile's CTAs.
+    let fetches: u64 = profile.stripes.iter().map(|w| w.fetches).sum();
+    assert_eq!(fetches, profile.work(None).fetches);
+    assert!(profile.stripes.iter().all(|w| w.lines > 0));
+    assert_eq!(
+        comparable(&s),
+        comparable(&simulate_sampled(&scene, &bvh, &cfg, &profile, 2).unwrap())
+    );
+    // Stripes turned off: stratified samples in two replicates.
+    let mut strata = cfg.clone();
+    strata.sample.stripes = false;
+    let t = simulate_sampled(&scene, &bvh, &strata, &profile, 1).unwrap();
+    assert_eq!((t.method, t.replicate_runs.len()), (Method::Strata, 2));
+    assert!(t.replicate_runs.iter().all(|r| r.stripes.is_empty()));
+    // A stripe run and a stratified one do not pair: the ratio of the estimates, with the sum
+    // of their relative half-widths.
+    let sp = paired_speedup(&t, &s);
+    assert_eq!(sp.value, t.cycles.value / s.cycles.value);
+    let rel = t.cycles.half_width.unwrap() / t.cycles.value + cfg.sample.stripe_bound;
+    assert!((sp.half_width.unwrap() - sp.value * rel).abs() < 1e-9);
+}
+
+/// The footprint is computed only on frames some design could hold at once: a frame with
+/// more CTAs than 4 SMs hold even under ray virtualization (64 each) has none.
+#[test]
+fn large_frames_have_no_stripes() {
+    // 136x136: 17 x 17 = 289 CTAs of 8x8 pixels, above 4 x 64.
+    let cfg = sampled_config("baseline", "1/4x2", &["width=136", "height=136"]);
+    let (scene, bvh) = setup("cornell", &cfg);
+    let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
+    assert!(profile.stripes.is_empty());
+    let s = simulate_sampled(&scene, &bvh, &cfg, &profile, 1).unwrap();
+    assert_eq!(s.method, Method::Strata);
+    // The interval of cycles: the replicates' Student-t half-width plus the tail bound over
+    // the frame's waves (289 CTAs over the 4 x 16 the baseline's SMs hold at once).
+    let waves = 289.0 / 64.0;
+    assert!((s.bias_bound - cfg.sample.tail_bound / waves).abs() < 1e-12);
+    let t = vtq_sim::estimate::sample::Estimate::of(&s.replicate_cycles());
+    let expected = t.half_width.unwrap() + s.bias_bound * t.value;
+    assert!((s.cycles.half_width.unwrap() - expected).abs() < 1e-6);
+    assert_eq!(s.cycles.value, t.value);
 }

@@ -8,7 +8,9 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::estimate::sample::{paired_speedup, simulate_sampled, Estimate, Profile, SampleConfig};
+use crate::estimate::sample::{
+    paired_speedup, simulate_sampled, Estimate, Method, Profile, SampleConfig,
+};
 use crate::experiment::plot::{Point, Scatter, Series};
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
@@ -43,6 +45,8 @@ pub struct Row {
     pub design: String,
     /// Tier.
     pub tier: Tier,
+    /// How the sampled tier chose its CTAs (`None` for full detail).
+    pub method: Option<Method>,
     /// Wall-clock seconds (the sampled tier's include the functional profile).
     pub wall: f64,
     /// Full detail's wall over this one's.
@@ -110,9 +114,12 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
         let mut per = Vec::new();
         for spec in plan.settings {
             let mut cfg = d.config.clone();
+            // The setting's fraction and replicates; the design's other `[sample]` keys.
+            let defaults = SampleConfig::default();
             cfg.sample = SampleConfig {
-                seed: d.config.sample.seed,
-                ..SampleConfig::default()
+                fraction: defaults.fraction,
+                replicates: defaults.replicates,
+                ..d.config.sample.clone()
             };
             cfg.sample.apply_spec(spec).map_err(SimError::Setup)?;
             let t = Instant::now();
@@ -126,12 +133,13 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     for (i, d) in plan.designs.iter().enumerate() {
         let (cycles, wall) = full[i];
         let true_speedup = (i > 0).then(|| reference / cycles.max(1.0));
-        let row = |tier: Tier, w: f64, c: Estimate, s: Option<Estimate>| {
+        let row = |tier: Tier, method, w: f64, c: Estimate, s: Option<Estimate>| {
             let err = |e: f64, t: f64| e / t - 1.0;
             Row {
                 scene: scene.name.clone(),
                 design: d.label.clone(),
                 tier,
+                method,
                 wall: w,
                 time_speedup: wall / w.max(1e-9),
                 cycles: c.value,
@@ -152,6 +160,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
         };
         rows.push(row(
             Tier::Full,
+            None,
             wall,
             exact(cycles),
             true_speedup.map(exact),
@@ -159,7 +168,13 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
         for (k, spec) in plan.settings.iter().enumerate() {
             let (s, w) = &sampled[i][k];
             let speedup = (i > 0).then(|| paired_speedup(&sampled[0][k].0, s));
-            rows.push(row(Tier::Sampled(spec.clone()), *w, s.cycles, speedup));
+            rows.push(row(
+                Tier::Sampled(spec.clone()),
+                Some(s.method),
+                *w,
+                s.cycles,
+                speedup,
+            ));
         }
     }
     Ok(rows)
@@ -245,15 +260,21 @@ pub fn csv(rows: &[Row]) -> String {
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v}"));
     let flag = |v: Option<bool>| v.map_or(String::new(), |v| v.to_string());
     let mut out = String::from(
-        "scene,design,tier,wall_seconds,time_speedup,cycles,cycles_half_width,cycles_error,\
+        "scene,design,tier,method,wall_seconds,time_speedup,cycles,cycles_half_width,cycles_error,\
          cycles_covered,speedup,speedup_half_width,speedup_error,speedup_covered\n",
     );
     for r in rows {
+        let method = match r.method {
+            None => "",
+            Some(Method::Strata) => "strata",
+            Some(Method::Stripes) => "stripes",
+        };
         out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.scene,
             r.design,
             r.tier.name(),
+            method,
             r.wall,
             r.time_speedup,
             r.cycles,
@@ -322,6 +343,7 @@ mod tests {
             scene: "WKND".into(),
             design: "baseline".into(),
             tier,
+            method: None,
             wall: 1.0,
             time_speedup: 1.0,
             cycles,

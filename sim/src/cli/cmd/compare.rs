@@ -484,7 +484,8 @@ fn compare_sampled(
     let s = &first.sample;
     println!(
         "compare (sampled): {} designs on scene {}, each estimated from {} replicates of {} SM(s) \
-         on stratified 1/{:.0} samples of the frame (seed {}); estimates with 95% intervals",
+         on stratified 1/{:.0} samples of the frame (seed {}; whole stripes where every CTA is \
+         resident); estimates with 95% intervals",
         designs.len(),
         scene.name,
         s.replicates,
@@ -556,19 +557,31 @@ fn compare_sampled(
     }
     println!(
         "estimates (sampled tier, not full detail): value ± half-width of the 95% interval; \
-         speedup = {} cycles / design cycles, paired per replicate",
+         speedup = {} cycles / design cycles, paired per replicate (stratified samples)",
         designs[reference].label
     );
-    let striped: Vec<&str> = designs
-        .iter()
-        .zip(&results)
-        .filter(|(_, (r, _))| r.as_ref().is_ok_and(|e| e.every_cta_resident))
-        .map(|(d, _)| d.label.as_str())
-        .collect();
-    if !striped.is_empty() {
+    let labels = |keep: &dyn Fn(&crate::estimate::sample::SampledStats) -> bool| {
+        designs
+            .iter()
+            .zip(&results)
+            .filter(|(_, (r, _))| r.as_ref().is_ok_and(keep))
+            .map(|(d, _)| d.label.as_str())
+            .collect::<Vec<&str>>()
+    };
+    let by_stripes = labels(&|e| e.method == crate::estimate::sample::Method::Stripes);
+    if !by_stripes.is_empty() {
+        println!(
+            "stripe sampling ({}): {}",
+            by_stripes.join(", "),
+            crate::estimate::sample::STRIPE_NOTE
+        );
+    }
+    let cautioned =
+        labels(&|e| e.every_cta_resident && e.method == crate::estimate::sample::Method::Strata);
+    if !cautioned.is_empty() {
         println!(
             "caution ({}): {}",
-            striped.join(", "),
+            cautioned.join(", "),
             crate::estimate::sample::STRIPE_CAUTION
         );
     }

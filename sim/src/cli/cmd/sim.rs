@@ -218,7 +218,16 @@ fn run_sampled(
         s.profile_seconds + s.sim_seconds,
         s.profile_seconds
     );
-    if s.every_cta_resident {
+    if s.method == crate::estimate::sample::Method::Stripes {
+        println!(
+            "stripes {:?}: {}",
+            s.replicate_runs
+                .iter()
+                .map(|r| r.stripes.clone())
+                .collect::<Vec<_>>(),
+            crate::estimate::sample::STRIPE_NOTE
+        );
+    } else if s.every_cta_resident {
         println!("caution: {}", crate::estimate::sample::STRIPE_CAUTION);
     }
     println!("wrote {}", args.out.display());

@@ -1,12 +1,15 @@
 //! The sampled tier (docs/accuracy.md): estimates of a design's cycles and headline statistics
 //! from simulating less — scale models of the GPU (a fraction of its SMs with that share of the
 //! L2 and DRAM bandwidth) running stratified samples of the frame's CTAs, chosen by a functional
-//! profile of each CTA's work, in independent replicates whose spread gives 95% intervals.
+//! profile of each CTA's work, in independent replicates whose spread gives 95% intervals; or,
+//! where the design's SMs hold every CTA at once, the whole stripes of CTAs the profile ranks
+//! slowest, with a validated bound as the interval.
 //!
 //! - the `[sample]` configuration section and the scale model it makes are the configuration's
 //!   ([`crate::model::config::SampleConfig`]).
 //! - [`profile`]: the functional profile (rays and node fetches per CTA).
 //! - [`strata`]: stratified CTA samples.
+//! - [`stripes`]: whole-stripe samples, where every CTA is resident at once.
 //! - [`dispatch`]: the CTA-level dispatch model that carries a scale model's cycles to the GPU's.
 //! - [`estimate`]: estimates with Student's t intervals.
 //! - [`run`]: simulating the replicates and combining them.
@@ -16,16 +19,26 @@ pub mod estimate;
 pub mod profile;
 pub mod run;
 pub mod strata;
+pub mod stripes;
 
 pub use crate::model::config::SampleConfig;
 pub use estimate::Estimate;
 pub use profile::Profile;
-pub use run::{paired_speedup, simulate_sampled, SampledStats};
+pub use run::{paired_speedup, simulate_sampled, Method, SampledStats};
 
 /// What `vtq sim --sample` and `vtq compare --sample` print when
-/// [`SampledStats::every_cta_resident`] holds.
+/// [`SampledStats::every_cta_resident`] holds but stratified samples were used
+/// (`sample.stripes = false`).
 pub const STRIPE_CAUTION: &str = "every CTA is resident on its SM at once in this \
      design and frame, so each SM runs a fixed stripe of CTAs and the run ends with the slowest \
      stripe, which a CTA sample does not see: the 95% interval covers sampling noise only and \
-     may miss full detail by much more (docs/accuracy.md; check one scene against full detail, \
-     or simulate a larger frame)";
+     may miss full detail by much more (docs/accuracy.md; sample.stripes = true samples the \
+     stripes instead)";
+
+/// What `vtq sim --sample` and `vtq compare --sample` print for a design sampled by stripes
+/// ([`Method::Stripes`]).
+pub const STRIPE_NOTE: &str = "every CTA is resident on its SM at once in this design \
+     and frame, so the replicates simulated the whole stripes (one SM's fixed CTAs) the profile \
+     predicts slowest and the estimate is the slowest of them; its interval is the bound \
+     sample.stripe_bound, validated against full detail (docs/accuracy.md), not a sampling \
+     interval, and its speedups do not pair replicates";

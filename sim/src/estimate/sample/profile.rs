@@ -2,7 +2,14 @@
 //! its threads trace and the BVH nodes those rays fetch, from the functional path tracer (the
 //! same paths, hence the same rays, the simulation traces) in the treelet traversal order the
 //! simulated RT units use. One traversal per ray, CTAs in parallel.
+//!
+//! On frames small enough for a design with ray virtualization to hold every CTA at once, the
+//! profile also sums each *stripe* — the CTAs `c` with `c mod gpu.sms = s`, which SM `s` runs
+//! when every CTA is resident (the CTA scheduler's round-robin fill) — with its footprint: the
+//! distinct 32 B lines of BVH nodes its rays fetch, the working set its SM's L1 must hold
+//! ([`super::stripes`] samples stripes by it).
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -24,13 +31,40 @@ pub struct CtaWork {
     pub fetches: u64,
 }
 
+/// The work of one stripe: the CTAs `c` with `c mod gpu.sms = s`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StripeWork {
+    /// Rays of its CTAs.
+    pub rays: u64,
+    /// BVH node fetches of those rays.
+    pub fetches: u64,
+    /// Distinct 32 B lines of BVH nodes those rays fetch (its footprint).
+    pub lines: u64,
+}
+
 /// The work of every CTA of a frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Profile {
     /// Per CTA, in CTA order (tiles row-major).
     pub ctas: Vec<CtaWork>,
+    /// Per stripe `s` (the CTAs `c mod gpu.sms = s`), when the frame has at most as many CTAs
+    /// as the GPU's SMs can hold at once under ray virtualization ([`holds_every_cta`]); empty
+    /// otherwise.
+    pub stripes: Vec<StripeWork>,
     /// Wall-clock seconds the profile took.
     pub seconds: f64,
+}
+
+/// Bytes of a BVH line in a stripe's footprint (the memory system's sector).
+const LINE_BYTES: u32 = 32;
+
+/// Whether a frame of `ctas` CTAs is small enough for `cfg`'s GPU to hold every CTA at once in
+/// some design: at most `gpu.sms` times the CTAs a ray-virtualizing SM holds (its CTA slots, or
+/// as many as `hw.max_rays` covers). The profile sums the stripes only then.
+pub fn holds_every_cta(cfg: &SimConfig, ctas: usize) -> bool {
+    let mut virtualizing = cfg.clone();
+    virtualizing.mode.virtualization = true;
+    ctas <= super::dispatch::resident_ctas(&virtualizing) * cfg.gpu.sms as usize
 }
 
 impl Profile {
@@ -41,10 +75,24 @@ impl Profile {
         settings.validate()?;
         let frame = CameraFrame::new(&scene.camera, settings.width, settings.height)?;
         let scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
+        let with_stripes = holds_every_cta(cfg, scheduler.total() as usize);
+        let sms = cfg.gpu.sms.max(1) as usize;
+        // Per stripe, one bit per 32 B line of the BVH's address space (a slot of
+        // `treelet_bytes` per treelet, the header's included): set by every fetch of its CTAs.
+        let words = if with_stripes {
+            let space = (bvh.treelets().len() as u64 + 2) * u64::from(bvh.params().treelet_bytes);
+            (space as usize).div_ceil(LINE_BYTES as usize * 64)
+        } else {
+            0
+        };
+        let footprints: Vec<Vec<AtomicU64>> = (0..if with_stripes { sms } else { 0 })
+            .map(|_| (0..words).map(|_| AtomicU64::new(0)).collect())
+            .collect();
         let ctas = (0..scheduler.total())
             .into_par_iter()
             .map_init(Vec::new, |fetches, cta| {
                 let mut work = CtaWork::default();
+                let footprint = footprints.get(cta as usize % sms);
                 for pixel in scheduler.pixels(cta).into_iter().flatten() {
                     for sample in 0..settings.spp {
                         let (mut path, mut ray) = PathState::new(&frame, &settings, pixel, sample);
@@ -53,6 +101,23 @@ impl Profile {
                             let hit = trace_with_fetches(bvh, &ray, Order::Hardware, fetches);
                             work.rays += 1;
                             work.fetches += fetches.len() as u64;
+                            if let Some(bits) = footprint {
+                                for f in fetches.iter() {
+                                    let first = f.addr / LINE_BYTES;
+                                    let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
+                                    for line in first..=last {
+                                        // Every node lies inside the address space.
+                                        let Some(word) = bits.get((line / 64) as usize) else {
+                                            debug_assert!(false, "line {line} beyond the BVH");
+                                            continue;
+                                        };
+                                        let bit = 1u64 << (line % 64);
+                                        if word.load(Ordering::Relaxed) & bit == 0 {
+                                            word.fetch_or(bit, Ordering::Relaxed);
+                                        }
+                                    }
+                                }
+                            }
                             match path.on_hit(scene, hit) {
                                 Some(next) => ray = next,
                                 None => break,
@@ -62,9 +127,28 @@ impl Profile {
                 }
                 work
             })
+            .collect::<Vec<CtaWork>>();
+        let stripes = footprints
+            .iter()
+            .enumerate()
+            .map(|(s, bits)| {
+                let mut stripe = StripeWork {
+                    lines: bits
+                        .iter()
+                        .map(|w| u64::from(w.load(Ordering::Relaxed).count_ones()))
+                        .sum(),
+                    ..StripeWork::default()
+                };
+                for work in ctas.iter().skip(s).step_by(sms) {
+                    stripe.rays += work.rays;
+                    stripe.fetches += work.fetches;
+                }
+                stripe
+            })
             .collect();
         Ok(Profile {
             ctas,
+            stripes,
             seconds: start.elapsed().as_secs_f64(),
         })
     }

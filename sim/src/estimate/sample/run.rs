@@ -5,11 +5,14 @@
 //!
 //! Extrapolation: the scale model gives each simulated SM the share of CTAs, L2 capacity and
 //! DRAM bandwidth a full-GPU SM has, so its cycle count estimates the full GPU's. A replicate's
-//! sample may hold a little more or less work than its share of the frame; its cycles are scaled
-//! by the ratio of the share of the frame's node fetches it should hold to the fetches it holds
-//! (both known from the functional profile), a ratio estimator that removes most of the
-//! sampling noise. Rates (BVH L1 miss rate, SIMT efficiency, phase shares) are taken as
+//! cycles are carried to the whole frame by the dispatch model's makespan ratio
+//! ([`super::dispatch`]). Rates (BVH L1 miss rate, SIMT efficiency, phase shares) are taken as
 //! measured; DRAM bytes scale by the inverse of the sample's share of the frame's fetches.
+//!
+//! Where the design's SMs hold every CTA at once and `sample.stripes` is on, the replicates run
+//! whole stripes instead ([`super::stripes`]): a replicate's cycles are those of its slowest
+//! stripe, which SM ran it in the full GPU too, and the estimate of the frame's cycles is the
+//! slowest replicate, with the validated bound `sample.stripe_bound` as its interval.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -21,6 +24,7 @@ use super::dispatch::{makespan_ratio, resident_ctas};
 use super::estimate::Estimate;
 use super::profile::Profile;
 use super::strata::stratified_sample;
+use super::stripes::stripe_samples;
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::gpu::{simulate, SimError, SimOptions, SimStats};
@@ -33,7 +37,10 @@ pub struct Replicate {
     pub ctas: usize,
     /// The sample's node fetches over its share of the frame's (1: exactly its share).
     pub work_share: f64,
-    /// Cycles extrapolated to the whole frame (the scale model's, divided by `work_share`).
+    /// The stripes it ran, with stripe sampling (empty for a stratified sample).
+    pub stripes: Vec<u32>,
+    /// Cycles extrapolated to the whole frame (stratified: the scale model's times the
+    /// dispatch model's makespan ratio; stripes: the scale model's, its slowest stripe's).
     pub cycles: f64,
     /// The scale model's statistics.
     pub stats: SimStats,
@@ -60,6 +67,13 @@ pub struct SampledStats {
     /// stripes, cannot see which one that is. The intervals cover the sampling noise only and
     /// have missed full detail most often in this case (docs/accuracy.md).
     pub every_cta_resident: bool,
+    /// How the replicates sampled the frame: `strata` (stratified CTA samples) or `stripes`
+    /// (whole stripes, where every CTA is resident and `sample.stripes` is on).
+    pub method: Method,
+    /// The part of the interval of cycles that bounds the method's bias, relative to the
+    /// estimate: `sample.tail_bound / waves` for strata (added to the Student-t half-width),
+    /// `sample.stripe_bound` for stripes (the whole half-width).
+    pub bias_bound: f64,
     /// Rays of the whole frame (exact, from the functional profile).
     pub rays: u64,
     /// Cycles of the whole frame.
@@ -80,6 +94,48 @@ pub struct SampledStats {
     pub replicate_runs: Vec<Replicate>,
 }
 
+/// How a sampled run chose its replicates' CTAs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Stratified CTA samples carried to the frame by the dispatch model; Student-t intervals.
+    Strata,
+    /// The whole stripes predicted slowest; the slowest replicate, with the validated bound.
+    Stripes,
+}
+
+/// [`SampledStats::bias_bound`] of `cfg.sample` on `profile`'s frame by `method`.
+fn bias_bound(cfg: &SimConfig, profile: &Profile, method: Method) -> f64 {
+    match method {
+        Method::Stripes => cfg.sample.stripe_bound,
+        Method::Strata => {
+            let held = (resident_ctas(cfg) * cfg.gpu.sms as usize).max(1);
+            let waves = (profile.ctas.len() as f64 / held as f64).max(1.0);
+            cfg.sample.tail_bound / waves
+        }
+    }
+}
+
+/// Whether `cfg`'s design holds every CTA of `profile`'s frame at once: its SMs' resident CTAs
+/// ([`resident_ctas`]) cover the frame.
+pub fn every_cta_resident(cfg: &SimConfig, profile: &Profile) -> bool {
+    resident_ctas(cfg) * cfg.gpu.sms as usize >= profile.ctas.len()
+}
+
+/// The method `cfg.sample` uses on `profile`'s frame: stripes where every CTA is resident, the
+/// profile has the stripes and `sample.stripes` is on, below the whole GPU; else strata.
+pub fn method(cfg: &SimConfig, profile: &Profile) -> Method {
+    let stripes = cfg.sample.stripes
+        && cfg.sample.fraction < 1.0
+        && profile.stripes.len() == cfg.gpu.sms as usize
+        && every_cta_resident(cfg, profile);
+    if stripes {
+        Method::Stripes
+    } else {
+        Method::Strata
+    }
+}
+
 impl SampledStats {
     /// The replicates' extrapolated cycles.
     pub fn replicate_cycles(&self) -> Vec<f64> {
@@ -87,13 +143,33 @@ impl SampledStats {
     }
 }
 
-/// The CTA samples of `cfg.sample`'s replicates for a frame with `profile`.
-pub fn samples(cfg: &SimConfig, profile: &Profile) -> Vec<Vec<u32>> {
-    let costs: Vec<u64> = profile.ctas.iter().map(|c| c.fetches).collect();
+/// `cfg` with stripe sampling's replicates made one: `fraction x replicates` of the GPU in one
+/// replicate, if that is a scale model (a whole number of SMs dividing the GPU's); else `None`
+/// (the replicates run apart).
+fn stripes_together(cfg: &SimConfig) -> Option<SimConfig> {
+    let mut c = cfg.clone();
+    c.sample.fraction = cfg.sample.fraction * f64::from(cfg.sample.replicates);
+    c.sample.replicates = 1;
+    (c.sample.fraction <= 1.0 + 1e-9 && c.sample.scale_sms(cfg.gpu.sms).is_some()).then_some(c)
+}
+
+/// The CTA samples of `cfg.sample`'s replicates for a frame with `profile`, by
+/// [`method`]; an error when stripe sampling needs more stripes than the GPU has.
+pub fn samples(cfg: &SimConfig, profile: &Profile) -> Result<Vec<Vec<u32>>, String> {
     let s = &cfg.sample;
-    (0..s.replicates)
+    if method(cfg, profile) == Method::Stripes {
+        let k = s.scale_sms(cfg.gpu.sms).unwrap_or(1) as usize;
+        return stripe_samples(
+            &profile.stripes,
+            profile.ctas.len(),
+            k,
+            s.replicates as usize,
+        );
+    }
+    let costs: Vec<u64> = profile.ctas.iter().map(|c| c.fetches).collect();
+    Ok((0..s.replicates)
         .map(|r| stratified_sample(&costs, s.fraction, s.seed, r))
-        .collect()
+        .collect())
 }
 
 /// Simulates `cfg.sample`'s replicates of `cfg`'s workload on `scene` (BVH `bvh`, functional
@@ -110,8 +186,22 @@ pub fn simulate_sampled(
     cfg.sample
         .validate(cfg)
         .map_err(|e| SimError::Setup(e.to_string()))?;
+    let method = method(cfg, profile);
+    let samples = samples(cfg, profile).map_err(SimError::Setup)?;
+    // Stripe sampling runs every replicate's stripes together, sharing one L2 as they do in
+    // the full GPU, where they make a scale model (their SMs divide the GPU's).
+    let together = (method == Method::Stripes)
+        .then(|| stripes_together(cfg))
+        .flatten();
+    let (cfg, samples) = match &together {
+        Some(c) => {
+            let mut all: Vec<u32> = samples.concat();
+            all.sort_unstable();
+            (c, vec![all])
+        }
+        None => (cfg, samples),
+    };
     let model = cfg.sample.scale_model(cfg);
-    let samples = samples(cfg, profile);
     let total = profile.work(None);
     let full_work: Vec<f64> = profile.ctas.iter().map(|c| c.fetches as f64).collect();
     let sms = cfg.gpu.sms as usize;
@@ -135,16 +225,32 @@ pub fn simulate_sampled(
         };
         let options = SimOptions {
             ctas: (ctas.len() < profile.ctas.len()).then(|| ctas.clone()),
+            // Threads left over by fewer replicates simulate a replicate's SMs (the same
+            // results for any count).
+            threads: (threads / samples.len()).max(1),
             ..SimOptions::default()
         };
         let sample_work: Vec<f64> = ctas
             .iter()
             .map(|&c| profile.ctas[c as usize].fetches as f64)
             .collect();
-        let dispatch = makespan_ratio(&full_work, sms, &sample_work, scale_sms, resident);
+        // A stripe's SM runs the same CTAs in the full GPU: its cycles need no carrying.
+        let (dispatch, stripes) = match method {
+            Method::Strata => (
+                makespan_ratio(&full_work, sms, &sample_work, scale_sms, resident),
+                Vec::new(),
+            ),
+            Method::Stripes => {
+                let mut chosen: Vec<u32> = ctas.iter().map(|&c| c % sms as u32).collect();
+                chosen.sort_unstable();
+                chosen.dedup();
+                (1.0, chosen)
+            }
+        };
         let result = simulate(scene, bvh, &model, options, None).map(|out| Replicate {
             ctas: ctas.len(),
             work_share,
+            stripes,
             cycles: out.stats.cycles as f64 * dispatch,
             stats: out.stats,
         });
@@ -165,13 +271,14 @@ pub fn simulate_sampled(
         runs.push(result?);
     }
     let sim_seconds = start.elapsed().as_secs_f64();
-    Ok(combine(cfg, profile, runs, sim_seconds))
+    Ok(combine(cfg, profile, method, runs, sim_seconds))
 }
 
 /// The estimates from the replicates `runs`.
 fn combine(
     cfg: &SimConfig,
     profile: &Profile,
+    method: Method,
     runs: Vec<Replicate>,
     sim_seconds: f64,
 ) -> SampledStats {
@@ -186,6 +293,23 @@ fn combine(
         }
     };
     let first = &runs[0].stats;
+    let bias_bound = bias_bound(cfg, profile, method);
+    let cycles = match method {
+        Method::Strata => {
+            let e = each(&|r| r.cycles);
+            Estimate {
+                half_width: e.half_width.map(|h| h + bias_bound * e.value),
+                ..e
+            }
+        }
+        Method::Stripes => {
+            let slowest = runs.iter().map(|r| r.cycles).fold(0.0, f64::max);
+            Estimate {
+                value: slowest,
+                half_width: Some(slowest * bias_bound),
+            }
+        }
+    };
     SampledStats {
         scene: first.scene.clone(),
         mode: first.mode.clone(),
@@ -193,9 +317,11 @@ fn combine(
         scale_sms: cfg.sample.scale_sms(cfg.gpu.sms).unwrap_or(1),
         replicates: cfg.sample.replicates,
         seed: cfg.sample.seed,
-        every_cta_resident: resident_ctas(cfg) * cfg.gpu.sms as usize >= profile.ctas.len(),
+        every_cta_resident: every_cta_resident(cfg, profile),
+        method,
+        bias_bound,
         rays: profile.work(None).rays,
-        cycles: each(&|r| r.cycles),
+        cycles,
         bvh_l1_miss_rate: each(&|r| r.stats.bvh_l1_miss_rate),
         simt_efficiency: each(&|r| r.stats.simt_efficiency),
         phase_shares: [
@@ -210,16 +336,37 @@ fn combine(
     }
 }
 
-/// The speedup of `design` over `baseline` (sampled with the same settings and seed, so each
-/// replicate ran the same CTAs on both): per replicate the ratio of their extrapolated cycles
-/// (each design's own dispatch model: their CTAs in flight differ), combined into an estimate
-/// with its interval (the pairing cancels most of the sampling noise).
+/// The speedup of `design` over `baseline` (sampled with the same settings and seed). Both
+/// stratified, each replicate ran the same CTAs on both: per replicate the ratio of their
+/// extrapolated cycles (each design's own dispatch model: their CTAs in flight differ),
+/// combined into an estimate with its interval (the pairing cancels most of the sampling
+/// noise) widened by both designs' bias bounds. Where either used stripes the replicates do
+/// not pair: the ratio of the two estimates, its relative half-width the sum of theirs (no
+/// interval if either has none).
 pub fn paired_speedup(baseline: &SampledStats, design: &SampledStats) -> Estimate {
+    if baseline.method == Method::Stripes || design.method == Method::Stripes {
+        let (b, d) = (baseline.cycles, design.cycles);
+        let value = b.value / d.value.max(1.0);
+        let relative = |e: Estimate| e.half_width.map(|h| h / e.value.max(1.0));
+        return Estimate {
+            value,
+            half_width: relative(b)
+                .zip(relative(d))
+                .map(|(rb, rd)| value * (rb + rd)),
+        };
+    }
     let ratios: Vec<f64> = baseline
         .replicate_runs
         .iter()
         .zip(&design.replicate_runs)
         .map(|(b, d)| b.cycles / d.cycles.max(1.0))
         .collect();
-    Estimate::of(&ratios)
+    // The replicates' spread, plus both designs' bias bounds (their biases need not cancel).
+    let e = Estimate::of(&ratios);
+    Estimate {
+        half_width: e
+            .half_width
+            .map(|h| h + e.value * (baseline.bias_bound + design.bias_bound)),
+        ..e
+    }
 }

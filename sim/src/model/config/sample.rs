@@ -5,6 +5,14 @@ use serde::{Deserialize, Serialize};
 
 use super::{ConfigError, SimConfig};
 
+/// Stripe sampling's default `stripe_bound`: above its error of cycles on the 256x256
+/// scenes under VTQ but for two with known causes (docs/accuracy.md, "Stripe sampling").
+pub const STRIPE_BOUND: f64 = 0.07;
+
+/// Stratified sampling's default `tail_bound`: the smallest that held 90% of the issue's
+/// 256x256 baseline and prefetch estimates at 1/16x4 (docs/accuracy.md, "Honest intervals").
+pub const TAIL_BOUND: f64 = 0.3;
+
 /// Largest number of replicates.
 pub const MAX_REPLICATES: u32 = 256;
 
@@ -22,6 +30,21 @@ pub struct SampleConfig {
     pub replicates: u32,
     /// Seed of the CTA samples (replicate `r` uses a stream derived from it and `r`).
     pub seed: u64,
+    /// Stripe sampling where the design's SMs hold every CTA of the frame at once: the
+    /// replicates simulate the whole stripes (one SM's fixed CTAs) the profile predicts slowest
+    /// instead of stratified samples, and the estimate of cycles is the slowest of them
+    /// (docs/accuracy.md). `false`: stratified samples everywhere.
+    pub stripes: bool,
+    /// Half-width of stripe sampling's interval of cycles, relative to its estimate: a bound on
+    /// the method's error validated against full detail (docs/accuracy.md), not a sampling
+    /// interval (0 <= stripe_bound < 1).
+    pub stripe_bound: f64,
+    /// Bias bound of stratified sampling: its interval of cycles is the replicates' Student-t
+    /// half-width plus `tail_bound / waves` of the estimate, `waves` being the frame's CTAs over
+    /// the CTAs the GPU holds at once — the share of the run in which the slowest SM's last
+    /// CTAs, which a sample does not see, decide the end (docs/accuracy.md; 0 <= tail_bound
+    /// <= 10; 0: sampling noise only).
+    pub tail_bound: f64,
 }
 
 impl Default for SampleConfig {
@@ -30,6 +53,9 @@ impl Default for SampleConfig {
             fraction: 0.125,
             replicates: 4,
             seed: 1,
+            stripes: true,
+            stripe_bound: STRIPE_BOUND,
+            tail_bound: TAIL_BOUND,
         }
     }
 }
@@ -97,6 +123,16 @@ impl SampleConfig {
                 f,
                 "must be in (0, 1]: the share of the GPU and of the frame simulated",
             ));
+        }
+        if !(0.0..1.0).contains(&self.stripe_bound) {
+            return Err(invalid(
+                "stripe_bound",
+                self.stripe_bound,
+                "must be in [0, 1)",
+            ));
+        }
+        if !(0.0..=10.0).contains(&self.tail_bound) {
+            return Err(invalid("tail_bound", self.tail_bound, "must be in [0, 10]"));
         }
         if !(1..=MAX_REPLICATES).contains(&self.replicates) {
             return Err(invalid(
@@ -233,10 +269,24 @@ mod tests {
             let s = SampleConfig {
                 fraction,
                 replicates,
-                seed: 1,
+                ..SampleConfig::default()
             };
             let e = s.validate(&cfg).unwrap_err();
             assert_eq!(e.key(), Some(key), "{e}");
+        }
+        for bound in [-0.1, 1.0, f64::NAN] {
+            let s = SampleConfig {
+                stripe_bound: bound,
+                ..SampleConfig::default()
+            };
+            let e = s.validate(&cfg).unwrap_err();
+            assert_eq!(e.key(), Some("sample.stripe_bound"), "{e}");
+            let s = SampleConfig {
+                tail_bound: bound * 20.0,
+                ..SampleConfig::default()
+            };
+            let e = s.validate(&cfg).unwrap_err();
+            assert_eq!(e.key(), Some("sample.tail_bound"), "{e}");
         }
         // 3 of 16 SMs cannot each stand for the same number of SMs.
         let s = SampleConfig {
