@@ -205,12 +205,26 @@ fn run_sampled(
         .with_context(|| format!("simulating scene '{}' (sampled)", scene.name))?;
     let json = serde_json::to_string_pretty(&s).context("serializing the estimates")?;
     write_json(&args.out, &(json + "\n"))?;
+    let how = match s.method {
+        crate::estimate::sample::Method::Strata => format!(
+            "{} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals",
+            s.replicates,
+            s.scale_sms,
+            1.0 / s.fraction
+        ),
+        crate::estimate::sample::Method::Stripes => {
+            let stripes: Vec<Vec<u32>> =
+                s.replicate_runs.iter().map(|r| r.stripes.clone()).collect();
+            format!(
+                "the stripes ranked slowest, {stripes:?}, on scale models of {} SM(s); \
+                 cycles within the validated bound",
+                s.scale_sms
+            )
+        }
+    };
     println!(
-        "sim (sampled: {} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals): cycles \
-         {}, {} rays, SIMT efficiency {}, BVH L1 miss rate {}; {:.2} s wall ({:.2} s profile)",
-        s.replicates,
-        s.scale_sms,
-        1.0 / s.fraction,
+        "sim (sampled: {how}): cycles {}, {} rays, SIMT efficiency {}, BVH L1 miss rate {}; \
+         {:.2} s wall ({:.2} s profile)",
         s.cycles.display(0),
         s.rays,
         s.simt_efficiency.display(3),
@@ -219,14 +233,7 @@ fn run_sampled(
         s.profile_seconds
     );
     if s.method == crate::estimate::sample::Method::Stripes {
-        println!(
-            "stripes {:?}: {}",
-            s.replicate_runs
-                .iter()
-                .map(|r| r.stripes.clone())
-                .collect::<Vec<_>>(),
-            crate::estimate::sample::STRIPE_NOTE
-        );
+        println!("note: {}", crate::estimate::sample::STRIPE_NOTE);
     } else if s.every_cta_resident {
         println!("caution: {}", crate::estimate::sample::STRIPE_CAUTION);
     }

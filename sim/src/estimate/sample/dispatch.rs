@@ -21,6 +21,16 @@ pub fn resident_ctas(cfg: &crate::model::config::SimConfig) -> usize {
     }
 }
 
+/// The CTAs `cfg`'s GPU holds at once: [`resident_ctas`] on every SM.
+pub fn held_at_once(cfg: &crate::model::config::SimConfig) -> usize {
+    resident_ctas(cfg) * cfg.gpu.sms as usize
+}
+
+/// Whether `cfg`'s design holds a frame of `ctas` CTAs at once.
+pub fn holds_every_cta(cfg: &crate::model::config::SimConfig, ctas: usize) -> bool {
+    held_at_once(cfg) >= ctas
+}
+
 /// The makespan (in work units) of `work` (per CTA, in dispatch order) on `sms` SMs holding up
 /// to `resident` CTAs each.
 pub fn makespan(work: &[f64], sms: usize, resident: usize) -> f64 {

@@ -48,7 +48,7 @@ pub struct Profile {
     /// Per CTA, in CTA order (tiles row-major).
     pub ctas: Vec<CtaWork>,
     /// Per stripe `s` (the CTAs `c mod gpu.sms = s`), when the frame has at most as many CTAs
-    /// as the GPU's SMs can hold at once under ray virtualization ([`holds_every_cta`]); empty
+    /// as the GPU's SMs can hold at once under ray virtualization ([`stripes_possible`]); empty
     /// otherwise.
     pub stripes: Vec<StripeWork>,
     /// Wall-clock seconds the profile took.
@@ -59,12 +59,12 @@ pub struct Profile {
 const LINE_BYTES: u32 = 32;
 
 /// Whether a frame of `ctas` CTAs is small enough for `cfg`'s GPU to hold every CTA at once in
-/// some design: at most `gpu.sms` times the CTAs a ray-virtualizing SM holds (its CTA slots, or
-/// as many as `hw.max_rays` covers). The profile sums the stripes only then.
-pub fn holds_every_cta(cfg: &SimConfig, ctas: usize) -> bool {
+/// some design: a ray-virtualizing SM holds the most (its CTA slots, or as many as `hw.max_rays`
+/// covers). The profile sums the stripes only then.
+pub fn stripes_possible(cfg: &SimConfig, ctas: usize) -> bool {
     let mut virtualizing = cfg.clone();
     virtualizing.mode.virtualization = true;
-    ctas <= super::dispatch::resident_ctas(&virtualizing) * cfg.gpu.sms as usize
+    super::dispatch::holds_every_cta(&virtualizing, ctas)
 }
 
 impl Profile {
@@ -75,7 +75,7 @@ impl Profile {
         settings.validate()?;
         let frame = CameraFrame::new(&scene.camera, settings.width, settings.height)?;
         let scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
-        let with_stripes = holds_every_cta(cfg, scheduler.total() as usize);
+        let with_stripes = stripes_possible(cfg, scheduler.total() as usize);
         let sms = cfg.gpu.sms.max(1) as usize;
         // Per stripe, one bit per 32 B line of the BVH's address space (a slot of
         // `treelet_bytes` per treelet, the header's included): set by every fetch of its CTAs.

@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::dispatch::{makespan_ratio, resident_ctas};
+use super::dispatch::{held_at_once, holds_every_cta, makespan_ratio, resident_ctas};
 use super::estimate::Estimate;
 use super::profile::Profile;
 use super::strata::stratified_sample;
@@ -109,17 +109,16 @@ fn bias_bound(cfg: &SimConfig, profile: &Profile, method: Method) -> f64 {
     match method {
         Method::Stripes => cfg.sample.stripe_bound,
         Method::Strata => {
-            let held = (resident_ctas(cfg) * cfg.gpu.sms as usize).max(1);
+            let held = held_at_once(cfg).max(1);
             let waves = (profile.ctas.len() as f64 / held as f64).max(1.0);
             cfg.sample.tail_bound / waves
         }
     }
 }
 
-/// Whether `cfg`'s design holds every CTA of `profile`'s frame at once: its SMs' resident CTAs
-/// ([`resident_ctas`]) cover the frame.
+/// Whether `cfg`'s design holds every CTA of `profile`'s frame at once.
 pub fn every_cta_resident(cfg: &SimConfig, profile: &Profile) -> bool {
-    resident_ctas(cfg) * cfg.gpu.sms as usize >= profile.ctas.len()
+    holds_every_cta(cfg, profile.ctas.len())
 }
 
 /// The method `cfg.sample` uses on `profile`'s frame: stripes where every CTA is resident, the
@@ -342,8 +341,15 @@ fn combine(
 /// combined into an estimate with its interval (the pairing cancels most of the sampling
 /// noise) widened by both designs' bias bounds. Where either used stripes the replicates do
 /// not pair: the ratio of the two estimates, its relative half-width the sum of theirs (no
-/// interval if either has none).
+/// interval if either has none). A design over itself (the same estimates) is exactly 1.
 pub fn paired_speedup(baseline: &SampledStats, design: &SampledStats) -> Estimate {
+    // A design over itself: exactly 1.
+    if std::ptr::eq(baseline, design) {
+        return Estimate {
+            value: 1.0,
+            half_width: baseline.cycles.half_width.map(|_| 0.0),
+        };
+    }
     if baseline.method == Method::Stripes || design.method == Method::Stripes {
         let (b, d) = (baseline.cycles, design.cycles);
         let value = b.value / d.value.max(1.0);
