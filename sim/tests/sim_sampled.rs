@@ -348,3 +348,51 @@ fn large_frames_have_no_stripes() {
     assert!((s.cycles.half_width.unwrap() - expected).abs() < 1e-6);
     assert_eq!(s.cycles.value, t.value);
 }
+
+/// A stratified replicate's cycles are carried to the whole frame by the dispatch model with
+/// each CTA's cost as the design's RT unit pays it: the baseline's, which keeps a warp until
+/// its slowest ray is done, its warps' lockstep fetches (between a warp's share of the CTA's
+/// fetches and all of them, and above the share where a warp's rays differ); the treelet RT
+/// unit's, which repacks rays, every fetch.
+#[test]
+fn the_dispatch_model_costs_ctas_as_the_design_pays_them() {
+    use vtq_sim::estimate::sample::dispatch::{makespan_ratio, resident_ctas};
+    for (mode, lockstep) in [("baseline", true), ("queues", false)] {
+        // 136x136: 289 CTAs, more than any design's 4 SMs hold at once: strata.
+        let size = ["width=136", "height=136"];
+        let vtq = [
+            &size[..],
+            &["mode.grouping=true", "mode.virtualization=true"],
+        ]
+        .concat();
+        let cfg = sampled_config(mode, "1/4x2", if lockstep { &size } else { &vtq });
+        let (scene, bvh) = setup("cornell", &cfg);
+        let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
+        let warp = u64::from(cfg.gpu.warp_size);
+        for w in &profile.ctas {
+            assert!(w.warp_fetches <= w.fetches && w.warp_fetches * warp >= w.fetches);
+        }
+        let (fetches, lockstep_fetches) = profile
+            .ctas
+            .iter()
+            .fold((0, 0), |(f, l), w| (f + w.fetches, l + w.warp_fetches));
+        assert!(lockstep_fetches * warp > fetches, "every ray alike?");
+        let s = simulate_sampled(&scene, &bvh, &cfg, &profile, 1).unwrap();
+        assert_eq!(s.method, Method::Strata);
+        let cost = |c: u32| {
+            let w = &profile.ctas[c as usize];
+            (if lockstep { w.warp_fetches } else { w.fetches }) as f64
+        };
+        let full: Vec<f64> = (0..profile.ctas.len() as u32).map(cost).collect();
+        let samples = vtq_sim::estimate::sample::run::samples(&cfg, &profile).unwrap();
+        for (r, ctas) in s.replicate_runs.iter().zip(&samples) {
+            let sample: Vec<f64> = ctas.iter().map(|&c| cost(c)).collect();
+            let ratio = makespan_ratio(&full, 4, &sample, 1, resident_ctas(&cfg));
+            let carried = r.stats.cycles as f64 * ratio;
+            assert!(
+                (r.cycles - carried).abs() <= 1e-9 * carried,
+                "{mode}: {r:?}"
+            );
+        }
+    }
+}

@@ -29,6 +29,10 @@ pub struct CtaWork {
     pub rays: u64,
     /// BVH node fetches of those rays (treelet order, header included).
     pub fetches: u64,
+    /// Its warps' fetches in lockstep: per warp and trace (a warp's `k`-th trace holds its
+    /// threads' `k`-th rays), the most fetches of any of its rays, summed — what a warp costs
+    /// an RT unit that keeps it until its slowest ray is done.
+    pub warp_fetches: u64,
 }
 
 /// The work of one stripe: the CTAs `c` with `c mod gpu.sms = s`.
@@ -67,6 +71,44 @@ pub fn stripes_possible(cfg: &SimConfig, ctas: usize) -> bool {
     super::dispatch::holds_every_cta(&virtualizing, ctas)
 }
 
+/// The fetches of warps of `warp` threads tracing in lockstep: per warp, the sum over its
+/// traces `k` of the most fetches of any of its threads' `k`-th rays (`traces[t]`: thread `t`'s
+/// rays' fetches in order).
+fn lockstep_fetches(traces: &[Vec<u32>], warp: usize) -> u64 {
+    traces
+        .chunks(warp)
+        .map(|lanes| {
+            let longest = lanes.iter().map(Vec::len).max().unwrap_or(0);
+            (0..longest)
+                .map(|k| {
+                    let most = lanes.iter().filter_map(|t| t.get(k)).max();
+                    u64::from(most.copied().unwrap_or(0))
+                })
+                .sum::<u64>()
+        })
+        .sum()
+}
+
+/// Sets the bits of `bits` (one per 32 B line of the BVH's address space) of every line the
+/// fetches `fetches` touch.
+fn mark_lines(bits: &[AtomicU64], fetches: &[crate::model::traversal::Fetch]) {
+    for f in fetches {
+        let first = f.addr / LINE_BYTES;
+        let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
+        for line in first..=last {
+            // Every node lies inside the address space.
+            let Some(word) = bits.get((line / 64) as usize) else {
+                debug_assert!(false, "line {line} beyond the BVH");
+                continue;
+            };
+            let bit = 1u64 << (line % 64);
+            if word.load(Ordering::Relaxed) & bit == 0 {
+                word.fetch_or(bit, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
 impl Profile {
     /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads.
     pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
@@ -77,6 +119,7 @@ impl Profile {
         let scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
         let with_stripes = stripes_possible(cfg, scheduler.total() as usize);
         let sms = cfg.gpu.sms.max(1) as usize;
+        let warp = cfg.gpu.warp_size.max(1) as usize;
         // Per stripe, one bit per 32 B line of the BVH's address space (a slot of
         // `treelet_bytes` per treelet, the header's included): set by every fetch of its CTAs.
         let words = if with_stripes {
@@ -90,43 +133,40 @@ impl Profile {
             .collect();
         let ctas = (0..scheduler.total())
             .into_par_iter()
-            .map_init(Vec::new, |fetches, cta| {
-                let mut work = CtaWork::default();
-                let footprint = footprints.get(cta as usize % sms);
-                for pixel in scheduler.pixels(cta).into_iter().flatten() {
-                    for sample in 0..settings.spp {
-                        let (mut path, mut ray) = PathState::new(&frame, &settings, pixel, sample);
-                        loop {
-                            fetches.clear();
-                            let hit = trace_with_fetches(bvh, &ray, Order::Hardware, fetches);
-                            work.rays += 1;
-                            work.fetches += fetches.len() as u64;
-                            if let Some(bits) = footprint {
-                                for f in fetches.iter() {
-                                    let first = f.addr / LINE_BYTES;
-                                    let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
-                                    for line in first..=last {
-                                        // Every node lies inside the address space.
-                                        let Some(word) = bits.get((line / 64) as usize) else {
-                                            debug_assert!(false, "line {line} beyond the BVH");
-                                            continue;
-                                        };
-                                        let bit = 1u64 << (line % 64);
-                                        if word.load(Ordering::Relaxed) & bit == 0 {
-                                            word.fetch_or(bit, Ordering::Relaxed);
-                                        }
-                                    }
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(fetches, traces): &mut (Vec<_>, Vec<Vec<u32>>), cta| {
+                    let mut work = CtaWork::default();
+                    let footprint = footprints.get(cta as usize % sms);
+                    let pixels = scheduler.pixels(cta);
+                    // Per thread, the fetches of each of its rays in order.
+                    traces.resize_with(pixels.len(), Vec::new);
+                    traces.iter_mut().for_each(Vec::clear);
+                    for (thread, pixel) in pixels.into_iter().enumerate() {
+                        let Some(pixel) = pixel else { continue };
+                        for sample in 0..settings.spp {
+                            let (mut path, mut ray) =
+                                PathState::new(&frame, &settings, pixel, sample);
+                            loop {
+                                fetches.clear();
+                                let hit = trace_with_fetches(bvh, &ray, Order::Hardware, fetches);
+                                work.rays += 1;
+                                work.fetches += fetches.len() as u64;
+                                traces[thread].push(fetches.len() as u32);
+                                if let Some(bits) = footprint {
+                                    mark_lines(bits, fetches);
                                 }
-                            }
-                            match path.on_hit(scene, hit) {
-                                Some(next) => ray = next,
-                                None => break,
+                                match path.on_hit(scene, hit) {
+                                    Some(next) => ray = next,
+                                    None => break,
+                                }
                             }
                         }
                     }
-                }
-                work
-            })
+                    work.warp_fetches = lockstep_fetches(traces, warp);
+                    work
+                },
+            )
             .collect::<Vec<CtaWork>>();
         let stripes = footprints
             .iter()
@@ -158,6 +198,7 @@ impl Profile {
         let add = |a: CtaWork, b: &CtaWork| CtaWork {
             rays: a.rays + b.rays,
             fetches: a.fetches + b.fetches,
+            warp_fetches: a.warp_fetches + b.warp_fetches,
         };
         match subset {
             None => self.ctas.iter().fold(CtaWork::default(), add),
@@ -166,5 +207,24 @@ impl Profile {
                 .map(|&c| &self.ctas[c as usize])
                 .fold(CtaWork::default(), add),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Warps of two threads: each trace costs its longest ray; a thread with fewer rays (its
+    /// path ended) or none (off the frame) adds nothing to the traces after its last.
+    #[test]
+    fn lockstep_fetches_sum_each_traces_longest_ray() {
+        let traces = vec![vec![3, 1], vec![5], vec![2, 4, 6], vec![]];
+        // Warp 0: max(3, 5) + 1; warp 1: 2 + 4 + 6.
+        assert_eq!(lockstep_fetches(&traces, 2), 6 + 12);
+        // One warp of four: max(3, 5, 2) + max(1, 4) + 6.
+        assert_eq!(lockstep_fetches(&traces, 4), 5 + 4 + 6);
+        // Threads alone: every fetch.
+        assert_eq!(lockstep_fetches(&traces, 1), 21);
+        assert_eq!(lockstep_fetches(&[], 32), 0);
     }
 }

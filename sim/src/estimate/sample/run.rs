@@ -6,7 +6,8 @@
 //! Extrapolation: the scale model gives each simulated SM the share of CTAs, L2 capacity and
 //! DRAM bandwidth a full-GPU SM has, so its cycle count estimates the full GPU's. A replicate's
 //! cycles are carried to the whole frame by the dispatch model's makespan ratio
-//! ([`super::dispatch`]). Rates (BVH L1 miss rate, SIMT efficiency, phase shares) are taken as
+//! ([`super::dispatch`]), with each CTA's cost from the profile as the design's RT unit pays it
+//! (`dispatch_cost`: its warps' lockstep fetches, or every fetch under treelet queues). Rates (BVH L1 miss rate, SIMT efficiency, phase shares) are taken as
 //! measured; DRAM bytes scale by the inverse of the sample's share of the frame's fetches.
 //!
 //! Where the design's SMs hold every CTA at once and `sample.stripes` is on, the replicates run
@@ -22,7 +23,7 @@ use serde::Serialize;
 
 use super::dispatch::{held_at_once, holds_every_cta, makespan_ratio, resident_ctas};
 use super::estimate::Estimate;
-use super::profile::Profile;
+use super::profile::{CtaWork, Profile};
 use super::strata::stratified_sample;
 use super::stripes::stripe_samples;
 use crate::model::bvh::HwBvh;
@@ -152,6 +153,18 @@ fn stripes_together(cfg: &SimConfig) -> Option<SimConfig> {
     (c.sample.fraction <= 1.0 + 1e-9 && c.sample.scale_sms(cfg.gpu.sms).is_some()).then_some(c)
 }
 
+/// What CTA `work` costs an SM of `cfg`'s design in the dispatch model: an RT unit that keeps
+/// a warp until its slowest ray is done (the baseline's, prefetching's) pays its warps'
+/// lockstep fetches ([`CtaWork::warp_fetches`]); the treelet RT unit, whose rays leave their
+/// warps for the treelets' queues and are repacked, pays every fetch once.
+fn dispatch_cost(cfg: &SimConfig, work: &CtaWork) -> f64 {
+    if cfg.mode.treelet_queues() {
+        work.fetches as f64
+    } else {
+        work.warp_fetches as f64
+    }
+}
+
 /// The CTA samples of `cfg.sample`'s replicates for a frame with `profile`, by
 /// [`method`]; an error when stripe sampling needs more stripes than the GPU has.
 pub fn samples(cfg: &SimConfig, profile: &Profile) -> Result<Vec<Vec<u32>>, String> {
@@ -202,7 +215,7 @@ pub fn simulate_sampled(
     };
     let model = cfg.sample.scale_model(cfg);
     let total = profile.work(None);
-    let full_work: Vec<f64> = profile.ctas.iter().map(|c| c.fetches as f64).collect();
+    let full_work: Vec<f64> = profile.ctas.iter().map(|c| dispatch_cost(cfg, c)).collect();
     let sms = cfg.gpu.sms as usize;
     let scale_sms = model.gpu.sms as usize;
     let resident = resident_ctas(cfg);
@@ -231,7 +244,7 @@ pub fn simulate_sampled(
         };
         let sample_work: Vec<f64> = ctas
             .iter()
-            .map(|&c| profile.ctas[c as usize].fetches as f64)
+            .map(|&c| dispatch_cost(cfg, &profile.ctas[c as usize]))
             .collect();
         // A stripe's SM runs the same CTAs in the full GPU: its cycles need no carrying.
         let (dispatch, stripes) = match method {
