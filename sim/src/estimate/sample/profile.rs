@@ -1,7 +1,8 @@
 //! The functional profile the sampled tier stratifies by: for every CTA of the frame, the rays
-//! its threads trace and the BVH nodes those rays fetch, from the functional path tracer (the
-//! same paths, hence the same rays, the simulation traces) in the treelet traversal order the
-//! simulated RT units use. One traversal per ray, CTAs in parallel.
+//! its threads trace and the BVH nodes those rays fetch — in all, and as its warps fetch them in
+//! lockstep (each trace's longest ray) — from the functional path tracer (the same paths, hence
+//! the same rays, the simulation traces) in the treelet traversal order the simulated RT units
+//! use. One traversal per ray, CTAs in parallel.
 //!
 //! On frames small enough for a design with ray virtualization to hold every CTA at once, the
 //! profile also sums each *stripe* — the CTAs `c` with `c mod gpu.sms = s`, which SM `s` runs
@@ -18,7 +19,7 @@ use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::gpu::cta_scheduler::CtaScheduler;
 use crate::model::scene::Scene;
-use crate::model::traversal::{trace_with_fetches, Order};
+use crate::model::traversal::{trace_with_fetches, Fetch, Order};
 use crate::model::workload::camera::CameraFrame;
 use crate::model::workload::pathtracer::{PathState, RenderError};
 
@@ -91,7 +92,7 @@ fn lockstep_fetches(traces: &[Vec<u32>], warp: usize) -> u64 {
 
 /// Sets the bits of `bits` (one per 32 B line of the BVH's address space) of every line the
 /// fetches `fetches` touch.
-fn mark_lines(bits: &[AtomicU64], fetches: &[crate::model::traversal::Fetch]) {
+fn mark_lines(bits: &[AtomicU64], fetches: &[Fetch]) {
     for f in fetches {
         let first = f.addr / LINE_BYTES;
         let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
