@@ -357,3 +357,90 @@ fn bad_sweeps_fail_before_running() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// From a folder without the project's files (a cluster node with only the binary), a sweep
+/// names the project's designs by name or by their files and its experiment files by name:
+/// vtq's built-in copies, the same runs (by their keys) as the files' in a checkout.
+#[test]
+fn designs_and_experiments_run_from_anywhere_by_name() {
+    let dir = temp_dir("anywhere");
+    let tiny = ["--set", "width=8", "--set", "height=8"];
+    let args = |extra: &[&str]| -> Vec<String> {
+        extra.iter().chain(&tiny).map(|s| s.to_string()).collect()
+    };
+    let by_name = run(
+        &dir,
+        &args(&[
+            "sweep",
+            "--scene",
+            "wknd",
+            "--config",
+            "vtq",
+            "--config",
+            "configs/queues-naive.toml",
+            "--results",
+            "r1",
+        ]),
+    );
+    assert!(by_name.status.success(), "{}", text(&by_name));
+    assert!(
+        text(&by_name).contains("ran 2 (2 ok, 0 failed)"),
+        "{}",
+        text(&by_name)
+    );
+    // The same two designs from the checkout's files are the same runs: nothing runs again.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let naive = root.join("configs/queues-naive.toml").display().to_string();
+    let from_files = run(
+        &dir,
+        &args(&[
+            "sweep",
+            "--scene",
+            "wknd",
+            "--config",
+            &vtq_toml(),
+            "--config",
+            &naive,
+            "--results",
+            "r1",
+        ]),
+    );
+    assert!(text(&from_files).contains("ran 0"), "{}", text(&from_files));
+    // An experiment file by name: read (its first point, the baseline's file, names the bad
+    // override before anything runs); an unknown design or experiment is a one-line error.
+    let fig10 = run(
+        &dir,
+        &args(&[
+            "sweep",
+            "--spec",
+            "fig10-speedup",
+            "--set",
+            "nosuch=1",
+            "--results",
+            "r2",
+        ]),
+    );
+    assert!(!fig10.status.success());
+    assert!(
+        text(&fig10).contains("sweep point wknd baseline.toml: --set `nosuch=1`: unknown key"),
+        "{}",
+        text(&fig10)
+    );
+    assert!(!dir.join("r2").exists());
+    for (flag, name, says) in [
+        (
+            "--config",
+            "fastest",
+            "not a built-in design's name or file",
+        ),
+        ("--spec", "fig99", "cannot read sweep file fig99"),
+    ] {
+        let out = run(
+            &dir,
+            &args(&["sweep", "--scene", "wknd", flag, name, "--results", "r3"]),
+        );
+        assert!(!out.status.success());
+        assert!(text(&out).contains(says), "{}", text(&out));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -61,8 +61,8 @@ const TINY: [&str; 8] = [
     "height=16",
 ];
 
-/// Runs the tiny reproduction into `out` (from `cwd`, so the experiment files are found beside
-/// the sources) with `extra` arguments.
+/// Runs the tiny reproduction into `out` (from `cwd`, a scratch folder without the project's
+/// files: the experiment files and designs are vtq's built-in copies) with `extra` arguments.
 fn reproduce(cwd: &Path, out: &Path, extra: &[&str]) -> String {
     let mut args = vec!["reproduce", "--out", out.to_str().unwrap(), "--jobs", "2"];
     args.extend(TINY);
@@ -86,6 +86,10 @@ fn reproduce_writes_every_figure_and_resumes() {
     assert!(log.contains("ran 18 (18 ok, 0 failed)"), "{log}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(
+        md.contains("experiment files in vtq's built-in copy of `configs/experiments`"),
+        "{md}"
+    );
     for stem in [
         "fig05",
         "fig01a",

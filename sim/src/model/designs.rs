@@ -4,9 +4,11 @@
 //! `[mode]` section picks the hardware beside each SM (`sim/src/model/config/mode.rs`), and any
 //! configuration file can be named by path instead.
 //!
-//! To add a design: write its configuration file, add one [`BuiltIn`] line to [`BUILT_INS`],
-//! and document it (README's design list, docs/config.md's `[mode]` table).
+//! To add a design: write its configuration file, add one [`BuiltIn`] line to [`BUILT_INS`]
+//! (a test checks that every file of `configs/` has one), and document it (README's design
+//! list, docs/config.md's `[mode]` table).
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use anyhow::{bail, Context};
@@ -27,8 +29,9 @@ pub struct BuiltIn {
     pub summary: &'static str,
 }
 
-/// Every built-in design; the paper's three first, in the default order of `--designs`.
-pub const BUILT_INS: [BuiltIn; 4] = [
+/// Every built-in design — every configuration file of `configs/` — the paper's three first, in
+/// the default order of `--designs`, then VTQ with prefetching and the ablations.
+pub const BUILT_INS: [BuiltIn; 10] = [
     BuiltIn {
         name: "baseline",
         path: "configs/baseline.toml",
@@ -53,6 +56,42 @@ pub const BUILT_INS: [BuiltIn; 4] = [
         toml: include_str!("../../../configs/vtq-prefetch.toml"),
         summary: "VTQ with treelet prefetching in its ray-stationary phases",
     },
+    BuiltIn {
+        name: "vtq-prefetch-all",
+        path: "configs/vtq-prefetch-all.toml",
+        toml: include_str!("../../../configs/vtq-prefetch-all.toml"),
+        summary: "VTQ with treelet prefetching in every phase",
+    },
+    BuiltIn {
+        name: "queues-naive",
+        path: "configs/queues-naive.toml",
+        toml: include_str!("../../../configs/queues-naive.toml"),
+        summary: "ablation: treelet queues without grouping or repacking (Figure 12)",
+    },
+    BuiltIn {
+        name: "queues-grouping",
+        path: "configs/queues-grouping.toml",
+        toml: include_str!("../../../configs/queues-grouping.toml"),
+        summary: "ablation: treelet queues with grouping, no repacking (Figures 12, 13)",
+    },
+    BuiltIn {
+        name: "queues-repack16",
+        path: "configs/queues-repack16.toml",
+        toml: include_str!("../../../configs/queues-repack16.toml"),
+        summary: "ablation: repacking warps below 16 active rays (Figure 13)",
+    },
+    BuiltIn {
+        name: "queues-threshold0",
+        path: "configs/queues-threshold0.toml",
+        toml: include_str!("../../../configs/queues-threshold0.toml"),
+        summary: "section 6.4: the queue threshold at zero, read literally",
+    },
+    BuiltIn {
+        name: "queues-skip-treelet",
+        path: "configs/queues-skip-treelet.toml",
+        toml: include_str!("../../../configs/queues-skip-treelet.toml"),
+        summary: "section 6.4: no treelet-stationary phase, the other reading",
+    },
 ];
 
 /// The built-in design called `name`.
@@ -69,6 +108,29 @@ impl BuiltIn {
             overrides,
         )?)
     }
+}
+
+/// The text of the configuration file `path`: the file where there is one, else the built-in
+/// design whose file it names (`configs/vtq.toml`) or whose name it is (`vtq`), so sweeps and
+/// experiments that name the project's configuration files run from any directory (a cluster
+/// node with only the binary). Anything else is an error naming the path.
+pub fn config_text(path: &Path) -> anyhow::Result<Cow<'static, str>> {
+    if path.exists() {
+        return std::fs::read_to_string(path)
+            .map(Cow::Owned)
+            .with_context(|| format!("cannot read config file {}", path.display()));
+    }
+    BUILT_INS
+        .iter()
+        .find(|b| Path::new(b.path) == path || Path::new(b.name) == path)
+        .map(|b| Cow::Borrowed(b.toml))
+        .with_context(|| {
+            format!(
+                "cannot read config file {}: no such file, and not a built-in design's name or \
+                 file (`vtq designs` lists them)",
+                path.display()
+            )
+        })
 }
 
 /// One design to simulate: a built-in one or a configuration file.
@@ -123,6 +185,46 @@ mod tests {
             let on_disk = std::fs::read_to_string(root.join(b.path)).unwrap();
             assert_eq!(b.toml, on_disk, "{} is stale in the binary", b.path);
         }
+        // Every configuration file is a built-in design, named after it.
+        let mut files: Vec<String> = std::fs::read_dir(root.join("configs"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|f| f.ends_with(".toml"))
+            .collect();
+        files.sort();
+        let mut built_in: Vec<String> = BUILT_INS
+            .iter()
+            .map(|b| {
+                assert_eq!(b.path, format!("configs/{}.toml", b.name));
+                format!("{}.toml", b.name)
+            })
+            .collect();
+        built_in.sort();
+        assert_eq!(files, built_in);
+    }
+
+    #[test]
+    fn config_text_reads_files_then_built_ins() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let file = root.join("configs/vtq.toml");
+        assert_eq!(config_text(&file).unwrap(), find("vtq").unwrap().toml);
+        // Relative to a directory without the project's files: the built-in, by file or name.
+        let elsewhere = std::env::temp_dir().join("vtq-config-text-test-nothing-here");
+        assert!(!elsewhere.exists());
+        for p in ["configs/queues-naive.toml", "queues-naive"] {
+            assert_eq!(
+                config_text(Path::new(p)).unwrap(),
+                find("queues-naive").unwrap().toml
+            );
+        }
+        let err = config_text(&elsewhere.join("configs/vtq.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("cannot read config file") && err.contains("vtq designs"),
+            "{err}"
+        );
+        assert!(config_text(Path::new("configs/fastest.toml")).is_err());
     }
 
     #[test]
@@ -147,7 +249,7 @@ mod tests {
         let err = resolve("fastest", &[]).err().unwrap().to_string();
         assert!(err.contains("unknown design 'fastest'"), "{err}");
         assert!(
-            err.contains("baseline, prefetch, vtq, vtq-prefetch"),
+            err.contains("baseline, prefetch, vtq, vtq-prefetch, vtq-prefetch-all, queues-naive"),
             "{err}"
         );
     }

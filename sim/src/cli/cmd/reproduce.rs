@@ -20,13 +20,11 @@ use crate::experiment::reproduce::beyond;
 use crate::experiment::reproduce::figures::{self, Figure};
 use crate::experiment::reproduce::page::Page;
 use crate::experiment::reproduce::tables;
-use crate::experiment::reproduce::{
-    check_experiments_dir, default_experiments_dir, load_experiment, project_root, scene_labels,
-    Results, FIGURE_EXPERIMENTS,
-};
+use crate::experiment::reproduce::{scene_labels, Experiments, Results, FIGURE_EXPERIMENTS};
 use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse};
 use crate::model::bvh::BvhParams;
 use crate::model::config::SimConfig;
+use crate::model::designs::config_text;
 use crate::model::scene::Scene;
 use crate::model::workload::pathtracer::render;
 
@@ -43,7 +41,8 @@ pub struct ReproduceArgs {
     /// [default: OUT/results].
     #[arg(long, value_name = "DIR")]
     pub results: Option<PathBuf>,
-    /// The folder of the paper's experiment files [default: configs/experiments].
+    /// The folder of the paper's experiment files [default: configs/experiments here, else
+    /// vtq's built-in copies].
     #[arg(long, value_name = "DIR")]
     pub experiments: Option<PathBuf>,
     /// Override one configuration key in every run, e.g. `--set width=64` (repeatable; the
@@ -71,15 +70,15 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let experiments = args
         .experiments
         .clone()
-        .unwrap_or_else(default_experiments_dir);
-    check_experiments_dir(&experiments)?;
-    let root = project_root(&experiments);
+        .map_or_else(Experiments::default_source, Experiments::Folder);
+    experiments.check()?;
+    let root = experiments.root();
 
     // Every experiment's points, each distinct run once.
     let mut points: Vec<Point> = Vec::new();
     let mut seen = HashSet::new();
     for name in FIGURE_EXPERIMENTS {
-        let mut spec = load_experiment(&experiments, name, &args.scenes)?;
+        let mut spec = experiments.load(name, &args.scenes)?;
         spec.set.extend(args.set.iter().cloned());
         for p in spec
             .points()
@@ -157,7 +156,8 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         .iter()
         .map(|(id, title, f)| drawn(id, title, f(&results, out)))
         .collect();
-    let vtq = SimConfig::load(Some(&root.join("configs/vtq.toml")), &args.set)?;
+    let vtq_path = root.join("configs/vtq.toml");
+    let vtq = SimConfig::load_str(&vtq_path, &config_text(&vtq_path)?, &args.set)?;
     let fig5 =
         figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));
     figures.insert(0, drawn("fig05", "Figure 5", fig5));
@@ -257,7 +257,7 @@ fn figure5_rows(
 /// The page's opening paragraphs: what was run, how, and how to rerun it.
 fn intro(
     args: &ReproduceArgs,
-    experiments: &Path,
+    experiments: &Experiments,
     results: &Path,
     scenes: &[PreparedScene],
     runs: usize,
@@ -279,14 +279,14 @@ fn intro(
     let mut intro = vec![
         format!(
             "The figures of Chou & Aamodt, Virtualized Treelet Queues (ASPLOS 2025), measured by \
-             vtq {} on {} ({} distinct runs of the experiment files in `{}`; docs/fidelity.md \
+             vtq {} on {} ({} distinct runs of the experiment files in {}; docs/fidelity.md \
              explains every deviation). Dashed lines are the paper's published values where it \
              gives numbers (the paper simulated all of LumiBench in Vulkan-Sim; the shared scenes \
              are smaller subsets). Means leave the built-in scenes out.",
             crate::experiment::sweep::key::VTQ_VERSION,
             names.join(", "),
             runs,
-            experiments.display()
+            experiments.describe()
         ),
         format!(
             "Rerun: `vtq reproduce --out {}{}` (results are stored in `{}`, so a rerun only \

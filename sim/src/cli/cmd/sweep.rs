@@ -11,6 +11,7 @@ use clap::Args;
 use super::options::CacheArgs;
 use super::runner::{prepare_scenes, scene_of, Runner};
 use crate::cli::output::{check_dir, check_file_or_dirs};
+use crate::experiment::reproduce::built_in_experiment;
 use crate::experiment::sweep::collect::{table, Row};
 use crate::experiment::sweep::key::VTQ_VERSION;
 use crate::experiment::sweep::slurm::{SlurmJob, TABLE_FILE};
@@ -20,16 +21,17 @@ use crate::experiment::sweep::{Shard, SweepSpec};
 /// Options of `vtq sweep`.
 #[derive(Debug, Args)]
 pub struct SweepArgs {
-    /// Sweep file (TOML: scenes, configs, set, [grid], [[points]]; docs/sweeps.md). The
-    /// options below add to it.
+    /// Sweep file (TOML: scenes, configs, set, [grid], [[points]]; docs/sweeps.md), or the name
+    /// of one of the project's experiment files (`fig10-speedup`; a built-in copy where
+    /// `configs/experiments/` is not here). The options below add to it.
     #[arg(long, value_name = "FILE")]
     pub spec: Option<PathBuf>,
     /// Scene: a built-in name (`wknd`, `cornell`, `city:N`), a folder under ../shared/scenes,
     /// a scene folder path or a `.obj` file (repeatable).
     #[arg(long = "scene", value_name = "SCENE")]
     pub scenes: Vec<String>,
-    /// Base configuration file (TOML, docs/config.md; repeatable: every point runs on each)
-    /// [default: the baseline GPU].
+    /// Base configuration file (TOML, docs/config.md), or a built-in design's name (`vtq
+    /// designs`); repeatable: every point runs on each [default: the baseline GPU].
     #[arg(long = "config", value_name = "FILE")]
     pub configs: Vec<PathBuf>,
     /// Override one configuration key in every point, e.g. `--set width=64` (repeatable).
@@ -87,7 +89,11 @@ impl SweepArgs {
     /// grids added.
     fn spec(&self) -> anyhow::Result<SweepSpec> {
         let mut spec = match &self.spec {
-            Some(path) => SweepSpec::from_file(path)?,
+            Some(path) => match built_in_experiment(path) {
+                Some((name, text)) if !path.exists() => SweepSpec::from_toml(text)
+                    .with_context(|| format!("built-in experiment file {name}"))?,
+                _ => SweepSpec::from_file(path)?,
+            },
             None => SweepSpec::default(),
         };
         spec.scenes.extend(self.scenes.iter().cloned());
@@ -185,11 +191,18 @@ fn slurm(
     let absolute = |p: &Path| {
         std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()))
     };
-    // The jobs read the sweep from a file; its configuration paths must not depend on where.
+    // The jobs read the sweep from a file; its configuration paths must not depend on where
+    // (a built-in design's name or file, not a file here, stays as given: every node has it).
     spec.configs = spec
         .configs
         .iter()
-        .map(|p| absolute(p))
+        .map(|p| {
+            if p.exists() {
+                absolute(p)
+            } else {
+                Ok(p.clone())
+            }
+        })
         .collect::<anyhow::Result<_>>()?;
     let points = spec.points()?;
     prepare_scenes(&points)?;

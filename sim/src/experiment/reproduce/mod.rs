@@ -37,6 +37,96 @@ pub const FIGURE_EXPERIMENTS: [&str; 9] = [
     "ext-vtq-prefetch",
 ];
 
+/// The experiment files of `configs/experiments/`, compiled in as (stem, text), so `vtq
+/// reproduce` and `vtq sweep --spec` run from any directory (a cluster node with only the binary).
+pub const EXPERIMENT_FILES: [(&str, &str); 19] = [
+    (
+        "dev-frame-size",
+        include_str!("../../../../configs/experiments/dev-frame-size.toml"),
+    ),
+    (
+        "dev-memory",
+        include_str!("../../../../configs/experiments/dev-memory.toml"),
+    ),
+    (
+        "dev-queued-stacks",
+        include_str!("../../../../configs/experiments/dev-queued-stacks.toml"),
+    ),
+    (
+        "dev-scene-size",
+        include_str!("../../../../configs/experiments/dev-scene-size.toml"),
+    ),
+    (
+        "dev-shader-timing",
+        include_str!("../../../../configs/experiments/dev-shader-timing.toml"),
+    ),
+    (
+        "dev-treelet-formation",
+        include_str!("../../../../configs/experiments/dev-treelet-formation.toml"),
+    ),
+    (
+        "dev-virtualization-baseline",
+        include_str!("../../../../configs/experiments/dev-virtualization-baseline.toml"),
+    ),
+    (
+        "dev-virtualization-vtq",
+        include_str!("../../../../configs/experiments/dev-virtualization-vtq.toml"),
+    ),
+    (
+        "ext-vtq-prefetch",
+        include_str!("../../../../configs/experiments/ext-vtq-prefetch.toml"),
+    ),
+    (
+        "fig01-baseline",
+        include_str!("../../../../configs/experiments/fig01-baseline.toml"),
+    ),
+    (
+        "fig05-max-rays",
+        include_str!("../../../../configs/experiments/fig05-max-rays.toml"),
+    ),
+    (
+        "fig10-speedup",
+        include_str!("../../../../configs/experiments/fig10-speedup.toml"),
+    ),
+    (
+        "fig11-treelet-stationary",
+        include_str!("../../../../configs/experiments/fig11-treelet-stationary.toml"),
+    ),
+    (
+        "fig12-grouping",
+        include_str!("../../../../configs/experiments/fig12-grouping.toml"),
+    ),
+    (
+        "fig13-repack",
+        include_str!("../../../../configs/experiments/fig13-repack.toml"),
+    ),
+    (
+        "fig14-15-phases",
+        include_str!("../../../../configs/experiments/fig14-15-phases.toml"),
+    ),
+    (
+        "fig16-virtualization",
+        include_str!("../../../../configs/experiments/fig16-virtualization.toml"),
+    ),
+    (
+        "sec64-threshold0",
+        include_str!("../../../../configs/experiments/sec64-threshold0.toml"),
+    ),
+    (
+        "sec65-queues",
+        include_str!("../../../../configs/experiments/sec65-queues.toml"),
+    ),
+];
+
+/// The built-in experiment file `path` names: by its stem (`fig10-speedup`) or its file in the
+/// project (`configs/experiments/fig10-speedup.toml`).
+pub fn built_in_experiment(path: &Path) -> Option<(&'static str, &'static str)> {
+    EXPERIMENT_FILES.iter().copied().find(|(name, _)| {
+        Path::new(name) == path
+            || Path::new("configs/experiments").join(format!("{name}.toml")) == path
+    })
+}
+
 /// Whether `scene` is a built-in (generated) scene rather than a scene folder: built-ins are
 /// drawn for reference but left out of the means, as in docs/fidelity.md.
 pub fn is_builtin(scene: &str) -> bool {
@@ -84,34 +174,95 @@ pub fn file_safe(label: &str) -> String {
         .collect()
 }
 
-/// One experiment's sweep file, its configuration paths resolved against the project root and
-/// its scenes replaced by the command line's when given.
-pub fn load_experiment(
-    experiments: &Path,
-    name: &str,
-    scenes: &[String],
-) -> anyhow::Result<SweepSpec> {
-    let path = experiments.join(format!("{name}.toml"));
-    let mut spec = SweepSpec::from_file(&path)?;
-    let root = project_root(experiments);
-    for config in &mut spec.configs {
-        if config.is_relative() {
-            *config = root.join(&*config);
-        }
-    }
-    if !scenes.is_empty() {
-        spec.scenes = scenes.to_vec();
-    }
-    Ok(spec)
+/// Where the experiment files come from: a folder (`--experiments`, or `configs/experiments`
+/// under the working directory), whose configuration paths are relative to the project root
+/// above it, or the files compiled into the binary ([`EXPERIMENT_FILES`]), whose configuration
+/// paths name the built-in designs ([`crate::model::designs::config_text`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Experiments {
+    /// A folder of experiment files (`<root>/configs/experiments`).
+    Folder(PathBuf),
+    /// The files compiled into the binary.
+    BuiltIn,
 }
 
-/// The project root of an experiments folder (`<root>/configs/experiments`): the folder that
-/// the experiment files' configuration paths (`configs/...`) are relative to.
-pub fn project_root(experiments: &Path) -> PathBuf {
-    experiments
-        .parent()
-        .and_then(Path::parent)
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+impl Experiments {
+    /// `configs/experiments` under the working directory where there is one (a project
+    /// checkout, whose edits then count), else the built-in files.
+    pub fn default_source() -> Self {
+        let here = PathBuf::from("configs/experiments");
+        if here.is_dir() {
+            Experiments::Folder(here)
+        } else {
+            Experiments::BuiltIn
+        }
+    }
+
+    /// Checks that every experiment file the figures need is there.
+    pub fn check(&self) -> anyhow::Result<()> {
+        let Experiments::Folder(dir) = self else {
+            return Ok(());
+        };
+        for name in FIGURE_EXPERIMENTS {
+            let path = dir.join(format!("{name}.toml"));
+            if !path.is_file() {
+                anyhow::bail!(
+                    "experiment file {} is missing (--experiments names the folder of the \
+                     paper's experiment files, configs/experiments in the project; without it \
+                     and outside a checkout vtq uses its built-in copies)",
+                    path.display()
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// The folder the experiment files' configuration paths (`configs/...`) are relative to:
+    /// a folder's project root (`<root>` of `<root>/configs/experiments`); for the built-in
+    /// files none (the paths stay as given).
+    pub fn root(&self) -> PathBuf {
+        match self {
+            Experiments::Folder(dir) => dir
+                .parent()
+                .and_then(Path::parent)
+                .map_or_else(|| PathBuf::from("."), Path::to_path_buf),
+            Experiments::BuiltIn => PathBuf::new(),
+        }
+    }
+
+    /// What they are, for the page: the folder, or that they are the built-in copies.
+    pub fn describe(&self) -> String {
+        match self {
+            Experiments::Folder(dir) => format!("`{}`", dir.display()),
+            Experiments::BuiltIn => "vtq's built-in copy of `configs/experiments`".into(),
+        }
+    }
+
+    /// One experiment's sweep file, its configuration paths resolved against [`Self::root`]
+    /// and its scenes replaced by the command line's when given.
+    pub fn load(&self, name: &str, scenes: &[String]) -> anyhow::Result<SweepSpec> {
+        let mut spec = match self {
+            Experiments::Folder(dir) => SweepSpec::from_file(&dir.join(format!("{name}.toml")))?,
+            Experiments::BuiltIn => {
+                let (_, text) = EXPERIMENT_FILES
+                    .iter()
+                    .find(|(n, _)| *n == name)
+                    .ok_or_else(|| anyhow::anyhow!("no built-in experiment file {name}"))?;
+                SweepSpec::from_toml(text)
+                    .map_err(|e| e.context(format!("built-in experiment file {name}")))?
+            }
+        };
+        let root = self.root();
+        for config in &mut spec.configs {
+            if config.is_relative() {
+                *config = root.join(&*config);
+            }
+        }
+        if !scenes.is_empty() {
+            spec.scenes = scenes.to_vec();
+        }
+        Ok(spec)
+    }
 }
 
 /// The stored statistics of the experiments' runs, looked up by scene, base configuration and
@@ -175,15 +326,14 @@ impl<'a> Results<'a> {
     fn lookup(&self, scene: &str, base: &str, sets: &[&str]) -> Option<Json> {
         let prepared = self.scenes.iter().find(|s| s.spec == scene)?;
         let path = self.root.join(base);
-        let text = std::fs::read_to_string(&path).ok()?;
+        let text = crate::model::designs::config_text(&path).ok()?;
         let sets: Vec<String> = self
             .sets
             .iter()
             .cloned()
             .chain(sets.iter().map(|s| s.to_string()))
             .collect();
-        let config =
-            SimConfig::load_unvalidated(Some((path.as_path(), text.as_str())), &sets).ok()?;
+        let config = SimConfig::load_unvalidated(Some((path.as_path(), &*text)), &sets).ok()?;
         let key = RunKey::new(&prepared.hash, &config).ok()?;
         self.store
             .load(&key)
@@ -194,34 +344,51 @@ impl<'a> Results<'a> {
     }
 }
 
-/// The default experiments folder: `configs/experiments` under the working directory, else
-/// beside the source tree this binary was built from.
-pub fn default_experiments_dir() -> PathBuf {
-    let here = PathBuf::from("configs/experiments");
-    if here.is_dir() {
-        return here;
-    }
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/experiments")
-}
-
-/// Checks that `dir` holds every experiment file the figures need.
-pub fn check_experiments_dir(dir: &Path) -> anyhow::Result<()> {
-    for name in FIGURE_EXPERIMENTS {
-        let path = dir.join(format!("{name}.toml"));
-        if !path.is_file() {
-            anyhow::bail!(
-                "experiment file {} is missing (--experiments names the folder of the paper's \
-                 experiment files, configs/experiments in the project)",
-                path.display()
-            );
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn built_in_experiment_files_equal_the_project_s() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/experiments");
+        let mut files: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|f| f.ends_with(".toml"))
+            .collect();
+        files.sort();
+        let mut built_in: Vec<String> = EXPERIMENT_FILES
+            .iter()
+            .map(|(name, text)| {
+                let on_disk = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+                assert_eq!(*text, on_disk, "{name} is stale in the binary");
+                format!("{name}.toml")
+            })
+            .collect();
+        built_in.sort();
+        assert_eq!(files, built_in);
+        // Found by stem or by the project's path; the built-in copies load as the folder's do.
+        let fig10 = "configs/experiments/fig10-speedup.toml";
+        assert_eq!(
+            built_in_experiment(Path::new("fig10-speedup")).unwrap().0,
+            "fig10-speedup"
+        );
+        assert_eq!(
+            built_in_experiment(Path::new(fig10)).unwrap().0,
+            "fig10-speedup"
+        );
+        assert!(built_in_experiment(Path::new("fig99")).is_none());
+        for name in FIGURE_EXPERIMENTS {
+            let folder = Experiments::Folder(dir.clone()).load(name, &[]).unwrap();
+            let mut built = Experiments::BuiltIn.load(name, &[]).unwrap();
+            // The folder's configuration paths are joined to its project root.
+            let root = Experiments::Folder(dir.clone()).root();
+            for c in &mut built.configs {
+                *c = root.join(&*c);
+            }
+            assert_eq!(folder, built, "{name}");
+        }
+    }
 
     #[test]
     fn scenes_are_named_by_their_own_names_and_files_never_by_paths() {

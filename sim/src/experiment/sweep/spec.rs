@@ -16,7 +16,9 @@
 //! "mode.grouping" = false
 //! ```
 //! Paths (scenes and configurations) are relative to the working directory, as on the command
-//! line.
+//! line; a configuration that is not a file there may name a built-in design, by name (`vtq`)
+//! or by its file in the project (`configs/vtq.toml`), so a sweep of the project's designs runs
+//! from any directory ([`crate::model::designs::config_text`]).
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -251,9 +253,8 @@ impl SweepSpec {
         }
         let mut bases: Vec<(Option<PathBuf>, Option<String>)> = Vec::new();
         for path in &self.configs {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read config file {}", path.display()))?;
-            bases.push((Some(path.clone()), Some(text)));
+            let text = crate::model::designs::config_text(path)?;
+            bases.push((Some(path.clone()), Some(text.into_owned())));
         }
         if bases.is_empty() {
             bases.push((None, None));
