@@ -6,10 +6,9 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use vtq_gen::{area_report, logic_report, AreaParams, AreaReport, LogicReport};
-use vtq_hdl::controller::ControllerFeatures;
 
 use super::options::ConfigArgs;
-use crate::model::config::{ModeKind, SimConfig};
+use crate::model::config::SimConfig;
 
 /// Options of `vtq area`.
 #[derive(Debug, Args)]
@@ -42,20 +41,11 @@ struct AreaJson {
     synthesis: Option<LogicReport>,
 }
 
-/// The controller's design features of a configuration: its own for a queues design, the full
-/// design otherwise (as `vtq verilog` writes it).
-fn features(cfg: &SimConfig) -> ControllerFeatures {
-    match cfg.mode.kind {
-        ModeKind::Queues => cfg.controller_features(),
-        _ => ControllerFeatures::FULL,
-    }
-}
-
 /// Synthesizes every block with complete RTL in a scratch directory.
 fn synthesize_blocks(cfg: &SimConfig, model: &AreaReport) -> anyhow::Result<LogicReport> {
     let dir = std::env::temp_dir().join(format!("vtq-area-synth-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let report = logic_report(&cfg.hw, features(cfg), model, &dir);
+    let report = logic_report(&cfg.hw, cfg.hardware_controller_features(), model, &dir);
     // Best effort: the reports are already in memory.
     let _ = std::fs::remove_dir_all(&dir);
     Ok(report?)

@@ -18,15 +18,13 @@ use vtq_gen::rtl::{controller_verilog, count_table_verilog, queue_table_verilog}
 use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
 use vtq_gen::GenError;
-use vtq_hdl::controller::{
-    ControllerFeatures, ControllerInputs, ControllerStats, TreeletController,
-};
+use vtq_hdl::controller::{ControllerInputs, ControllerStats, TreeletController};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::QueueOp;
 use vtq_hdl::Block;
 
 use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
-use crate::model::config::{ModeKind, SimConfig};
+use crate::model::config::SimConfig;
 use crate::model::gpu::{simulate, SimOptions};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
@@ -189,15 +187,6 @@ struct Job {
     rust_vcd: Option<RustVcd>,
 }
 
-/// The controller's design features of a configuration: its own for a queues design, the full
-/// design otherwise.
-fn features(cfg: &SimConfig) -> ControllerFeatures {
-    match cfg.mode.kind {
-        ModeKind::Queues => cfg.controller_features(),
-        _ => ControllerFeatures::FULL,
-    }
-}
-
 /// Builds the stimulus, records the Rust block and generates the RTL of each chosen block.
 fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     let hw = &cfg.hw;
@@ -223,7 +212,7 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     }
     if args.block.controller() {
         let seed = args.seed.wrapping_add(2);
-        let features = features(cfg);
+        let features = cfg.hardware_controller_features();
         let (ctl, inputs, coverage) = controller_inputs(hw, features, args.cycles, seed)?;
         out.push(Job {
             rust_vcd: rust_vcd(&ctl, &inputs, args.vcd),

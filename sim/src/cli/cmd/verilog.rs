@@ -9,13 +9,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use vtq_gen::compose::{composite_modules, Instance};
-use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::rt_unit::NoDatapath;
 use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
 use vtq_hdl::Block;
 
 use super::options::ConfigArgs;
-use crate::model::config::{ModeKind, SimConfig};
+use crate::model::config::SimConfig;
 
 /// Options of `vtq verilog`.
 #[derive(Debug, Args)]
@@ -30,10 +29,7 @@ pub struct VerilogArgs {
 /// Every block's module as (module name, Verilog text): the tables and the controller (full
 /// RTL), the RT unit (a skeleton), then the composed treelet RT unit's top and wiring modules.
 pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
-    let features = match cfg.mode.kind {
-        ModeKind::Queues => cfg.controller_features(),
-        _ => ControllerFeatures::FULL,
-    };
+    let features = cfg.hardware_controller_features();
     let mut out = vtq_gen::rtl::rtl_modules(&cfg.hw, features)?;
     let params = TreeletRtUnitParams {
         rt: cfg.rt_unit_params(

@@ -719,6 +719,17 @@ impl SimConfig {
         }
     }
 
+    /// The treelet controller's features the hardware tools (`vtq verilog`, `vtq cosim`, `vtq
+    /// area`) build it with: a treelet-queue design's own, the full design's otherwise (a design
+    /// without a controller still gets one to generate and size).
+    pub fn hardware_controller_features(&self) -> ControllerFeatures {
+        if self.mode.treelet_queues() {
+            self.controller_features()
+        } else {
+            ControllerFeatures::FULL
+        }
+    }
+
     /// The RT unit's parameters, with its hit records placed at `hit_record_base` and its
     /// stack spill area of `stack_spill_chunks` chunks per ray stack at `stack_base` (choices of
     /// the simulator's memory layout, not of the configuration; `None`: at the top of the
