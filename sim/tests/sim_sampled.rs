@@ -396,3 +396,25 @@ fn the_dispatch_model_costs_ctas_as_the_design_pays_them() {
         }
     }
 }
+
+/// A scale model starts with the BVH lines the GPU's other SMs would have fetched first in its
+/// L2 (`sample.warm_l2`): more of its BVH reads hit there than from a cold L2, the same on any
+/// thread count. (The whole GPU warms nothing: `the_whole_workload_is_exactly_full_detail`.)
+#[test]
+fn scale_models_start_with_the_other_sms_bvh_lines() {
+    let warm = sampled_config("baseline", "1/4x2", &[]);
+    let cold = sampled_config("baseline", "1/4x2", &["sample.warm_l2=false"]);
+    assert!(warm.sample.warm_l2 && !cold.sample.warm_l2);
+    let (w, c) = (sampled("cornell", &warm, 1), sampled("cornell", &cold, 1));
+    for (rw, rc) in w.replicate_runs.iter().zip(&c.replicate_runs) {
+        let (hw, hc) = (rw.stats.memory.bvh.l2_hits, rc.stats.memory.bvh.l2_hits);
+        assert!(hw > hc, "warm {hw} vs cold {hc} BVH L2 hits");
+        assert_eq!(
+            rw.stats.memory.bvh.l2_accesses,
+            rw.stats.memory.bvh.l2_hits
+                + rw.stats.memory.bvh.l2_merges
+                + rw.stats.memory.bvh.l2_misses
+        );
+    }
+    assert_eq!(comparable(&w), comparable(&sampled("cornell", &warm, 2)));
+}

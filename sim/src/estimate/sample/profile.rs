@@ -58,10 +58,13 @@ pub struct Profile {
     pub stripes: Vec<StripeWork>,
     /// Wall-clock seconds the profile took.
     pub seconds: f64,
+    /// The whole frame's footprint, one bit per 32 B line of the BVH's address space (bit `i`
+    /// of word `w`: line `64 w + i`), with `sample.warm_l2` (empty otherwise).
+    pub frame_lines: Vec<u64>,
 }
 
-/// Bytes of a BVH line in a stripe's footprint (the memory system's sector).
-const LINE_BYTES: u32 = 32;
+/// Bytes of a BVH line in a footprint (the memory system's sector).
+pub const LINE_BYTES: u32 = 32;
 
 /// Whether a frame of `ctas` CTAs is small enough for `cfg`'s GPU to hold every CTA at once in
 /// some design: a ray-virtualizing SM holds the most (its CTA slots, or as many as `hw.max_rays`
@@ -121,14 +124,16 @@ impl Profile {
         let with_stripes = stripes_possible(cfg, scheduler.total() as usize);
         let sms = cfg.gpu.sms.max(1) as usize;
         let warp = cfg.gpu.warp_size.max(1) as usize;
-        // Per stripe, one bit per 32 B line of the BVH's address space (a slot of
-        // `treelet_bytes` per treelet, the header's included): set by every fetch of its CTAs.
-        let words = if with_stripes {
+        // Footprints: one bit per 32 B line of the BVH's address space (a slot of
+        // `treelet_bytes` per treelet, the header's included), set by every fetch of a stripe's
+        // CTAs (per stripe) or of the frame's (for `sample.warm_l2`).
+        let words = {
             let space = (bvh.treelets().len() as u64 + 2) * u64::from(bvh.params().treelet_bytes);
             (space as usize).div_ceil(LINE_BYTES as usize * 64)
-        } else {
-            0
         };
+        let frame_bits: Vec<AtomicU64> = (0..if cfg.sample.warm_l2 { words } else { 0 })
+            .map(|_| AtomicU64::new(0))
+            .collect();
         let footprints: Vec<Vec<AtomicU64>> = (0..if with_stripes { sms } else { 0 })
             .map(|_| (0..words).map(|_| AtomicU64::new(0)).collect())
             .collect();
@@ -156,6 +161,9 @@ impl Profile {
                                 traces[thread].push(fetches.len() as u32);
                                 if let Some(bits) = footprint {
                                     mark_lines(bits, fetches);
+                                }
+                                if !frame_bits.is_empty() {
+                                    mark_lines(&frame_bits, fetches);
                                 }
                                 match path.on_hit(scene, hit) {
                                     Some(next) => ray = next,
@@ -191,6 +199,10 @@ impl Profile {
             ctas,
             stripes,
             seconds: start.elapsed().as_secs_f64(),
+            frame_lines: frame_bits
+                .iter()
+                .map(|w| w.load(Ordering::Relaxed))
+                .collect(),
         })
     }
 

@@ -23,13 +23,14 @@ use serde::Serialize;
 
 use super::dispatch::{held_at_once, holds_every_cta, makespan_ratio, resident_ctas};
 use super::estimate::Estimate;
-use super::profile::{CtaWork, Profile};
+use super::profile::{CtaWork, Profile, LINE_BYTES};
 use super::strata::stratified_sample;
 use super::stripes::stripe_samples;
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::gpu::{simulate, SimError, SimOptions, SimStats};
 use crate::model::scene::Scene;
+use crate::model::splitmix::SplitMix64;
 
 /// One replicate: its sample and the scale model's statistics.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -153,6 +154,26 @@ fn stripes_together(cfg: &SimConfig) -> Option<SimConfig> {
     (c.sample.fraction <= 1.0 + 1e-9 && c.sample.scale_sms(cfg.gpu.sms).is_some()).then_some(c)
 }
 
+/// The BVH sectors (byte addresses, ascending) that a scale model of `scale_sms` of the GPU's
+/// `sms` SMs finds in its L2 before the run (`sample.warm_l2`): each line of the frame's
+/// footprint is dealt by a hash to one of the `sms` SMs, and the lines dealt to the SMs the
+/// model leaves out are present, as they are for an SM of the full GPU that reaches a line
+/// another SM fetched first. None for the whole GPU.
+fn warm_sectors(profile: &Profile, scale_sms: usize, sms: usize) -> Vec<u64> {
+    let mut out = Vec::new();
+    for (w, &word) in profile.frame_lines.iter().enumerate() {
+        let mut bits = word;
+        while bits != 0 {
+            let line = w as u64 * 64 + u64::from(bits.trailing_zeros());
+            bits &= bits - 1;
+            if SplitMix64::new(line).next_u64() % sms as u64 >= scale_sms as u64 {
+                out.push(line * u64::from(LINE_BYTES));
+            }
+        }
+    }
+    out
+}
+
 /// What CTA `work` costs an SM of `cfg`'s design in the dispatch model: an RT unit that keeps
 /// a warp until its slowest ray is done (the baseline's, prefetching's) pays its warps'
 /// lockstep fetches ([`CtaWork::warp_fetches`]); the treelet RT unit, whose rays leave their
@@ -236,6 +257,10 @@ pub fn simulate_sampled(
             1.0
         };
         let options = SimOptions {
+            l2_warm: cfg
+                .sample
+                .warm_l2
+                .then(|| warm_sectors(profile, scale_sms, sms)),
             ctas: (ctas.len() < profile.ctas.len()).then(|| ctas.clone()),
             // Threads left over by fewer replicates simulate a replicate's SMs (the same
             // results for any count).

@@ -45,6 +45,11 @@ pub struct SampleConfig {
     /// CTAs, which a sample does not see, decide the end (docs/accuracy.md; 0 <= tail_bound
     /// <= 10; 0: sampling noise only).
     pub tail_bound: f64,
+    /// Warm each scale model's L2 before its run with the frame's BVH lines that the GPU's SMs
+    /// the model leaves out would have fetched first (a hash deals each line of the frame's
+    /// footprint to one of `gpu.sms` SMs; those dealt to the others are present, as they are
+    /// for an SM of the full GPU that reaches a line after another did). `false`: a cold L2.
+    pub warm_l2: bool,
 }
 
 impl Default for SampleConfig {
@@ -56,6 +61,7 @@ impl Default for SampleConfig {
             stripes: true,
             stripe_bound: STRIPE_BOUND,
             tail_bound: TAIL_BOUND,
+            warm_l2: true,
         }
     }
 }

@@ -78,6 +78,9 @@ pub struct SimOptions {
     /// Time the nodes', memory partitions' and coordinator's work for the parallelism report
     /// ([`SimOutput::parallelism`]; meant for one-thread runs); the results do not change.
     pub profile: bool,
+    /// BVH sectors (byte addresses) present in the L2 before the run (the sampled tier's scale
+    /// models, `sample.warm_l2`; [`crate::model::memory::L2Side::warm`]).
+    pub l2_warm: Option<Vec<u64>>,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
@@ -248,6 +251,10 @@ pub fn simulate(
         profile: options.profile,
     };
     let start = Instant::now();
+    let mut l2 = l2;
+    if let Some(sectors) = &options.l2_warm {
+        l2.warm(sectors);
+    }
     let l2 = PartitionJobs::new(l2, nsms);
     let outcome = coordinator::run(&ctx, &l2, nodes, scheduler, options.threads, progress);
     let (cycles, mut nodes) = (outcome.cycles, outcome.nodes);

@@ -156,6 +156,18 @@ impl L2Side {
         self.parts[p].apply(op)
     }
 
+    /// Makes the BVH sectors at byte addresses `addresses` present (ready at cycle 0) in an
+    /// L2 that has served nothing yet, in order (the last the most recently used), where the
+    /// BVH may allocate; moves no data and counts nothing (the sampled tier's warm start,
+    /// `sample.warm_l2`).
+    pub fn warm(&mut self, addresses: &[u64]) {
+        for &addr in addresses {
+            let line = addr / self.parts[0].line_bytes;
+            let p = self.map.partition(line);
+            self.parts[p].warm(line, addr);
+        }
+    }
+
     /// The L2 and DRAM counters of all partitions (the L1 counters are the ports').
     pub fn stats(&self) -> MemStats {
         total_stats(self.parts.iter())
@@ -294,6 +306,27 @@ impl L2Partition {
             }
         }
         result
+    }
+
+    /// [`L2Side::warm`] for the sector of byte address `addr` on `line`, a line of this
+    /// partition.
+    fn warm(&mut self, line: u64, addr: u64) {
+        let sector = ((addr % self.line_bytes) / u64::from(self.sector_bytes)) as u32;
+        let local = self.map.local(line);
+        match self.l2.lookup(local) {
+            Some(slot) if self.l2.sector_state(slot, sector, 0) != SectorState::Absent => {
+                self.l2.touch(slot);
+            }
+            Some(slot) => {
+                self.l2.install(slot, local, sector, 0);
+            }
+            None => {
+                // Nothing is dirty before the run: an evicted line needs no write-back.
+                if let Ok(slot) = self.l2.find_slot(local, 0, self.ways(AccessClass::Bvh)) {
+                    self.l2.install(slot, local, sector, 0);
+                }
+            }
+        }
     }
 
     /// A mirrored copy of a private access reaching the L2 at `at`: it takes room in the L2 like
@@ -476,6 +509,47 @@ mod tests {
         assert_eq!(PartitionMap::new(&small(16)).partitions(), 1);
         assert_eq!(PartitionMap::new(&small(8)).partitions(), 8);
         assert_eq!(L2Side::new(&cfg).into_partitions().1.len(), 16);
+    }
+
+    /// A warmed sector is present from cycle 0: the first read hits the L2; its line's other
+    /// sectors, and lines not warmed, miss; warming moves no data and counts nothing.
+    #[test]
+    fn warmed_sectors_hit_from_the_start() {
+        for channels in [1, 8] {
+            let cfg = small(channels);
+            let mut l2 = L2Side::new(&cfg);
+            let line_bytes = u64::from(cfg.line_bytes);
+            // Line 5's sector 1 and line 9's sector 0.
+            l2.warm(&[5 * line_bytes + 32, 9 * line_bytes]);
+            assert_eq!(l2.stats(), MemStats::default());
+            let read = |line: u64, sector: u32, seq: u64| L2Op {
+                cycle: 10,
+                phase: 0,
+                sm: 0,
+                seq,
+                line,
+                sector,
+                class: AccessClass::Bvh,
+                write: false,
+            };
+            let hit = 10 + u64::from(cfg.l1_latency) + u64::from(cfg.l2_latency);
+            assert_eq!(l2.apply(&read(5, 1, 0)), (hit, Source::L2Hit));
+            assert_eq!(l2.apply(&read(9, 0, 1)), (hit, Source::L2Hit));
+            assert_eq!(l2.apply(&read(5, 0, 2)).1, Source::Dram);
+            assert_eq!(l2.apply(&read(7, 1, 3)).1, Source::Dram);
+            let bvh = l2.stats().bvh;
+            assert_eq!((bvh.l2_hits, bvh.l2_misses, bvh.dram_reads), (2, 2, 2));
+        }
+        // Five lines of one 4-way set (16 sets), in order: the first leaves for the fifth.
+        let cfg = small(1);
+        let mut l2 = L2Side::new(&cfg);
+        let lines = [0u64, 16, 32, 48, 64];
+        l2.warm(&lines.map(|l| l * u64::from(cfg.line_bytes)));
+        let present: Vec<bool> = lines
+            .iter()
+            .map(|&l| l2.sector(l, 0, 0) != SectorState::Absent)
+            .collect();
+        assert_eq!(present, [false, true, true, true, true]);
     }
 
     /// Operations in key order from (cycle step, line, sector, class, write) draws.
