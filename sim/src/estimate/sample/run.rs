@@ -240,6 +240,10 @@ pub fn simulate_sampled(
     let sms = cfg.gpu.sms as usize;
     let scale_sms = model.gpu.sms as usize;
     let resident = resident_ctas(cfg);
+    let warm = cfg
+        .sample
+        .warm_l2
+        .then(|| warm_sectors(profile, scale_sms, sms));
     let start = Instant::now();
     let next = AtomicUsize::new(0);
     let slots: Vec<Mutex<Option<Result<Replicate, SimError>>>> =
@@ -257,10 +261,7 @@ pub fn simulate_sampled(
             1.0
         };
         let options = SimOptions {
-            l2_warm: cfg
-                .sample
-                .warm_l2
-                .then(|| warm_sectors(profile, scale_sms, sms)),
+            l2_warm: warm.clone(),
             ctas: (ctas.len() < profile.ctas.len()).then(|| ctas.clone()),
             // Threads left over by fewer replicates simulate a replicate's SMs (the same
             // results for any count).

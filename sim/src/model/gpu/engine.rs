@@ -159,7 +159,7 @@ pub fn simulate(
     };
     let spill_start = queued_stacks_base + nsms as u64 * queued_stacks_bytes;
     let spill = SpillLayout::new(cfg, bvh, spill_start.next_multiple_of(HIT_RECORD_ALIGN))?;
-    let (ports, l2) = MemorySystem::new(&cfg.memory, nsms)?.into_parts();
+    let (ports, mut l2) = MemorySystem::new(&cfg.memory, nsms)?.into_parts();
     let mut nodes = Vec::with_capacity(nsms);
     for (sm, port) in ports.into_iter().enumerate() {
         let params = cfg.rt_unit_params(
@@ -251,7 +251,6 @@ pub fn simulate(
         profile: options.profile,
     };
     let start = Instant::now();
-    let mut l2 = l2;
     if let Some(sectors) = &options.l2_warm {
         l2.warm(sectors);
     }
