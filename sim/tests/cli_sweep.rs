@@ -368,20 +368,13 @@ fn designs_and_experiments_run_from_anywhere_by_name() {
     let args = |extra: &[&str]| -> Vec<String> {
         extra.iter().chain(&tiny).map(|s| s.to_string()).collect()
     };
-    let by_name = run(
-        &dir,
-        &args(&[
-            "sweep",
-            "--scene",
-            "wknd",
-            "--config",
-            "vtq",
-            "--config",
-            "configs/queues-naive.toml",
-            "--results",
-            "r1",
-        ]),
-    );
+    // Two designs on wknd into results folder r1.
+    let sweep_two = |vtq: &str, naive: &str| {
+        let designs = ["--config", vtq, "--config", naive];
+        let head = ["sweep", "--scene", "wknd", "--results", "r1"];
+        run(&dir, &args(&[&head[..], &designs[..]].concat()))
+    };
+    let by_name = sweep_two("vtq", "configs/queues-naive.toml");
     assert!(by_name.status.success(), "{}", text(&by_name));
     assert!(
         text(&by_name).contains("ran 2 (2 ok, 0 failed)"),
@@ -391,20 +384,7 @@ fn designs_and_experiments_run_from_anywhere_by_name() {
     // The same two designs from the checkout's files are the same runs: nothing runs again.
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let naive = root.join("configs/queues-naive.toml").display().to_string();
-    let from_files = run(
-        &dir,
-        &args(&[
-            "sweep",
-            "--scene",
-            "wknd",
-            "--config",
-            &vtq_toml(),
-            "--config",
-            &naive,
-            "--results",
-            "r1",
-        ]),
-    );
+    let from_files = sweep_two(&vtq_toml(), &naive);
     assert!(text(&from_files).contains("ran 0"), "{}", text(&from_files));
     // An experiment file by name: read (its first point, the baseline's file, names the bad
     // override before anything runs); an unknown design or experiment is a one-line error.

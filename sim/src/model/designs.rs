@@ -174,6 +174,19 @@ pub fn resolve(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
     })
 }
 
+/// The names of the `.toml` files in `dir`, sorted (tests comparing a folder with the copies
+/// compiled into the binary).
+#[cfg(test)]
+pub(crate) fn toml_files(dir: &Path) -> Vec<String> {
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| f.ends_with(".toml"))
+        .collect();
+    files.sort();
+    files
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -186,12 +199,7 @@ mod tests {
             assert_eq!(b.toml, on_disk, "{} is stale in the binary", b.path);
         }
         // Every configuration file is a built-in design, named after it.
-        let mut files: Vec<String> = std::fs::read_dir(root.join("configs"))
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|f| f.ends_with(".toml"))
-            .collect();
-        files.sort();
+        let files = toml_files(&root.join("configs"));
         let mut built_in: Vec<String> = BUILT_INS
             .iter()
             .map(|b| {

@@ -351,12 +351,7 @@ mod tests {
     #[test]
     fn built_in_experiment_files_equal_the_project_s() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/experiments");
-        let mut files: Vec<String> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|f| f.ends_with(".toml"))
-            .collect();
-        files.sort();
+        let files = crate::model::designs::toml_files(&dir);
         let mut built_in: Vec<String> = EXPERIMENT_FILES
             .iter()
             .map(|(name, text)| {
