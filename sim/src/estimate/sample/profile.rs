@@ -21,7 +21,7 @@ use crate::model::gpu::cta_scheduler::CtaScheduler;
 use crate::model::scene::Scene;
 use crate::model::traversal::{trace_with_fetches, Fetch, Order};
 use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::pathtracer::{PathState, RenderError};
+use crate::model::workload::pathtracer::{PathState, RenderError, RenderSettings};
 
 /// The work of one CTA.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -61,6 +61,14 @@ pub struct Profile {
     /// The whole frame's footprint, one bit per 32 B line of the BVH's address space (bit `i`
     /// of word `w`: line `64 w + i`), with `sample.warm_l2` (empty otherwise).
     pub frame_lines: Vec<u64>,
+    /// Per CTA, when the frame's footprint is at most `sample.ghost_l2_footprint` L2s: the
+    /// 32 B BVH sectors (byte address / 32) its rays read,
+    /// in order, that miss an L1 of the GPU's geometry private to the CTA — the reads its SM
+    /// sends the L2 (empty otherwise).
+    pub cta_streams: Vec<Vec<u32>>,
+    /// Bytes of the frame's footprint (its distinct 32 B BVH lines), with `sample.warm_l2` or
+    /// `sample.ghost_l2_footprint` (0 otherwise).
+    pub footprint_bytes: u64,
 }
 
 /// Bytes of a BVH line in a footprint (the memory system's sector).
@@ -113,70 +121,181 @@ fn mark_lines(bits: &[AtomicU64], fetches: &[Fetch]) {
     }
 }
 
-impl Profile {
-    /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads.
-    pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
-        let start = Instant::now();
+/// Ways of [`L1Filter`]'s sets.
+const FILTER_WAYS: usize = 8;
+
+/// The L1 a CTA's reads pass before the L2, as the ghost streams see it: the GPU's L1 capacity
+/// and line size in sets of [`FILTER_WAYS`] lines (LRU), sectors filled at once. An
+/// approximation of the SM's L1 (which its CTAs share and the RT unit's warps interleave in),
+/// good enough to say which lines an SM reads at the L2.
+struct L1Filter {
+    /// Per way: line + 1 (0: empty), its sectors' valid bits, its last use.
+    ways: Vec<(u64, u32, u64)>,
+    sets: u64,
+    line_bytes: u64,
+    now: u64,
+}
+
+impl L1Filter {
+    fn new(l1_bytes: u32, line_bytes: u32) -> Self {
+        let lines = (l1_bytes / line_bytes).max(1) as usize;
+        let sets = lines.div_ceil(FILTER_WAYS).max(1);
+        L1Filter {
+            ways: vec![(0, 0, 0); sets * FILTER_WAYS],
+            sets: sets as u64,
+            line_bytes: u64::from(line_bytes),
+            now: 0,
+        }
+    }
+
+    /// Appends to `out` the 32 B sectors (byte address / 32) of `fetches` that miss, filling
+    /// them.
+    fn misses(&mut self, fetches: &[Fetch], out: &mut Vec<u32>) {
+        for f in fetches {
+            let first = f.addr / LINE_BYTES;
+            let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
+            for sector_index in first..=last {
+                let addr = u64::from(sector_index) * u64::from(LINE_BYTES);
+                let line = addr / self.line_bytes;
+                let bit = 1u32 << ((addr % self.line_bytes) / u64::from(LINE_BYTES));
+                self.now += 1;
+                let set = (line % self.sets) as usize * FILTER_WAYS;
+                let ways = &mut self.ways[set..set + FILTER_WAYS];
+                if let Some(way) = ways.iter_mut().find(|w| w.0 == line + 1) {
+                    way.2 = self.now;
+                    if way.1 & bit == 0 {
+                        way.1 |= bit;
+                        out.push(sector_index);
+                    }
+                    continue;
+                }
+                let victim = ways.iter_mut().min_by_key(|w| w.2).expect("a set has ways");
+                *victim = (line + 1, bit, self.now);
+                out.push(sector_index);
+            }
+        }
+    }
+}
+
+/// The frame as the profile traces it: each CTA's threads' paths, ray by ray.
+struct Frame<'a> {
+    scene: &'a Scene,
+    bvh: &'a HwBvh,
+    camera: CameraFrame,
+    settings: RenderSettings,
+    scheduler: CtaScheduler,
+}
+
+impl<'a> Frame<'a> {
+    fn new(scene: &'a Scene, bvh: &'a HwBvh, cfg: &SimConfig) -> Result<Self, RenderError> {
         let settings = cfg.render_settings();
         settings.validate()?;
-        let frame = CameraFrame::new(&scene.camera, settings.width, settings.height)?;
-        let scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
-        let with_stripes = stripes_possible(cfg, scheduler.total() as usize);
+        Ok(Frame {
+            scene,
+            bvh,
+            camera: CameraFrame::new(&scene.camera, settings.width, settings.height)?,
+            scheduler: CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta),
+            settings,
+        })
+    }
+
+    /// Traces CTA `cta`'s rays in thread order, each thread's in path order, calling
+    /// `on_ray(thread, fetches)` with each ray's node fetches (`fetches` is scratch).
+    fn trace_cta(
+        &self,
+        cta: u32,
+        fetches: &mut Vec<Fetch>,
+        mut on_ray: impl FnMut(usize, &[Fetch]),
+    ) -> usize {
+        let pixels = self.scheduler.pixels(cta);
+        let threads = pixels.len();
+        for (thread, pixel) in pixels.into_iter().enumerate() {
+            let Some(pixel) = pixel else { continue };
+            for sample in 0..self.settings.spp {
+                let (mut path, mut ray) =
+                    PathState::new(&self.camera, &self.settings, pixel, sample);
+                loop {
+                    fetches.clear();
+                    let hit = trace_with_fetches(self.bvh, &ray, Order::Hardware, fetches);
+                    on_ray(thread, fetches);
+                    match path.on_hit(self.scene, hit) {
+                        Some(next) => ray = next,
+                        None => break,
+                    }
+                }
+            }
+        }
+        threads
+    }
+}
+
+impl Profile {
+    /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads; with
+    /// `sample.ghost_l2_footprint`, traces the frame a second time for the CTAs' L2 streams
+    /// where its footprint is small enough ([`Profile::cta_streams`]).
+    pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
+        let start = Instant::now();
+        let frame = Frame::new(scene, bvh, cfg)?;
+        let total = frame.scheduler.total();
+        let with_stripes = stripes_possible(cfg, total as usize);
         let sms = cfg.gpu.sms.max(1) as usize;
         let warp = cfg.gpu.warp_size.max(1) as usize;
+        let ghost_limit = cfg.sample.ghost_l2_footprint;
         // Footprints: one bit per 32 B line of the BVH's address space (a slot of
         // `treelet_bytes` per treelet, the header's included), set by every fetch of a stripe's
-        // CTAs (per stripe) or of the frame's (for `sample.warm_l2`).
+        // CTAs (per stripe) or of the frame's (for `sample.warm_l2` and `ghost_l2_footprint`).
         let words = {
             let space = (bvh.treelets().len() as u64 + 2) * u64::from(bvh.params().treelet_bytes);
             (space as usize).div_ceil(LINE_BYTES as usize * 64)
         };
-        let frame_bits: Vec<AtomicU64> = (0..if cfg.sample.warm_l2 { words } else { 0 })
+        let with_frame = cfg.sample.warm_l2 || ghost_limit > 0.0;
+        let limit_bytes = ghost_limit * f64::from(cfg.memory.l2_bytes);
+        // A BVH no larger than the limit has a small enough footprint: its streams are
+        // recorded in the first pass, otherwise in a second one once the footprint is known.
+        let streams_now =
+            ghost_limit > 0.0 && (words * 64 * LINE_BYTES as usize) as f64 <= limit_bytes;
+        let l1_bytes = cfg.memory.l1_bytes;
+        let line_bytes = cfg.memory.line_bytes;
+        let frame_bits: Vec<AtomicU64> = (0..if with_frame { words } else { 0 })
             .map(|_| AtomicU64::new(0))
             .collect();
         let footprints: Vec<Vec<AtomicU64>> = (0..if with_stripes { sms } else { 0 })
             .map(|_| (0..words).map(|_| AtomicU64::new(0)).collect())
             .collect();
-        let ctas = (0..scheduler.total())
+        let (ctas, first_streams) = (0..total)
             .into_par_iter()
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |(fetches, traces): &mut (Vec<_>, Vec<Vec<u32>>), cta| {
                     let mut work = CtaWork::default();
+                    let mut l1 = streams_now.then(|| L1Filter::new(l1_bytes, line_bytes));
+                    let mut stream = Vec::new();
                     let footprint = footprints.get(cta as usize % sms);
-                    let pixels = scheduler.pixels(cta);
                     // Per thread, the fetches of each of its rays in order.
-                    traces.resize_with(pixels.len(), Vec::new);
                     traces.iter_mut().for_each(Vec::clear);
-                    for (thread, pixel) in pixels.into_iter().enumerate() {
-                        let Some(pixel) = pixel else { continue };
-                        for sample in 0..settings.spp {
-                            let (mut path, mut ray) =
-                                PathState::new(&frame, &settings, pixel, sample);
-                            loop {
-                                fetches.clear();
-                                let hit = trace_with_fetches(bvh, &ray, Order::Hardware, fetches);
-                                work.rays += 1;
-                                work.fetches += fetches.len() as u64;
-                                traces[thread].push(fetches.len() as u32);
-                                if let Some(bits) = footprint {
-                                    mark_lines(bits, fetches);
-                                }
-                                if !frame_bits.is_empty() {
-                                    mark_lines(&frame_bits, fetches);
-                                }
-                                match path.on_hit(scene, hit) {
-                                    Some(next) => ray = next,
-                                    None => break,
-                                }
-                            }
+                    let threads = frame.trace_cta(cta, fetches, |thread, fetches| {
+                        work.rays += 1;
+                        work.fetches += fetches.len() as u64;
+                        if traces.len() <= thread {
+                            traces.resize_with(thread + 1, Vec::new);
                         }
-                    }
-                    work.warp_fetches = lockstep_fetches(traces, warp);
-                    work
+                        traces[thread].push(fetches.len() as u32);
+                        if let Some(bits) = footprint {
+                            mark_lines(bits, fetches);
+                        }
+                        if !frame_bits.is_empty() {
+                            mark_lines(&frame_bits, fetches);
+                        }
+                        if let Some(l1) = &mut l1 {
+                            l1.misses(fetches, &mut stream);
+                        }
+                    });
+                    traces.resize_with(threads, Vec::new);
+                    work.warp_fetches = lockstep_fetches(&traces[..threads], warp);
+                    (work, stream)
                 },
             )
-            .collect::<Vec<CtaWork>>();
+            .unzip::<_, _, Vec<CtaWork>, Vec<Vec<u32>>>();
         let stripes = footprints
             .iter()
             .enumerate()
@@ -195,14 +314,41 @@ impl Profile {
                 stripe
             })
             .collect();
+        let frame_lines: Vec<u64> = frame_bits
+            .iter()
+            .map(|w| w.load(Ordering::Relaxed))
+            .collect();
+        let footprint_bytes = frame_lines
+            .iter()
+            .map(|w| u64::from(w.count_ones()))
+            .sum::<u64>()
+            * u64::from(LINE_BYTES);
+        let cta_streams = if streams_now {
+            first_streams
+        } else if ghost_limit > 0.0 && footprint_bytes as f64 <= limit_bytes {
+            (0..total)
+                .into_par_iter()
+                .map_init(Vec::new, |fetches, cta| {
+                    let mut l1 = L1Filter::new(l1_bytes, line_bytes);
+                    let mut stream = Vec::new();
+                    frame.trace_cta(cta, fetches, |_, fetches| l1.misses(fetches, &mut stream));
+                    stream
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Ok(Profile {
             ctas,
             stripes,
             seconds: start.elapsed().as_secs_f64(),
-            frame_lines: frame_bits
-                .iter()
-                .map(|w| w.load(Ordering::Relaxed))
-                .collect(),
+            frame_lines: if cfg.sample.warm_l2 {
+                frame_lines
+            } else {
+                Vec::new()
+            },
+            footprint_bytes,
+            cta_streams,
         })
     }
 
@@ -226,6 +372,31 @@ impl Profile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The L1 filter passes each sector's first read and none after while its line stays; a
+    /// node spanning sectors reads each; a set's least recently used line leaves for a new one.
+    #[test]
+    fn the_l1_filter_passes_first_reads_of_sectors() {
+        let fetch = |addr: u32, bytes: u32| Fetch {
+            addr,
+            bytes,
+            kind: crate::model::traversal::NodeKind::Internal,
+            treelet: 0,
+        };
+        // 2 sets of 8 ways of 128 B lines.
+        let mut l1 = L1Filter::new(16 * 128, 128);
+        let mut out = Vec::new();
+        l1.misses(&[fetch(0, 64), fetch(32, 32), fetch(96, 32)], &mut out);
+        assert_eq!(out, [0, 1, 3]);
+        out.clear();
+        // Eight more lines of set 0 (even lines): line 0 is the least recently used.
+        let fetches: Vec<Fetch> = (1..=8).map(|k| fetch(k * 256, 32)).collect();
+        l1.misses(&fetches, &mut out);
+        assert_eq!(out.len(), 8);
+        out.clear();
+        l1.misses(&[fetch(0, 32), fetch(8 * 256, 32)], &mut out);
+        assert_eq!(out, [0], "line 0 was evicted, line 8 stayed");
+    }
 
     /// Warps of two threads: each trace costs its longest ray; a thread with fewer rays (its
     /// path ended) or none (off the frame) adds nothing to the traces after its last.

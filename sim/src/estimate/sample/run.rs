@@ -174,6 +174,26 @@ fn warm_sectors(profile: &Profile, scale_sms: usize, sms: usize) -> Vec<u64> {
     out
 }
 
+/// The BVH reads at the L2 of the stripes (an SM's CTAs `c mod sms = s`) the scale model
+/// leaves out (`sample.ghost_l2`): every stripe but `simulated`'s, each the profile's L1-missing
+/// reads of its CTAs in order.
+fn ghost_streams(profile: &Profile, sms: usize, simulated: &[u32]) -> Vec<Vec<u32>> {
+    (0..sms)
+        .filter(|s| !simulated.contains(&(*s as u32)))
+        .map(|s| {
+            profile
+                .cta_streams
+                .iter()
+                .skip(s)
+                .step_by(sms)
+                .flatten()
+                .copied()
+                .collect::<Vec<u32>>()
+        })
+        .filter(|stream| !stream.is_empty())
+        .collect()
+}
+
 /// What CTA `work` costs an SM of `cfg`'s design in the dispatch model: an RT unit that keeps
 /// a warp until its slowest ray is done (the baseline's, prefetching's) pays its warps'
 /// lockstep fetches ([`CtaWork::warp_fetches`]); the treelet RT unit, whose rays leave their
@@ -260,8 +280,19 @@ pub fn simulate_sampled(
         } else {
             1.0
         };
+        let ghosts = (!profile.cta_streams.is_empty() && scale_sms < sms).then(|| {
+            // Stratified samples mix the stripes: the left-out SMs are the last `sms - k`.
+            let simulated: Vec<u32> = match method {
+                Method::Strata => (0..scale_sms as u32).collect(),
+                Method::Stripes => ctas.iter().map(|&c| c % sms as u32).collect(),
+            };
+            let streams = ghost_streams(profile, sms, &simulated);
+            let per_read = ((sms - scale_sms) / scale_sms.max(1)) as u32;
+            (std::sync::Arc::new(streams), per_read)
+        });
         let options = SimOptions {
             l2_warm: warm.clone(),
+            l2_ghosts: ghosts.filter(|(s, _)| !s.is_empty()),
             ctas: (ctas.len() < profile.ctas.len()).then(|| ctas.clone()),
             // Threads left over by fewer replicates simulate a replicate's SMs (the same
             // results for any count).

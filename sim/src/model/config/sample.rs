@@ -13,6 +13,14 @@ pub const STRIPE_BOUND: f64 = 0.07;
 /// 256x256 baseline and prefetch estimates at 1/16x4 (docs/accuracy.md, "Honest intervals").
 pub const TAIL_BOUND: f64 = 0.3;
 
+/// The default `ghost_l2_footprint`: between the footprints where replaying the left-out SMs'
+/// BVH reads removed the scale model's L2 bias (ship 3.4, lands 5.2 L2 capacities) and those
+/// where it did not help (bunny 30, fox 29; docs/accuracy.md, "The other SMs' BVH reads").
+pub const GHOST_FOOTPRINT: f64 = 16.0;
+
+/// Largest `ghost_l2_footprint`, in L2 capacities.
+pub const MAX_GHOST_FOOTPRINT: f64 = 1e6;
+
 /// Largest number of replicates.
 pub const MAX_REPLICATES: u32 = 256;
 
@@ -50,6 +58,15 @@ pub struct SampleConfig {
     /// footprint to one of `gpu.sms` SMs; those dealt to the others are present, as they are
     /// for an SM of the full GPU that reaches a line after another did). `false`: a cold L2.
     pub warm_l2: bool,
+    /// Replay the BVH reads of the GPU's SMs the scale model leaves out into its L2 while it
+    /// runs, where the frame's BVH footprint is at most this many times the L2's capacity
+    /// (0: never): the profile records each CTA's BVH sector reads that miss a private L1 of
+    /// the SM's size, and every BVH read of the model's SMs at the L2 is followed by
+    /// `(sms - k) / k` reads of the left-out SMs' stripes of CTAs, in turn, which take room and
+    /// refresh lines in the L2 as the other SMs' reads do in the full GPU (no DRAM traffic,
+    /// counted nowhere). Beyond the limit the L2 holds too little of the footprint for lines
+    /// to pass between SMs, and the replay would cost its reads for nothing.
+    pub ghost_l2_footprint: f64,
 }
 
 impl Default for SampleConfig {
@@ -62,6 +79,7 @@ impl Default for SampleConfig {
             stripe_bound: STRIPE_BOUND,
             tail_bound: TAIL_BOUND,
             warm_l2: true,
+            ghost_l2_footprint: GHOST_FOOTPRINT,
         }
     }
 }
@@ -139,6 +157,13 @@ impl SampleConfig {
         }
         if !(0.0..=10.0).contains(&self.tail_bound) {
             return Err(invalid("tail_bound", self.tail_bound, "must be in [0, 10]"));
+        }
+        if !(0.0..=MAX_GHOST_FOOTPRINT).contains(&self.ghost_l2_footprint) {
+            return Err(invalid(
+                "ghost_l2_footprint",
+                self.ghost_l2_footprint,
+                format!("must be in [0, {MAX_GHOST_FOOTPRINT}] (L2 capacities)"),
+            ));
         }
         if !(1..=MAX_REPLICATES).contains(&self.replicates) {
             return Err(invalid(
@@ -293,6 +318,14 @@ mod tests {
             };
             let e = s.validate(&cfg).unwrap_err();
             assert_eq!(e.key(), Some("sample.tail_bound"), "{e}");
+        }
+        for limit in [-1.0, f64::NAN, f64::INFINITY] {
+            let s = SampleConfig {
+                ghost_l2_footprint: limit,
+                ..SampleConfig::default()
+            };
+            let e = s.validate(&cfg).unwrap_err();
+            assert_eq!(e.key(), Some("sample.ghost_l2_footprint"), "{e}");
         }
         // 3 of 16 SMs cannot each stand for the same number of SMs.
         let s = SampleConfig {

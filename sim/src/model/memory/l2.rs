@@ -168,6 +168,33 @@ impl L2Side {
         }
     }
 
+    /// Sets the BVH reads of the SMs a scale model leaves out (the sampled tier's
+    /// `sample.ghost_l2`): `streams[g]` are left-out SM `g`'s 32 B sector reads at the L2 (byte
+    /// address / 32) in order; after each BVH read of a simulated SM, its partition applies
+    /// the next `per_read` reads of these streams that fall in it (the streams in turn,
+    /// each from where it stopped, from its start again when it runs out). They take room in
+    /// the L2 and refresh lines as mirrored accesses do: no DRAM traffic, counted nowhere.
+    pub fn ghosts(&mut self, streams: &[Vec<u32>], per_read: u32) {
+        let sector_bytes = u64::from(self.parts[0].sector_bytes);
+        let line_bytes = self.parts[0].line_bytes;
+        for part in &mut self.parts {
+            part.ghosts = streams.iter().map(|_| Vec::new()).collect();
+            part.ghost_cursors = vec![0; streams.len()];
+            part.ghost_per_read = per_read;
+        }
+        for (g, stream) in streams.iter().enumerate() {
+            for &s in stream {
+                let line = u64::from(s) * sector_bytes / line_bytes;
+                let p = self.map.partition(line);
+                self.parts[p].ghosts[g].push(s);
+            }
+        }
+        for part in &mut self.parts {
+            part.ghosts.retain(|g| !g.is_empty());
+            part.ghost_cursors = vec![0; part.ghosts.len()];
+        }
+    }
+
     /// The L2 and DRAM counters of all partitions (the L1 counters are the ports').
     pub fn stats(&self) -> MemStats {
         total_stats(self.parts.iter())
@@ -239,6 +266,14 @@ pub struct L2Partition {
     /// Operations applied.
     applied: u64,
     stats: MemStats,
+    /// The left-out SMs' BVH reads in this partition ([`L2Side::ghosts`]; empty: none).
+    ghosts: Vec<Vec<u32>>,
+    /// Next read of each ghost stream.
+    ghost_cursors: Vec<usize>,
+    /// The ghost stream whose turn it is.
+    ghost_turn: usize,
+    /// Ghost reads after each BVH read.
+    ghost_per_read: u32,
 }
 
 impl L2Partition {
@@ -273,6 +308,10 @@ impl L2Partition {
             mirrors: cfg.l2_private_mirrors.max(1),
             applied: 0,
             stats: MemStats::default(),
+            ghosts: Vec::new(),
+            ghost_cursors: Vec::new(),
+            ghost_turn: 0,
+            ghost_per_read: 0,
         }
     }
 
@@ -304,8 +343,25 @@ impl L2Partition {
                     op.class,
                 );
             }
+        } else if !op.write && !self.ghosts.is_empty() {
+            self.ghost_reads(at);
         }
         result
+    }
+
+    /// The next `ghost_per_read` reads of the ghost streams, reaching the L2 at `at`.
+    fn ghost_reads(&mut self, at: u64) {
+        for _ in 0..self.ghost_per_read {
+            let g = self.ghost_turn;
+            self.ghost_turn = (g + 1) % self.ghosts.len();
+            let stream = &self.ghosts[g];
+            let s = u64::from(stream[self.ghost_cursors[g]]);
+            self.ghost_cursors[g] = (self.ghost_cursors[g] + 1) % stream.len();
+            let addr = s * u64::from(self.sector_bytes);
+            let line = addr / self.line_bytes;
+            let sector = ((addr % self.line_bytes) / u64::from(self.sector_bytes)) as u32;
+            self.mirror(at, self.map.local(line), sector, AccessClass::Bvh);
+        }
     }
 
     /// [`L2Side::warm`] for the sector of byte address `addr` on `line`, a line of this
@@ -550,6 +606,90 @@ mod tests {
             .map(|&l| l2.sector(l, 0, 0) != SectorState::Absent)
             .collect();
         assert_eq!(present, [false, true, true, true, true]);
+    }
+
+    /// Ghost reads follow each BVH read of the simulated SMs (not writes, not other classes),
+    /// streams in turn, from where each stopped and round again; they bring lines a later read
+    /// hits and evict lines, but count nowhere and move no DRAM data.
+    #[test]
+    fn ghost_reads_follow_bvh_reads_and_count_nowhere() {
+        for channels in [1, 8] {
+            let cfg = small(channels);
+            let per_line = u64::from(cfg.line_bytes / cfg.sector_bytes);
+            let sector = |line: u64, s: u64| (line * per_line + s) as u32;
+            let mut l2 = L2Side::new(&cfg);
+            // Two streams: line 5 then line 9 (sector 0); line 40 (sector 2).
+            l2.ghosts(&[vec![sector(5, 0), sector(9, 0)], vec![sector(40, 2)]], 1);
+            let op = |line: u64, sector: u32, seq: u64, class: AccessClass, write: bool| L2Op {
+                cycle: 10 * seq,
+                phase: 0,
+                sm: 0,
+                seq,
+                line,
+                sector,
+                class,
+                write,
+            };
+            let read = |line, s, seq| op(line, s, seq, AccessClass::Bvh, false);
+            // A write and a ray-record read bring nothing.
+            l2.apply(&op(100, 0, 0, AccessClass::Bvh, true));
+            l2.apply(&op(101, 0, 1, AccessClass::RayRecord, false));
+            let present = |l2: &L2Side, line, s| l2.sector(line, s, 1_000) != SectorState::Absent;
+            assert!(!present(&l2, 5, 0));
+            // In partitions, a stream's reads go with its lines' partition: one channel only.
+            if channels == 1 {
+                assert_eq!(l2.apply(&read(7, 0, 2)).1, Source::Dram);
+                assert!(present(&l2, 5, 0), "stream 0's first read");
+                assert!(!present(&l2, 40, 2));
+                assert_eq!(l2.apply(&read(7, 1, 3)).1, Source::Dram);
+                assert!(present(&l2, 40, 2), "stream 1's turn");
+                assert!(!present(&l2, 5, 1), "a ghost read brings its sector only");
+                assert_eq!(l2.apply(&read(5, 0, 4)).1, Source::L2Hit);
+                assert_eq!(l2.apply(&read(40, 2, 5)).1, Source::L2Hit);
+                assert!(present(&l2, 9, 0), "stream 0 went on where it stopped");
+                let bvh = l2.stats().bvh;
+                assert_eq!((bvh.l2_accesses, bvh.l2_hits, bvh.dram_reads), (5, 2, 2));
+                // DRAM read the two BVH misses and the ray record, nothing for the ghosts.
+                assert_eq!(l2.stats().dram.reads, 3);
+            } else {
+                // Line 5's partition has stream 0's line 5 alone: each read there brings it.
+                let p5 = l2.map.partition(5);
+                let other = (0..64)
+                    .find(|&l| l != 5 && l2.map.partition(l) == p5)
+                    .unwrap();
+                assert_eq!(l2.apply(&read(other, 0, 2)).1, Source::Dram);
+                assert!(present(&l2, 5, 0));
+                assert_eq!(l2.apply(&read(5, 0, 3)).1, Source::L2Hit);
+            }
+        }
+        // Ghost reads evict: line 0 of a 4-way set (16 sets) leaves for four ghost lines of its
+        // set, read after a read of line 1 (another set).
+        let cfg = small(1);
+        let per_line = u64::from(cfg.line_bytes / cfg.sector_bytes);
+        let mut l2 = L2Side::new(&cfg);
+        l2.warm(&[0]);
+        let set0 = [16u64, 32, 48, 64].map(|l| (l * per_line) as u32).to_vec();
+        l2.ghosts(&[set0], 4);
+        assert_ne!(l2.sector(0, 0, 0), SectorState::Absent);
+        let read = L2Op {
+            cycle: 0,
+            phase: 0,
+            sm: 0,
+            seq: 0,
+            line: 1,
+            sector: 0,
+            class: AccessClass::Bvh,
+            write: false,
+        };
+        l2.apply(&read);
+        assert_eq!(
+            l2.sector(0, 0, 1_000),
+            SectorState::Absent,
+            "evicted by ghosts"
+        );
+        assert!([16u64, 32, 48, 64]
+            .iter()
+            .all(|&l| l2.sector(l, 0, 1_000) != SectorState::Absent));
     }
 
     /// Operations in key order from (cycle step, line, sector, class, write) draws.
