@@ -171,13 +171,13 @@ pub fn count_table_inputs(
                     treelet: from_pool(&mut rng),
                     n: if rng.chance(50) { 0 } else { warp as u32 + 1 },
                 },
-                48..=52 if regs.min.valid => CountOp::Add {
-                    treelet: regs.min.treelet,
+                48..=52 if regs.ctl.min.valid => CountOp::Add {
+                    treelet: regs.ctl.min.treelet,
                     n: 1 + rng.below(warp) as u32,
                 },
-                53..=57 if regs.max.valid => CountOp::Remove {
-                    treelet: regs.max.treelet,
-                    n: 1 + rng.below(warp.min(regs.max.count_m1 as u64 + 1)) as u32,
+                53..=57 if regs.ctl.max.valid => CountOp::Remove {
+                    treelet: regs.ctl.max.treelet,
+                    n: 1 + rng.below(warp.min(regs.ctl.max.count_m1 as u64 + 1)) as u32,
                 },
                 58..=84 => match entry(&mut rng) {
                     // Mostly within the count (sometimes all of it), sometimes too many.
@@ -199,11 +199,11 @@ pub fn count_table_inputs(
             }
         });
         let input = t.input(op);
-        let was_scanning = regs.scanning;
+        let was_scanning = regs.ctl.scanning;
         let o = t.step(&mut regs, &input);
-        match (was_scanning, regs.scanning) {
+        match (was_scanning, regs.ctl.scanning) {
             (false, true) => cov.scans_started += 1,
-            (true, true) if regs.scan_pos == 0 => cov.scans_restarted += 1,
+            (true, true) if regs.ctl.scan_pos == 0 => cov.scans_restarted += 1,
             (true, false) => cov.scans_published += 1,
             _ => {}
         }

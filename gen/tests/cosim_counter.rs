@@ -60,7 +60,7 @@ impl Block for Counter {
         CounterRegs { count: 0 }
     }
 
-    fn eval(&self, regs: &CounterRegs, i: &CounterIn) -> (CounterOut, CounterRegs) {
+    fn next_into(&self, regs: &CounterRegs, i: &CounterIn, n: &mut CounterRegs) -> CounterOut {
         let out = CounterOut {
             widths: (),
             count: regs.count,
@@ -77,7 +77,8 @@ impl Block for Counter {
         } else {
             regs.count
         };
-        (out, CounterRegs { count: next })
+        n.count = next;
+        out
     }
 
     fn reg_signals(&self, regs: &CounterRegs) -> Vec<Signal> {
@@ -266,8 +267,8 @@ fn record_rejects_signals_that_do_not_match_the_ports() {
         fn reset(&self) -> CounterRegs {
             Counter { skip_ten: false }.reset()
         }
-        fn eval(&self, r: &CounterRegs, i: &CounterIn) -> (CounterOut, CounterRegs) {
-            Counter { skip_ten: false }.eval(r, i)
+        fn next_into(&self, r: &CounterRegs, i: &CounterIn, n: &mut CounterRegs) -> CounterOut {
+            Counter { skip_ten: false }.next_into(r, i, n)
         }
         fn reg_signals(&self, r: &CounterRegs) -> Vec<Signal> {
             Counter { skip_ten: false }.reg_signals(r)

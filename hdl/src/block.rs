@@ -1,10 +1,14 @@
 //! The block framework: a hardware block is a configuration (immutable parameters), a register
 //! bundle (all of its state), input and output port bundles, and one pure next-state function.
 //!
-//! In the manner of rhdl and Clash: `eval(&regs, &inputs) -> (outputs, next_regs)`. The
-//! simulator calls [`Block::step`], which by default is `eval` followed by a register update;
-//! a block may override `step` with an in-place version for speed, and must then have a test
-//! showing both give the same outputs and registers.
+//! In the manner of rhdl and Clash: a block defines one next-state function,
+//! [`Block::next_into`]`(&regs, &inputs, &mut next) -> outputs`, which reads the start-of-cycle
+//! registers `regs` and the inputs and writes the next registers into `next`'s storage; the
+//! framework gives `eval(&regs, &inputs) -> (outputs, next_regs)` and the clock edge
+//! [`Block::step`] from it. A block may override `step` with an in-place version for speed
+//! (the tables run the very same cycle function on their own storage, whose memory writes
+//! land at the edge), and must then have a test showing both give the same outputs and
+//! registers.
 
 use crate::describe::BlockDesc;
 
@@ -51,10 +55,26 @@ pub trait Block {
     /// Register values after reset.
     fn reset(&self) -> Self::Regs;
 
-    /// Outputs for this cycle and the register values for the next one; pure.
-    fn eval(&self, regs: &Self::Regs, inputs: &Self::Inputs) -> (Self::Outputs, Self::Regs);
+    /// The next-state function, the block's definition: this cycle's outputs, with the
+    /// registers of the next cycle written into `next`. It reads the start-of-cycle registers
+    /// `regs` and `inputs` only; `next` is storage to reuse (it may hold any earlier cycle's
+    /// registers, and the result must not depend on them).
+    fn next_into(
+        &self,
+        regs: &Self::Regs,
+        inputs: &Self::Inputs,
+        next: &mut Self::Regs,
+    ) -> Self::Outputs;
 
-    /// One clock edge: evaluate and update the registers in place.
+    /// Outputs for this cycle and the register values for the next one; pure
+    /// ([`Block::next_into`] into a copy of the registers).
+    fn eval(&self, regs: &Self::Regs, inputs: &Self::Inputs) -> (Self::Outputs, Self::Regs) {
+        let mut next = regs.clone();
+        let out = self.next_into(regs, inputs, &mut next);
+        (out, next)
+    }
+
+    /// One clock edge: the registers become the next cycle's.
     fn step(&self, regs: &mut Self::Regs, inputs: &Self::Inputs) -> Self::Outputs {
         let (out, next) = self.eval(regs, inputs);
         *regs = next;

@@ -37,7 +37,7 @@ use crate::bits::bits_for;
 use crate::block::{Block, Signal};
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::{BlockDesc, FsmDesc};
-use crate::memory::{MemPorts, Memory};
+use crate::memory::{MemCycle, MemPorts, Memory};
 use crate::registers::RegTable;
 
 /// Entries the scan engine reads per cycle unless configured otherwise.
@@ -218,11 +218,19 @@ impl Extreme {
     }
 }
 
-/// Registers of the count table.
+/// Registers of the count table: the entry array and the scalar registers.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CountTableRegs {
     /// The entry array.
     pub entries: Memory<CountEntry>,
+    /// The scalar registers.
+    pub ctl: CountCtl,
+}
+
+/// The count table's scalar registers: the scan engine's state, the published pointers and the
+/// counters. The next-state function reads them as one start-of-cycle value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CountCtl {
     /// FSM state: false = IDLE, true = SCAN.
     pub scanning: bool,
     /// First entry the scan reads this cycle.
@@ -384,14 +392,14 @@ impl CountTable {
     /// with entries left (the next cycle starts a scan). When false, `Nop` cycles change
     /// nothing, so a simulator need not evaluate them.
     pub fn busy(&self, r: &CountTableRegs) -> bool {
-        r.scanning || ((!r.max.valid || !r.min.valid) && r.occupancy > 0)
+        r.ctl.scanning || ((!r.ctl.max.valid || !r.ctl.min.valid) && r.ctl.occupancy > 0)
     }
 
     /// `Nop` cycles after which both pointers are published again (`max_valid` high), if a
     /// scan is running or about to start; `None` when the table is not [`busy`](Self::busy).
     pub fn cycles_to_publish(&self, r: &CountTableRegs) -> Option<u32> {
-        if r.scanning {
-            Some((self.entries() - r.scan_pos).div_ceil(self.scan_width))
+        if r.ctl.scanning {
+            Some((self.entries() - r.ctl.scan_pos).div_ceil(self.scan_width))
         } else if self.busy(r) {
             Some(1 + self.scan_cycles())
         } else {
@@ -399,52 +407,15 @@ impl CountTable {
         }
     }
 
-    fn entries(&self) -> u32 {
-        self.cfg.count_table_entries
-    }
-
-    fn above(&self, count_m1: Option<u32>) -> u32 {
-        count_m1.map_or(0, |c| (c + 1 >= self.cfg.underpopulation_threshold) as u32)
-    }
-}
-
-impl Block for CountTable {
-    type Inputs = CountTableIn;
-    type Outputs = CountTableOut;
-    type Regs = CountTableRegs;
-
-    fn reset(&self) -> CountTableRegs {
-        let ports = MemPorts {
-            read: self.scan_width + 1,
-            write: 1,
-            search: 2,
-            read_latency: 0,
-        };
-        CountTableRegs {
-            entries: Memory::new(self.entries() as usize, CountEntry::default(), ports),
-            scanning: false,
-            scan_pos: 0,
-            max: Extreme::default(),
-            min: Extreme::default(),
-            run_max: Extreme::default(),
-            run_min: Extreme::default(),
-            occupancy: 0,
-            above: 0,
-        }
-    }
-
-    fn eval(
+    /// One cycle from the start-of-cycle scalar registers `c` and the entry array's cycle
+    /// `mem` (reads see the start-of-cycle words, writes land at the edge): this cycle's
+    /// outputs and the next scalar registers. The block's only definition of a cycle.
+    fn cycle(
         &self,
-        regs: &CountTableRegs,
+        c: CountCtl,
+        mut mem: MemCycle<'_, CountEntry>,
         inputs: &CountTableIn,
-    ) -> (CountTableOut, CountTableRegs) {
-        let mut next = regs.clone();
-        let out = self.step(&mut next, inputs);
-        (out, next)
-    }
-
-    /// In-place next-state function; `eval` is this applied to a copy of the registers.
-    fn step(&self, r: &mut CountTableRegs, inputs: &CountTableIn) -> CountTableOut {
+    ) -> (CountTableOut, CountCtl) {
         let w = self.widths;
         let mut out = CountTableOut {
             ready: true,
@@ -452,21 +423,20 @@ impl Block for CountTable {
             evict_valid: false,
             evict_treelet: 0,
             evict_count: 0,
-            max_valid: r.max.valid,
-            max_treelet: if r.max.valid { r.max.treelet } else { 0 },
-            max_count: if r.max.valid { r.max.count_m1 + 1 } else { 0 },
-            occupancy: r.occupancy,
-            above_threshold: r.above,
+            max_valid: c.max.valid,
+            max_treelet: if c.max.valid { c.max.treelet } else { 0 },
+            max_count: if c.max.valid { c.max.count_m1 + 1 } else { 0 },
+            occupancy: c.occupancy,
+            above_threshold: c.above,
             widths: w,
         };
         let n_entries = self.entries();
         let warp = self.cfg.warp_size;
-        let mut mem = r.entries.cycle();
 
         // ---- The operation (combinational lookup, write at the edge). ----
         let mut change = Change::None;
-        let mut occupancy = r.occupancy;
-        let mut above = r.above;
+        let mut occupancy = c.occupancy;
+        let mut above = c.above;
         match inputs.op {
             CountOp::Nop => {}
             CountOp::Add { treelet, n } => {
@@ -509,27 +479,27 @@ impl Block for CountTable {
                         treelet,
                         count_m1: n - 1,
                     };
-                } else if !r.min.valid {
+                } else if !c.min.valid {
                     out.ready = false;
-                } else if n - 1 <= r.min.count_m1 {
+                } else if n - 1 <= c.min.count_m1 {
                     out.evict_valid = true;
                     out.evict_treelet = treelet;
                     out.evict_count = n;
                 } else {
                     out.evict_valid = true;
-                    out.evict_treelet = r.min.treelet;
-                    out.evict_count = r.min.count_m1 + 1;
+                    out.evict_treelet = c.min.treelet;
+                    out.evict_count = c.min.count_m1 + 1;
                     mem.write(
-                        r.min.idx as usize,
+                        c.min.idx as usize,
                         CountEntry {
                             valid: true,
                             treelet,
                             count_m1: n - 1,
                         },
                     );
-                    above = above + self.above(Some(n - 1)) - self.above(Some(r.min.count_m1));
+                    above = above + self.above(Some(n - 1)) - self.above(Some(c.min.count_m1));
                     change = Change::Grow {
-                        idx: r.min.idx,
+                        idx: c.min.idx,
                         treelet,
                         count_m1: n - 1,
                     };
@@ -571,28 +541,28 @@ impl Block for CountTable {
         }
 
         // ---- Published pointers: incremental rules. ----
-        let mut max = r.max;
-        let mut min = r.min;
+        let mut max = c.max;
+        let mut min = c.min;
         if max.valid {
             max.valid = change.fold_max(&mut max);
-        } else if !r.scanning {
+        } else if !c.scanning {
             // Not scanning and no max: the table was empty, so only an allocation applies.
             change.fold_max(&mut max);
         }
         if min.valid {
             min.valid = change.fold_min(&mut min);
-        } else if !r.scanning {
+        } else if !c.scanning {
             change.fold_min(&mut min);
         }
 
         // ---- Scan engine. ----
-        let mut scanning = r.scanning;
-        let mut scan_pos = r.scan_pos;
-        let mut run_max = r.run_max;
-        let mut run_min = r.run_min;
-        if r.scanning {
-            let end = (r.scan_pos + self.scan_width).min(n_entries);
-            for i in r.scan_pos..end {
+        let mut scanning = c.scanning;
+        let mut scan_pos = c.scan_pos;
+        let mut run_max = c.run_max;
+        let mut run_min = c.run_min;
+        if c.scanning {
+            let end = (c.scan_pos + self.scan_width).min(n_entries);
+            for i in c.scan_pos..end {
                 let e = mem.read(i as usize);
                 if e.valid {
                     if run_max.beaten_as_max(i, e.count_m1) {
@@ -624,15 +594,65 @@ impl Block for CountTable {
             scan_pos = 0;
         }
         drop(mem);
+        let next = CountCtl {
+            scanning,
+            scan_pos,
+            max,
+            min,
+            run_max,
+            run_min,
+            occupancy,
+            above,
+        };
+        (out, next)
+    }
 
-        r.scanning = scanning;
-        r.scan_pos = scan_pos;
-        r.max = max;
-        r.min = min;
-        r.run_max = run_max;
-        r.run_min = run_min;
-        r.occupancy = occupancy;
-        r.above = above;
+    fn entries(&self) -> u32 {
+        self.cfg.count_table_entries
+    }
+
+    fn above(&self, count_m1: Option<u32>) -> u32 {
+        count_m1.map_or(0, |c| (c + 1 >= self.cfg.underpopulation_threshold) as u32)
+    }
+}
+
+impl Block for CountTable {
+    type Inputs = CountTableIn;
+    type Outputs = CountTableOut;
+    type Regs = CountTableRegs;
+
+    fn reset(&self) -> CountTableRegs {
+        let ports = MemPorts {
+            read: self.scan_width + 1,
+            write: 1,
+            search: 2,
+            read_latency: 0,
+        };
+        CountTableRegs {
+            entries: Memory::new(self.entries() as usize, CountEntry::default(), ports),
+            ctl: CountCtl::default(),
+        }
+    }
+
+    /// The next-state function: the entries copied into `next`'s storage, then
+    /// [`CountTable::cycle`] on them.
+    fn next_into(
+        &self,
+        regs: &CountTableRegs,
+        inputs: &CountTableIn,
+        next: &mut CountTableRegs,
+    ) -> CountTableOut {
+        next.entries.copy_from(&regs.entries);
+        let (out, ctl) = self.cycle(regs.ctl, next.entries.cycle(), inputs);
+        next.ctl = ctl;
+        out
+    }
+
+    /// In place: the same [`CountTable::cycle`] on the registers' own entries (whose writes
+    /// take effect at the clock edge, after every read of the cycle).
+    fn step(&self, r: &mut CountTableRegs, inputs: &CountTableIn) -> CountTableOut {
+        let (out, ctl) = self.cycle(r.ctl, r.entries.cycle(), inputs);
+        r.ctl = ctl;
         out
     }
 
@@ -735,20 +755,20 @@ impl CountTable {
         let w = self.widths;
         let mut t = RegTable::new();
         t.one("state", 1, "FSM state (IDLE/SCAN)", |r: &CountTableRegs| {
-            r.scanning as u64
+            r.ctl.scanning as u64
         })
         .one(
             "scan_pos",
             w.index,
             "first entry the scan reads this cycle",
-            |r| r.scan_pos as u64,
+            |r| r.ctl.scan_pos as u64,
         );
         type Pointer = fn(&CountTableRegs) -> &Extreme;
         let pointers: [(&str, Pointer); 4] = [
-            ("max", |r| &r.max),
-            ("min", |r| &r.min),
-            ("run_max", |r| &r.run_max),
-            ("run_min", |r| &r.run_min),
+            ("max", |r| &r.ctl.max),
+            ("min", |r| &r.ctl.min),
+            ("run_max", |r| &r.ctl.run_max),
+            ("run_min", |r| &r.ctl.run_min),
         ];
         for (p, x) in pointers {
             t.one(
@@ -777,13 +797,13 @@ impl CountTable {
             );
         }
         t.one("occupancy", w.entries, "valid entries", |r| {
-            r.occupancy as u64
+            r.ctl.occupancy as u64
         })
         .one(
             "above",
             w.entries,
             "entries at or above the underpopulation threshold",
-            |r| r.above as u64,
+            |r| r.ctl.above as u64,
         );
         t
     }
@@ -791,13 +811,13 @@ impl CountTable {
     /// The register-only outputs for these registers.
     pub fn status(&self, r: &CountTableRegs) -> CountTableStatus {
         CountTableStatus {
-            ready: r.occupancy != self.entries() || r.min.valid,
-            max: r.max.valid.then_some(QueueCount {
-                treelet: r.max.treelet as u32,
-                count: r.max.count_m1 + 1,
+            ready: r.ctl.occupancy != self.entries() || r.ctl.min.valid,
+            max: r.ctl.max.valid.then_some(QueueCount {
+                treelet: r.ctl.max.treelet as u32,
+                count: r.ctl.max.count_m1 + 1,
             }),
-            occupancy: r.occupancy,
-            above_threshold: r.above,
+            occupancy: r.ctl.occupancy,
+            above_threshold: r.ctl.above,
         }
     }
 }
@@ -902,11 +922,11 @@ mod tests {
         t.step(&mut r, &t.input(CountOp::Remove { treelet: 2, n: 4 }));
         let k = t.cycles_to_publish(&r).expect("scanning");
         for step in 1..=k {
-            assert!(!r.max.valid, "published early, after {step} of {k}");
+            assert!(!r.ctl.max.valid, "published early, after {step} of {k}");
             t.step(&mut r, &t.input(CountOp::Nop));
         }
-        assert!(r.max.valid && !t.busy(&r));
-        assert_eq!((r.max.treelet, r.max.count_m1 + 1), (1, 3));
+        assert!(r.ctl.max.valid && !t.busy(&r));
+        assert_eq!((r.ctl.max.treelet, r.ctl.max.count_m1 + 1), (1, 3));
     }
 
     #[test]

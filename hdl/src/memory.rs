@@ -52,6 +52,18 @@ impl<T: Clone> Memory<T> {
         }
     }
 
+    /// Makes this memory equal to `other` (words and read-data registers), reusing its storage
+    /// where the depths match.
+    pub fn copy_from(&mut self, other: &Memory<T>) {
+        if self.words.len() == other.words.len() && self.rdata.len() == other.rdata.len() {
+            self.words.clone_from_slice(&other.words);
+            self.rdata.clone_from_slice(&other.rdata);
+            self.ports = other.ports;
+        } else {
+            *self = other.clone();
+        }
+    }
+
     /// Number of words.
     pub fn depth(&self) -> usize {
         self.words.len()

@@ -245,6 +245,10 @@ impl ReferenceStateMachine for CountRef {
 struct CountSut {
     table: CountTable,
     regs: CountTableRegs,
+    /// The same table through the definition, `next_into`, into a scratch bundle that holds
+    /// the registers of two cycles before (what it holds must not matter).
+    shadow: CountTableRegs,
+    scratch: CountTableRegs,
     /// Reference slots before the current transition.
     slots: Vec<Option<(u64, u32)>>,
 }
@@ -282,11 +286,27 @@ fn check_contents(regs: &CountTableRegs, slots: &[Option<(u64, u32)>]) {
 }
 
 impl CountSut {
+    /// One clock edge with `op` presented, in place and through `next_into` (which must agree).
+    fn clock(&mut self, op: CountOp) -> CountTableOut {
+        let input = self.table.input(op);
+        let o = self.table.step(&mut self.regs, &input);
+        let d = self
+            .table
+            .next_into(&self.shadow, &input, &mut self.scratch);
+        std::mem::swap(&mut self.shadow, &mut self.scratch);
+        assert_eq!(o, d, "in-place step and next_into: outputs");
+        assert_eq!(
+            self.regs, self.shadow,
+            "in-place step and next_into: registers"
+        );
+        o
+    }
+
     /// Presents `op` until accepted; returns the accepting cycle's outputs.
     fn present(&mut self, p: &Params, op: CountOp, check: bool) -> CountTableOut {
         let limit = self.table.scan_cycles() + 2;
         for _ in 0..=limit {
-            let o = self.table.step(&mut self.regs, &self.table.input(op));
+            let o = self.clock(op);
             if check {
                 check_registered(p, &o, &self.slots);
             }
@@ -318,6 +338,8 @@ impl StateMachineTest for CountSut {
         let regs = table.reset();
         let mut sut = CountSut {
             table,
+            shadow: regs.clone(),
+            scratch: regs.clone(),
             regs,
             slots: vec![None; s.p.cfg.count_table_entries as usize],
         };
@@ -350,9 +372,7 @@ impl StateMachineTest for CountSut {
         sut.slots = s.slots.clone();
         check_contents(&sut.regs, &s.slots);
         for _ in 0..idle {
-            let o = sut
-                .table
-                .step(&mut sut.regs, &sut.table.input(CountOp::Nop));
+            let o = sut.clock(CountOp::Nop);
             check_registered(&s.p, &o, &s.slots);
             assert!(!o.error && !o.evict_valid);
         }
@@ -363,22 +383,36 @@ impl StateMachineTest for CountSut {
         let r = &sut.regs;
         let nonempty = s.slots.iter().any(|x| x.is_some());
         // Out of a scan both pointers are current; when valid they are exact.
-        if !r.scanning {
-            assert_eq!(r.max.valid, nonempty, "max pointer valid outside a scan");
-            assert_eq!(r.min.valid, nonempty, "min pointer valid outside a scan");
+        if !r.ctl.scanning {
+            assert_eq!(
+                r.ctl.max.valid, nonempty,
+                "max pointer valid outside a scan"
+            );
+            assert_eq!(
+                r.ctl.min.valid, nonempty,
+                "min pointer valid outside a scan"
+            );
         }
-        if r.max.valid {
+        if r.ctl.max.valid {
             let (i, t, c) = argmax(&s.slots).unwrap();
             assert_eq!(
-                (r.max.idx as usize, r.max.treelet, r.max.count_m1 + 1),
+                (
+                    r.ctl.max.idx as usize,
+                    r.ctl.max.treelet,
+                    r.ctl.max.count_m1 + 1
+                ),
                 (i, t, c),
                 "max pointer"
             );
         }
-        if r.min.valid {
+        if r.ctl.min.valid {
             let (i, t, c) = argmin(&s.slots).unwrap();
             assert_eq!(
-                (r.min.idx as usize, r.min.treelet, r.min.count_m1 + 1),
+                (
+                    r.ctl.min.idx as usize,
+                    r.ctl.min.treelet,
+                    r.ctl.min.count_m1 + 1
+                ),
                 (i, t, c),
                 "min pointer"
             );

@@ -287,6 +287,10 @@ impl ReferenceStateMachine for QueueRef {
 struct QueueSut {
     table: QueueTable,
     regs: QueueTableRegs,
+    /// The same table through the definition, `next_into`, into a scratch bundle that holds
+    /// the registers of two cycles before (what it holds must not matter).
+    shadow: QueueTableRegs,
+    scratch: QueueTableRegs,
     /// The memory system's spill store.
     spill: VecDeque<(u64, u32)>,
     /// The statistics observer: the longest chain walk seen (the largest `walk_len`).
@@ -301,10 +305,23 @@ struct Run {
 }
 
 impl QueueSut {
+    /// One clock edge with `input`, in place and through `next_into` (which must agree).
+    fn clock(&mut self, input: &QueueTableIn) -> QueueTableOut {
+        let o = self.table.step(&mut self.regs, input);
+        let d = self.table.next_into(&self.shadow, input, &mut self.scratch);
+        std::mem::swap(&mut self.shadow, &mut self.scratch);
+        assert_eq!(o, d, "in-place step and next_into: outputs");
+        assert_eq!(
+            self.regs, self.shadow,
+            "in-place step and next_into: registers"
+        );
+        o
+    }
+
     /// Presents `op` (which must be accepted at once), answers refill requests after `latency`
     /// cycles, presents `busy_op` while the table is busy, and runs until `done`.
     fn run(&mut self, op: QueueOp, busy_op: QueueOp, latency: u32) -> Run {
-        let t = &self.table;
+        let t = self.table.clone();
         let limit = 4 * self.regs.valid.len() as u32 + latency + 16;
         let mut answer: Option<(u32, u64, u32)> = None;
         let mut spills = Vec::new();
@@ -322,7 +339,7 @@ impl QueueSut {
                     answer = None;
                 }
             }
-            let o = t.step(&mut self.regs, &input);
+            let o = self.clock(&input);
             self.max_chain = self.max_chain.max(o.walk_len);
             assert_eq!(o.ready, cycle == 0, "ready in cycle {cycle} of {op:?}");
             assert!(!o.error, "error in cycle {cycle} of {op:?}");
@@ -470,6 +487,8 @@ impl StateMachineTest for QueueSut {
         let regs = table.reset();
         let mut sut = QueueSut {
             table,
+            shadow: regs.clone(),
+            scratch: regs.clone(),
             regs,
             spill: VecDeque::new(),
             max_chain: 0,
@@ -490,9 +509,8 @@ impl StateMachineTest for QueueSut {
         let run = sut.run(s.op, busy, t.latency);
         sut.check_done(&run, s.op, &s.last);
         for _ in 0..t.idle {
-            let o = sut
-                .table
-                .step(&mut sut.regs, &sut.table.input(QueueOp::Nop));
+            let nop = sut.table.input(QueueOp::Nop);
+            let o = sut.clock(&nop);
             assert!(o.ready && !o.done && !o.spill_valid && !o.refill_req && !o.error);
             assert_eq!(o.walk_len, 0, "no walk step while idle");
         }

@@ -425,11 +425,31 @@ impl TreeletController {
     }
 }
 
-impl TreeletController {
-    /// The next-state function ([`Block::eval`]'s body) writing the next registers into `n`,
-    /// whose storage is reused (it need not hold anything in particular): `eval` runs it on a
-    /// fresh copy, a simulator on a scratch bundle it keeps, so a cycle allocates nothing.
-    pub fn next_into(
+impl Block for TreeletController {
+    type Inputs = ControllerInputs;
+    type Outputs = ControllerOutputs;
+    type Regs = ControllerRegs;
+
+    fn reset(&self) -> ControllerRegs {
+        ControllerRegs {
+            mode: Mode::Initial,
+            seq: Seq::Idle,
+            queued_rays: 0,
+            res: vec![ResidentEntry::default(); self.cfg.max_resident_treelets as usize].into(),
+            res_head: 0,
+            res_tail: 0,
+            slots: vec![SlotState::default(); self.cfg.warp_buffer_size as usize].into(),
+            fill: FillState::default(),
+            spare_rays: vec![0; self.cfg.warp_size as usize - 1].into(),
+            spare_count: 0,
+            pending_remove: None,
+        }
+    }
+
+    /// The next-state function, writing the next registers into `n`, whose storage is reused
+    /// (it need not hold anything in particular): `eval` runs it on a fresh copy, a simulator
+    /// on a scratch bundle it keeps, so a cycle allocates nothing.
+    fn next_into(
         &self,
         regs: &ControllerRegs,
         inputs: &ControllerInputs,
@@ -577,38 +597,6 @@ impl TreeletController {
             },
         );
         out
-    }
-}
-
-impl Block for TreeletController {
-    type Inputs = ControllerInputs;
-    type Outputs = ControllerOutputs;
-    type Regs = ControllerRegs;
-
-    fn reset(&self) -> ControllerRegs {
-        ControllerRegs {
-            mode: Mode::Initial,
-            seq: Seq::Idle,
-            queued_rays: 0,
-            res: vec![ResidentEntry::default(); self.cfg.max_resident_treelets as usize].into(),
-            res_head: 0,
-            res_tail: 0,
-            slots: vec![SlotState::default(); self.cfg.warp_buffer_size as usize].into(),
-            fill: FillState::default(),
-            spare_rays: vec![0; self.cfg.warp_size as usize - 1].into(),
-            spare_count: 0,
-            pending_remove: None,
-        }
-    }
-
-    fn eval(
-        &self,
-        regs: &ControllerRegs,
-        inputs: &ControllerInputs,
-    ) -> (ControllerOutputs, ControllerRegs) {
-        let mut n = regs.clone();
-        let out = self.next_into(regs, inputs, &mut n);
-        (out, n)
     }
     fn reg_signals(&self, regs: &ControllerRegs) -> Vec<Signal> {
         regs::table(&self.widths).signals(regs)

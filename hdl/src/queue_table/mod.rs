@@ -339,6 +339,26 @@ pub struct QueueTableRegs {
     pub ctl: QueueCtl,
 }
 
+/// The queue table's arrays, without its scalar registers: what [`QueueTable::cycle`] may
+/// change in place.
+struct QueueArrays<'a> {
+    heads: &'a mut Memory<HeadWord>,
+    meta: &'a mut Memory<MetaWord>,
+    rays: &'a mut Memory<Box<[u32]>>,
+    valid: &'a mut [bool],
+}
+
+impl<'a> QueueArrays<'a> {
+    fn of(r: &'a mut QueueTableRegs) -> Self {
+        QueueArrays {
+            heads: &mut r.heads,
+            meta: &mut r.meta,
+            rays: &mut r.rays,
+            valid: &mut r.valid,
+        }
+    }
+}
+
 /// The treelet queue table block (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct QueueTable {
@@ -421,62 +441,23 @@ impl QueueTable {
         }
     }
 
-    fn entries(&self) -> usize {
-        self.cfg.queue_table_entries as usize
-    }
-}
-
-impl Block for QueueTable {
-    type Inputs = QueueTableIn;
-    type Outputs = QueueTableOut;
-    type Regs = QueueTableRegs;
-
-    fn reset(&self) -> QueueTableRegs {
-        let e = self.entries();
-        let sram = MemPorts {
-            read: 1,
-            write: 1,
-            search: 0,
-            read_latency: 1,
-        };
-        let flops = MemPorts {
-            read: 1,
-            write: 1,
-            search: 0,
-            read_latency: 0,
-        };
-        QueueTableRegs {
-            heads: Memory::new(self.buckets as usize, HeadWord::default(), flops),
-            meta: Memory::new(e, MetaWord::default(), sram),
-            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize].into(), sram),
-            valid: vec![false; e].into(),
-            ctl: QueueCtl {
-                free_count: e as u32,
-                ..QueueCtl::default()
-            },
-        }
-    }
-
-    fn eval(
+    /// One cycle from the start-of-cycle scalar registers `c` and the table's arrays `mem`
+    /// (memory reads see the start-of-cycle words; memory writes and valid-bit changes land at
+    /// the edge): this cycle's outputs and the next scalar registers. The block's only
+    /// definition of a cycle.
+    fn cycle(
         &self,
-        regs: &QueueTableRegs,
+        c: QueueCtl,
+        mem: QueueArrays<'_>,
         inputs: &QueueTableIn,
-    ) -> (QueueTableOut, QueueTableRegs) {
-        let mut next = regs.clone();
-        let out = self.step(&mut next, inputs);
-        (out, next)
-    }
-
-    /// In-place next-state function; `eval` is this applied to a copy of the registers.
-    fn step(&self, r: &mut QueueTableRegs, inputs: &QueueTableIn) -> QueueTableOut {
-        let c = r.ctl;
+    ) -> (QueueTableOut, QueueCtl) {
         let lanes = self.cfg.warp_size as usize;
         let mut cx = Cycle {
-            heads: r.heads.cycle(),
-            meta: r.meta.cycle(),
-            rays: r.rays.cycle(),
-            first_free: r.valid.iter().position(|&v| !v),
-            first_valid: r.valid.iter().position(|&v| v),
+            heads: mem.heads.cycle(),
+            meta: mem.meta.cycle(),
+            rays: mem.rays.cycle(),
+            first_free: mem.valid.iter().position(|&v| !v),
+            first_valid: mem.valid.iter().position(|&v| v),
             nx: c,
             out: QueueTableOut {
                 ready: c.state == QueueState::Idle,
@@ -562,12 +543,72 @@ impl Block for QueueTable {
         } = cx;
         drop((heads, meta, rays));
         if let Some(i) = set_valid {
-            r.valid[i] = true;
+            mem.valid[i] = true;
         }
         if let Some(i) = clear_valid {
-            r.valid[i] = false;
+            mem.valid[i] = false;
         }
-        r.ctl = nx;
+        (out, nx)
+    }
+
+    fn entries(&self) -> usize {
+        self.cfg.queue_table_entries as usize
+    }
+}
+
+impl Block for QueueTable {
+    type Inputs = QueueTableIn;
+    type Outputs = QueueTableOut;
+    type Regs = QueueTableRegs;
+
+    fn reset(&self) -> QueueTableRegs {
+        let e = self.entries();
+        let sram = MemPorts {
+            read: 1,
+            write: 1,
+            search: 0,
+            read_latency: 1,
+        };
+        let flops = MemPorts {
+            read: 1,
+            write: 1,
+            search: 0,
+            read_latency: 0,
+        };
+        QueueTableRegs {
+            heads: Memory::new(self.buckets as usize, HeadWord::default(), flops),
+            meta: Memory::new(e, MetaWord::default(), sram),
+            rays: Memory::new(e, vec![0; self.cfg.warp_size as usize].into(), sram),
+            valid: vec![false; e].into(),
+            ctl: QueueCtl {
+                free_count: e as u32,
+                ..QueueCtl::default()
+            },
+        }
+    }
+
+    /// The next-state function: the arrays copied into `next`'s storage, then
+    /// [`QueueTable::cycle`] on them.
+    fn next_into(
+        &self,
+        regs: &QueueTableRegs,
+        inputs: &QueueTableIn,
+        next: &mut QueueTableRegs,
+    ) -> QueueTableOut {
+        next.heads.copy_from(&regs.heads);
+        next.meta.copy_from(&regs.meta);
+        next.rays.copy_from(&regs.rays);
+        next.valid.clone_from(&regs.valid);
+        let (out, ctl) = self.cycle(regs.ctl, QueueArrays::of(next), inputs);
+        next.ctl = ctl;
+        out
+    }
+
+    /// In place: the same [`QueueTable::cycle`] on the registers' own arrays (memory writes
+    /// and valid-bit changes land at the clock edge, after every read of the cycle).
+    fn step(&self, r: &mut QueueTableRegs, inputs: &QueueTableIn) -> QueueTableOut {
+        let (out, ctl) = self.cycle(r.ctl, QueueArrays::of(r), inputs);
+        r.ctl = ctl;
         out
     }
 

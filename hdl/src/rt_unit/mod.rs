@@ -607,12 +607,19 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
         }
     }
 
-    /// The definition: the cycle on a copy of the registers with their freshly built cache.
-    fn eval(&self, regs: &RtUnitRegs, inputs: &RtUnitInputs) -> (RtUnitOutputs, RtUnitRegs) {
-        let mut next = regs.clone();
+    /// The definition: the cycle's seven stages ([`RtUnit::update`]) on a copy of the
+    /// registers in `next`, with their freshly built cache. The stages run in order on that
+    /// copy; that each decides from start-of-cycle values is kept by how they are written and
+    /// tested (the module documentation's "One cycle"), not yet by their types.
+    fn next_into(
+        &self,
+        regs: &RtUnitRegs,
+        inputs: &RtUnitInputs,
+        next: &mut RtUnitRegs,
+    ) -> RtUnitOutputs {
+        next.clone_from(regs);
         let mut cache = RtCache::of(regs);
-        let out = self.update(&mut next, &mut cache, inputs);
-        (out, next)
+        self.update(next, &mut cache, inputs)
     }
 
     fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {

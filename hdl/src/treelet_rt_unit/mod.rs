@@ -567,12 +567,14 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         }
     }
 
-    /// The definition: the wiring kernel settled with the children's pure `eval`s.
-    fn eval(
+    /// The definition: the wiring kernel settled with the children's pure `eval`s (the
+    /// settled children's registers replace `next`'s storage).
+    fn next_into(
         &self,
         regs: &TreeletRtUnitRegs,
         inputs: &TreeletRtUnitInputs,
-    ) -> (TreeletRtUnitOutputs, TreeletRtUnitRegs) {
+        next: &mut TreeletRtUnitRegs,
+    ) -> TreeletRtUnitOutputs {
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
         let rt_status = self.rt.status(&regs.rt, &RtCache::of(&regs.rt), distinct);
         let peeks = wiring::Peeks::of(self, regs, &rt_status);
@@ -586,16 +588,14 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         );
         let (_, (out, glue), _, (rt, ctl, ct, qt)) =
             settled.expect("the treelet RT unit's wiring has no combinational cycle");
-        (
-            out,
-            TreeletRtUnitRegs {
-                rt,
-                ctl,
-                ct,
-                qt,
-                glue,
-            },
-        )
+        *next = TreeletRtUnitRegs {
+            rt,
+            ctl,
+            ct,
+            qt,
+            glue,
+        };
+        out
     }
 
     /// The children's register signals (prefixed `rt_`, `ctl_`, `ct_`, `qt_`) and the wiring's
