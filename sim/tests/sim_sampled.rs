@@ -477,3 +477,41 @@ fn scale_models_see_the_other_sms_bvh_reads() {
         assert_eq!(rt.stats.memory, rn.stats.memory);
     }
 }
+
+/// Where the stripes' scale model runs CTAs of several stripes on one SM, the stripes are not
+/// the GPU's fixed SM workloads (fox under VTQ at 256x256: its sky CTAs finish before the last
+/// CTA is dispatched, and later CTAs go to whichever SM has room), so the tier falls back to
+/// stratified samples and says so. Needs `../shared/scenes/fox`; says when it skips.
+#[test]
+fn stripes_whose_dispatch_is_not_static_fall_back_to_strata() {
+    let Some(fox) = vtq_sim::model::scene::load::shared_scenes_dir()
+        .map(|d| d.join("fox"))
+        .filter(|d| d.is_dir())
+    else {
+        eprintln!("skipping: ../shared/scenes/fox not found");
+        return;
+    };
+    let vtq = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/vtq.toml");
+    let mut cfg = SimConfig::load(Some(&vtq), &[]).expect("configs/vtq.toml");
+    cfg.sample.apply_spec("1/16x2").unwrap();
+    let scene = vtq_sim::model::scene::load::load_scene(fox.to_str().unwrap()).expect("fox loads");
+    let bvh = vtq_sim::model::bvh::HwBvh::build(&scene, &cfg.bvh_params()).expect("BVH");
+    let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
+    assert_eq!(
+        vtq_sim::estimate::sample::run::method(&cfg, &profile),
+        Method::Stripes,
+        "every CTA fits at once: stripes are tried"
+    );
+    let s = simulate_sampled(&scene, &bvh, &cfg, &profile, 2).unwrap();
+    assert!(
+        s.stripes_dynamic,
+        "the stripes' dispatch was found not static"
+    );
+    assert_eq!(s.method, Method::Strata);
+    assert_eq!(s.replicate_runs.len(), 2);
+    assert!(s
+        .replicate_runs
+        .iter()
+        .all(|r| !r.stripes_mixed && r.stripes.is_empty()));
+    assert!(s.cycles.half_width.is_some());
+}

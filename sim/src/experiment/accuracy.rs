@@ -47,6 +47,9 @@ pub struct Row {
     pub tier: Tier,
     /// How the sampled tier chose its CTAs (`None` for full detail).
     pub method: Option<Method>,
+    /// Stripe sampling was tried first and found the dispatch not static (the estimate is
+    /// stratified; [`crate::estimate::sample::SampledStats::stripes_dynamic`]).
+    pub stripes_dynamic: bool,
     /// Wall-clock seconds (the sampled tier's include the functional profile).
     pub wall: f64,
     /// Full detail's wall over this one's.
@@ -133,13 +136,18 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     for (i, d) in plan.designs.iter().enumerate() {
         let (cycles, wall) = full[i];
         let true_speedup = (i > 0).then(|| reference / cycles.max(1.0));
-        let row = |tier: Tier, method, w: f64, c: Estimate, s: Option<Estimate>| {
+        let row = |tier: Tier,
+                   method: Option<(Method, bool)>,
+                   w: f64,
+                   c: Estimate,
+                   s: Option<Estimate>| {
             let err = |e: f64, t: f64| e / t - 1.0;
             Row {
                 scene: scene.name.clone(),
                 design: d.label.clone(),
                 tier,
-                method,
+                method: method.map(|m| m.0),
+                stripes_dynamic: method.is_some_and(|m| m.1),
                 wall: w,
                 time_speedup: wall / w.max(1e-9),
                 cycles: c.value,
@@ -170,7 +178,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
             let speedup = (i > 0).then(|| paired_speedup(&sampled[0][k].0, s));
             rows.push(row(
                 Tier::Sampled(spec.clone()),
-                Some(s.method),
+                Some((s.method, s.stripes_dynamic)),
                 *w,
                 s.cycles,
                 speedup,
@@ -264,10 +272,11 @@ pub fn csv(rows: &[Row]) -> String {
          cycles_covered,speedup,speedup_half_width,speedup_error,speedup_covered\n",
     );
     for r in rows {
-        let method = match r.method {
-            None => "",
-            Some(Method::Strata) => "strata",
-            Some(Method::Stripes) => "stripes",
+        let method = match (r.method, r.stripes_dynamic) {
+            (None, _) => "",
+            (Some(Method::Strata), false) => "strata",
+            (Some(Method::Strata), true) => "strata (stripes dynamic)",
+            (Some(Method::Stripes), _) => "stripes",
         };
         out += &format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
@@ -344,6 +353,7 @@ mod tests {
             design: "baseline".into(),
             tier,
             method: None,
+            stripes_dynamic: false,
             wall: 1.0,
             time_speedup: 1.0,
             cycles,

@@ -576,8 +576,19 @@ fn compare_sampled(
             crate::estimate::sample::STRIPE_NOTE
         );
     }
-    let cautioned =
-        labels(&|e| e.every_cta_resident && e.method == crate::estimate::sample::Method::Strata);
+    let dynamic = labels(&|e| e.stripes_dynamic);
+    if !dynamic.is_empty() {
+        println!(
+            "stratified ({}): {}",
+            dynamic.join(", "),
+            crate::estimate::sample::STRIPES_DYNAMIC_NOTE
+        );
+    }
+    let cautioned = labels(&|e| {
+        e.every_cta_resident
+            && !e.stripes_dynamic
+            && e.method == crate::estimate::sample::Method::Strata
+    });
     if !cautioned.is_empty() {
         println!(
             "caution ({}): {}",

@@ -207,10 +207,15 @@ fn run_sampled(
     write_json(&args.out, &(json + "\n"))?;
     let how = match s.method {
         crate::estimate::sample::Method::Strata => format!(
-            "{} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals",
+            "{} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals{}",
             s.replicates,
             s.scale_sms,
-            1.0 / s.fraction
+            1.0 / s.fraction,
+            if s.stripes_dynamic {
+                "; stratified because the stripes' scale model found the CTA dispatch not static"
+            } else {
+                ""
+            }
         ),
         crate::estimate::sample::Method::Stripes => {
             let stripes: Vec<Vec<u32>> =

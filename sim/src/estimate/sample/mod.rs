@@ -3,11 +3,14 @@
 //! L2 and DRAM bandwidth) running stratified samples of the frame's CTAs, chosen by a functional
 //! profile of each CTA's work, in independent replicates whose spread gives 95% intervals; or,
 //! where the design's SMs hold every CTA at once, the whole stripes of CTAs the profile ranks
-//! slowest, with a validated bound as the interval.
+//! slowest, with a validated bound as the interval (or, when their scale model shows that CTAs
+//! finished before the last was dispatched, so the stripes were not fixed, stratified samples
+//! after all).
 //!
 //! - the `[sample]` configuration section and the scale model it makes are the configuration's
 //!   ([`crate::model::config::SampleConfig`]).
-//! - [`profile`]: the functional profile (rays and node fetches per CTA).
+//! - [`profile`]: the functional profile (rays and node fetches per CTA, the frame's footprint,
+//!   and where it is small each CTA's BVH reads at the L2 for the scale models' ghost reads).
 //! - [`strata`]: stratified CTA samples.
 //! - [`stripes`]: whole-stripe samples, where every CTA is resident at once.
 //! - [`dispatch`]: the CTA-level dispatch model that carries a scale model's cycles to the GPU's.
@@ -34,6 +37,10 @@ pub const STRIPE_CAUTION: &str = "every CTA is resident on its SM at once in thi
      stripe, which a CTA sample does not see: the 95% interval covers sampling noise only and \
      may miss full detail by much more (docs/accuracy.md; sample.stripes = true samples the \
      stripes instead)";
+
+/// What `vtq compare --sample` prints for a design whose stripe sampling found the dispatch not
+/// static ([`SampledStats::stripes_dynamic`]).
+pub const STRIPES_DYNAMIC_NOTE: &str = "every CTA fits on the SMs at once in this design and      frame, but CTAs finished before the last was dispatched (the stripes' scale model ran CTAs      of several stripes on one SM), so the SMs' CTAs are not fixed stripes: the estimate is      stratified, with its bias bound for a frame of one wave (docs/accuracy.md)";
 
 /// What `vtq sim --sample` and `vtq compare --sample` print for a design sampled by stripes
 /// ([`Method::Stripes`]).

@@ -28,6 +28,7 @@ use super::strata::stratified_sample;
 use super::stripes::stripe_samples;
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
+use crate::model::gpu::sm::CtaSpan;
 use crate::model::gpu::{simulate, SimError, SimOptions, SimStats};
 use crate::model::scene::Scene;
 use crate::model::splitmix::SplitMix64;
@@ -44,6 +45,10 @@ pub struct Replicate {
     /// Cycles extrapolated to the whole frame (stratified: the scale model's times the
     /// dispatch model's makespan ratio; stripes: the scale model's, its slowest stripe's).
     pub cycles: f64,
+    /// Stripe sampling: a scale-model SM ran CTAs of more than one stripe, i.e. CTAs finished
+    /// before every CTA was dispatched and the dispatch gave later ones to whichever SM had
+    /// room, so the stripes were not fixed (false for stratified samples).
+    pub stripes_mixed: bool,
     /// The scale model's statistics.
     pub stats: SimStats,
 }
@@ -92,6 +97,11 @@ pub struct SampledStats {
     pub profile_seconds: f64,
     /// Wall-clock seconds of the replicates' simulations.
     pub sim_seconds: f64,
+    /// Stripe sampling was tried first and its scale model's dispatch mixed the stripes
+    /// ([`Replicate::stripes_mixed`]), so the stripes are not the GPU's fixed SM workloads and
+    /// the estimate is the stratified one (`method` says `strata`; `sim_seconds` includes the
+    /// stripes' run).
+    pub stripes_dynamic: bool,
     /// The replicates.
     pub replicate_runs: Vec<Replicate>,
 }
@@ -241,6 +251,7 @@ pub fn simulate_sampled(
         .map_err(|e| SimError::Setup(e.to_string()))?;
     let method = method(cfg, profile);
     let samples = samples(cfg, profile).map_err(SimError::Setup)?;
+    let asked = cfg;
     // Stripe sampling runs every replicate's stripes together, sharing one L2 as they do in
     // the full GPU, where they make a scale model (their SMs divide the GPU's).
     let together = (method == Method::Stripes)
@@ -321,6 +332,7 @@ pub fn simulate_sampled(
             work_share,
             stripes,
             cycles: out.stats.cycles as f64 * dispatch,
+            stripes_mixed: method == Method::Stripes && mixes_stripes(&out.cta_spans, sms),
             stats: out.stats,
         });
         *slots[r].lock().unwrap_or_else(|e| e.into_inner()) = Some(result);
@@ -340,7 +352,25 @@ pub fn simulate_sampled(
         runs.push(result?);
     }
     let sim_seconds = start.elapsed().as_secs_f64();
+    if runs.iter().any(|r| r.stripes_mixed) {
+        // The stripes were not fixed: the stratified method, which does not assume they are.
+        let mut strata = asked.clone();
+        strata.sample.stripes = false;
+        let mut s = simulate_sampled(scene, bvh, &strata, profile, threads)?;
+        s.stripes_dynamic = true;
+        s.sim_seconds += sim_seconds;
+        return Ok(s);
+    }
     Ok(combine(cfg, profile, method, runs, sim_seconds))
+}
+
+/// Whether a scale model's SMs ran CTAs of more than one stripe each (`spans`: per SM, its
+/// CTAs; stripe of CTA `c`: `c mod sms`).
+fn mixes_stripes(spans: &[Vec<CtaSpan>], sms: usize) -> bool {
+    spans.iter().any(|sm| {
+        sm.windows(2)
+            .any(|w| w[0].cta % sms as u32 != w[1].cta % sms as u32)
+    })
 }
 
 /// The estimates from the replicates `runs`.
@@ -401,6 +431,7 @@ fn combine(
         dram_bytes: each(&|r| r.stats.dram_bytes as f64 / (cfg.sample.fraction * r.work_share)),
         profile_seconds: profile.seconds,
         sim_seconds,
+        stripes_dynamic: false,
         replicate_runs: runs,
     }
 }
@@ -444,5 +475,31 @@ pub fn paired_speedup(baseline: &SampledStats, design: &SampledStats) -> Estimat
             .half_width
             .map(|h| h + e.value * (baseline.bias_bound + design.bias_bound)),
         ..e
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spans(ctas: &[u32]) -> Vec<CtaSpan> {
+        ctas.iter()
+            .map(|&cta| CtaSpan {
+                cta,
+                start: 0,
+                end: 1,
+            })
+            .collect()
+    }
+
+    /// A scale-model SM that ran CTAs of two stripes mixes them; SMs each on one stripe (in
+    /// any order of retirement) do not.
+    #[test]
+    fn mixed_stripes_are_seen_on_any_sm() {
+        let fixed = vec![spans(&[3, 19, 35]), spans(&[20, 4])];
+        assert!(!mixes_stripes(&fixed, 16));
+        let mixed = vec![spans(&[3, 19]), spans(&[4, 35, 20])];
+        assert!(mixes_stripes(&mixed, 16));
+        assert!(!mixes_stripes(&[], 16));
     }
 }
