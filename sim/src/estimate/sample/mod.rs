@@ -40,7 +40,10 @@ pub const STRIPE_CAUTION: &str = "every CTA is resident on its SM at once in thi
 
 /// What `vtq compare --sample` prints for a design whose stripe sampling found the dispatch not
 /// static ([`SampledStats::stripes_dynamic`]).
-pub const STRIPES_DYNAMIC_NOTE: &str = "every CTA fits on the SMs at once in this design and      frame, but CTAs finished before the last was dispatched (the stripes' scale model ran CTAs      of several stripes on one SM), so the SMs' CTAs are not fixed stripes: the estimate is      stratified, with its bias bound for a frame of one wave (docs/accuracy.md)";
+pub const STRIPES_DYNAMIC_NOTE: &str = "every CTA fits on the SMs at once in this design and \
+     frame, but CTAs finished before the last was dispatched (the stripes' scale model ran CTAs \
+     of several stripes on one SM), so the SMs' CTAs are not fixed stripes: the estimate is \
+     stratified, with its bias bound for a frame of one wave (docs/accuracy.md)";
 
 /// What `vtq sim --sample` and `vtq compare --sample` print for a design sampled by stripes
 /// ([`Method::Stripes`]).
@@ -49,3 +52,19 @@ pub const STRIPE_NOTE: &str = "every CTA is resident on its SM at once in this d
      predicts slowest and the estimate is the slowest of them; its interval is the bound \
      sample.stripe_bound, validated against full detail (docs/accuracy.md), not a sampling \
      interval, and its speedups do not pair replicates";
+
+#[cfg(test)]
+mod tests {
+    /// The notes the commands print are single lines of prose: no line breaks, no runs of
+    /// spaces left by a string continuation.
+    #[test]
+    fn printed_notes_are_clean_lines() {
+        for note in [
+            super::STRIPE_CAUTION,
+            super::STRIPE_NOTE,
+            super::STRIPES_DYNAMIC_NOTE,
+        ] {
+            assert!(!note.contains("  ") && !note.contains('\n'), "{note}");
+        }
+    }
+}
