@@ -16,7 +16,7 @@
 //! slowest replicate, with the validated bound `sample.stripe_bound` as its interval.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -275,6 +275,18 @@ pub fn simulate_sampled(
         .sample
         .warm_l2
         .then(|| warm_sectors(profile, scale_sms, sms));
+    // The left-out SMs' BVH reads (`sample.ghost_l2_footprint`) for a model simulating the
+    // stripes `simulated`, with how many follow each of its BVH reads.
+    let ghosts_of = |simulated: &[u32]| {
+        let streams = ghost_streams(profile, sms, simulated);
+        let per_read = ((sms - scale_sms) / scale_sms.max(1)) as u32;
+        (!streams.is_empty() && scale_sms < sms).then(|| (Arc::new(streams), per_read))
+    };
+    // Stratified samples mix the stripes: the left-out SMs are the last `sms - k`, the same
+    // for every replicate.
+    let strata_ghosts = (method == Method::Strata && !profile.cta_streams.is_empty())
+        .then(|| ghosts_of(&(0..scale_sms as u32).collect::<Vec<_>>()))
+        .flatten();
     let start = Instant::now();
     let next = AtomicUsize::new(0);
     let slots: Vec<Mutex<Option<Result<Replicate, SimError>>>> =
@@ -291,19 +303,13 @@ pub fn simulate_sampled(
         } else {
             1.0
         };
-        let ghosts = (!profile.cta_streams.is_empty() && scale_sms < sms).then(|| {
-            // Stratified samples mix the stripes: the left-out SMs are the last `sms - k`.
-            let simulated: Vec<u32> = match method {
-                Method::Strata => (0..scale_sms as u32).collect(),
-                Method::Stripes => ctas.iter().map(|&c| c % sms as u32).collect(),
-            };
-            let streams = ghost_streams(profile, sms, &simulated);
-            let per_read = ((sms - scale_sms) / scale_sms.max(1)) as u32;
-            (std::sync::Arc::new(streams), per_read)
-        });
+        let ghosts = match method {
+            Method::Strata => strata_ghosts.clone(),
+            Method::Stripes => ghosts_of(&ctas.iter().map(|&c| c % sms as u32).collect::<Vec<_>>()),
+        };
         let options = SimOptions {
             l2_warm: warm.clone(),
-            l2_ghosts: ghosts.filter(|(s, _)| !s.is_empty()),
+            l2_ghosts: ghosts,
             ctas: (ctas.len() < profile.ctas.len()).then(|| ctas.clone()),
             // Threads left over by fewer replicates simulate a replicate's SMs (the same
             // results for any count).
