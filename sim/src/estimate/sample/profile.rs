@@ -62,8 +62,8 @@ pub struct Profile {
     /// of word `w`: line `64 w + i`), with `sample.warm_l2` (empty otherwise).
     pub frame_lines: Vec<u64>,
     /// Per CTA, when the frame's footprint is at most `sample.ghost_l2_footprint` L2s: the
-    /// 32 B BVH sectors (byte address / 32) its rays read,
-    /// in order, that miss an L1 of the GPU's geometry private to the CTA — the reads its SM
+    /// 32 B BVH sectors (byte address / 32) its rays read, in order, that miss an L1 filter
+    /// private to the CTA (the GPU's L1 capacity and line size, 8-way LRU) — the reads its SM
     /// sends the L2 (empty otherwise).
     pub cta_streams: Vec<Vec<u32>>,
     /// Bytes of the frame's footprint (its distinct 32 B BVH lines), with `sample.warm_l2` or
@@ -230,9 +230,10 @@ impl<'a> Frame<'a> {
 }
 
 impl Profile {
-    /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads; with
-    /// `sample.ghost_l2_footprint`, traces the frame a second time for the CTAs' L2 streams
-    /// where its footprint is small enough ([`Profile::cta_streams`]).
+    /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads. Where
+    /// the frame's footprint is within `sample.ghost_l2_footprint`, it also records the CTAs'
+    /// L2 streams ([`Profile::cta_streams`]): in the one pass when the BVH's whole address
+    /// space is within the limit, else in a second pass once the footprint is known.
     pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
         let start = Instant::now();
         let frame = Frame::new(scene, bvh, cfg)?;
