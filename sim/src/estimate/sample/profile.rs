@@ -101,13 +101,16 @@ fn lockstep_fetches(traces: &[Vec<u32>], warp: usize) -> u64 {
         .sum()
 }
 
+/// The 32 B lines (byte address / 32) node fetch `f` reads, in order.
+fn lines_of(f: &Fetch) -> std::ops::RangeInclusive<u32> {
+    f.addr / LINE_BYTES..=(f.addr + f.bytes.max(1) - 1) / LINE_BYTES
+}
+
 /// Sets the bits of `bits` (one per 32 B line of the BVH's address space) of every line the
 /// fetches `fetches` touch.
 fn mark_lines(bits: &[AtomicU64], fetches: &[Fetch]) {
     for f in fetches {
-        let first = f.addr / LINE_BYTES;
-        let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
-        for line in first..=last {
+        for line in lines_of(f) {
             // Every node lies inside the address space.
             let Some(word) = bits.get((line / 64) as usize) else {
                 debug_assert!(false, "line {line} beyond the BVH");
@@ -152,9 +155,7 @@ impl L1Filter {
     /// them.
     fn misses(&mut self, fetches: &[Fetch], out: &mut Vec<u32>) {
         for f in fetches {
-            let first = f.addr / LINE_BYTES;
-            let last = (f.addr + f.bytes.max(1) - 1) / LINE_BYTES;
-            for sector_index in first..=last {
+            for sector_index in lines_of(f) {
                 let addr = u64::from(sector_index) * u64::from(LINE_BYTES);
                 let line = addr / self.line_bytes;
                 let bit = 1u32 << ((addr % self.line_bytes) / u64::from(LINE_BYTES));

@@ -7,8 +7,9 @@
 //! DRAM bandwidth a full-GPU SM has, so its cycle count estimates the full GPU's. A replicate's
 //! cycles are carried to the whole frame by the dispatch model's makespan ratio
 //! ([`super::dispatch`]), with each CTA's cost from the profile as the design's RT unit pays it
-//! (`dispatch_cost`: its warps' lockstep fetches, or every fetch under treelet queues). Rates (BVH L1 miss rate, SIMT efficiency, phase shares) are taken as
-//! measured; DRAM bytes scale by the inverse of the sample's share of the frame's fetches.
+//! (`dispatch_cost`: its warps' lockstep fetches, or every fetch under treelet queues). Rates
+//! (BVH L1 miss rate, SIMT efficiency, phase shares) are taken as measured; DRAM bytes scale by
+//! the inverse of the sample's share of the frame's fetches.
 //!
 //! Where the design's SMs hold every CTA at once and `sample.stripes` is on, the replicates run
 //! whole stripes instead ([`super::stripes`]): a replicate's cycles are those of its slowest
@@ -185,7 +186,7 @@ fn warm_sectors(profile: &Profile, scale_sms: usize, sms: usize) -> Vec<u64> {
 }
 
 /// The BVH reads at the L2 of the stripes (an SM's CTAs `c mod sms = s`) the scale model
-/// leaves out (`sample.ghost_l2`): every stripe but `simulated`'s, each the profile's L1-missing
+/// leaves out (`sample.ghost_l2_footprint`): every stripe but `simulated`'s, each the profile's L1-missing
 /// reads of its CTAs in order.
 fn ghost_streams(profile: &Profile, sms: usize, simulated: &[u32]) -> Vec<Vec<u32>> {
     (0..sms)
@@ -278,13 +279,16 @@ pub fn simulate_sampled(
     // The left-out SMs' BVH reads (`sample.ghost_l2_footprint`) for a model simulating the
     // stripes `simulated`, with how many follow each of its BVH reads.
     let ghosts_of = |simulated: &[u32]| {
+        if profile.cta_streams.is_empty() || scale_sms >= sms {
+            return None;
+        }
         let streams = ghost_streams(profile, sms, simulated);
-        let per_read = ((sms - scale_sms) / scale_sms.max(1)) as u32;
-        (!streams.is_empty() && scale_sms < sms).then(|| (Arc::new(streams), per_read))
+        let per_read = ((sms - scale_sms) / scale_sms) as u32;
+        (!streams.is_empty()).then(|| (Arc::new(streams), per_read))
     };
     // Stratified samples mix the stripes: the left-out SMs are the last `sms - k`, the same
     // for every replicate.
-    let strata_ghosts = (method == Method::Strata && !profile.cta_streams.is_empty())
+    let strata_ghosts = (method == Method::Strata)
         .then(|| ghosts_of(&(0..scale_sms as u32).collect::<Vec<_>>()))
         .flatten();
     let start = Instant::now();

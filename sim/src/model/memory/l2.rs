@@ -179,7 +179,6 @@ impl L2Side {
         let line_bytes = self.parts[0].line_bytes;
         for part in &mut self.parts {
             part.ghosts = streams.iter().map(|_| Vec::new()).collect();
-            part.ghost_cursors = vec![0; streams.len()];
             part.ghost_per_read = per_read;
         }
         for (g, stream) in streams.iter().enumerate() {
