@@ -60,6 +60,15 @@ impl Block for Counter {
         CounterRegs { count: 0 }
     }
 
+    fn idle_inputs(&self) -> CounterIn {
+        CounterIn {
+            widths: (),
+            en: false,
+            load: false,
+            value: 0,
+        }
+    }
+
     fn next_into(&self, regs: &CounterRegs, i: &CounterIn, n: &mut CounterRegs) -> CounterOut {
         let out = CounterOut {
             widths: (),
@@ -266,6 +275,9 @@ fn record_rejects_signals_that_do_not_match_the_ports() {
         type Regs = CounterRegs;
         fn reset(&self) -> CounterRegs {
             Counter { skip_ten: false }.reset()
+        }
+        fn idle_inputs(&self) -> CounterIn {
+            Counter { skip_ten: false }.idle_inputs()
         }
         fn next_into(&self, r: &CounterRegs, i: &CounterIn, n: &mut CounterRegs) -> CounterOut {
             Counter { skip_ten: false }.next_into(r, i, n)

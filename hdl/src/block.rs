@@ -55,6 +55,10 @@ pub trait Block {
     /// Register values after reset.
     fn reset(&self) -> Self::Regs;
 
+    /// Inputs with nothing happening this cycle (no op, no command, nothing arriving): what a
+    /// composite drives a child with before its wiring has settled ([`crate::compose`]).
+    fn idle_inputs(&self) -> Self::Inputs;
+
     /// The next-state function, the block's definition: this cycle's outputs, with the
     /// registers of the next cycle written into `next`. It reads the start-of-cycle registers
     /// `regs` and `inputs` only; `next` is storage to reuse (it may hold any earlier cycle's

@@ -634,6 +634,11 @@ impl Block for CountTable {
         }
     }
 
+    /// A `Nop`.
+    fn idle_inputs(&self) -> CountTableIn {
+        self.input(CountOp::Nop)
+    }
+
     /// The next-state function: the entries copied into `next`'s storage, then
     /// [`CountTable::cycle`] on them.
     fn next_into(

@@ -377,11 +377,6 @@ impl TreeletController {
         self.widths
     }
 
-    /// Inputs with nothing happening this cycle.
-    pub fn idle_inputs(&self) -> ControllerInputs {
-        ControllerInputs::idle(self.widths)
-    }
-
     /// The `mode` output for these registers when `restart` is driven (a register-only
     /// output: the mode register, or the initial phase when a `done` controller restarts).
     pub fn mode(&self, regs: &ControllerRegs, restart: bool) -> Mode {
@@ -444,6 +439,11 @@ impl Block for TreeletController {
             spare_count: 0,
             pending_remove: None,
         }
+    }
+
+    /// Nothing happening this cycle.
+    fn idle_inputs(&self) -> ControllerInputs {
+        ControllerInputs::idle(self.widths)
     }
 
     /// The next-state function, writing the next registers into `n`, whose storage is reused

@@ -587,6 +587,11 @@ impl Block for QueueTable {
         }
     }
 
+    /// A `Nop` with no refill.
+    fn idle_inputs(&self) -> QueueTableIn {
+        self.input(QueueOp::Nop)
+    }
+
     /// The next-state function: the arrays copied into `next`'s storage, then
     /// [`QueueTable::cycle`] on them.
     fn next_into(

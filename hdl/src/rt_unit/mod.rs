@@ -11,7 +11,13 @@
 //! [`Block::eval`] stays a pure function of registers and inputs.
 //!
 //! # One cycle
-//! All decisions use the register values at the start of the cycle:
+//! The stages run in this order on the next cycle's copy of the registers, so a later stage
+//! sees an earlier one's writes. The issue takes a slot free at the start of the cycle and the
+//! FIFO accepts responses up to its free entries at the start of the cycle; the treelet
+//! controller's commands (stop, repack, after stage 7's issue) act on the lanes as this cycle's
+//! completion and delivery leave them (a warp that completed is not repacked; a lane whose node
+//! arrived and emptied its current stack parks at a stop) — combinational paths an RTL of the
+//! block must have too:
 //! 1. statistics: every valid warp adds one warp cycle and its traversing lanes;
 //! 2. completion: the oldest warp whose lanes are all inactive/done/parked with no node in
 //!    flight, no delay and no store pending leaves (at most one per cycle);
@@ -344,17 +350,6 @@ impl<D: NodeDatapath> RtUnit<D> {
         self.widths
     }
 
-    /// Inputs with nothing issued and no responses.
-    pub fn idle_inputs(&self) -> RtUnitInputs {
-        RtUnitInputs {
-            widths: self.widths,
-            issue: None,
-            responses: Vec::new(),
-            stop: None,
-            repack: None,
-        }
-    }
-
     /// The summary of slot `slot` for the treelet controller's reports (`None` for an empty or
     /// nonexistent slot); the distinct next treelets are counted only with `distinct` (0
     /// otherwise), as only initial-phase divergence reports need them.
@@ -607,10 +602,21 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
         }
     }
 
+    /// Nothing issued, no responses, no command.
+    fn idle_inputs(&self) -> RtUnitInputs {
+        RtUnitInputs {
+            widths: self.widths,
+            issue: None,
+            responses: Vec::new(),
+            stop: None,
+            repack: None,
+        }
+    }
+
     /// The definition: the cycle's seven stages ([`RtUnit::update`]) on a copy of the
     /// registers in `next`, with their freshly built cache. The stages run in order on that
-    /// copy; that each decides from start-of-cycle values is kept by how they are written and
-    /// tested (the module documentation's "One cycle"), not yet by their types.
+    /// copy, each seeing the earlier ones' writes (the module documentation's "One cycle" says
+    /// where that matters); their types do not separate start-of-cycle from next values.
     fn next_into(
         &self,
         regs: &RtUnitRegs,

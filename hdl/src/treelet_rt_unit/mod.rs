@@ -74,13 +74,17 @@ pub use ports::{
 pub use probe::ProbeCycle;
 
 use crate::block::{Block, Signal};
-use crate::compose::settle;
 use crate::config::HwConfig;
-use crate::controller::{ControllerFeatures, ControllerInputs, ControllerRegs, TreeletController};
-use crate::count_table::{CountTable, CountTableIn, CountTableRegs};
+use crate::controller::{
+    ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs, TreeletController,
+};
+use crate::count_table::{CountTable, CountTableIn, CountTableOut, CountTableRegs};
 use crate::describe::BlockDesc;
-use crate::queue_table::{QueueTable, QueueTableIn, QueueTableRegs};
-use crate::rt_unit::{NodeDatapath, RtCache, RtUnit, RtUnitError, RtUnitParams, RtUnitRegs};
+use crate::queue_table::{QueueTable, QueueTableIn, QueueTableOut, QueueTableRegs};
+use crate::rt_unit::{
+    NodeDatapath, RtCache, RtUnit, RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams,
+    RtUnitRegs,
+};
 
 /// Parameters of a treelet RT unit beyond the hardware configuration.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -105,19 +109,25 @@ pub struct TreeletRtUnit<D> {
     widths: TreeletRtUnitWidths,
 }
 
-/// The treelet RT unit's registers: its children's and the wiring's.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TreeletRtUnitRegs {
-    /// The RT unit's.
-    pub rt: RtUnitRegs,
-    /// The treelet controller's.
-    pub ctl: ControllerRegs,
-    /// The treelet count table's.
-    pub ct: CountTableRegs,
-    /// The treelet queue table's.
-    pub qt: QueueTableRegs,
+crate::composite! {
+    /// The treelet RT unit's registers: its children's and the wiring's.
+    pub struct TreeletRtUnitRegs;
+    child_inputs ChildInputs;
+    child_outputs ChildOutputs;
+    child_regs ChildRegs;
+    parent TreeletRtUnit<D: NodeDatapath>;
+    children {
+        /// The RT unit's.
+        rt: RtUnit<D> => (RtUnitRegs, RtUnitInputs, RtUnitOutputs),
+        /// The treelet controller's.
+        ctl: TreeletController => (ControllerRegs, ControllerInputs, ControllerOutputs),
+        /// The treelet count table's.
+        ct: CountTable => (CountTableRegs, CountTableIn, CountTableOut),
+        /// The treelet queue table's.
+        qt: QueueTable => (QueueTableRegs, QueueTableIn, QueueTableOut),
+    }
     /// The wiring's.
-    pub glue: GlueRegs,
+    glue glue: GlueRegs;
 }
 
 /// A simulation cache of a treelet RT unit's registers, not hardware, owned beside the
@@ -304,17 +314,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
     /// The hardware configuration.
     pub fn config(&self) -> &HwConfig {
         &self.cfg
-    }
-
-    /// Inputs with nothing offered and nothing arriving.
-    pub fn idle_inputs(&self) -> TreeletRtUnitInputs {
-        TreeletRtUnitInputs {
-            widths: self.widths,
-            sm_warp: None,
-            responses: Vec::new(),
-            ray_records: Vec::new(),
-            spill_head: None,
-        }
     }
 
     /// The `sm_ready` output for these registers: an SM warp may be offered (SM warps are
@@ -522,17 +521,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         fast_path::step_in_place(self, regs, cache, inputs, out);
     }
 
-    /// The children's instance names and descriptions, for a Verilog top module that
-    /// instantiates them (`rt`, `ctl`, `ct`, `qt`).
-    pub fn children(&self) -> Vec<(&'static str, BlockDesc)> {
-        vec![
-            ("rt", self.rt.describe()),
-            ("ctl", self.ctl.describe()),
-            ("ct", self.ct.describe()),
-            ("qt", self.qt.describe()),
-        ]
-    }
-
     /// The controller's traversal mode (a register-only output: what an observer attributes the
     /// cycle's intersection tests to).
     pub fn mode(&self, regs: &TreeletRtUnitRegs) -> crate::mode::Mode {
@@ -558,12 +546,17 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
     type Regs = TreeletRtUnitRegs;
 
     fn reset(&self) -> TreeletRtUnitRegs {
-        TreeletRtUnitRegs {
-            rt: self.rt.reset(),
-            ctl: self.ctl.reset(),
-            ct: self.ct.reset(),
-            qt: self.qt.reset(),
-            glue: GlueRegs::reset(&self.cfg),
+        self.children_reset(GlueRegs::reset(&self.cfg))
+    }
+
+    /// Nothing offered and nothing arriving.
+    fn idle_inputs(&self) -> TreeletRtUnitInputs {
+        TreeletRtUnitInputs {
+            widths: self.widths,
+            sm_warp: None,
+            responses: Vec::new(),
+            ray_records: Vec::new(),
+            spill_head: None,
         }
     }
 
@@ -578,43 +571,18 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
         let rt_status = self.rt.status(&regs.rt, &RtCache::of(&regs.rt), distinct);
         let peeks = wiring::Peeks::of(self, regs, &rt_status);
-        let idle = wiring::ChildInputs::idle(self);
-        let q0 = wiring::eval_children(self, regs, &idle).0;
-        let settled = settle(
-            q0,
-            8,
-            |q| wiring::kernel(self, regs, &peeks, inputs, q),
-            |d| wiring::eval_children(self, regs, d),
-        );
-        let (_, (out, glue), _, (rt, ctl, ct, qt)) =
+        let settled =
+            self.settle_children(regs, 8, |q| wiring::kernel(self, regs, &peeks, inputs, q));
+        let ((out, glue), children) =
             settled.expect("the treelet RT unit's wiring has no combinational cycle");
-        *next = TreeletRtUnitRegs {
-            rt,
-            ctl,
-            ct,
-            qt,
-            glue,
-        };
+        *next = children.with_glue(glue);
         out
     }
 
     /// The children's register signals (prefixed `rt_`, `ctl_`, `ct_`, `qt_`) and the wiring's
     /// (prefixed `glue_`).
     fn reg_signals(&self, regs: &TreeletRtUnitRegs) -> Vec<Signal> {
-        let mut s = Vec::new();
-        for (prefix, child) in [
-            ("rt", self.rt.reg_signals(&regs.rt)),
-            ("ctl", self.ctl.reg_signals(&regs.ctl)),
-            ("ct", self.ct.reg_signals(&regs.ct)),
-            ("qt", self.qt.reg_signals(&regs.qt)),
-            ("glue", self.glue_signals(&regs.glue)),
-        ] {
-            s.extend(child.into_iter().map(|sig| Signal {
-                name: format!("{prefix}_{}", sig.name),
-                ..sig
-            }));
-        }
-        s
+        self.children_reg_signals(regs, self.glue_signals(&regs.glue))
     }
 
     fn describe(&self) -> BlockDesc {

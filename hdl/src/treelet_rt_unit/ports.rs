@@ -10,7 +10,6 @@ use crate::rt_unit::{
     ErrorRecord, Hit, MemRequest, MemResponse, NodeDatapath, NodeEntry, RayRecord, RequestKind,
     RtStats, Widths, RAY_WORDS,
 };
-use crate::Block;
 use serde::Serialize;
 
 /// Widths of the treelet RT unit's fields, derived from the configuration.
@@ -278,12 +277,7 @@ pub(super) fn describe<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> BlockDesc {
     let w = &u.widths;
     let mut ports = TreeletRtUnitInputs::ports(w);
     ports.extend(TreeletRtUnitOutputs::ports(w));
-    let children = [
-        u.rt.describe(),
-        u.ctl.describe(),
-        u.ct.describe(),
-        u.qt.describe(),
-    ];
+    let children = u.children();
     BlockDesc {
         name: "treelet_rt_unit".into(),
         doc: "Treelet RT unit (paper section 4.2, Figure 8): the RT unit with the treelet \
@@ -305,7 +299,7 @@ pub(super) fn describe<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> BlockDesc {
             "children: {}; each cycle the controller's inputs come from registers only (the tables' status, their answers of the previous cycle, the RT unit's slot summaries, the first pending event), its ops and commands drive the tables and the RT unit in the same cycle",
             children
                 .iter()
-                .map(|c| c.name.as_str())
+                .map(|(_, c)| c.name.as_str())
                 .collect::<Vec<_>>()
                 .join(", ")
         )],

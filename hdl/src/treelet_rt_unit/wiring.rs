@@ -7,8 +7,8 @@
 
 use super::glue::{Build, Event, GlueFault, GlueRegs, SlotUse};
 use super::{
-    FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitInputs,
-    TreeletRtUnitOutputs, TreeletRtUnitRegs,
+    ChildInputs, ChildOutputs, FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit,
+    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs,
 };
 use crate::block::Block;
 use crate::bounded::BoundedVec;
@@ -21,7 +21,7 @@ use crate::mode::Mode;
 use crate::queue_table::{QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus};
 use crate::rt_unit::{
     IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtCache, RtUnitInputs, RtUnitOutputs,
-    RtUnitRegs, RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 
 /// The children's register-only output ports, read by the kernel before the children's inputs
@@ -70,51 +70,6 @@ impl<'a> Peeks<'a> {
     }
 }
 
-/// The children's inputs of one cycle.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) struct ChildInputs {
-    ctl: ControllerInputs,
-    ct: CountTableIn,
-    qt: QueueTableIn,
-    rt: RtUnitInputs,
-}
-
-impl ChildInputs {
-    /// Inputs with nothing happening.
-    pub(super) fn idle<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> Self {
-        ChildInputs {
-            ctl: u.ctl.idle_inputs(),
-            ct: u.ct.input(CountOp::Nop),
-            qt: u.qt.input(QueueOp::Nop),
-            rt: u.rt.idle_inputs(),
-        }
-    }
-}
-
-/// The children's outputs of one cycle.
-pub(super) type ChildOutputs = (
-    ControllerOutputs,
-    CountTableOut,
-    QueueTableOut,
-    RtUnitOutputs,
-);
-
-/// The children's next registers.
-pub(super) type ChildRegs = (RtUnitRegs, ControllerRegs, CountTableRegs, QueueTableRegs);
-
-/// The children evaluated on `d` (pure): their outputs and next registers.
-pub(super) fn eval_children<D: NodeDatapath>(
-    u: &TreeletRtUnit<D>,
-    regs: &TreeletRtUnitRegs,
-    d: &ChildInputs,
-) -> (ChildOutputs, ChildRegs) {
-    let (ctl_o, ctl_r) = u.ctl.eval(&regs.ctl, &d.ctl);
-    let (ct_o, ct_r) = u.ct.eval(&regs.ct, &d.ct);
-    let (qt_o, qt_r) = u.qt.eval(&regs.qt, &d.qt);
-    let (rt_o, rt_r) = u.rt.eval(&regs.rt, &d.rt);
-    ((ctl_o, ct_o, qt_o, rt_o), (rt_r, ctl_r, ct_r, qt_r))
-}
-
 /// The kernel: `(inputs, registers, children's outputs) -> (children's inputs, (outputs, next
 /// wiring registers))`, the three stages chained.
 pub(super) fn kernel<D: NodeDatapath>(
@@ -129,7 +84,7 @@ pub(super) fn kernel<D: NodeDatapath>(
     place_records(&mut g, &inputs.ray_records);
     let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
     out.counts.restarts += u64::from(restart);
-    out.counts.ctl.observe(&ctl_in, &q.0);
+    out.counts.ctl.observe(&ctl_in, &q.ctl);
     out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(&regs.ctl, &ctl_in));
     let mut rt_in = u.rt.idle_inputs();
     let (ct_in, qt_in) = children_inputs(
@@ -139,11 +94,11 @@ pub(super) fn kernel<D: NodeDatapath>(
         inputs,
         restart,
         &ctl_in,
-        Some(&q.0),
+        Some(&q.ctl),
         &mut out,
         &mut rt_in,
     );
-    after_children(&mut g, Some(&q.1), Some(&q.2), &q.3, &mut out);
+    after_children(&mut g, Some(&q.ct), Some(&q.qt), &q.rt, &mut out);
     let d = ChildInputs {
         ctl: ctl_in,
         ct: ct_in,
