@@ -241,6 +241,54 @@ fn accuracy_and_sampled_compare_commands() {
         off_csv.lines().nth(2).unwrap().contains(",strata,"),
         "{off_csv}"
     );
+    // With perturbations: full detail also runs with the DRAM latency moved by +1 and -1
+    // cycles; each row gets the reference's mean and spread and its error against the mean.
+    let pert = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args(["accuracy", "--scene", "cornell", "--settings", "1/2x2"])
+        .args(["--designs", "baseline,vtq", "--perturb", "2"])
+        .args(small)
+        .arg("--out")
+        .arg(dir.join("pert"))
+        .output()
+        .unwrap();
+    let pert_out = String::from_utf8_lossy(&pert.stdout);
+    assert!(pert.status.success(), "{pert_out}");
+    assert!(
+        pert_out.contains("against the mean of full detail's 3 runs"),
+        "{pert_out}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("pert/accuracy.json")).unwrap())
+            .unwrap();
+    for row in doc["rows"].as_array().unwrap() {
+        let r = &row["reference"];
+        let runs: Vec<f64> = r["cycles"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_f64().unwrap())
+            .collect();
+        assert_eq!(runs.len(), 3, "{row}");
+        let mean = runs.iter().sum::<f64>() / 3.0;
+        assert!((r["mean"].as_f64().unwrap() - mean).abs() < 1e-6, "{row}");
+        let est = row["cycles"].as_f64().unwrap();
+        assert!((r["cycles_error"].as_f64().unwrap() - (est / mean - 1.0)).abs() < 1e-9);
+        // The unperturbed run is the reference's first, and full detail's own row.
+        if row["tier"] == "Full" {
+            assert_eq!(runs[0], est, "{row}");
+        }
+    }
+    let pert_csv = std::fs::read_to_string(dir.join("pert/accuracy.csv")).unwrap();
+    assert!(pert_csv
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with("speedup_covered_mean"));
+    for line in pert_csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f.len(), 20, "{line}");
+        assert!(f[14..17].iter().all(|v| !v.is_empty()), "{line}");
+    }
     let png = std::fs::read(dir.join("accuracy.png")).unwrap();
     assert_eq!(&png[..4], b"\x89PNG");
     assert!(std::fs::read_to_string(dir.join("accuracy.svg"))

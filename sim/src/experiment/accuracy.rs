@@ -3,6 +3,12 @@
 //! speed-up over full detail, error of cycles, error of each design's speedup over the baseline,
 //! and whether the 95% interval held the full-detail value — with the mean and worst case per
 //! setting, a CSV of the rows and a plot of run time against error.
+//!
+//! With perturbations ([`Plan::perturbations`]) full detail also runs with the DRAM latency
+//! moved by a few cycles, a change far below any real GPU's variation: how far the reference
+//! itself moves says how much of an estimate's error is the reference's own sensitivity (which
+//! SM gets the heaviest CTAs is decided by cycle-level timing) rather than the estimator's
+//! bias, and each estimate is also compared with the mean of those runs ([`Reference`]).
 
 use std::time::Instant;
 
@@ -70,6 +76,62 @@ pub struct Row {
     pub speedup_error: Option<f64>,
     /// Whether the interval held full detail's speedup.
     pub speedup_covered: Option<bool>,
+    /// Full detail under the plan's perturbations (`None` without them).
+    pub reference: Option<Reference>,
+}
+
+/// Full detail under small perturbations of the DRAM latency: how far the reference moves, and
+/// a row's error against the mean of its runs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Reference {
+    /// Full detail's cycles, unperturbed first, then one per perturbation.
+    pub cycles: Vec<f64>,
+    /// Their mean.
+    pub mean: f64,
+    /// (max - min) / mean of `cycles`: the reference's own spread.
+    pub spread: f64,
+    /// The row's cycles against `mean` (relative error).
+    pub cycles_error: f64,
+    /// The row's speedup over the baseline against the mean of full detail's speedups, one per
+    /// run (each design's run over the baseline's with the same perturbation); `None` for the
+    /// baseline.
+    pub speedup_error: Option<f64>,
+    /// Whether the row's interval of cycles holds `mean` (`None` without an interval).
+    pub cycles_covered: Option<bool>,
+    /// Whether the row's interval of its speedup holds the mean of full detail's speedups.
+    pub speedup_covered: Option<bool>,
+}
+
+impl Reference {
+    /// The reference of `cycles` (unperturbed first) for an estimate `estimate` and, for a
+    /// design other than the baseline, its speedup `speedup` against the baseline's runs
+    /// `baseline` (same perturbations, same order).
+    fn of(cycles: &[f64], estimate: &Estimate, speedup: Option<(&Estimate, &[f64])>) -> Self {
+        let mean = cycles.iter().sum::<f64>() / cycles.len().max(1) as f64;
+        let (lo, hi) = cycles.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| {
+            (lo.min(c), hi.max(c))
+        });
+        let speedup_mean = speedup.map(|(s, base)| {
+            let speedups: Vec<f64> = base
+                .iter()
+                .zip(cycles)
+                .map(|(b, c)| b / c.max(1.0))
+                .collect();
+            (
+                s,
+                speedups.iter().sum::<f64>() / speedups.len().max(1) as f64,
+            )
+        });
+        Reference {
+            cycles: cycles.to_vec(),
+            mean,
+            spread: (hi - lo) / mean.max(1.0),
+            cycles_error: estimate.value / mean.max(1.0) - 1.0,
+            speedup_error: speedup_mean.map(|(s, m)| s.value / m - 1.0),
+            cycles_covered: estimate.half_width.map(|_| estimate.contains(mean)),
+            speedup_covered: speedup_mean.and_then(|(s, m)| s.half_width.map(|_| s.contains(m))),
+        }
+    }
 }
 
 /// A design to benchmark: its label and configuration.
@@ -94,6 +156,31 @@ pub struct Plan<'a> {
     pub settings: &'a [String],
     /// Threads for full detail's SMs and the sampled tier's replicates.
     pub threads: usize,
+    /// DRAM latency offsets (cycles) of the extra full-detail runs ([`Reference`]); empty: none.
+    pub perturbations: &'a [i64],
+}
+
+/// The DRAM latency offsets of `n` perturbed runs: +1, -1, +2, -2, ... cycles.
+pub fn perturbations(n: usize) -> Vec<i64> {
+    (0..n as i64)
+        .map(|k| if k % 2 == 0 { k / 2 + 1 } else { -(k / 2 + 1) })
+        .collect()
+}
+
+/// `cfg` with its DRAM latency moved by `offset` cycles (an error if that leaves the
+/// configuration's valid range).
+fn perturbed(cfg: &SimConfig, offset: i64) -> Result<SimConfig, SimError> {
+    let mut c = cfg.clone();
+    let latency = i64::from(c.memory.dram_latency) + offset;
+    c.memory.dram_latency = u32::try_from(latency).map_err(|_| {
+        SimError::Setup(format!(
+            "a perturbation of {offset} cycles takes memory.dram_latency ({}) below 0",
+            cfg.memory.dram_latency
+        ))
+    })?;
+    c.validate()
+        .map_err(|e| SimError::Setup(format!("perturbed by {offset} cycles: {e}")))?;
+    Ok(c)
 }
 
 /// Runs every tier on one scene; rows in (design, tier) order.
@@ -106,14 +193,26 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     // Per design: (full cycles, full wall), per setting the sampled result.
     let mut full = Vec::new();
     let mut sampled = Vec::new();
+    // Per design: full detail's cycles, unperturbed then perturbed.
+    let mut references: Vec<Vec<f64>> = Vec::new();
     for d in plan.designs {
         let t = Instant::now();
         let options = SimOptions {
             threads: plan.threads,
             ..SimOptions::default()
         };
-        let out = simulate(scene, plan.bvh, &d.config, options, None)?;
+        let out = simulate(scene, plan.bvh, &d.config, options.clone(), None)?;
         full.push((out.stats.cycles as f64, t.elapsed().as_secs_f64()));
+        let mut runs = vec![out.stats.cycles as f64];
+        for &offset in plan.perturbations {
+            let cfg = perturbed(&d.config, offset)?;
+            runs.push(
+                simulate(scene, plan.bvh, &cfg, options.clone(), None)?
+                    .stats
+                    .cycles as f64,
+            );
+        }
+        references.push(runs);
         let mut per = Vec::new();
         for spec in plan.settings {
             let mut cfg = d.config.clone();
@@ -160,6 +259,10 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
                 speedup_covered: s
                     .zip(true_speedup)
                     .and_then(|(s, t)| s.half_width.map(|_| s.contains(t))),
+                reference: (!plan.perturbations.is_empty()).then(|| {
+                    let base = (i > 0).then_some(references[0].as_slice());
+                    Reference::of(&references[i], &c, s.as_ref().zip(base))
+                }),
             }
         };
         let exact = |v: f64| Estimate {
@@ -219,14 +322,22 @@ pub struct Summary {
     /// Share of intervals (cycles and speedups) that held full detail's value (`None`: no
     /// intervals).
     pub coverage: Option<f64>,
+    /// With perturbations: mean and worst |relative error| of cycles, then of speedups,
+    /// against the mean of the perturbed full-detail runs ([`Reference`]).
+    pub against_mean: Option<[f64; 4]>,
+    /// With perturbations: the share of intervals (cycles and speedups) that held that mean
+    /// (`None`: no intervals).
+    pub coverage_of_mean: Option<f64>,
 }
 
-/// The summary of each tier of `rows` (full detail excluded), in order of first appearance.
+/// The summary of each tier of `rows` in order of first appearance — full detail's only with
+/// perturbations (its error against the mean of its perturbed runs: the reference's own
+/// sensitivity).
 pub fn summarize(rows: &[Row]) -> Vec<Summary> {
     let mut tiers: Vec<String> = Vec::new();
     for r in rows {
         let t = r.tier.name();
-        if r.tier != Tier::Full && !tiers.contains(&t) {
+        if (r.tier != Tier::Full || r.reference.is_some()) && !tiers.contains(&t) {
             tiers.push(t);
         }
     }
@@ -247,6 +358,21 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
             let times: Vec<f64> = of.iter().map(|r| r.time_speedup).collect();
             let (mean_c, worst_c) = mean_worst(&cycles);
             let (mean_s, worst_s) = mean_worst(&speedups);
+            let refs: Vec<&Reference> = of.iter().filter_map(|r| r.reference.as_ref()).collect();
+            let against_mean = (!refs.is_empty()).then(|| {
+                let c: Vec<f64> = refs.iter().map(|r| r.cycles_error.abs()).collect();
+                let s: Vec<f64> = refs
+                    .iter()
+                    .filter_map(|r| r.speedup_error.map(f64::abs))
+                    .collect();
+                let ((mc, wc), (ms, ws)) = (mean_worst(&c), mean_worst(&s));
+                [mc, wc, ms, ws]
+            });
+            let covered_mean: Vec<bool> = refs
+                .iter()
+                .flat_map(|r| [r.cycles_covered, r.speedup_covered])
+                .flatten()
+                .collect();
             Summary {
                 tier,
                 rows: of.len(),
@@ -258,6 +384,10 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 worst_speedup_error: worst_s,
                 coverage: (!covered.is_empty())
                     .then(|| covered.iter().filter(|&&c| c).count() as f64 / covered.len() as f64),
+                against_mean,
+                coverage_of_mean: (!covered_mean.is_empty()).then(|| {
+                    covered_mean.iter().filter(|&&c| c).count() as f64 / covered_mean.len() as f64
+                }),
             }
         })
         .collect()
@@ -269,7 +399,9 @@ pub fn csv(rows: &[Row]) -> String {
     let flag = |v: Option<bool>| v.map_or(String::new(), |v| v.to_string());
     let mut out = String::from(
         "scene,design,tier,method,wall_seconds,time_speedup,cycles,cycles_half_width,cycles_error,\
-         cycles_covered,speedup,speedup_half_width,speedup_error,speedup_covered\n",
+         cycles_covered,speedup,speedup_half_width,speedup_error,speedup_covered,reference_mean,\
+         reference_spread,cycles_error_vs_mean,speedup_error_vs_mean,cycles_covered_mean,\
+         speedup_covered_mean\n",
     );
     for r in rows {
         let method = match (r.method, r.stripes_dynamic) {
@@ -278,8 +410,9 @@ pub fn csv(rows: &[Row]) -> String {
             (Some(Method::Strata), true) => "strata (stripes dynamic)",
             (Some(Method::Stripes), _) => "stripes",
         };
+        let reference = r.reference.as_ref();
         out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.scene,
             r.design,
             r.tier.name(),
@@ -294,6 +427,12 @@ pub fn csv(rows: &[Row]) -> String {
             opt(r.speedup_half_width),
             opt(r.speedup_error),
             flag(r.speedup_covered),
+            opt(reference.map(|x| x.mean)),
+            opt(reference.map(|x| x.spread)),
+            opt(reference.map(|x| x.cycles_error)),
+            opt(reference.and_then(|x| x.speedup_error)),
+            flag(reference.and_then(|x| x.cycles_covered)),
+            flag(reference.and_then(|x| x.speedup_covered)),
         );
     }
     out
@@ -347,6 +486,43 @@ mod tests {
     use super::*;
 
     #[test]
+    fn perturbations_alternate_and_the_reference_is_their_mean() {
+        assert_eq!(perturbations(0), Vec::<i64>::new());
+        assert_eq!(perturbations(5), [1, -1, 2, -2, 3]);
+        // Full detail 100 unperturbed, 120 and 80 perturbed; an estimate of 110.
+        let est = |value: f64, half_width: Option<f64>| Estimate { value, half_width };
+        let r = Reference::of(&[100.0, 120.0, 80.0], &est(110.0, Some(5.0)), None);
+        assert!((r.mean - 100.0).abs() < 1e-9);
+        assert!((r.spread - 0.4).abs() < 1e-9);
+        assert!((r.cycles_error - 0.1).abs() < 1e-9);
+        assert_eq!(r.speedup_error, None);
+        // 110 +- 5 misses the mean of 100; 110 +- 15 holds it.
+        assert_eq!(r.cycles_covered, Some(false));
+        let wide = Reference::of(&[100.0, 120.0, 80.0], &est(110.0, Some(15.0)), None);
+        assert_eq!(wide.cycles_covered, Some(true));
+        // The baseline's runs pair with the design's, perturbation by perturbation: speedups
+        // 2, 1.5 and 3 (mean 13/6); an estimate of 2 is 1 - 12/13 below it.
+        let base = [200.0, 180.0, 240.0];
+        let r = Reference::of(
+            &[100.0, 120.0, 80.0],
+            &est(110.0, None),
+            Some((&est(2.0, Some(0.2)), &base)),
+        );
+        let err = r.speedup_error.unwrap();
+        assert!((err - (12.0 / 13.0 - 1.0)).abs() < 1e-9, "{err}");
+        assert_eq!((r.cycles_covered, r.speedup_covered), (None, Some(true)));
+    }
+
+    #[test]
+    fn a_perturbation_below_zero_latency_is_an_error() {
+        let cfg = SimConfig::default();
+        let e = perturbed(&cfg, -1_000_000).unwrap_err().to_string();
+        assert!(e.contains("memory.dram_latency"), "{e}");
+        let c = perturbed(&cfg, 2).unwrap();
+        assert_eq!(c.memory.dram_latency, cfg.memory.dram_latency + 2);
+    }
+
+    #[test]
     fn the_chart_draws_the_sampled_tiers_intervals() {
         let row = |tier: Tier, cycles: f64, half_width: Option<f64>| Row {
             scene: "WKND".into(),
@@ -364,6 +540,7 @@ mod tests {
             speedup_half_width: None,
             speedup_error: None,
             speedup_covered: None,
+            reference: None,
         };
         let rows = [
             row(Tier::Full, 100.0, None),

@@ -10,7 +10,9 @@ use clap::Args;
 
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::cli::output::{check_dir, write_or_keep, Failures};
-use crate::experiment::accuracy::{benchmark, chart, csv, summarize, Design, Plan, Row};
+use crate::experiment::accuracy::{
+    benchmark, chart, csv, perturbations, summarize, Design, Plan, Row, Tier,
+};
 use crate::experiment::plot::write_scatter;
 use crate::model::designs;
 
@@ -38,6 +40,11 @@ pub struct AccuracyArgs {
     /// the time ratios compare like with like) [default: the available cores].
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
+    /// Also run full detail N more times with the DRAM latency moved by +1, -1, +2, -2, ...
+    /// cycles, and report how far the reference itself moves (its spread) and each estimate's
+    /// error against the mean of those runs (docs/accuracy.md, "How far the reference moves").
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub perturb: usize,
     /// Directory for `accuracy.csv`, `accuracy.json` and the plot `accuracy.{svg,png}`.
     #[arg(long, default_value = "accuracy")]
     pub out: PathBuf,
@@ -60,15 +67,30 @@ fn yes(v: Option<bool>) -> &'static str {
     }
 }
 
-/// Prints one scene's rows.
+/// Prints one scene's rows (with perturbations, also the reference's spread and the errors
+/// against the mean of its runs).
 fn print_rows(rows: &[Row]) {
+    let perturbed = rows.iter().any(|r| r.reference.is_some());
+    let extra = if perturbed {
+        format!(" {:>8} {:>9} {:>9}", "spread", "err/mean", "spd/mean")
+    } else {
+        String::new()
+    };
     println!(
-        "{:<8} {:<10} {:<16} {:>8} {:>8} {:>14} {:>9} {:>4} {:>9} {:>4}",
+        "{:<8} {:<10} {:<16} {:>8} {:>8} {:>14} {:>9} {:>4} {:>9} {:>4}{extra}",
         "scene", "design", "tier", "wall s", "x faster", "cycles", "err", "in95", "spd err", "in95"
     );
     for r in rows {
+        let extra = r.reference.as_ref().map_or_else(String::new, |x| {
+            format!(
+                " {:>7.1}% {:>9} {:>9}",
+                100.0 * x.spread,
+                pct(Some(x.cycles_error)),
+                pct(x.speedup_error)
+            )
+        });
         println!(
-            "{:<8} {:<10} {:<16} {:>8.2} {:>8.1} {:>14.0} {:>9} {:>4} {:>9} {:>4}",
+            "{:<8} {:<10} {:<16} {:>8.2} {:>8.1} {:>14.0} {:>9} {:>4} {:>9} {:>4}{extra}",
             r.scene,
             r.design,
             r.tier.name(),
@@ -125,6 +147,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    let offsets = perturbations(args.perturb);
     let mut rows = Vec::new();
     for name in &args.scene {
         let scene = load_scene(name)?;
@@ -135,6 +158,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
             designs: &designs,
             settings: &args.settings,
             threads,
+            perturbations: &offsets,
         };
         let scene_rows =
             benchmark(&plan).with_context(|| format!("benchmarking scene '{}'", scene.name))?;
@@ -155,7 +179,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         "in 95%"
     );
     let summary = summarize(&rows);
-    for s in &summary {
+    for s in summary.iter().filter(|s| s.tier != Tier::Full.name()) {
         println!(
             "{:<16} {:>5} {:>10.1} {:>10.1} {:>11.2}% {:>11.2}% {:>11.2}% {:>11.2}% {:>9}",
             s.tier,
@@ -168,6 +192,36 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
             100.0 * s.worst_speedup_error,
             s.coverage
                 .map_or_else(|| "-".into(), |c| format!("{:.0}%", 100.0 * c))
+        );
+    }
+    if args.perturb > 0 {
+        println!();
+        println!(
+            "against the mean of full detail's {} runs (DRAM latency {:+?} cycles):",
+            args.perturb + 1,
+            offsets
+        );
+        println!(
+            "{:<16} {:>12} {:>12} {:>12} {:>12} {:>9}",
+            "tier", "cyc err avg", "cyc err max", "spd err avg", "spd err max", "in 95%"
+        );
+        for s in &summary {
+            if let Some([mc, wc, ms, ws]) = s.against_mean {
+                println!(
+                    "{:<16} {:>11.2}% {:>11.2}% {:>11.2}% {:>11.2}% {:>9}",
+                    s.tier,
+                    100.0 * mc,
+                    100.0 * wc,
+                    100.0 * ms,
+                    100.0 * ws,
+                    s.coverage_of_mean
+                        .map_or_else(|| "-".into(), |c| format!("{:.0}%", 100.0 * c))
+                );
+            }
+        }
+        println!(
+            "(the full row: the unperturbed run against that mean, the reference's own \
+             sensitivity)"
         );
     }
     println!(
