@@ -324,3 +324,85 @@ fn designs_lists_the_registry_and_refuses_unknown_names() {
     let out = vtq_in(&dir, &["designs", "--design", "fastest"]);
     assert_one_line_error(&out, "unknown design 'fastest'");
 }
+
+/// `--perturb 2` runs every design again with the DRAM latency one cycle up and one down: the
+/// JSON's `perturbed` holds the unperturbed cycles first (the table's), the perturbed runs
+/// equal `vtq compare` with `memory.dram_latency` set so, and the speedups pair runs by offset.
+#[test]
+fn compare_under_perturbation() {
+    let dir = temp_dir("perturb");
+    let json = dir.join("cmp.json");
+    let (stdout, doc) = compare_ok(
+        &dir,
+        &["--designs", "baseline,prefetch", "--perturb", "2"],
+        &json,
+    );
+    assert!(
+        stdout.contains("under perturbation: 3 runs per design"),
+        "{stdout}"
+    );
+    let entries = doc["designs"].as_array().unwrap();
+    let cycles = |i: usize| -> Vec<f64> {
+        entries[i]["perturbed"]["cycles"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_f64().unwrap())
+            .collect()
+    };
+    let (base, pre) = (cycles(0), cycles(1));
+    assert_eq!(base.len(), 3);
+    assert_eq!(base[0], entries[0]["stats"]["cycles"].as_f64().unwrap());
+    assert_eq!(
+        entries[0]["perturbed"]["offsets"],
+        serde_json::json!([1, -1])
+    );
+    // The run one cycle up is `vtq compare` with that latency.
+    let latency = vtq_sim::model::config::SimConfig::default()
+        .memory
+        .dram_latency
+        + 1;
+    let up = dir.join("up.json");
+    let (_, up_doc) = compare_ok(
+        &dir,
+        &[
+            "--designs",
+            "baseline,prefetch",
+            "--set",
+            &format!("memory.dram_latency={latency}"),
+        ],
+        &up,
+    );
+    for (i, runs) in [&base, &pre].into_iter().enumerate() {
+        let c = up_doc["designs"][i]["stats"]["cycles"].as_f64().unwrap();
+        assert_eq!(runs[1], c, "design {i}");
+    }
+    let speedups: Vec<f64> = entries[1]["perturbed"]["speedups"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_f64().unwrap())
+        .collect();
+    for k in 0..3 {
+        assert!((speedups[k] - base[k] / pre[k]).abs() < 1e-12);
+    }
+    assert!(entries[0]["perturbed"]["speedups"]
+        .as_array()
+        .unwrap()
+        .is_empty());
+    // Full detail only: with the sampled tier it is an error.
+    let out = vtq_in(
+        &dir,
+        &[
+            "compare",
+            "--sample",
+            "1/2x2",
+            "--perturb",
+            "2",
+            "--scene",
+            "wknd",
+        ],
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--perturb"));
+}

@@ -24,6 +24,7 @@ const ORDER: &[(&str, &str)] = &[
     ("estimate", "sample"),
     ("experiment", "plot"),
     ("experiment", "sweep"),
+    ("experiment", "perturb"),
     ("experiment", "accuracy"),
     ("experiment", "reproduce"),
     ("cli", "output"),

@@ -17,6 +17,7 @@ use serde::Serialize;
 use crate::estimate::sample::{
     paired_speedup, simulate_sampled, Estimate, Method, Profile, SampleConfig,
 };
+use crate::experiment::perturb::{perturbed, speedups, Spread};
 use crate::experiment::plot::{Point, Scatter, Series};
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
@@ -107,25 +108,20 @@ impl Reference {
     /// design other than the baseline, its speedup `speedup` against the baseline's runs
     /// `baseline` (same perturbations, same order).
     fn of(cycles: &[f64], estimate: &Estimate, speedup: Option<(&Estimate, &[f64])>) -> Self {
-        let mean = cycles.iter().sum::<f64>() / cycles.len().max(1) as f64;
-        let (lo, hi) = cycles.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &c| {
-            (lo.min(c), hi.max(c))
+        let runs = Spread::of(cycles).unwrap_or(Spread {
+            mean: 0.0,
+            min: 0.0,
+            max: 0.0,
         });
+        let mean = runs.mean;
         let speedup_mean = speedup.map(|(s, base)| {
-            let speedups: Vec<f64> = base
-                .iter()
-                .zip(cycles)
-                .map(|(b, c)| b / c.max(1.0))
-                .collect();
-            (
-                s,
-                speedups.iter().sum::<f64>() / speedups.len().max(1) as f64,
-            )
+            let m = Spread::of(&speedups(base, cycles)).map_or(0.0, |x| x.mean);
+            (s, m)
         });
         Reference {
             cycles: cycles.to_vec(),
             mean,
-            spread: (hi - lo) / mean.max(1.0),
+            spread: runs.relative(),
             cycles_error: estimate.value / mean.max(1.0) - 1.0,
             speedup_error: speedup_mean.map(|(s, m)| s.value / m - 1.0),
             cycles_covered: estimate.half_width.map(|_| estimate.contains(mean)),
@@ -160,29 +156,6 @@ pub struct Plan<'a> {
     pub perturbations: &'a [i64],
 }
 
-/// The DRAM latency offsets of `n` perturbed runs: +1, -1, +2, -2, ... cycles.
-pub fn perturbations(n: usize) -> Vec<i64> {
-    (0..n as i64)
-        .map(|k| if k % 2 == 0 { k / 2 + 1 } else { -(k / 2 + 1) })
-        .collect()
-}
-
-/// `cfg` with its DRAM latency moved by `offset` cycles (an error if that leaves the
-/// configuration's valid range).
-fn perturbed(cfg: &SimConfig, offset: i64) -> Result<SimConfig, SimError> {
-    let mut c = cfg.clone();
-    let latency = i64::from(c.memory.dram_latency) + offset;
-    c.memory.dram_latency = u32::try_from(latency).map_err(|_| {
-        SimError::Setup(format!(
-            "a perturbation of {offset} cycles takes memory.dram_latency ({}) below 0",
-            cfg.memory.dram_latency
-        ))
-    })?;
-    c.validate()
-        .map_err(|e| SimError::Setup(format!("perturbed by {offset} cycles: {e}")))?;
-    Ok(c)
-}
-
 /// Runs every tier on one scene; rows in (design, tier) order.
 pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     let scene = plan.scene;
@@ -205,7 +178,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
         full.push((out.stats.cycles as f64, t.elapsed().as_secs_f64()));
         let mut runs = vec![out.stats.cycles as f64];
         for &offset in plan.perturbations {
-            let cfg = perturbed(&d.config, offset)?;
+            let cfg = perturbed(&d.config, offset).map_err(SimError::Setup)?;
             runs.push(
                 simulate(scene, plan.bvh, &cfg, options.clone(), None)?
                     .stats
@@ -486,9 +459,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn perturbations_alternate_and_the_reference_is_their_mean() {
-        assert_eq!(perturbations(0), Vec::<i64>::new());
-        assert_eq!(perturbations(5), [1, -1, 2, -2, 3]);
+    fn the_reference_is_the_mean_of_the_runs() {
         // Full detail 100 unperturbed, 120 and 80 perturbed; an estimate of 110.
         let est = |value: f64, half_width: Option<f64>| Estimate { value, half_width };
         let r = Reference::of(&[100.0, 120.0, 80.0], &est(110.0, Some(5.0)), None);
@@ -511,15 +482,6 @@ mod tests {
         let err = r.speedup_error.unwrap();
         assert!((err - (12.0 / 13.0 - 1.0)).abs() < 1e-9, "{err}");
         assert_eq!((r.cycles_covered, r.speedup_covered), (None, Some(true)));
-    }
-
-    #[test]
-    fn a_perturbation_below_zero_latency_is_an_error() {
-        let cfg = SimConfig::default();
-        let e = perturbed(&cfg, -1_000_000).unwrap_err().to_string();
-        assert!(e.contains("memory.dram_latency"), "{e}");
-        let c = perturbed(&cfg, 2).unwrap();
-        assert_eq!(c.memory.dram_latency, cfg.memory.dram_latency + 2);
     }
 
     #[test]

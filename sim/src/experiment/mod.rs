@@ -1,5 +1,5 @@
 //! Experiment tooling over the model and the estimate tiers, listed bottom-up: charts, then
-//! sweeps of configurations and their result store, then what draws on both — the figures and
+//! sweeps of configurations and their result store, full detail under small perturbations, then what draws on them — the figures and
 //! tables of `vtq reproduce` and the accuracy benchmark.
 
 // Charts.
@@ -7,6 +7,9 @@ pub mod plot;
 
 // Sweeps and their result store.
 pub mod sweep;
+
+// Full detail under small perturbations.
+pub mod perturb;
 
 // Built on the two above.
 pub mod accuracy;

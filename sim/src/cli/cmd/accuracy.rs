@@ -10,9 +10,8 @@ use clap::Args;
 
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::cli::output::{check_dir, write_or_keep, Failures};
-use crate::experiment::accuracy::{
-    benchmark, chart, csv, perturbations, summarize, Design, Plan, Row, Tier,
-};
+use crate::experiment::accuracy::{benchmark, chart, csv, summarize, Design, Plan, Row, Tier};
+use crate::experiment::perturb::perturbations;
 use crate::experiment::plot::write_scatter;
 use crate::model::designs;
 

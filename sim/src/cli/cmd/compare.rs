@@ -21,6 +21,7 @@ use glam::Vec3;
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::cli::output::{check_file, write_or_keep};
 use crate::estimate::sample::{paired_speedup, simulate_sampled, Profile};
+use crate::experiment::perturb::{perturbations, perturbed, speedups, Spread};
 use crate::model::bvh::HwBvh;
 use crate::model::designs::{self, Design};
 use crate::model::gpu::{simulate, SimOptions, SimStats};
@@ -80,6 +81,12 @@ pub struct CompareArgs {
     /// estimates with 95% intervals.
     #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
     pub sample: Option<String>,
+    /// Also run every design N more times with the DRAM latency moved by +1, -1, +2, -2, ...
+    /// cycles and print each design's mean and range of cycles and of its speedup over those
+    /// runs: whether a difference between designs is larger than the reference's own
+    /// sensitivity (docs/accuracy.md, "How far the reference moves"). Full detail only.
+    #[arg(long, default_value_t = 0, value_name = "N", conflicts_with = "sample")]
+    pub perturb: usize,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -380,6 +387,12 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         designs[reference].label
     );
 
+    let perturbed = if args.perturb > 0 {
+        perturbed_table(args, &scene, &runs, jobs, reference, &outcomes)?
+    } else {
+        Vec::new()
+    };
+
     let ran: Vec<(&Design, &[Vec3])> = designs
         .iter()
         .zip(&outcomes)
@@ -425,13 +438,15 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         let entries: Vec<serde_json::Value> = designs
             .iter()
             .zip(&outcomes)
-            .map(|(d, o)| match &o.result {
+            .enumerate()
+            .map(|(i, (d, o))| match &o.result {
                 Ok((stats, _)) => serde_json::json!({
                     "design": d.label,
                     "source": d.source,
                     "speedup": speedup(stats),
                     "wall_seconds": o.wall_seconds,
                     "stats": stats,
+                    "perturbed": perturbed.get(i),
                 }),
                 Err(e) => serde_json::json!({
                     "design": d.label,
@@ -469,6 +484,133 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         bail!("{}", problems.join("; "));
     }
     Ok(())
+}
+
+/// One design under perturbation: its cycles and speedups over the unperturbed run and the
+/// perturbed ones (JSON `perturbed` of `vtq compare --perturb`).
+#[derive(Debug, Clone, serde::Serialize)]
+struct Perturbed {
+    /// DRAM latency offsets of the runs after the first (cycles).
+    offsets: Vec<i64>,
+    /// Cycles, unperturbed first.
+    cycles: Vec<f64>,
+    /// Speedups over the reference design's run with the same offset (empty for the reference
+    /// itself or where it failed).
+    speedups: Vec<f64>,
+}
+
+/// `vtq compare --perturb`: every design again with the DRAM latency moved by a cycle or two;
+/// prints each design's mean and range of cycles and speedups over its runs and returns them
+/// per design (an error if a perturbed run fails).
+fn perturbed_table(
+    args: &CompareArgs,
+    scene: &Scene,
+    runs: &[(&Design, &HwBvh)],
+    jobs: usize,
+    reference: usize,
+    outcomes: &[Outcome],
+) -> anyhow::Result<Vec<Perturbed>> {
+    let offsets = perturbations(args.perturb);
+    if outcomes.iter().any(|o| o.result.is_err()) {
+        println!("under perturbation: not run (a design failed above)");
+        return Ok(Vec::new());
+    }
+    let designs: Vec<(Design, &HwBvh)> = offsets
+        .iter()
+        .flat_map(|&o| runs.iter().map(move |&(d, bvh)| (d, bvh, o)))
+        .map(|(d, bvh, o)| {
+            let config = perturbed(&d.config, o)
+                .map_err(anyhow::Error::msg)
+                .with_context(|| format!("design '{}'", d.label))?;
+            Ok((
+                Design {
+                    config,
+                    ..d.clone()
+                },
+                bvh,
+            ))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let all: Vec<(&Design, &HwBvh)> = designs.iter().map(|(d, b)| (d, *b)).collect();
+    let bars: Vec<_> = all.iter().map(|_| None).collect();
+    let more = simulate_all(scene, &all, jobs, args.threads, &bars);
+    let n = runs.len();
+    let mut cycles: Vec<Vec<f64>> = vec![Vec::new(); n];
+    for (k, o) in outcomes.iter().chain(&more).enumerate() {
+        match &o.result {
+            Ok((stats, _)) => cycles[k % n].push(stats.cycles as f64),
+            Err(e) => bail!(
+                "design '{}' failed with the DRAM latency moved by {} cycles: {e}",
+                runs[k % n].0.label,
+                k.checked_sub(n).map_or(0, |j| offsets[j / n])
+            ),
+        }
+    }
+    println!();
+    println!(
+        "under perturbation: {} runs per design, the DRAM latency moved by {:+?} cycles",
+        offsets.len() + 1,
+        offsets
+    );
+    let label_width = runs
+        .iter()
+        .map(|(d, _)| d.label.len())
+        .max()
+        .unwrap_or(0)
+        .max("design".len());
+    println!(
+        "{:<label_width$}  {:>12}  {:>25}  {:>8}  {:>17}",
+        "design", "cycles mean", "cycles range", "speedup", "speedup range"
+    );
+    let mut out = Vec::with_capacity(n);
+    let mut unresolved = Vec::new();
+    for (i, (design, _)) in runs.iter().enumerate() {
+        let c = Spread::of(&cycles[i]).expect("every design has its runs");
+        let s = if i == reference {
+            Vec::new()
+        } else {
+            speedups(&cycles[reference], &cycles[i])
+        };
+        let (mean, range) = match Spread::of(&s) {
+            Some(x) => {
+                if x.min < 1.0 && x.max > 1.0 {
+                    unresolved.push(design.label.clone());
+                }
+                (
+                    format!("{:.2}", x.mean),
+                    format!("{:.2}-{:.2}", x.min, x.max),
+                )
+            }
+            None => ("-".into(), "-".into()),
+        };
+        println!(
+            "{:<label_width$}  {:>12.0}  {:>25}  {:>8}  {:>17}",
+            design.label,
+            c.mean,
+            format!("{:.0}-{:.0} ({:.1}%)", c.min, c.max, 100.0 * c.relative()),
+            mean,
+            range
+        );
+        out.push(Perturbed {
+            offsets: offsets.clone(),
+            cycles: cycles[i].clone(),
+            speedups: s,
+        });
+    }
+    if unresolved.is_empty() {
+        println!(
+            "every design is faster or slower than {} in every run",
+            runs[reference].0.label
+        );
+    } else {
+        println!(
+            "not resolved at this frame size: {} is faster than {} in some runs and slower in \
+             others (try a larger frame)",
+            unresolved.join(", "),
+            runs[reference].0.label
+        );
+    }
+    Ok(out)
 }
 
 /// `vtq compare --sample`: every design estimated by the sampled tier on the same CTA samples
