@@ -412,17 +412,31 @@ pub fn csv(rows: &[Row]) -> String {
 }
 
 /// The run-time-against-error chart of `rows`: log wall time on x, the signed error of cycles
-/// against full detail in percent on y, with the sampled tier's 95% intervals as error bars
-/// (full detail at 0), one series per tier, one marker shape per scene.
+/// in percent on y, with the sampled tier's 95% intervals as error bars, one series per tier,
+/// one marker shape per scene. The error is against full detail's run (full detail at 0), or,
+/// with perturbations, against the mean of its runs, full detail's own run plotted there with
+/// the range of those runs as its bar.
 pub fn chart(rows: &[Row]) -> Scatter {
+    let against_mean = !rows.is_empty() && rows.iter().all(|r| r.reference.is_some());
     let mut series: Vec<Series> = Vec::new();
     for r in rows {
         let name = r.tier.name();
+        let (y, interval) = match r.reference.as_ref().filter(|_| against_mean) {
+            Some(x) => {
+                let err = |c: f64| 100.0 * (c / x.mean.max(1.0) - 1.0);
+                let interval = match r.cycles_half_width {
+                    Some(hw) => Some((err(r.cycles - hw), err(r.cycles + hw))),
+                    None => Spread::of(&x.cycles).map(|s| (err(s.min), err(s.max))),
+                };
+                (100.0 * x.cycles_error, interval)
+            }
+            None => (100.0 * r.cycles_error, error_interval(r)),
+        };
         let point = Point {
             x: r.wall.max(1e-3),
-            y: 100.0 * r.cycles_error,
+            y,
             label: r.scene.clone(),
-            interval: error_interval(r),
+            interval,
         };
         match series.iter_mut().find(|s| s.name == name) {
             Some(s) => s.points.push(point),
@@ -432,10 +446,16 @@ pub fn chart(rows: &[Row]) -> Scatter {
             }),
         }
     }
+    let y_label = if against_mean {
+        "error of cycles vs the mean of full detail's perturbed runs (%, 95% interval; full \
+         detail: its runs' range)"
+    } else {
+        "error of cycles vs full detail (%, 95% interval)"
+    };
     Scatter {
         title: "vtq accuracy: run time against error of cycles".into(),
         x_label: "wall time per design run (s)".into(),
-        y_label: "error of cycles vs full detail (%, 95% interval)".into(),
+        y_label: y_label.into(),
         x_log: true,
         y_log: false,
         joined: false,
@@ -457,6 +477,45 @@ fn error_interval(r: &Row) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// With perturbations the chart plots errors against the mean of full detail's runs, full
+    /// detail's own run with the range of the runs as its bar.
+    #[test]
+    fn with_perturbations_the_chart_is_against_the_mean() {
+        let est = |value: f64, half_width: Option<f64>| Estimate { value, half_width };
+        let runs = [100.0, 120.0, 80.0];
+        let row = |tier: Tier, cycles: f64, half_width: Option<f64>| Row {
+            scene: "LANDS".into(),
+            design: "baseline".into(),
+            tier,
+            method: None,
+            stripes_dynamic: false,
+            wall: 1.0,
+            time_speedup: 1.0,
+            cycles,
+            cycles_half_width: half_width,
+            cycles_error: cycles / 100.0 - 1.0,
+            cycles_covered: None,
+            speedup: None,
+            speedup_half_width: None,
+            speedup_error: None,
+            speedup_covered: None,
+            reference: Some(Reference::of(&runs, &est(cycles, half_width), None)),
+        };
+        let rows = [
+            row(Tier::Full, 100.0, None),
+            row(Tier::Sampled("1/16x2".into()), 110.0, Some(5.0)),
+        ];
+        let chart = chart(&rows);
+        let points: Vec<&Point> = chart.series.iter().flat_map(|s| &s.points).collect();
+        let close =
+            |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9;
+        assert!(points[0].y.abs() < 1e-9);
+        assert!(close(points[0].interval.unwrap(), (-20.0, 20.0)));
+        assert!((points[1].y - 10.0).abs() < 1e-9);
+        assert!(close(points[1].interval.unwrap(), (5.0, 15.0)));
+        assert!(chart.y_label.contains("mean"));
+    }
 
     #[test]
     fn the_reference_is_the_mean_of_the_runs() {
