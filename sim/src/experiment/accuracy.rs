@@ -447,8 +447,7 @@ pub fn chart(rows: &[Row]) -> Scatter {
         }
     }
     let y_label = if against_mean {
-        "error of cycles vs the mean of full detail's perturbed runs (%, 95% interval; full \
-         detail: its runs' range)"
+        "error vs full detail's mean (%, 95% interval)"
     } else {
         "error of cycles vs full detail (%, 95% interval)"
     };
