@@ -495,7 +495,7 @@ struct Perturbed {
     /// Cycles, unperturbed first.
     cycles: Vec<f64>,
     /// Speedups over the reference design's run with the same offset (empty for the reference
-    /// itself or where it failed).
+    /// itself).
     speedups: Vec<f64>,
 }
 
