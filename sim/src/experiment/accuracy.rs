@@ -477,14 +477,15 @@ fn error_interval(r: &Row) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
 
-    /// With perturbations the chart plots errors against the mean of full detail's runs, full
-    /// detail's own run with the range of the runs as its bar.
-    #[test]
-    fn with_perturbations_the_chart_is_against_the_mean() {
-        let est = |value: f64, half_width: Option<f64>| Estimate { value, half_width };
-        let runs = [100.0, 120.0, 80.0];
-        let row = |tier: Tier, cycles: f64, half_width: Option<f64>| Row {
-            scene: "LANDS".into(),
+    /// A row of `tier` on a scene whose full detail took 100 cycles: `cycles` with an interval
+    /// of `half_width`, and full detail's perturbed runs `runs` if any.
+    fn row(tier: Tier, cycles: f64, half_width: Option<f64>, runs: Option<&[f64]>) -> Row {
+        let estimate = Estimate {
+            value: cycles,
+            half_width,
+        };
+        Row {
+            scene: "WKND".into(),
             design: "baseline".into(),
             tier,
             method: None,
@@ -494,16 +495,23 @@ mod tests {
             cycles,
             cycles_half_width: half_width,
             cycles_error: cycles / 100.0 - 1.0,
-            cycles_covered: None,
+            cycles_covered: half_width.map(|_| estimate.contains(100.0)),
             speedup: None,
             speedup_half_width: None,
             speedup_error: None,
             speedup_covered: None,
-            reference: Some(Reference::of(&runs, &est(cycles, half_width), None)),
-        };
+            reference: runs.map(|r| Reference::of(r, &estimate, None)),
+        }
+    }
+
+    /// With perturbations the chart plots errors against the mean of full detail's runs, full
+    /// detail's own run with the range of the runs as its bar.
+    #[test]
+    fn with_perturbations_the_chart_is_against_the_mean() {
+        let runs: &[f64] = &[100.0, 120.0, 80.0];
         let rows = [
-            row(Tier::Full, 100.0, None),
-            row(Tier::Sampled("1/16x2".into()), 110.0, Some(5.0)),
+            row(Tier::Full, 100.0, None, Some(runs)),
+            row(Tier::Sampled("1/16x2".into()), 110.0, Some(5.0), Some(runs)),
         ];
         let chart = chart(&rows);
         let points: Vec<&Point> = chart.series.iter().flat_map(|s| &s.points).collect();
@@ -544,29 +552,11 @@ mod tests {
 
     #[test]
     fn the_chart_draws_the_sampled_tiers_intervals() {
-        let row = |tier: Tier, cycles: f64, half_width: Option<f64>| Row {
-            scene: "WKND".into(),
-            design: "baseline".into(),
-            tier,
-            method: None,
-            stripes_dynamic: false,
-            wall: 1.0,
-            time_speedup: 1.0,
-            cycles,
-            cycles_half_width: half_width,
-            cycles_error: cycles / 100.0 - 1.0,
-            cycles_covered: half_width.map(|h| (cycles - h..=cycles + h).contains(&100.0)),
-            speedup: None,
-            speedup_half_width: None,
-            speedup_error: None,
-            speedup_covered: None,
-            reference: None,
-        };
         let rows = [
-            row(Tier::Full, 100.0, None),
-            row(Tier::Sampled("1/16x4".into()), 110.0, Some(20.0)),
+            row(Tier::Full, 100.0, None, None),
+            row(Tier::Sampled("1/16x4".into()), 110.0, Some(20.0), None),
             // One replicate: an estimate with no interval.
-            row(Tier::Sampled("1/16x1".into()), 80.0, None),
+            row(Tier::Sampled("1/16x1".into()), 80.0, None, None),
         ];
         let chart = chart(&rows);
         let points: Vec<&Point> = chart.series.iter().flat_map(|s| &s.points).collect();
@@ -585,7 +575,7 @@ mod tests {
         assert!(y.lo <= -20.0 && y.hi >= 10.0 && y.hi < 30.0, "{y:?}");
         let narrower = [
             rows[0].clone(),
-            row(Tier::Sampled("1/16x4".into()), 110.0, Some(12.0)),
+            row(Tier::Sampled("1/16x4".into()), 110.0, Some(12.0), None),
             rows[2].clone(),
         ];
         let (_, y) = super::chart(&narrower).axes();
