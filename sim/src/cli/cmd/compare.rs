@@ -388,7 +388,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     );
 
     let perturbed = if args.perturb > 0 {
-        perturbed_table(args, &scene, &runs, jobs, reference, &outcomes)?
+        perturbed_table(args, &scene, &runs, jobs, reference, &outcomes, label_width)?
     } else {
         Vec::new()
     };
@@ -500,8 +500,9 @@ struct Perturbed {
 }
 
 /// `vtq compare --perturb`: every design again with the DRAM latency moved by a cycle or two;
-/// prints each design's mean and range of cycles and speedups over its runs and returns them
-/// per design (an error if a perturbed run fails).
+/// prints each design's mean and range of cycles and speedups over its runs (design column
+/// `label_width` wide, as the main table's) and returns them per design (an error if a
+/// perturbed run fails).
 fn perturbed_table(
     args: &CompareArgs,
     scene: &Scene,
@@ -509,6 +510,7 @@ fn perturbed_table(
     jobs: usize,
     reference: usize,
     outcomes: &[Outcome],
+    label_width: usize,
 ) -> anyhow::Result<Vec<Perturbed>> {
     let offsets = perturbations(args.perturb);
     if outcomes.iter().any(|o| o.result.is_err()) {
@@ -552,12 +554,6 @@ fn perturbed_table(
         offsets.len() + 1,
         offsets
     );
-    let label_width = runs
-        .iter()
-        .map(|(d, _)| d.label.len())
-        .max()
-        .unwrap_or(0)
-        .max("design".len());
     println!(
         "{:<label_width$}  {:>12}  {:>25}  {:>8}  {:>17}",
         "design", "cycles mean", "cycles range", "speedup", "speedup range"
