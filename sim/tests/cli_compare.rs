@@ -159,7 +159,7 @@ fn compare_baseline_and_prefetch() {
 fn config_file_design_matches_the_built_in_on_any_thread_count() {
     let dir = temp_dir("path");
     let json = dir.join("cmp.json");
-    let file = workspace_root().join("configs/prefetch.toml");
+    let file = workspace_root().join("configs/designs/prefetch/config.toml");
     let designs = format!("prefetch,{}", file.display());
     for jobs in ["1", "2"] {
         let (stdout, doc) = compare_ok(&dir, &["--designs", &designs, "--jobs", jobs], &json);
@@ -171,7 +171,7 @@ fn config_file_design_matches_the_built_in_on_any_thread_count() {
         assert_eq!(
             comparable(&designs[0]),
             comparable(&designs[1]),
-            "the embedded configs/prefetch.toml and the file simulate identically (--jobs {jobs})"
+            "the embedded configs/designs/prefetch/config.toml and the file simulate identically (--jobs {jobs})"
         );
     }
 }
@@ -317,12 +317,74 @@ fn designs_lists_the_registry_and_refuses_unknown_names() {
     }
     assert!(text.contains("mode.kind = \"queues\""), "{text}");
     assert!(text.contains("treelet_controller"), "{text}");
-    let file = workspace_root().join("configs/queues-repack16.toml");
+    let file = workspace_root().join("configs/designs/queues-repack16/config.toml");
     let out = vtq_in(&dir, &["designs", "--design", file.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("hw.repack_threshold = 16"), "{text}");
+    // A design folder's file is named after its folder and carries the design's summary.
+    assert!(text.starts_with("queues-repack16: ablation"), "{text}");
     let out = vtq_in(&dir, &["designs", "--design", "fastest"]);
     assert_one_line_error(&out, "unknown design 'fastest'");
+    // --doc adds the design's documentation, its folder's README.md.
+    let out = vtq_in(&dir, &["designs", "--design", "vtq", "--doc"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("    # vtq: Virtualized Treelet Queues"),
+        "{text}"
+    );
+    // `vtq sim --config` takes a design's name from any folder, and simulates it as its file.
+    let mut stats = Vec::new();
+    for config in [
+        "vtq".to_string(),
+        workspace_root()
+            .join("configs/designs/vtq/config.toml")
+            .display()
+            .to_string(),
+    ] {
+        let json = dir.join("sim.json");
+        let args = [
+            "sim",
+            "--scene",
+            "cornell",
+            "--config",
+            &config,
+            "--set",
+            "width=16",
+            "--set",
+            "height=16",
+            "--out",
+            json.to_str().unwrap(),
+        ];
+        let out = vtq_in(&dir, &args);
+        assert!(out.status.success(), "{out:?}");
+        let mut doc: Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        for key in HOST_DEPENDENT_KEYS {
+            doc.as_object_mut().unwrap().remove(key);
+        }
+        assert_eq!(
+            doc["config"]
+                .as_str()
+                .map(|c| c.contains("kind = \"queues\"")),
+            Some(true)
+        );
+        stats.push(doc);
+    }
+    assert_eq!(stats[0], stats[1]);
+    let json = dir.join("none.json");
+    let out = vtq_in(
+        &dir,
+        &[
+            "sim",
+            "--scene",
+            "cornell",
+            "--config",
+            "fastest",
+            "--out",
+            json.to_str().unwrap(),
+        ],
+    );
+    assert_one_line_error(&out, "not a built-in design's name");
 }
 
 /// `--perturb 2` runs every design again with the DRAM latency one cycle up and one down: the

@@ -19,10 +19,10 @@ fn temp_dir(test: &str) -> PathBuf {
     dir
 }
 
-/// The workspace's configs/vtq.toml.
+/// The workspace's configs/designs/vtq/config.toml.
 fn vtq_toml() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../configs/vtq.toml")
+        .join("../configs/designs/vtq/config.toml")
         .display()
         .to_string()
 }
@@ -175,7 +175,7 @@ fn a_killed_sweep_resumes_to_the_uninterrupted_table() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A 2-point cornell sweep (configs/vtq.toml, 16x16) whose second repack threshold fails validation.
+/// A 2-point cornell sweep (configs/designs/vtq/config.toml, 16x16) whose second repack threshold fails validation.
 fn failing_sweep(extra: &[&str]) -> Vec<String> {
     let mut args: Vec<String> = [
         "sweep",
@@ -374,7 +374,7 @@ fn designs_and_experiments_run_from_anywhere_by_name() {
         let head = ["sweep", "--scene", "wknd", "--results", "r1"];
         run(&dir, &args(&[&head[..], &designs[..]].concat()))
     };
-    let by_name = sweep_two("vtq", "configs/queues-naive.toml");
+    let by_name = sweep_two("vtq", "configs/designs/queues-naive/config.toml");
     assert!(by_name.status.success(), "{}", text(&by_name));
     assert!(
         text(&by_name).contains("ran 2 (2 ok, 0 failed)"),
@@ -383,7 +383,10 @@ fn designs_and_experiments_run_from_anywhere_by_name() {
     );
     // The same two designs from the checkout's files are the same runs: nothing runs again.
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let naive = root.join("configs/queues-naive.toml").display().to_string();
+    let naive = root
+        .join("configs/designs/queues-naive/config.toml")
+        .display()
+        .to_string();
     let from_files = sweep_two(&vtq_toml(), &naive);
     assert!(text(&from_files).contains("ran 0"), "{}", text(&from_files));
     // An experiment file by name: read (its first point, the baseline's file, names the bad

@@ -5,16 +5,18 @@ use std::path::{Path, PathBuf};
 
 use vtq_sim::model::config::{ConfigError, ModeKind, SimConfig, TreeletPrefetch};
 
-/// The workspace's `configs/` folder.
-fn configs_dir() -> PathBuf {
+/// The workspace's design folders, `configs/designs/`.
+fn designs_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("..")
-        .join("configs")
+        .join("configs/designs")
 }
 
-/// One shipped config file.
+/// One shipped design's configuration file, `NAME.toml` naming design NAME.
 fn shipped(name: &str) -> PathBuf {
-    configs_dir().join(name)
+    designs_dir()
+        .join(name.trim_end_matches(".toml"))
+        .join("config.toml")
 }
 
 /// A fresh temporary file holding `text`.
@@ -118,10 +120,9 @@ fn empty_load_is_the_default() {
 
 #[test]
 fn every_shipped_config_loads_and_validates() {
-    let mut names: Vec<String> = std::fs::read_dir(configs_dir())
+    let mut names: Vec<String> = std::fs::read_dir(designs_dir())
         .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".toml"))
+        .map(|e| format!("{}.toml", e.unwrap().file_name().to_string_lossy()))
         .collect();
     names.sort();
     for expected in [
@@ -360,7 +361,7 @@ fn bad_toml_and_missing_file_name_the_file() {
     let e = SimConfig::load(Some(&file), &[]).unwrap_err();
     assert!(matches!(e, ConfigError::Syntax { .. }), "{e}");
     assert!(e.to_string().contains(&file.display().to_string()), "{e}");
-    let missing = configs_dir().join("no-such-config.toml");
+    let missing = designs_dir().join("no-such-config.toml");
     let e = SimConfig::load(Some(&missing), &[]).unwrap_err();
     assert!(matches!(e, ConfigError::Read { .. }), "{e}");
     assert!(e.to_string().contains("no-such-config.toml"), "{e}");

@@ -539,8 +539,9 @@ fn stripes_whose_dispatch_is_not_static_fall_back_to_strata() {
         eprintln!("skipping: ../shared/scenes/fox not found");
         return;
     };
-    let vtq = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/vtq.toml");
-    let mut cfg = SimConfig::load(Some(&vtq), &[]).expect("configs/vtq.toml");
+    let vtq =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/designs/vtq/config.toml");
+    let mut cfg = SimConfig::load(Some(&vtq), &[]).expect("configs/designs/vtq/config.toml");
     cfg.sample.apply_spec("1/16x2").unwrap();
     let scene = vtq_sim::model::scene::load::load_scene(fox.to_str().unwrap()).expect("fox loads");
     let bvh = vtq_sim::model::bvh::HwBvh::build(&scene, &cfg.bvh_params()).expect("BVH");

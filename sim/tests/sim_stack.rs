@@ -1,6 +1,6 @@
 //! The RT unit's short on-chip traversal stacks (`hw.stack_depth`) spill to memory and fill
 //! back on demand, so no scene overflows them: on a deep BVH built here with an 8-entry stack,
-//! every design of `configs/` spills and still returns the functional tracer's closest hits and
+//! every design of `configs/designs/` spills and still returns the functional tracer's closest hits and
 //! image, skipping idle cycles still equals lockstep, and a stack deep enough never to spill
 //! gives the same statistics as a deeper one.
 
@@ -70,13 +70,14 @@ fn nested_shells(shells: u32) -> Scene {
     }
 }
 
-/// The configuration file `configs/<name>.toml`, on a small GPU (2 SMs, `side` x `side`
+/// The configuration of design `name` (`configs/designs/<name>/config.toml`), on a small GPU (2 SMs, `side` x `side`
 /// pixels, 2 KB treelets so the nest spans many treelets, small caches; for the queue designs
 /// thresholds a small image reaches), then `extra`.
 fn config(name: &str, side: u32, extra: &[&str]) -> SimConfig {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../configs")
-        .join(format!("{name}.toml"));
+        .join("../configs/designs")
+        .join(name)
+        .join("config.toml");
     let mut sets: Vec<String> = [
         "gpu.sms=2".to_string(),
         format!("width={side}"),
@@ -95,21 +96,12 @@ fn config(name: &str, side: u32, extra: &[&str]) -> SimConfig {
     SimConfig::load(Some(&path), &sets).expect("valid test configuration")
 }
 
-/// Every configuration file of `configs/`, by name.
+/// Every design of `configs/designs/`, by name.
 fn config_names() -> Vec<String> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .expect("configs/ exists")
-        .filter_map(|e| {
-            let p = e.ok()?.path();
-            if p.extension()? != "toml" {
-                return None;
-            }
-            Some(p.file_stem()?.to_string_lossy().into_owned())
-        })
-        .collect();
-    names.sort();
-    names
+    vtq_sim::model::designs::BUILT_INS
+        .iter()
+        .map(|b| b.name.to_string())
+        .collect()
 }
 
 #[test]

@@ -265,7 +265,10 @@ fn bad_windows_are_clear_errors_and_leave_no_file() {
 fn cli_writes_the_waveform_and_rejects_bad_options() {
     let dir = temp_dir("cli");
     let vtq = |extra: &[&str]| {
-        let config = concat!(env!("CARGO_MANIFEST_DIR"), "/../configs/vtq.toml");
+        let config = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../configs/designs/vtq/config.toml"
+        );
         let mut args = vec![
             "sim",
             "--scene",

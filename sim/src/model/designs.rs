@@ -1,12 +1,14 @@
-//! The designs `vtq` knows by name: each a configuration file in `configs/` compiled into the
-//! binary, so `vtq compare --designs`, `vtq accuracy --designs` and the other commands that take
-//! a design work from any directory. A design is otherwise a configuration like any other: its
-//! `[mode]` section picks the hardware beside each SM (`sim/src/model/config/mode.rs`), and any
-//! configuration file can be named by path instead.
+//! The design registry: the designs `vtq` knows by name. A design is one folder of
+//! `configs/designs/`, named after it, holding its configuration (`config.toml`) and its
+//! documentation (`README.md`, first line `# NAME: SUMMARY`); `sim/build.rs` compiles every
+//! folder into [`BUILT_INS`], so `vtq compare --designs`, `vtq accuracy --designs`, sweeps,
+//! `vtq reproduce` and the other commands that take a design work from any directory. The
+//! configuration's `[mode]` section picks the hardware beside each SM
+//! (`sim/src/model/config/mode.rs`, the only place that matches on it); any configuration file
+//! can be named by path instead.
 //!
-//! To add a design: write its configuration file, add one [`BuiltIn`] line to [`BUILT_INS`]
-//! (a test checks that every file of `configs/` has one), and document it (README's design
-//! list, docs/config.md's `[mode]` table).
+//! To add a design built from the hardware's switches: add its folder. Nothing else changes;
+//! `vtq designs` lists it and every command takes its name.
 
 use std::borrow::Cow;
 use std::path::Path;
@@ -15,8 +17,9 @@ use anyhow::{bail, Context};
 
 use crate::model::config::SimConfig;
 
-/// A design compiled into the binary: its name, the file it was read from (relative to the
-/// workspace root), the file's text and a one-line description.
+/// A design compiled into the binary: its name, the file its configuration was read from
+/// (relative to the workspace root), the file's text, its documentation and a one-line
+/// description.
 #[derive(Debug, Clone, Copy)]
 pub struct BuiltIn {
     /// The name `--designs` takes.
@@ -25,74 +28,13 @@ pub struct BuiltIn {
     pub path: &'static str,
     /// The file's text.
     pub toml: &'static str,
-    /// What it is, in a line.
+    /// Its documentation, `README.md` beside the configuration file.
+    pub doc: &'static str,
+    /// What it is, in a line (the documentation's first line after the name).
     pub summary: &'static str,
 }
 
-/// Every built-in design — every configuration file of `configs/` — the paper's three first, in
-/// the default order of `--designs`, then VTQ with prefetching and the ablations.
-pub const BUILT_INS: [BuiltIn; 10] = [
-    BuiltIn {
-        name: "baseline",
-        path: "configs/baseline.toml",
-        toml: include_str!("../../../configs/baseline.toml"),
-        summary: "the baseline RT unit (paper section 5)",
-    },
-    BuiltIn {
-        name: "prefetch",
-        path: "configs/prefetch.toml",
-        toml: include_str!("../../../configs/prefetch.toml"),
-        summary: "treelet prefetching (Chou et al., MICRO 2023)",
-    },
-    BuiltIn {
-        name: "vtq",
-        path: "configs/vtq.toml",
-        toml: include_str!("../../../configs/vtq.toml"),
-        summary: "Virtualized Treelet Queues, the paper's full design",
-    },
-    BuiltIn {
-        name: "vtq-prefetch",
-        path: "configs/vtq-prefetch.toml",
-        toml: include_str!("../../../configs/vtq-prefetch.toml"),
-        summary: "VTQ with treelet prefetching in its ray-stationary phases",
-    },
-    BuiltIn {
-        name: "vtq-prefetch-all",
-        path: "configs/vtq-prefetch-all.toml",
-        toml: include_str!("../../../configs/vtq-prefetch-all.toml"),
-        summary: "VTQ with treelet prefetching in every phase",
-    },
-    BuiltIn {
-        name: "queues-naive",
-        path: "configs/queues-naive.toml",
-        toml: include_str!("../../../configs/queues-naive.toml"),
-        summary: "ablation: treelet queues without grouping or repacking (Figure 12)",
-    },
-    BuiltIn {
-        name: "queues-grouping",
-        path: "configs/queues-grouping.toml",
-        toml: include_str!("../../../configs/queues-grouping.toml"),
-        summary: "ablation: treelet queues with grouping, no repacking (Figures 12, 13)",
-    },
-    BuiltIn {
-        name: "queues-repack16",
-        path: "configs/queues-repack16.toml",
-        toml: include_str!("../../../configs/queues-repack16.toml"),
-        summary: "ablation: repacking warps below 16 active rays (Figure 13)",
-    },
-    BuiltIn {
-        name: "queues-threshold0",
-        path: "configs/queues-threshold0.toml",
-        toml: include_str!("../../../configs/queues-threshold0.toml"),
-        summary: "section 6.4: the queue threshold at zero, read literally",
-    },
-    BuiltIn {
-        name: "queues-skip-treelet",
-        path: "configs/queues-skip-treelet.toml",
-        toml: include_str!("../../../configs/queues-skip-treelet.toml"),
-        summary: "section 6.4: no treelet-stationary phase, the other reading",
-    },
-];
+include!(concat!(env!("OUT_DIR"), "/designs.rs"));
 
 /// The built-in design called `name`.
 pub fn find(name: &str) -> Option<&'static BuiltIn> {
@@ -110,8 +52,15 @@ impl BuiltIn {
     }
 }
 
+/// The built-in design whose name (`vtq`) or file (`configs/designs/vtq/config.toml`) `path` is.
+pub fn named_by(path: &Path) -> Option<&'static BuiltIn> {
+    BUILT_INS
+        .iter()
+        .find(|b| Path::new(b.path) == path || Path::new(b.name) == path)
+}
+
 /// The text of the configuration file `path`: the file where there is one, else the built-in
-/// design whose file it names (`configs/vtq.toml`) or whose name it is (`vtq`), so sweeps and
+/// design whose file it names (`configs/designs/vtq/config.toml`) or whose name it is (`vtq`), so sweeps and
 /// experiments that name the project's configuration files run from any directory (a cluster
 /// node with only the binary). Anything else is an error naming the path.
 pub fn config_text(path: &Path) -> anyhow::Result<Cow<'static, str>> {
@@ -120,9 +69,7 @@ pub fn config_text(path: &Path) -> anyhow::Result<Cow<'static, str>> {
             .map(Cow::Owned)
             .with_context(|| format!("cannot read config file {}", path.display()));
     }
-    BUILT_INS
-        .iter()
-        .find(|b| Path::new(b.path) == path || Path::new(b.name) == path)
+    named_by(path)
         .map(|b| Cow::Borrowed(b.toml))
         .with_context(|| {
             format!(
@@ -131,6 +78,25 @@ pub fn config_text(path: &Path) -> anyhow::Result<Cow<'static, str>> {
                 path.display()
             )
         })
+}
+
+/// The defaults, then the configuration `path` names ([`config_text`]: the file, else the
+/// built-in design it names; `None`: the defaults alone), then `overrides`, not validated.
+pub fn load_unvalidated(path: Option<&Path>, overrides: &[String]) -> anyhow::Result<SimConfig> {
+    Ok(match path {
+        Some(path) => {
+            let text = config_text(path)?;
+            SimConfig::load_unvalidated(Some((path, &text)), overrides)?
+        }
+        None => SimConfig::load_unvalidated(None, overrides)?,
+    })
+}
+
+/// [`load_unvalidated`], validated: what `--config NAME|FILE` with `--set` gives.
+pub fn load(path: Option<&Path>, overrides: &[String]) -> anyhow::Result<SimConfig> {
+    let cfg = load_unvalidated(path, overrides)?;
+    cfg.validate()?;
+    Ok(cfg)
 }
 
 /// One design to simulate: a built-in one or a configuration file.
@@ -164,9 +130,17 @@ pub fn resolve(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
             names.join(", ")
         );
     }
-    let label = path
-        .file_stem()
-        .map_or_else(|| spec.to_string(), |s| s.to_string_lossy().into_owned());
+    // A design folder's `config.toml` is labelled with the folder's name, any other file with
+    // its stem.
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let label = match stem.as_deref() {
+        Some("config") => path
+            .parent()
+            .and_then(|d| d.file_name())
+            .map(|d| d.to_string_lossy().into_owned()),
+        _ => stem,
+    }
+    .unwrap_or_else(|| spec.to_string());
     Ok(Design {
         label,
         source: spec.to_string(),
@@ -192,47 +166,66 @@ mod tests {
     use super::*;
 
     #[test]
-    fn embedded_configs_equal_the_files() {
+    fn every_design_folder_is_in_the_registry() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let mut folders: Vec<String> = std::fs::read_dir(root.join("configs/designs"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        folders.sort();
+        let names: Vec<&str> = BUILT_INS.iter().map(|b| b.name).collect();
+        assert_eq!(folders, names);
         for b in &BUILT_INS {
+            assert_eq!(b.path, format!("configs/designs/{}/config.toml", b.name));
             let on_disk = std::fs::read_to_string(root.join(b.path)).unwrap();
             assert_eq!(b.toml, on_disk, "{} is stale in the binary", b.path);
+            let doc = root.join(format!("configs/designs/{}/README.md", b.name));
+            assert_eq!(b.doc, std::fs::read_to_string(doc).unwrap());
+            assert!(b.doc.starts_with(&format!("# {}: {}\n", b.name, b.summary)));
         }
-        // Every configuration file is a built-in design, named after it.
-        let files = toml_files(&root.join("configs"));
-        let mut built_in: Vec<String> = BUILT_INS
-            .iter()
-            .map(|b| {
-                assert_eq!(b.path, format!("configs/{}.toml", b.name));
-                format!("{}.toml", b.name)
-            })
+    }
+
+    #[test]
+    fn docs_config_lists_every_design() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let doc = std::fs::read_to_string(root.join("docs/config.md")).unwrap();
+        let table = doc
+            .split("## Shipped designs")
+            .nth(1)
+            .and_then(|s| s.split("\n## ").next())
+            .expect("docs/config.md has a \"Shipped designs\" section");
+        let rows: Vec<&str> = table
+            .lines()
+            .filter_map(|l| l.strip_prefix("| `")?.split('`').next())
             .collect();
-        built_in.sort();
-        assert_eq!(files, built_in);
+        let mut rows = rows;
+        rows.sort();
+        let names: Vec<&str> = BUILT_INS.iter().map(|b| b.name).collect();
+        assert_eq!(rows, names, "docs/config.md's table of designs");
     }
 
     #[test]
     fn config_text_reads_files_then_built_ins() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let file = root.join("configs/vtq.toml");
+        let file = root.join("configs/designs/vtq/config.toml");
         assert_eq!(config_text(&file).unwrap(), find("vtq").unwrap().toml);
         // Relative to a directory without the project's files: the built-in, by file or name.
         let elsewhere = std::env::temp_dir().join("vtq-config-text-test-nothing-here");
         assert!(!elsewhere.exists());
-        for p in ["configs/queues-naive.toml", "queues-naive"] {
+        for p in ["configs/designs/queues-naive/config.toml", "queues-naive"] {
             assert_eq!(
                 config_text(Path::new(p)).unwrap(),
                 find("queues-naive").unwrap().toml
             );
         }
-        let err = config_text(&elsewhere.join("configs/vtq.toml"))
+        let err = config_text(&elsewhere.join("configs/designs/vtq/config.toml"))
             .unwrap_err()
             .to_string();
         assert!(
             err.contains("cannot read config file") && err.contains("vtq designs"),
             "{err}"
         );
-        assert!(config_text(Path::new("configs/fastest.toml")).is_err());
+        assert!(config_text(Path::new("configs/designs/fastest/config.toml")).is_err());
     }
 
     #[test]
@@ -257,7 +250,7 @@ mod tests {
         let err = resolve("fastest", &[]).err().unwrap().to_string();
         assert!(err.contains("unknown design 'fastest'"), "{err}");
         assert!(
-            err.contains("baseline, prefetch, vtq, vtq-prefetch, vtq-prefetch-all, queues-naive"),
+            err.contains("baseline, prefetch, queues-grouping, queues-naive, queues-repack16"),
             "{err}"
         );
     }

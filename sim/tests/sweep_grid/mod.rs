@@ -6,7 +6,7 @@ use std::path::Path;
 
 /// `vtq sweep` of the 12 points into `results` (BVH cache under `dir`), with `extra` options.
 pub fn sweep_args(dir: &Path, results: &str, extra: &[&str]) -> Vec<String> {
-    let vtq_toml = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/vtq.toml");
+    let vtq_toml = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/designs/vtq/config.toml");
     let mut args: Vec<String> = [
         "sweep",
         "--scene",

@@ -28,6 +28,7 @@ use crate::cli::cmd::options::{
 use crate::model::bvh::build::{sphere_bounds, triangle_bounds};
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
+use crate::model::designs;
 use crate::model::geometry::{Hit, Ray};
 use crate::model::gpu::stats::comparable_json;
 use crate::model::intersect::{ray_sphere, ray_triangle, RayPrecomp};
@@ -286,10 +287,10 @@ fn sim_config(args: &BenchArgs) -> anyhow::Result<SimConfig> {
     ];
     let mut sets: Vec<String> = flags.iter().map(|(k, _, v)| format!("{k}={v}")).collect();
     sets.extend(args.config.overrides.iter().cloned());
-    let cfg = SimConfig::load(args.config.config.as_deref(), &sets)?;
+    let cfg = designs::load(args.config.config.as_deref(), &sets)?;
     if let Some(path) = &args.config.config {
         // What the file and --set give without the bench's options (as `vtq sim` would run).
-        let as_sim = SimConfig::load(Some(path), &args.config.overrides)?;
+        let as_sim = designs::load(Some(path), &args.config.overrides)?;
         let value = |c: &SimConfig, key: &str| match key {
             "workload.width" => c.workload.width,
             "workload.height" => c.workload.height,

@@ -23,6 +23,9 @@ pub struct DesignsArgs {
     /// with), e.g. `--set hw.max_rays=8192` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Also print each built-in design's documentation (the `README.md` of its folder).
+    #[arg(long)]
+    pub doc: bool,
 }
 
 /// One design's entry.
@@ -34,6 +37,8 @@ pub struct Entry {
     pub source: String,
     /// The built-in design's one-line summary (empty for a file).
     pub summary: String,
+    /// The built-in design's documentation (`None` for a file).
+    pub doc: Option<&'static str>,
     /// The RT unit and the design's units beside it in every SM
     /// ([`crate::model::config::ModeConfig::units`]).
     pub units: Vec<&'static str>,
@@ -48,9 +53,8 @@ fn flat(cfg: &SimConfig) -> anyhow::Result<Vec<(String, Value)>> {
 
 /// The entry of `design`, compared with the flat baseline configuration `baseline`.
 pub fn entry(design: &Design, baseline: &[(String, Value)]) -> anyhow::Result<Entry> {
-    let summary = designs::find(&design.label)
-        .filter(|b| design.source.ends_with(b.path))
-        .map_or(String::new(), |b| b.summary.to_string());
+    let built_in = designs::find(&design.label).filter(|b| design.source.ends_with(b.path));
+    let summary = built_in.map_or(String::new(), |b| b.summary.to_string());
     let differs = flat(&design.config)?
         .into_iter()
         .filter(|(k, v)| baseline.iter().find(|(b, _)| b == k).map(|(_, w)| w) != Some(v))
@@ -60,6 +64,7 @@ pub fn entry(design: &Design, baseline: &[(String, Value)]) -> anyhow::Result<En
         label: design.label.clone(),
         source: design.source.clone(),
         summary,
+        doc: built_in.map(|b| b.doc),
         units: std::iter::once("rt_unit")
             .chain(design.config.mode.units())
             .collect(),
@@ -67,8 +72,9 @@ pub fn entry(design: &Design, baseline: &[(String, Value)]) -> anyhow::Result<En
     })
 }
 
-/// The listing as text: a block of lines per design.
-pub fn listing(entries: &[Entry]) -> String {
+/// The listing as text: a block of lines per design, with its documentation indented after it
+/// when `doc` is set.
+pub fn listing(entries: &[Entry], doc: bool) -> String {
     let mut out = String::new();
     for e in entries {
         let title = if e.summary.is_empty() {
@@ -89,6 +95,17 @@ pub fn listing(entries: &[Entry]) -> String {
                 .join(", ")
         };
         out.push_str(&format!("  differs from the baseline in: {differs}\n"));
+        if doc {
+            let text = e
+                .doc
+                .unwrap_or("(no documentation: a configuration file, not a built-in design)");
+            out.push('\n');
+            for line in text.lines() {
+                out.push_str(format!("    {line}").trim_end());
+                out.push('\n');
+            }
+            out.push('\n');
+        }
     }
     out
 }
@@ -112,7 +129,7 @@ pub fn run(args: &DesignsArgs) -> anyhow::Result<()> {
         let design = designs::resolve(name, &args.set)?;
         entries.push(entry(&design, &baseline)?);
     }
-    print!("{}", listing(&entries));
+    print!("{}", listing(&entries, args.doc));
     Ok(())
 }
 
@@ -157,11 +174,19 @@ mod tests {
         let baseline = flat(&designs::find("baseline").unwrap().config(&sets).unwrap()).unwrap();
         let vtq = entry(&designs::resolve("vtq", &sets).unwrap(), &baseline).unwrap();
         assert!(!vtq.differs.iter().any(|(k, _)| k == "hw.max_rays"));
-        let listing = listing(&[vtq]);
-        assert!(listing.starts_with("vtq: "), "{listing}");
+        let text = listing(std::slice::from_ref(&vtq), false);
+        assert!(text.starts_with("vtq: "), "{text}");
+        assert!(text.contains("differs from the baseline in: "), "{text}");
+        // With its documentation: the folder's README, indented, after the block.
+        let with_doc = listing(&[vtq], true);
+        assert!(with_doc.starts_with(&text), "{with_doc}");
         assert!(
-            listing.contains("differs from the baseline in: "),
-            "{listing}"
+            with_doc.contains("\n    # vtq: Virtualized Treelet Queues"),
+            "{with_doc}"
+        );
+        assert!(
+            with_doc.contains("    - Configuration: [`config.toml`]"),
+            "{with_doc}"
         );
     }
 }

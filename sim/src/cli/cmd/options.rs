@@ -8,6 +8,8 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::model::bvh::{build_cached, default_cache_dir, BvhParams, CacheOutcome, HwBvh};
+use crate::model::config::SimConfig;
+use crate::model::designs;
 use crate::model::scene::load::{load_scene_with_report as load, LoadedScene};
 use crate::model::scene::Scene;
 use crate::model::workload::pathtracer::RenderSettings;
@@ -160,8 +162,10 @@ pub fn build_bvh(scene: &Scene, params: &BvhParams, args: &CacheArgs) -> anyhow:
 /// The simulator configuration file and `--set` overrides (see docs/config.md).
 #[derive(Debug, Clone, Args)]
 pub struct ConfigArgs {
-    /// Configuration file (TOML; e.g. configs/vtq.toml) [default: the paper's Table 1 baseline].
-    #[arg(long)]
+    /// Configuration: a built-in design's name (`vtq`; `vtq designs` lists them) or a TOML file
+    /// (e.g. configs/designs/vtq/config.toml; a file of that path in the working directory
+    /// is read before the built-in copy) [default: the paper's Table 1 baseline].
+    #[arg(long, value_name = "NAME|FILE")]
     pub config: Option<PathBuf>,
     /// Override one parameter, e.g. `--set hw.max_rays=8192` or `--set width=64` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -169,23 +173,19 @@ pub struct ConfigArgs {
 }
 
 impl ConfigArgs {
-    /// Defaults, then the file, then the overrides, validated.
-    pub fn load(&self) -> anyhow::Result<crate::model::config::SimConfig> {
-        Ok(crate::model::config::SimConfig::load(
-            self.config.as_deref(),
-            &self.overrides,
-        )?)
+    /// Defaults, then the file (or built-in design), then the overrides, validated.
+    pub fn load(&self) -> anyhow::Result<SimConfig> {
+        designs::load(self.config.as_deref(), &self.overrides)
     }
 
-    /// Defaults, then the file, then the overrides, with only the sections the hardware is
-    /// generated from validated (`[hw]`, `[gpu]`, `[memory]`; see
-    /// [`SimConfig::validate_hardware`](crate::model::config::SimConfig::validate_hardware)), for the
-    /// commands that generate, co-simulate or size the hardware.
-    pub fn load_hardware(&self) -> anyhow::Result<crate::model::config::SimConfig> {
-        Ok(crate::model::config::SimConfig::load_hardware(
-            self.config.as_deref(),
-            &self.overrides,
-        )?)
+    /// Defaults, then the file (or built-in design), then the overrides, with only the sections
+    /// the hardware is generated from validated (`[hw]`, `[gpu]`, `[memory]`; see
+    /// [`SimConfig::validate_hardware`]), for the commands that generate, co-simulate or size
+    /// the hardware.
+    pub fn load_hardware(&self) -> anyhow::Result<SimConfig> {
+        let cfg = designs::load_unvalidated(self.config.as_deref(), &self.overrides)?;
+        cfg.validate_hardware()?;
+        Ok(cfg)
     }
 }
 
@@ -194,7 +194,7 @@ impl ConfigArgs {
 pub fn simulate_with_progress(
     scene: &Scene,
     bvh: &HwBvh,
-    cfg: &crate::model::config::SimConfig,
+    cfg: &SimConfig,
     options: crate::model::gpu::SimOptions,
 ) -> anyhow::Result<crate::model::gpu::SimOutput> {
     use std::io::IsTerminal;

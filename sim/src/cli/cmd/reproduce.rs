@@ -156,7 +156,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         .iter()
         .map(|(id, title, f)| drawn(id, title, f(&results, out)))
         .collect();
-    let vtq_path = root.join("configs/vtq.toml");
+    let vtq_path = root.join("configs/designs/vtq/config.toml");
     let vtq = SimConfig::load_str(&vtq_path, &config_text(&vtq_path)?, &args.set)?;
     let fig5 =
         figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));

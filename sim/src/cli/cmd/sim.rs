@@ -26,8 +26,9 @@ pub struct SimArgs {
     /// ../shared/scenes, a scene folder path or a `.obj` file (see `vtq scenes`).
     #[arg(long)]
     pub scene: String,
-    /// Configuration file (TOML, see docs/config.md) [default: the baseline GPU].
-    #[arg(long)]
+    /// Configuration: a built-in design's name (`vtq`; `vtq designs` lists them) or a TOML file
+    /// (docs/config.md) [default: the baseline GPU].
+    #[arg(long, value_name = "NAME|FILE")]
     pub config: Option<PathBuf>,
     /// Override one configuration key, e.g. `--set gpu.sms=4` or `--set width=64` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -77,7 +78,7 @@ pub fn time_series_path(out: &Path) -> PathBuf {
 
 /// Run `vtq sim`.
 pub fn run(args: &SimArgs) -> anyhow::Result<()> {
-    let mut cfg = SimConfig::load(args.config.as_deref(), &args.set)?;
+    let mut cfg = crate::model::designs::load(args.config.as_deref(), &args.set)?;
     if args.lockstep {
         cfg.sim.lockstep = true;
     }

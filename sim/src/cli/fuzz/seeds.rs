@@ -18,14 +18,14 @@ use crate::model::geometry::Ray;
 use crate::model::scene::builtin::cornell;
 use crate::model::scene::{Camera, Material, Scene};
 
-/// The configurations shipped in `configs/`.
+/// Six designs' configuration files (`configs/designs/`).
 const CONFIGS: [&str; 6] = [
-    include_str!("../../../../configs/baseline.toml"),
-    include_str!("../../../../configs/prefetch.toml"),
-    include_str!("../../../../configs/vtq.toml"),
-    include_str!("../../../../configs/queues-grouping.toml"),
-    include_str!("../../../../configs/queues-naive.toml"),
-    include_str!("../../../../configs/queues-repack16.toml"),
+    include_str!("../../../../configs/designs/baseline/config.toml"),
+    include_str!("../../../../configs/designs/prefetch/config.toml"),
+    include_str!("../../../../configs/designs/vtq/config.toml"),
+    include_str!("../../../../configs/designs/queues-grouping/config.toml"),
+    include_str!("../../../../configs/designs/queues-naive/config.toml"),
+    include_str!("../../../../configs/designs/queues-repack16/config.toml"),
 ];
 
 /// Number of generated seeds per parser (the BVH and configuration seeds are a fixed list).
@@ -217,7 +217,7 @@ fn manifest(rng: &mut Rng) -> String {
     s
 }
 
-/// The configurations of `configs/` and the defaults written out.
+/// Six designs' configuration files and the defaults written out.
 fn config_files() -> Vec<Vec<u8>> {
     let mut files: Vec<Vec<u8>> = CONFIGS.iter().map(|c| c.as_bytes().to_vec()).collect();
     files.push(

@@ -7,10 +7,10 @@ use std::path::Path;
 use super::figures::{paper, speedup_bars, Figure, PREFETCH, VTQ};
 use super::Results;
 
-/// VTQ with treelet prefetching in its ray-stationary phases (`configs/vtq-prefetch.toml`).
-const VTQ_PREFETCH: &str = "configs/vtq-prefetch.toml";
+/// VTQ with treelet prefetching in its ray-stationary phases (`configs/designs/vtq-prefetch/config.toml`).
+const VTQ_PREFETCH: &str = "configs/designs/vtq-prefetch/config.toml";
 /// VTQ with treelet prefetching in every phase.
-const VTQ_PREFETCH_ALL: &str = "configs/vtq-prefetch-all.toml";
+const VTQ_PREFETCH_ALL: &str = "configs/designs/vtq-prefetch-all/config.toml";
 
 /// VTQ with treelet prefetching: speedups over the baseline of prefetching alone, VTQ alone and
 /// VTQ with the prefetcher watching its rays in the ray-stationary phases or in all.

@@ -16,18 +16,18 @@ use crate::experiment::plot::{
 };
 
 /// The baseline GPU's configuration file.
-const BASELINE: &str = "configs/baseline.toml";
+const BASELINE: &str = "configs/designs/baseline/config.toml";
 /// Treelet prefetching.
-pub(super) const PREFETCH: &str = "configs/prefetch.toml";
+pub(super) const PREFETCH: &str = "configs/designs/prefetch/config.toml";
 /// The full design (repacking below 22 active rays).
-pub(super) const VTQ: &str = "configs/vtq.toml";
+pub(super) const VTQ: &str = "configs/designs/vtq/config.toml";
 /// Treelet queues without grouping or repacking (also the permanent treelet-stationary mode of
 /// Figure 11).
-const NAIVE: &str = "configs/queues-naive.toml";
+const NAIVE: &str = "configs/designs/queues-naive/config.toml";
 /// Grouping of underpopulated queues, no repacking.
-const GROUPING: &str = "configs/queues-grouping.toml";
+const GROUPING: &str = "configs/designs/queues-grouping/config.toml";
 /// Grouping and repacking below 16 active rays.
-const REPACK16: &str = "configs/queues-repack16.toml";
+const REPACK16: &str = "configs/designs/queues-repack16/config.toml";
 
 /// The axis range of a rate drawn as a fraction (SIMT efficiency).
 const RATE: (f64, f64) = (0.0, 1.0);

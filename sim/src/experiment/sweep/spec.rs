@@ -6,7 +6,7 @@
 //! A sweep file:
 //! ```toml
 //! scenes = ["wknd", "cornell"]           # as `vtq sim --scene` takes them
-//! configs = ["configs/vtq.toml"]         # base configurations; none: the defaults
+//! configs = ["configs/designs/vtq/config.toml"]         # base configurations; none: the defaults
 //! set = ["width=64", "height=64"]        # overrides of every point, as `--set`
 //! [grid]                                 # every combination of these values
 //! "hw.repack_threshold" = [16, 22, 28]
@@ -17,7 +17,7 @@
 //! ```
 //! Paths (scenes and configurations) are relative to the working directory, as on the command
 //! line; a configuration that is not a file there may name a built-in design, by name (`vtq`)
-//! or by its file in the project (`configs/vtq.toml`), so a sweep of the project's designs runs
+//! or by its file in the project (`configs/designs/vtq/config.toml`), so a sweep of the project's designs runs
 //! from any directory ([`crate::model::designs::config_text`]).
 
 use std::collections::HashSet;
@@ -415,7 +415,10 @@ mod tests {
 
     #[test]
     fn out_of_range_values_are_points_not_errors() {
-        let vtq = concat!(env!("CARGO_MANIFEST_DIR"), "/../configs/vtq.toml");
+        let vtq = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../configs/designs/vtq/config.toml"
+        );
         let mut s = spec(&format!("scenes = ['wknd']\nconfigs = ['{vtq}']"));
         s.add_grid_arg("hw.repack_threshold=16,99").unwrap();
         let points = s.points().unwrap();
