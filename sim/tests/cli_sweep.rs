@@ -405,7 +405,7 @@ fn designs_and_experiments_run_from_anywhere_by_name() {
     );
     assert!(!fig10.status.success());
     assert!(
-        text(&fig10).contains("sweep point wknd baseline.toml: --set `nosuch=1`: unknown key"),
+        text(&fig10).contains("sweep point wknd baseline: --set `nosuch=1`: unknown key"),
         "{}",
         text(&fig10)
     );

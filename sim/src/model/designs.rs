@@ -99,6 +99,15 @@ pub fn load(path: Option<&Path>, overrides: &[String]) -> anyhow::Result<SimConf
     Ok(cfg)
 }
 
+/// The design folder's name when `path` is a design folder's configuration file
+/// (`.../NAME/config.toml`), so tables and sweep points name it after its folder.
+pub fn folder_name(path: &Path) -> Option<String> {
+    (path.file_name()? == "config.toml")
+        .then(|| path.parent()?.file_name())
+        .flatten()
+        .map(|d| d.to_string_lossy().into_owned())
+}
+
 /// One design to simulate: a built-in one or a configuration file.
 #[derive(Debug, Clone)]
 pub struct Design {
@@ -130,17 +139,9 @@ pub fn resolve(spec: &str, overrides: &[String]) -> anyhow::Result<Design> {
             names.join(", ")
         );
     }
-    // A design folder's `config.toml` is labelled with the folder's name, any other file with
-    // its stem.
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-    let label = match stem.as_deref() {
-        Some("config") => path
-            .parent()
-            .and_then(|d| d.file_name())
-            .map(|d| d.to_string_lossy().into_owned()),
-        _ => stem,
-    }
-    .unwrap_or_else(|| spec.to_string());
+    let label = folder_name(path)
+        .or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .unwrap_or_else(|| spec.to_string());
     Ok(Design {
         label,
         source: spec.to_string(),

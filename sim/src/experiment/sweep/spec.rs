@@ -267,8 +267,11 @@ impl SweepSpec {
                 for assignment in &assignments {
                     let mut label = scene.clone();
                     if let (Some(path), true) = (base, bases.len() > 1) {
-                        let name = path.file_name().unwrap_or(path.as_os_str());
-                        let _ = write!(label, " {}", name.to_string_lossy());
+                        let name = crate::model::designs::folder_name(path).unwrap_or_else(|| {
+                            let name = path.file_name().unwrap_or(path.as_os_str());
+                            name.to_string_lossy().into_owned()
+                        });
+                        let _ = write!(label, " {name}");
                     }
                     for (k, v) in assignment {
                         let _ = write!(label, " {k}={}", value_text(v));
