@@ -181,7 +181,8 @@ impl ConfigArgs {
     /// Defaults, then the file (or built-in design), then the overrides, with only the sections
     /// the hardware is generated from validated (`[hw]`, `[gpu]`, `[memory]`; see
     /// [`SimConfig::validate_hardware`]), for the commands that generate, co-simulate or size
-    /// the hardware.
+    /// the hardware: table sizes can be explored without switching the simulated design to
+    /// treelet queues.
     pub fn load_hardware(&self) -> anyhow::Result<SimConfig> {
         let cfg = designs::load_unvalidated(self.config.as_deref(), &self.overrides)?;
         cfg.validate_hardware()?;

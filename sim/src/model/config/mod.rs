@@ -385,19 +385,6 @@ impl SimConfig {
         Ok(config)
     }
 
-    /// Reads a configuration like [`SimConfig::load`] (unknown keys and malformed values are
-    /// still errors) but checks only what the hardware generators read (`vtq verilog`, `vtq
-    /// area`, `vtq cosim`): see [`SimConfig::validate_hardware`]. So table sizes can be
-    /// explored without switching the simulated design to treelet queues.
-    pub fn load_hardware(
-        path: Option<&Path>,
-        overrides: &[String],
-    ) -> Result<SimConfig, ConfigError> {
-        let config = SimConfig::parse(path, overrides)?;
-        config.validate_hardware()?;
-        Ok(config)
-    }
-
     /// Reads a configuration as [`SimConfig::load_str`] does (`file` is the path and text of a
     /// configuration file, `None` for the defaults alone; unknown keys and values of the wrong
     /// type are still errors) but does not [validate](SimConfig::validate) it: `vtq sweep`
