@@ -171,7 +171,7 @@ fn config_file_design_matches_the_built_in_on_any_thread_count() {
         assert_eq!(
             comparable(&designs[0]),
             comparable(&designs[1]),
-            "the embedded configs/designs/prefetch/config.toml and the file simulate identically (--jobs {jobs})"
+            "the built-in prefetch design and its file simulate identically (--jobs {jobs})"
         );
     }
 }

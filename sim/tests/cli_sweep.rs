@@ -175,7 +175,7 @@ fn a_killed_sweep_resumes_to_the_uninterrupted_table() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A 2-point cornell sweep (configs/designs/vtq/config.toml, 16x16) whose second repack threshold fails validation.
+/// A 2-point cornell sweep (design `vtq`, 16x16) whose second repack threshold fails validation.
 fn failing_sweep(extra: &[&str]) -> Vec<String> {
     let mut args: Vec<String> = [
         "sweep",

@@ -187,7 +187,7 @@ fn skipping_idle_cycles_matches_lockstep() {
     }
 }
 
-/// VTQ with treelet prefetching (`configs/designs/vtq-prefetch/config.toml`): the prefetcher beside the
+/// VTQ with treelet prefetching (design `vtq-prefetch`): the prefetcher beside the
 /// treelet RT unit watches its rays in the ray-stationary phases, or in all; every ray is still
 /// traced exactly, skipping idle cycles equals lockstep, and the popularity rule queues treelets
 /// (never without the switch).

@@ -1,8 +1,8 @@
 //! The RT unit's short on-chip traversal stacks (`hw.stack_depth`) spill to memory and fill
 //! back on demand, so no scene overflows them: on a deep BVH built here with an 8-entry stack,
-//! every design of `configs/designs/` spills and still returns the functional tracer's closest hits and
-//! image, skipping idle cycles still equals lockstep, and a stack deep enough never to spill
-//! gives the same statistics as a deeper one.
+//! every design of `configs/designs/` spills and still returns the functional tracer's closest
+//! hits and image, skipping idle cycles still equals lockstep, and a stack deep enough never to
+//! spill gives the same statistics as a deeper one.
 
 mod common;
 
@@ -70,9 +70,9 @@ fn nested_shells(shells: u32) -> Scene {
     }
 }
 
-/// The configuration of design `name` (`configs/designs/<name>/config.toml`), on a small GPU (2 SMs, `side` x `side`
-/// pixels, 2 KB treelets so the nest spans many treelets, small caches; for the queue designs
-/// thresholds a small image reaches), then `extra`.
+/// The configuration of design `name` (`configs/designs/<name>/config.toml`), on a small GPU
+/// (2 SMs, `side` x `side` pixels, 2 KB treelets so the nest spans many treelets, small
+/// caches; for the queue designs thresholds a small image reaches), then `extra`.
 fn config(name: &str, side: u32, extra: &[&str]) -> SimConfig {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../configs/designs")

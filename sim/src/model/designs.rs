@@ -53,16 +53,16 @@ impl BuiltIn {
 }
 
 /// The built-in design whose name (`vtq`) or file (`configs/designs/vtq/config.toml`) `path` is.
-pub fn named_by(path: &Path) -> Option<&'static BuiltIn> {
+fn named_by(path: &Path) -> Option<&'static BuiltIn> {
     BUILT_INS
         .iter()
         .find(|b| Path::new(b.path) == path || Path::new(b.name) == path)
 }
 
 /// The text of the configuration file `path`: the file where there is one, else the built-in
-/// design whose file it names (`configs/designs/vtq/config.toml`) or whose name it is (`vtq`), so sweeps and
-/// experiments that name the project's configuration files run from any directory (a cluster
-/// node with only the binary). Anything else is an error naming the path.
+/// design whose file it names (`configs/designs/vtq/config.toml`) or whose name it is (`vtq`),
+/// so sweeps and experiments that name the project's configuration files run from any directory
+/// (a cluster node with only the binary). Anything else is an error naming the path.
 pub fn config_text(path: &Path) -> anyhow::Result<Cow<'static, str>> {
     if path.exists() {
         return std::fs::read_to_string(path)

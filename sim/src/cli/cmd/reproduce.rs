@@ -24,7 +24,7 @@ use crate::experiment::reproduce::{scene_labels, Experiments, Results, FIGURE_EX
 use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse};
 use crate::model::bvh::BvhParams;
 use crate::model::config::SimConfig;
-use crate::model::designs::config_text;
+use crate::model::designs;
 use crate::model::scene::Scene;
 use crate::model::workload::pathtracer::render;
 
@@ -157,7 +157,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         .map(|(id, title, f)| drawn(id, title, f(&results, out)))
         .collect();
     let vtq_path = root.join("configs/designs/vtq/config.toml");
-    let vtq = SimConfig::load_str(&vtq_path, &config_text(&vtq_path)?, &args.set)?;
+    let vtq = designs::load(Some(&vtq_path), &args.set)?;
     let fig5 =
         figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));
     figures.insert(0, drawn("fig05", "Figure 5", fig5));

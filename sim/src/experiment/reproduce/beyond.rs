@@ -7,7 +7,7 @@ use std::path::Path;
 use super::figures::{paper, speedup_bars, Figure, PREFETCH, VTQ};
 use super::Results;
 
-/// VTQ with treelet prefetching in its ray-stationary phases (`configs/designs/vtq-prefetch/config.toml`).
+/// VTQ with treelet prefetching in its ray-stationary phases (design `vtq-prefetch`).
 const VTQ_PREFETCH: &str = "configs/designs/vtq-prefetch/config.toml";
 /// VTQ with treelet prefetching in every phase.
 const VTQ_PREFETCH_ALL: &str = "configs/designs/vtq-prefetch-all/config.toml";

@@ -308,8 +308,8 @@ impl<'a> Results<'a> {
     }
 
     /// The statistics of `scene` simulated with the configuration file `base` (relative to the
-    /// project root, e.g. `configs/designs/vtq/config.toml`) and the overrides `sets` (`key=value`), or `None`
-    /// when that run is not stored or failed.
+    /// project root, e.g. `configs/designs/vtq/config.toml`) and the overrides `sets`
+    /// (`key=value`), or `None` when that run is not stored or failed.
     pub fn stats(&self, scene: &str, base: &str, sets: &[&str]) -> Option<Json> {
         // Figures ask for the same runs again and again: cached by the question.
         let question = format!("{scene}\n{base}\n{}", sets.join("\n"));

@@ -17,8 +17,8 @@
 //! ```
 //! Paths (scenes and configurations) are relative to the working directory, as on the command
 //! line; a configuration that is not a file there may name a built-in design, by name (`vtq`)
-//! or by its file in the project (`configs/designs/vtq/config.toml`), so a sweep of the project's designs runs
-//! from any directory ([`crate::model::designs::config_text`]).
+//! or by its file in the project (`configs/designs/vtq/config.toml`), so a sweep of the
+//! project's designs runs from any directory ([`crate::model::designs::config_text`]).
 
 use std::collections::HashSet;
 use std::fmt::Write as _;

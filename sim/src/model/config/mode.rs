@@ -64,7 +64,7 @@ pub struct ModeConfig {
     /// `queues` with `treelet_prefetch` on.
     pub prefetch_threshold: f64,
     /// The treelet prefetcher beside the treelet RT unit too, watching its rays in some
-    /// phases (VTQ with treelet prefetching, `configs/designs/vtq-prefetch/config.toml`); `queues` only.
+    /// phases (VTQ with treelet prefetching, design `vtq-prefetch`); `queues` only.
     pub treelet_prefetch: TreeletPrefetch,
     /// SM warps enter the RT unit in treelet-stationary mode too (default `true`, as vtq reads
     /// section 4: only the final ray-stationary phase keeps them out). `false`, `queues`
