@@ -24,17 +24,7 @@ fn sampled_config(mode: &str, spec: &str, extra: &[&str]) -> SimConfig {
 
 /// The estimates without host-dependent times, for comparing runs.
 fn comparable(s: &SampledStats) -> serde_json::Value {
-    let mut v = serde_json::to_value(s).unwrap();
-    let o = v.as_object_mut().unwrap();
-    o.remove("profile_seconds");
-    o.remove("sim_seconds");
-    for r in o["replicate_runs"].as_array_mut().unwrap() {
-        let stats = r["stats"].as_object_mut().unwrap();
-        for k in vtq_sim::model::gpu::HOST_DEPENDENT_KEYS {
-            stats.remove(k);
-        }
-    }
-    v
+    common::comparable_sampled(s)
 }
 
 fn sampled(name: &str, cfg: &SimConfig, threads: usize) -> SampledStats {

@@ -231,3 +231,19 @@ pub fn check_scene_skip_matches_lockstep(
     );
     (skip, lock)
 }
+
+/// A sampled tier's estimates without host-dependent times (profile and simulation seconds,
+/// the replicates' wall-clock statistics), for comparing runs.
+pub fn comparable_sampled(s: &vtq_sim::estimate::sample::SampledStats) -> serde_json::Value {
+    let mut v = serde_json::to_value(s).unwrap();
+    let o = v.as_object_mut().unwrap();
+    o.remove("profile_seconds");
+    o.remove("sim_seconds");
+    for r in o["replicate_runs"].as_array_mut().unwrap() {
+        let stats = r["stats"].as_object_mut().unwrap();
+        for k in vtq_sim::model::gpu::HOST_DEPENDENT_KEYS {
+            stats.remove(k);
+        }
+    }
+    v
+}

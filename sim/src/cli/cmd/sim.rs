@@ -52,7 +52,8 @@ pub struct SimArgs {
     pub threads: usize,
     /// The sampled tier instead of full detail: estimates with 95% intervals from scale models
     /// on stratified samples of the frame (docs/accuracy.md). `FRACTION[xREPLICATES]`, e.g.
-    /// `1/8x4`; without a value the `[sample]` section's settings.
+    /// `1/8x4`, or below one SM, e.g. `1/32x2` (one SM running 1/32 of the CTAs); without a
+    /// value the `[sample]` section's settings.
     #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
     pub sample: Option<String>,
     /// Also write a waveform (VCD, for GTKWave) of the RT unit hardware of SM --vcd-sm over
@@ -228,11 +229,18 @@ fn run_sampled(
             )
         }
     };
+    let rays = if s.rays_estimated {
+        format!(
+            "about {} rays (profiled from 1 warp in {} of each CTA)",
+            s.rays, cfg.sample.profile_stride
+        )
+    } else {
+        format!("{} rays", s.rays)
+    };
     println!(
-        "sim (sampled: {how}): cycles {}, {} rays, SIMT efficiency {}, BVH L1 miss rate {}; \
+        "sim (sampled: {how}): cycles {}, {rays}, SIMT efficiency {}, BVH L1 miss rate {}; \
          {:.2} s wall ({:.2} s profile)",
         s.cycles.display(0),
-        s.rays,
         s.simt_efficiency.display(3),
         s.bvh_l1_miss_rate.display(3),
         s.profile_seconds + s.sim_seconds,

@@ -36,6 +36,22 @@ pub struct CtaWork {
     pub warp_fetches: u64,
 }
 
+impl CtaWork {
+    /// The work traced times `scale` (rounded), the estimate of a CTA's work from the part of
+    /// its warps the profile traced ([`Profile::new`] with `sample.profile_stride` above 1).
+    fn scaled(self, scale: f64) -> CtaWork {
+        if scale == 1.0 {
+            return self;
+        }
+        let s = |v: u64| (v as f64 * scale).round() as u64;
+        CtaWork {
+            rays: s(self.rays),
+            fetches: s(self.fetches),
+            warp_fetches: s(self.warp_fetches),
+        }
+    }
+}
+
 /// The work of one stripe: the CTAs `c` with `c mod gpu.sms = s`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StripeWork {
@@ -69,6 +85,9 @@ pub struct Profile {
     /// Bytes of the frame's footprint (its distinct 32 B BVH lines), with `sample.warm_l2` or
     /// `sample.ghost_l2_footprint` (0 otherwise).
     pub footprint_bytes: u64,
+    /// `sample.profile_stride`: 1 when every warp was traced and [`Profile::ctas`] is exact,
+    /// else each CTA's work is estimated from one warp in this many.
+    pub stride: u32,
 }
 
 /// Bytes of a BVH line in a footprint (the memory system's sector).
@@ -201,16 +220,32 @@ impl<'a> Frame<'a> {
     }
 
     /// Traces CTA `cta`'s rays in thread order, each thread's in path order, calling
-    /// `on_ray(thread, fetches)` with each ray's node fetches (`fetches` is scratch).
+    /// `on_ray(thread, fetches)` with each ray's node fetches (`fetches` is scratch). Of its
+    /// `n` warps of `warp` threads it traces those `w` with `w mod stride = cta mod min(stride,
+    /// n)`, at least one (all with `stride` 1). Returns its threads and the factor that scales
+    /// the traced warps' work to the CTA's (its warps over those traced; 1 with `stride` 1).
     fn trace_cta(
         &self,
         cta: u32,
+        (warp, stride): (usize, usize),
         fetches: &mut Vec<Fetch>,
         mut on_ray: impl FnMut(usize, &[Fetch]),
-    ) -> usize {
+    ) -> (usize, f64) {
         let pixels = self.scheduler.pixels(cta);
         let threads = pixels.len();
+        let (warp, stride) = (warp.max(1), stride.max(1));
+        let warps = threads.div_ceil(warp);
+        let phase = cta as usize % stride.min(warps).max(1);
+        let traced = (0..warps).filter(|w| w % stride == phase).count();
+        let scale = if traced == 0 {
+            0.0
+        } else {
+            warps as f64 / traced as f64
+        };
         for (thread, pixel) in pixels.into_iter().enumerate() {
+            if (thread / warp) % stride != phase {
+                continue;
+            }
             let Some(pixel) = pixel else { continue };
             for sample in 0..self.settings.spp {
                 let (mut path, mut ray) =
@@ -226,7 +261,7 @@ impl<'a> Frame<'a> {
                 }
             }
         }
-        threads
+        (threads, scale)
     }
 }
 
@@ -234,7 +269,10 @@ impl Profile {
     /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads. Where
     /// the frame's footprint is within `sample.ghost_l2_footprint`, it also records the CTAs'
     /// L2 streams ([`Profile::cta_streams`]): in the one pass when the BVH's whole address
-    /// space is within the limit, else in a second pass once the footprint is known.
+    /// space is within the limit, else in a second pass once the footprint is known. With
+    /// `sample.profile_stride` `m` above 1 the first pass traces one warp in `m` of each CTA
+    /// and estimates the CTA's work from them (the footprints then hold the traced warps'
+    /// lines only), unless it records the streams; the streams' pass traces every warp.
     pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
         let start = Instant::now();
         let frame = Frame::new(scene, bvh, cfg)?;
@@ -256,6 +294,13 @@ impl Profile {
         // recorded in the first pass, otherwise in a second one once the footprint is known.
         let streams_now =
             ghost_limit > 0.0 && (words * 64 * LINE_BYTES as usize) as f64 <= limit_bytes;
+        // The streams need every warp's reads: a BVH small enough to record them in the first
+        // pass is traced in full there (a strided pass would need a second, full one).
+        let stride = if streams_now {
+            1
+        } else {
+            cfg.sample.profile_stride.max(1) as usize
+        };
         let l1_bytes = cfg.memory.l1_bytes;
         let line_bytes = cfg.memory.line_bytes;
         let frame_bits: Vec<AtomicU64> = (0..if with_frame { words } else { 0 })
@@ -275,26 +320,27 @@ impl Profile {
                     let footprint = footprints.get(cta as usize % sms);
                     // Per thread, the fetches of each of its rays in order.
                     traces.iter_mut().for_each(Vec::clear);
-                    let threads = frame.trace_cta(cta, fetches, |thread, fetches| {
-                        work.rays += 1;
-                        work.fetches += fetches.len() as u64;
-                        if traces.len() <= thread {
-                            traces.resize_with(thread + 1, Vec::new);
-                        }
-                        traces[thread].push(fetches.len() as u32);
-                        if let Some(bits) = footprint {
-                            mark_lines(bits, fetches);
-                        }
-                        if !frame_bits.is_empty() {
-                            mark_lines(&frame_bits, fetches);
-                        }
-                        if let Some(l1) = &mut l1 {
-                            l1.misses(fetches, &mut stream);
-                        }
-                    });
+                    let (threads, scale) =
+                        frame.trace_cta(cta, (warp, stride), fetches, |thread, fetches| {
+                            work.rays += 1;
+                            work.fetches += fetches.len() as u64;
+                            if traces.len() <= thread {
+                                traces.resize_with(thread + 1, Vec::new);
+                            }
+                            traces[thread].push(fetches.len() as u32);
+                            if let Some(bits) = footprint {
+                                mark_lines(bits, fetches);
+                            }
+                            if !frame_bits.is_empty() {
+                                mark_lines(&frame_bits, fetches);
+                            }
+                            if let Some(l1) = &mut l1 {
+                                l1.misses(fetches, &mut stream);
+                            }
+                        });
                     traces.resize_with(threads, Vec::new);
                     work.warp_fetches = lockstep_fetches(&traces[..threads], warp);
-                    (work, stream)
+                    (work.scaled(scale), stream)
                 },
             )
             .unzip::<_, _, Vec<CtaWork>, Vec<Vec<u32>>>();
@@ -333,7 +379,9 @@ impl Profile {
                 .map_init(Vec::new, |fetches, cta| {
                     let mut l1 = L1Filter::new(l1_bytes, line_bytes);
                     let mut stream = Vec::new();
-                    frame.trace_cta(cta, fetches, |_, fetches| l1.misses(fetches, &mut stream));
+                    frame.trace_cta(cta, (warp, 1), fetches, |_, fetches| {
+                        l1.misses(fetches, &mut stream)
+                    });
                     stream
                 })
                 .collect()
@@ -351,23 +399,74 @@ impl Profile {
             },
             footprint_bytes,
             cta_streams,
+            stride: stride as u32,
         })
+    }
+
+    /// [`Profile::ctas`] with the CTAs `exact` traced in full (every warp): the exact work of
+    /// the CTAs a sample simulates where the profile estimated it (`stride` above 1).
+    pub fn with_exact(
+        &self,
+        scene: &Scene,
+        bvh: &HwBvh,
+        cfg: &SimConfig,
+        exact: &[u32],
+    ) -> Result<Vec<CtaWork>, RenderError> {
+        let mut ctas = self.ctas.clone();
+        if self.stride <= 1 {
+            return Ok(ctas);
+        }
+        let frame = Frame::new(scene, bvh, cfg)?;
+        let warp = cfg.gpu.warp_size.max(1) as usize;
+        let traced: Vec<(u32, CtaWork)> = exact
+            .par_iter()
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(fetches, traces): &mut (Vec<_>, Vec<Vec<u32>>), &cta| {
+                    let mut work = CtaWork::default();
+                    traces.iter_mut().for_each(Vec::clear);
+                    let (threads, _) =
+                        frame.trace_cta(cta, (warp, 1), fetches, |thread, fetches| {
+                            work.rays += 1;
+                            work.fetches += fetches.len() as u64;
+                            if traces.len() <= thread {
+                                traces.resize_with(thread + 1, Vec::new);
+                            }
+                            traces[thread].push(fetches.len() as u32);
+                        });
+                    traces.resize_with(threads, Vec::new);
+                    work.warp_fetches = lockstep_fetches(&traces[..threads], warp);
+                    (cta, work)
+                },
+            )
+            .collect();
+        for (cta, work) in traced {
+            if let Some(slot) = ctas.get_mut(cta as usize) {
+                *slot = work;
+            }
+        }
+        Ok(ctas)
     }
 
     /// Total work of the CTAs `subset` (all of them with `None`).
     pub fn work(&self, subset: Option<&[u32]>) -> CtaWork {
-        let add = |a: CtaWork, b: &CtaWork| CtaWork {
-            rays: a.rays + b.rays,
-            fetches: a.fetches + b.fetches,
-            warp_fetches: a.warp_fetches + b.warp_fetches,
-        };
-        match subset {
-            None => self.ctas.iter().fold(CtaWork::default(), add),
-            Some(s) => s
-                .iter()
-                .map(|&c| &self.ctas[c as usize])
-                .fold(CtaWork::default(), add),
-        }
+        total_work(&self.ctas, subset)
+    }
+}
+
+/// Total work of the CTAs `subset` of `ctas` (all of them with `None`).
+pub fn total_work(ctas: &[CtaWork], subset: Option<&[u32]>) -> CtaWork {
+    let add = |a: CtaWork, b: &CtaWork| CtaWork {
+        rays: a.rays + b.rays,
+        fetches: a.fetches + b.fetches,
+        warp_fetches: a.warp_fetches + b.warp_fetches,
+    };
+    match subset {
+        None => ctas.iter().fold(CtaWork::default(), add),
+        Some(s) => s
+            .iter()
+            .map(|&c| &ctas[c as usize])
+            .fold(CtaWork::default(), add),
     }
 }
 

@@ -16,6 +16,7 @@
 //! stripe, which SM ran it in the full GPU too, and the estimate of the frame's cycles is the
 //! slowest replicate, with the validated bound `sample.stripe_bound` as its interval.
 
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -24,7 +25,7 @@ use serde::Serialize;
 
 use super::dispatch::{held_at_once, holds_every_cta, makespan_ratio, resident_ctas};
 use super::estimate::Estimate;
-use super::profile::{CtaWork, Profile, LINE_BYTES};
+use super::profile::{total_work, CtaWork, Profile, LINE_BYTES};
 use super::strata::stratified_sample;
 use super::stripes::stripe_samples;
 use crate::model::bvh::HwBvh;
@@ -82,8 +83,13 @@ pub struct SampledStats {
     /// estimate: `sample.tail_bound / waves` for strata (added to the Student-t half-width),
     /// `sample.stripe_bound` for stripes (the whole half-width).
     pub bias_bound: f64,
-    /// Rays of the whole frame (exact, from the functional profile).
+    /// Rays of the whole frame, from the functional profile: exact, unless
+    /// `rays_estimated`.
     pub rays: u64,
+    /// The profile traced one warp in `sample.profile_stride` of each CTA, so `rays` is an
+    /// estimate (exact for the CTAs the replicates ran, scaled from the traced warps for the
+    /// others).
+    pub rays_estimated: bool,
     /// Cycles of the whole frame.
     pub cycles: Estimate,
     /// BVH L1 miss rate.
@@ -155,14 +161,29 @@ impl SampledStats {
     }
 }
 
-/// `cfg` with stripe sampling's replicates made one: `fraction x replicates` of the GPU in one
-/// replicate, if that is a scale model (a whole number of SMs dividing the GPU's); else `None`
-/// (the replicates run apart).
+/// `cfg` with stripe sampling's replicates made one: their stripes (each replicate's
+/// [`SampleConfig::scale_sms`](crate::model::config::SampleConfig::scale_sms), one below one
+/// SM) in one replicate, if that is a scale model (a whole number of SMs dividing the GPU's);
+/// else `None` (the replicates run apart).
 fn stripes_together(cfg: &SimConfig) -> Option<SimConfig> {
+    let sms = cfg.gpu.sms;
+    let stripes = cfg.sample.scale_sms(sms)? * cfg.sample.replicates;
     let mut c = cfg.clone();
-    c.sample.fraction = cfg.sample.fraction * f64::from(cfg.sample.replicates);
+    c.sample.fraction = f64::from(stripes) / f64::from(sms);
     c.sample.replicates = 1;
-    (c.sample.fraction <= 1.0 + 1e-9 && c.sample.scale_sms(cfg.gpu.sms).is_some()).then_some(c)
+    (stripes <= sms && c.sample.scale_sms(sms) == Some(stripes)).then_some(c)
+}
+
+/// The share of the frame's CTAs a replicate of `cfg.sample` runs by `method`: `fraction` for
+/// stratified samples, its stripes' share (one of `gpu.sms` per scale-model SM) for stripes.
+fn frame_share(cfg: &SimConfig, method: Method) -> f64 {
+    match method {
+        Method::Strata => cfg.sample.fraction,
+        Method::Stripes => {
+            let sms = cfg.gpu.sms.max(1);
+            f64::from(cfg.sample.scale_sms(sms).unwrap_or(1)) / f64::from(sms)
+        }
+    }
 }
 
 /// The BVH sectors (byte addresses, ascending) that a scale model of `scale_sms` of the GPU's
@@ -267,8 +288,19 @@ pub fn simulate_sampled(
         None => (cfg, samples),
     };
     let model = cfg.sample.scale_model(cfg);
-    let total = profile.work(None);
-    let full_work: Vec<f64> = profile.ctas.iter().map(|c| dispatch_cost(cfg, c)).collect();
+    // Each CTA's work: the profile's, with the stratified samples' CTAs traced in full where
+    // the profile estimated it (`sample.profile_stride`), so that the dispatch model carries
+    // the samples by their exact work.
+    let ctas_work: Cow<[CtaWork]> = if method == Method::Strata && profile.stride > 1 {
+        let mut sampled: Vec<u32> = samples.concat();
+        sampled.sort_unstable();
+        sampled.dedup();
+        Cow::Owned(profile.with_exact(scene, bvh, cfg, &sampled)?)
+    } else {
+        Cow::Borrowed(&profile.ctas)
+    };
+    let total = total_work(&ctas_work, None);
+    let full_work: Vec<f64> = ctas_work.iter().map(|c| dispatch_cost(cfg, c)).collect();
     let sms = cfg.gpu.sms as usize;
     let scale_sms = model.gpu.sms as usize;
     let resident = resident_ctas(cfg);
@@ -300,8 +332,8 @@ pub fn simulate_sampled(
         let Some(ctas) = samples.get(r) else {
             return;
         };
-        let work = profile.work(Some(ctas));
-        let expected = total.fetches as f64 * cfg.sample.fraction;
+        let work = total_work(&ctas_work, Some(ctas));
+        let expected = total.fetches as f64 * frame_share(cfg, method);
         let work_share = if expected > 0.0 {
             work.fetches as f64 / expected
         } else {
@@ -322,7 +354,7 @@ pub fn simulate_sampled(
         };
         let sample_work: Vec<f64> = ctas
             .iter()
-            .map(|&c| dispatch_cost(cfg, &profile.ctas[c as usize]))
+            .map(|&c| dispatch_cost(cfg, &ctas_work[c as usize]))
             .collect();
         // A stripe's SM runs the same CTAs in the full GPU: its cycles need no carrying.
         let (dispatch, stripes) = match method {
@@ -371,7 +403,7 @@ pub fn simulate_sampled(
         s.sim_seconds += sim_seconds;
         return Ok(s);
     }
-    Ok(combine(cfg, profile, method, runs, sim_seconds))
+    Ok(combine(cfg, profile, total.rays, method, runs, sim_seconds))
 }
 
 /// Whether a scale model's SMs ran CTAs of more than one stripe each (`spans`: per SM, its
@@ -387,6 +419,7 @@ fn mixes_stripes(spans: &[Vec<CtaSpan>], sms: usize) -> bool {
 fn combine(
     cfg: &SimConfig,
     profile: &Profile,
+    rays: u64,
     method: Method,
     runs: Vec<Replicate>,
     sim_seconds: f64,
@@ -429,7 +462,8 @@ fn combine(
         every_cta_resident: every_cta_resident(cfg, profile),
         method,
         bias_bound,
-        rays: profile.work(None).rays,
+        rays,
+        rays_estimated: profile.stride > 1,
         cycles,
         bvh_l1_miss_rate: each(&|r| r.stats.bvh_l1_miss_rate),
         simt_efficiency: each(&|r| r.stats.simt_efficiency),
@@ -438,7 +472,9 @@ fn combine(
             each(&|r| share(r, r.stats.phases.treelet_stationary.cycles)),
             each(&|r| share(r, r.stats.phases.ray_stationary.cycles)),
         ],
-        dram_bytes: each(&|r| r.stats.dram_bytes as f64 / (cfg.sample.fraction * r.work_share)),
+        dram_bytes: each(&|r| {
+            r.stats.dram_bytes as f64 / (frame_share(cfg, method) * r.work_share)
+        }),
         profile_seconds: profile.seconds,
         sim_seconds,
         stripes_dynamic: false,

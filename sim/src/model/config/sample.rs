@@ -21,6 +21,9 @@ pub const GHOST_FOOTPRINT: f64 = 16.0;
 /// Largest `ghost_l2_footprint`, in L2 capacities.
 pub const MAX_GHOST_FOOTPRINT: f64 = 1e6;
 
+/// Largest `profile_stride`.
+pub const MAX_PROFILE_STRIDE: u32 = 64;
+
 /// Largest number of replicates.
 pub const MAX_REPLICATES: u32 = 256;
 
@@ -31,7 +34,7 @@ pub const MAX_REPLICATES: u32 = 256;
 pub struct SampleConfig {
     /// Fraction of the GPU each replicate simulates — its SMs, L2 capacity and DRAM bandwidth —
     /// and of the frame's CTAs it runs (0 < fraction <= 1; `fraction * gpu.sms` must be a whole
-    /// number of SMs). 1 is full detail.
+    /// number of SMs, or below one: then one SM runs `fraction` of the CTAs). 1 is full detail.
     pub fraction: f64,
     /// Independent replicates, each a scale model on its own stratified sample of CTAs; the 95%
     /// confidence intervals come from their spread (at least 2 for an interval).
@@ -67,6 +70,11 @@ pub struct SampleConfig {
     /// counted nowhere). Beyond the limit the L2 holds too little of the footprint for lines
     /// to pass between SMs, and the replay would cost its reads for nothing.
     pub ghost_l2_footprint: f64,
+    /// The functional profile traces one warp in this many of each CTA (the warps `w` with
+    /// `w mod profile_stride = cta mod profile_stride`) and scales their work to the CTA's: an
+    /// estimate of each CTA's work at a fraction of the profile's cost, for the strata, the
+    /// dispatch model and the frame's rays (1: every warp, exact; 1..=64).
+    pub profile_stride: u32,
 }
 
 impl Default for SampleConfig {
@@ -80,6 +88,7 @@ impl Default for SampleConfig {
             tail_bound: TAIL_BOUND,
             warm_l2: true,
             ghost_l2_footprint: GHOST_FOOTPRINT,
+            profile_stride: 1,
         }
     }
 }
@@ -130,12 +139,26 @@ impl SampleConfig {
     }
 
     /// SMs of the scale model for a GPU of `sms` SMs, if `fraction` gives a whole number of
-    /// them that divides `sms` (each simulated SM stands for `sms / k` real ones).
+    /// them that divides `sms` (each simulated SM stands for `sms / k` real ones). Below one SM
+    /// (`fraction < 1 / sms`) the model is one SM, which runs `fraction` of the frame's CTAs:
+    /// fewer than a real SM's share ([`below_one_sm`](Self::below_one_sm)).
     pub fn scale_sms(&self, sms: u32) -> Option<u32> {
         let k = self.fraction * sms as f64;
+        if self.below_one_sm(sms) {
+            return Some(1);
+        }
         let r = k.round();
         let whole = (k - r).abs() < 1e-9 && r >= 1.0 && r <= sms as f64;
         (whole && sms.is_multiple_of(r as u32)).then_some(r as u32)
+    }
+
+    /// Whether `fraction` is less than one of `sms` SMs (e.g. 1/32 of 16): the scale model is
+    /// one SM with everything per SM and the L2 and DRAM shares of one SM, and its sample holds
+    /// `fraction / (1 / sms)` of a real SM's CTAs; the dispatch model carries its cycles to the
+    /// frame as it does any sample's (docs/accuracy.md, "Less than one SM").
+    pub fn below_one_sm(&self, sms: u32) -> bool {
+        let k = self.fraction * sms as f64;
+        k > 0.0 && k < 1.0 - 1e-9
     }
 
     /// Checks each value's own range (part of every configuration's validation).
@@ -165,6 +188,13 @@ impl SampleConfig {
                 format!("must be in [0, {MAX_GHOST_FOOTPRINT}] (L2 capacities)"),
             ));
         }
+        if !(1..=MAX_PROFILE_STRIDE).contains(&self.profile_stride) {
+            return Err(invalid(
+                "profile_stride",
+                self.profile_stride,
+                format!("must be 1..={MAX_PROFILE_STRIDE}"),
+            ));
+        }
         if !(1..=MAX_REPLICATES).contains(&self.replicates) {
             return Err(invalid(
                 "replicates",
@@ -186,8 +216,9 @@ impl SampleConfig {
                 f,
                 format!(
                     "fraction x gpu.sms = {} must be a whole number of SMs k dividing gpu.sms = \
-                     {} (use 1/m for m dividing {})",
+                     {}, or below 1 (use 1/m for m dividing {}, or m > {})",
                     f * cfg.gpu.sms as f64,
+                    cfg.gpu.sms,
                     cfg.gpu.sms,
                     cfg.gpu.sms
                 ),
@@ -196,7 +227,7 @@ impl SampleConfig {
         self.scale_model(cfg).validate()
     }
 
-    /// The scale model of `cfg`: `k = fraction x gpu.sms` of its SMs, with that share of the
+    /// The scale model of `cfg`: `k = fraction x gpu.sms` of its SMs (one below one SM), with that share of the
     /// DRAM bandwidth — as that share of the DRAM channels, each as wide as the GPU's, where the
     /// channels divide evenly (16 channels, 1 of 16 SMs: one channel), else all the channels,
     /// each narrower — and the whole L2, in which the private data (ray records, CTA state,
@@ -271,6 +302,15 @@ mod tests {
             ..SampleConfig::default()
         };
         assert_eq!(whole.scale_model(&cfg), cfg);
+        // Below one SM: the model of one SM (the same as 1/16's), running fewer CTAs.
+        let half = SampleConfig {
+            fraction: 1.0 / 32.0,
+            ..SampleConfig::default()
+        };
+        half.validate(&cfg).unwrap();
+        assert!(half.below_one_sm(cfg.gpu.sms) && !one.below_one_sm(cfg.gpu.sms));
+        assert_eq!(half.scale_sms(cfg.gpu.sms), Some(1));
+        assert_eq!(half.scale_model(&cfg), one.scale_model(&cfg));
     }
 
     #[test]

@@ -1,0 +1,145 @@
+//! The sampled tier's two ways of simulating less on large frames (docs/accuracy.md, "Less than
+//! one SM and a cheaper profile"): a fraction below one SM (one SM running fewer CTAs than its
+//! share, carried to the frame by the dispatch model), and a profile that traces one warp in
+//! `sample.profile_stride` of each CTA (each CTA's work estimated from it, the samples' CTAs
+//! traced in full). Both deterministic on any thread count.
+
+mod common;
+
+use common::{setup, small_config};
+use vtq_sim::estimate::sample::{simulate_sampled, Method, Profile, SampledStats};
+use vtq_sim::model::config::SimConfig;
+
+/// `mode` on 4 SMs at `side` x `side` with sample setting `spec` and `extra` keys.
+fn config(mode: &str, side: u32, spec: &str, extra: &[&str]) -> SimConfig {
+    let mut cfg = small_config(mode, 4, side, extra);
+    cfg.sample.apply_spec(spec).unwrap();
+    cfg.sample.validate(&cfg).unwrap();
+    cfg
+}
+
+/// The estimates without host-dependent times, for comparing runs.
+fn comparable(s: &SampledStats) -> serde_json::Value {
+    common::comparable_sampled(s)
+}
+
+/// Below one SM (1/8 of 4 SMs): each replicate is a scale model of one SM that runs an eighth
+/// of the CTAs — half of 1/4's — with the same per-SM shares as 1/4's one SM; its cycles are
+/// carried to the frame by the dispatch model. Stripe sampling, which runs whole stripes,
+/// runs one stripe per replicate, each on its own SM (not two stripes on one).
+#[test]
+fn fractions_below_one_sm_run_fewer_ctas_on_one_sm() {
+    // 128x128: 256 CTAs of 64 threads; the baseline holds 16 per SM.
+    let quarter = config("baseline", 128, "1/4x2", &[]);
+    let eighth = config("baseline", 128, "1/8x2", &[]);
+    assert_eq!(eighth.sample.scale_sms(4), Some(1));
+    let (e_model, q_model) = (
+        eighth.sample.scale_model(&eighth),
+        quarter.sample.scale_model(&quarter),
+    );
+    assert_eq!((e_model.gpu, e_model.memory), (q_model.gpu, q_model.memory));
+    let (scene, bvh) = setup("cornell", &eighth);
+    let profile = Profile::new(&scene, &bvh, &eighth).unwrap();
+    let q = simulate_sampled(&scene, &bvh, &quarter, &profile, 1).unwrap();
+    let e = simulate_sampled(&scene, &bvh, &eighth, &profile, 1).unwrap();
+    assert_eq!((e.method, e.scale_sms), (Method::Strata, 1));
+    for (rq, re) in q.replicate_runs.iter().zip(&e.replicate_runs) {
+        assert_eq!((rq.ctas, re.ctas), (64, 32));
+        // Half the CTAs on one SM finish sooner; the dispatch model carries them about twice
+        // as far (exactly 2 for equal CTAs).
+        assert!(re.stats.cycles < rq.stats.cycles);
+        let carried = re.cycles / re.stats.cycles as f64;
+        assert!(carried > 1.5 && carried < 3.0, "{carried}");
+    }
+    // The estimates agree within their intervals.
+    let gap = (e.cycles.value - q.cycles.value).abs();
+    assert!(
+        gap <= e.cycles.half_width.unwrap() + q.cycles.half_width.unwrap(),
+        "{:?} vs {:?}",
+        e.cycles,
+        q.cycles
+    );
+    assert_eq!(
+        comparable(&e),
+        comparable(&simulate_sampled(&scene, &bvh, &eighth, &profile, 2).unwrap())
+    );
+
+    // Stripes under VTQ (every CTA resident): 1/8x2 runs two replicates of one stripe each.
+    let mut vtq = common::small_vtq(4, 128, &[]);
+    vtq.sample.apply_spec("1/8x2").unwrap();
+    let (scene, bvh) = setup("cornell", &vtq);
+    let profile = Profile::new(&scene, &bvh, &vtq).unwrap();
+    let s = simulate_sampled(&scene, &bvh, &vtq, &profile, 1).unwrap();
+    assert_eq!(s.method, Method::Stripes);
+    assert_eq!(s.replicate_runs.len(), 1, "two stripes together on two SMs");
+    assert_eq!(s.scale_sms, 2);
+    assert_eq!(s.replicate_runs[0].stripes.len(), 2);
+    assert_eq!(s.replicate_runs[0].ctas, 128);
+}
+
+/// `sample.profile_stride` 2: the profile traces one of each CTA's two warps and doubles its
+/// work (the frame's rays within a few percent of the exact profile's, flagged as estimated);
+/// the samples' CTAs are traced in full, so their work equals the exact profile's; results
+/// are deterministic on any thread count. Stride 1 is the exact profile, and so is a profile
+/// that records the other SMs' BVH reads in its one pass (they need every warp's).
+#[test]
+fn a_strided_profile_estimates_the_frame_and_traces_the_samples_in_full() {
+    let no_ghosts = "sample.ghost_l2_footprint=0";
+    let exact_cfg = config("baseline", 128, "1/4x2", &[no_ghosts]);
+    let strided_cfg = config(
+        "baseline",
+        128,
+        "1/4x2",
+        &["sample.profile_stride=2", no_ghosts],
+    );
+    let (scene, bvh) = setup("cornell", &exact_cfg);
+    let exact = Profile::new(&scene, &bvh, &exact_cfg).unwrap();
+    let strided = Profile::new(&scene, &bvh, &strided_cfg).unwrap();
+    assert_eq!((exact.stride, strided.stride), (1, 2));
+    // Cornell's BVH is within the replay's limit: its streams are recorded in the first pass,
+    // which then traces every warp.
+    let ghosts_cfg = config("baseline", 128, "1/4x2", &["sample.profile_stride=2"]);
+    let ghosts = Profile::new(&scene, &bvh, &ghosts_cfg).unwrap();
+    assert!(!ghosts.cta_streams.is_empty());
+    assert_eq!((ghosts.stride, &ghosts.ctas), (1, &exact.ctas));
+    assert_eq!(exact.ctas.len(), strided.ctas.len());
+    assert_ne!(exact.ctas, strided.ctas, "half the warps traced");
+    let (re, rs) = (exact.work(None).rays as f64, strided.work(None).rays as f64);
+    assert!((rs / re - 1.0).abs() < 0.05, "{rs} vs {re}");
+    // Traced in full, any CTA's work is the exact profile's.
+    let some: Vec<u32> = vec![0, 17, 100, 255];
+    let filled = strided
+        .with_exact(&scene, &bvh, &strided_cfg, &some)
+        .unwrap();
+    for &c in &some {
+        assert_eq!(filled[c as usize], exact.ctas[c as usize]);
+    }
+    // The exact profile fills nothing in.
+    assert_eq!(
+        exact.with_exact(&scene, &bvh, &exact_cfg, &some).unwrap(),
+        exact.ctas
+    );
+
+    let a = simulate_sampled(&scene, &bvh, &strided_cfg, &strided, 1).unwrap();
+    let b = simulate_sampled(&scene, &bvh, &strided_cfg, &strided, 2).unwrap();
+    assert_eq!(comparable(&a), comparable(&b));
+    assert!(a.rays_estimated);
+    let full = simulate_sampled(&scene, &bvh, &exact_cfg, &exact, 1).unwrap();
+    assert!(!full.rays_estimated);
+    assert_eq!(full.rays, exact.work(None).rays);
+    // A replicate's work share is its CTAs' exact fetches over the strided frame's share.
+    for r in &a.replicate_runs {
+        assert!((r.work_share - 1.0).abs() < 0.5, "{}", r.work_share);
+    }
+}
+
+/// A stride out of range is the configuration's error naming the key.
+#[test]
+fn a_bad_profile_stride_names_its_key() {
+    for bad in ["0", "65"] {
+        let err = SimConfig::load(None, &[format!("sample.profile_stride={bad}")])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("sample.profile_stride"), "{err}");
+    }
+}
