@@ -263,6 +263,33 @@ impl<'a> Frame<'a> {
         }
         (threads, scale)
     }
+
+    /// CTA `cta`'s work as [`Frame::trace_cta`] traces it with `(warp, stride)`, scaled to the
+    /// whole CTA, calling `also(fetches)` with each traced ray's fetches (`scratch`: fetches
+    /// and per-thread fetch counts).
+    fn cta_work(
+        &self,
+        cta: u32,
+        (warp, stride): (usize, usize),
+        (fetches, traces): &mut (Vec<Fetch>, Vec<Vec<u32>>),
+        mut also: impl FnMut(&[Fetch]),
+    ) -> CtaWork {
+        let mut work = CtaWork::default();
+        // Per thread, the fetches of each of its rays in order.
+        traces.iter_mut().for_each(Vec::clear);
+        let (threads, scale) = self.trace_cta(cta, (warp, stride), fetches, |thread, fetches| {
+            work.rays += 1;
+            work.fetches += fetches.len() as u64;
+            if traces.len() <= thread {
+                traces.resize_with(thread + 1, Vec::new);
+            }
+            traces[thread].push(fetches.len() as u32);
+            also(fetches);
+        });
+        traces.resize_with(threads, Vec::new);
+        work.warp_fetches = lockstep_fetches(&traces[..threads], warp);
+        work.scaled(scale)
+    }
 }
 
 impl Profile {
@@ -313,34 +340,22 @@ impl Profile {
             .into_par_iter()
             .map_init(
                 || (Vec::new(), Vec::new()),
-                |(fetches, traces): &mut (Vec<_>, Vec<Vec<u32>>), cta| {
-                    let mut work = CtaWork::default();
+                |scratch, cta| {
                     let mut l1 = streams_now.then(|| L1Filter::new(l1_bytes, line_bytes));
                     let mut stream = Vec::new();
                     let footprint = footprints.get(cta as usize % sms);
-                    // Per thread, the fetches of each of its rays in order.
-                    traces.iter_mut().for_each(Vec::clear);
-                    let (threads, scale) =
-                        frame.trace_cta(cta, (warp, stride), fetches, |thread, fetches| {
-                            work.rays += 1;
-                            work.fetches += fetches.len() as u64;
-                            if traces.len() <= thread {
-                                traces.resize_with(thread + 1, Vec::new);
-                            }
-                            traces[thread].push(fetches.len() as u32);
-                            if let Some(bits) = footprint {
-                                mark_lines(bits, fetches);
-                            }
-                            if !frame_bits.is_empty() {
-                                mark_lines(&frame_bits, fetches);
-                            }
-                            if let Some(l1) = &mut l1 {
-                                l1.misses(fetches, &mut stream);
-                            }
-                        });
-                    traces.resize_with(threads, Vec::new);
-                    work.warp_fetches = lockstep_fetches(&traces[..threads], warp);
-                    (work.scaled(scale), stream)
+                    let work = frame.cta_work(cta, (warp, stride), scratch, |fetches| {
+                        if let Some(bits) = footprint {
+                            mark_lines(bits, fetches);
+                        }
+                        if !frame_bits.is_empty() {
+                            mark_lines(&frame_bits, fetches);
+                        }
+                        if let Some(l1) = &mut l1 {
+                            l1.misses(fetches, &mut stream);
+                        }
+                    });
+                    (work, stream)
                 },
             )
             .unzip::<_, _, Vec<CtaWork>, Vec<Vec<u32>>>();
@@ -422,22 +437,7 @@ impl Profile {
             .par_iter()
             .map_init(
                 || (Vec::new(), Vec::new()),
-                |(fetches, traces): &mut (Vec<_>, Vec<Vec<u32>>), &cta| {
-                    let mut work = CtaWork::default();
-                    traces.iter_mut().for_each(Vec::clear);
-                    let (threads, _) =
-                        frame.trace_cta(cta, (warp, 1), fetches, |thread, fetches| {
-                            work.rays += 1;
-                            work.fetches += fetches.len() as u64;
-                            if traces.len() <= thread {
-                                traces.resize_with(thread + 1, Vec::new);
-                            }
-                            traces[thread].push(fetches.len() as u32);
-                        });
-                    traces.resize_with(threads, Vec::new);
-                    work.warp_fetches = lockstep_fetches(&traces[..threads], warp);
-                    (cta, work)
-                },
+                |scratch, &cta| (cta, frame.cta_work(cta, (warp, 1), scratch, |_| {})),
             )
             .collect();
         for (cta, work) in traced {
