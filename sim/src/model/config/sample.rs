@@ -70,8 +70,9 @@ pub struct SampleConfig {
     /// counted nowhere). Beyond the limit the L2 holds too little of the footprint for lines
     /// to pass between SMs, and the replay would cost its reads for nothing.
     pub ghost_l2_footprint: f64,
-    /// The functional profile traces one warp in this many of each CTA (the warps `w` with
-    /// `w mod profile_stride = cta mod profile_stride`) and scales their work to the CTA's: an
+    /// The functional profile traces one warp in this many of each CTA (of its `n` warps those
+    /// `w` with `w mod profile_stride = cta mod min(profile_stride, n)`) and scales their work
+    /// to the CTA's (the CTAs stratified samples simulate are then traced in full): an
     /// estimate of each CTA's work at a fraction of the profile's cost, for the strata, the
     /// dispatch model and the frame's rays (1: every warp, exact; 1..=64).
     pub profile_stride: u32,
@@ -143,10 +144,10 @@ impl SampleConfig {
     /// (`fraction < 1 / sms`) the model is one SM, which runs `fraction` of the frame's CTAs:
     /// fewer than a real SM's share ([`below_one_sm`](Self::below_one_sm)).
     pub fn scale_sms(&self, sms: u32) -> Option<u32> {
-        let k = self.fraction * sms as f64;
         if self.below_one_sm(sms) {
             return Some(1);
         }
+        let k = self.fraction * sms as f64;
         let r = k.round();
         let whole = (k - r).abs() < 1e-9 && r >= 1.0 && r <= sms as f64;
         (whole && sms.is_multiple_of(r as u32)).then_some(r as u32)
@@ -155,7 +156,8 @@ impl SampleConfig {
     /// Whether `fraction` is less than one of `sms` SMs (e.g. 1/32 of 16): the scale model is
     /// one SM with everything per SM and the L2 and DRAM shares of one SM, and its sample holds
     /// `fraction / (1 / sms)` of a real SM's CTAs; the dispatch model carries its cycles to the
-    /// frame as it does any sample's (docs/accuracy.md, "Less than one SM").
+    /// frame as it does any sample's (docs/accuracy.md, "Less than one SM and a cheaper
+    /// profile").
     pub fn below_one_sm(&self, sms: u32) -> bool {
         let k = self.fraction * sms as f64;
         k > 0.0 && k < 1.0 - 1e-9
@@ -227,14 +229,15 @@ impl SampleConfig {
         self.scale_model(cfg).validate()
     }
 
-    /// The scale model of `cfg`: `k = fraction x gpu.sms` of its SMs (one below one SM), with that share of the
-    /// DRAM bandwidth — as that share of the DRAM channels, each as wide as the GPU's, where the
-    /// channels divide evenly (16 channels, 1 of 16 SMs: one channel), else all the channels,
-    /// each narrower — and the whole L2, in which the private data (ray records, CTA state,
-    /// stacks, hit records) of every simulated SM also stands for that of the `sms / k - 1` SMs
-    /// not simulated (`memory.l2_private_mirrors`), while BVH nodes, which all SMs share, are
-    /// cached once; everything per SM (L1, RT unit, CTA slots) unchanged. Call after
-    /// [`validate`](Self::validate) (an unvalidated fraction gives one SM).
+    /// The scale model of `cfg`: `k = fraction x gpu.sms` of its SMs (one below one SM), with
+    /// that share of the DRAM bandwidth — as that share of the DRAM channels, each as wide as
+    /// the GPU's, where the channels divide evenly (16 channels, 1 of 16 SMs: one channel),
+    /// else all the channels, each narrower — and the whole L2, in which the private data (ray
+    /// records, CTA state, stacks, hit records) of every simulated SM also stands for that of
+    /// the `sms / k - 1` SMs not simulated (`memory.l2_private_mirrors`), while BVH nodes,
+    /// which all SMs share, are cached once; everything per SM (L1, RT unit, CTA slots)
+    /// unchanged. Call after [`validate`](Self::validate) (an unvalidated fraction gives one
+    /// SM).
     pub fn scale_model(&self, cfg: &SimConfig) -> SimConfig {
         let sms = cfg.gpu.sms;
         let k = self.scale_sms(sms).unwrap_or(1);
