@@ -80,7 +80,8 @@ pub struct Profile {
     /// Per CTA, when the frame's footprint is at most `sample.ghost_l2_footprint` L2s: the
     /// 32 B BVH sectors (byte address / 32) its rays read, in order, that miss an L1 filter
     /// private to the CTA (the GPU's L1 capacity and line size, 8-way LRU) — the reads its SM
-    /// sends the L2 (empty otherwise).
+    /// sends the L2 (empty otherwise); with `sample.profile_stride` above 1, those of its traced
+    /// warps.
     pub cta_streams: Vec<Vec<u32>>,
     /// Bytes of the frame's footprint (its distinct 32 B BVH lines), with `sample.warm_l2` or
     /// `sample.ghost_l2_footprint` (0 otherwise).
@@ -298,8 +299,8 @@ impl Profile {
     /// L2 streams ([`Profile::cta_streams`]): in the one pass when the BVH's whole address
     /// space is within the limit, else in a second pass once the footprint is known. With
     /// `sample.profile_stride` `m` above 1 the first pass traces one warp in `m` of each CTA
-    /// and estimates the CTA's work from them (the footprints then hold the traced warps'
-    /// lines only), unless it records the streams; the streams' pass traces every warp.
+    /// and estimates the CTA's work from them; the footprints and streams then hold the traced
+    /// warps' lines and reads only.
     pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
         let start = Instant::now();
         let frame = Frame::new(scene, bvh, cfg)?;
@@ -321,13 +322,9 @@ impl Profile {
         // recorded in the first pass, otherwise in a second one once the footprint is known.
         let streams_now =
             ghost_limit > 0.0 && (words * 64 * LINE_BYTES as usize) as f64 <= limit_bytes;
-        // The streams need every warp's reads: a BVH small enough to record them in the first
-        // pass is traced in full there (a strided pass would need a second, full one).
-        let stride = if streams_now {
-            1
-        } else {
-            cfg.sample.profile_stride.max(1) as usize
-        };
+        // With a stride the streams hold the traced warps' reads only (the scale models replay
+        // them at the full rate, so each stands for the reads of the warps left out).
+        let stride = cfg.sample.profile_stride.max(1) as usize;
         let l1_bytes = cfg.memory.l1_bytes;
         let line_bytes = cfg.memory.line_bytes;
         let frame_bits: Vec<AtomicU64> = (0..if with_frame { words } else { 0 })
@@ -394,7 +391,7 @@ impl Profile {
                 .map_init(Vec::new, |fetches, cta| {
                     let mut l1 = L1Filter::new(l1_bytes, line_bytes);
                     let mut stream = Vec::new();
-                    frame.trace_cta(cta, (warp, 1), fetches, |_, fetches| {
+                    frame.trace_cta(cta, (warp, stride), fetches, |_, fetches| {
                         l1.misses(fetches, &mut stream)
                     });
                     stream

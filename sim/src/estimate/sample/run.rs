@@ -32,6 +32,7 @@ use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::gpu::sm::CtaSpan;
 use crate::model::gpu::{simulate, SimError, SimOptions, SimStats};
+use crate::model::memory::GhostReads;
 use crate::model::scene::Scene;
 use crate::model::splitmix::SplitMix64;
 
@@ -316,7 +317,7 @@ pub fn simulate_sampled(
         }
         let streams = ghost_streams(profile, sms, simulated);
         let per_read = ((sms - scale_sms) / scale_sms) as u32;
-        (!streams.is_empty()).then(|| (Arc::new(streams), per_read))
+        (!streams.is_empty()).then(|| Arc::new(GhostReads::new(&model.memory, &streams, per_read)))
     };
     // Stratified samples mix the stripes: the left-out SMs are the last `sms - k`, the same
     // for every replicate.

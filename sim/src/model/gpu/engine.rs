@@ -81,10 +81,10 @@ pub struct SimOptions {
     /// BVH sectors (byte addresses) present in the L2 before the run (the sampled tier's scale
     /// models, `sample.warm_l2`; [`crate::model::memory::L2Side::warm`]).
     pub l2_warm: Option<Vec<u64>>,
-    /// The BVH reads of the SMs a scale model leaves out, replayed into its L2 as it runs, and
-    /// how many follow each BVH read of its own (the sampled tier's scale models,
-    /// `sample.ghost_l2`; [`crate::model::memory::L2Side::ghosts`]).
-    pub l2_ghosts: Option<(std::sync::Arc<Vec<Vec<u32>>>, u32)>,
+    /// The BVH reads of the SMs a scale model leaves out, replayed into its L2 as it runs (the
+    /// sampled tier's scale models, `sample.ghost_l2_footprint`;
+    /// [`crate::model::memory::L2Side::ghosts`]).
+    pub l2_ghosts: Option<std::sync::Arc<crate::model::memory::GhostReads>>,
 }
 
 /// Checks that the configuration asks for what this build simulates and fits the BVH.
@@ -258,8 +258,8 @@ pub fn simulate(
     if let Some(sectors) = &options.l2_warm {
         l2.warm(sectors);
     }
-    if let Some((streams, per_read)) = &options.l2_ghosts {
-        l2.ghosts(streams, *per_read);
+    if let Some(reads) = &options.l2_ghosts {
+        l2.ghosts(reads);
     }
     let l2 = PartitionJobs::new(l2, nsms);
     let outcome = coordinator::run(&ctx, &l2, nodes, scheduler, options.threads, progress);

@@ -59,8 +59,8 @@ pub struct MemConfig {
     pub l2_ray_ways: u32,
     /// Copies of every per-SM (private) L2 access — ray records, CTA state, stack spills, hit
     /// records; not BVH nodes, which all SMs share — that the L2 also takes in, at mirrored
-    /// addresses that no real access uses, without DRAM traffic or statistics (default 1: the
-    /// access alone). The sampled tier's scale models of `k` of `sms` SMs set it to `sms / k`,
+    /// addresses that no real access uses, each copy in another set (as different SMs' private
+    /// data lies), without DRAM traffic or statistics (default 1: the access alone). The sampled tier's scale models of `k` of `sms` SMs set it to `sms / k`,
     /// so the private data of the SMs not simulated takes its room in the L2 as the simulated
     /// SMs' does (docs/accuracy.md).
     pub l2_private_mirrors: u32,

@@ -23,10 +23,13 @@
 //! one at acceptance.
 
 use std::ops::Range;
+use std::sync::Arc;
 
 use super::cache::{EvictedLine, SectorCache, SectorState};
 use super::config::MemConfig;
 use super::dram::Dram;
+use super::ghosts::GhostReads;
+use super::partitions::PartitionMap;
 use super::request::{AccessClass, Source};
 use super::stats::MemStats;
 
@@ -63,63 +66,16 @@ impl L2Op {
 /// data stay far below: 2^40 lines is 2^47 bytes).
 const MIRROR_SHIFT: u32 = 40;
 
-/// How line addresses map to memory partitions and to line numbers inside their partition's
-/// cache (a partition's cache has `1 / partitions` of the sets).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PartitionMap {
-    /// log2 of the partitions (a power of two).
-    bits: u32,
-    /// log2 of the lines of one interleaving chunk.
-    chunk_bits: u32,
-}
-
-impl PartitionMap {
-    /// The map of `cfg` (validated): one partition per DRAM channel where each L2 set lies in
-    /// one channel, else one partition.
-    pub fn new(cfg: &MemConfig) -> Self {
-        let channels = cfg.dram_channels.max(1);
-        let chunk_lines = (cfg.dram_interleave_bytes / cfg.line_bytes).max(1);
-        let sets = cfg.l2_geometry().sets;
-        let fits = channels > 1
-            && channels.is_power_of_two()
-            && chunk_lines.is_power_of_two()
-            && sets.is_power_of_two()
-            && u64::from(sets) % (u64::from(channels) * u64::from(chunk_lines)) == 0;
-        if fits {
-            PartitionMap {
-                bits: channels.trailing_zeros(),
-                chunk_bits: chunk_lines.trailing_zeros(),
-            }
-        } else {
-            PartitionMap::unified()
-        }
-    }
-
-    /// One partition holding everything.
-    pub fn unified() -> Self {
-        PartitionMap {
-            bits: 0,
-            chunk_bits: 0,
-        }
-    }
-
-    /// Number of partitions.
-    pub fn partitions(&self) -> usize {
-        1 << self.bits
-    }
-
-    /// The partition of line `line` (its DRAM channel).
-    pub fn partition(&self, line: u64) -> usize {
-        ((line >> self.chunk_bits) & ((1 << self.bits) - 1)) as usize
-    }
-
-    /// The line number of `line` inside its partition: the partition bits taken out, so the
-    /// partition's cache of `1 / partitions` of the sets puts it in the set and order it has in
-    /// the whole L2.
-    fn local(&self, line: u64) -> u64 {
-        let low = line & ((1 << self.chunk_bits) - 1);
-        ((line >> (self.chunk_bits + self.bits)) << self.chunk_bits) | low
-    }
+/// Lines between mirror `j` and `j + 1` of a line (beyond [`MIRROR_SHIFT`]): about the L2's
+/// sets over `l2_private_mirrors`, a whole number of channel interleavings so that a mirror
+/// stays in its line's partition. The copies of one private access fall in different sets,
+/// as the private data of different SMs does, rather than filling one set at once.
+fn mirror_spread(cfg: &MemConfig) -> u64 {
+    let sets = u64::from(cfg.l2_geometry().sets);
+    let period = u64::from((cfg.dram_interleave_bytes / cfg.line_bytes).max(1))
+        * u64::from(cfg.dram_channels.max(1));
+    let step = (sets / u64::from(cfg.l2_private_mirrors.max(1))).max(1);
+    step.div_ceil(period) * period
 }
 
 /// The L2 and DRAM of the GPU: its memory partitions and how addresses map to them.
@@ -169,28 +125,20 @@ impl L2Side {
     }
 
     /// Sets the BVH reads of the SMs a scale model leaves out (the sampled tier's
-    /// `sample.ghost_l2`): `streams[g]` are left-out SM `g`'s 32 B sector reads at the L2 (byte
-    /// address / 32) in order; after each BVH read of a simulated SM, its partition applies
-    /// the next `per_read` reads of these streams that fall in it (the streams in turn,
-    /// each from where it stopped, from its start again when it runs out). They take room in
-    /// the L2 and refresh lines as mirrored accesses do: no DRAM traffic, counted nowhere.
-    pub fn ghosts(&mut self, streams: &[Vec<u32>], per_read: u32) {
-        let sector_bytes = u64::from(self.parts[0].sector_bytes);
-        let line_bytes = self.parts[0].line_bytes;
+    /// `sample.ghost_l2_footprint`; [`GhostReads`], built for this L2's configuration): after
+    /// each BVH read of a simulated SM, its partition applies the next
+    /// [`GhostReads::per_read`] reads of its share of the streams (the streams in turn, each
+    /// from where it stopped, from its start again when it runs out; reads of one line in a
+    /// row together). They take room in the L2 and refresh lines as mirrored accesses do: no
+    /// DRAM traffic, counted nowhere.
+    pub fn ghosts(&mut self, reads: &Arc<GhostReads>) {
+        assert_eq!(reads.map(), self.map, "ghost reads split for another L2");
         for part in &mut self.parts {
-            part.ghosts = streams.iter().map(|_| Vec::new()).collect();
-            part.ghost_per_read = per_read;
-        }
-        for (g, stream) in streams.iter().enumerate() {
-            for &s in stream {
-                let line = u64::from(s) * sector_bytes / line_bytes;
-                let p = self.map.partition(line);
-                self.parts[p].ghosts[g].push(s);
-            }
-        }
-        for part in &mut self.parts {
-            part.ghosts.retain(|g| !g.is_empty());
-            part.ghost_cursors = vec![0; part.ghosts.len()];
+            let streams = reads.part(part.index).len();
+            part.ghosts = (streams > 0).then(|| Arc::clone(reads));
+            part.ghost_cursors = vec![0; streams];
+            part.ghost_turn = 0;
+            part.ghost_ahead = 0;
         }
     }
 
@@ -262,17 +210,20 @@ pub struct L2Partition {
     sector_bytes: u32,
     /// Copies of each private access the L2 takes in (`l2_private_mirrors`).
     mirrors: u32,
+    /// Lines between consecutive mirrors of a line beyond [`MIRROR_SHIFT`]: spreads its copies
+    /// over the L2's sets.
+    mirror_spread: u64,
     /// Operations applied.
     applied: u64,
     stats: MemStats,
-    /// The left-out SMs' BVH reads in this partition ([`L2Side::ghosts`]; empty: none).
-    ghosts: Vec<Vec<u32>>,
+    /// The left-out SMs' BVH reads, where some fall in this partition ([`L2Side::ghosts`]).
+    ghosts: Option<Arc<GhostReads>>,
     /// Next read of each ghost stream.
     ghost_cursors: Vec<usize>,
     /// The ghost stream whose turn it is.
     ghost_turn: usize,
-    /// Ghost reads after each BVH read.
-    ghost_per_read: u32,
+    /// Ghost reads applied beyond those owed (a run is applied whole).
+    ghost_ahead: u32,
 }
 
 impl L2Partition {
@@ -305,12 +256,13 @@ impl L2Partition {
             line_bytes: u64::from(cfg.line_bytes),
             sector_bytes: cfg.sector_bytes,
             mirrors: cfg.l2_private_mirrors.max(1),
+            mirror_spread: mirror_spread(cfg),
             applied: 0,
             stats: MemStats::default(),
-            ghosts: Vec::new(),
+            ghosts: None,
             ghost_cursors: Vec::new(),
             ghost_turn: 0,
-            ghost_per_read: 0,
+            ghost_ahead: 0,
         }
     }
 
@@ -334,32 +286,70 @@ impl L2Partition {
         };
         if op.class != AccessClass::Bvh {
             for j in 1..self.mirrors {
-                // Mirrors keep the partition bits of `op.line` (2^40 lines apart): same set.
+                let j = u64::from(j);
+                // Mirrors keep the partition bits of `op.line`, in sets spread over the L2.
                 self.mirror(
                     at,
-                    self.map.local(op.line + (u64::from(j) << MIRROR_SHIFT)),
+                    self.map
+                        .local(op.line + (j << MIRROR_SHIFT) + j * self.mirror_spread),
                     op.sector,
                     op.class,
                 );
             }
-        } else if !op.write && !self.ghosts.is_empty() {
+        } else if !op.write && self.ghosts.is_some() {
             self.ghost_reads(at);
         }
         result
     }
 
-    /// The next `ghost_per_read` reads of the ghost streams, reaching the L2 at `at`.
+    /// The next [`GhostReads::per_read`] reads of this partition's ghost streams, reaching the
+    /// L2 at `at`: whole runs, the streams in turn; reads applied beyond those owed count
+    /// towards the next.
     fn ghost_reads(&mut self, at: u64) {
-        for _ in 0..self.ghost_per_read {
+        let Some(reads) = self.ghosts.clone() else {
+            return;
+        };
+        let streams = reads.part(self.index);
+        let mut owed = reads.per_read();
+        let ahead = owed.min(self.ghost_ahead);
+        owed -= ahead;
+        self.ghost_ahead -= ahead;
+        while owed > 0 {
             let g = self.ghost_turn;
-            self.ghost_turn = (g + 1) % self.ghosts.len();
-            let stream = &self.ghosts[g];
-            let s = u64::from(stream[self.ghost_cursors[g]]);
+            self.ghost_turn = (g + 1) % streams.len();
+            let stream = &streams[g];
+            let run = stream[self.ghost_cursors[g]];
             self.ghost_cursors[g] = (self.ghost_cursors[g] + 1) % stream.len();
-            let addr = s * u64::from(self.sector_bytes);
-            let line = addr / self.line_bytes;
-            let sector = ((addr % self.line_bytes) / u64::from(self.sector_bytes)) as u32;
-            self.mirror(at, self.map.local(line), sector, AccessClass::Bvh);
+            self.ghost_run(at, self.map.local(u64::from(run.line)), run.sectors);
+            self.ghost_ahead += run.reads.saturating_sub(owed);
+            owed = owed.saturating_sub(run.reads);
+        }
+    }
+
+    /// [`L2Partition::mirror`] of the BVH sectors `sectors` (a bit mask) of `line`, one lookup
+    /// for them all.
+    fn ghost_run(&mut self, at: u64, line: u64, mut sectors: u64) {
+        let slot = match self.l2.lookup(line) {
+            Some(slot) => slot,
+            None => {
+                let Ok(slot) = self.l2.find_slot(line, at, self.ways(AccessClass::Bvh)) else {
+                    return;
+                };
+                let first = sectors.trailing_zeros();
+                sectors &= sectors - 1;
+                let evicted = self.l2.install(slot, line, first, at);
+                self.write_back(at + self.l2_latency, evicted);
+                slot
+            }
+        };
+        while sectors != 0 {
+            let sector = sectors.trailing_zeros();
+            sectors &= sectors - 1;
+            if self.l2.sector_state(slot, sector, at) == SectorState::Absent {
+                self.l2.install(slot, line, sector, at);
+            } else {
+                self.l2.touch(slot);
+            }
         }
     }
 
@@ -618,7 +608,8 @@ mod tests {
             let sector = |line: u64, s: u64| (line * per_line + s) as u32;
             let mut l2 = L2Side::new(&cfg);
             // Two streams: line 5 then line 9 (sector 0); line 40 (sector 2).
-            l2.ghosts(&[vec![sector(5, 0), sector(9, 0)], vec![sector(40, 2)]], 1);
+            let streams = [vec![sector(5, 0), sector(9, 0)], vec![sector(40, 2)]];
+            l2.ghosts(&Arc::new(GhostReads::new(&cfg, &streams, 1)));
             let op = |line: u64, sector: u32, seq: u64, class: AccessClass, write: bool| L2Op {
                 cycle: 10 * seq,
                 phase: 0,
@@ -668,7 +659,7 @@ mod tests {
         let mut l2 = L2Side::new(&cfg);
         l2.warm(&[0]);
         let set0 = [16u64, 32, 48, 64].map(|l| (l * per_line) as u32).to_vec();
-        l2.ghosts(&[set0], 4);
+        l2.ghosts(&Arc::new(GhostReads::new(&cfg, &[set0], 4)));
         assert_ne!(l2.sector(0, 0, 0), SectorState::Absent);
         let read = L2Op {
             cycle: 0,
@@ -689,6 +680,72 @@ mod tests {
         assert!([16u64, 32, 48, 64]
             .iter()
             .all(|&l| l2.sector(l, 0, 1_000) != SectorState::Absent));
+    }
+
+    /// Reads of one line in a row are applied together and count as the reads they are: with
+    /// one ghost read per BVH read, the run of line 5's two sectors is applied at the first,
+    /// nothing at the second (it was read ahead), line 9 at the third.
+    #[test]
+    fn a_ghost_run_counts_its_reads() {
+        let cfg = small(1);
+        let per_line = u64::from(cfg.line_bytes / cfg.sector_bytes);
+        let sector = |line: u64, s: u64| (line * per_line + s) as u32;
+        let mut l2 = L2Side::new(&cfg);
+        let stream = vec![sector(5, 0), sector(5, 1), sector(9, 0)];
+        l2.ghosts(&Arc::new(GhostReads::new(&cfg, &[stream], 1)));
+        let read = |seq: u64| L2Op {
+            cycle: 10 * seq,
+            phase: 0,
+            sm: 0,
+            seq,
+            line: 100 + seq,
+            sector: 0,
+            class: AccessClass::Bvh,
+            write: false,
+        };
+        let present = |l2: &L2Side, line, s| l2.sector(line, s, 1_000) != SectorState::Absent;
+        l2.apply(&read(0));
+        assert!(present(&l2, 5, 0) && present(&l2, 5, 1) && !present(&l2, 9, 0));
+        l2.apply(&read(1));
+        assert!(!present(&l2, 9, 0), "the run stood for two reads");
+        l2.apply(&read(2));
+        assert!(present(&l2, 9, 0));
+    }
+
+    /// The mirrors of a private access fall in sets of their own, as different SMs' private
+    /// data does, instead of filling its set: four copies of a ray-record read in a 4-way set
+    /// would evict the BVH line there; spread over four sets they leave it.
+    #[test]
+    fn mirrors_spread_over_the_sets() {
+        let cfg = MemConfig {
+            l2_private_mirrors: 4,
+            ..small(1)
+        };
+        cfg.validate().unwrap();
+        let mut l2 = L2Side::new(&cfg);
+        l2.warm(&[0]);
+        l2.apply(&L2Op {
+            cycle: 0,
+            phase: 0,
+            sm: 0,
+            seq: 0,
+            line: 16,
+            sector: 0,
+            class: AccessClass::RayRecord,
+            write: false,
+        });
+        assert_ne!(l2.sector(0, 0, 1_000), SectorState::Absent, "line 0 stays");
+        // 16 sets over 4 mirrors: a mirror every 4 sets.
+        let spread = mirror_spread(&cfg);
+        assert_eq!(spread, 4);
+        let sets: Vec<u64> = (0..4u64)
+            .map(|j| {
+                let line = 16 + (j << MIRROR_SHIFT) + j * spread;
+                assert_ne!(l2.sector(line, 0, 1_000), SectorState::Absent, "mirror {j}");
+                line % 16
+            })
+            .collect();
+        assert_eq!(sets, [0, 4, 8, 12]);
     }
 
     /// Operations in key order from (cycle step, line, sector, class, write) draws.

@@ -76,8 +76,10 @@
 pub mod cache;
 pub mod config;
 pub mod dram;
+pub mod ghosts;
 pub mod l1;
 pub mod l2;
+pub mod partitions;
 pub mod request;
 pub mod responses;
 pub mod stats;
@@ -86,8 +88,10 @@ pub mod system;
 pub use cache::{SectorCache, SectorState};
 pub use config::{MemConfig, MemConfigError};
 pub use dram::{Dram, DramChannel};
+pub use ghosts::GhostReads;
 pub use l1::{Acceptance, L1Port};
-pub use l2::{L2Op, L2Partition, L2Side, PartitionMap};
+pub use l2::{L2Op, L2Partition, L2Side};
+pub use partitions::PartitionMap;
 pub use request::{
     Accepted, AccessClass, AccessError, MemRequest, Response, Source, Stall, StallReason,
 };
