@@ -60,9 +60,10 @@ pub struct MemConfig {
     /// Copies of every per-SM (private) L2 access — ray records, CTA state, stack spills, hit
     /// records; not BVH nodes, which all SMs share — that the L2 also takes in, at mirrored
     /// addresses that no real access uses, each copy in another set (as different SMs' private
-    /// data lies), without DRAM traffic or statistics (default 1: the access alone). The sampled tier's scale models of `k` of `sms` SMs set it to `sms / k`,
-    /// so the private data of the SMs not simulated takes its room in the L2 as the simulated
-    /// SMs' does (docs/accuracy.md).
+    /// data lies), without DRAM traffic or statistics (default 1: the access alone). The
+    /// sampled tier's scale models of `k` of `sms` SMs set it to `sms / k`, so the private data
+    /// of the SMs not simulated takes its room in the L2 as the simulated SMs' does
+    /// (docs/accuracy.md).
     pub l2_private_mirrors: u32,
     /// DRAM access latency in cycles after the request leaves the L2 (254 in the public
     /// RTX 3070 configuration that supplied the 39/187 figures).

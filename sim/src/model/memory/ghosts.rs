@@ -7,7 +7,8 @@
 use super::config::MemConfig;
 use super::partitions::PartitionMap;
 
-/// Bytes of a sector address in a ghost stream (stream entries are byte address / 32).
+/// Bytes of a sector address in a ghost stream (stream entries are byte address / 32, the
+/// functional profile's BVH sectors).
 pub const GHOST_SECTOR_BYTES: u64 = 32;
 
 /// Reads of one line in a row of a ghost stream, applied together.

@@ -306,7 +306,8 @@ impl L2Partition {
     /// L2 at `at`: whole runs, the streams in turn; reads applied beyond those owed count
     /// towards the next.
     fn ghost_reads(&mut self, at: u64) {
-        let Some(reads) = self.ghosts.clone() else {
+        // Taken out while the runs are applied (no reference count touched on this hot path).
+        let Some(reads) = self.ghosts.take() else {
             return;
         };
         let streams = reads.part(self.index);
@@ -324,6 +325,7 @@ impl L2Partition {
             self.ghost_ahead += run.reads.saturating_sub(owed);
             owed = owed.saturating_sub(run.reads);
         }
+        self.ghosts = Some(reads);
     }
 
     /// [`L2Partition::mirror`] of the BVH sectors `sectors` (a bit mask) of `line`, one lookup
