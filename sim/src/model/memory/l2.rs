@@ -292,7 +292,7 @@ impl L2Partition {
                     at,
                     self.map
                         .local(op.line + (j << MIRROR_SHIFT) + j * self.mirror_spread),
-                    op.sector,
+                    1 << op.sector,
                     op.class,
                 );
             }
@@ -321,38 +321,12 @@ impl L2Partition {
             let stream = &streams[g];
             let run = stream[self.ghost_cursors[g]];
             self.ghost_cursors[g] = (self.ghost_cursors[g] + 1) % stream.len();
-            self.ghost_run(at, self.map.local(u64::from(run.line)), run.sectors);
+            let line = self.map.local(u64::from(run.line));
+            self.mirror(at, line, run.sectors, AccessClass::Bvh);
             self.ghost_ahead += run.reads.saturating_sub(owed);
             owed = owed.saturating_sub(run.reads);
         }
         self.ghosts = Some(reads);
-    }
-
-    /// [`L2Partition::mirror`] of the BVH sectors `sectors` (a bit mask) of `line`, one lookup
-    /// for them all.
-    fn ghost_run(&mut self, at: u64, line: u64, mut sectors: u64) {
-        let slot = match self.l2.lookup(line) {
-            Some(slot) => slot,
-            None => {
-                let Ok(slot) = self.l2.find_slot(line, at, self.ways(AccessClass::Bvh)) else {
-                    return;
-                };
-                let first = sectors.trailing_zeros();
-                sectors &= sectors - 1;
-                let evicted = self.l2.install(slot, line, first, at);
-                self.write_back(at + self.l2_latency, evicted);
-                slot
-            }
-        };
-        while sectors != 0 {
-            let sector = sectors.trailing_zeros();
-            sectors &= sectors - 1;
-            if self.l2.sector_state(slot, sector, at) == SectorState::Absent {
-                self.l2.install(slot, line, sector, at);
-            } else {
-                self.l2.touch(slot);
-            }
-        }
     }
 
     /// [`L2Side::warm`] for the sector of byte address `addr` on `line`, a line of this
@@ -376,22 +350,34 @@ impl L2Partition {
         }
     }
 
-    /// A mirrored copy of a private access reaching the L2 at `at`: it takes room in the L2 like
-    /// the access (as if filled from DRAM) but moves no DRAM data, counts nowhere, and its line
-    /// leaves without a write-back. A real line it evicts is written back as usual.
-    fn mirror(&mut self, at: u64, line: u64, sector: u32, class: AccessClass) {
-        if let Some(slot) = self.l2.lookup(line) {
+    /// A mirrored copy of an access to the sectors `sectors` (a bit mask) of `line` reaching
+    /// the L2 at `at` (a private access's mirror, or a run of ghost reads; one lookup for all
+    /// the sectors): it takes room in the L2 like the access (as if filled from DRAM) but moves
+    /// no DRAM data, counts nowhere, and its line leaves without a write-back. A real line it
+    /// evicts is written back as usual.
+    fn mirror(&mut self, at: u64, line: u64, mut sectors: u64, class: AccessClass) {
+        let slot = match self.l2.lookup(line) {
+            Some(slot) => slot,
+            None => {
+                let Ok(slot) = self.l2.find_slot(line, at, self.ways(class)) else {
+                    return;
+                };
+                let first = sectors.trailing_zeros();
+                sectors &= sectors - 1;
+                // Mirrored lines are never dirty: only an evicted real line is written back.
+                let evicted = self.l2.install(slot, line, first, at);
+                self.write_back(at + self.l2_latency, evicted);
+                slot
+            }
+        };
+        while sectors != 0 {
+            let sector = sectors.trailing_zeros();
+            sectors &= sectors - 1;
             if self.l2.sector_state(slot, sector, at) == SectorState::Absent {
                 self.l2.install(slot, line, sector, at);
             } else {
                 self.l2.touch(slot);
             }
-            return;
-        }
-        if let Ok(slot) = self.l2.find_slot(line, at, self.ways(class)) {
-            // Mirrored lines are never dirty: only an evicted real line is written back.
-            let evicted = self.l2.install(slot, line, sector, at);
-            self.write_back(at + self.l2_latency, evicted);
         }
     }
 
