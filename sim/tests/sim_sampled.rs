@@ -136,13 +136,20 @@ fn bad_sample_settings_are_one_line_errors() {
         ("32/16", "sample.fraction"),
         ("3/16", "whole number of SMs"),
         ("1/4x0", "sample.replicates"),
+        ("1/4x0 cluster", "sample.cluster"),
         ("1/2x4", "need 32 stripes but the GPU has 16"),
         ("quarter", "--sample `quarter`"),
     ] {
+        // `SPEC cluster`: a good spec with an out-of-range `sample.cluster`.
+        let (spec, cluster) = match spec.strip_suffix(" cluster") {
+            Some(_) => ("1/4x2", "sample.cluster=0"),
+            None => (spec, "sample.cluster=2"),
+        };
         let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
             .args(["sim", "--scene", "cornell", "--sample", spec, "--out"])
             .arg(&out)
             .args(["--set", "width=8", "--set", "height=8", "--no-cache"])
+            .args(["--set", cluster])
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&o.stderr);
@@ -385,6 +392,38 @@ fn large_frames_have_no_stripes() {
     let expected = t.half_width.unwrap() + s.bias_bound * t.value;
     assert!((s.cycles.half_width.unwrap() - expected).abs() < 1e-6);
     assert_eq!(s.cycles.value, t.value);
+}
+
+/// Stratified samples come in clumps of `sample.cluster` neighbouring CTAs (runs of
+/// consecutive CTAs starting at a multiple of the clump), as a GPU SM's CTAs do; 1 draws single
+/// CTAs; either way each replicate holds `fraction` of the frame's CTAs.
+#[test]
+fn stratified_samples_come_in_clumps_of_neighbours() {
+    // 136x136: 289 CTAs, too many to be resident at once: stratified.
+    for cluster in [1u32, 2, 4] {
+        let c = format!("sample.cluster={cluster}");
+        let cfg = sampled_config("baseline", "1/4x2", &["width=136", "height=136", &c]);
+        let (scene, bvh) = setup("cornell", &cfg);
+        let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
+        let samples = vtq_sim::estimate::sample::run::samples(&cfg, &profile).unwrap();
+        assert_eq!(samples.len(), 2);
+        for sample in &samples {
+            let n = sample.len() as i64;
+            assert!((n - 289 / 4).abs() <= cluster as i64, "{cluster}: {n}");
+            // Every CTA's clump is whole in the sample (the last, CTA 288, is a clump alone).
+            for &cta in sample {
+                let start = cta - cta % cluster;
+                let clump = (start..(start + cluster).min(289)).collect::<Vec<u32>>();
+                assert!(clump.iter().all(|c| sample.contains(c)), "{cluster}: {cta}");
+            }
+        }
+        assert_ne!(samples[0], samples[1]);
+        if cluster == 1 {
+            // Single CTAs: neighbours together only by chance (a clumped sample has half).
+            let pairs = samples[0].windows(2).filter(|w| w[1] == w[0] + 1).count();
+            assert!(pairs < samples[0].len() / 2, "{pairs}");
+        }
+    }
 }
 
 /// A stratified replicate's cycles are carried to the whole frame by the dispatch model with

@@ -254,7 +254,7 @@ pub fn samples(cfg: &SimConfig, profile: &Profile) -> Result<Vec<Vec<u32>>, Stri
     }
     let costs: Vec<u64> = profile.ctas.iter().map(|c| c.fetches).collect();
     Ok((0..s.replicates)
-        .map(|r| stratified_sample(&costs, s.fraction, s.seed, r))
+        .map(|r| stratified_sample(&costs, s.fraction, s.seed, r, s.cluster as usize))
         .collect())
 }
 

@@ -24,6 +24,15 @@ pub const GHOST_FOOTPRINT: f64 = MAX_GHOST_FOOTPRINT;
 /// Largest `profile_stride`.
 pub const MAX_PROFILE_STRIDE: u32 = 64;
 
+/// Largest `cluster`.
+pub const MAX_CLUSTER: u32 = 64;
+
+/// The default `cluster`: single CTAs. Pairs fit scenes whose GPU dispatch gives an SM clumps
+/// of neighbouring CTAs (spring) and not those whose dispatch does not (lands), and over the
+/// issue's 33 pairs at 1024x1024 they lowered the mean error of cycles but raised the worst
+/// errors of cycles and speedups (docs/accuracy.md, "Samples in clumps of neighbours").
+pub const CLUSTER: u32 = 1;
+
 /// Largest number of replicates.
 pub const MAX_REPLICATES: u32 = 256;
 
@@ -77,6 +86,10 @@ pub struct SampleConfig {
     /// estimate of each CTA's work at a fraction of the profile's cost, for the strata, the
     /// dispatch model and the frame's rays (1: every warp, exact; 1..=64).
     pub profile_stride: u32,
+    /// CTAs per unit of a stratified sample: the frame's CTAs are cut into runs of this many
+    /// consecutive CTAs (neighbouring tiles), and the strata and draws are of runs, by their
+    /// work (1..=64; 1: single CTAs).
+    pub cluster: u32,
 }
 
 impl Default for SampleConfig {
@@ -91,6 +104,7 @@ impl Default for SampleConfig {
             warm_l2: true,
             ghost_l2_footprint: GHOST_FOOTPRINT,
             profile_stride: 1,
+            cluster: CLUSTER,
         }
     }
 }
@@ -196,6 +210,13 @@ impl SampleConfig {
                 "profile_stride",
                 self.profile_stride,
                 format!("must be 1..={MAX_PROFILE_STRIDE}"),
+            ));
+        }
+        if !(1..=MAX_CLUSTER).contains(&self.cluster) {
+            return Err(invalid(
+                "cluster",
+                self.cluster,
+                format!("must be 1..={MAX_CLUSTER} (CTAs per sampling unit)"),
             ));
         }
         if !(1..=MAX_REPLICATES).contains(&self.replicates) {
