@@ -130,26 +130,26 @@ fn bad_sample_settings_are_one_line_errors() {
     let dir = std::env::temp_dir().join(format!("vtq-sampled-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("s.json");
-    for (spec, needle) in [
-        ("0", "sample.fraction"),
-        ("1.5", "sample.fraction"),
-        ("32/16", "sample.fraction"),
-        ("3/16", "whole number of SMs"),
-        ("1/4x0", "sample.replicates"),
-        ("1/4x0 cluster", "sample.cluster"),
-        ("1/2x4", "need 32 stripes but the GPU has 16"),
-        ("quarter", "--sample `quarter`"),
+    // (--sample, one more --set, the key or words the one error names)
+    for (spec, set, needle) in [
+        ("0", "sample.cluster=1", "sample.fraction"),
+        ("1.5", "sample.cluster=1", "sample.fraction"),
+        ("32/16", "sample.cluster=1", "sample.fraction"),
+        ("3/16", "sample.cluster=1", "whole number of SMs"),
+        ("1/4x0", "sample.cluster=1", "sample.replicates"),
+        ("1/4x2", "sample.cluster=0", "sample.cluster"),
+        (
+            "1/2x4",
+            "sample.cluster=1",
+            "need 32 stripes but the GPU has 16",
+        ),
+        ("quarter", "sample.cluster=1", "--sample `quarter`"),
     ] {
-        // `SPEC cluster`: a good spec with an out-of-range `sample.cluster`.
-        let (spec, cluster) = match spec.strip_suffix(" cluster") {
-            Some(_) => ("1/4x2", "sample.cluster=0"),
-            None => (spec, "sample.cluster=2"),
-        };
         let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
             .args(["sim", "--scene", "cornell", "--sample", spec, "--out"])
             .arg(&out)
             .args(["--set", "width=8", "--set", "height=8", "--no-cache"])
-            .args(["--set", cluster])
+            .args(["--set", set])
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&o.stderr);

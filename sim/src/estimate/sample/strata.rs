@@ -28,7 +28,7 @@ pub fn stratified_sample(
             .iter()
             .sum()
     };
-    let n = ((total as f64 * fraction / cluster as f64).round() as usize).clamp(1, units);
+    let n = ((units as f64 * fraction).round() as usize).clamp(1, units);
     let mut order: Vec<(u64, u32)> = (0..units).map(|u| (unit_cost(u), u as u32)).collect();
     order.sort_unstable();
     let mut rng =
@@ -72,7 +72,7 @@ mod tests {
         let a = stratified_sample(&costs, 0.25, 3, 0, 4);
         assert_eq!(a, stratified_sample(&costs, 0.25, 3, 0, 4));
         assert_ne!(a, stratified_sample(&costs, 0.25, 3, 1, 4));
-        // round(66 / 4 / 4) = 4 units, each whole: 4 consecutive CTAs from a multiple of 4 (the
+        // round(17 units / 4) = 4 units, each whole: 4 consecutive CTAs from a multiple of 4 (the
         // last unit, CTAs 64 and 65, has two).
         let units: Vec<u32> = a.iter().map(|c| c / 4).collect();
         let mut distinct = units.clone();
@@ -107,10 +107,15 @@ mod tests {
             .collect();
         strata.sort_unstable();
         assert_eq!(strata, vec![0, 1, 2, 3]);
-        // The whole frame, whatever the unit.
+        // The whole frame, whatever the unit, also where the short last unit makes the units
+        // more than the CTAs over the unit round to (65 CTAs: 16 units of 4 and one of 1).
         assert_eq!(
             stratified_sample(&costs, 1.0, 3, 0, 4),
             (0..66).collect::<Vec<u32>>()
+        );
+        assert_eq!(
+            stratified_sample(&costs[..65], 1.0, 3, 0, 4),
+            (0..65).collect::<Vec<u32>>()
         );
         // A unit larger than the frame is the frame.
         assert_eq!(
