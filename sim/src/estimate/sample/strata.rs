@@ -1,7 +1,8 @@
-//! Stratified samples of a frame's CTAs: the CTAs sorted by their profiled work are cut into as
-//! many strata of consecutive CTAs as the sample holds, and one CTA is drawn from each stratum,
-//! so every sample spreads over the whole range of work (cheap sky tiles, expensive geometry
-//! tiles) in the frame's proportions. Draws are deterministic for a seed and replicate.
+//! Stratified samples of a frame's CTAs: the CTAs — or runs of `sample.cluster` neighbouring
+//! CTAs — sorted by their profiled work are cut into as many strata as the sample holds, and one
+//! is drawn from each stratum, so every sample spreads over the whole range of work (cheap sky
+//! tiles, expensive geometry tiles) in the frame's proportions. Draws are deterministic for a
+//! seed and replicate.
 
 use crate::model::splitmix::SplitMix64;
 
@@ -23,13 +24,12 @@ pub fn stratified_sample(
     }
     let cluster = cluster.clamp(1, total);
     let units = total.div_ceil(cluster);
-    let unit_cost = |u: usize| -> u64 {
-        costs[u * cluster..((u + 1) * cluster).min(total)]
-            .iter()
-            .sum()
-    };
+    // The CTAs of unit `u`.
+    let span = |u: usize| u * cluster..((u + 1) * cluster).min(total);
     let n = ((units as f64 * fraction).round() as usize).clamp(1, units);
-    let mut order: Vec<(u64, u32)> = (0..units).map(|u| (unit_cost(u), u as u32)).collect();
+    let mut order: Vec<(u64, u32)> = (0..units)
+        .map(|u| (costs[span(u)].iter().sum(), u as u32))
+        .collect();
     order.sort_unstable();
     let mut rng =
         SplitMix64::new(seed ^ (u64::from(replicate) + 1).wrapping_mul(0xd1b5_4a32_d192_ed03));
@@ -37,7 +37,7 @@ pub fn stratified_sample(
         .flat_map(|i| {
             let (lo, hi) = (i * units / n, (i + 1) * units / n);
             let u = order[lo + rng.below_exact((hi - lo) as u64) as usize].1 as usize;
-            (u * cluster) as u32..((u + 1) * cluster).min(total) as u32
+            span(u).map(|c| c as u32)
         })
         .collect();
     out.sort_unstable();
