@@ -214,6 +214,18 @@ fn accuracy_and_sampled_compare_commands() {
         ["", "stripes", "", "stripes", "", "stripes"],
         "{csv}"
     );
+    // With the profile shared by the three designs a sampled row is faster than alone (its
+    // profile's time divided by three); full detail has no profile.
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (alone, shared): (f64, f64) = (f[5].parse().unwrap(), f[20].parse().unwrap());
+        if f[2] == "full" {
+            assert_eq!(alone, shared, "{line}");
+        } else {
+            assert!(shared > alone, "{line}");
+        }
+    }
+    assert!(stdout.contains("x shared"), "{stdout}");
     assert!(!stdout.contains("analytical"), "{stdout}");
     assert!(
         csv.lines().skip(1).all(|l| l.starts_with("cornell,")),
@@ -280,10 +292,10 @@ fn accuracy_and_sampled_compare_commands() {
         .lines()
         .next()
         .unwrap()
-        .ends_with("speedup_covered_mean"));
+        .ends_with("speedup_covered_mean,time_speedup_shared"));
     for line in pert_csv.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
-        assert_eq!(f.len(), 20, "{line}");
+        assert_eq!(f.len(), 21, "{line}");
         assert!(f[14..17].iter().all(|v| !v.is_empty()), "{line}");
     }
     let png = std::fs::read(dir.join("accuracy.png")).unwrap();

@@ -149,3 +149,70 @@ fn a_bad_profile_stride_names_its_key() {
         assert!(err.contains("sample.profile_stride"), "{err}");
     }
 }
+
+/// `sample.profile_stride` 4 on CTAs of two warps: one warp in four of the frame's, i.e. one
+/// warp of every other CTA, in a checkerboard over the tiles. The traced CTAs' work is the
+/// stride-2 profile's (the same warp traced and doubled), each other CTA's the mean of its
+/// traced neighbours; only the traced CTAs record BVH reads for the replay; the frame's rays
+/// stay an estimate close to the exact count, the samples' CTAs are traced in full, and the
+/// results are the same on any thread count.
+#[test]
+fn a_profile_stride_beyond_the_warps_of_a_cta_traces_every_other_cta() {
+    let cfg_of = |stride: u32| {
+        config(
+            "baseline",
+            128,
+            "1/4x2",
+            &[&format!("sample.profile_stride={stride}")],
+        )
+    };
+    let (exact_cfg, half_cfg, quarter_cfg) = (cfg_of(1), cfg_of(2), cfg_of(4));
+    let (scene, bvh) = setup("cornell", &exact_cfg);
+    let exact = Profile::new(&scene, &bvh, &exact_cfg).unwrap();
+    let half = Profile::new(&scene, &bvh, &half_cfg).unwrap();
+    let quarter = Profile::new(&scene, &bvh, &quarter_cfg).unwrap();
+    assert_eq!(quarter.stride, 4);
+    // 128x128 in 8x8 tiles: 16 tiles a row.
+    let tiles_x = 16;
+    let traced = |c: usize| (c % tiles_x + c / tiles_x).is_multiple_of(2);
+    let n = quarter.ctas.len();
+    assert_eq!(n, 256);
+    let mut estimated = 0;
+    for c in 0..n {
+        if traced(c) {
+            assert_eq!(
+                quarter.ctas[c], half.ctas[c],
+                "CTA {c} traced as at stride 2"
+            );
+            continue;
+        }
+        assert!(quarter.cta_streams[c].is_empty(), "CTA {c} recorded reads");
+        let (x, y) = ((c % tiles_x) as i64, (c / tiles_x) as i64);
+        let around: Vec<usize> = [(-1, 0), (1, 0), (0, -1), (0, 1)]
+            .iter()
+            .map(|(dx, dy)| (x + dx, y + dy))
+            .filter(|&(x, y)| (0..16).contains(&x) && (0..16).contains(&y))
+            .map(|(x, y)| (y * 16 + x) as usize)
+            .collect();
+        let mean =
+            around.iter().map(|&k| half.ctas[k].rays).sum::<u64>() as f64 / around.len() as f64;
+        assert_eq!(quarter.ctas[c].rays, mean.round() as u64, "CTA {c}");
+        estimated += 1;
+    }
+    assert_eq!(estimated, n / 2);
+    let (re, rq) = (exact.work(None).rays as f64, quarter.work(None).rays as f64);
+    assert!((rq / re - 1.0).abs() < 0.05, "{rq} vs {re}");
+    // An untraced CTA traced in full is the exact profile's.
+    let some: Vec<u32> = vec![1, 16, 101, 254];
+    assert!(some.iter().all(|&c| !traced(c as usize)));
+    let filled = quarter
+        .with_exact(&scene, &bvh, &quarter_cfg, &some)
+        .unwrap();
+    for &c in &some {
+        assert_eq!(filled[c as usize], exact.ctas[c as usize]);
+    }
+    let a = simulate_sampled(&scene, &bvh, &quarter_cfg, &quarter, 1).unwrap();
+    let b = simulate_sampled(&scene, &bvh, &quarter_cfg, &quarter, 2).unwrap();
+    assert_eq!(comparable(&a), comparable(&b));
+    assert!(a.rays_estimated);
+}

@@ -61,6 +61,10 @@ pub struct Row {
     pub wall: f64,
     /// Full detail's wall over this one's.
     pub time_speedup: f64,
+    /// Full detail's wall over this one's when the scene's designs share the functional
+    /// profile, as `vtq compare --sample` runs them: the sampled tier's wall with its profile's
+    /// time divided among the designs (full detail: [`Row::time_speedup`]).
+    pub time_speedup_shared: f64,
     /// Cycles (estimate).
     pub cycles: f64,
     /// Half-width of the 95% interval of the cycles (sampled tier).
@@ -199,7 +203,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
             cfg.sample.apply_spec(spec).map_err(SimError::Setup)?;
             let t = Instant::now();
             let s = simulate_sampled(scene, plan.bvh, &cfg, &profile, plan.threads)?;
-            per.push((s, t.elapsed().as_secs_f64() + profile_wall));
+            per.push((s, t.elapsed().as_secs_f64()));
         }
         sampled.push(per);
     }
@@ -208,11 +212,18 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     for (i, d) in plan.designs.iter().enumerate() {
         let (cycles, wall) = full[i];
         let true_speedup = (i > 0).then(|| reference / cycles.max(1.0));
+        // A row's wall: its own plus, for the sampled tier, the profile's (whole, or shared
+        // among the designs).
+        let shared = profile_wall / plan.designs.len().max(1) as f64;
         let row = |tier: Tier,
                    method: Option<(Method, bool)>,
-                   w: f64,
+                   own: f64,
                    c: Estimate,
                    s: Option<Estimate>| {
+            let (w, w_shared) = match tier {
+                Tier::Full => (own, own),
+                Tier::Sampled(_) => (own + profile_wall, own + shared),
+            };
             let err = |e: f64, t: f64| e / t - 1.0;
             Row {
                 scene: scene.name.clone(),
@@ -222,6 +233,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
                 stripes_dynamic: method.is_some_and(|m| m.1),
                 wall: w,
                 time_speedup: wall / w.max(1e-9),
+                time_speedup_shared: wall / w_shared.max(1e-9),
                 cycles: c.value,
                 cycles_half_width: c.half_width,
                 cycles_error: err(c.value, cycles),
@@ -284,6 +296,9 @@ pub struct Summary {
     pub mean_time_speedup: f64,
     /// Smallest speed-up over full detail.
     pub min_time_speedup: f64,
+    /// Mean speed-up over full detail with the profile shared by each scene's designs
+    /// ([`Row::time_speedup_shared`]).
+    pub mean_time_speedup_shared: f64,
     /// Mean |relative error| of cycles.
     pub mean_cycles_error: f64,
     /// Worst |relative error| of cycles.
@@ -329,6 +344,7 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 .flatten()
                 .collect();
             let times: Vec<f64> = of.iter().map(|r| r.time_speedup).collect();
+            let shared: f64 = of.iter().map(|r| r.time_speedup_shared).sum();
             let (mean_c, worst_c) = mean_worst(&cycles);
             let (mean_s, worst_s) = mean_worst(&speedups);
             let refs: Vec<&Reference> = of.iter().filter_map(|r| r.reference.as_ref()).collect();
@@ -351,6 +367,7 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 rows: of.len(),
                 mean_time_speedup: times.iter().sum::<f64>() / times.len().max(1) as f64,
                 min_time_speedup: times.iter().copied().fold(f64::INFINITY, f64::min),
+                mean_time_speedup_shared: shared / times.len().max(1) as f64,
                 mean_cycles_error: mean_c,
                 worst_cycles_error: worst_c,
                 mean_speedup_error: mean_s,
@@ -374,7 +391,7 @@ pub fn csv(rows: &[Row]) -> String {
         "scene,design,tier,method,wall_seconds,time_speedup,cycles,cycles_half_width,cycles_error,\
          cycles_covered,speedup,speedup_half_width,speedup_error,speedup_covered,reference_mean,\
          reference_spread,cycles_error_vs_mean,speedup_error_vs_mean,cycles_covered_mean,\
-         speedup_covered_mean\n",
+         speedup_covered_mean,time_speedup_shared\n",
     );
     for r in rows {
         let method = match (r.method, r.stripes_dynamic) {
@@ -385,7 +402,7 @@ pub fn csv(rows: &[Row]) -> String {
         };
         let reference = r.reference.as_ref();
         out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.scene,
             r.design,
             r.tier.name(),
@@ -406,6 +423,7 @@ pub fn csv(rows: &[Row]) -> String {
             opt(reference.and_then(|x| x.speedup_error)),
             flag(reference.and_then(|x| x.cycles_covered)),
             flag(reference.and_then(|x| x.speedup_covered)),
+            r.time_speedup_shared,
         );
     }
     out
@@ -492,6 +510,7 @@ mod tests {
             stripes_dynamic: false,
             wall: 1.0,
             time_speedup: 1.0,
+            time_speedup_shared: 1.0,
             cycles,
             cycles_half_width: half_width,
             cycles_error: cycles / 100.0 - 1.0,

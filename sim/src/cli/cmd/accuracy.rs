@@ -166,11 +166,12 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
     }
     println!();
     println!(
-        "{:<16} {:>5} {:>10} {:>10} {:>12} {:>12} {:>12} {:>12} {:>9}",
+        "{:<16} {:>5} {:>10} {:>10} {:>10} {:>12} {:>12} {:>12} {:>12} {:>9}",
         "tier",
         "rows",
         "x faster",
         "min x",
+        "x shared",
         "cyc err avg",
         "cyc err max",
         "spd err avg",
@@ -180,11 +181,12 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
     let summary = summarize(&rows);
     for s in summary.iter().filter(|s| s.tier != Tier::Full.name()) {
         println!(
-            "{:<16} {:>5} {:>10.1} {:>10.1} {:>11.2}% {:>11.2}% {:>11.2}% {:>11.2}% {:>9}",
+            "{:<16} {:>5} {:>10.1} {:>10.1} {:>10.1} {:>11.2}% {:>11.2}% {:>11.2}% {:>11.2}% {:>9}",
             s.tier,
             s.rows,
             s.mean_time_speedup,
             s.min_time_speedup,
+            s.mean_time_speedup_shared,
             100.0 * s.mean_cycles_error,
             100.0 * s.worst_cycles_error,
             100.0 * s.mean_speedup_error,
@@ -225,7 +227,8 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
     }
     println!(
         "errors are relative to full detail on the same machine and threads ({threads}); \
-         x faster = full detail's wall time / the tier's"
+         x faster = full detail's wall time / the tier's; x shared = the same with the \
+         functional profile shared by the scene's designs, as `vtq compare --sample` runs them"
     );
     // The results first; a chart that cannot be drawn is reported without losing them, and
     // one file that cannot be written is kept in a fallback file.

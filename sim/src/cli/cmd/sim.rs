@@ -231,7 +231,7 @@ fn run_sampled(
     };
     let rays = if s.rays_estimated {
         format!(
-            "about {} rays (profiled from 1 warp in {} of each CTA)",
+            "about {} rays (profiled from 1 warp in {} of the frame's)",
             s.rays, cfg.sample.profile_stride
         )
     } else {

@@ -9,6 +9,10 @@
 //! when every CTA is resident (the CTA scheduler's round-robin fill) — with its footprint: the
 //! distinct 32 B lines of BVH nodes its rays fetch, the working set its SM's L1 must hold
 //! ([`super::stripes`] samples stripes by it).
+//!
+//! With `sample.profile_stride` the profile traces part of the frame's warps and estimates
+//! the rest: within each CTA up to its warps, beyond that only some CTAs (a diagonal pattern
+//! over the tiles), each other CTA taking the mean work of its traced neighbours.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -293,13 +297,81 @@ impl<'a> Frame<'a> {
     }
 }
 
+/// CTAs per CTA the profile traces with `sample.profile_stride` `stride` on `cfg`'s CTAs: one
+/// warp in `stride` is traced, within each CTA up to its warps, and beyond them one CTA in
+/// `stride / warps` (rounded down).
+fn cta_stride(stride: usize, cfg: &SimConfig) -> usize {
+    let warp = cfg.gpu.warp_size.max(1) as usize;
+    let warps = (cfg.gpu.threads_per_cta.max(1) as usize).div_ceil(warp);
+    (stride / warps).max(1)
+}
+
+/// Which CTAs the profile traces, one in `cta_stride` of them: those whose tile's column plus
+/// row is a multiple of it, a diagonal pattern that leaves every other CTA with traced
+/// neighbours (for 2: a checkerboard).
+fn traced_ctas(scheduler: &CtaScheduler, cta_stride: usize) -> Vec<bool> {
+    (0..scheduler.total())
+        .map(|cta| {
+            let (x, y) = scheduler.tile(cta);
+            (x as usize + y as usize).is_multiple_of(cta_stride)
+        })
+        .collect()
+}
+
+/// Fills in the work of the CTAs the profile did not trace (`traced[c]` false): the mean of
+/// the traced CTAs among its eight neighbouring tiles, else of the nearest traced CTA in CTA
+/// order (the earlier on a tie).
+fn estimate_untraced(ctas: &mut [CtaWork], traced: &[bool], scheduler: &CtaScheduler) {
+    if traced.iter().all(|&t| t) || !traced.iter().any(|&t| t) {
+        return;
+    }
+    let estimates: Vec<(usize, CtaWork)> = (0..ctas.len())
+        .filter(|&c| !traced[c])
+        .map(|c| {
+            let (x, y) = scheduler.tile(c as u32);
+            let (x, y) = (i64::from(x), i64::from(y));
+            let around: Vec<usize> = (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
+                .filter_map(|(dx, dy)| scheduler.cta_at(x + dx, y + dy))
+                .map(|n| n as usize)
+                .filter(|&n| traced[n])
+                .collect();
+            let around = if around.is_empty() {
+                let nearest = (1..ctas.len())
+                    .flat_map(|d| [c.checked_sub(d), Some(c + d)])
+                    .flatten()
+                    .find(|&n| n < ctas.len() && traced[n])
+                    .expect("some CTA is traced");
+                vec![nearest]
+            } else {
+                around
+            };
+            let k = around.len() as f64;
+            let mean = |f: fn(&CtaWork) -> u64| {
+                (around.iter().map(|&n| f(&ctas[n])).sum::<u64>() as f64 / k).round() as u64
+            };
+            let work = CtaWork {
+                rays: mean(|w| w.rays),
+                fetches: mean(|w| w.fetches),
+                warp_fetches: mean(|w| w.warp_fetches),
+            };
+            (c, work)
+        })
+        .collect();
+    for (c, work) in estimates {
+        ctas[c] = work;
+    }
+}
+
 impl Profile {
     /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads. Where
     /// the frame's footprint is within `sample.ghost_l2_footprint`, it also records the CTAs'
     /// L2 streams ([`Profile::cta_streams`]): in the one pass when the BVH's whole address
     /// space is within the limit, else in a second pass once the footprint is known. With
     /// `sample.profile_stride` `m` above 1 the first pass traces one warp in `m` of each CTA
-    /// and estimates the CTA's work from them; the footprints and streams then hold the traced
+    /// and estimates the CTA's work from them; with `m` beyond a CTA's `n` warps, one warp of
+    /// one CTA in `m / n` ([`traced_ctas`]), the others' work estimated from their traced
+    /// neighbours ([`estimate_untraced`]). The footprints and streams then hold the traced
     /// warps' lines and reads only.
     pub fn new(scene: &Scene, bvh: &HwBvh, cfg: &SimConfig) -> Result<Profile, RenderError> {
         let start = Instant::now();
@@ -333,11 +405,15 @@ impl Profile {
         let footprints: Vec<Vec<AtomicU64>> = (0..if with_stripes { sms } else { 0 })
             .map(|_| (0..words).map(|_| AtomicU64::new(0)).collect())
             .collect();
-        let (ctas, first_streams) = (0..total)
+        let traced = traced_ctas(&frame.scheduler, cta_stride(stride, cfg));
+        let (mut ctas, first_streams) = (0..total)
             .into_par_iter()
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |scratch, cta| {
+                    if !traced[cta as usize] {
+                        return (CtaWork::default(), Vec::new());
+                    }
                     let mut l1 = streams_now.then(|| L1Filter::new(l1_bytes, line_bytes));
                     let mut stream = Vec::new();
                     let footprint = footprints.get(cta as usize % sms);
@@ -356,6 +432,7 @@ impl Profile {
                 },
             )
             .unzip::<_, _, Vec<CtaWork>, Vec<Vec<u32>>>();
+        estimate_untraced(&mut ctas, &traced, &frame.scheduler);
         let stripes = footprints
             .iter()
             .enumerate()
@@ -389,8 +466,11 @@ impl Profile {
             (0..total)
                 .into_par_iter()
                 .map_init(Vec::new, |fetches, cta| {
-                    let mut l1 = L1Filter::new(l1_bytes, line_bytes);
                     let mut stream = Vec::new();
+                    if !traced[cta as usize] {
+                        return stream;
+                    }
+                    let mut l1 = L1Filter::new(l1_bytes, line_bytes);
                     frame.trace_cta(cta, (warp, stride), fetches, |_, fetches| {
                         l1.misses(fetches, &mut stream)
                     });
@@ -498,6 +578,51 @@ mod tests {
 
     /// Warps of two threads: each trace costs its longest ray; a thread with fewer rays (its
     /// path ended) or none (off the frame) adds nothing to the traces after its last.
+    /// Beyond the warps of a CTA the profile traces one CTA in `cta_stride` in a diagonal
+    /// pattern; an untraced CTA's work is the mean of its traced neighbouring tiles, else the
+    /// nearest traced CTA's in CTA order (the earlier on a tie).
+    #[test]
+    fn untraced_ctas_take_their_traced_neighbours_mean() {
+        let work = |rays: u64| CtaWork {
+            rays,
+            fetches: 10 * rays,
+            warp_fetches: 3 * rays,
+        };
+        // 64 threads in 8x8 tiles: a 24x16 image is 3 x 2 tiles.
+        let s = CtaScheduler::new(24, 16, 64);
+        assert_eq!(s.total(), 6);
+        assert_eq!(
+            cta_stride(2, &crate::model::config::SimConfig::default()),
+            1
+        );
+        assert_eq!(
+            cta_stride(4, &crate::model::config::SimConfig::default()),
+            2
+        );
+        let traced = traced_ctas(&s, 2);
+        assert_eq!(traced, [true, false, true, false, true, false]);
+        let mut ctas = vec![work(10), work(0), work(30), work(0), work(50), work(0)];
+        estimate_untraced(&mut ctas, &traced, &s);
+        // CTA 1 (1, 0): traced neighbours 0, 2 and 4 (below); CTA 3 (0, 1): 0 and 4; CTA 5
+        // (2, 1): 2 and 4.
+        assert_eq!(ctas[1], work(30));
+        assert_eq!(ctas[3], work(30));
+        assert_eq!(ctas[5], work(40));
+        // One row of eight tiles, every sixth traced: CTA 3 has no traced neighbour and takes
+        // CTA 0's (as near as CTA 6, and earlier).
+        let s = CtaScheduler::new(64, 8, 64);
+        let traced = traced_ctas(&s, 6);
+        assert_eq!(traced.iter().filter(|&&t| t).count(), 2);
+        let mut ctas: Vec<CtaWork> = (0..8)
+            .map(|c| work(if c % 6 == 0 { c + 1 } else { 0 }))
+            .collect();
+        estimate_untraced(&mut ctas, &traced, &s);
+        assert_eq!(ctas[1], work(1));
+        assert_eq!(ctas[3], work(1));
+        assert_eq!(ctas[4], work(7));
+        assert_eq!(ctas[7], work(7));
+    }
+
     #[test]
     fn lockstep_fetches_sum_each_traces_longest_ray() {
         let traces = vec![vec![3, 1], vec![5], vec![2, 4, 6], vec![]];

@@ -87,7 +87,7 @@ pub struct SampledStats {
     /// Rays of the whole frame, from the functional profile: exact, unless
     /// `rays_estimated`.
     pub rays: u64,
-    /// The profile traced one warp in `sample.profile_stride` of each CTA, so `rays` is an
+    /// The profile traced one warp in `sample.profile_stride` of the frame's, so `rays` is an
     /// estimate (exact for the CTAs the replicates ran, scaled from the traced warps for the
     /// others).
     pub rays_estimated: bool,

@@ -84,7 +84,9 @@ pub struct SampleConfig {
     /// `w` with `w mod profile_stride = cta mod min(profile_stride, n)`) and scales their work
     /// to the CTA's (the CTAs stratified samples simulate are then traced in full): an
     /// estimate of each CTA's work at a fraction of the profile's cost, for the strata, the
-    /// dispatch model and the frame's rays (1: every warp, exact; 1..=64).
+    /// dispatch model and the frame's rays (1: every warp, exact; 1..=64). Beyond `n`, one
+    /// CTA in `profile_stride / n` is traced so (the tiles whose column plus row is a multiple
+    /// of it) and each other CTA's work is the mean of its traced neighbouring tiles'.
     pub profile_stride: u32,
     /// CTAs per unit of a stratified sample: the frame's CTAs are cut into runs of this many
     /// consecutive CTAs (neighbouring tiles), and the strata and draws are of runs, by their

@@ -58,6 +58,19 @@ impl CtaScheduler {
         }
     }
 
+    /// The tile of CTA `cta`: `(column, row)` of tiles.
+    pub fn tile(&self, cta: u32) -> (u32, u32) {
+        (cta % self.tiles_x, cta / self.tiles_x)
+    }
+
+    /// The CTA of the tile at `(column, row)`, if the image has that tile.
+    pub fn cta_at(&self, column: i64, row: i64) -> Option<u32> {
+        let tiles_x = i64::from(self.tiles_x);
+        let tiles_y = i64::from(self.total / self.tiles_x.max(1));
+        ((0..tiles_x).contains(&column) && (0..tiles_y).contains(&row))
+            .then(|| (row * tiles_x + column) as u32)
+    }
+
     /// CTAs of the whole image.
     pub fn total(&self) -> u32 {
         self.total
@@ -76,7 +89,7 @@ impl CtaScheduler {
     /// The pixel of every thread of CTA `cta` (row-major within the tile); `None` for threads
     /// outside the image.
     pub fn pixels(&self, cta: u32) -> Vec<Option<u32>> {
-        let (tx, ty) = (cta % self.tiles_x, cta / self.tiles_x);
+        let (tx, ty) = self.tile(cta);
         (0..self.tile_w * self.tile_h)
             .map(|i| {
                 let x = tx * self.tile_w + i % self.tile_w;
