@@ -297,9 +297,9 @@ impl<'a> Frame<'a> {
     }
 }
 
-/// CTAs per CTA the profile traces with `sample.profile_stride` `stride` on `cfg`'s CTAs: one
-/// warp in `stride` is traced, within each CTA up to its warps, and beyond them one CTA in
-/// `stride / warps` (rounded down).
+/// The frame's CTAs per CTA the profile traces, with `sample.profile_stride` `stride` on
+/// `cfg`'s CTAs: one warp in `stride` is traced, within each CTA up to its warps, and beyond
+/// them in one CTA of every `stride / warps` (rounded down; 1: every CTA).
 fn cta_stride(stride: usize, cfg: &SimConfig) -> usize {
     let warp = cfg.gpu.warp_size.max(1) as usize;
     let warps = (cfg.gpu.threads_per_cta.max(1) as usize).div_ceil(warp);
@@ -576,8 +576,6 @@ mod tests {
         assert_eq!(out, [0], "line 0 was evicted, line 8 stayed");
     }
 
-    /// Warps of two threads: each trace costs its longest ray; a thread with fewer rays (its
-    /// path ended) or none (off the frame) adds nothing to the traces after its last.
     /// Beyond the warps of a CTA the profile traces one CTA in `cta_stride` in a diagonal
     /// pattern; an untraced CTA's work is the mean of its traced neighbouring tiles, else the
     /// nearest traced CTA's in CTA order (the earlier on a tie).
@@ -623,6 +621,8 @@ mod tests {
         assert_eq!(ctas[7], work(7));
     }
 
+    /// Warps of two threads: each trace costs its longest ray; a thread with fewer rays (its
+    /// path ended) or none (off the frame) adds nothing to the traces after its last.
     #[test]
     fn lockstep_fetches_sum_each_traces_longest_ray() {
         let traces = vec![vec![3, 1], vec![5], vec![2, 4, 6], vec![]];
