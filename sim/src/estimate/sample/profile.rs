@@ -330,11 +330,10 @@ fn estimate_untraced(ctas: &mut [CtaWork], traced: &[bool], scheduler: &CtaSched
         .map(|c| {
             let (x, y) = scheduler.tile(c as u32);
             let (x, y) = (i64::from(x), i64::from(y));
-            let around: Vec<usize> = (-1..=1)
+            let around: Vec<u32> = (-1..=1)
                 .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
                 .filter_map(|(dx, dy)| scheduler.cta_at(x + dx, y + dy))
-                .map(|n| n as usize)
-                .filter(|&n| traced[n])
+                .filter(|&n| traced[n as usize])
                 .collect();
             let around = if around.is_empty() {
                 let nearest = (1..ctas.len())
@@ -342,18 +341,17 @@ fn estimate_untraced(ctas: &mut [CtaWork], traced: &[bool], scheduler: &CtaSched
                     .flatten()
                     .find(|&n| n < ctas.len() && traced[n])
                     .expect("some CTA is traced");
-                vec![nearest]
+                vec![nearest as u32]
             } else {
                 around
             };
+            let sum = total_work(ctas, Some(&around));
             let k = around.len() as f64;
-            let mean = |f: fn(&CtaWork) -> u64| {
-                (around.iter().map(|&n| f(&ctas[n])).sum::<u64>() as f64 / k).round() as u64
-            };
+            let mean = |v: u64| (v as f64 / k).round() as u64;
             let work = CtaWork {
-                rays: mean(|w| w.rays),
-                fetches: mean(|w| w.fetches),
-                warp_fetches: mean(|w| w.warp_fetches),
+                rays: mean(sum.rays),
+                fetches: mean(sum.fetches),
+                warp_fetches: mean(sum.warp_fetches),
             };
             (c, work)
         })
