@@ -32,7 +32,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use vtq_hdl::{Block, Dir, Signal, Signals};
 
+mod rt_unit;
 mod waveform;
+
+pub use rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
 
 use waveform::{declares, desc_registers, vcd_scopes};
 pub use waveform::{write_rust_vcd, RegSignal};
@@ -119,8 +122,9 @@ pub fn record<B: Block>(
     for (cycle, inp) in inputs.into_iter().enumerate() {
         let (out, next) = block.eval(&regs, &inp);
         regs = next;
-        let ins = inp.signals();
-        let outs = out.signals();
+        let (mut ins, mut outs) = (inp.signals(), out.signals());
+        ins.extend(inp.bulk_signals());
+        outs.extend(out.bulk_signals());
         let t = match trace.as_mut() {
             Some(t) => t,
             None => trace.insert(Trace {
@@ -174,7 +178,8 @@ pub fn record<B: Block>(
 /// most significant first. A plain port is one signal of its name and width; a packed port
 /// (the `lanes` rows of [`vtq_hdl::bundle!`]: `width x count` bits, lane `i` in bits
 /// `[i*width +: width]`) is traced as the signals `<port>_0` .. `<port>_<count-1>` and connected
-/// as their concatenation, lane `count - 1` first.
+/// as their concatenation, lane `count - 1` first; so is a bulk port, as its 64-bit words
+/// ([`vtq_hdl::Signals::bulk_signals`], the last word possibly narrower).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct PortConn {
     /// Port name.
@@ -240,7 +245,10 @@ fn connect_ports(
             lanes.push(s);
         }
         let bits: u64 = lanes.iter().map(|s| s.width as u64).sum();
-        let even = lanes.iter().all(|s| s.width == lanes[0].width);
+        // Equal lanes; a bulk port's words are 64 bits but the last.
+        let even = lanes.split_last().is_some_and(|(last, rest)| {
+            rest.iter().all(|s| s.width == lanes[0].width) && last.width <= lanes[0].width
+        });
         if lanes.is_empty() || !even || bits != p.width as u64 {
             return Err(format!(
                 "port `{}` has no signal in the port bundles",

@@ -59,6 +59,9 @@ pub enum GenError {
     /// The hardware configuration is out of range.
     #[error(transparent)]
     Config(#[from] vtq_hdl::ConfigError),
+    /// An RT-unit parameter or configuration is out of range.
+    #[error(transparent)]
+    RtUnit(#[from] vtq_hdl::rt_unit::RtUnitError),
     /// An area-model parameter is out of range.
     #[error("invalid area parameter: {key} = {value}: {reason}")]
     AreaParam {

@@ -8,7 +8,8 @@
 //! - [`logic_area`]: NAND2 equivalents and logic area of synthesized RTL (Yosys cell counts
 //!   priced with NanGate45 cell areas); [`logic_report`]: the synthesized-logic table of
 //!   `vtq area --synth` (every block with complete RTL beside the storage model).
-//! - [`rtl`]: complete RTL of the treelet count table, treelet queue table and treelet controller.
+//! - [`rtl`]: complete RTL of the treelet count table, treelet queue table, treelet controller
+//!   and the RT unit's control.
 //! - [`stimulus`]: seeded random stimulus and reactive test benches for the two tables and (its
 //!   [`stimulus::controller`]) the treelet controller.
 //! - [`synth`]: Yosys synthesis statistics and Verilator lint as structured results.

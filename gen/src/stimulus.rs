@@ -15,8 +15,12 @@
 //!
 //! The treelet controller's stimulus is in [`controller`]: a reactive environment of the real
 //! Rust tables and a model of the RT unit, with its own [`controller::ControllerCoverage`].
+//! The RT unit's is in [`rt_unit`]: a toy BVH in a memory model answering its requests out of
+//! order, a toy intersection datapath, and a treelet controller issuing, stopping, repacking
+//! and refilling its warps, with its own [`rt_unit::RtUnitCoverage`].
 
 pub mod controller;
+pub mod rt_unit;
 
 use crate::error::GenError;
 use serde::Serialize;

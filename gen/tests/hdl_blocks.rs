@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 use vtq_gen::compose::{composite_modules, Instance};
-use vtq_gen::rtl::rtl_modules;
+use vtq_gen::rtl::{rt_unit_verilog, rtl_modules, toy_datapath_verilog};
 use vtq_gen::synth::{lint, synthesize};
 use vtq_gen::tools::or_skip;
 use vtq_gen::verilog::MAX_WIDTH;
@@ -116,9 +116,9 @@ fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
     assert!(synth.warnings.is_empty(), "{}: {synth:?}", d.name);
 }
 
-/// The composed treelet RT unit's top module instantiates the tables' and the controller's
-/// complete RTL, the RT unit's skeleton and its wiring module (a skeleton), connected port by
-/// port; all of it lints clean under `verilator --lint-only -Wall`.
+/// The composed treelet RT unit's top module instantiates the tables', the controller's and the
+/// RT unit's complete RTL (the RT unit with the toy datapath) and its wiring module (a
+/// skeleton), connected port by port; all of it lints clean under `verilator --lint-only -Wall`.
 #[test]
 fn the_composed_treelet_rt_unit_lints_clean() {
     let cfg = HwConfig::default();
@@ -138,7 +138,9 @@ fn the_composed_treelet_rt_unit_lints_clean() {
         .collect();
     let mut modules = rtl_modules(&cfg, ControllerFeatures::FULL).unwrap();
     for c in children.iter().filter(|c| c.name == "rt") {
-        modules.push((c.desc.name.clone(), emit_module(&c.desc).unwrap()));
+        let rtl = rt_unit_verilog(&cfg, &RtUnitParams::default()).unwrap();
+        modules.push((c.desc.name.clone(), rtl));
+        modules.push(("rt_datapath".into(), toy_datapath_verilog(cfg.address_bits)));
     }
     let top = composite_modules(&unit.describe(), &children).unwrap();
     let top_text = &top[0].1;

@@ -67,6 +67,57 @@ impl fmt::Debug for UBits {
     }
 }
 
+/// A bit vector built field by field from bit 0 up, as 64-bit words (word 0 lowest): how a
+/// wide port's value (many lanes' records) is laid out for co-simulation.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct BitPacker {
+    words: Vec<u64>,
+    len: u32,
+}
+
+impl BitPacker {
+    /// An empty vector.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Appends the low `width` bits (at most 64) of `value` above the bits so far.
+    pub fn push(&mut self, value: u64, width: u32) -> &mut Self {
+        debug_assert!(width <= 64, "a field of {width} bits");
+        let value = if width >= 64 {
+            value
+        } else {
+            value & ((1u64 << width) - 1)
+        };
+        let (word, shift) = ((self.len / 64) as usize, self.len % 64);
+        let needed = (self.len + width).div_ceil(64) as usize;
+        self.words.resize(needed.max(self.words.len()), 0);
+        if width > 0 {
+            self.words[word] |= value << shift;
+            if shift != 0 && shift + width > 64 {
+                self.words[word + 1] |= value >> (64 - shift);
+            }
+        }
+        self.len += width;
+        self
+    }
+
+    /// Bits pushed so far.
+    pub fn len(&self) -> u32 {
+        self.len
+    }
+
+    /// Whether nothing was pushed.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The words, lowest first.
+    pub fn into_words(self) -> Vec<u64> {
+        self.words
+    }
+}
+
 /// Whether `value` fits in `width` bits (`width` 0 holds only 0; 64 holds everything).
 #[inline]
 pub fn fits(value: u64, width: u32) -> bool {
@@ -90,6 +141,14 @@ pub fn bits_for(max: u64) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn packer_lays_fields_from_bit_0_across_words() {
+        let mut p = BitPacker::new();
+        p.push(0b101, 3).push(u64::MAX, 64).push(0xff, 4);
+        assert_eq!(p.len(), 71);
+        assert_eq!(p.into_words(), vec![u64::MAX << 3 | 0b101, 0x7f]);
+    }
 
     #[test]
     fn widths() {

@@ -40,6 +40,13 @@ impl Signal {
 pub trait Signals {
     /// The bundle's signals in a fixed order (the same order every cycle).
     fn signals(&self) -> Vec<Signal>;
+
+    /// The values of the bundle's bulk ports (data too wide to trace, such as whole ray
+    /// records), as 64-bit words `<port>_<k>` (word 0 lowest; the last may be narrower), for
+    /// co-simulation; none by default.
+    fn bulk_signals(&self) -> Vec<Signal> {
+        Vec::new()
+    }
 }
 
 /// A synchronous hardware block with a pure next-state function.

@@ -36,8 +36,8 @@
 //!         each tag (3, 2) = |i: usize| i as u64;
 //!         /// a wide word, described but not traced
 //!         bulk blob (512);
-//!         /// a record's fields, described but not traced
-//!         bulks rec ([("a", 3, "field a"), ("b", 5, "field b")]);
+//!         /// a record's fields, described but not traced (their words for co-simulation)
+//!         bulks rec ([("a", 3, "field a"), ("b", 70, "field b")]) = |f: usize| vec![f as u64 + 1];
 //!         group resp (k < 2) {
 //!             /// the response port carries data
 //!             sig valid (1) = this.data[k].is_some() as u64;
@@ -59,7 +59,7 @@
 //! assert_eq!(
 //!     ports.iter().map(|p| (p.name.as_str(), p.width)).collect::<Vec<_>>(),
 //!     [("valid", 1), ("address", 16), ("enable", 4), ("tag_0", 3), ("tag_1", 3), ("blob", 512),
-//!      ("rec_a", 3), ("rec_b", 5), ("resp0_valid", 1), ("resp0_data", 8), ("resp1_valid", 1),
+//!      ("rec_a", 3), ("rec_b", 70), ("resp0_valid", 1), ("resp0_data", 8), ("resp1_valid", 1),
 //!      ("resp1_data", 8)]
 //! );
 //! let names: Vec<String> = b.signals().into_iter().map(|s| s.name).collect();
@@ -69,6 +69,12 @@
 //!      "resp0_valid", "resp0_data", "resp1_valid", "resp1_data"]
 //! );
 //! assert_eq!(b.signals()[11].value, 7);
+//! let bulk: Vec<(String, u32, u64)> =
+//!     b.bulk_signals().into_iter().map(|s| (s.name, s.width, s.value)).collect();
+//! assert_eq!(
+//!     bulk,
+//!     [("rec_a_0".into(), 3, 1), ("rec_b_0".into(), 64, 2), ("rec_b_1".into(), 6, 0)]
+//! );
 //! ```
 //!
 //! Port kinds:
@@ -78,9 +84,12 @@
 //! - `each name (width, count) = |i| value;` `count` ports `name_<i>` of `width` bits each;
 //! - `bulk name (width);` a port that is described but not traced (bulk data such as whole ray
 //!   records, whose value needs no trace);
-//! - `bulks prefix (table);` a family of bulk ports `<prefix>_<field>` from a table of
-//!   `(field, width, doc)` (one table for the fields of a record that enters and leaves a
-//!   block by two families of ports; the row's own documentation names the family);
+//! - `bulks prefix (table) = |f| words;` a family of bulk ports `<prefix>_<field>` from a table
+//!   of `(field, width, doc)` (one table for the fields of a record that enters and leaves a
+//!   block by two families of ports; the row's own documentation names the family); not traced
+//!   by [`Signals::signals`](crate::Signals::signals), but the value of field `f` (its 64-bit
+//!   words, lowest first) is given to co-simulation by
+//!   [`Signals::bulk_signals`](crate::Signals::bulk_signals) as `<prefix>_<field>_<k>`;
 //! - `group prefix (k < count) { rows }` the rows (of the kinds above) once per `k` in
 //!   `0..count`, named `<prefix><k>_<name>`, in the order `k` = 0 first; `k` is a `usize` the
 //!   rows' values may use.
@@ -238,10 +247,10 @@ macro_rules! __bundle_rows {
         }
     };
     (@munch $ctx:tt (fixed $d:ident $nm:tt $st:tt) [$($acc:tt)*] $(#[doc = $doc:tt])+
-        bulks $name:ident ($table:expr) ; $($rest:tt)*) => {
+        bulks $name:ident ($table:expr) = $value:expr ; $($rest:tt)*) => {
         $crate::__bundle_rows! {
             @munch $ctx (fixed $d $nm $st) [$($acc)* [$d bulks ($crate::__bundle_name!($nm $name))
-                ($table)]] $($rest)*
+                ($table) ($value)]] $($rest)*
         }
     };
     // One row of each kind, naming its own direction.
@@ -274,10 +283,10 @@ macro_rules! __bundle_rows {
         }
     };
     (@munch $ctx:tt (free) [$($acc:tt)*] $(#[doc = $doc:tt])+
-        $rd:ident bulks $name:ident ($table:expr) ; $($rest:tt)*) => {
+        $rd:ident bulks $name:ident ($table:expr) = $value:expr ; $($rest:tt)*) => {
         $crate::__bundle_rows! {
             @munch $ctx (free) [$($acc)* [$rd bulks ($crate::__bundle_name!((stringify) $name))
-                ($table)]] $($rest)*
+                ($table) ($value)]] $($rest)*
         }
     };
 }
@@ -345,6 +354,20 @@ macro_rules! __bundle_impl {
                 $( $crate::__bundle_signal!($dir, signals, $row); )*
                 signals
             }
+
+            #[allow(
+                unused_variables,
+                unused_mut,
+                clippy::redundant_closure_call,
+                clippy::vec_init_then_push
+            )]
+            fn bulk_signals(&self) -> Vec<$crate::block::Signal> {
+                let $w = &self.widths;
+                let $this = self;
+                let mut signals = Vec::new();
+                $( $crate::__bundle_bulk_signal!($dir, signals, $row); )*
+                signals
+            }
         }
     };
     (@block {
@@ -400,7 +423,7 @@ macro_rules! __bundle_port {
     (@row $v:ident, $rd:ident, [bulk ($name:expr) ($width:expr) ($($doc:tt),+)]) => {
         $v.push($crate::bundle::port_desc(&$name, $crate::describe::Dir::$rd, $width, &[$($doc),+]));
     };
-    (@row $v:ident, $rd:ident, [bulks ($name:expr) ($table:expr)]) => {
+    (@row $v:ident, $rd:ident, [bulks ($name:expr) ($table:expr) ($value:expr)]) => {
         let prefix = $name;
         for (field, width, doc) in $table {
             $v.push($crate::bundle::port_desc(
@@ -441,7 +464,7 @@ macro_rules! __bundle_signal {
         $crate::__bundle_signal!(@lanes $v, ($name) ($width) ($count) ($value));
     };
     (@row $v:ident, [bulk ($name:expr) ($width:expr) ($($doc:tt),+)]) => {};
-    (@row $v:ident, [bulks ($name:expr) ($table:expr)]) => {};
+    (@row $v:ident, [bulks ($name:expr) ($table:expr) ($value:expr)]) => {};
     (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_signal!(@row $v, [$($inner)*]); )*
@@ -454,6 +477,55 @@ macro_rules! __bundle_signal {
             $v.push($crate::block::Signal::new(format!("{}_{}", name, i), $width, value(i)));
         }
     }};
+}
+
+/// One normalized row's bulk signals for [`bundle!`] (the 64-bit words of its `bulks` ports),
+/// if it belongs to the bundle of direction `$want` (an implementation detail of the macro).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __bundle_bulk_signal {
+    (In, $v:ident, [In $($row:tt)*]) => {
+        $crate::__bundle_bulk_signal!(@row $v, [$($row)*]);
+    };
+    (Out, $v:ident, [Out $($row:tt)*]) => {
+        $crate::__bundle_bulk_signal!(@row $v, [$($row)*]);
+    };
+    (In, $v:ident, [Out $($row:tt)*]) => {};
+    (Out, $v:ident, [In $($row:tt)*]) => {};
+    (@row $v:ident, [bulks ($name:expr) ($table:expr) ($value:expr)]) => {{
+        let prefix = $name;
+        let value = $value;
+        for (f, (field, width, _)) in $table.into_iter().enumerate() {
+            $crate::bundle::push_words(&mut $v, &format!("{}_{}", prefix, field), width, value(f));
+        }
+    }};
+    (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
+        for $k in 0..($n) as usize {
+            $( $crate::__bundle_bulk_signal!(@row $v, [$($inner)*]); )*
+        }
+    };
+    (@row $v:ident, [$($other:tt)*]) => {};
+}
+
+/// Appends the signals of a `width`-bit bulk port `name` whose value is `words` (64-bit words,
+/// the lowest first; missing words are zero): `<name>_<k>` for word `k`, 64 bits each but the
+/// last (an implementation detail of [`bundle!`]).
+#[doc(hidden)]
+pub fn push_words(
+    signals: &mut Vec<crate::block::Signal>,
+    name: &str,
+    width: u32,
+    words: Vec<u64>,
+) {
+    for k in 0..width.div_ceil(64) {
+        let bits = (width - 64 * k).min(64);
+        let word = words.get(k as usize).copied().unwrap_or(0);
+        debug_assert!(
+            bits == 64 || word >> bits == 0,
+            "bulk port {name}: word {k} does not fit its {bits} bits"
+        );
+        signals.push(crate::block::Signal::new(format!("{name}_{k}"), bits, word));
+    }
 }
 
 /// Whether a port of direction `dir` is wanted by a port list of direction `want` (`None`: all).

@@ -13,7 +13,7 @@ pub mod config;
 pub mod counters;
 pub mod describe;
 
-pub use bits::{bits_for, clog2, UBits, WidthError};
+pub use bits::{bits_for, clog2, BitPacker, UBits, WidthError};
 pub use block::{Block, Signal, Signals};
 pub use config::{ConfigError, HwConfig};
 pub use describe::{BlockDesc, Dir, FsmDesc, MemDesc, PortDesc, RegDesc};

@@ -522,8 +522,9 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
     let modules = [
         "treelet_count_table",
         "treelet_queue_table",
-        "rt_unit",
         "treelet_controller",
+        "rt_unit",
+        "rt_datapath",
         "treelet_rt_unit",
         "treelet_rt_unit_wiring",
     ];
@@ -534,14 +535,19 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
         assert!(source.contains(&format!("module {module}")), "{module}");
     }
     let written = std::fs::read_dir(&dir).unwrap().count();
-    assert_eq!(written, modules.len(), "only the six modules are written");
+    assert_eq!(written, modules.len(), "only the seven modules are written");
     let files: Vec<_> = modules.iter().map(|m| dir.join(format!("{m}.v"))).collect();
-    // Each block alone, then the top with everything it instantiates.
-    for (module, file) in modules.iter().zip(&files).take(4) {
+    // Each block alone (the RT unit with its datapath), then the top with everything it
+    // instantiates.
+    for (module, sources) in [
+        ("treelet_count_table", &files[0..1]),
+        ("treelet_queue_table", &files[1..2]),
+        ("treelet_controller", &files[2..3]),
+        ("rt_unit", &files[3..5]),
+    ] {
         let lint_dir = dir.join(format!("lint-{module}"));
         std::fs::create_dir_all(&lint_dir).unwrap();
-        let Some(report) = or_skip(lint(std::slice::from_ref(file), module, &lint_dir)).unwrap()
-        else {
+        let Some(report) = or_skip(lint(sources, module, &lint_dir)).unwrap() else {
             return;
         };
         assert!(report.is_clean(), "{module}:\n{report}");
@@ -552,6 +558,29 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
         return;
     };
     assert!(report.is_clean(), "treelet_rt_unit:\n{report}");
+}
+
+/// `vtq cosim --block rt-unit`: the RT unit's RTL against the Rust block at the configured
+/// (paper) sizes, with the toy datapath; a real run's replay is refused with the reason.
+#[test]
+fn cosim_of_the_rt_unit_matches() {
+    let dir = temp_dir("cosim-rt");
+    let Some(stdout) = vtq_cosim(&[
+        "cosim",
+        "--block",
+        "rt-unit",
+        "--cycles",
+        "300",
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ]) else {
+        return;
+    };
+    let line = line_starting(&stdout, "rt_unit: ");
+    assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
+    assert!(dir.join("rt_unit").join("rt_datapath.v").is_file());
+    let out = vtq(&["cosim", "--block", "rt-unit", "--scene", "cornell"]);
+    assert_one_line_error(&out, "toy datapath");
 }
 
 #[test]

@@ -1,6 +1,8 @@
-//! Complete, synthesizable Verilog-2005 RTL for the blocks generated in full: the treelet count
-//! table ([`count_table_verilog`]), the treelet queue table ([`queue_table_verilog`]) and the
-//! treelet controller ([`controller_verilog`]).
+//! Complete Verilog-2005 RTL for the blocks generated in full: the treelet count table
+//! ([`count_table_verilog`]), the treelet queue table ([`queue_table_verilog`]) and the treelet
+//! controller ([`controller_verilog`]), synthesizable; and the RT unit's control
+//! ([`rt_unit_verilog`], with the toy datapath [`toy_datapath_verilog`]), co-simulated and
+//! lint-clean but not yet synthesizable in reasonable time (its module documentation).
 //!
 //! Each module is built from the Rust block's [`vtq_hdl::Block::describe`]: the module name,
 //! the header comment and the port list come from g1's emitter ([`crate::verilog`]), and every
@@ -19,10 +21,14 @@
 mod controller;
 mod count_table;
 mod queue_table;
+mod rt_unit;
 
 pub use controller::controller_verilog;
 pub use count_table::count_table_verilog;
 pub use queue_table::queue_table_verilog;
+pub use rt_unit::{
+    rt_unit_verilog, toy_datapath_verilog, CHILD_BITS, CHILD_COUNT_BITS, DATAPATH_PORTS,
+};
 
 use crate::emit::{one_line, range, VerilogWriter};
 use crate::error::GenError;

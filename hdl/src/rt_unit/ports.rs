@@ -11,7 +11,7 @@ use super::bundles::{
     RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
 };
 use super::node::{NodeEntry, CHUNK_BYTES, RAY_WORDS};
-use crate::bits::bits_for;
+use crate::bits::{bits_for, BitPacker};
 
 /// Bits of a memory data chunk (32 B).
 pub(super) const DATA_BITS: u32 = CHUNK_BYTES * 8;
@@ -138,7 +138,7 @@ crate::bundle! {
             this.issue_lane(i).map_or(0, |r| r.ray_id as u64)
         };
         /// per lane: the rest of the ray state loaded at issue (words, hit, current treelet, both on-chip stacks and their pointers and spilled-chunk counts)
-        In bulks issue (ray_state(w));
+        In bulks issue (ray_state(w)) = |f: usize| ray_state_words(w, f, |i| this.issue_lane(i));
         /// a 32 B memory request is issued (at most one per cycle)
         Out sig req_valid (1) = this.request.is_some() as u64;
         /// byte address of the request (32 B aligned)
@@ -180,7 +180,9 @@ crate::bundle! {
             this.done_lane(i).map_or(0, |(r, _)| r.ray_id as u64)
         };
         /// per lane: the rest of the ray state written back at completion
-        Out bulks done (ray_state(w));
+        Out bulks done (ray_state(w)) = |f: usize| {
+            ray_state_words(w, f, |i| this.done_lane(i).map(|(r, _)| r))
+        };
         /// per lane: the ray reached a treelet boundary this cycle
         Out sig boundary_valid (w.warp_size) = mask(w.warp_size, |i| this.boundary_at(i).is_some());
         /// slot of the rays reaching a boundary (the slot whose response was popped)
@@ -363,6 +365,67 @@ fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
         ("cur_stack", stack, "per lane: current-treelet stack entries, bottom first (parallel load of the ray state)"),
         ("other_stack", stack, "per lane: other-treelet stack entries, bottom first"),
     ]
+}
+
+/// Field `f` of [`ray_state`] for every lane as 64-bit words (lane `i` in bits
+/// `[i*width +: width]`, zero for a lane without a ray): ray words `[j*32 +: 32]`, hit
+/// `{attribs[1], attribs[0], hit id, t}` (t lowest), stacks entry `j` (bottom first) in
+/// `[j*entry +: entry]` as [`NodeEntry::encode`], entries above the pointer zero.
+fn ray_state_words<'a>(
+    w: &Widths,
+    f: usize,
+    lane: impl Fn(usize) -> Option<&'a RayRecord>,
+) -> Vec<u64> {
+    let mut p = BitPacker::new();
+    for i in 0..w.warp_size as usize {
+        let r = lane(i);
+        let hit = r.and_then(|r| r.hit);
+        let stack = |p: &mut BitPacker, s: Option<&crate::bounded::BoundedVec<NodeEntry>>| {
+            for j in 0..w.stack_depth as usize {
+                p.push(
+                    s.and_then(|s| s.get(j)).map_or(0, NodeEntry::encode),
+                    w.entry(),
+                );
+            }
+        };
+        match f {
+            0 => {
+                for j in 0..RAY_WORDS {
+                    p.push(r.map_or(0, |r| r.words[j] as u64), 32);
+                }
+            }
+            1 => {
+                p.push(hit.is_some() as u64, 1);
+            }
+            2 => {
+                let h = hit.unwrap_or_default();
+                for v in [h.t, h.hit_id, h.attribs[0], h.attribs[1]] {
+                    p.push(v as u64, 32);
+                }
+            }
+            3 => {
+                p.push(r.map_or(0, |r| r.current_treelet), w.treelet);
+            }
+            4 => {
+                p.push(
+                    r.map_or(0, |r| r.current_stack.len() as u64),
+                    w.stack_pointer,
+                );
+            }
+            5 => {
+                p.push(r.map_or(0, |r| r.other_stack.len() as u64), w.stack_pointer);
+            }
+            6 => {
+                p.push(r.map_or(0, |r| r.current_spilled as u64), w.spilled);
+            }
+            7 => {
+                p.push(r.map_or(0, |r| r.other_spilled as u64), w.spilled);
+            }
+            8 => stack(&mut p, r.map(|r| &r.current_stack)),
+            _ => stack(&mut p, r.map(|r| &r.other_stack)),
+        }
+    }
+    p.into_words()
 }
 
 /// A mask of `n` lanes, bit `i` set where `on(i)`.

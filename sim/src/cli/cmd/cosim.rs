@@ -1,9 +1,11 @@
 //! `vtq cosim`: co-simulates the generated RTL of the treelet count table, the treelet queue
-//! table and the treelet controller against the Rust blocks, cycle by cycle, with Icarus Verilog
-//! or Verilator: on the seeded random stimulus of [`vtq_gen::stimulus`] (for the controller, its
-//! reactive environment [`vtq_gen::stimulus::controller`]), or (`--scene`) on the real traffic of
-//! a simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle by cycle
-//! from reset and replayed as the testbench's stimulus.
+//! table, the treelet controller and the RT unit's control against the Rust blocks, cycle by
+//! cycle, with Icarus Verilog or Verilator: on the seeded random stimulus of
+//! [`vtq_gen::stimulus`] (for the controller and the RT unit, their reactive environments
+//! [`vtq_gen::stimulus::controller`] and [`vtq_gen::stimulus::rt_unit`], the RT unit with the
+//! toy node format's datapath on both sides), or (`--scene`, tables and controller) on the real
+//! traffic of a simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle
+//! by cycle from reset and replayed as the testbench's stimulus.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -11,16 +13,21 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use vtq_gen::cosim::{
-    record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, Simulator, Trace, RESET_CYCLES,
-    RTL_VCD_FILE, RUST_VCD_FILE,
+    record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, RtUnitWithStatus, Simulator,
+    Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
 };
-use vtq_gen::rtl::{controller_verilog, count_table_verilog, queue_table_verilog};
+use vtq_gen::rtl::{
+    controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_verilog,
+    toy_datapath_verilog,
+};
 use vtq_gen::stimulus::controller::controller_inputs;
+use vtq_gen::stimulus::rt_unit::rt_unit_inputs;
 use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
 use vtq_gen::GenError;
 use vtq_hdl::controller::{ControllerInputs, ControllerStats, TreeletController};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::QueueOp;
+use vtq_hdl::rt_unit::RtUnitParams;
 use vtq_hdl::Block;
 
 use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
@@ -40,7 +47,9 @@ pub enum BlockChoice {
     Tables,
     /// The treelet controller.
     Controller,
-    /// Both tables and the controller.
+    /// The RT unit's control (random stimulus only, with the toy datapath).
+    RtUnit,
+    /// Both tables, the controller and the RT unit.
     All,
 }
 
@@ -59,6 +68,9 @@ impl BlockChoice {
     }
     fn controller(self) -> bool {
         matches!(self, BlockChoice::Controller | BlockChoice::All)
+    }
+    fn rt_unit(self) -> bool {
+        matches!(self, BlockChoice::RtUnit | BlockChoice::All)
     }
 }
 
@@ -93,7 +105,7 @@ pub struct CosimArgs {
     #[arg(long, default_value_t = 100_000)]
     pub cycles: usize,
     /// Stimulus seed (the count table uses SEED, the queue table SEED + 1, the controller
-    /// SEED + 2).
+    /// SEED + 2, the RT unit SEED + 3).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Simulator to run the testbench with.
@@ -106,7 +118,8 @@ pub struct CosimArgs {
     /// Replay real traffic instead of random stimulus: simulate this scene (with `--config`,
     /// which must be a queues design) and record the inputs of SM `--sm` for `--cycles` cycles:
     /// the tables' from the first op either table gets (before it they only get nops from
-    /// reset), the controller's from reset.
+    /// reset), the controller's from reset. Not for the RT unit, whose RTL co-simulates with the
+    /// toy datapath only.
     #[arg(long)]
     pub scene: Option<String>,
     /// The SM whose blocks are recorded with `--scene`.
@@ -143,23 +156,28 @@ fn explain_missing(e: GenError) -> anyhow::Error {
     }
 }
 
-/// Writes `text` as `<dir>/<module>.v` and co-simulates `trace` against it in `dir`.
+/// Writes each `(module, text)` of `sources` as `<dir>/<module>.v` and co-simulates `trace`
+/// against them in `dir`.
 fn cosim_table(
     dir: &Path,
     trace: &Trace,
-    text: &str,
+    sources: &[(String, String)],
     simulator: Simulator,
     vcd: bool,
 ) -> anyhow::Result<CosimResult> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let source = dir.join(format!("{}.v", trace.module));
-    std::fs::write(&source, text).with_context(|| format!("writing {}", source.display()))?;
+    let mut files = Vec::new();
+    for (module, text) in sources {
+        let source = dir.join(format!("{module}.v"));
+        std::fs::write(&source, text).with_context(|| format!("writing {}", source.display()))?;
+        files.push(source);
+    }
     let opts = CosimOptions {
         simulator,
         vcd,
         ..CosimOptions::icarus(dir)
     };
-    run_cosim(trace, &[source], &opts).map_err(explain_missing)
+    run_cosim(trace, &files, &opts).map_err(explain_missing)
 }
 
 /// Writes the Rust block's waveform of a job's run to a path (`vtq cosim --vcd`).
@@ -182,7 +200,8 @@ struct Job {
     trace: Trace,
     /// What the stimulus covered, in words.
     coverage: String,
-    verilog: String,
+    /// The RTL: `(module, Verilog text)`, the block's module first.
+    verilog: Vec<(String, String)>,
     /// The Rust block's waveform writer, with `--vcd`.
     rust_vcd: Option<RustVcd>,
 }
@@ -197,7 +216,7 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             rust_vcd: rust_vcd(&table, &inputs, args.vcd),
             trace: record(&table, inputs)?,
             coverage: coverage.to_string(),
-            verilog: count_table_verilog(hw)?,
+            verilog: vec![(table.describe().name, count_table_verilog(hw)?)],
         });
     }
     if args.block.queue() {
@@ -207,7 +226,7 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             rust_vcd: rust_vcd(&table, &inputs, args.vcd),
             trace: record(&table, inputs)?,
             coverage: coverage.to_string(),
-            verilog: queue_table_verilog(hw)?,
+            verilog: vec![(table.describe().name, queue_table_verilog(hw)?)],
         });
     }
     if args.block.controller() {
@@ -218,15 +237,44 @@ fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             rust_vcd: rust_vcd(&ctl, &inputs, args.vcd),
             trace: record(&ctl, inputs)?,
             coverage: coverage.to_string(),
-            verilog: controller_verilog(hw, features)?,
+            verilog: vec![(ctl.describe().name, controller_verilog(hw, features)?)],
+        });
+    }
+    if args.block.rt_unit() {
+        let seed = args.seed.wrapping_add(3);
+        let params = rt_unit_params(cfg);
+        let (unit, inputs, coverage) = rt_unit_inputs(hw, &params, args.cycles, seed)?;
+        let unit = RtUnitWithStatus(unit);
+        out.push(Job {
+            rust_vcd: rust_vcd(&unit, &inputs, args.vcd),
+            trace: record(&unit, inputs)?,
+            coverage: format!("random with the toy datapath: {coverage}"),
+            verilog: vec![
+                (unit.describe().name, rt_unit_verilog(hw, &params)?),
+                (
+                    "rt_datapath".to_string(),
+                    toy_datapath_verilog(hw.address_bits),
+                ),
+            ],
         });
     }
     Ok(out)
 }
 
+/// The RT unit's parameters of `cfg`, as `vtq verilog` generates it.
+pub fn rt_unit_params(cfg: &SimConfig) -> RtUnitParams {
+    cfg.rt_unit_params(0, None, RtUnitParams::default().stack_spill_chunks)
+}
+
 /// The jobs of a replay of real traffic: simulates `scene` and records SM `args.sm`'s table
 /// inputs.
 fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
+    if args.block == BlockChoice::RtUnit {
+        bail!(
+            "--scene replays real traffic for the tables and the controller only: the RT unit's \
+             RTL co-simulates with the toy datapath (--block rt-unit without --scene)"
+        );
+    }
     let cfg = args.config.load()?;
     let scene = load_scene(scene)?;
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
@@ -273,7 +321,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             rust_vcd: rust_vcd(&table, &log.count, args.vcd),
             trace: record(&table, log.count.iter().copied())?,
             coverage: what(ops),
-            verilog: count_table_verilog(hw)?,
+            verilog: vec![(table.describe().name, count_table_verilog(hw)?)],
         });
     }
     if args.block.queue() {
@@ -286,7 +334,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             rust_vcd: rust_vcd(&table, &log.queue, args.vcd),
             trace: record(&table, log.queue.iter().copied())?,
             coverage: what(ops),
-            verilog: queue_table_verilog(hw)?,
+            verilog: vec![(table.describe().name, queue_table_verilog(hw)?)],
         });
     }
     if args.block.controller() {
@@ -305,7 +353,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
                 cfg.mode.kind.name(),
                 out.stats.cycles
             ),
-            verilog: controller_verilog(hw, features)?,
+            verilog: vec![(ctl.describe().name, controller_verilog(hw, features)?)],
         });
     }
     Ok(jobs)

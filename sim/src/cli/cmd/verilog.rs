@@ -1,14 +1,16 @@
 //! `vtq verilog`: Verilog-2005 for every hardware block at the configured sizes — complete RTL
-//! for the treelet count table, the treelet queue table and the treelet controller (with the
-//! configuration's design features when it is a queues design, the full design otherwise), a
-//! skeleton with every port, register and state for the RT unit, and the composed treelet RT
-//! unit: a top module instantiating the four with its wiring module (a skeleton).
+//! for the treelet count table, the treelet queue table, the treelet controller (with the
+//! configuration's design features when it is a queues design, the full design otherwise) and
+//! the RT unit's control (with `rt_datapath`, the toy node format's datapath standing in for the
+//! box/triangle datapath), and the composed treelet RT unit: a top module instantiating the four
+//! with its wiring module (a skeleton).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
 use vtq_gen::compose::{composite_modules, Instance};
+use vtq_gen::rtl::{rt_unit_verilog, toy_datapath_verilog};
 use vtq_hdl::rt_unit::NoDatapath;
 use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
 use vtq_hdl::Block;
@@ -26,17 +28,15 @@ pub struct VerilogArgs {
     pub out: PathBuf,
 }
 
-/// Every block's module as (module name, Verilog text): the tables and the controller (full
-/// RTL), the RT unit (a skeleton), then the composed treelet RT unit's top and wiring modules.
+/// Every block's module as (module name, Verilog text): the tables, the controller and the RT
+/// unit (full RTL) with the RT unit's stand-in datapath, then the composed treelet RT unit's top
+/// and wiring modules.
 pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
     let features = cfg.hardware_controller_features();
     let mut out = vtq_gen::rtl::rtl_modules(&cfg.hw, features)?;
+    let rt_params = super::cosim::rt_unit_params(cfg);
     let params = TreeletRtUnitParams {
-        rt: cfg.rt_unit_params(
-            0,
-            None,
-            vtq_hdl::rt_unit::RtUnitParams::default().stack_spill_chunks,
-        ),
+        rt: rt_params.clone(),
         features,
         ray_base: 0,
     };
@@ -49,9 +49,14 @@ pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
             desc,
         })
         .collect();
-    // The RT unit (the first child) is the one block still emitted as a skeleton.
-    let rt = &children[0].desc;
-    out.push((rt.name.clone(), vtq_gen::emit_module(rt)?));
+    out.push((
+        children[0].desc.name.clone(),
+        rt_unit_verilog(&cfg.hw, &rt_params)?,
+    ));
+    out.push((
+        "rt_datapath".to_string(),
+        toy_datapath_verilog(cfg.hw.address_bits),
+    ));
     out.extend(composite_modules(&unit.describe(), &children)?);
     Ok(out)
 }

@@ -1,0 +1,1143 @@
+//! Seeded random stimulus for the RT unit's control ([`RtUnit`]), played by a reactive
+//! environment: a toy BVH in a memory model, a toy intersection datapath ([`ToyDatapath`],
+//! specified byte for byte so that a Verilog twin can be written from it), and a treelet
+//! controller that issues, stops, repacks and refills warps.
+//!
+//! The environment steps its own copy of the Rust block and reads its registers like a test
+//! bench peeking at the design: it issues warps only into slots that are free (`issue_ready`,
+//! or a free slot named by number), stops only two-stack warps that do not complete this cycle,
+//! repacks a warp now and then and appends rays into the lanes the repack left inactive, and
+//! keeps every resident ray id unique. Memory answers each node load and stack fill 1–12 cycles
+//! later, out of order, with at most as many responses per cycle as the response FIFO accepts
+//! (sometimes one more than `resp_free`, which the FIFO's pop makes room for; a response the
+//! FIFO drops is sent again). Rays come fresh from a root, with a previous hit, already finished,
+//! or in the middle of a traversal with stack chunks already spilled; rays parked at a treelet
+//! boundary go back to a pool and are issued again in treelet warps.
+//!
+//! After the first [`QUIET_CYCLES`] cycles the environment also breaks the protocol, rarely,
+//! to raise each of the block's sticky errors (counted per cycle in [`RtUnitCoverage`]): a
+//! warp issued while the buffer is full, a malformed warp, a slot command naming a slot it
+//! cannot act on, an append into a lane that holds a ray, one response more than the FIFO has
+//! room for, a response matching nothing or a duplicate node chunk, rays of the ray class 7
+//! (`ray[0] & 7`), the only ones that visit the tree's bad children. In the last sixteenth of
+//! a stream of at least 2000 cycles one ray is issued with its spill area already full and a
+//! full on-chip stack, so its next fetch raises `SpillAreaFull`: the scheduler then retries
+//! that spill every cycle and makes no other request, so the stream ends with the unit
+//! stalled. The same configuration, parameters, length and seed always give the same inputs.
+
+use super::Rng;
+use crate::error::GenError;
+use serde::Serialize;
+use std::collections::HashMap;
+use vtq_hdl::bounded::BoundedVec;
+use vtq_hdl::rt_unit::{
+    errors, pack_spill_chunk, spill_area, ErrorKind, Hit, IssueTarget, Lane, LaneStatus,
+    MemResponse, NodeDatapath, NodeEntry, NodeKind, RayOutcome, RayRecord, RayWords, RequestKind,
+    RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs, StackSel, TestResult, TraversalOrder,
+    WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
+};
+use vtq_hdl::{Block, HwConfig};
+
+/// The last byte of every well-formed toy node.
+pub const TOY_MAGIC: u8 = 0xA5;
+
+/// Every error flag of the RT unit (for [`RtUnitCoverage::covers_everything`]).
+pub const ALL_ERRORS: u8 = (1 << errors::BITS) - 1;
+
+/// Cycles at the start of a stream in which the environment breaks no rule.
+pub const QUIET_CYCLES: u64 = 500;
+
+/// A toy intersection datapath reading nodes of this format (`n` = `node.bytes()`): byte 0
+/// the child count, byte 1 the hit flag (nonzero: the node reports a hit), bytes 2..4 the top
+/// 16 bits of the hit's t (little endian), from byte 4 the child records of 8 bytes each
+/// (address u32 little endian, kind code, chunks as stored, ray mask, unused byte), and
+/// [`TOY_MAGIC`] as byte `n - 1`.
+///
+/// A test of a node whose data is not `n` bytes or does not end with the magic byte finds
+/// nothing. Otherwise the first `min(count, (n - 5) / 8)` records are read in order, and a
+/// child is kept when its mask has bit `ray[0] & 7` set (the ray's class) and its kind code is
+/// below 6: `NodeEntry { address, kind: NodeKind::ALL[code], chunks }`, unchecked, so the RT
+/// unit sees bad children. With the hit flag the node reports `Hit { t: top << 16, hit_id:
+/// node address, attribs: [ray[0], node address ^ 0x5555_5555] }`. The closest hit so far is
+/// ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ToyDatapath;
+
+impl NodeDatapath for ToyDatapath {
+    fn test(
+        &self,
+        ray: &RayWords,
+        _best: Option<&Hit>,
+        node: &NodeEntry,
+        data: &[u8],
+    ) -> TestResult {
+        let n = node.bytes() as usize;
+        if n == 0 || data.len() != n || data[n - 1] != TOY_MAGIC {
+            return TestResult::default();
+        }
+        let select = 1u8 << (ray[0] & 7);
+        let cap = (n - 5) / 8;
+        let children = data[4..]
+            .chunks_exact(8)
+            .take((data[0] as usize).min(cap))
+            .filter(|c| c[6] & select != 0 && c[4] < 6)
+            .map(|c| NodeEntry {
+                address: u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as u64,
+                kind: NodeKind::ALL[c[4] as usize],
+                chunks: c[5],
+            })
+            .collect();
+        let hit = (data[1] != 0).then(|| Hit {
+            t: (u16::from_le_bytes([data[2], data[3]]) as u32) << 16,
+            hit_id: node.address as u32,
+            attribs: [ray[0], node.address as u32 ^ 0x5555_5555],
+        });
+        TestResult { children, hit }
+    }
+}
+
+/// One child record of a toy node ([`toy_node_bytes`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ToyChild {
+    /// Byte address of the child.
+    pub address: u32,
+    /// Kind code: the index in [`NodeKind::ALL`]; 6 and 7 make the datapath skip the record.
+    pub kind: u8,
+    /// Size in 32 B chunks, as stored (the RT unit rejects 0 and above 4).
+    pub chunks: u8,
+    /// The ray classes (`ray[0] & 7`) that visit the child, one bit each.
+    pub mask: u8,
+}
+
+/// The bytes of a toy node of `chunks` chunks (1..=4) in [`ToyDatapath`]'s format: child count
+/// `children.len()`, the records that fit (at most `(32 chunks - 5) / 8`, so a count above that
+/// is cut by the datapath), the hit flag with t's top 16 bits when `hit_t` is given, and
+/// [`TOY_MAGIC`] last.
+pub fn toy_node_bytes(chunks: u8, hit_t: Option<u16>, children: &[ToyChild]) -> Vec<u8> {
+    let n = chunks as usize * CHUNK_BYTES as usize;
+    let mut b = vec![0u8; n];
+    b[0] = children.len() as u8;
+    if let Some(t) = hit_t {
+        b[1] = 1;
+        b[2..4].copy_from_slice(&t.to_le_bytes());
+    }
+    for (rec, c) in b[4..n - 1].chunks_exact_mut(8).zip(children) {
+        rec[..4].copy_from_slice(&c.address.to_le_bytes());
+        rec[4] = c.kind;
+        rec[5] = c.chunks;
+        rec[6] = c.mask;
+    }
+    b[n - 1] = TOY_MAGIC;
+    b
+}
+
+/// The configuration the RT unit's stimulus is tested with, for co-simulation tests to reuse:
+/// 4-lane warps, 3 warp-buffer slots, 4-entry stacks, 16 rays, a 16-bit address space with
+/// 128 B treelets, nodes of at most 3 children, a 4-entry response FIFO with 2 ports and 4 spill
+/// chunks per stack.
+pub fn small_config() -> (HwConfig, RtUnitParams) {
+    let cfg = HwConfig {
+        warp_size: 4,
+        warp_buffer_size: 3,
+        stack_depth: 4,
+        max_rays: 16,
+        address_bits: 16,
+        treelet_bytes: 128,
+        count_table_entries: 16,
+        queue_table_entries: 8,
+        underpopulation_threshold: 8,
+        repack_threshold: 2,
+        divergence_threshold: 2,
+        ..HwConfig::default()
+    };
+    let params = RtUnitParams {
+        max_children: 3,
+        resp_fifo_depth: 4,
+        resp_ports: 2,
+        stack_spill_chunks: 4,
+        ..RtUnitParams::default()
+    };
+    (cfg, params)
+}
+
+/// The error kinds in flag order (bit `k` of `errors` is kind `k`), with their names.
+const ERROR_KINDS: [(ErrorKind, &str); 7] = [
+    (ErrorKind::IssueWhileFull, "issue while full"),
+    (ErrorKind::BadIssue, "bad issue"),
+    (ErrorKind::FifoOverflow, "FIFO overflow"),
+    (ErrorKind::UnmatchedResponse, "unmatched response"),
+    (ErrorKind::SpillAreaFull, "spill area full"),
+    (ErrorKind::BadChild, "bad child"),
+    (ErrorKind::BadCommand, "bad command"),
+];
+
+/// What an RT-unit stimulus stream exercised, counted on the Rust block's outputs and
+/// registers.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct RtUnitCoverage {
+    /// Cycles simulated.
+    pub cycles: u64,
+    /// 32 B node-load requests.
+    pub node_loads: u64,
+    /// Of those, later chunks of multi-chunk nodes (split requests).
+    pub split_loads: u64,
+    /// Hit-record stores.
+    pub hit_stores: u64,
+    /// Stack spills.
+    pub stack_spills: u64,
+    /// Stack fills.
+    pub stack_fills: u64,
+    /// Lanes served by another lane's node load (merged).
+    pub merged: u64,
+    /// Node tests.
+    pub tests: u64,
+    /// Triangle tests that gave a new closest hit.
+    pub triangle_hits: u64,
+    /// Treelet-boundary events.
+    pub boundaries: u64,
+    /// Rays that left in a completed warp parked at a treelet boundary.
+    pub parked: u64,
+    /// Warps completed.
+    pub warps_done: u64,
+    /// Stops of a valid warp.
+    pub stops: u64,
+    /// Repacks that held a warp.
+    pub repacks: u64,
+    /// Finished lanes released by repacks.
+    pub released: u64,
+    /// Appends into a held warp accepted.
+    pub appends: u64,
+    /// Warps loaded into a slot named by number.
+    pub slot_issues: u64,
+    /// Warps loaded per traversal order, in [`TraversalOrder::ALL`] order.
+    pub issued: [u64; 3],
+    /// Cycles with the response FIFO full (`resp_free` 0).
+    pub fifo_full: u64,
+    /// Cycles with the warp buffer full (`issue_ready` low).
+    pub buffer_full: u64,
+    /// Per error kind (bit order of the `errors` flags), the cycles that raised it.
+    pub errors: [u64; 7],
+    /// The most warps resident at once.
+    pub max_occupancy: u64,
+}
+
+impl RtUnitCoverage {
+    /// Every behaviour happened at least `n` times (but the maximal occupancy), and each
+    /// error kind whose flag is set in `required` (e.g. [`ALL_ERRORS`]) was raised at least
+    /// once. An error lists what was not covered.
+    pub fn covers_everything(&self, n: u64, required: u8) -> Result<(), String> {
+        let mut missing = Vec::new();
+        for (name, c) in self.counters() {
+            if c < n {
+                missing.push(format!("{name} ({c} < {n})"));
+            }
+        }
+        for (kind, name) in ERROR_KINDS {
+            if required & kind.flag() != 0 && self.errors[kind.code() as usize] == 0 {
+                missing.push(format!("error {name}"));
+            }
+        }
+        if missing.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "not covered: {}; coverage: {self}",
+                missing.join(", ")
+            ))
+        }
+    }
+
+    /// The behaviour counters with their names.
+    fn counters(&self) -> [(&'static str, u64); 21] {
+        [
+            ("node loads", self.node_loads),
+            ("split loads", self.split_loads),
+            ("hit stores", self.hit_stores),
+            ("spills", self.stack_spills),
+            ("fills", self.stack_fills),
+            ("merged", self.merged),
+            ("tests", self.tests),
+            ("triangle hits", self.triangle_hits),
+            ("boundaries", self.boundaries),
+            ("parked", self.parked),
+            ("warps done", self.warps_done),
+            ("stops", self.stops),
+            ("repacks", self.repacks),
+            ("released", self.released),
+            ("appends", self.appends),
+            ("slot issues", self.slot_issues),
+            ("ray-stationary warps", self.issued[0]),
+            ("treelet-continue warps", self.issued[1]),
+            ("treelet-stop warps", self.issued[2]),
+            ("FIFO full", self.fifo_full),
+            ("buffer full", self.buffer_full),
+        ]
+    }
+}
+
+impl std::fmt::Display for RtUnitCoverage {
+    /// Cycles, the behaviour counters, the largest occupancy and the errors raised.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text: Vec<String> = (self.counters().iter())
+            .map(|(name, v)| format!("{name} {v}"))
+            .collect();
+        let errs: Vec<String> = ERROR_KINDS
+            .iter()
+            .map(|(kind, name)| format!("{name} {}", self.errors[kind.code() as usize]))
+            .collect();
+        write!(
+            f,
+            "{} cycles; {}; max occupancy {}; error cycles: {}",
+            self.cycles,
+            text.join(", "),
+            self.max_occupancy,
+            errs.join(", ")
+        )
+    }
+}
+
+/// The memory: node chunks and spilled stack chunks by address.
+type Memory = HashMap<u64, [u8; 32]>;
+
+/// The toy BVH: node references in address order, those without children, and the roots.
+struct Tree {
+    nodes: Vec<NodeEntry>,
+    leaves: Vec<NodeEntry>,
+    roots: Vec<NodeEntry>,
+}
+
+/// Kind codes of nodes without children (mostly triangle leaves) and with (mostly internal).
+const KINDS: [[u8; 8]; 2] = [[4, 4, 4, 4, 5, 3, 2, 0], [1, 1, 1, 1, 1, 1, 2, 0]];
+
+/// Builds the toy BVH into `mem` between the hit records and the spill area: 40–120 nodes in
+/// trees of at most 4 levels, laid out in preorder (so a first child often shares its
+/// parent's treelet; children lie at higher addresses). A few nodes hold bad child records,
+/// records of kind 6 or 7, or more children than `max_children`, 2% a wrong magic byte, 30% a
+/// hit; the bad and surplus records are visited by the ray class 7 only.
+fn build_tree(
+    rng: &mut Rng,
+    cfg: &HwConfig,
+    params: &RtUnitParams,
+    mem: &mut Memory,
+) -> Result<Tree, GenError> {
+    let lo = (params.hit_record_base + cfg.max_rays as u64 * 32 + 31) & !31;
+    let hi = spill_area(cfg, params).0.min(1 << 32);
+    let n = (40 + rng.below(81)).min(hi.saturating_sub(lo) / 224) as usize;
+    if n < 8 {
+        return Err(GenError::Cosim {
+            block: "rt_unit".into(),
+            reason: format!("no room for a toy BVH between {lo:#x} and {hi:#x}"),
+        });
+    }
+    // The structure, breadth first: parentless nodes are roots.
+    let mc = params.max_children as usize;
+    let (mut kids, mut level, mut root) = (vec![Vec::new(); n], vec![0; n], vec![true; n]);
+    let mut next = (n / 16).max(2);
+    for i in 0..n {
+        next = next.max(i + 1);
+        if level[i] < 3 && next < n && !rng.chance(15) {
+            let k = (1 + rng.below(3) as usize).min(n - next).min(mc);
+            kids[i] = (next..next + k).collect();
+            for c in next..next + k {
+                (level[c], root[c]) = (level[i] + 1, false);
+            }
+            next += k;
+        }
+    }
+    let mut order = Vec::with_capacity(n);
+    for r in (0..n).filter(|&i| root[i]) {
+        let mut stack = vec![r];
+        while let Some(x) = stack.pop() {
+            order.push(x);
+            stack.extend(kids[x].iter().rev());
+        }
+    }
+    let mut pos = vec![0; n];
+    for (p, &x) in order.iter().enumerate() {
+        pos[x] = p;
+    }
+    // In preorder: surplus and bad records, size (room for every record), kind, address.
+    let (mut nodes, mut extra, mut cur) = (Vec::with_capacity(n), Vec::with_capacity(n), lo);
+    for &x in &order {
+        let surplus = (!kids[x].is_empty() && mc < 15 && rng.chance(3)) as usize;
+        let surplus = surplus * (mc + 1 - kids[x].len());
+        let bad = usize::from(rng.chance(8)) + usize::from(rng.chance(4));
+        let records = kids[x].len() + surplus + bad;
+        let need = (1..=4).find(|&c| (32 * c - 5) / 8 >= records).unwrap_or(4);
+        let chunks = need.max(1 + rng.below(4) as usize) as u8;
+        let code = KINDS[usize::from(!kids[x].is_empty())][rng.below(8) as usize];
+        let kind = NodeKind::ALL[code as usize];
+        if rng.chance(30) {
+            cur += 32 * (1 + rng.below(3));
+        }
+        nodes.push(NodeEntry {
+            address: cur,
+            kind,
+            chunks,
+        });
+        extra.push((surplus, bad));
+        cur += chunks as u64 * 32;
+    }
+    let top = 1u64 << cfg.address_bits;
+    let mut ts: Vec<u16> = Vec::new();
+    for (p, (&x, &node)) in order.iter().zip(&nodes).enumerate() {
+        let record = |e: &NodeEntry, mask| {
+            let (address, kind, chunks) = (e.address as u32, e.kind.code() as u8, e.chunks);
+            ToyChild {
+                address,
+                kind,
+                chunks,
+                mask,
+            }
+        };
+        let mut recs: Vec<ToyChild> = kids[x]
+            .iter()
+            .map(|&c| record(&nodes[pos[c]], rng.below(256) as u8))
+            .collect();
+        let cap = (node.bytes() as usize - 5) / 8;
+        let (surplus, bad) = extra[p];
+        if surplus > 0 && p + 1 < n {
+            // For the class 7 every record is kept: the test returns too many children.
+            recs.iter_mut().for_each(|r| r.mask |= 0x80);
+            for _ in 0..surplus.min(cap - recs.len()) {
+                let other = nodes[p + 1 + rng.below((n - p - 1) as u64) as usize];
+                recs.push(record(&other, 0x80));
+            }
+        }
+        for _ in 0..bad.min(cap - recs.len()) {
+            let mut r = record(&node, 0x80);
+            match rng.below(6) {
+                0 => r.chunks = 0,
+                1 => r.chunks = 5,
+                2 if cfg.address_bits < 32 => r.address = (top + 32 * rng.below(8)) as u32,
+                3 if cfg.address_bits <= 32 => (r.address, r.chunks) = ((top - 32) as u32, 2),
+                4 => (r.kind, r.mask) = (6 + rng.below(2) as u8, 0xFF),
+                _ => r.address += 16,
+            }
+            recs.insert(rng.below(recs.len() as u64 + 1) as usize, r);
+        }
+        let hit = rng.chance(30).then(|| match rng.below(10) {
+            0..=2 => [0x0000, 0x8000, 0x7FC0, 0x7F80, 0xBF80][rng.below(5) as usize],
+            3..=4 if !ts.is_empty() => ts[rng.below(ts.len() as u64) as usize],
+            _ => rng.below(1 << 16) as u16,
+        });
+        ts.extend(hit);
+        let mut bytes = toy_node_bytes(node.chunks, hit, &recs);
+        if rng.chance(2) {
+            bytes[node.bytes() as usize - 1] = !TOY_MAGIC;
+        }
+        for (k, chunk) in bytes.chunks_exact(32).enumerate() {
+            let chunk = chunk.try_into().unwrap_or([0; 32]);
+            mem.insert(node.address + 32 * k as u64, chunk);
+        }
+    }
+    let pick = |keep: &dyn Fn(usize) -> bool| -> Vec<NodeEntry> {
+        (0..n).filter(|&x| keep(x)).map(|x| nodes[pos[x]]).collect()
+    };
+    Ok(Tree {
+        leaves: pick(&|x| kids[x].is_empty()),
+        roots: pick(&|x| root[x]),
+        nodes,
+    })
+}
+
+/// The protocol breaks the environment injects, in this order: a warp issued while no slot is
+/// free, a warp issued into a taken or missing slot, an append to a slot not held, a stop and
+/// a repack of an empty or missing slot (the repack is ignored, not an error), a malformed
+/// warp, an append into a lane of the held slot that holds a ray.
+const FAULTS: u64 = 7;
+
+/// The environment around the RT unit.
+struct Env {
+    rng: Rng,
+    block: RtUnit<ToyDatapath>,
+    regs: RtUnitRegs,
+    tree: Tree,
+    mem: Memory,
+    /// Lanes per warp, entries per on-chip stack, spill chunks per stack, ray ids.
+    ws: usize,
+    depth: usize,
+    chunks: u32,
+    rays: u32,
+    /// Responses to send, each with the first cycle it may be sent in; the last node chunk
+    /// sent.
+    pending: Vec<(u64, MemResponse)>,
+    last_load: Option<MemResponse>,
+    /// Ray ids not in use, and rays parked at a treelet boundary (their ids in use).
+    free_ids: Vec<u32>,
+    pool: Vec<RayRecord>,
+    /// The slot a repack holds, with the appends still to send.
+    held: Option<(u32, u32)>,
+    /// A fault ([`FAULTS`]) waiting for a cycle it applies in; a FIFO overflow likewise.
+    fault: Option<u64>,
+    overflow: bool,
+    /// The cycle from which the spill-overflow ray is issued (until it is).
+    finale: Option<u64>,
+    cycle: u64,
+    cov: RtUnitCoverage,
+}
+
+impl Env {
+    fn new(
+        cfg: &HwConfig,
+        params: &RtUnitParams,
+        cycles: u64,
+        seed: u64,
+    ) -> Result<Self, GenError> {
+        let block = RtUnit::new(cfg.clone(), params.clone(), ToyDatapath)?;
+        let mut rng = Rng::new(seed);
+        let mut mem = HashMap::new();
+        let tree = build_tree(&mut rng, cfg, params, &mut mem)?;
+        Ok(Env {
+            rng,
+            regs: block.reset(),
+            block,
+            tree,
+            mem,
+            ws: cfg.warp_size as usize,
+            depth: cfg.stack_depth as usize,
+            chunks: params.stack_spill_chunks,
+            rays: cfg.max_rays,
+            pending: Vec::new(),
+            last_load: None,
+            free_ids: (0..cfg.max_rays).rev().collect(),
+            pool: Vec::new(),
+            held: None,
+            fault: None,
+            overflow: false,
+            finale: (cycles >= 2000).then(|| cycles - cycles / 16),
+            cycle: 0,
+            cov: RtUnitCoverage::default(),
+        })
+    }
+
+    /// Uniform in `0..n` (n > 0).
+    fn idx(&mut self, n: usize) -> usize {
+        self.rng.below(n as u64) as usize
+    }
+
+    /// A random element of `v`.
+    fn pick<T: Copy>(&mut self, v: &[T]) -> Option<T> {
+        (!v.is_empty()).then(|| v[self.idx(v.len())])
+    }
+
+    /// `k` distinct random elements of `v`.
+    fn subset(&mut self, mut v: Vec<usize>, k: usize) -> Vec<usize> {
+        for i in 0..k.min(v.len()) {
+            let j = i + self.idx(v.len() - i);
+            v.swap(i, j);
+        }
+        v.truncate(k);
+        v
+    }
+
+    /// The slots whose `valid` register is `valid`.
+    fn slots(&self, valid: bool) -> Vec<u32> {
+        let n = self.regs.slots.len() as u32;
+        (0..n)
+            .filter(|&s| self.regs.slots[s as usize].valid == valid)
+            .collect()
+    }
+
+    /// Half the time a slot number the ports carry but the warp buffer lacks (if there is
+    /// one), else a random one of `slots`.
+    fn bad_slot(&mut self, slots: &[u32]) -> Option<u32> {
+        let (have, named) = (
+            self.regs.slots.len() as u64,
+            1u64 << self.block.widths().slot,
+        );
+        match have < named && self.rng.chance(50) {
+            true => Some((have + self.rng.below(named - have)) as u32),
+            false => self.pick(slots),
+        }
+    }
+
+    /// A random node of the tree (`leaf`: one without children).
+    fn node(&mut self, leaf: bool) -> NodeEntry {
+        let v = if leaf {
+            &self.tree.leaves
+        } else {
+            &self.tree.nodes
+        };
+        v[self.rng.below(v.len() as u64) as usize]
+    }
+
+    /// An on-chip stack of `k` random leaves, with a random node on top unless `leaves`.
+    fn stack(&mut self, k: usize, leaves: bool) -> BoundedVec<NodeEntry> {
+        let nodes: Vec<NodeEntry> = (0..k).map(|j| self.node(leaves || j + 1 < k)).collect();
+        BoundedVec::with(k.max(self.depth), nodes).unwrap_or_default()
+    }
+
+    /// A ray with id `id`: mostly fresh at a random root; sometimes with a previous hit,
+    /// already finished, or in the middle of a traversal (a few nodes on both stacks, up to
+    /// half the spill area of each spilled). Its spilled chunks are not stored yet
+    /// ([`Env::store_spills`]). The ray class 7 (bad children) only after the quiet start.
+    fn ray(&mut self, id: u32) -> RayRecord {
+        let mut words: RayWords = std::array::from_fn(|_| self.rng.below(1 << 32) as u32);
+        if self.cycle >= QUIET_CYCLES && self.rng.chance(12) {
+            words[0] |= 7;
+        } else if words[0] & 7 == 7 {
+            words[0] ^= 1;
+        }
+        let root = self.idx(self.tree.roots.len());
+        let mut ray = RayRecord::new(id, words, self.tree.roots[root]);
+        match self.rng.below(50) {
+            0 => ray.other_stack = BoundedVec::new(self.depth),
+            1..=10 => {
+                let node = self.node(false);
+                ray.current_treelet = self.block.treelet_of(node.address);
+                let spare = self.chunks as u64 / 2;
+                if spare > 0 && self.rng.chance(50) {
+                    ray.current_spilled = self.rng.below(spare + 1) as u32;
+                    ray.other_spilled = self.rng.below(spare + 1) as u32;
+                }
+                let leaves = ray.current_spilled + ray.other_spilled > 0;
+                let most = self.depth.min(3) + 1;
+                let (a, b) = (self.idx(most), self.idx(most));
+                ray.current_stack = self.stack(a, leaves);
+                ray.other_stack = self.stack(b, leaves);
+            }
+            _ => {}
+        }
+        if self.rng.chance(10) {
+            let mut w = || self.rng.below(1 << 32) as u32;
+            let (t, hit_id, attribs) = (w(), w(), [w(), w()]);
+            ray.hit = Some(Hit { t, hit_id, attribs });
+        }
+        ray
+    }
+
+    /// Stores the chunks `ray` has spilled, 1–4 leaves each, where the RT unit reads them.
+    fn store_spills(&mut self, ray: &RayRecord) {
+        let base = spill_area(self.block.config(), self.block.params()).0;
+        for stack in [StackSel::Current, StackSel::Other] {
+            for k in 0..ray.spilled(stack) as u64 {
+                let n = 1 + self.idx(STACK_ENTRIES_PER_CHUNK.min(self.depth));
+                let entries: Vec<NodeEntry> = (0..n).map(|_| self.node(true)).collect();
+                let area = ray.ray_id as u64 * 2 + stack.code();
+                let address = base + (area * self.chunks as u64 + k) * CHUNK_BYTES as u64;
+                self.mem.insert(address, pack_spill_chunk(&entries));
+            }
+        }
+    }
+
+    /// A new ray with a free id, its spilled chunks stored.
+    fn new_ray(&mut self) -> Option<RayRecord> {
+        let i = (!self.free_ids.is_empty()).then(|| self.idx(self.free_ids.len()))?;
+        let id = self.free_ids.swap_remove(i);
+        let ray = self.ray(id);
+        self.store_spills(&ray);
+        Some(ray)
+    }
+
+    /// Lanes `lanes` of a warp of order `order` filled: with parked rays from the pool
+    /// (two-stack orders only) or new rays (none when no id is free).
+    fn fill(&mut self, order: TraversalOrder, lanes: Vec<usize>) -> Vec<Option<RayRecord>> {
+        let mut out = vec![None; self.ws];
+        for l in lanes {
+            out[l] = if order.two_stack() && !self.pool.is_empty() && self.rng.chance(60) {
+                let i = self.idx(self.pool.len());
+                Some(self.pool.swap_remove(i))
+            } else {
+                self.new_ray()
+            };
+        }
+        out
+    }
+
+    /// A warp of random rays with any ids, for a fault (never loaded).
+    fn throwaway(&mut self, target: IssueTarget) -> WarpIssue {
+        let lanes = (0..self.ws)
+            .map(|_| {
+                let id = self.rng.below(self.rays as u64) as u32;
+                self.rng.chance(60).then(|| self.ray(id))
+            })
+            .collect();
+        let order = TraversalOrder::ALL[self.idx(3)];
+        WarpIssue {
+            order,
+            lanes,
+            target,
+        }
+    }
+
+    /// Injects fault `f` ([`FAULTS`]) into `inp` if it applies this cycle.
+    fn inject(&mut self, f: u64, inp: &mut RtUnitInputs) -> Option<()> {
+        let (free, taken) = (self.slots(false), self.slots(true));
+        match f {
+            0 if free.is_empty() => inp.issue = Some(self.throwaway(IssueTarget::AnyFree)),
+            0 => return None,
+            1 => {
+                let s = self.bad_slot(&taken)?;
+                inp.issue = Some(self.throwaway(IssueTarget::Slot(s)));
+            }
+            2 | 6 => {
+                // To a slot not held, or (fault 6) into a lane of the held slot that holds a ray.
+                let slots = &self.regs.slots;
+                let held = self.held.map(|(s, _)| s as usize);
+                let busy: Vec<usize> = held.map_or(Vec::new(), |s| {
+                    let lanes = slots[s].lanes.iter().enumerate();
+                    (lanes.filter(|(_, l)| l.status != LaneStatus::Inactive))
+                        .map(|(l, _)| l)
+                        .collect()
+                });
+                let unheld: Vec<u32> = (0..slots.len() as u32)
+                    .filter(|&s| !slots[s as usize].held)
+                    .collect();
+                let lane = if f == 6 {
+                    Some(self.pick(&busy)?)
+                } else {
+                    None
+                };
+                let slot = match (held, lane) {
+                    (Some(s), Some(_)) => s as u32,
+                    _ => self.pick(&unheld)?,
+                };
+                let last = self.rng.chance(50);
+                let mut warp = self.throwaway(IssueTarget::Append { slot, last });
+                if let Some(l) = lane {
+                    warp.lanes[l] = Some(self.ray(0));
+                }
+                inp.issue = Some(warp);
+            }
+            3 => inp.stop = Some(self.bad_slot(&free)?),
+            4 => inp.repack = Some(self.bad_slot(&free)?),
+            _ => {
+                // A malformed warp.
+                let mut warp = self.throwaway(IssueTarget::AnyFree);
+                let w = self.block.widths();
+                let mut ray = self.ray(0);
+                match self.rng.below(3) {
+                    0 if (self.depth + 1) >> w.stack_pointer == 0 => {
+                        ray.current_stack = self.stack(self.depth + 1, false);
+                    }
+                    1 if (self.chunks + 1) >> w.spilled == 0 => ray.other_spilled = self.chunks + 1,
+                    _ => {
+                        let n = self.node(false);
+                        let bad = NodeEntry {
+                            address: n.address + 8,
+                            ..n
+                        };
+                        ray.other_stack = BoundedVec::with(self.depth, [bad]).ok()?;
+                    }
+                }
+                let l = self.idx(self.ws);
+                warp.lanes[l] = Some(ray);
+                inp.issue = Some(warp);
+            }
+        }
+        Some(())
+    }
+
+    /// The SM's and the treelet controller's commands in a cycle without a fault.
+    fn commands(&mut self, inp: &mut RtUnitInputs) {
+        let free = self.slots(false);
+        let finale = self.finale.is_some_and(|c| self.cycle >= c);
+        if finale && !free.is_empty() && !self.free_ids.is_empty() {
+            // A current stack full on chip and in memory: the next fetch must spill, and can't.
+            self.finale = None;
+            let mut lanes = vec![None; self.ws];
+            let id = self.free_ids.pop().unwrap_or(0);
+            let mut ray = self.ray(id);
+            ray.current_stack = self.stack(self.depth, true);
+            ray.current_spilled = self.chunks;
+            self.store_spills(&ray);
+            lanes[0] = Some(ray);
+            let (order, target) = (TraversalOrder::RayStationary, IssueTarget::AnyFree);
+            inp.issue = Some(WarpIssue {
+                order,
+                lanes,
+                target,
+            });
+        } else if let Some((slot, left)) = self.held.filter(|_| self.rng.chance(35)) {
+            let s = &self.regs.slots[slot as usize];
+            let order = s.order;
+            let inactive: Vec<usize> = (0..self.ws)
+                .filter(|&l| s.lanes[l].status == LaneStatus::Inactive)
+                .collect();
+            let empty = inactive.is_empty() || self.rng.chance(10);
+            let k = if empty {
+                0
+            } else {
+                1 + self.idx(inactive.len())
+            };
+            let lanes = self.subset(inactive, k);
+            let last = empty || left <= 1;
+            self.held = (!last).then_some((slot, left - 1));
+            let (lanes, target) = (self.fill(order, lanes), IssueTarget::Append { slot, last });
+            inp.issue = Some(WarpIssue {
+                order,
+                lanes,
+                target,
+            });
+        } else if !free.is_empty() && self.rng.chance(85) {
+            let order = TraversalOrder::ALL[self.idx(3)];
+            let target = match self.pick(&free) {
+                Some(s) if self.rng.chance(20) => IssueTarget::Slot(s),
+                _ => IssueTarget::AnyFree,
+            };
+            let k = 1 + self.idx(self.ws);
+            let lanes = self.subset((0..self.ws).collect(), k);
+            let lanes = self.fill(order, lanes);
+            inp.issue = Some(WarpIssue {
+                order,
+                lanes,
+                target,
+            });
+        }
+        if self.rng.chance(3) {
+            // Never a ray-stationary warp, nor one that completes (freeing its slot) first.
+            let slots = &self.regs.slots;
+            let completing = (self.regs.age.iter().copied()).find(|&s| {
+                !slots[s as usize].held && slots[s as usize].lanes.iter().all(Lane::quiescent)
+            });
+            let stoppable: Vec<u32> = (self.slots(true).into_iter())
+                .filter(|&s| slots[s as usize].order != TraversalOrder::RayStationary)
+                .filter(|&s| Some(s) != completing)
+                .collect();
+            inp.stop = self.pick(&stoppable);
+        }
+        if self.held.is_none() && self.rng.below(200) == 0 {
+            inp.repack = self.pick(&self.slots(true));
+        }
+    }
+
+    /// A response to no request: a copy of the last node chunk sent (a duplicate, which
+    /// matches only a later load of that chunk by the same lane, whose own response then
+    /// matches nothing or a later one), or under a random tag a hit-record address (never a
+    /// node) with random data, or a spill-area address with no stack entries (never a fill).
+    fn junk(&mut self) -> MemResponse {
+        if let Some(dup) = self.last_load.filter(|_| self.rng.chance(30)) {
+            return dup;
+        }
+        let (base, end) = spill_area(self.block.config(), self.block.params());
+        let tag = self.rng.below(1 << self.block.widths().tag) as u32;
+        if self.rng.chance(50) {
+            let records = self.block.params().hit_record_base;
+            let address = records + 32 * self.rng.below(self.rays as u64);
+            let data = std::array::from_fn(|_| self.rng.below(256) as u8);
+            MemResponse { address, tag, data }
+        } else {
+            let address = base + 32 * self.rng.below((end - base) / 32);
+            MemResponse {
+                address,
+                tag,
+                data: [0; 32],
+            }
+        }
+    }
+
+    /// This cycle's responses: due ones in random order, as many as the FIFO takes (`resp_free`,
+    /// or one more when the FIFO pops this cycle); rarely junk, or one more than the FIFO
+    /// takes. Returns which are junk.
+    fn responses(&mut self, inp: &mut RtUnitInputs) -> Vec<bool> {
+        let late = self.cycle >= QUIET_CYCLES;
+        let free = self.block.resp_free(&self.regs) as usize;
+        let room = free + usize::from(!self.regs.fifo.is_empty());
+        let ports = self.block.params().resp_ports as usize;
+        self.overflow |= late && self.rng.below(400) == 0;
+        let overflow = self.overflow && room < ports;
+        self.overflow &= !overflow;
+        let limit = match (overflow, room > free && self.rng.chance(50)) {
+            (true, _) => room + 1,
+            (false, more) => ports.min(if more { room } else { free }),
+        };
+        let mut junk = Vec::new();
+        if late && limit > 0 && self.rng.below(500) == 0 {
+            inp.responses.push(self.junk());
+            junk.push(true);
+        }
+        let now = self.cycle;
+        let mut due: Vec<usize> = (0..self.pending.len())
+            .filter(|&i| self.pending[i].0 <= now)
+            .collect();
+        let mut chosen = Vec::new();
+        while junk.len() + chosen.len() < limit && !due.is_empty() {
+            let i = self.idx(due.len());
+            chosen.push(due.swap_remove(i));
+        }
+        let spill = spill_area(self.block.config(), self.block.params());
+        for &i in &chosen {
+            let r = self.pending[i].1;
+            if !(spill.0..spill.1).contains(&r.address) {
+                self.last_load = Some(r);
+            }
+            inp.responses.push(r);
+            junk.push(false);
+        }
+        chosen.sort_unstable();
+        for &i in chosen.iter().rev() {
+            self.pending.swap_remove(i);
+        }
+        while overflow && junk.len() < limit {
+            inp.responses.push(self.junk());
+            junk.push(true);
+        }
+        junk
+    }
+
+    /// One cycle: returns its inputs.
+    fn cycle(&mut self) -> RtUnitInputs {
+        let mut inp = self.block.idle_inputs();
+        if self.cycle >= QUIET_CYCLES && self.fault.is_none() && self.rng.below(250) == 0 {
+            self.fault = Some(self.rng.below(FAULTS));
+        }
+        if self
+            .fault
+            .is_some_and(|f| self.inject(f, &mut inp).is_some())
+        {
+            self.fault = None;
+        } else {
+            self.commands(&mut inp);
+        }
+        let junk = self.responses(&mut inp);
+        self.step(&inp, &junk);
+        inp
+    }
+
+    /// Steps the block on `inp` (whose responses are junk where `junk` says) and reacts to
+    /// its outputs. The block is evaluated with its error registers cleared, so that its
+    /// outputs show this cycle's errors only; the sticky registers are restored after.
+    fn step(&mut self, inp: &RtUnitInputs, junk: &[bool]) {
+        let now = self.cycle;
+        let sticky = (self.regs.errors, self.regs.first_error.take());
+        self.regs.errors = 0;
+        let (out, mut next) = self.block.eval(&self.regs, inp);
+        next.errors |= sticky.0;
+        next.first_error = sticky.1.or(next.first_error);
+        // Responses the FIFO dropped are sent again.
+        let accepted = next.fifo.len() - self.regs.fifo.len().saturating_sub(1);
+        for (r, _) in inp
+            .responses
+            .iter()
+            .zip(junk)
+            .skip(accepted)
+            .filter(|(_, j)| !**j)
+        {
+            self.pending.push((now + 1, *r));
+        }
+        if let Some(req) = out.request {
+            if matches!(req.kind, RequestKind::NodeLoad | RequestKind::StackFill) {
+                let data = self.mem.get(&req.address).copied().unwrap_or([0; 32]);
+                let (address, tag) = (req.address, req.tag);
+                let due = now + 1 + self.rng.below(12);
+                self.pending.push((due, MemResponse { address, tag, data }));
+            } else if req.kind == RequestKind::StackSpill {
+                self.mem.insert(req.address, req.data);
+            }
+        }
+        let c = &mut self.cov;
+        for (ray, outcome) in out.done.iter().flat_map(|d| d.lanes.iter().flatten()) {
+            if *outcome == RayOutcome::Finished {
+                self.free_ids.push(ray.ray_id);
+            } else {
+                c.parked += 1;
+                self.pool.push(ray.clone());
+            }
+        }
+        if let Some(rel) = &out.released {
+            for (ray, _) in rel.lanes.iter().flatten() {
+                self.free_ids.push(ray.ray_id);
+                c.released += 1;
+            }
+            c.repacks += 1;
+            self.held = Some((rel.slot, 1 + self.rng.below(3) as u32));
+        }
+        let (k, slots) = (&out.counts, &self.regs.slots);
+        c.cycles += 1;
+        c.node_loads += k.load_requests;
+        c.split_loads += u64::from(self.regs.split.is_some());
+        c.hit_stores += k.stores;
+        c.stack_spills += k.stack_spills;
+        c.stack_fills += k.stack_fills;
+        c.merged += k.merged;
+        c.tests += k.total_tests();
+        c.triangle_hits += k.triangle_hits;
+        c.boundaries += out.boundary.len() as u64;
+        c.warps_done += k.warps;
+        c.stops += u64::from(
+            inp.stop
+                .and_then(|s| slots.get(s as usize))
+                .is_some_and(|s| s.valid),
+        );
+        if let Some(issue) = &inp.issue {
+            if let IssueTarget::Append { slot, .. } = issue.target {
+                let fits = slots.get(slot as usize).is_some_and(|s| {
+                    let mut lanes = issue.lanes.iter().zip(s.lanes.iter());
+                    s.valid
+                        && s.held
+                        && lanes.all(|(r, l)| r.is_none() || l.status == LaneStatus::Inactive)
+                });
+                c.appends += u64::from(fits && self.block.check_issue(issue).is_ok());
+            } else if (0..slots.len()).any(|s| !slots[s].valid && next.slots[s].valid) {
+                c.issued[issue.order.code() as usize] += 1;
+                c.slot_issues += u64::from(matches!(issue.target, IssueTarget::Slot(_)));
+            }
+        }
+        c.fifo_full += u64::from(out.resp_free == 0);
+        c.buffer_full += u64::from(!out.issue_ready);
+        for (k, e) in c.errors.iter_mut().enumerate() {
+            *e += u64::from(out.errors >> k & 1);
+        }
+        c.max_occupancy = c.max_occupancy.max(self.regs.age.len() as u64);
+        self.regs = next;
+        self.cycle += 1;
+    }
+}
+
+/// `cycles` cycles of RT-unit inputs from the reactive environment (see the module
+/// documentation) for `cfg` and `params`, with the block they were played against (testing
+/// nodes with [`ToyDatapath`]) and what they covered.
+pub fn rt_unit_inputs(
+    cfg: &HwConfig,
+    params: &RtUnitParams,
+    cycles: usize,
+    seed: u64,
+) -> Result<(RtUnit<ToyDatapath>, Vec<RtUnitInputs>, RtUnitCoverage), GenError> {
+    let mut env = Env::new(cfg, params, cycles as u64, seed)?;
+    let inputs = (0..cycles).map(|_| env.cycle()).collect();
+    Ok((env.block, inputs, env.cov))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vtq_hdl::Signals;
+
+    #[test]
+    fn same_seed_same_stream_other_seed_other_stream() {
+        let (cfg, params) = small_config();
+        let run = |seed| rt_unit_inputs(&cfg, &params, 3000, seed).unwrap();
+        let ((_, a, ca), (_, b, cb), (_, c, _)) = (run(7), run(7), run(8));
+        let signals = |v: &[RtUnitInputs]| v.iter().map(Signals::signals).collect::<Vec<_>>();
+        assert_eq!(signals(&a), signals(&b));
+        assert_ne!(signals(&c), signals(&b));
+        assert_eq!((a, ca.cycles), (b, 3000));
+        assert_eq!(ca, cb);
+    }
+
+    #[test]
+    fn small_config_covers_everything() {
+        let (cfg, params) = small_config();
+        cfg.validate().unwrap();
+        let (block, inputs, cov) = rt_unit_inputs(&cfg, &params, 20_000, 1).unwrap();
+        println!("{cov}");
+        cov.covers_everything(5, ALL_ERRORS).unwrap();
+        // Replayed: responses fit the ports, ray ids and treelets their fields, no
+        // ray-stationary warp is stopped, resident ray ids are unique.
+        let w = block.widths();
+        let mut regs = block.reset();
+        for i in &inputs {
+            assert!(i.responses.len() <= params.resp_ports as usize);
+            for ray in i.issue.iter().flat_map(|x| x.lanes.iter().flatten()) {
+                assert!(ray.ray_id < cfg.max_rays && ray.current_treelet >> w.treelet == 0);
+            }
+            if let Some(slot) = i.stop.and_then(|s| regs.slots.get(s as usize)) {
+                assert!(!slot.valid || slot.order != TraversalOrder::RayStationary);
+            }
+            block.step(&mut regs, i);
+            let lanes = regs
+                .slots
+                .iter()
+                .filter(|s| s.valid)
+                .flat_map(|s| s.lanes.iter());
+            let mut ids: Vec<u32> = (lanes.filter(|l| l.status != LaneStatus::Inactive))
+                .map(|l| l.ray.ray_id)
+                .collect();
+            let resident = ids.len();
+            ids.sort_unstable();
+            ids.dedup();
+            assert_eq!(ids.len(), resident);
+        }
+        assert_eq!(regs.errors, ALL_ERRORS);
+    }
+
+    #[test]
+    fn the_start_is_clean_and_a_small_spill_area_fills() {
+        let (cfg, mut params) = small_config();
+        let (_, _, cov) = rt_unit_inputs(&cfg, &params, QUIET_CYCLES as usize, 3).unwrap();
+        assert_eq!(cov.errors, [0; 7], "{cov}");
+        // Too short for the final overflowing ray: the spill area overflows by itself, in
+        // some streams (the unit then stalls).
+        params.stack_spill_chunks = 1;
+        let full = |seed| {
+            let (_, _, cov) = rt_unit_inputs(&cfg, &params, 1999, seed).unwrap();
+            cov.errors[ErrorKind::SpillAreaFull.code() as usize] > 0
+        };
+        assert!((1..=20).any(full));
+    }
+
+    #[test]
+    fn bad_parameters_are_an_error() {
+        let (cfg, mut params) = small_config();
+        params.max_children = 5;
+        let err = rt_unit_inputs(&cfg, &params, 10, 1)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("max_children"), "{err}");
+    }
+
+    #[test]
+    fn toy_datapath_follows_its_format() {
+        let node = |address, kind, chunks| NodeEntry {
+            address,
+            kind,
+            chunks,
+        };
+        let records = [
+            (0x100, 1, 1, 0b100),
+            (0x140, 4, 2, 0b011),
+            (0x1A0, 6, 1, 0xFF),
+            (0x1C1, 5, 0, 0xFF),
+            (0x200, 2, 4, 0b100),
+            (0x300, 1, 1, 0xFF),
+            (0x400, 1, 1, 0xFF),
+            (0x500, 1, 1, 0xFF),
+        ];
+        let children: Vec<ToyChild> = (records.iter())
+            .map(|&(address, kind, chunks, mask)| ToyChild {
+                address,
+                kind,
+                chunks,
+                mask,
+            })
+            .collect();
+        let at = node(0x40, NodeKind::Internal, 2);
+        let data = toy_node_bytes(2, Some(0xBF80), &children);
+        assert_eq!((data.len(), data[0], data[63]), (64, 8, TOY_MAGIC));
+        let test = |class: u32, data: &[u8], at| {
+            ToyDatapath.test(&[0x1230 | class, 0, 0, 0, 0, 0, 0, 0], None, &at, data)
+        };
+        // Class 2: kind 6 skipped, the bad child kept, only the 7 records that fit read.
+        let r = test(2, &data, at);
+        let kept = [
+            node(0x100, NodeKind::Internal, 1),
+            node(0x1C1, NodeKind::Procedural, 0),
+            node(0x200, NodeKind::InstanceLeaf, 4),
+            node(0x300, NodeKind::Internal, 1),
+            node(0x400, NodeKind::Internal, 1),
+        ];
+        assert_eq!(r.children, kept);
+        let attribs = [0x1232, 0x40 ^ 0x5555_5555];
+        let hit = Hit {
+            t: 0xBF80_0000,
+            hit_id: 0x40,
+            attribs,
+        };
+        assert_eq!(r.hit, Some(hit));
+        let r = test(1, &data, at);
+        assert_eq!(
+            r.children[..2],
+            [node(0x140, NodeKind::TriangleLeaf, 2), kept[1]]
+        );
+        assert_eq!(r.children.len(), 4);
+        // No hit flag and 3 records in one chunk; a wrong magic byte or size: nothing.
+        let small = toy_node_bytes(1, None, &children);
+        let r = test(2, &small, node(0, NodeKind::Internal, 1));
+        assert_eq!((r.children, r.hit), (vec![kept[0]], None));
+        let mut bad = data.clone();
+        bad[63] = !TOY_MAGIC;
+        assert_eq!(test(2, &bad, at), TestResult::default());
+        assert_eq!(test(2, &data[..32], at), TestResult::default());
+    }
+}

@@ -1,0 +1,190 @@
+//! The generated RTL of the RT unit's control against the Rust block: cycle-by-cycle
+//! co-simulation (Icarus Verilog, and Verilator on a shorter stream) of the reactive random
+//! environment of [`vtq_gen::stimulus::rt_unit`] with the toy datapath on both sides, at the
+//! small configuration (three slots of four lanes, four-entry stacks that spill), a medium one
+//! and the paper's; every output including the status ports and the ray records of completed
+//! warps compared every cycle; broken RTL lines that the co-simulation must catch;
+//! `verilator --lint-only -Wall`.
+
+mod common;
+
+use common::write_verilog;
+use std::path::PathBuf;
+use std::time::Instant;
+use vtq_gen::cosim::{
+    record, run_cosim, CosimOptions, CosimResult, RtUnitWithStatus, Simulator, Trace,
+};
+use vtq_gen::rtl::{rt_unit_verilog, toy_datapath_verilog};
+use vtq_gen::stimulus::rt_unit::{rt_unit_inputs, small_config};
+use vtq_gen::synth::lint;
+use vtq_gen::tools::or_skip;
+use vtq_hdl::rt_unit::RtUnitParams;
+use vtq_hdl::HwConfig;
+
+/// The work directory of test `name`.
+fn work_dir(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("vtq-gen-rt-unit-rtl-{name}"))
+}
+
+/// The RTL and the toy datapath of `cfg` and `params` written to the work directory of `tag`.
+fn sources(tag: &str, cfg: &HwConfig, params: &RtUnitParams, rtl: Option<String>) -> Vec<PathBuf> {
+    let dir = work_dir(tag);
+    let rtl = rtl.unwrap_or_else(|| rt_unit_verilog(cfg, params).unwrap());
+    vec![
+        write_verilog(&dir, "rt_unit", &rtl),
+        write_verilog(&dir, "rt_datapath", &toy_datapath_verilog(cfg.address_bits)),
+    ]
+}
+
+/// The stimulus of `cfg`, recorded on the Rust block with its status ports.
+fn trace_of(cfg: &HwConfig, params: &RtUnitParams, cycles: usize, seed: u64) -> Trace {
+    let (unit, inputs, cov) = rt_unit_inputs(cfg, params, cycles, seed).unwrap();
+    eprintln!("rt unit stimulus: {cov}");
+    record(&RtUnitWithStatus(unit), inputs).unwrap()
+}
+
+/// Co-simulates `trace` against `files`; `None` when the simulator is not installed.
+fn cosim(trace: &Trace, files: &[PathBuf], sim: Simulator, tag: &str) -> Option<CosimResult> {
+    let opts = CosimOptions {
+        simulator: sim,
+        ..CosimOptions::icarus(work_dir(&format!("{tag}-{sim:?}")))
+    };
+    let start = Instant::now();
+    let result = or_skip(run_cosim(trace, files, &opts)).unwrap()?;
+    eprintln!("{tag}: {result}  ({:.1} s)", start.elapsed().as_secs_f64());
+    assert_eq!(result.cycles, trace.cycles() as u64, "{tag}");
+    Some(result)
+}
+
+/// Three seeds of 20,000 cycles at the small configuration under Icarus.
+#[test]
+fn rt_unit_matches_rust_cycle_by_cycle() {
+    let (cfg, params) = small_config();
+    for seed in 1..=3 {
+        let trace = trace_of(&cfg, &params, 20_000, seed);
+        let files = sources("small", &cfg, &params, None);
+        if let Some(r) = cosim(&trace, &files, Simulator::Icarus, &format!("small-{seed}")) {
+            assert!(r.passed(), "{r}");
+        }
+    }
+}
+
+/// `verilator --lint-only -Wall` finds nothing in the RT unit and the toy datapath, at the
+/// small configuration and the paper's (64-lane warps for the widest vectors).
+#[test]
+fn lints_clean() {
+    let wide = HwConfig {
+        warp_size: 64,
+        max_rays: 4096,
+        warp_buffer_size: 2,
+        ..HwConfig::default()
+    };
+    for (tag, (cfg, params)) in [
+        ("lint-small", small_config()),
+        ("lint-wide", (wide, RtUnitParams::default())),
+    ] {
+        let files = sources(tag, &cfg, &params, None);
+        let Some(report) = or_skip(lint(&files, "rt_unit", &work_dir(tag))).unwrap() else {
+            return;
+        };
+        for m in &report.messages {
+            eprintln!("{tag}: {m:?}");
+        }
+        assert!(
+            report.messages.is_empty(),
+            "{tag}: {} lint messages",
+            report.messages.len()
+        );
+    }
+}
+
+/// Wider fields: the paper's 32-lane warps, 32-entry stacks and 32-bit addresses with the
+/// default RT-unit parameters, and a medium configuration of two slots.
+#[test]
+fn rt_unit_matches_rust_at_wider_configurations() {
+    let medium = HwConfig {
+        warp_size: 8,
+        warp_buffer_size: 2,
+        stack_depth: 8,
+        max_rays: 64,
+        address_bits: 24,
+        treelet_bytes: 256,
+        ..small_config().0
+    };
+    let medium_params = RtUnitParams {
+        max_children: 4,
+        resp_fifo_depth: 5,
+        resp_ports: 3,
+        stack_spill_chunks: 3,
+        ..Default::default()
+    };
+    for (tag, cfg, params, cycles) in [
+        ("medium", medium, medium_params, 6000),
+        (
+            "default",
+            HwConfig::default(),
+            RtUnitParams::default(),
+            2000,
+        ),
+    ] {
+        let trace = trace_of(&cfg, &params, cycles, 7);
+        let files = sources(tag, &cfg, &params, None);
+        if let Some(r) = cosim(&trace, &files, Simulator::Icarus, tag) {
+            assert!(r.passed(), "{r}");
+        }
+    }
+}
+
+/// A shorter stream under Verilator (two-state, its own scheduling).
+#[test]
+fn rt_unit_matches_rust_under_verilator() {
+    let (cfg, params) = small_config();
+    let trace = trace_of(&cfg, &params, 5000, 11);
+    let files = sources("verilator", &cfg, &params, None);
+    if let Some(r) = cosim(&trace, &files, Simulator::Verilator, "verilator") {
+        assert!(r.passed(), "{r}");
+    }
+}
+
+/// Deliberately broken lines of the RTL: each must make the co-simulation fail.
+#[test]
+fn a_broken_rtl_line_is_caught() {
+    let (cfg, params) = small_config();
+    let trace = trace_of(&cfg, &params, 5000, 1);
+    let good = rt_unit_verilog(&cfg, &params).unwrap();
+    let mutations = [
+        // Lanes of a warp merge their requests whatever node they fetch.
+        (
+            "if (lact == ACT_FETCH && lact_node == act_node) begin",
+            "if (lact == ACT_FETCH) begin",
+        ),
+        // A tie in t goes to the larger hit id.
+        ("h[63:32] < b[63:32]", "h[63:32] > b[63:32]"),
+        // A warp completes while its last test's latency is still counting down.
+        (
+            "|| a_lane_delay[L*DW +: DW] != {DW{1'b0}} || a_lane_store_pending[L])",
+            "|| a_lane_store_pending[L])",
+        ),
+        // An append may overwrite an occupied lane.
+        (
+            "if (issue_active[l] && lane_status_d[(s*N+l)*2 +: 2] != ST_INACTIVE)",
+            "if (1'b0)",
+        ),
+    ];
+    for (i, (from, to)) in mutations.iter().enumerate() {
+        assert_eq!(
+            good.matches(from).count(),
+            1,
+            "mutation {i}: `{from}` not found once"
+        );
+        let tag = format!("broken-{i}");
+        let files = sources(&tag, &cfg, &params, Some(good.replacen(from, to, 1)));
+        let Some(r) = cosim(&trace, &files, Simulator::Icarus, &tag) else {
+            return;
+        };
+        assert!(
+            !r.passed() && r.mismatches > 0,
+            "mutation {i} was not caught: {r}"
+        );
+    }
+}
