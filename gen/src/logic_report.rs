@@ -22,7 +22,7 @@ use vtq_hdl::{Block, BlockDesc, HwConfig};
 
 /// What the report says about the RT unit, whose RTL does not synthesize in reasonable time yet.
 pub const RT_UNIT_NOTE: &str = "rt_unit: its RTL is complete and co-simulated, but Yosys does \
-     not synthesize it in reasonable time yet (more than 25 minutes and 4 GB at a 12-lane \
+     not synthesize it in reasonable time yet (more than 20 minutes at a 12-lane \
      configuration), so the baseline RT unit's logic area and the treelet hardware's overhead \
      over it are not stated";
 

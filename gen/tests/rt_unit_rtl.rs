@@ -162,8 +162,8 @@ fn a_broken_rtl_line_is_caught() {
         ("h[63:32] < b[63:32]", "h[63:32] > b[63:32]"),
         // A warp completes while its last test's latency is still counting down.
         (
-            "|| a_lane_delay[L*DW +: DW] != {DW{1'b0}} || a_lane_store_pending[L])",
-            "|| a_lane_store_pending[L])",
+            "|| a_lane_delay[(s*N+l)*DW +: DW] != {DW{1'b0}} || a_lane_store_pending[(s*N+l)])",
+            "|| a_lane_store_pending[(s*N+l)])",
         ),
         // An append may overwrite an occupied lane.
         (

@@ -690,7 +690,7 @@ fn area_synth_prices_every_block_with_rtl() {
         assert_eq!(b["logic"]["unpriced"], serde_json::json!({}), "{b}");
     }
     assert!(blocks[1]["sram_bits"].as_u64().unwrap() > 0);
-    assert!(s["rt_unit"].as_str().unwrap().contains("no RTL yet"));
+    assert!(s["rt_unit"].as_str().unwrap().contains("not stated"));
     assert!(s["paper"].as_str().unwrap().contains("2.2 KB"));
 }
 

@@ -1,4 +1,4 @@
-`define RT_ACTION lane_action(a_lane_status[L*2 +: 2], a_lane_node_valid[L], a_lane_filling[L*2 +: 2], a_lane_delay[L*DW +: DW], a_lane_cur_sp[L*SPW +: SPW], a_lane_other_sp[L*SPW +: SPW], a_lane_cur_spilled[L*SCW +: SCW], a_lane_other_spilled[L*SCW +: SCW], a_cur_stack[L*D*E +: D*E], a_other_stack[L*D*E +: D*E], two)
+`define RT_ACTION lane_action(a_lane_status[(s*N+l)*2 +: 2], a_lane_node_valid[(s*N+l)], a_lane_filling[(s*N+l)*2 +: 2], a_lane_delay[(s*N+l)*DW +: DW], a_lane_cur_sp[(s*N+l)*SPW +: SPW], a_lane_other_sp[(s*N+l)*SPW +: SPW], a_lane_cur_spilled[(s*N+l)*SCW +: SCW], a_lane_other_spilled[(s*N+l)*SCW +: SCW], a_cur_stack[(s*N+l)*D*E +: D*E], a_other_stack[(s*N+l)*D*E +: D*E], two)
 // ---- Sizes and constants of this configuration -------------------------------------------------
 ${PARAMS}
 localparam [1:0] ST_INACTIVE = 2'd0;  // lane_status encodings
@@ -407,15 +407,14 @@ ${WORKING_COPIES}
         if (slot_valid_q[s]) begin
             o_count_warps = o_count_warps + ONE_CWW;
             for (l = 0; l < N; l = l + 1) begin
-                L = s * N + l;
-                if (lane_status_q[L*2 +: 2] == ST_TRAVERSING) begin
+                if (lane_status_q[(s*N+l)*2 +: 2] == ST_TRAVERSING) begin
                     o_count_active = o_count_active + ONE_CAW;
-                    if (lane_node_valid_q[L] || lane_filling_q[L*2 +: 2] != 2'd0)
+                    if (lane_node_valid_q[(s*N+l)] || lane_filling_q[(s*N+l)*2 +: 2] != 2'd0)
                         o_count_waiting = o_count_waiting + ONE_CAW;
                 end
-                if (lane_status_q[L*2 +: 2] == ST_DONE)
+                if (lane_status_q[(s*N+l)*2 +: 2] == ST_DONE)
                     o_count_done_lanes = o_count_done_lanes + ONE_CAW;
-                if (lane_status_q[L*2 +: 2] == ST_PARKED)
+                if (lane_status_q[(s*N+l)*2 +: 2] == ST_PARKED)
                     o_count_parked_lanes = o_count_parked_lanes + ONE_CAW;
             end
         end
@@ -443,10 +442,9 @@ ${WORKING_COPIES}
                 if (sk == s[SB-1:0] && !a_slot_held[s]) begin
                     busy = 1'b0;
                     for (l = 0; l < N; l = l + 1) begin
-                        L = s * N + l;
-                        if (a_lane_status[L*2 +: 2] == ST_TRAVERSING || a_lane_node_valid[L]
-                            || a_lane_filling[L*2 +: 2] != 2'd0
-                            || a_lane_delay[L*DW +: DW] != {DW{1'b0}} || a_lane_store_pending[L])
+                        if (a_lane_status[(s*N+l)*2 +: 2] == ST_TRAVERSING || a_lane_node_valid[(s*N+l)]
+                            || a_lane_filling[(s*N+l)*2 +: 2] != 2'd0
+                            || a_lane_delay[(s*N+l)*DW +: DW] != {DW{1'b0}} || a_lane_store_pending[(s*N+l)])
                             busy = 1'b1;
                     end
                     if (!busy) begin
@@ -456,43 +454,42 @@ ${WORKING_COPIES}
                         o_count_warp_done = 1'b1;
                         a_slot_valid[s] = 1'b0;
                         for (l = 0; l < N; l = l + 1) begin
-                            L = s * N + l;
-                            csp = a_lane_cur_sp[L*SPW +: SPW];
-                            osp = a_lane_other_sp[L*SPW +: SPW];
-                            csl = a_lane_cur_spilled[L*SCW +: SCW];
+                            csp = a_lane_cur_sp[(s*N+l)*SPW +: SPW];
+                            osp = a_lane_other_sp[(s*N+l)*SPW +: SPW];
+                            csl = a_lane_cur_spilled[(s*N+l)*SCW +: SCW];
                             // A parked lane is reported with the treelet of its next node.
-                            if (a_lane_status[L*2 +: 2] == ST_DONE
-                                || (a_lane_status[L*2 +: 2] == ST_PARKED
+                            if (a_lane_status[(s*N+l)*2 +: 2] == ST_DONE
+                                || (a_lane_status[(s*N+l)*2 +: 2] == ST_PARKED
                                     && (csp != {SPW{1'b0}}
                                         || (csl == {SCW{1'b0}} && osp != {SPW{1'b0}})))) begin
                                 o_done_active[l] = 1'b1;
-                                o_done_parked[l] = a_lane_status[L*2 +: 2] == ST_PARKED;
-                                o_done_ray_id[l*RB +: RB] = a_lane_ray_id[L*RB +: RB];
-                                o_done_ray_words[l*256 +: 256] = a_lane_ray_words[L*256 +: 256];
-                                o_done_hit_valid[l] = a_lane_hit_valid[L];
-                                o_done_hit[l*128 +: 128] = a_lane_hit[L*128 +: 128];
-                                o_done_cur_treelet[l*TW +: TW] = a_lane_cur_treelet[L*TW +: TW];
+                                o_done_parked[l] = a_lane_status[(s*N+l)*2 +: 2] == ST_PARKED;
+                                o_done_ray_id[l*RB +: RB] = a_lane_ray_id[(s*N+l)*RB +: RB];
+                                o_done_ray_words[l*256 +: 256] = a_lane_ray_words[(s*N+l)*256 +: 256];
+                                o_done_hit_valid[l] = a_lane_hit_valid[(s*N+l)];
+                                o_done_hit[l*128 +: 128] = a_lane_hit[(s*N+l)*128 +: 128];
+                                o_done_cur_treelet[l*TW +: TW] = a_lane_cur_treelet[(s*N+l)*TW +: TW];
                                 o_done_cur_sp[l*SPW +: SPW] = csp;
                                 o_done_other_sp[l*SPW +: SPW] = osp;
                                 o_done_cur_spilled[l*SCW +: SCW] = csl;
-                                o_done_other_spilled[l*SCW +: SCW] = a_lane_other_spilled[L*SCW +: SCW];
+                                o_done_other_spilled[l*SCW +: SCW] = a_lane_other_spilled[(s*N+l)*SCW +: SCW];
                                 for (j = 0; j < D; j = j + 1) begin
                                     if (j < {{(32-SPW){1'b0}}, csp})
-                                        o_done_cur_stack[(l*D+j)*E +: E] = a_cur_stack[(L*D+j)*E +: E];
+                                        o_done_cur_stack[(l*D+j)*E +: E] = a_cur_stack[((s*N+l)*D+j)*E +: E];
                                     if (j < {{(32-SPW){1'b0}}, osp})
-                                        o_done_other_stack[(l*D+j)*E +: E] = a_other_stack[(L*D+j)*E +: E];
+                                        o_done_other_stack[(l*D+j)*E +: E] = a_other_stack[((s*N+l)*D+j)*E +: E];
                                 end
                                 // The ray leaves the lane.
-                                a_lane_status[L*2 +: 2] = ST_INACTIVE;
-                                a_lane_ray_id[L*RB +: RB] = {RB{1'b0}};
-                                a_lane_ray_words[L*256 +: 256] = 256'd0;
-                                a_lane_hit_valid[L] = 1'b0;
-                                a_lane_hit[L*128 +: 128] = 128'd0;
-                                a_lane_cur_treelet[L*TW +: TW] = {TW{1'b0}};
-                                a_lane_cur_sp[L*SPW +: SPW] = {SPW{1'b0}};
-                                a_lane_other_sp[L*SPW +: SPW] = {SPW{1'b0}};
-                                a_lane_cur_spilled[L*SCW +: SCW] = {SCW{1'b0}};
-                                a_lane_other_spilled[L*SCW +: SCW] = {SCW{1'b0}};
+                                a_lane_status[(s*N+l)*2 +: 2] = ST_INACTIVE;
+                                a_lane_ray_id[(s*N+l)*RB +: RB] = {RB{1'b0}};
+                                a_lane_ray_words[(s*N+l)*256 +: 256] = 256'd0;
+                                a_lane_hit_valid[(s*N+l)] = 1'b0;
+                                a_lane_hit[(s*N+l)*128 +: 128] = 128'd0;
+                                a_lane_cur_treelet[(s*N+l)*TW +: TW] = {TW{1'b0}};
+                                a_lane_cur_sp[(s*N+l)*SPW +: SPW] = {SPW{1'b0}};
+                                a_lane_other_sp[(s*N+l)*SPW +: SPW] = {SPW{1'b0}};
+                                a_lane_cur_spilled[(s*N+l)*SCW +: SCW] = {SCW{1'b0}};
+                                a_lane_other_spilled[(s*N+l)*SCW +: SCW] = {SCW{1'b0}};
                             end
                         end
                         // Remove the slot from the age order.
@@ -539,18 +536,17 @@ ${WORKING_COPIES}
                 sk = a_age_order[k*SB +: SB];
                 for (s = 0; s < S; s = s + 1) begin
                     for (l = 0; l < N; l = l + 1) begin
-                        L = s * N + l;
-                        if (!found && sk == s[SB-1:0] && a_lane_store_pending[L]) begin
+                        if (!found && sk == s[SB-1:0] && a_lane_store_pending[(s*N+l)]) begin
                             found = 1'b1;
-                            a_lane_store_pending[L] = 1'b0;
+                            a_lane_store_pending[(s*N+l)] = 1'b0;
                             o_req_valid = 1'b1;
                             o_req_kind = RQ_STORE;
                             o_req_tag = {sk, l[LB-1:0]};
-                            w = {{(59-RB){1'b0}}, a_lane_ray_id[L*RB +: RB], 5'd0};
+                            w = {{(59-RB){1'b0}}, a_lane_ray_id[(s*N+l)*RB +: RB], 5'd0};
                             o_req_address = HB_AB + w[AB-1:0];
-                            o_req_data = {96'd0, {(32-RB){1'b0}}, a_lane_ray_id[L*RB +: RB],
-                                a_lane_hit[L*128+96 +: 32], a_lane_hit[L*128+64 +: 32],
-                                a_lane_hit[L*128+32 +: 32], a_lane_hit[L*128 +: 32]};
+                            o_req_data = {96'd0, {(32-RB){1'b0}}, a_lane_ray_id[(s*N+l)*RB +: RB],
+                                a_lane_hit[(s*N+l)*128+96 +: 32], a_lane_hit[(s*N+l)*128+64 +: 32],
+                                a_lane_hit[(s*N+l)*128+32 +: 32], a_lane_hit[(s*N+l)*128 +: 32]};
                             o_count_store = 1'b1;
                         end
                     end
@@ -573,7 +569,6 @@ ${WORKING_COPIES}
                         act_k = 3'd0;
                         act_node = {E{1'b0}};
                         for (l = 0; l < N; l = l + 1) begin
-                            L = s * N + l;
                             {lact, lact_stack, lact_k, lact_node} = `RT_ACTION;
                             if (!found && lact != ACT_NONE) begin
                                 found = 1'b1;
@@ -589,19 +584,18 @@ ${WORKING_COPIES}
                             // Fetch act_node for every ready lane whose next request is the same.
                             served = {CMW{1'b0}};
                             for (l = 0; l < N; l = l + 1) begin
-                                L = s * N + l;
                                 {lact, lact_stack, lact_k, lact_node} = `RT_ACTION;
                                 if (lact == ACT_FETCH && lact_node == act_node) begin
-                                    if (a_lane_cur_sp[L*SPW +: SPW] != {SPW{1'b0}}) begin
-                                        a_lane_cur_sp[L*SPW +: SPW] = a_lane_cur_sp[L*SPW +: SPW] - ONE_SPW;
+                                    if (a_lane_cur_sp[(s*N+l)*SPW +: SPW] != {SPW{1'b0}}) begin
+                                        a_lane_cur_sp[(s*N+l)*SPW +: SPW] = a_lane_cur_sp[(s*N+l)*SPW +: SPW] - ONE_SPW;
                                     end else begin
-                                        a_lane_other_sp[L*SPW +: SPW] = a_lane_other_sp[L*SPW +: SPW] - ONE_SPW;
-                                        a_lane_cur_treelet[L*TW +: TW] = act_node[E-1:TSH+5];
+                                        a_lane_other_sp[(s*N+l)*SPW +: SPW] = a_lane_other_sp[(s*N+l)*SPW +: SPW] - ONE_SPW;
+                                        a_lane_cur_treelet[(s*N+l)*TW +: TW] = act_node[E-1:TSH+5];
                                     end
-                                    a_lane_node_valid[L] = 1'b1;
-                                    a_lane_node[L*E +: E] = act_node;
-                                    a_lane_node_leader[L*LB +: LB] = lead;
-                                    a_lane_chunks_returned[L*4 +: 4] = 4'd0;
+                                    a_lane_node_valid[(s*N+l)] = 1'b1;
+                                    a_lane_node[(s*N+l)*E +: E] = act_node;
+                                    a_lane_node_leader[(s*N+l)*LB +: LB] = lead;
+                                    a_lane_chunks_returned[(s*N+l)*4 +: 4] = 4'd0;
                                     served = served + ONE_CMW;
                                 end
                             end
@@ -619,20 +613,19 @@ ${WORKING_COPIES}
                             o_count_request = 1'b1;
                         end
                         for (l = 0; l < N; l = l + 1) begin
-                            L = s * N + l;
                             if (found && l[LB-1:0] == lead && act == ACT_SPILL) begin
-                                sp_idx = act_stack ? a_lane_other_spilled[L*SCW +: SCW]
-                                                   : a_lane_cur_spilled[L*SCW +: SCW];
+                                sp_idx = act_stack ? a_lane_other_spilled[(s*N+l)*SCW +: SCW]
+                                                   : a_lane_cur_spilled[(s*N+l)*SCW +: SCW];
                                 if (sp_idx >= SPC_W) begin
-                                    raise_a(E_SPILL_FULL, sk, lead, a_lane_ray_id[L*RB +: RB],
+                                    raise_a(E_SPILL_FULL, sk, lead, a_lane_ray_id[(s*N+l)*RB +: RB],
                                             {{(64-SCW){1'b0}}, sp_idx} + 64'd1, SPC64);
                                 end else begin
                                     // Store the act_k oldest entries; the rest move down.
                                     for (j = 0; j < 4; j = j + 1) begin
                                         if (j < {29'd0, act_k} && j < D) begin
                                             w = {1'b1, {(63-E){1'b0}},
-                                                 act_stack ? a_other_stack[(L*D+j)*E +: E]
-                                                           : a_cur_stack[(L*D+j)*E +: E]};
+                                                 act_stack ? a_other_stack[((s*N+l)*D+j)*E +: E]
+                                                           : a_cur_stack[((s*N+l)*D+j)*E +: E]};
                                             o_req_data[j*64 +: 64] = w;
                                         end
                                     end
@@ -640,36 +633,36 @@ ${WORKING_COPIES}
                                         if ({29'd0, act_k} == sh) begin
                                             for (j = 0; j + sh < D; j = j + 1) begin
                                                 if (act_stack)
-                                                    a_other_stack[(L*D+j)*E +: E] = a_other_stack[(L*D+j+sh)*E +: E];
+                                                    a_other_stack[((s*N+l)*D+j)*E +: E] = a_other_stack[((s*N+l)*D+j+sh)*E +: E];
                                                 else
-                                                    a_cur_stack[(L*D+j)*E +: E] = a_cur_stack[(L*D+j+sh)*E +: E];
+                                                    a_cur_stack[((s*N+l)*D+j)*E +: E] = a_cur_stack[((s*N+l)*D+j+sh)*E +: E];
                                             end
                                         end
                                     end
                                     if (act_stack) begin
-                                        a_lane_other_sp[L*SPW +: SPW] = a_lane_other_sp[L*SPW +: SPW] - {{(SPW-3){1'b0}}, act_k};
-                                        a_lane_other_spilled[L*SCW +: SCW] = sp_idx + ONE_SCW;
+                                        a_lane_other_sp[(s*N+l)*SPW +: SPW] = a_lane_other_sp[(s*N+l)*SPW +: SPW] - {{(SPW-3){1'b0}}, act_k};
+                                        a_lane_other_spilled[(s*N+l)*SCW +: SCW] = sp_idx + ONE_SCW;
                                     end else begin
-                                        a_lane_cur_sp[L*SPW +: SPW] = a_lane_cur_sp[L*SPW +: SPW] - {{(SPW-3){1'b0}}, act_k};
-                                        a_lane_cur_spilled[L*SCW +: SCW] = sp_idx + ONE_SCW;
+                                        a_lane_cur_sp[(s*N+l)*SPW +: SPW] = a_lane_cur_sp[(s*N+l)*SPW +: SPW] - {{(SPW-3){1'b0}}, act_k};
+                                        a_lane_cur_spilled[(s*N+l)*SCW +: SCW] = sp_idx + ONE_SCW;
                                     end
                                     o_req_valid = 1'b1;
                                     o_req_kind = RQ_SPILL;
                                     o_req_tag = {sk, lead};
-                                    addr_ray = a_lane_ray_id[L*RB +: RB];
+                                    addr_ray = a_lane_ray_id[(s*N+l)*RB +: RB];
                                     addr_index = sp_idx;
                                     addr_needed = 1'b1;
                                     o_count_spill = 1'b1;
                                 end
                             end
                             if (found && l[LB-1:0] == lead && act == ACT_FILL) begin
-                                sp_idx = act_stack ? a_lane_other_spilled[L*SCW +: SCW]
-                                                   : a_lane_cur_spilled[L*SCW +: SCW];
-                                a_lane_filling[L*2 +: 2] = act_stack ? 2'd2 : 2'd1;
+                                sp_idx = act_stack ? a_lane_other_spilled[(s*N+l)*SCW +: SCW]
+                                                   : a_lane_cur_spilled[(s*N+l)*SCW +: SCW];
+                                a_lane_filling[(s*N+l)*2 +: 2] = act_stack ? 2'd2 : 2'd1;
                                 o_req_valid = 1'b1;
                                 o_req_kind = RQ_FILL;
                                 o_req_tag = {sk, lead};
-                                addr_ray = a_lane_ray_id[L*RB +: RB];
+                                addr_ray = a_lane_ray_id[(s*N+l)*RB +: RB];
                                 addr_index = sp_idx - ONE_SCW;
                                 addr_needed = 1'b1;
                                 o_count_fill = 1'b1;
@@ -710,12 +703,11 @@ ${WORKING_COPIES}
             // A stack fill for the leader lane: the address it expects.
             for (s = 0; s < S; s = s + 1) begin
                 for (l = 0; l < N; l = l + 1) begin
-                    L = s * N + l;
                     if (pop_slot == s[SB-1:0] && pop_leader == l[LB-1:0]) begin
-                        addr_ray = a_lane_ray_id[L*RB +: RB];
-                        act_stack = a_lane_filling[L*2 +: 2] == 2'd2;
-                        addr_index = (act_stack ? a_lane_other_spilled[L*SCW +: SCW]
-                                                : a_lane_cur_spilled[L*SCW +: SCW]) - ONE_SCW;
+                        addr_ray = a_lane_ray_id[(s*N+l)*RB +: RB];
+                        act_stack = a_lane_filling[(s*N+l)*2 +: 2] == 2'd2;
+                        addr_index = (act_stack ? a_lane_other_spilled[(s*N+l)*SCW +: SCW]
+                                                : a_lane_cur_spilled[(s*N+l)*SCW +: SCW]) - ONE_SCW;
                     end
                 end
             end
@@ -723,13 +715,12 @@ ${WORKING_COPIES}
             found = 1'b0;  // matched
             for (s = 0; s < S; s = s + 1) begin
                 for (l = 0; l < N; l = l + 1) begin
-                    L = s * N + l;
                     if (pop_slot == s[SB-1:0] && pop_leader == l[LB-1:0]
-                        && a_lane_filling[L*2 +: 2] != 2'd0) begin
+                        && a_lane_filling[(s*N+l)*2 +: 2] != 2'd0) begin
                         two = a_slot_order[s*2 +: 2] != ORD_RAY;
-                        act_stack = a_lane_filling[L*2 +: 2] == 2'd2;
-                        sp_idx = act_stack ? a_lane_other_spilled[L*SCW +: SCW]
-                                           : a_lane_cur_spilled[L*SCW +: SCW];
+                        act_stack = a_lane_filling[(s*N+l)*2 +: 2] == 2'd2;
+                        sp_idx = act_stack ? a_lane_other_spilled[(s*N+l)*SCW +: SCW]
+                                           : a_lane_cur_spilled[(s*N+l)*SCW +: SCW];
                         // Entries: the leading valid 64-bit slots (defined kinds).
                         cnt = 3'd0;
                         stop_scan = 1'b0;
@@ -740,26 +731,26 @@ ${WORKING_COPIES}
                         end
                         if (sp_idx != {SCW{1'b0}}
                             && r_addr == fill_expect
-                            && (act_stack ? a_lane_other_sp[L*SPW +: SPW] : a_lane_cur_sp[L*SPW +: SPW]) == {SPW{1'b0}}
+                            && (act_stack ? a_lane_other_sp[(s*N+l)*SPW +: SPW] : a_lane_cur_sp[(s*N+l)*SPW +: SPW]) == {SPW{1'b0}}
                             && cnt != 3'd0 && {29'd0, cnt} <= D) begin
                             found = 1'b1;
                             for (j = 0; j < 4; j = j + 1) begin
                                 if (j < {29'd0, cnt} && j < D) begin
-                                    if (act_stack) a_other_stack[(L*D+j)*E +: E] = r_data[j*64 +: E];
-                                    else a_cur_stack[(L*D+j)*E +: E] = r_data[j*64 +: E];
+                                    if (act_stack) a_other_stack[((s*N+l)*D+j)*E +: E] = r_data[j*64 +: E];
+                                    else a_cur_stack[((s*N+l)*D+j)*E +: E] = r_data[j*64 +: E];
                                 end
                             end
                             if (act_stack) begin
-                                a_lane_other_sp[L*SPW +: SPW] = {{(SPW-3){1'b0}}, cnt};
-                                a_lane_other_spilled[L*SCW +: SCW] = sp_idx - ONE_SCW;
+                                a_lane_other_sp[(s*N+l)*SPW +: SPW] = {{(SPW-3){1'b0}}, cnt};
+                                a_lane_other_spilled[(s*N+l)*SCW +: SCW] = sp_idx - ONE_SCW;
                             end else begin
-                                a_lane_cur_sp[L*SPW +: SPW] = {{(SPW-3){1'b0}}, cnt};
-                                a_lane_cur_spilled[L*SCW +: SCW] = sp_idx - ONE_SCW;
+                                a_lane_cur_sp[(s*N+l)*SPW +: SPW] = {{(SPW-3){1'b0}}, cnt};
+                                a_lane_cur_spilled[(s*N+l)*SCW +: SCW] = sp_idx - ONE_SCW;
                             end
-                            a_lane_filling[L*2 +: 2] = 2'd0;
-                            if (act_stack && two && a_lane_cur_sp[L*SPW +: SPW] == {SPW{1'b0}}
-                                && a_lane_cur_spilled[L*SCW +: SCW] == {SCW{1'b0}}) begin
-                                if (a_slot_order[s*2 +: 2] == ORD_STOP) a_lane_status[L*2 +: 2] = ST_PARKED;
+                            a_lane_filling[(s*N+l)*2 +: 2] = 2'd0;
+                            if (act_stack && two && a_lane_cur_sp[(s*N+l)*SPW +: SPW] == {SPW{1'b0}}
+                                && a_lane_cur_spilled[(s*N+l)*SCW +: SCW] == {SCW{1'b0}}) begin
+                                if (a_slot_order[s*2 +: 2] == ORD_STOP) a_lane_status[(s*N+l)*2 +: 2] = ST_PARKED;
                                 fill_event[l] = 1'b1;
                                 for (j = 0; j < 4; j = j + 1)
                                     if (j + 1 == {29'd0, cnt})
@@ -777,30 +768,29 @@ ${WORKING_COPIES}
             for (s = 0; s < S; s = s + 1) begin
                 if (pop_slot == s[SB-1:0]) begin
                     for (l = 0; l < N; l = l + 1) begin
-                        L = s * N + l;
-                        naddr = a_lane_node[L*E+5 +: AB];
-                        nchunks = {1'b0, a_lane_node[L*E +: 2]} + 3'd1;
+                        naddr = a_lane_node[(s*N+l)*E+5 +: AB];
+                        nchunks = {1'b0, a_lane_node[(s*N+l)*E +: 2]} + 3'd1;
                         offset = {1'b0, r_addr} - {1'b0, naddr};
                         full = (4'd1 << nchunks) - 4'd1;
-                        if (a_lane_node_valid[L] && a_lane_node_leader[L*LB +: LB] == pop_leader
+                        if (a_lane_node_valid[(s*N+l)] && a_lane_node_leader[(s*N+l)*LB +: LB] == pop_leader
                             && r_addr >= naddr && offset[4:0] == 5'd0
                             && offset[AB:5] < {{(AB-7){1'b0}}, nchunks}
-                            && !a_lane_chunks_returned[L*4 + {30'd0, offset[6:5]}]) begin
+                            && !a_lane_chunks_returned[(s*N+l)*4 + {30'd0, offset[6:5]}]) begin
                             node_matched = 1'b1;
                             for (j = 0; j < 4; j = j + 1) begin
                                 if (offset[6:5] == j[1:0]) begin
-                                    a_lane_chunks_returned[L*4 + j] = 1'b1;
-                                    a_node_buffer[(L*4 + j)*256 +: 256] = r_data;
+                                    a_lane_chunks_returned[(s*N+l)*4 + j] = 1'b1;
+                                    a_node_buffer[((s*N+l)*4 + j)*256 +: 256] = r_data;
                                 end
                             end
-                            if (a_lane_chunks_returned[L*4 +: 4] == full) begin
-                                a_lane_node_valid[L] = 1'b0;
+                            if (a_lane_chunks_returned[(s*N+l)*4 +: 4] == full) begin
+                                a_lane_node_valid[(s*N+l)] = 1'b0;
                                 test_now[l] = 1'b1;
-                                dp_ray[l*256 +: 256] = a_lane_ray_words[L*256 +: 256];
-                                dp_best_valid[l] = a_lane_hit_valid[L];
-                                dp_best[l*128 +: 128] = a_lane_hit[L*128 +: 128];
-                                dp_node[l*E +: E] = a_lane_node[L*E +: E];
-                                dp_data[l*1024 +: 1024] = a_node_buffer[L*1024 +: 1024];
+                                dp_ray[l*256 +: 256] = a_lane_ray_words[(s*N+l)*256 +: 256];
+                                dp_best_valid[l] = a_lane_hit_valid[(s*N+l)];
+                                dp_best[l*128 +: 128] = a_lane_hit[(s*N+l)*128 +: 128];
+                                dp_node[l*E +: E] = a_lane_node[(s*N+l)*E +: E];
+                                dp_data[l*1024 +: 1024] = a_node_buffer[(s*N+l)*1024 +: 1024];
                             end
                         end
                     end
@@ -837,7 +827,7 @@ task raise_d;
 endtask
 
 always @* begin : p_back
-    integer s, l, k, j, L, c;
+    integer s, l, k, j, c;
     reg [CW-1:0] nch;
     reg [CHW-1:0] child;
     reg [63:0] caddr;
@@ -862,7 +852,6 @@ always @* begin : p_back
     reg [SCW-1:0] csl;
     reg [SCW-1:0] osl;
     reg [E-1:0] ent;
-    L = 0;
     nch = {CW{1'b0}};
     child = {CHW{1'b0}};
     caddr = 64'd0;
@@ -908,33 +897,32 @@ ${BACK_COPIES}
         if (pop_valid && pop_slot == s[SB-1:0]) begin
             two = slot_order_d[s*2 +: 2] != ORD_RAY;
             for (l = 0; l < N; l = l + 1) begin
-                L = s * N + l;
                 if (fill_event[l]) begin
                     o_boundary_valid[l] = 1'b1;
                     o_boundary_slot = pop_slot;
-                    o_boundary_ray_id[l*RB +: RB] = lane_ray_id_d[L*RB +: RB];
+                    o_boundary_ray_id[l*RB +: RB] = lane_ray_id_d[(s*N+l)*RB +: RB];
                     o_boundary_treelet[l*TW +: TW] = fill_treelet[l*TW +: TW];
                 end
                 if (test_now[l]) begin
-                    kind = lane_node_d[L*E+2 +: 3];
+                    kind = lane_node_d[(s*N+l)*E+2 +: 3];
                     for (k = 0; k < 6; k = k + 1)
                         if (kind == k[2:0]) o_tests[k*CTW +: CTW] = o_tests[k*CTW +: CTW] + ONE_CTW;
                     if (slot_order_d[s*2 +: 2] == ORD_STOP)
                         o_count_tests_treelet_order = o_count_tests_treelet_order + ONE_CTW;
                     h = dp_hit[l*128 +: 128];
-                    b = lane_hit_d[L*128 +: 64];
-                    accepted = dp_hit_valid[l] && (!lane_hit_valid_d[L] || f32_lt(h[31:0], b[31:0])
+                    b = lane_hit_d[(s*N+l)*128 +: 64];
+                    accepted = dp_hit_valid[l] && (!lane_hit_valid_d[(s*N+l)] || f32_lt(h[31:0], b[31:0])
                         || (f32_eq(h[31:0], b[31:0]) && h[63:32] < b[63:32]));
                     if (accepted) begin
-                        lane_hit_d[L*128 +: 128] = h;
-                        lane_hit_valid_d[L] = 1'b1;
-                        lane_store_pending_d[L] = 1'b1;
+                        lane_hit_d[(s*N+l)*128 +: 128] = h;
+                        lane_hit_valid_d[(s*N+l)] = 1'b1;
+                        lane_store_pending_d[(s*N+l)] = 1'b1;
                         if (kind == K_TRIANGLE) o_count_hits = o_count_hits + ONE_CTW;
                     end
-                    lane_delay_d[L*DW +: DW] = latency(kind, accepted);
+                    lane_delay_d[(s*N+l)*DW +: DW] = latency(kind, accepted);
                     nch = dp_child_count[l*CW +: CW];
                     if (nch > R_CW)
-                        raise_d(E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[L*RB +: RB],
+                        raise_d(E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[(s*N+l)*RB +: RB],
                                 {{(64-CW){1'b0}}, nch}, R64);
                     // Children pushed last first, so the first in visit order ends on top.
                     for (c = R - 1; c >= 0; c = c - 1) begin
@@ -944,45 +932,45 @@ ${BACK_COPIES}
                             ckind = child[10:8];
                             cchunks = child[7:0];
                             if (bad_node(caddr, cchunks)) begin
-                                raise_d(E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[L*RB +: RB],
+                                raise_d(E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[(s*N+l)*RB +: RB],
                                         caddr, SPACE64);
                             end else begin
                                 ent = {caddr[AB-1:0], ckind, cchunks[1:0] - 2'd1};
-                                if (!two || caddr[AB-1:TSH] == lane_cur_treelet_d[L*TW +: TW]) begin
-                                    csp = lane_cur_sp_d[L*SPW +: SPW];
+                                if (!two || caddr[AB-1:TSH] == lane_cur_treelet_d[(s*N+l)*TW +: TW]) begin
+                                    csp = lane_cur_sp_d[(s*N+l)*SPW +: SPW];
                                     if (csp < D_SPW) begin
                                         for (j = 0; j < D; j = j + 1)
-                                            if (csp == j[SPW-1:0]) cur_stack_d[(L*D+j)*E +: E] = ent;
-                                        lane_cur_sp_d[L*SPW +: SPW] = csp + ONE_SPW;
+                                            if (csp == j[SPW-1:0]) cur_stack_d[((s*N+l)*D+j)*E +: E] = ent;
+                                        lane_cur_sp_d[(s*N+l)*SPW +: SPW] = csp + ONE_SPW;
                                     end
                                 end else begin
-                                    osp = lane_other_sp_d[L*SPW +: SPW];
+                                    osp = lane_other_sp_d[(s*N+l)*SPW +: SPW];
                                     if (osp < D_SPW) begin
                                         for (j = 0; j < D; j = j + 1)
-                                            if (osp == j[SPW-1:0]) other_stack_d[(L*D+j)*E +: E] = ent;
-                                        lane_other_sp_d[L*SPW +: SPW] = osp + ONE_SPW;
+                                            if (osp == j[SPW-1:0]) other_stack_d[((s*N+l)*D+j)*E +: E] = ent;
+                                        lane_other_sp_d[(s*N+l)*SPW +: SPW] = osp + ONE_SPW;
                                     end
                                 end
                             end
                         end
                     end
-                    csp = lane_cur_sp_d[L*SPW +: SPW];
-                    osp = lane_other_sp_d[L*SPW +: SPW];
-                    csl = lane_cur_spilled_d[L*SCW +: SCW];
-                    osl = lane_other_spilled_d[L*SCW +: SCW];
+                    csp = lane_cur_sp_d[(s*N+l)*SPW +: SPW];
+                    osp = lane_other_sp_d[(s*N+l)*SPW +: SPW];
+                    csl = lane_cur_spilled_d[(s*N+l)*SCW +: SCW];
+                    osl = lane_other_spilled_d[(s*N+l)*SCW +: SCW];
                     finished = csp == {SPW{1'b0}} && csl == {SCW{1'b0}} && osp == {SPW{1'b0}}
                         && osl == {SCW{1'b0}};
                     if (finished) begin
-                        lane_status_d[L*2 +: 2] = ST_DONE;
+                        lane_status_d[(s*N+l)*2 +: 2] = ST_DONE;
                     end else if (two && csp == {SPW{1'b0}} && csl == {SCW{1'b0}} && osp != {SPW{1'b0}}) begin
                         // A treelet boundary: report the treelet of the other stack's top.
-                        if (slot_order_d[s*2 +: 2] == ORD_STOP) lane_status_d[L*2 +: 2] = ST_PARKED;
+                        if (slot_order_d[s*2 +: 2] == ORD_STOP) lane_status_d[(s*N+l)*2 +: 2] = ST_PARKED;
                         o_boundary_valid[l] = 1'b1;
                         o_boundary_slot = pop_slot;
-                        o_boundary_ray_id[l*RB +: RB] = lane_ray_id_d[L*RB +: RB];
+                        o_boundary_ray_id[l*RB +: RB] = lane_ray_id_d[(s*N+l)*RB +: RB];
                         for (j = 0; j < D; j = j + 1)
                             if (osp == j[SPW-1:0] + ONE_SPW)
-                                o_boundary_treelet[l*TW +: TW] = other_stack_d[(L*D+j)*E + TSH + 5 +: TW];
+                                o_boundary_treelet[l*TW +: TW] = other_stack_d[((s*N+l)*D+j)*E + TSH + 5 +: TW];
                     end
                 end
             end
@@ -1069,7 +1057,6 @@ ${BACK_COPIES}
                             slot_held_d[s] = 1'b0;
                         end
                         for (l = 0; l < N; l = l + 1) begin
-                            L = s * N + l;
                             if (issue_active[l] || issue_target != 2'd2) begin
                                 csp = issue_cur_sp[l*SPW +: SPW];
                                 osp = issue_other_sp[l*SPW +: SPW];
@@ -1077,26 +1064,26 @@ ${BACK_COPIES}
                                 osl = issue_other_spilled[l*SCW +: SCW];
                                 finished = csp == {SPW{1'b0}} && csl == {SCW{1'b0}}
                                     && osp == {SPW{1'b0}} && osl == {SCW{1'b0}};
-                                lane_status_d[L*2 +: 2] = !issue_active[l] ? ST_INACTIVE
+                                lane_status_d[(s*N+l)*2 +: 2] = !issue_active[l] ? ST_INACTIVE
                                     : finished ? ST_DONE : ST_TRAVERSING;
-                                lane_ray_id_d[L*RB +: RB] = issue_ray_id[l*RB +: RB];
-                                lane_ray_words_d[L*256 +: 256] = issue_ray_words[l*256 +: 256];
-                                lane_hit_valid_d[L] = issue_hit_valid[l];
-                                lane_hit_d[L*128 +: 128] = issue_hit[l*128 +: 128];
-                                lane_cur_treelet_d[L*TW +: TW] = issue_cur_treelet[l*TW +: TW];
-                                lane_cur_sp_d[L*SPW +: SPW] = csp;
-                                lane_other_sp_d[L*SPW +: SPW] = osp;
-                                lane_cur_spilled_d[L*SCW +: SCW] = csl;
-                                lane_other_spilled_d[L*SCW +: SCW] = osl;
-                                cur_stack_d[L*D*E +: D*E] = issue_cur_stack[l*D*E +: D*E];
-                                other_stack_d[L*D*E +: D*E] = issue_other_stack[l*D*E +: D*E];
-                                lane_filling_d[L*2 +: 2] = 2'd0;
-                                lane_node_valid_d[L] = 1'b0;
-                                lane_node_d[L*E +: E] = {E{1'b0}};
-                                lane_node_leader_d[L*LB +: LB] = {LB{1'b0}};
-                                lane_chunks_returned_d[L*4 +: 4] = 4'd0;
-                                lane_delay_d[L*DW +: DW] = {DW{1'b0}};
-                                lane_store_pending_d[L] = 1'b0;
+                                lane_ray_id_d[(s*N+l)*RB +: RB] = issue_ray_id[l*RB +: RB];
+                                lane_ray_words_d[(s*N+l)*256 +: 256] = issue_ray_words[l*256 +: 256];
+                                lane_hit_valid_d[(s*N+l)] = issue_hit_valid[l];
+                                lane_hit_d[(s*N+l)*128 +: 128] = issue_hit[l*128 +: 128];
+                                lane_cur_treelet_d[(s*N+l)*TW +: TW] = issue_cur_treelet[l*TW +: TW];
+                                lane_cur_sp_d[(s*N+l)*SPW +: SPW] = csp;
+                                lane_other_sp_d[(s*N+l)*SPW +: SPW] = osp;
+                                lane_cur_spilled_d[(s*N+l)*SCW +: SCW] = csl;
+                                lane_other_spilled_d[(s*N+l)*SCW +: SCW] = osl;
+                                cur_stack_d[(s*N+l)*D*E +: D*E] = issue_cur_stack[l*D*E +: D*E];
+                                other_stack_d[(s*N+l)*D*E +: D*E] = issue_other_stack[l*D*E +: D*E];
+                                lane_filling_d[(s*N+l)*2 +: 2] = 2'd0;
+                                lane_node_valid_d[(s*N+l)] = 1'b0;
+                                lane_node_d[(s*N+l)*E +: E] = {E{1'b0}};
+                                lane_node_leader_d[(s*N+l)*LB +: LB] = {LB{1'b0}};
+                                lane_chunks_returned_d[(s*N+l)*4 +: 4] = 4'd0;
+                                lane_delay_d[(s*N+l)*DW +: DW] = {DW{1'b0}};
+                                lane_store_pending_d[(s*N+l)] = 1'b0;
                             end
                         end
                     end
@@ -1111,13 +1098,12 @@ ${BACK_COPIES}
                 ok = 1'b1;
                 slot_order_d[s*2 +: 2] = ORD_STOP;
                 for (l = 0; l < N; l = l + 1) begin
-                    L = s * N + l;
-                    if (lane_status_d[L*2 +: 2] == ST_TRAVERSING && !lane_node_valid_d[L]
-                        && lane_filling_d[L*2 +: 2] == 2'd0
-                        && lane_cur_sp_d[L*SPW +: SPW] == {SPW{1'b0}}
-                        && lane_cur_spilled_d[L*SCW +: SCW] == {SCW{1'b0}}
-                        && lane_other_sp_d[L*SPW +: SPW] != {SPW{1'b0}})
-                        lane_status_d[L*2 +: 2] = ST_PARKED;
+                    if (lane_status_d[(s*N+l)*2 +: 2] == ST_TRAVERSING && !lane_node_valid_d[(s*N+l)]
+                        && lane_filling_d[(s*N+l)*2 +: 2] == 2'd0
+                        && lane_cur_sp_d[(s*N+l)*SPW +: SPW] == {SPW{1'b0}}
+                        && lane_cur_spilled_d[(s*N+l)*SCW +: SCW] == {SCW{1'b0}}
+                        && lane_other_sp_d[(s*N+l)*SPW +: SPW] != {SPW{1'b0}})
+                        lane_status_d[(s*N+l)*2 +: 2] = ST_PARKED;
                 end
             end
         end
@@ -1130,21 +1116,20 @@ ${BACK_COPIES}
                 o_released_valid = 1'b1;
                 o_released_slot = repack_slot;
                 for (l = 0; l < N; l = l + 1) begin
-                    L = s * N + l;
-                    if (lane_status_d[L*2 +: 2] == ST_DONE && !lane_node_valid_d[L]
-                        && lane_filling_d[L*2 +: 2] == 2'd0
-                        && lane_delay_d[L*DW +: DW] == {DW{1'b0}} && !lane_store_pending_d[L]) begin
+                    if (lane_status_d[(s*N+l)*2 +: 2] == ST_DONE && !lane_node_valid_d[(s*N+l)]
+                        && lane_filling_d[(s*N+l)*2 +: 2] == 2'd0
+                        && lane_delay_d[(s*N+l)*DW +: DW] == {DW{1'b0}} && !lane_store_pending_d[(s*N+l)]) begin
                         o_released_mask[l] = 1'b1;
-                        lane_status_d[L*2 +: 2] = ST_INACTIVE;
-                        lane_ray_id_d[L*RB +: RB] = {RB{1'b0}};
-                        lane_ray_words_d[L*256 +: 256] = 256'd0;
-                        lane_hit_valid_d[L] = 1'b0;
-                        lane_hit_d[L*128 +: 128] = 128'd0;
-                        lane_cur_treelet_d[L*TW +: TW] = {TW{1'b0}};
-                        lane_cur_sp_d[L*SPW +: SPW] = {SPW{1'b0}};
-                        lane_other_sp_d[L*SPW +: SPW] = {SPW{1'b0}};
-                        lane_cur_spilled_d[L*SCW +: SCW] = {SCW{1'b0}};
-                        lane_other_spilled_d[L*SCW +: SCW] = {SCW{1'b0}};
+                        lane_status_d[(s*N+l)*2 +: 2] = ST_INACTIVE;
+                        lane_ray_id_d[(s*N+l)*RB +: RB] = {RB{1'b0}};
+                        lane_ray_words_d[(s*N+l)*256 +: 256] = 256'd0;
+                        lane_hit_valid_d[(s*N+l)] = 1'b0;
+                        lane_hit_d[(s*N+l)*128 +: 128] = 128'd0;
+                        lane_cur_treelet_d[(s*N+l)*TW +: TW] = {TW{1'b0}};
+                        lane_cur_sp_d[(s*N+l)*SPW +: SPW] = {SPW{1'b0}};
+                        lane_other_sp_d[(s*N+l)*SPW +: SPW] = {SPW{1'b0}};
+                        lane_cur_spilled_d[(s*N+l)*SCW +: SCW] = {SCW{1'b0}};
+                        lane_other_spilled_d[(s*N+l)*SCW +: SCW] = {SCW{1'b0}};
                     end
                 end
             end
@@ -1162,7 +1147,7 @@ reg [S*SNW-1:0] o_status_busy;
 reg [S*SNW-1:0] o_status_distinct;
 reg [S*N-1:0] o_status_inactive;
 always @* begin : p_status
-    integer s, l, m, L, M;
+    integer s, l, m;
     reg [SNW-1:0] trav;
     reg [SNW-1:0] kept;
     reg [SNW-1:0] ndist;
@@ -1172,8 +1157,6 @@ always @* begin : p_status
     reg any_busy;
     reg seen;
     reg [1:0] st;
-    L = 0;
-    M = 0;
     trav = {SNW{1'b0}};
     kept = {SNW{1'b0}};
     ndist = {SNW{1'b0}};
@@ -1203,10 +1186,9 @@ always @* begin : p_status
             has = {N{1'b0}};
             nxt = {N*TW{1'b0}};
             for (l = 0; l < N; l = l + 1) begin
-                L = s * N + l;
-                st = lane_status_q[L*2 +: 2];
-                busy = st == ST_TRAVERSING || lane_node_valid_q[L] || lane_filling_q[L*2 +: 2] != 2'd0
-                    || lane_delay_q[L*DW +: DW] != {DW{1'b0}} || lane_store_pending_q[L];
+                st = lane_status_q[(s*N+l)*2 +: 2];
+                busy = st == ST_TRAVERSING || lane_node_valid_q[(s*N+l)] || lane_filling_q[(s*N+l)*2 +: 2] != 2'd0
+                    || lane_delay_q[(s*N+l)*DW +: DW] != {DW{1'b0}} || lane_store_pending_q[(s*N+l)];
                 if (busy) any_busy = 1'b1;
                 if (st == ST_TRAVERSING) trav = trav + ONE_SNW;
                 if (st == ST_TRAVERSING || st == ST_PARKED || (st == ST_DONE && busy))
@@ -1215,16 +1197,15 @@ always @* begin : p_status
                 // The traversing lane's next node, if on chip.
                 if (st == ST_TRAVERSING) begin
                     for (m = 0; m < D; m = m + 1) begin
-                        M = (L * D + m) * E;
-                        if (lane_cur_sp_q[L*SPW +: SPW] == m[SPW-1:0] + ONE_SPW) begin
+                        if (lane_cur_sp_q[(s*N+l)*SPW +: SPW] == m[SPW-1:0] + ONE_SPW) begin
                             has[l] = 1'b1;
-                            nxt[l*TW +: TW] = cur_stack_q[M + TSH + 5 +: TW];
+                            nxt[l*TW +: TW] = cur_stack_q[(((s*N+l)*D+m)*E) + TSH + 5 +: TW];
                         end
-                        if (lane_cur_sp_q[L*SPW +: SPW] == {SPW{1'b0}}
-                            && lane_cur_spilled_q[L*SCW +: SCW] == {SCW{1'b0}}
-                            && lane_other_sp_q[L*SPW +: SPW] == m[SPW-1:0] + ONE_SPW) begin
+                        if (lane_cur_sp_q[(s*N+l)*SPW +: SPW] == {SPW{1'b0}}
+                            && lane_cur_spilled_q[(s*N+l)*SCW +: SCW] == {SCW{1'b0}}
+                            && lane_other_sp_q[(s*N+l)*SPW +: SPW] == m[SPW-1:0] + ONE_SPW) begin
                             has[l] = 1'b1;
-                            nxt[l*TW +: TW] = other_stack_q[M + TSH + 5 +: TW];
+                            nxt[l*TW +: TW] = other_stack_q[(((s*N+l)*D+m)*E) + TSH + 5 +: TW];
                         end
                     end
                 end
