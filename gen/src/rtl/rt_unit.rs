@@ -306,7 +306,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
                      fifo_tail_d = (fifo_tail_d == FD_LAST) ? {{FPW{{1'b0}}}} : fifo_tail_d + ONE_FPW;\n            \
                      fifo_count_d = fifo_count_d + ONE_FCW;\n        \
                  end else begin\n            \
-                     raise_d(E_FIFO, {{SB{{1'b0}}}}, {{LB{{1'b0}}}}, {{RB{{1'b0}}}}, {{56'd0, nvalid}}, {{48'd0, lim}});\n        \
+                     {{errors_d, first_error_d}} = raised(errors_d, first_error_d, E_FIFO, {{SB{{1'b0}}}}, {{LB{{1'b0}}}}, {{RB{{1'b0}}}}, {{56'd0, nvalid}}, {{48'd0, lim}});\n        \
                  end\n    \
              end\n    "
         ));

@@ -1,6 +1,7 @@
 `define RT_ACTION lane_action(a_lane_status[(s*N+l)*2 +: 2], a_lane_node_valid[(s*N+l)], a_lane_filling[(s*N+l)*2 +: 2], a_lane_delay[(s*N+l)*DW +: DW], a_lane_cur_sp[(s*N+l)*SPW +: SPW], a_lane_other_sp[(s*N+l)*SPW +: SPW], a_lane_cur_spilled[(s*N+l)*SCW +: SCW], a_lane_other_spilled[(s*N+l)*SCW +: SCW], a_cur_stack[(s*N+l)*D*E +: D*E], a_other_stack[(s*N+l)*D*E +: D*E], two)
 // ---- Sizes and constants of this configuration -------------------------------------------------
 ${PARAMS}
+localparam D4 = (D < 4) ? D : 4;     // entries of a spill chunk that fit a stack
 localparam [1:0] ST_INACTIVE = 2'd0;  // lane_status encodings
 localparam [1:0] ST_TRAVERSING = 2'd1;
 localparam [1:0] ST_DONE = 2'd2;
@@ -256,8 +257,11 @@ wire [N*R*CHW-1:0] dp_children;
 wire [N-1:0] dp_hit_valid;
 wire [N*128-1:0] dp_hit;
 
-// Raises error `kind` in the working error registers (the first one is captured).
-task raise_a;
+// The error registers {errors, first_error} after raising error `kind` (its flag set; the first
+// error captured with its slot, lane, ray id, value and limit).
+function [7+FE_W-1:0] raised;
+    input [6:0] flags;
+    input [FE_W-1:0] first;
     input [2:0] kind;
     input [SB-1:0] slot;
     input [LB-1:0] lane;
@@ -265,10 +269,10 @@ task raise_a;
     input [63:0] value;
     input [63:0] limit;
     begin
-        a_errors = a_errors | (7'd1 << kind);
-        if (!a_first_error[FE_W-1]) a_first_error = {1'b1, kind, slot, lane, ray, value, limit};
+        raised = {flags | (7'd1 << kind),
+                  first[FE_W-1] ? first : {1'b1, kind, slot, lane, ray, value, limit}};
     end
-endtask
+endfunction
 
 // The intersection datapath, one per lane (a black box outside the RT unit's control).
 genvar gl;
@@ -617,12 +621,12 @@ ${WORKING_COPIES}
                                 sp_idx = act_stack ? a_lane_other_spilled[(s*N+l)*SCW +: SCW]
                                                    : a_lane_cur_spilled[(s*N+l)*SCW +: SCW];
                                 if (sp_idx >= SPC_W) begin
-                                    raise_a(E_SPILL_FULL, sk, lead, a_lane_ray_id[(s*N+l)*RB +: RB],
+                                    {a_errors, a_first_error} = raised(a_errors, a_first_error, E_SPILL_FULL, sk, lead, a_lane_ray_id[(s*N+l)*RB +: RB],
                                             {{(64-SCW){1'b0}}, sp_idx} + 64'd1, SPC64);
                                 end else begin
                                     // Store the act_k oldest entries; the rest move down.
-                                    for (j = 0; j < 4; j = j + 1) begin
-                                        if (j < {29'd0, act_k} && j < D) begin
+                                    for (j = 0; j < D4; j = j + 1) begin
+                                        if (j < {29'd0, act_k}) begin
                                             w = {1'b1, {(63-E){1'b0}},
                                                  act_stack ? a_other_stack[((s*N+l)*D+j)*E +: E]
                                                            : a_cur_stack[((s*N+l)*D+j)*E +: E]};
@@ -698,7 +702,7 @@ ${WORKING_COPIES}
         for (s = 0; s < S; s = s + 1)
             if (pop_slot == s[SB-1:0] && a_slot_valid[s]) found = 1'b1;
         if (!found) begin
-            raise_a(E_UNMATCHED, pop_slot, pop_leader, {RB{1'b0}}, {{(64-AB){1'b0}}, r_addr}, 64'd0);
+            {a_errors, a_first_error} = raised(a_errors, a_first_error, E_UNMATCHED, pop_slot, pop_leader, {RB{1'b0}}, {{(64-AB){1'b0}}, r_addr}, 64'd0);
         end else if ({1'b0, r_addr} >= SPILL_LO && {1'b0, r_addr} < SPILL_HI) begin
             // A stack fill for the leader lane: the address it expects.
             for (s = 0; s < S; s = s + 1) begin
@@ -734,8 +738,8 @@ ${WORKING_COPIES}
                             && (act_stack ? a_lane_other_sp[(s*N+l)*SPW +: SPW] : a_lane_cur_sp[(s*N+l)*SPW +: SPW]) == {SPW{1'b0}}
                             && cnt != 3'd0 && {29'd0, cnt} <= D) begin
                             found = 1'b1;
-                            for (j = 0; j < 4; j = j + 1) begin
-                                if (j < {29'd0, cnt} && j < D) begin
+                            for (j = 0; j < D4; j = j + 1) begin
+                                if (j < {29'd0, cnt}) begin
                                     if (act_stack) a_other_stack[((s*N+l)*D+j)*E +: E] = r_data[j*64 +: E];
                                     else a_cur_stack[((s*N+l)*D+j)*E +: E] = r_data[j*64 +: E];
                                 end
@@ -761,7 +765,7 @@ ${WORKING_COPIES}
                 end
             end
             if (!found)
-                raise_a(E_UNMATCHED, pop_slot, pop_leader, {RB{1'b0}}, {{(64-AB){1'b0}}, r_addr}, 64'd0);
+                {a_errors, a_first_error} = raised(a_errors, a_first_error, E_UNMATCHED, pop_slot, pop_leader, {RB{1'b0}}, {{(64-AB){1'b0}}, r_addr}, 64'd0);
         end else begin
             // A node chunk for the lanes whose request it answers.
             pop_node = 1'b1;
@@ -812,19 +816,6 @@ reg [6*CTW-1:0] o_tests;        // tests per node kind, kind k in bits [k*CTW +:
 reg [CTW-1:0] o_count_tests_treelet_order;
 reg [CTW-1:0] o_count_hits;
 
-// Raises error `kind` in the next-state error registers (the first one is captured).
-task raise_d;
-    input [2:0] kind;
-    input [SB-1:0] slot;
-    input [LB-1:0] lane;
-    input [RB-1:0] ray;
-    input [63:0] value;
-    input [63:0] limit;
-    begin
-        errors_d = errors_d | (7'd1 << kind);
-        if (!first_error_d[FE_W-1]) first_error_d = {1'b1, kind, slot, lane, ray, value, limit};
-    end
-endtask
 
 always @* begin : p_back
     integer s, l, k, j, c;
@@ -922,7 +913,7 @@ ${BACK_COPIES}
                     lane_delay_d[(s*N+l)*DW +: DW] = latency(kind, accepted);
                     nch = dp_child_count[l*CW +: CW];
                     if (nch > R_CW)
-                        raise_d(E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[(s*N+l)*RB +: RB],
+                        {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[(s*N+l)*RB +: RB],
                                 {{(64-CW){1'b0}}, nch}, R64);
                     // Children pushed last first, so the first in visit order ends on top.
                     for (c = R - 1; c >= 0; c = c - 1) begin
@@ -932,7 +923,7 @@ ${BACK_COPIES}
                             ckind = child[10:8];
                             cchunks = child[7:0];
                             if (bad_node(caddr, cchunks)) begin
-                                raise_d(E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[(s*N+l)*RB +: RB],
+                                {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_d[(s*N+l)*RB +: RB],
                                         caddr, SPACE64);
                             end else begin
                                 ent = {caddr[AB-1:0], ckind, cchunks[1:0] - 2'd1};
@@ -977,7 +968,7 @@ ${BACK_COPIES}
         end
     end
     if (pop_node && !node_matched)
-        raise_d(E_UNMATCHED, pop_slot, pop_leader, {RB{1'b0}}, {{(64-AB){1'b0}}, pop_address}, 64'd0);
+        {errors_d, first_error_d} = raised(errors_d, first_error_d, E_UNMATCHED, pop_slot, pop_leader, {RB{1'b0}}, {{(64-AB){1'b0}}, pop_address}, 64'd0);
 
     // 6. This cycle's responses enter the FIFO.
     nvalid = 8'd0;
@@ -1013,7 +1004,7 @@ ${BACK_COPIES}
             end
         end
         if (any_bad) begin
-            raise_d(E_BAD_ISSUE, {SB{1'b0}}, bad_lane, bad_ray, 64'd0, 64'd0);
+            {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_ISSUE, {SB{1'b0}}, bad_lane, bad_ray, 64'd0, 64'd0);
         end else begin
             target = {SB{1'b0}};
             ok = 1'b0;
@@ -1023,12 +1014,12 @@ ${BACK_COPIES}
                         ok = 1'b1;
                         target = s[SB-1:0];
                     end
-                if (!ok) raise_d(E_ISSUE_FULL, {SB{1'b0}}, {LB{1'b0}}, {RB{1'b0}}, S_PLUS1_64, S_64);
+                if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_ISSUE_FULL, {SB{1'b0}}, {LB{1'b0}}, {RB{1'b0}}, S_PLUS1_64, S_64);
             end else if (issue_target == 2'd1) begin
                 for (s = 0; s < S; s = s + 1)
                     if (issue_slot == s[SB-1:0] && free_mask[s]) ok = 1'b1;
                 target = issue_slot;
-                if (!ok) raise_d(E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd1, 64'd0);
+                if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd1, 64'd0);
             end else if (issue_target == 2'd2) begin
                 for (s = 0; s < S; s = s + 1) begin
                     if (issue_slot == s[SB-1:0] && slot_valid_d[s] && slot_held_d[s]) begin
@@ -1039,9 +1030,9 @@ ${BACK_COPIES}
                     end
                 end
                 target = issue_slot;
-                if (!ok) raise_d(E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd2, 64'd0);
+                if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd2, 64'd0);
             end else begin
-                raise_d(E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd3, 64'd0);
+                {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd3, 64'd0);
             end
             if (ok) begin
                 for (s = 0; s < S; s = s + 1) begin
@@ -1107,7 +1098,7 @@ ${BACK_COPIES}
                 end
             end
         end
-        if (!ok) raise_d(E_BAD_COMMAND, stop_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd0, 64'd0);
+        if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, stop_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd0, 64'd0);
     end
     if (repack_valid) begin
         for (s = 0; s < S; s = s + 1) begin
