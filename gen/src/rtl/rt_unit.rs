@@ -23,8 +23,8 @@
 //! loops over slots and lanes into very deep multiplexer chains (stopped after 20 minutes at the
 //! 12-lane test configuration, twice: indexing the lanes by loop variables only, not by a
 //! computed lane number, brought its memory from 4.3 GB to 0.86 GB but not its time under 20
-//! minutes). One lane module per lane beside a slot-level scheduler is the structure a
-//! synthesizable version needs.
+//! minutes; at a 2-lane configuration it ran out of memory at 24 GB). One lane module per lane
+//! beside a slot-level scheduler is the structure a synthesizable version needs.
 
 use super::{
     emit_full_module, emit_text, emit_vector_registers, fill, lit, reg_bits, vector_range, DescInfo,
