@@ -155,19 +155,19 @@ fn a_broken_rtl_line_is_caught() {
     let mutations = [
         // Lanes of a warp merge their requests whatever node they fetch.
         (
-            "if (lact == ACT_FETCH && lact_node == act_node) begin",
-            "if (lact == ACT_FETCH) begin",
+            "if (merge && a_act == ACT_FETCH && a_node == lead_node) begin",
+            "if (merge && a_act == ACT_FETCH) begin",
         ),
         // A tie in t goes to the larger hit id.
         ("h[63:32] < b[63:32]", "h[63:32] > b[63:32]"),
         // A warp completes while its last test's latency is still counting down.
         (
-            "|| a_lane_delay[(s*N+l)*DW +: DW] != {DW{1'b0}} || a_lane_store_pending[(s*N+l)])",
-            "|| a_lane_store_pending[(s*N+l)])",
+            "|| delay_q != {DW{1'b0}} || store_pending_q;",
+            "|| store_pending_q;",
         ),
         // An append may overwrite an occupied lane.
         (
-            "if (issue_active[l] && lane_status_d[(s*N+l)*2 +: 2] != ST_INACTIVE)",
+            "if (issue_active[l] && l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE)",
             "if (1'b0)",
         ),
     ];

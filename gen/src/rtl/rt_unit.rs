@@ -4,37 +4,43 @@
 //! intersection-delay countdown, warp completion, the treelet controller's commands (issue into
 //! a slot, append, stop, repack) and the register-only status ports.
 //!
-//! The next-state logic follows `RtUnit::update` stage by stage in two combinational blocks:
-//! `p_front` runs stages 1-5 up to the intersection tests (statistics, completion, the memory
-//! scheduler, the delay countdown, the response pop and chunk delivery) on copies of the
-//! registers, `p_back` takes them over and writes the tests' results back, pushes the cycle's
-//! responses and applies the warp issue and the controller's commands. Between the two sits
-//! the intersection datapath, one `rt_datapath` instance per lane, outside the RT unit's
-//! control (a black box with the interface of [`DATAPATH_PORTS`]): the Rust block calls its
-//! `NodeDatapath` at the same point of the cycle. [`toy_datapath_verilog`] is the Verilog of the
-//! toy node format the co-simulation uses on both sides
+//! The module is split the way the hardware is: one `rt_unit_lane` per lane of the warp buffer
+//! computes that lane's next state (its registers stay in `rt_unit`), and `rt_unit` holds the
+//! slot-level logic between them. The lane runs the stages of `RtUnit::update` on its own
+//! state — completion, its request merged or its spill or fill as the scheduler's leader, the
+//! delay countdown, the popped response (a fill or a chunk of its node), the test's result
+//! written back, the warp issue, stop and repack — each stage an always block of its own. The
+//! slot level decides what concerns each lane from start-of-cycle state (a completing warp's
+//! lanes are quiescent, so completion does not change what the scheduler sees): which warp
+//! completes, which store or which leader's request goes out, which lanes a response is for;
+//! it raises the errors in `RtUnit::update`'s order, runs the response FIFO and decodes the
+//! controller's commands. Between the lanes' stages sits the intersection datapath, one
+//! `rt_datapath` instance per lane index, fed by that lane of the popped response's slot,
+//! outside the RT unit's control (a black box with the interface of [`DATAPATH_PORTS`]): the
+//! Rust block calls its `NodeDatapath` at the same point of the cycle. [`toy_datapath_verilog`]
+//! is the Verilog of the toy node format the co-simulation uses on both sides
 //! (`vtq_gen::stimulus::rt_unit::ToyDatapath`).
 //!
 //! The description's memories (the two stacks, the node buffer, the response FIFO) are
-//! flip-flop arrays here; `vtq area` sizes them as SRAM or flip-flops separately.
-//!
-//! The module lints clean and co-simulates with 0 mismatches (`gen/tests/rt_unit_rtl.rs`), but
-//! Yosys 0.23 does not synthesize it in reasonable time: the stage-by-stage blocks unroll their
-//! loops over slots and lanes into very deep multiplexer chains (stopped after 20 minutes at the
-//! 12-lane test configuration, twice: indexing the lanes by loop variables only, not by a
-//! computed lane number, brought its memory from 4.3 GB to 0.86 GB but not its time under 20
-//! minutes; at a 2-lane configuration it ran out of memory at 24 GB). One lane module per lane
-//! beside a slot-level scheduler is the structure a synthesizable version needs.
+//! flip-flop arrays here; `vtq area` sizes them as SRAM or flip-flops separately. The module
+//! lints clean, co-simulates with 0 mismatches (`gen/tests/rt_unit_rtl.rs`) and synthesizes
+//! under Yosys (a first, single-always-block version of the same logic did not: its loops over
+//! slots and lanes unrolled into multiplexer chains Yosys could not finish in 20 minutes).
 
-use super::{
-    emit_full_module, emit_text, emit_vector_registers, fill, lit, reg_bits, vector_range, DescInfo,
-};
+use super::{emit_full_module, emit_text, emit_vector_registers, fill, lit, DescInfo};
+use crate::emit::VerilogWriter;
 use crate::error::GenError;
 use vtq_hdl::rt_unit::{spill_area, NoDatapath, RtUnit, RtUnitParams};
 use vtq_hdl::{bits_for, clog2, Block, BlockDesc, Dir, HwConfig};
 
 /// The template of the module body (`${NAME}` placeholders, see [`rt_unit_verilog`]).
 const BODY: &str = include_str!("rt_unit/body.v");
+
+/// The template of the lane module `rt_unit_lane` (same placeholders).
+const LANE: &str = include_str!("rt_unit/lane.v");
+
+/// The constants and functions both modules use.
+const COMMON: &str = include_str!("rt_unit/common.v");
 
 /// Bits of a child on the datapath interface: `{address[63:0], kind[2:0], chunks[7:0]}` (the
 /// raw `NodeEntry` the datapath returns, checked by the RT unit).
@@ -282,18 +288,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         format!("localparam [SCNT-1:0] ONE_SCNT = {};", lit(scnt, 1)),
     ]
     .join("\n");
-    let mut working = String::new();
-    let mut copies = String::new();
-    let mut back = String::new();
-    for reg in &desc.registers {
-        working.push_str(&format!(
-            "reg {}a_{};\n",
-            vector_range(reg_bits(reg)),
-            reg.name
-        ));
-        copies.push_str(&format!("    a_{0} = {0}_q;\n", reg.name));
-        back.push_str(&format!("    {0}_d = a_{0};\n", reg.name));
-    }
+    let lane_text = lane_pieces(&desc, &info, n * s, &[lb, rb, tw, spw, scw, dw, e, d * e])?;
     let mut count_resp = String::new();
     let mut push_resp = String::new();
     for k in 0..rp {
@@ -312,26 +307,135 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         ));
     }
     let outputs = output_assigns(&desc, &info)?;
-    let vars: Vec<(&str, String)> = vec![
+    let mut vars: Vec<(&str, String)> = vec![
         ("PARAMS", params_text),
-        ("WORKING_DECLS", working),
-        ("WORKING_COPIES", copies),
-        ("BACK_COPIES", back),
+        ("COMMON", COMMON.to_string()),
         ("COUNT_RESP", count_resp),
         ("PUSH_RESP", push_resp),
         ("OUTPUTS", outputs),
     ];
+    vars.extend(lane_text);
     let text = fill(BODY, &vars);
+    let lane = fill(LANE, &vars);
     let note =
         "Full RTL (not a skeleton), cycle-exact with vtq_hdl::rt_unit::RtUnit: every output \
                 equals Block::eval in every cycle (co-simulated by gen/tests/rt_unit_rtl.rs on a \
                 reactive random environment with the toy datapath). The next-state logic follows \
                 RtUnit::update stage by stage; the intersection datapath is the rt_datapath module \
                 (one per lane), outside the control.";
-    Ok(emit_full_module(&desc, note, |wr| {
+    let mut out = emit_full_module(&desc, note, |wr| {
         emit_vector_registers(wr, &desc);
         emit_text(wr, &text);
-    }))
+    });
+    let mut wr = VerilogWriter::new();
+    emit_text(&mut wr, &lane);
+    out.push('\n');
+    out.push_str(&wr.finish());
+    Ok(out)
+}
+
+/// A field of a lane's state: its name in `rt_unit_lane`, the register (or storage) holding
+/// every lane's in `rt_unit`, its width as a Verilog expression, and the index of its width in
+/// the widths [`lane_pieces`] checks (`None`: a fixed width).
+const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 20] = [
+    ("status", "lane_status", "2", None),
+    ("ray_id", "lane_ray_id", "RB", Some(1)),
+    ("ray_words", "lane_ray_words", "256", None),
+    ("hit_valid", "lane_hit_valid", "1", None),
+    ("hit", "lane_hit", "128", None),
+    ("cur_treelet", "lane_cur_treelet", "TW", Some(2)),
+    ("cur_sp", "lane_cur_sp", "SPW", Some(3)),
+    ("other_sp", "lane_other_sp", "SPW", Some(3)),
+    ("cur_spilled", "lane_cur_spilled", "SCW", Some(4)),
+    ("other_spilled", "lane_other_spilled", "SCW", Some(4)),
+    ("filling", "lane_filling", "2", None),
+    ("node_valid", "lane_node_valid", "1", None),
+    ("node", "lane_node", "E", Some(6)),
+    ("node_leader", "lane_node_leader", "LB", Some(0)),
+    ("chunks_returned", "lane_chunks_returned", "4", None),
+    ("delay", "lane_delay", "DW", Some(5)),
+    ("store_pending", "lane_store_pending", "1", None),
+    ("cur_stack", "cur_stack", "D*E", Some(7)),
+    ("other_stack", "other_stack", "D*E", Some(7)),
+    ("node_buffer", "node_buffer", "1024", None),
+];
+
+/// The generated parts of the lane module and of its instances: ports, the values after each
+/// stage, the copies between stages, the top's next-state wires and the instances' connections.
+/// Checks that the description's per-lane registers are exactly the fields of [`LANE_FIELDS`]
+/// (besides the three memories), `lanes` of them each, of the widths `widths` (lane, ray id,
+/// treelet, stack pointer, spilled count, delay, entry, stack bits).
+fn lane_pieces(
+    desc: &BlockDesc,
+    info: &DescInfo,
+    lanes: u32,
+    widths: &[u32; 8],
+) -> Result<Vec<(&'static str, String)>, GenError> {
+    let lane_regs: Vec<&str> = desc
+        .registers
+        .iter()
+        .filter(|r| r.name.starts_with("lane_"))
+        .map(|r| r.name.as_str())
+        .collect();
+    let fields: Vec<&str> = LANE_FIELDS
+        .iter()
+        .map(|f| f.1)
+        .filter(|r| r.starts_with("lane_"))
+        .collect();
+    if lane_regs != fields {
+        return Err(info.bad(format!(
+            "the lane registers are {lane_regs:?}; the RTL's lane module holds {fields:?}"
+        )));
+    }
+    let mut v: Vec<String> = vec![String::new(); 8];
+    let [names, decls, stages, copy_a, copy_b, copy_t, copy_d, next] = &mut v[..] else {
+        unreachable!()
+    };
+    let mut connect = String::new();
+    let mut next_copy = String::new();
+    for (field, top, width, check) in LANE_FIELDS {
+        if let (Some(i), Some(r)) = (check, desc.registers.iter().find(|r| r.name == top)) {
+            if r.width != widths[i] || r.count != lanes {
+                return Err(info.bad(format!(
+                    "register `{top}` is {} x {} bits; the lane module expects {lanes} x {}",
+                    r.count, r.width, widths[i]
+                )));
+            }
+        }
+        let range = format!("[{width}-1:0]");
+        names.push_str(&format!("    {field}_q, {field}_d,\n"));
+        decls.push_str(&format!(
+            "input  wire {range} {field}_q;\noutput reg  {range} {field}_d;\n"
+        ));
+        stages.push_str(&format!("reg {range} {field}_a, {field}_b, {field}_t;\n"));
+        copy_a.push_str(&format!("    {field}_a = {field}_q;\n"));
+        copy_b.push_str(&format!("    {field}_b = {field}_a;\n"));
+        copy_t.push_str(&format!("    {field}_t = {field}_b;\n"));
+        copy_d.push_str(&format!("    {field}_d = {field}_t;\n"));
+        let slice = format!("[L*({width}) +: {width}]");
+        let dst = if top.starts_with("lane_") {
+            next.push_str(&format!("wire [NL*({width})-1:0] {top}_n;\n"));
+            next_copy.push_str(&format!("    {top}_d = {top}_n;\n"));
+            format!("{top}_n")
+        } else {
+            format!("{top}_d")
+        };
+        connect.push_str(&format!(
+            "                .{field}_q({top}_q{slice}),\n                .{field}_d({dst}{slice}),\n"
+        ));
+    }
+    next.push_str(&format!("always @* begin : p_lane_next\n{next_copy}end"));
+    Ok(vec![
+        ("LANE_PORT_NAMES", v[0].clone()),
+        ("LANE_PORT_DECLS", v[1].clone()),
+        ("LANE_STAGE_DECLS", v[2].clone()),
+        ("COPY_A", v[3].clone()),
+        ("COPY_B", v[4].clone()),
+        ("COPY_T", v[5].clone()),
+        ("COPY_D", v[6].clone()),
+        ("LANE_NEXT", v[7].clone()),
+        ("LANE_CONNECT", connect.trim_end().to_string()),
+    ])
 }
 
 /// The output ports' assignments.

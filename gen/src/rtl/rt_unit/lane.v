@@ -1,0 +1,480 @@
+// ---------------------------------------------------------------------------------------------
+// rt_unit_lane: the next state of one lane of the RT unit's warp buffer (one instance per lane,
+// combinational; the lane's registers stay in rt_unit). The lane runs the stages of
+// RtUnit::update on its own state, told by the slot-level logic what concerns it:
+//   A  completion (its slot completes), the hit-record store sent, the request merged into
+//      the scheduler's fetch, its own spill or fill as the leader, the delay countdown;
+//   B  the response popped: a stack fill it expects or a chunk of its node (then the
+//      intersection test's inputs);
+//   T  the test's result written back (closest hit, children pushed, status, boundary);
+//   C  the controller's commands: a warp issued into its slot, a stop, a repack.
+// Each stage is its own always block on the values the previous one produced (`<field>_a`,
+// `_b`, `_t`, `_d`), so no signal's logic loops through the slot-level logic.
+// ---------------------------------------------------------------------------------------------
+/* verilator lint_off DECLFILENAME */
+module rt_unit_lane (
+${LANE_PORT_NAMES}
+    two, stopped, complete, store_sel, merge, lead_node, lead, lead_me,
+    pop_fill_here, pop_node_here, pop_leader, pop_address, pop_data, fill_expect,
+    dp_child_count, dp_children, dp_hit_valid, dp_hit,
+    load, issue_active, issue_ray_id, issue_ray_words, issue_hit_valid, issue_hit,
+    issue_cur_treelet, issue_cur_sp, issue_other_sp, issue_cur_spilled, issue_other_spilled,
+    issue_cur_stack, issue_other_stack, stop_here, repack_here,
+    busy, act, act_index, next_valid, next_treelet,
+    done_active, done_parked, done_cur_stack, done_other_stack, spill_data,
+    fx_ray, fx_stack, fx_index, fill_ok, node_match, dp_ray, dp_best_valid, dp_best, dp_node,
+    dp_data, tested, test_kind, new_hit, err_child, err_value, err_limit, boundary_valid,
+    boundary_treelet, status_tested, released
+);
+/* verilator lint_on DECLFILENAME */
+/* verilator lint_off UNUSEDPARAM */
+${PARAMS}
+${COMMON}
+/* verilator lint_on UNUSEDPARAM */
+
+// The lane's registers at the start of the cycle (`_q`) and their next values (`_d`).
+${LANE_PORT_DECLS}
+// The slot's warp: two stacks (treelet orders), stopped (treelet-stationary order).
+input  wire           two;
+input  wire           stopped;
+// Stage 2: the slot's warp completes this cycle.
+input  wire           complete;
+// Stage 3: this lane's hit-record store is the request sent; the slot's leader fetches
+// `lead_node` (lane `lead`) and every ready lane of the slot whose next node it is merges;
+// this lane is the scheduler's leader (its spill or fill is the request).
+input  wire           store_sel;
+input  wire           merge;
+input  wire [E-1:0]   lead_node;
+input  wire [LB-1:0]  lead;
+input  wire           lead_me;
+// Stage 5: the popped response is a stack fill for this lane (it is the tag's lane), or a
+// chunk for the lanes of its slot led by `pop_leader`; the fill's expected address.
+input  wire           pop_fill_here;
+input  wire           pop_node_here;
+input  wire [LB-1:0]  pop_leader;
+input  wire [AB-1:0]  pop_address;
+input  wire [255:0]   pop_data;
+input  wire [AB-1:0]  fill_expect;
+// The intersection datapath's result for this lane's test.
+input  wire [CW-1:0]  dp_child_count;
+input  wire [R*CHW-1:0] dp_children;
+input  wire           dp_hit_valid;
+input  wire [127:0]   dp_hit;
+// Stage 7: a warp issued into this lane (`load`), this lane's slice of the issue bundle; a stop
+// and a repack of the lane's slot.
+input  wire           load;
+input  wire           issue_active;
+input  wire [RB-1:0]  issue_ray_id;
+input  wire [255:0]   issue_ray_words;
+input  wire           issue_hit_valid;
+input  wire [127:0]   issue_hit;
+input  wire [TW-1:0]  issue_cur_treelet;
+input  wire [SPW-1:0] issue_cur_sp;
+input  wire [SPW-1:0] issue_other_sp;
+input  wire [SCW-1:0] issue_cur_spilled;
+input  wire [SCW-1:0] issue_other_spilled;
+input  wire [D*E-1:0] issue_cur_stack;
+input  wire [D*E-1:0] issue_other_stack;
+input  wire           stop_here;
+input  wire           repack_here;
+// Start-of-cycle views: busy (not quiescent), the lane's request {action, stack, spill count,
+// node} and the spilled chunks of that stack, its next node's treelet when traversing.
+output reg            busy;
+output reg  [E+5:0]   act;
+output reg  [SCW-1:0] act_index;
+output reg            next_valid;
+output reg  [TW-1:0]  next_treelet;
+// Stage 2 and 3 results (zero unless they concern this lane): the completed ray's flags and
+// its stacks' valid entries; the spill's data; the fill's expected address's terms.
+output reg            done_active;
+output reg            done_parked;
+output reg  [D*E-1:0] done_cur_stack;
+output reg  [D*E-1:0] done_other_stack;
+output reg  [255:0]   spill_data;
+output reg  [RB-1:0]  fx_ray;
+output reg            fx_stack;
+output reg  [SCW-1:0] fx_index;
+// Stage 5 results: the fill matched, the chunk matched, the datapath's inputs (zero unless the
+// node completed and is tested this cycle).
+output reg            fill_ok;
+output reg            node_match;
+output reg  [255:0]   dp_ray;
+output reg            dp_best_valid;
+output reg  [127:0]   dp_best;
+output reg  [E-1:0]   dp_node;
+output reg  [1023:0]  dp_data;
+// Test write-back: tested (node kind), a new closest triangle hit, the lane's first bad-child
+// error (value, limit), a treelet boundary, the status after the test.
+output reg            tested;
+output reg  [2:0]     test_kind;
+output reg            new_hit;
+output reg            err_child;
+output reg  [63:0]    err_value;
+output reg  [63:0]    err_limit;
+output reg            boundary_valid;
+output reg  [TW-1:0]  boundary_treelet;
+output reg  [1:0]     status_tested;
+// Stage 7: the repack released the lane's finished ray.
+output reg            released;
+
+// The values after each stage.
+${LANE_STAGE_DECLS}
+reg [1:0] a_act;      // fields of `act`
+reg       a_stack;
+reg [2:0] a_k;
+reg [E-1:0] a_node;
+reg       fill_event; // a fill brought a boundary's top back
+reg [TW-1:0] fill_treelet;
+reg       test_now;   // the node completed: test it
+
+always @* begin : p_view
+    integer m;
+    busy = status_q == ST_TRAVERSING || node_valid_q || filling_q != 2'd0
+        || delay_q != {DW{1'b0}} || store_pending_q;
+    act = lane_action(status_q, node_valid_q, filling_q, delay_q, cur_sp_q, other_sp_q,
+                      cur_spilled_q, other_spilled_q, cur_stack_q, other_stack_q, two);
+    {a_act, a_stack, a_k, a_node} = act;
+    act_index = a_stack ? other_spilled_q : cur_spilled_q;
+    // The traversing lane's next node, if on chip.
+    next_valid = 1'b0;
+    next_treelet = {TW{1'b0}};
+    if (status_q == ST_TRAVERSING) begin
+        for (m = 0; m < D; m = m + 1) begin
+            if (cur_sp_q == m[SPW-1:0] + ONE_SPW) begin
+                next_valid = 1'b1;
+                next_treelet = cur_stack_q[m*E + TSH + 5 +: TW];
+            end
+            if (cur_sp_q == {SPW{1'b0}} && cur_spilled_q == {SCW{1'b0}}
+                && other_sp_q == m[SPW-1:0] + ONE_SPW) begin
+                next_valid = 1'b1;
+                next_treelet = other_stack_q[m*E + TSH + 5 +: TW];
+            end
+        end
+    end
+end
+
+// ---- A: completion, the scheduler's request, the delay countdown --------------------------------
+always @* begin : p_a
+    integer j, sh;
+${COPY_A}
+    done_active = 1'b0;
+    done_parked = 1'b0;
+    done_cur_stack = {D*E{1'b0}};
+    done_other_stack = {D*E{1'b0}};
+    spill_data = 256'd0;
+    // 2. Completion: a finished ray, or a parked one with a next node, leaves the lane.
+    if (complete && (status_a == ST_DONE
+        || (status_a == ST_PARKED && (cur_sp_a != {SPW{1'b0}}
+            || (cur_spilled_a == {SCW{1'b0}} && other_sp_a != {SPW{1'b0}}))))) begin
+        done_active = 1'b1;
+        done_parked = status_a == ST_PARKED;
+        for (j = 0; j < D; j = j + 1) begin
+            if (j < {{(32-SPW){1'b0}}, cur_sp_a}) done_cur_stack[j*E +: E] = cur_stack_a[j*E +: E];
+            if (j < {{(32-SPW){1'b0}}, other_sp_a}) done_other_stack[j*E +: E] = other_stack_a[j*E +: E];
+        end
+        status_a = ST_INACTIVE;
+        ray_id_a = {RB{1'b0}};
+        ray_words_a = 256'd0;
+        hit_valid_a = 1'b0;
+        hit_a = 128'd0;
+        cur_treelet_a = {TW{1'b0}};
+        cur_sp_a = {SPW{1'b0}};
+        other_sp_a = {SPW{1'b0}};
+        cur_spilled_a = {SCW{1'b0}};
+        other_spilled_a = {SCW{1'b0}};
+    end
+    // 3. The hit-record store sent, the fetch merged, the leader's spill or fill.
+    if (store_sel) store_pending_a = 1'b0;
+    if (merge && a_act == ACT_FETCH && a_node == lead_node) begin
+        if (cur_sp_a != {SPW{1'b0}}) begin
+            cur_sp_a = cur_sp_a - ONE_SPW;
+        end else begin
+            other_sp_a = other_sp_a - ONE_SPW;
+            cur_treelet_a = lead_node[E-1:TSH+5];
+        end
+        node_valid_a = 1'b1;
+        node_a = lead_node;
+        node_leader_a = lead;
+        chunks_returned_a = 4'd0;
+    end
+    if (lead_me && a_act == ACT_SPILL && act_index < SPC_W) begin
+        // Store the a_k oldest entries; the rest move down.
+        for (j = 0; j < D4; j = j + 1) begin
+            if (j < {29'd0, a_k})
+                spill_data[j*64 +: 64] = {1'b1, {(63-E){1'b0}},
+                    a_stack ? other_stack_a[j*E +: E] : cur_stack_a[j*E +: E]};
+        end
+        for (sh = 1; sh <= 4; sh = sh + 1) begin
+            if ({29'd0, a_k} == sh) begin
+                for (j = 0; j + sh < D; j = j + 1) begin
+                    if (a_stack) other_stack_a[j*E +: E] = other_stack_a[(j+sh)*E +: E];
+                    else cur_stack_a[j*E +: E] = cur_stack_a[(j+sh)*E +: E];
+                end
+            end
+        end
+        if (a_stack) begin
+            other_sp_a = other_sp_a - {{(SPW-3){1'b0}}, a_k};
+            other_spilled_a = act_index + ONE_SCW;
+        end else begin
+            cur_sp_a = cur_sp_a - {{(SPW-3){1'b0}}, a_k};
+            cur_spilled_a = act_index + ONE_SCW;
+        end
+    end
+    if (lead_me && a_act == ACT_FILL) filling_a = a_stack ? 2'd2 : 2'd1;
+    // 4. The intersection delay counts down.
+    if (delay_a != {DW{1'b0}}) delay_a = delay_a - ONE_DW;
+    // The terms of a fill's expected address (the chunk below the stack's spilled count).
+    fx_ray = {RB{1'b0}};
+    fx_stack = 1'b0;
+    fx_index = {SCW{1'b0}};
+    if (pop_fill_here) begin
+        fx_ray = ray_id_a;
+        fx_stack = filling_a == 2'd2;
+        fx_index = (fx_stack ? other_spilled_a : cur_spilled_a) - ONE_SCW;
+    end
+end
+
+// ---- B: the popped response ---------------------------------------------------------------------
+always @* begin : p_b
+    integer j;
+    reg stk;
+    reg [SCW-1:0] sp_idx;
+    reg [2:0] cnt;
+    reg stop_scan;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [63:0] w;  // a spilled entry's slot (valid bit and kind read)
+    /* verilator lint_on UNUSEDSIGNAL */
+    reg [AB-1:0] naddr;
+    reg [2:0] nchunks;
+    reg [AB:0] offset;
+    reg [3:0] full;
+    stk = 1'b0;
+    sp_idx = {SCW{1'b0}};
+    cnt = 3'd0;
+    stop_scan = 1'b0;
+    w = 64'd0;
+    naddr = {AB{1'b0}};
+    nchunks = 3'd0;
+    offset = {(AB+1){1'b0}};
+    full = 4'd0;
+${COPY_B}
+    fill_ok = 1'b0;
+    fill_event = 1'b0;
+    fill_treelet = {TW{1'b0}};
+    node_match = 1'b0;
+    test_now = 1'b0;
+    dp_ray = 256'd0;
+    dp_best_valid = 1'b0;
+    dp_best = 128'd0;
+    dp_node = {E{1'b0}};
+    dp_data = 1024'd0;
+    if (pop_fill_here && filling_b != 2'd0) begin
+        stk = filling_b == 2'd2;
+        sp_idx = stk ? other_spilled_b : cur_spilled_b;
+        // Entries: the leading valid 64-bit slots (defined kinds).
+        cnt = 3'd0;
+        stop_scan = 1'b0;
+        for (j = 0; j < 4; j = j + 1) begin
+            w = pop_data[j*64 +: 64];
+            if (!stop_scan && w[63] && w[4:2] < 3'd6) cnt = cnt + 3'd1;
+            else stop_scan = 1'b1;
+        end
+        if (sp_idx != {SCW{1'b0}} && pop_address == fill_expect
+            && (stk ? other_sp_b : cur_sp_b) == {SPW{1'b0}}
+            && cnt != 3'd0 && {29'd0, cnt} <= D) begin
+            fill_ok = 1'b1;
+            for (j = 0; j < D4; j = j + 1) begin
+                if (j < {29'd0, cnt}) begin
+                    if (stk) other_stack_b[j*E +: E] = pop_data[j*64 +: E];
+                    else cur_stack_b[j*E +: E] = pop_data[j*64 +: E];
+                end
+            end
+            if (stk) begin
+                other_sp_b = {{(SPW-3){1'b0}}, cnt};
+                other_spilled_b = sp_idx - ONE_SCW;
+            end else begin
+                cur_sp_b = {{(SPW-3){1'b0}}, cnt};
+                cur_spilled_b = sp_idx - ONE_SCW;
+            end
+            filling_b = 2'd0;
+            if (stk && two && cur_sp_b == {SPW{1'b0}} && cur_spilled_b == {SCW{1'b0}}) begin
+                if (stopped) status_b = ST_PARKED;
+                fill_event = 1'b1;
+                for (j = 0; j < 4; j = j + 1)
+                    if (j + 1 == {29'd0, cnt}) fill_treelet = pop_data[j*64 + TSH + 5 +: TW];
+            end
+        end
+    end
+    if (pop_node_here) begin
+        // A node chunk: this lane's if it answers the lane's request.
+        naddr = node_b[E-1:5];
+        nchunks = {1'b0, node_b[1:0]} + 3'd1;
+        offset = {1'b0, pop_address} - {1'b0, naddr};
+        full = (4'd1 << nchunks) - 4'd1;
+        if (node_valid_b && node_leader_b == pop_leader && pop_address >= naddr
+            && offset[4:0] == 5'd0 && offset[AB:5] < {{(AB-7){1'b0}}, nchunks}
+            && !chunks_returned_b[offset[6:5]]) begin
+            node_match = 1'b1;
+            for (j = 0; j < 4; j = j + 1) begin
+                if (offset[6:5] == j[1:0]) begin
+                    chunks_returned_b[j] = 1'b1;
+                    node_buffer_b[j*256 +: 256] = pop_data;
+                end
+            end
+            if (chunks_returned_b == full) begin
+                node_valid_b = 1'b0;
+                test_now = 1'b1;
+                dp_ray = ray_words_b;
+                dp_best_valid = hit_valid_b;
+                dp_best = hit_b;
+                dp_node = node_b;
+                dp_data = node_buffer_b;
+            end
+        end
+    end
+end
+
+// ---- T: the test's result written back ----------------------------------------------------------
+always @* begin : p_t
+    integer j, c;
+    reg accepted;
+    reg [127:0] h;
+    reg [63:0] b;
+    reg [CHW-1:0] child;
+    reg [63:0] caddr;
+    reg [2:0] ckind;
+    reg [7:0] cchunks;
+    reg [E-1:0] ent;
+    reg finished;
+    accepted = 1'b0;
+    h = 128'd0;
+    b = 64'd0;
+    child = {CHW{1'b0}};
+    caddr = 64'd0;
+    ckind = 3'd0;
+    cchunks = 8'd0;
+    ent = {E{1'b0}};
+    finished = 1'b0;
+${COPY_T}
+    tested = test_now;
+    test_kind = 3'd0;
+    new_hit = 1'b0;
+    err_child = 1'b0;
+    err_value = 64'd0;
+    err_limit = 64'd0;
+    boundary_valid = fill_event;
+    boundary_treelet = fill_treelet;
+    if (test_now) begin
+        test_kind = node_t[2 +: 3];
+        h = dp_hit;
+        b = hit_t[63:0];
+        accepted = dp_hit_valid && (!hit_valid_t || f32_lt(h[31:0], b[31:0])
+            || (f32_eq(h[31:0], b[31:0]) && h[63:32] < b[63:32]));
+        if (accepted) begin
+            hit_t = h;
+            hit_valid_t = 1'b1;
+            store_pending_t = 1'b1;
+            if (test_kind == K_TRIANGLE) new_hit = 1'b1;
+        end
+        delay_t = latency(test_kind, accepted);
+        if (dp_child_count > R_CW) begin
+            err_child = 1'b1;
+            err_value = {{(64-CW){1'b0}}, dp_child_count};
+            err_limit = R64;
+        end
+        // Children pushed last first, so the first in visit order ends on top.
+        for (c = R - 1; c >= 0; c = c - 1) begin
+            if (c < {{(32-CW){1'b0}}, dp_child_count}) begin
+                child = dp_children[c*CHW +: CHW];
+                caddr = child[CHW-1:11];
+                ckind = child[10:8];
+                cchunks = child[7:0];
+                if (bad_node(caddr, cchunks)) begin
+                    if (!err_child) begin
+                        err_value = caddr;
+                        err_limit = SPACE64;
+                    end
+                    err_child = 1'b1;
+                end else begin
+                    ent = {caddr[AB-1:0], ckind, cchunks[1:0] - 2'd1};
+                    if (!two || caddr[AB-1:TSH] == cur_treelet_t) begin
+                        if (cur_sp_t < D_SPW) begin
+                            for (j = 0; j < D; j = j + 1)
+                                if (cur_sp_t == j[SPW-1:0]) cur_stack_t[j*E +: E] = ent;
+                            cur_sp_t = cur_sp_t + ONE_SPW;
+                        end
+                    end else begin
+                        if (other_sp_t < D_SPW) begin
+                            for (j = 0; j < D; j = j + 1)
+                                if (other_sp_t == j[SPW-1:0]) other_stack_t[j*E +: E] = ent;
+                            other_sp_t = other_sp_t + ONE_SPW;
+                        end
+                    end
+                end
+            end
+        end
+        finished = cur_sp_t == {SPW{1'b0}} && cur_spilled_t == {SCW{1'b0}}
+            && other_sp_t == {SPW{1'b0}} && other_spilled_t == {SCW{1'b0}};
+        if (finished) begin
+            status_t = ST_DONE;
+        end else if (two && cur_sp_t == {SPW{1'b0}} && cur_spilled_t == {SCW{1'b0}}
+                     && other_sp_t != {SPW{1'b0}}) begin
+            // A treelet boundary: report the treelet of the other stack's top.
+            if (stopped) status_t = ST_PARKED;
+            boundary_valid = 1'b1;
+            for (j = 0; j < D; j = j + 1)
+                if (other_sp_t == j[SPW-1:0] + ONE_SPW)
+                    boundary_treelet = other_stack_t[j*E + TSH + 5 +: TW];
+        end
+    end
+    status_tested = status_t;
+end
+
+// ---- C: the warp issue, the stop and the repack -------------------------------------------------
+always @* begin : p_c
+    reg finished;
+    finished = 1'b0;
+${COPY_D}
+    released = 1'b0;
+    if (load) begin
+        finished = issue_cur_sp == {SPW{1'b0}} && issue_cur_spilled == {SCW{1'b0}}
+            && issue_other_sp == {SPW{1'b0}} && issue_other_spilled == {SCW{1'b0}};
+        status_d = !issue_active ? ST_INACTIVE : finished ? ST_DONE : ST_TRAVERSING;
+        ray_id_d = issue_ray_id;
+        ray_words_d = issue_ray_words;
+        hit_valid_d = issue_hit_valid;
+        hit_d = issue_hit;
+        cur_treelet_d = issue_cur_treelet;
+        cur_sp_d = issue_cur_sp;
+        other_sp_d = issue_other_sp;
+        cur_spilled_d = issue_cur_spilled;
+        other_spilled_d = issue_other_spilled;
+        cur_stack_d = issue_cur_stack;
+        other_stack_d = issue_other_stack;
+        filling_d = 2'd0;
+        node_valid_d = 1'b0;
+        node_d = {E{1'b0}};
+        node_leader_d = {LB{1'b0}};
+        chunks_returned_d = 4'd0;
+        delay_d = {DW{1'b0}};
+        store_pending_d = 1'b0;
+    end
+    if (stop_here && status_d == ST_TRAVERSING && !node_valid_d && filling_d == 2'd0
+        && cur_sp_d == {SPW{1'b0}} && cur_spilled_d == {SCW{1'b0}} && other_sp_d != {SPW{1'b0}})
+        status_d = ST_PARKED;
+    if (repack_here && status_d == ST_DONE && !node_valid_d && filling_d == 2'd0
+        && delay_d == {DW{1'b0}} && !store_pending_d) begin
+        released = 1'b1;
+        status_d = ST_INACTIVE;
+        ray_id_d = {RB{1'b0}};
+        ray_words_d = 256'd0;
+        hit_valid_d = 1'b0;
+        hit_d = 128'd0;
+        cur_treelet_d = {TW{1'b0}};
+        cur_sp_d = {SPW{1'b0}};
+        other_sp_d = {SPW{1'b0}};
+        cur_spilled_d = {SCW{1'b0}};
+        other_spilled_d = {SCW{1'b0}};
+    end
+end
+endmodule
