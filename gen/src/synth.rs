@@ -111,7 +111,13 @@ fn absolute(files: &[PathBuf]) -> Result<Vec<String>, GenError> {
 /// Synthesizes `files` with top module `top` using Yosys' generic `synth`, working in
 /// `work_dir` (which must exist; the statistics file is written there).
 pub fn synthesize(files: &[PathBuf], top: &str, work_dir: &Path) -> Result<SynthReport, GenError> {
-    run_yosys(files, top, work_dir, &format!("synth -flatten -top {top}"))
+    run_yosys(
+        files,
+        top,
+        work_dir,
+        &format!("synth -flatten -top {top}"),
+        "",
+    )
 }
 
 /// The Yosys script of [`synthesize_logic`] after `read_verilog`, with `{top}` for the top
@@ -132,20 +138,46 @@ pub fn synthesize_logic(
     top: &str,
     work_dir: &Path,
 ) -> Result<SynthReport, GenError> {
-    run_yosys(files, top, work_dir, &LOGIC_SCRIPT.replace("{top}", top))
+    run_yosys(
+        files,
+        top,
+        work_dir,
+        &LOGIC_SCRIPT.replace("{top}", top),
+        "",
+    )
 }
 
-/// Runs `read_verilog FILES; SCRIPT; check; stat -json` and reads the statistics.
+/// The Yosys script of [`synthesize_logic_hierarchy`]: [`LOGIC_SCRIPT`] keeping the hierarchy
+/// (each module synthesized once, however many instances it has) and without `share`'s
+/// SAT-based resource sharing (on the RT unit's lanes it ran for minutes and merges little).
+pub const HIERARCHY_LOGIC_SCRIPT: &str =
+    "synth -top {top} -noshare -run begin:fine; opt -fast -full; techmap; opt_clean; \
+     abc -fast; opt_clean; hierarchy -check";
+
+/// [`synthesize_logic`] for a design built of many instances of a few modules (the RT unit's
+/// lanes): [`HIERARCHY_LOGIC_SCRIPT`], the statistics of the whole hierarchy under `top`
+/// (every instance counted). Black-box modules stay cells of their own type.
+pub fn synthesize_logic_hierarchy(
+    files: &[PathBuf],
+    top: &str,
+    work_dir: &Path,
+) -> Result<SynthReport, GenError> {
+    let script = HIERARCHY_LOGIC_SCRIPT.replace("{top}", top);
+    run_yosys(files, top, work_dir, &script, &format!(" -top {top}"))
+}
+
+/// Runs `read_verilog FILES; SCRIPT; check; stat -json STAT_ARGS` and reads the statistics.
 fn run_yosys(
     files: &[PathBuf],
     top: &str,
     work_dir: &Path,
     synth: &str,
+    stat_args: &str,
 ) -> Result<SynthReport, GenError> {
     let sources = absolute(files)?;
     let stat_file = format!("{top}_stat.json");
     let script = format!(
-        "read_verilog {}; {synth}; check; tee -q -o {stat_file} stat -json",
+        "read_verilog {}; {synth}; check; tee -q -o {stat_file} stat -json{stat_args}",
         sources
             .iter()
             .map(|s| format!("\"{s}\""))

@@ -636,8 +636,8 @@ fn cosim_matches_on_a_small_configuration() {
 }
 
 /// `vtq area --synth` synthesizes every block with complete RTL and prices it in NAND2
-/// equivalents beside the storage model, and states no RT-unit figure (small configuration:
-/// seconds).
+/// equivalents beside the storage model, the RT unit's control without its datapath and the
+/// treelet hardware's overhead over it (small configuration: a minute).
 #[test]
 fn area_synth_prices_every_block_with_rtl() {
     let out = vtq(&[
@@ -660,6 +660,8 @@ fn area_synth_prices_every_block_with_rtl() {
         "gpu.warp_size=4",
         "--set",
         "gpu.max_ctas_per_sm=2",
+        "--set",
+        "hw.stack_depth=4",
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -690,7 +692,17 @@ fn area_synth_prices_every_block_with_rtl() {
         assert_eq!(b["logic"]["unpriced"], serde_json::json!({}), "{b}");
     }
     assert!(blocks[1]["sram_bits"].as_u64().unwrap() > 0);
-    assert!(s["rt_unit"].as_str().unwrap().contains("not stated"));
+    // The RT unit's control: four lanes' registers and stacks, no datapath cells left.
+    let rt = &s["rt_unit_logic"];
+    assert_eq!(rt["synth"]["top"], "rt_unit");
+    assert_eq!(rt["synth"]["latches"], 0, "{rt}");
+    assert_eq!(rt["synth"]["warnings"], serde_json::json!([]), "{rt}");
+    assert!(rt["synth"]["flip_flops"].as_u64().unwrap() > 4 * (256 + 128 + 1024), "{rt}");
+    assert_eq!(rt["logic"]["unpriced"], serde_json::json!({}), "{rt}");
+    let total = s["total_nand2_eq"].as_f64().unwrap();
+    let rt_eq = rt["logic"]["nand2_eq"].as_f64().unwrap();
+    assert_eq!(s["overhead"].as_f64().unwrap(), total / rt_eq);
+    assert!(s["rt_unit"].as_str().unwrap().contains("without the box/triangle datapath"));
     assert!(s["paper"].as_str().unwrap().contains("2.2 KB"));
 }
 

@@ -27,7 +27,8 @@ pub use controller::controller_verilog;
 pub use count_table::count_table_verilog;
 pub use queue_table::queue_table_verilog;
 pub use rt_unit::{
-    rt_unit_verilog, toy_datapath_verilog, CHILD_BITS, CHILD_COUNT_BITS, DATAPATH_PORTS,
+    datapath_blackbox_verilog, rt_unit_verilog, toy_datapath_verilog, CHILD_BITS, CHILD_COUNT_BITS,
+    DATAPATH_PORTS,
 };
 
 use crate::emit::{one_line, range, VerilogWriter};

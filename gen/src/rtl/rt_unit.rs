@@ -495,6 +495,23 @@ pub fn toy_datapath_verilog(address_bits: u32) -> String {
     TOY_DATAPATH.replace("${HIT_ID}", &id)
 }
 
+/// `rt_datapath`'s interface as a Yosys black box (`(* blackbox *)`, no body): the RT unit's
+/// control is synthesized without the stand-in datapath, whose area is not the RT unit's.
+pub fn datapath_blackbox_verilog() -> String {
+    let header_end = TOY_DATAPATH
+        .find(");\n")
+        .expect("the toy datapath has a port list")
+        + 3;
+    let start = TOY_DATAPATH
+        .find("module rt_datapath")
+        .expect("the toy datapath's module");
+    format!(
+        "// The intersection datapath's interface only: a black box for synthesis.\n\
+         (* blackbox *)\n{}endmodule\n",
+        &TOY_DATAPATH[start..header_end]
+    )
+}
+
 /// The toy datapath's module.
 const TOY_DATAPATH: &str = r#"// The intersection datapath interface of the RT unit, with the toy node format of the
 // co-simulation (vtq_gen::stimulus::rt_unit::ToyDatapath) as its body: a stand-in for the

@@ -45,7 +45,14 @@ struct AreaJson {
 fn synthesize_blocks(cfg: &SimConfig, model: &AreaReport) -> anyhow::Result<LogicReport> {
     let dir = std::env::temp_dir().join(format!("vtq-area-synth-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let report = logic_report(&cfg.hw, cfg.hardware_controller_features(), model, &dir);
+    let rt = super::cosim::rt_unit_params(cfg);
+    let report = logic_report(
+        &cfg.hw,
+        cfg.hardware_controller_features(),
+        &rt,
+        model,
+        &dir,
+    );
     // Best effort: the reports are already in memory.
     let _ = std::fs::remove_dir_all(&dir);
     Ok(report?)
