@@ -1,7 +1,7 @@
 //! The synthesized-logic report (`vtq area --synth`) at a small configuration: every block with
 //! complete RTL synthesizes with `synthesize_logic` into priced cells only, the queue table's
 //! SRAM arrays stay memories, the NAND2 equivalents are bounded by the cell counts, and the
-//! report states no RT-unit overhead.
+//! RT unit's control, synthesized without its datapath, gives the treelet hardware's overhead.
 
 mod common;
 
@@ -11,6 +11,7 @@ use std::time::Instant;
 use vtq_gen::area::{area_report, AreaParams};
 use vtq_gen::logic_area::{cell_area_45nm, NAND2_X1_45NM_UM2};
 use vtq_gen::logic_report::{logic_report, RT_UNIT_NOTE};
+use vtq_gen::stimulus::rt_unit::small_config;
 use vtq_gen::tools::or_skip;
 use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::queue_table::QueueTable;
@@ -18,13 +19,18 @@ use vtq_hdl::Block;
 
 #[test]
 fn every_block_with_rtl_is_priced() {
-    let cfg = small();
+    // Four-entry stacks and three children keep the RT unit's synthesis to seconds.
+    let cfg = vtq_hdl::HwConfig {
+        stack_depth: 4,
+        ..small()
+    };
+    let rt = small_config().1;
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-logic-area");
     std::fs::create_dir_all(&dir).unwrap();
     let storage = area_report(&cfg, &AreaParams::default()).unwrap();
     let start = Instant::now();
-    let Some(r) = or_skip(logic_report(&cfg, ControllerFeatures::FULL, &storage, &dir)).unwrap()
-    else {
+    let report = logic_report(&cfg, ControllerFeatures::FULL, &rt, &storage, &dir);
+    let Some(r) = or_skip(report).unwrap() else {
         return;
     };
     eprintln!("{r}({:.1} s)", start.elapsed().as_secs_f64());
@@ -40,7 +46,7 @@ fn every_block_with_rtl_is_priced() {
     // The cheapest priced cell is an inverter (2/3 NAND2), the dearest a flip-flop with enable,
     // synchronous reset and a falling clock (10 NAND2).
     let max_eq = cell_area_45nm("$_SDFFCE_NP0P_").unwrap() / NAND2_X1_45NM_UM2;
-    for b in &r.blocks {
+    for b in r.blocks.iter().chain([&r.rt_unit_logic]) {
         let (s, l) = (&b.synth, &b.logic);
         assert!(s.is_clean(), "{}: {s:?}", s.top);
         assert!(l.unpriced.is_empty(), "{}: {:?}", s.top, l.unpriced);
@@ -69,12 +75,25 @@ fn every_block_with_rtl_is_priced() {
     assert!(sram > 0);
     assert_eq!(r.blocks[0].synth.memory_cells, 0);
     assert_eq!(r.blocks[0].sram_bits, 0);
-    // The sum, the storage model beside it, and no invented RT-unit figure.
+    // The RT unit: 12 lanes' ray words, hits and node buffers at least, no datapath cell.
+    let u = &r.rt_unit_logic.synth;
+    assert_eq!(u.top, "rt_unit");
+    assert!(u.flip_flops > 12 * (256 + 128 + 1024), "{u:?}");
+    assert!(
+        u.cells_by_type.keys().all(|k| !k.contains("datapath")),
+        "{u:?}"
+    );
+    // The sum, the storage model beside it, and the overhead over the RT unit's control.
     let sum: f64 = r.blocks.iter().map(|b| b.logic.nand2_eq).sum();
     assert!((r.total_nand2_eq - sum).abs() < 1e-6);
+    assert_eq!(r.overhead, sum / r.rt_unit_logic.logic.nand2_eq);
+    assert!(r.overhead > 0.0 && r.overhead < 1.0, "{}", r.overhead);
     assert_eq!(r.storage_sram_mm2.len(), 2);
     let text = r.to_string();
-    assert!(text.contains("treelet hardware"), "{text}");
+    assert!(
+        text.contains("treelet hardware over the RT unit's control"),
+        "{text}"
+    );
     assert!(text.contains(RT_UNIT_NOTE), "{text}");
     assert!(text.contains("6.29 KB"), "{text}");
     assert!(!text.contains("warning"), "{text}");

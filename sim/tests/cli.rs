@@ -697,12 +697,18 @@ fn area_synth_prices_every_block_with_rtl() {
     assert_eq!(rt["synth"]["top"], "rt_unit");
     assert_eq!(rt["synth"]["latches"], 0, "{rt}");
     assert_eq!(rt["synth"]["warnings"], serde_json::json!([]), "{rt}");
-    assert!(rt["synth"]["flip_flops"].as_u64().unwrap() > 4 * (256 + 128 + 1024), "{rt}");
+    assert!(
+        rt["synth"]["flip_flops"].as_u64().unwrap() > 4 * (256 + 128 + 1024),
+        "{rt}"
+    );
     assert_eq!(rt["logic"]["unpriced"], serde_json::json!({}), "{rt}");
     let total = s["total_nand2_eq"].as_f64().unwrap();
     let rt_eq = rt["logic"]["nand2_eq"].as_f64().unwrap();
     assert_eq!(s["overhead"].as_f64().unwrap(), total / rt_eq);
-    assert!(s["rt_unit"].as_str().unwrap().contains("without the box/triangle datapath"));
+    assert!(s["rt_unit"]
+        .as_str()
+        .unwrap()
+        .contains("without the box/triangle datapath"));
     assert!(s["paper"].as_str().unwrap().contains("2.2 KB"));
 }
 
