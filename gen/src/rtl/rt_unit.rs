@@ -324,7 +324,12 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
                 RtUnit::update stage by stage; the intersection datapath is the rt_datapath module \
                 (one per lane), outside the control.";
     let mut out = emit_full_module(&desc, note, |wr| {
-        emit_vector_registers(wr, &desc);
+        // The lanes' registers live in their lane modules.
+        let mut slot_level = desc.clone();
+        slot_level
+            .registers
+            .retain(|r| !r.name.starts_with("lane_"));
+        emit_vector_registers(wr, &slot_level);
         emit_text(wr, &text);
     });
     let mut wr = VerilogWriter::new();
@@ -360,8 +365,9 @@ const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 20] = [
     ("node_buffer", "node_buffer", "1024", None),
 ];
 
-/// The generated parts of the lane module and of its instances: ports, the values after each
-/// stage, the copies between stages, the top's next-state wires and the instances' connections.
+/// The generated parts of the lane module and of its instances: ports and registers, the values
+/// after each stage, the copies between stages, the clocked block, the top's wires of the
+/// lanes' registers and the instances' connections.
 /// Checks that the description's per-lane registers are exactly the fields of [`LANE_FIELDS`]
 /// (besides the three memories), `lanes` of them each, of the widths `widths` (lane, ray id,
 /// treelet, stack pointer, spilled count, delay, entry, stack bits).
@@ -387,12 +393,12 @@ fn lane_pieces(
             "the lane registers are {lane_regs:?}; the RTL's lane module holds {fields:?}"
         )));
     }
-    let mut v: Vec<String> = vec![String::new(); 8];
-    let [names, decls, stages, copy_a, copy_b, copy_t, copy_d, next] = &mut v[..] else {
+    let mut v: Vec<String> = vec![String::new(); 9];
+    let [names, decls, stages, copy_a, copy_b, copy_t, copy_d, next, regs] = &mut v[..] else {
         unreachable!()
     };
     let mut connect = String::new();
-    let mut next_copy = String::new();
+    let mut reset = String::new();
     for (field, top, width, check) in LANE_FIELDS {
         if let (Some(i), Some(r)) = (check, desc.registers.iter().find(|r| r.name == top)) {
             if r.width != widths[i] || r.count != lanes {
@@ -403,28 +409,31 @@ fn lane_pieces(
             }
         }
         let range = format!("[{width}-1:0]");
-        names.push_str(&format!("    {field}_q, {field}_d,\n"));
-        decls.push_str(&format!(
-            "input  wire {range} {field}_q;\noutput reg  {range} {field}_d;\n"
-        ));
+        // The description's registers are the lane's outputs too (the slot level reads them);
+        // the memories are the lane's own.
+        if top.starts_with("lane_") {
+            names.push_str(&format!("    {field}_q,\n"));
+            decls.push_str(&format!("output reg  {range} {field}_q;\n"));
+            next.push_str(&format!("wire [NL*({width})-1:0] {top}_q;\n"));
+            connect.push_str(&format!(
+                "                .{field}_q({top}_q[L*({width}) +: {width}]),\n"
+            ));
+        } else {
+            decls.push_str(&format!("reg {range} {field}_q;\n"));
+        }
+        decls.push_str(&format!("reg {range} {field}_d;\n"));
         stages.push_str(&format!("reg {range} {field}_a, {field}_b, {field}_t;\n"));
         copy_a.push_str(&format!("    {field}_a = {field}_q;\n"));
         copy_b.push_str(&format!("    {field}_b = {field}_a;\n"));
         copy_t.push_str(&format!("    {field}_t = {field}_b;\n"));
         copy_d.push_str(&format!("    {field}_d = {field}_t;\n"));
-        let slice = format!("[L*({width}) +: {width}]");
-        let dst = if top.starts_with("lane_") {
-            next.push_str(&format!("wire [NL*({width})-1:0] {top}_n;\n"));
-            next_copy.push_str(&format!("    {top}_d = {top}_n;\n"));
-            format!("{top}_n")
-        } else {
-            format!("{top}_d")
-        };
-        connect.push_str(&format!(
-            "                .{field}_q({top}_q{slice}),\n                .{field}_d({dst}{slice}),\n"
-        ));
+        reset.push_str(&format!("        {field}_q <= {{({width}){{1'b0}}}};\n"));
+        regs.push_str(&format!("        {field}_q <= {field}_d;\n"));
     }
-    next.push_str(&format!("always @* begin : p_lane_next\n{next_copy}end"));
+    let registers = format!(
+        "always @(posedge clk) begin : p_registers\n    if (rst) begin\n{reset}    end else \
+         begin\n{regs}    end\nend"
+    );
     Ok(vec![
         ("LANE_PORT_NAMES", v[0].clone()),
         ("LANE_PORT_DECLS", v[1].clone()),
@@ -433,7 +442,8 @@ fn lane_pieces(
         ("COPY_B", v[4].clone()),
         ("COPY_T", v[5].clone()),
         ("COPY_D", v[6].clone()),
-        ("LANE_NEXT", v[7].clone()),
+        ("LANE_STATE", v[7].clone()),
+        ("LANE_REGISTERS", registers),
         ("LANE_CONNECT", connect.trim_end().to_string()),
     ])
 }

@@ -3,37 +3,26 @@
 ${PARAMS}
 ${COMMON}
 /* verilator lint_on UNUSEDPARAM */
-// ---- Storage held in flip-flops (the description's memories) -----------------------------------
-reg [NL*D*E-1:0] cur_stack_q;     // lane L's entry j in bits [(L*D+j)*E +: E], bottom first
-wire [NL*D*E-1:0] cur_stack_d;
-reg [NL*D*E-1:0] other_stack_q;
-wire [NL*D*E-1:0] other_stack_d;
-reg [NL*4*256-1:0] node_buffer_q; // lane L's chunk k in bits [(L*4+k)*256 +: 256]
-wire [NL*4*256-1:0] node_buffer_d;
+// ---- The response FIFO, in flip-flops (the description's memory) --------------------------------
 reg [FD*FEW-1:0] resp_fifo_q;     // entry i: {address, tag, data} in bits [i*FEW +: FEW]
 reg [FD*FEW-1:0] resp_fifo_d;
 always @(posedge clk) begin : p_storage
-    integer L;
+    integer i;
     if (rst) begin
-        for (L = 0; L < NL*D; L = L + 1) begin
-            cur_stack_q[L*E +: E] <= {E{1'b0}};
-            other_stack_q[L*E +: E] <= {E{1'b0}};
-        end
-        for (L = 0; L < NL*4; L = L + 1) node_buffer_q[L*256 +: 256] <= 256'd0;
-        for (L = 0; L < FD; L = L + 1) resp_fifo_q[L*FEW +: FEW] <= {FEW{1'b0}};
+        for (i = 0; i < FD; i = i + 1) resp_fifo_q[i*FEW +: FEW] <= {FEW{1'b0}};
     end else begin
-        cur_stack_q <= cur_stack_d;
-        other_stack_q <= other_stack_d;
-        node_buffer_q <= node_buffer_d;
         resp_fifo_q <= resp_fifo_d;
     end
 end
 
 // ---- The lanes ----------------------------------------------------------------------------------
-// One rt_unit_lane per lane of the warp buffer computes that lane's next state (`lane_<field>_n`)
-// from its registers and the slot-level decisions below; its results come back as `l_<name>`,
-// lane L's in bits [L*W +: W].
-${LANE_NEXT}
+// One rt_unit_lane per lane of the warp buffer holds that lane's registers (the description's
+// `lane_<field>`, lane L's in bits [L*W +: W] of `lane_<field>_q`; the stacks and the node
+// buffer inside) and computes their next state from the slot-level decisions below; its other
+// results come back as `l_<name>`, lane L's in bits [L*W +: W].
+/* verilator lint_off UNUSEDSIGNAL */
+${LANE_STATE}
+/* verilator lint_on UNUSEDSIGNAL */
 wire [NL-1:0] l_busy;
 wire [NL*(E+6)-1:0] l_act;
 wire [NL*SCW-1:0] l_act_index;
@@ -117,6 +106,8 @@ generate
         for (gl = 0; gl < N; gl = gl + 1) begin : g_lane
             localparam L = gs * N + gl;
             rt_unit_lane u_lane (
+                .clk(clk),
+                .rst(rst),
 ${LANE_CONNECT}
                 .two(slot_two[gs]),
                 .stopped(slot_stopped[gs]),

@@ -1,6 +1,6 @@
 // ---------------------------------------------------------------------------------------------
 // rt_unit_lane: the next state of one lane of the RT unit's warp buffer (one instance per lane,
-// combinational; the lane's registers stay in rt_unit). The lane runs the stages of
+// holding the lane's registers and its two stacks and node buffer). The lane runs the stages of
 // RtUnit::update on its own state, told by the slot-level logic what concerns it:
 //   A  completion (its slot completes), the hit-record store sent, the request merged into
 //      the scheduler's fetch, its own spill or fill as the leader, the delay countdown;
@@ -13,6 +13,7 @@
 // ---------------------------------------------------------------------------------------------
 /* verilator lint_off DECLFILENAME */
 module rt_unit_lane (
+    clk, rst,
 ${LANE_PORT_NAMES}
     two, stopped, complete, store_sel, merge, lead_node, lead, lead_me,
     pop_fill_here, pop_node_here, pop_leader, pop_address, pop_data, fill_expect,
@@ -32,7 +33,9 @@ ${PARAMS}
 ${COMMON}
 /* verilator lint_on UNUSEDPARAM */
 
-// The lane's registers at the start of the cycle (`_q`) and their next values (`_d`).
+input  wire           clk;
+input  wire           rst;
+// The lane's registers (`_q`, the description's ones also outputs) and their next values (`_d`).
 ${LANE_PORT_DECLS}
 // The slot's warp: two stacks (treelet orders), stopped (treelet-stationary order).
 input  wire           two;
@@ -477,4 +480,6 @@ ${COPY_D}
         other_spilled_d = {SCW{1'b0}};
     end
 end
+
+${LANE_REGISTERS}
 endmodule
