@@ -10,7 +10,7 @@
 
 use crate::area::{AreaReport, NODES_NM};
 use crate::error::GenError;
-use crate::logic_area::{logic_area, LogicArea, NAND2_X1_45NM_UM2};
+use crate::logic_area::{logic_area, LogicArea, DFF_X1_UM2, NAND2_X1_45NM_UM2};
 use crate::synth::{synthesize_logic, synthesize_logic_hierarchy, SynthReport};
 use serde::Serialize;
 use std::fmt;
@@ -19,7 +19,7 @@ use std::time::Instant;
 use vtq_hdl::controller::{ControllerFeatures, TreeletController};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
-use vtq_hdl::rt_unit::RtUnitParams;
+use vtq_hdl::rt_unit::{NodeEntry, RtUnitParams};
 use vtq_hdl::{Block, BlockDesc, HwConfig};
 
 /// What the report's RT-unit line covers.
@@ -92,6 +92,12 @@ pub struct LogicReport {
     pub rt_unit_logic: BlockLogic,
     /// The treelet hardware's NAND2 equivalents over the RT unit control's.
     pub overhead: f64,
+    /// Bits of the RT unit's other-treelet stacks (a stack per ray, which treelet traversal
+    /// adds to the baseline's one): inside `rt_unit_logic`, not in the treelet hardware.
+    pub other_stack_bits: u64,
+    /// Those bits' NAND2 equivalents as DFF_X1 cells alone (a lower bound: no enable or
+    /// multiplexer).
+    pub other_stack_nand2_eq: f64,
     /// [`RT_UNIT_NOTE`].
     pub rt_unit: String,
     /// [`PAPER_NOTE`].
@@ -209,6 +215,11 @@ pub fn logic_report(
     }
     let total_nand2_eq: f64 = blocks.iter().map(|b| b.logic.nand2_eq).sum();
     let overhead = total_nand2_eq / rt_unit_logic.logic.nand2_eq;
+    let other_stack_bits = u64::from(cfg.warp_size)
+        * u64::from(cfg.warp_buffer_size)
+        * u64::from(cfg.stack_depth)
+        * u64::from(NodeEntry::bits(cfg.address_bits));
+    let other_stack_nand2_eq = other_stack_bits as f64 * DFF_X1_UM2 / NAND2_X1_45NM_UM2;
     let total_mm2 = NODES_NM
         .iter()
         .enumerate()
@@ -232,6 +243,8 @@ pub fn logic_report(
         storage_sram_mm2,
         rt_unit_logic,
         overhead,
+        other_stack_bits,
+        other_stack_nand2_eq,
         rt_unit: RT_UNIT_NOTE.to_string(),
         paper: PAPER_NOTE.to_string(),
     })
@@ -282,10 +295,15 @@ impl fmt::Display for LogicReport {
         self.rt_unit_logic.row(f)?;
         writeln!(
             f,
-            "treelet hardware over the RT unit's control: {:.1}% ({:.0} / {:.0} NAND2 eq.)",
+            "treelet hardware over the RT unit's control: {:.1}% ({:.0} / {:.0} NAND2 eq.); \
+             the RT unit's other-treelet stacks, in its figure, are {} flip-flops (at least {:.0} \
+             NAND2 eq., {:.1}% of the control)",
             100.0 * self.overhead,
             self.total_nand2_eq,
-            self.rt_unit_logic.logic.nand2_eq
+            self.rt_unit_logic.logic.nand2_eq,
+            self.other_stack_bits,
+            self.other_stack_nand2_eq,
+            100.0 * self.other_stack_nand2_eq / self.rt_unit_logic.logic.nand2_eq
         )?;
         for b in self.blocks.iter().chain([&self.rt_unit_logic]) {
             if !b.logic.unpriced.is_empty() {

@@ -88,6 +88,9 @@ fn every_block_with_rtl_is_priced() {
     assert!((r.total_nand2_eq - sum).abs() < 1e-6);
     assert_eq!(r.overhead, sum / r.rt_unit_logic.logic.nand2_eq);
     assert!(r.overhead > 0.0 && r.overhead < 1.0, "{}", r.overhead);
+    // The other-treelet stacks: 12 lanes of four 37-bit entries (32-bit addresses).
+    assert_eq!(r.other_stack_bits, 12 * 4 * 37);
+    assert!(r.other_stack_nand2_eq < r.rt_unit_logic.logic.flip_flop_nand2_eq);
     assert_eq!(r.storage_sram_mm2.len(), 2);
     let text = r.to_string();
     assert!(
