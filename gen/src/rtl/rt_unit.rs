@@ -5,8 +5,9 @@
 //! a slot, append, stop, repack) and the register-only status ports.
 //!
 //! The module is split the way the hardware is: one `rt_unit_lane` per lane of the warp buffer
-//! computes that lane's next state (its registers stay in `rt_unit`), and `rt_unit` holds the
-//! slot-level logic between them. The lane runs the stages of `RtUnit::update` on its own
+//! holds that lane's registers, stacks and node buffer and computes their next state (`rt_unit`
+//! reads the description's lane registers through wires `lane_<field>_q`), and `rt_unit` holds
+//! the slot-level logic between them. The lane runs the stages of `RtUnit::update` on its own
 //! state — completion, its request merged or its spill or fill as the scheduler's leader, the
 //! delay countdown, the popped response (a fill or a chunk of its node), the test's result
 //! written back, the warp issue, stop and repack — each stage an always block of its own. The
@@ -320,9 +321,10 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let note =
         "Full RTL (not a skeleton), cycle-exact with vtq_hdl::rt_unit::RtUnit: every output \
                 equals Block::eval in every cycle (co-simulated by gen/tests/rt_unit_rtl.rs on a \
-                reactive random environment with the toy datapath). The next-state logic follows \
-                RtUnit::update stage by stage; the intersection datapath is the rt_datapath module \
-                (one per lane), outside the control.";
+                reactive random environment with the toy datapath). One rt_unit_lane per lane of the \
+                warp buffer holds the lane's registers and runs RtUnit::update's stages on them; \
+                this module holds the slot-level logic; the intersection datapath is the \
+                rt_datapath module (one per lane index), outside the control.";
     let mut out = emit_full_module(&desc, note, |wr| {
         // The lanes' registers live in their lane modules.
         let mut slot_level = desc.clone();
