@@ -130,6 +130,33 @@ reg       fill_event; // a fill brought a boundary's top back
 reg [TW-1:0] fill_treelet;
 reg       test_now;   // the node completed: test it
 
+// A ray leaves the lane (its warp completes, or a repack releases it): the fields that held it,
+// cleared (the node, delay and store fields are idle by then).
+task leave;
+    output [1:0] status;
+    output [RB-1:0] ray_id;
+    output [255:0] ray_words;
+    output hit_valid;
+    output [127:0] hit;
+    output [TW-1:0] cur_treelet;
+    output [SPW-1:0] cur_sp;
+    output [SPW-1:0] other_sp;
+    output [SCW-1:0] cur_spilled;
+    output [SCW-1:0] other_spilled;
+    begin
+        status = ST_INACTIVE;
+        ray_id = {RB{1'b0}};
+        ray_words = 256'd0;
+        hit_valid = 1'b0;
+        hit = 128'd0;
+        cur_treelet = {TW{1'b0}};
+        cur_sp = {SPW{1'b0}};
+        other_sp = {SPW{1'b0}};
+        cur_spilled = {SCW{1'b0}};
+        other_spilled = {SCW{1'b0}};
+    end
+endtask
+
 always @* begin : p_view
     integer m;
     busy = status_q == ST_TRAVERSING || node_valid_q || filling_q != 2'd0
@@ -175,16 +202,8 @@ ${COPY_A}
             if (j < {{(32-SPW){1'b0}}, cur_sp_a}) done_cur_stack[j*E +: E] = cur_stack_a[j*E +: E];
             if (j < {{(32-SPW){1'b0}}, other_sp_a}) done_other_stack[j*E +: E] = other_stack_a[j*E +: E];
         end
-        status_a = ST_INACTIVE;
-        ray_id_a = {RB{1'b0}};
-        ray_words_a = 256'd0;
-        hit_valid_a = 1'b0;
-        hit_a = 128'd0;
-        cur_treelet_a = {TW{1'b0}};
-        cur_sp_a = {SPW{1'b0}};
-        other_sp_a = {SPW{1'b0}};
-        cur_spilled_a = {SCW{1'b0}};
-        other_spilled_a = {SCW{1'b0}};
+        leave(status_a, ray_id_a, ray_words_a, hit_valid_a, hit_a, cur_treelet_a,
+              cur_sp_a, other_sp_a, cur_spilled_a, other_spilled_a);
     end
     // 3. The hit-record store sent, the fetch merged, the leader's spill or fill.
     if (store_sel) store_pending_a = 1'b0;
@@ -468,16 +487,8 @@ ${COPY_D}
     if (repack_here && status_d == ST_DONE && !node_valid_d && filling_d == 2'd0
         && delay_d == {DW{1'b0}} && !store_pending_d) begin
         released = 1'b1;
-        status_d = ST_INACTIVE;
-        ray_id_d = {RB{1'b0}};
-        ray_words_d = 256'd0;
-        hit_valid_d = 1'b0;
-        hit_d = 128'd0;
-        cur_treelet_d = {TW{1'b0}};
-        cur_sp_d = {SPW{1'b0}};
-        other_sp_d = {SPW{1'b0}};
-        cur_spilled_d = {SCW{1'b0}};
-        other_spilled_d = {SCW{1'b0}};
+        leave(status_d, ray_id_d, ray_words_d, hit_valid_d, hit_d, cur_treelet_d,
+              cur_sp_d, other_sp_d, cur_spilled_d, other_spilled_d);
     end
 end
 
