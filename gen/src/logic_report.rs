@@ -19,7 +19,7 @@ use std::time::Instant;
 use vtq_hdl::controller::{ControllerFeatures, TreeletController};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
-use vtq_hdl::rt_unit::{NodeEntry, RtUnitParams};
+use vtq_hdl::rt_unit::{NoDatapath, RtUnit, RtUnitParams};
 use vtq_hdl::{Block, BlockDesc, HwConfig};
 
 /// What the report's RT-unit line covers.
@@ -215,10 +215,14 @@ pub fn logic_report(
     }
     let total_nand2_eq: f64 = blocks.iter().map(|b| b.logic.nand2_eq).sum();
     let overhead = total_nand2_eq / rt_unit_logic.logic.nand2_eq;
-    let other_stack_bits = u64::from(cfg.warp_size)
-        * u64::from(cfg.warp_buffer_size)
-        * u64::from(cfg.stack_depth)
-        * u64::from(NodeEntry::bits(cfg.address_bits));
+    // The other-treelet stacks as the RT unit's description sizes them.
+    let other_stack_bits = RtUnit::new(cfg.clone(), rt.clone(), NoDatapath)?
+        .describe()
+        .memories
+        .iter()
+        .filter(|m| m.name == "other_stack")
+        .map(|m| u64::from(m.depth) * u64::from(m.width))
+        .sum();
     let other_stack_nand2_eq = other_stack_bits as f64 * DFF_X1_UM2 / NAND2_X1_45NM_UM2;
     let total_mm2 = NODES_NM
         .iter()
