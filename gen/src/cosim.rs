@@ -2,8 +2,8 @@
 //!
 //! [`record`] runs the Rust block from reset over a sequence of inputs and keeps, per cycle,
 //! the flattened input and output [`vtq_hdl::Signals`]. [`write_testbench`] turns the trace into
-//! a self-checking Verilog-2005 testbench with the vectors in a `$readmemh` file, and
-//! [`run_cosim`] runs it with Icarus Verilog or Verilator and parses the verdict.
+//! a self-checking Verilog-2005 testbench that reads the vectors (each cycle's changed signals)
+//! from a file with `$fscanf`, and [`run_cosim`] runs it with Icarus Verilog or Verilator and parses the verdict.
 //!
 //! # Timing convention
 //!
@@ -32,9 +32,11 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use vtq_hdl::{Block, Dir, Signal, Signals};
 
+mod replay;
 mod rt_unit;
 mod waveform;
 
+pub use replay::{datapath_tables, DatapathCall, ReplayInputs, RtUnitReplay, REPLAY_MODULE};
 pub use rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
 
 use waveform::{declares, desc_registers, vcd_scopes};
@@ -81,27 +83,53 @@ pub struct Trace {
     /// block description, with where the RTL holds them; the waveform of
     /// [`CosimOptions::vcd`] shows them under the same names.
     pub registers: Vec<RegSignal>,
-    /// Values, row-major: per cycle the inputs, then the outputs.
-    values: Vec<u64>,
+    /// Per cycle, the signals whose value differs from the cycle before (at cycle 0, from
+    /// zero) as `(index, value)`, the index counting the inputs then the outputs: most of a
+    /// block's wide ports (ray records, stacks) are zero or unchanged most cycles, so a long
+    /// run of a large configuration stays small.
+    changes: Vec<(u32, u64)>,
+    /// Where each cycle's changes start in `changes`.
+    starts: Vec<usize>,
 }
 
 impl Trace {
     /// Cycles recorded.
     pub fn cycles(&self) -> usize {
-        let stride = self.inputs.len() + self.outputs.len();
-        self.values.len().checked_div(stride).unwrap_or(0)
+        self.starts.len()
     }
 
-    /// The input values of `cycle`, in [`Trace::inputs`] order.
-    pub fn input_values(&self, cycle: usize) -> &[u64] {
-        let stride = self.inputs.len() + self.outputs.len();
-        &self.values[cycle * stride..cycle * stride + self.inputs.len()]
+    /// Every cycle's values in order: the inputs (in [`Trace::inputs`] order) then the outputs
+    /// (in [`Trace::outputs`] order).
+    pub fn rows(&self) -> impl Iterator<Item = Vec<u64>> + '_ {
+        let mut row = vec![0u64; self.inputs.len() + self.outputs.len()];
+        (0..self.cycles()).map(move |c| {
+            for &(i, v) in self.cycle_changes(c) {
+                row[i as usize] = v;
+            }
+            row.clone()
+        })
     }
 
-    /// The output values of `cycle`, in [`Trace::outputs`] order.
-    pub fn output_values(&self, cycle: usize) -> &[u64] {
-        let stride = self.inputs.len() + self.outputs.len();
-        &self.values[cycle * stride + self.inputs.len()..(cycle + 1) * stride]
+    /// The changes of cycle `c` (see [`Trace::changes`]).
+    fn cycle_changes(&self, c: usize) -> &[(u32, u64)] {
+        let end = self
+            .starts
+            .get(c + 1)
+            .copied()
+            .unwrap_or(self.changes.len());
+        &self.changes[self.starts[c]..end]
+    }
+
+    /// Appends a cycle whose values are `values` (inputs then outputs); `last` holds the
+    /// previous cycle's and becomes this one's.
+    fn push_cycle(&mut self, last: &mut [u64], values: impl Iterator<Item = u64>) {
+        self.starts.push(self.changes.len());
+        for (i, (old, v)) in last.iter_mut().zip(values).enumerate() {
+            if *old != v {
+                *old = v;
+                self.changes.push((i as u32, v));
+            }
+        }
     }
 }
 
@@ -119,6 +147,7 @@ pub fn record<B: Block>(
     };
     let mut regs = block.reset();
     let mut trace: Option<Trace> = None;
+    let mut last: Vec<u64> = Vec::new();
     for (cycle, inp) in inputs.into_iter().enumerate() {
         let (out, next) = block.eval(&regs, &inp);
         regs = next;
@@ -133,7 +162,8 @@ pub fn record<B: Block>(
                 outputs: infos(&outs),
                 ports: Vec::new(),
                 registers: desc_registers(&desc, &block.reg_signals(&block.reset())),
-                values: Vec::new(),
+                changes: Vec::new(),
+                starts: Vec::new(),
             }),
         };
         for (kind, infos, sigs) in [("input", &t.inputs, &ins), ("output", &t.outputs, &outs)] {
@@ -158,8 +188,8 @@ pub fn record<B: Block>(
                 )));
             }
         }
-        t.values
-            .extend(ins.iter().chain(outs.iter()).map(|s| s.value));
+        last.resize(ins.len() + outs.len(), 0);
+        t.push_cycle(&mut last, ins.iter().chain(outs.iter()).map(|s| s.value));
     }
     let mut trace = trace.ok_or_else(|| fail("no input cycles to simulate".to_string()))?;
     for s in trace.inputs.iter().chain(trace.outputs.iter()) {
@@ -287,29 +317,6 @@ fn infos(sigs: &[Signal]) -> Vec<SignalInfo> {
         .collect()
 }
 
-/// Packs `(value, width)` fields, the first one most significant, into a hex string of
-/// ceil(total width / 4) digits.
-fn pack_hex(fields: impl DoubleEndedIterator<Item = (u64, u32)>, total: u32) -> String {
-    let mut limbs = vec![0u64; (total as usize).div_ceil(64) + 1];
-    let mut offset = 0usize;
-    for (value, width) in fields.rev() {
-        let (i, shift) = (offset / 64, offset % 64);
-        limbs[i] |= value << shift;
-        if shift != 0 && shift + width as usize > 64 {
-            limbs[i + 1] |= value >> (64 - shift);
-        }
-        offset += width as usize;
-    }
-    let digits = (total as usize).div_ceil(4);
-    let mut s = String::with_capacity(digits + 1);
-    for d in (0..digits).rev() {
-        let bit = d * 4;
-        let nibble = (limbs[bit / 64] >> (bit % 64)) & 0xf;
-        s.push(char::from_digit(nibble as u32, 16).unwrap_or('0'));
-    }
-    s
-}
-
 /// Which simulator runs the testbench.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Simulator {
@@ -397,31 +404,17 @@ impl std::fmt::Display for CosimResult {
     }
 }
 
-/// The vectors file for `trace`: one line per cycle, the inputs then the outputs concatenated
-/// (first signal most significant) in hex.
+/// The vectors file for `trace`: per cycle one line `<index> <value>` (hex) for each signal
+/// whose value changed since the cycle before (at cycle 0, each nonzero one), the index
+/// counting the inputs then the outputs, and a line `<inputs + outputs> 0` ending the cycle.
 pub fn vectors(trace: &Trace) -> String {
-    let widths: Vec<u32> = trace
-        .inputs
-        .iter()
-        .chain(trace.outputs.iter())
-        .map(|s| s.width)
-        .collect();
-    let total: u32 = widths.iter().sum();
+    let end = trace.inputs.len() + trace.outputs.len();
     let mut out = String::new();
-    for cycle in 0..trace.cycles() {
-        let values = trace
-            .input_values(cycle)
-            .iter()
-            .chain(trace.output_values(cycle))
-            .copied();
-        out.push_str(&pack_hex(
-            values
-                .zip(widths.iter().copied())
-                .collect::<Vec<_>>()
-                .into_iter(),
-            total,
-        ));
-        out.push('\n');
+    for c in 0..trace.cycles() {
+        for &(i, v) in trace.cycle_changes(c) {
+            let _ = writeln!(out, "{i:x} {v:x}");
+        }
+        let _ = writeln!(out, "{end:x} 0");
     }
     out
 }
@@ -444,21 +437,8 @@ pub fn write_testbench_with_vcd(
 }
 
 fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> String {
-    let total: u32 = trace
-        .inputs
-        .iter()
-        .chain(trace.outputs.iter())
-        .map(|s| s.width)
-        .sum();
-    // Bit position of each signal's least significant bit in a vector word.
-    let mut lsb = Vec::new();
-    let mut hi = total;
-    for s in trace.inputs.iter().chain(trace.outputs.iter()) {
-        hi -= s.width;
-        lsb.push(hi);
-    }
-    let slice = |i: usize, w: u32| format!("vec_now[{}:{}]", lsb[i] + w - 1, lsb[i]);
     let n_in = trace.inputs.len();
+    let end = n_in + trace.outputs.len();
     let mut v = String::new();
     let _ = writeln!(
         v,
@@ -467,17 +447,21 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     );
     let _ = writeln!(
         v,
-        "// Vectors: {VECTORS_FILE}, one line per cycle: inputs then expected outputs."
+        "// Vectors: {VECTORS_FILE}, per cycle the signals that changed (index, value) and an \
+         end-of-cycle line (index {end})."
     );
     // 1 ns precision: every delay is whole nanoseconds, and the waveform's times are in ns.
     let _ = writeln!(v, "`timescale 1ns/1ns");
     let _ = writeln!(v, "module {TESTBENCH_TOP};");
     let _ = writeln!(v, "    localparam integer CYCLES = {};", trace.cycles());
     let _ = writeln!(v, "    localparam integer MAX_REPORTED = {max_reported};");
+    let _ = writeln!(v, "    localparam integer END_OF_CYCLE = {end};");
     let _ = writeln!(v, "    reg clk = 1'b0;");
     let _ = writeln!(v, "    reg rst = 1'b1;");
-    let _ = writeln!(v, "    reg [{}:0] vectors [0:CYCLES-1];", total - 1);
-    let _ = writeln!(v, "    reg [{}:0] vec_now;", total - 1);
+    let _ = writeln!(v, "    integer fd;");
+    let _ = writeln!(v, "    integer got_fields;");
+    let _ = writeln!(v, "    reg [31:0] v_index;");
+    let _ = writeln!(v, "    reg [63:0] v_value;");
     let _ = writeln!(v, "    integer cycle;");
     let _ = writeln!(v, "    integer mismatches;");
     for s in &trace.inputs {
@@ -485,6 +469,7 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     }
     for s in &trace.outputs {
         let _ = writeln!(v, "    wire {}o_{};", range(s.width), s.name);
+        let _ = writeln!(v, "    reg  {}e_{};", range(s.width), s.name);
     }
     let _ = writeln!(v);
     let _ = writeln!(v, "    {} dut (", trace.module);
@@ -513,6 +498,32 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     let _ = writeln!(v, "        end");
     let _ = writeln!(v, "    endtask");
     let _ = writeln!(v);
+    // One cycle's changes: each sets an input or an expected output.
+    let _ = writeln!(v, "    task apply(input [31:0] index, input [63:0] value);");
+    let _ = writeln!(v, "        begin");
+    let _ = writeln!(v, "            case (index)");
+    for (i, s) in trace.inputs.iter().enumerate() {
+        let _ = writeln!(
+            v,
+            "                {i}: i_{} = value[{}:0];",
+            s.name,
+            s.width - 1
+        );
+    }
+    for (j, s) in trace.outputs.iter().enumerate() {
+        let _ = writeln!(
+            v,
+            "                {}: e_{} = value[{}:0];",
+            n_in + j,
+            s.name,
+            s.width - 1
+        );
+    }
+    let _ = writeln!(v, "                default: ;");
+    let _ = writeln!(v, "            endcase");
+    let _ = writeln!(v, "        end");
+    let _ = writeln!(v, "    endtask");
+    let _ = writeln!(v);
     if let Some(registers) = vcd {
         v.push_str(&vcd_scopes(trace, registers));
         let _ = writeln!(v);
@@ -535,10 +546,20 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
         }
         let _ = writeln!(v, "        $dumpvars(1, {TESTBENCH_TOP}.dut);");
     }
-    let _ = writeln!(v, "        $readmemh(\"{VECTORS_FILE}\", vectors);");
+    let _ = writeln!(v, "        fd = $fopen(\"{VECTORS_FILE}\", \"r\");");
+    let _ = writeln!(v, "        if (fd == 0) begin");
+    let _ = writeln!(
+        v,
+        "            $display(\"cosim: cannot open {VECTORS_FILE}\");"
+    );
+    let _ = writeln!(v, "            $finish;");
+    let _ = writeln!(v, "        end");
     let _ = writeln!(v, "        mismatches = 0;");
     for s in &trace.inputs {
         let _ = writeln!(v, "        i_{} = {}'d0;", s.name, s.width);
+    }
+    for s in &trace.outputs {
+        let _ = writeln!(v, "        e_{} = {}'d0;", s.name, s.width);
     }
     let _ = writeln!(
         v,
@@ -551,26 +572,45 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
         v,
         "        for (cycle = 0; cycle < CYCLES; cycle = cycle + 1) begin"
     );
-    let _ = writeln!(v, "            vec_now = vectors[cycle];");
-    for (i, s) in trace.inputs.iter().enumerate() {
-        let _ = writeln!(v, "            i_{} = {};", s.name, slice(i, s.width));
-    }
+    let _ = writeln!(
+        v,
+        "            got_fields = $fscanf(fd, \"%h %h\\n\", v_index, v_value);"
+    );
+    let _ = writeln!(
+        v,
+        "            while (got_fields == 2 && v_index != END_OF_CYCLE) begin"
+    );
+    let _ = writeln!(v, "                apply(v_index, v_value);");
+    let _ = writeln!(
+        v,
+        "                got_fields = $fscanf(fd, \"%h %h\\n\", v_index, v_value);"
+    );
+    let _ = writeln!(v, "            end");
+    let _ = writeln!(v, "            if (got_fields != 2) begin");
+    let _ = writeln!(
+        v,
+        "                $display(\"cosim: {VECTORS_FILE} ends before cycle %0d\", cycle);"
+    );
+    let _ = writeln!(v, "                $finish;");
+    let _ = writeln!(v, "            end");
     let _ = writeln!(v, "            #1;");
     // One comparison of all outputs per cycle; the per-signal checks (which count and report
     // each mismatching signal) run only when it fails, which keeps long runs fast.
-    let out_bits: u32 = trace.outputs.iter().map(|s| s.width).sum();
-    let all_outputs: Vec<String> = trace
-        .outputs
-        .iter()
-        .map(|s| format!("o_{}", s.name))
-        .collect();
+    let all = |prefix: &str| {
+        trace
+            .outputs
+            .iter()
+            .map(|s| format!("{prefix}{}", s.name))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let _ = writeln!(
         v,
-        "            if ({{{}}} !== vec_now[{}:0]) begin",
-        all_outputs.join(", "),
-        out_bits - 1
+        "            if ({{{}}} !== {{{}}}) begin",
+        all("o_"),
+        all("e_")
     );
-    for (j, s) in trace.outputs.iter().enumerate() {
+    for s in &trace.outputs {
         // Zero-extend both sides to the task's 64-bit arguments.
         let pad = |x: String| {
             if s.width >= 64 {
@@ -583,7 +623,7 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
             v,
             "                check(cycle, \"{}\", {}, {});",
             s.name,
-            pad(slice(n_in + j, s.width)),
+            pad(format!("e_{}", s.name)),
             pad(format!("o_{}", s.name))
         );
     }
@@ -591,6 +631,7 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     let _ = writeln!(v, "            #4 clk = 1'b1;");
     let _ = writeln!(v, "            #5 clk = 1'b0;");
     let _ = writeln!(v, "        end");
+    let _ = writeln!(v, "        $fclose(fd);");
     let _ = writeln!(
         v,
         "        $display(\"cosim: %0d cycles compared, %0d mismatches\", CYCLES, mismatches);"
@@ -749,17 +790,6 @@ fn parse_result(output: &str, simulator: Simulator, module: &str) -> Result<Cosi
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn packs_fields_msb_first() {
-        assert_eq!(pack_hex([(1u64, 1u32), (0xab, 8)].into_iter(), 9), "1ab");
-        assert_eq!(pack_hex([(0x5, 3), (0x3, 2)].into_iter(), 5), "17");
-        // A field straddling a 64-bit limb boundary.
-        let s = pack_hex([(0xf, 4), (u64::MAX, 64)].into_iter(), 68);
-        assert_eq!(s, "fffffffffffffffff");
-        let s = pack_hex([(1, 1), (0, 62), (0x3, 2)].into_iter(), 65);
-        assert_eq!(s, "10000000000000003");
-    }
 
     #[test]
     fn parses_results() {

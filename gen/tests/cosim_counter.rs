@@ -184,7 +184,8 @@ fn counter_matches_over_100k_random_cycles() {
     let trace = record(&block, inputs(100_000, 0x9e37_79b9_7f4a_7c15)).unwrap();
     assert_eq!(trace.cycles(), 100_000);
     // The random inputs do exercise the Mealy output and the load path.
-    assert!((0..trace.cycles()).any(|c| trace.output_values(c)[1] == 1));
+    let n_in = trace.inputs.len();
+    assert!(trace.rows().any(|r| r[n_in + 1] == 1));
     let Some(result) = or_skip(run_cosim(&trace, &[dut], &CosimOptions::icarus(&dir))).unwrap()
     else {
         return;
@@ -203,12 +204,15 @@ fn broken_counter_mismatch_is_found_at_the_right_cycle() {
     let bad = record(&Counter { skip_ten: true }, stimulus).unwrap();
     // The first cycle where the broken model's outputs differ is where the broken Verilog
     // must first disagree with the correct Rust block.
-    let (first_cycle, first_signal) = (0..good.cycles())
-        .find_map(|c| {
-            let (g, b) = (good.output_values(c), bad.output_values(c));
-            (0..g.len())
+    let n_in = good.inputs.len();
+    let (first_cycle, first_signal) = good
+        .rows()
+        .zip(bad.rows())
+        .enumerate()
+        .find_map(|(c, (g, b))| {
+            (n_in..g.len())
                 .find(|&i| g[i] != b[i])
-                .map(|i| (c as u64, good.outputs[i].name.clone()))
+                .map(|i| (c as u64, good.outputs[i - n_in].name.clone()))
         })
         .expect("the stimulus never reaches 10 by counting");
     let Some(result) = or_skip(run_cosim(&good, &[dut], &CosimOptions::icarus(&dir))).unwrap()
@@ -227,11 +231,10 @@ fn broken_counter_mismatch_is_found_at_the_right_cycle() {
     assert_eq!(m.got.trim_start_matches('0'), "b", "{result}");
     assert!(result.reported.len() <= 10);
     // Every cycle where the broken model differs is counted.
-    let differing = (0..good.cycles())
-        .map(|c| {
-            let (g, b) = (good.output_values(c), bad.output_values(c));
-            (0..g.len()).filter(|&i| g[i] != b[i]).count() as u64
-        })
+    let differing = good
+        .rows()
+        .zip(bad.rows())
+        .map(|(g, b)| (n_in..g.len()).filter(|&i| g[i] != b[i]).count() as u64)
         .sum::<u64>();
     assert_eq!(result.mismatches, differing, "{result}");
 }
@@ -257,13 +260,23 @@ fn counter_matches_under_verilator() {
 fn testbench_follows_the_timing_convention() {
     let trace = record(&Counter { skip_ten: false }, inputs(3, 1)).unwrap();
     let tb = write_testbench(&trace, 10);
-    // Inputs are applied, then outputs compared after 1 ns, then the rising edge.
-    let apply = tb.find("i_value = vec_now").unwrap();
+    // Inputs are applied (the cycle's changes read from the vectors), then outputs compared
+    // after 1 ns, then the rising edge.
+    assert!(tb.contains("i_value = value["), "{tb}");
+    let apply = tb.find("apply(v_index, v_value);").unwrap();
     let settle = tb.find("#1;").unwrap();
     let compare = tb.find("check(cycle, \"count\"").unwrap();
     let edge = tb.find("#4 clk = 1'b1;").unwrap();
     assert!(apply < settle && settle < compare && compare < edge);
     assert!(tb.contains("cosim: %0d cycles compared, %0d mismatches"));
+    // The vectors hold each cycle's changes and an end-of-cycle line per cycle.
+    let vectors = vtq_gen::cosim::vectors(&trace);
+    let end = format!("{:x} 0", trace.inputs.len() + trace.outputs.len());
+    assert_eq!(
+        vectors.lines().filter(|l| *l == end).count(),
+        3,
+        "{vectors}"
+    );
 }
 
 #[test]

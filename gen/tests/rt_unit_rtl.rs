@@ -4,7 +4,8 @@
 //! small configuration (three slots of four lanes, four-entry stacks that spill), a medium one
 //! and the paper's; every output including the status ports and the ray records of completed
 //! warps compared every cycle; broken RTL lines that the co-simulation must catch;
-//! `verilator --lint-only -Wall`.
+//! `verilator --lint-only -Wall`; the replay of recorded traffic whose datapath answers from
+//! tables.
 
 mod common;
 
@@ -12,10 +13,11 @@ use common::write_verilog;
 use std::path::PathBuf;
 use std::time::Instant;
 use vtq_gen::cosim::{
-    record, run_cosim, CosimOptions, CosimResult, RtUnitWithStatus, Simulator, Trace,
+    datapath_tables, record, run_cosim, CosimOptions, CosimResult, DatapathCall, RtUnitReplay,
+    RtUnitWithStatus, Simulator, Trace,
 };
-use vtq_gen::rtl::{rt_unit_verilog, toy_datapath_verilog};
-use vtq_gen::stimulus::rt_unit::{rt_unit_inputs, small_config};
+use vtq_gen::rtl::{rt_unit_replay_verilog, rt_unit_verilog, toy_datapath_verilog};
+use vtq_gen::stimulus::rt_unit::{rt_unit_inputs, small_config, ToyDatapath};
 use vtq_gen::synth::lint;
 use vtq_gen::tools::or_skip;
 use vtq_hdl::rt_unit::RtUnitParams;
@@ -186,5 +188,61 @@ fn a_broken_rtl_line_is_caught() {
             !r.passed() && r.mismatches > 0,
             "mutation {i} was not caught: {r}"
         );
+    }
+}
+
+/// The replay of recorded traffic that `vtq cosim --block rt-unit --scene` runs with a real
+/// scene's datapath, here with the toy one: its tests recorded in a first pass
+/// ([`datapath_tables`]) and answered from the cycle's table on both sides (the Rust
+/// [`RtUnitReplay`], the RTL's replay `rt_datapath`). The replay's outputs are the plain run's;
+/// the RTL matches them under Icarus and Verilator; and tables that say no node hits
+/// anything change the outputs on both sides alike (the table, not the toy format, decides).
+#[test]
+fn a_replay_answering_from_datapath_tables_matches() {
+    let (cfg, params) = small_config();
+    let (unit, inputs, _) = rt_unit_inputs(&cfg, &params, 5000, 4).unwrap();
+    let tables = datapath_tables(&cfg, &params, ToyDatapath, &inputs).unwrap();
+    let tests: usize = tables.iter().map(Vec::len).sum();
+    let hits = tables
+        .iter()
+        .flatten()
+        .filter(|c| c.result.hit.is_some())
+        .count();
+    assert!(tests > 1000 && hits > 100, "{tests} tests, {hits} hits");
+    let block = RtUnitReplay::new(&cfg, &params).unwrap();
+    let trace = record(&block, block.inputs(inputs.clone(), tables.clone())).unwrap();
+    assert_eq!(block.misses(), 0);
+    let plain = record(&RtUnitWithStatus(unit), inputs.clone()).unwrap();
+    let outputs =
+        |t: &Trace| -> Vec<Vec<u64>> { t.rows().map(|r| r[t.inputs.len()..].to_vec()).collect() };
+    assert_eq!(trace.outputs, plain.outputs);
+    assert_eq!(outputs(&trace), outputs(&plain));
+    let dir = work_dir("replay");
+    let files: Vec<PathBuf> = rt_unit_replay_verilog(&cfg, &params)
+        .unwrap()
+        .iter()
+        .map(|(m, v)| write_verilog(&dir, m, v))
+        .collect();
+    for sim in [Simulator::Icarus, Simulator::Verilator] {
+        if let Some(r) = cosim(&trace, &files, sim, "replay") {
+            assert!(r.passed(), "{r}");
+        }
+    }
+    let missless: Vec<Vec<DatapathCall>> = tables
+        .into_iter()
+        .map(|calls| {
+            calls
+                .into_iter()
+                .map(|mut c| {
+                    c.result.hit = None;
+                    c
+                })
+                .collect()
+        })
+        .collect();
+    let blind = record(&block, block.inputs(inputs, missless)).unwrap();
+    assert_ne!(outputs(&blind), outputs(&trace));
+    if let Some(r) = cosim(&blind, &files, Simulator::Icarus, "replay-no-hits") {
+        assert!(r.passed(), "{r}");
     }
 }

@@ -136,6 +136,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     );
     let qt_busy = !peeks.qt.ready;
     super::log_tables(&mut cache.tables, &ct_in, &qt_in);
+    super::log_rt_unit(&mut cache.tables, rt_in);
     // Tables with no op and nothing in progress are not stepped: their registers would not
     // change and their outputs would carry nothing.
     let ct_out = (ct_in.op != CountOp::Nop || u.ct.busy(ct)).then(|| u.ct.step(ct, &ct_in));

@@ -176,7 +176,8 @@ pub struct TreeletRtUnitCache {
 /// starts at the first cycle in which either table gets an op: until then both get only `Nop`s
 /// from reset, which leave them in their reset state, so a replay from reset is exact. Beside
 /// them, the treelet controller's input ports from reset (its registers change without table
-/// ops, so its log starts at the first cycle).
+/// ops, so its log starts at the first cycle), and the RT unit's input ports from reset with
+/// its parameters, to replay the RT unit with the same datapath.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct TableLog {
     /// Cycles to record at most.
@@ -193,6 +194,11 @@ pub struct TableLog {
     /// skipped idle cycle has the inputs the wiring gives the controller with no SM warp
     /// offered, those of the cycle the skip starts in).
     pub controller: Vec<ControllerInputs>,
+    /// The RT unit's inputs of the first `limit` cycles from reset, every cycle (a skipped idle
+    /// cycle has idle inputs: a skip is exactly that many idle steps).
+    pub rt_unit: Vec<RtUnitInputs>,
+    /// The RT unit's parameters (latencies, response FIFO, hit records, stack spill area).
+    pub rt_params: RtUnitParams,
 }
 
 impl TreeletRtUnitCache {
@@ -232,11 +238,13 @@ impl TreeletRtUnitCache {
         self.probed.take()
     }
 
-    /// Starts recording the tables' inputs of the next `cycles` cycles (from reset: start
-    /// before the first step).
-    pub fn record_tables(&mut self, cycles: usize) {
+    /// Starts recording the tables', the controller's and the RT unit's inputs of the next
+    /// `cycles` cycles (from reset: start before the first step); `rt_params` are the RT
+    /// unit's parameters, kept with the log.
+    pub fn record_tables(&mut self, cycles: usize, rt_params: RtUnitParams) {
         self.tables = Some(TableLog {
             limit: cycles,
+            rt_params,
             ..TableLog::default()
         });
     }
@@ -256,6 +264,13 @@ impl TreeletRtUnitCache {
 fn log_controller(tables: &mut Option<TableLog>, inputs: &ControllerInputs) {
     if let Some(log) = tables.as_mut().filter(|l| l.controller.len() < l.limit) {
         log.controller.push(inputs.clone());
+    }
+}
+
+/// Appends one cycle's RT-unit inputs to `tables`, while recording (up to its limit).
+fn log_rt_unit(tables: &mut Option<TableLog>, inputs: &RtUnitInputs) {
+    if let Some(log) = tables.as_mut().filter(|l| l.rt_unit.len() < l.limit) {
+        log.rt_unit.push(inputs.clone());
     }
 }
 
@@ -419,7 +434,11 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         }
         cache.dry_valid = false;
         cache.probed = None;
-        if cache.tables.is_some() {
+        if let Some(log) = cache.tables.as_mut() {
+            let room = log.limit.saturating_sub(log.rt_unit.len()) as u64;
+            let idle = self.rt.idle_inputs();
+            log.rt_unit
+                .extend(std::iter::repeat_n(idle, n.min(room) as usize));
             let (ct, qt) = (
                 self.ct.input(crate::count_table::CountOp::Nop),
                 self.qt.input(crate::queue_table::QueueOp::Nop),

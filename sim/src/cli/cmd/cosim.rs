@@ -3,9 +3,10 @@
 //! cycle, with Icarus Verilog or Verilator: on the seeded random stimulus of
 //! [`vtq_gen::stimulus`] (for the controller and the RT unit, their reactive environments
 //! [`vtq_gen::stimulus::controller`] and [`vtq_gen::stimulus::rt_unit`], the RT unit with the
-//! toy node format's datapath on both sides), or (`--scene`, tables and controller) on the real
-//! traffic of a simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle
-//! by cycle from reset and replayed as the testbench's stimulus.
+//! toy node format's datapath on both sides), or (`--scene`) on the real traffic of a
+//! simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle by cycle
+//! from reset and replayed as the testbench's stimulus (the RT unit's with its datapath's tests
+//! answered from their recorded results, [`vtq_gen::cosim::RtUnitReplay`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,12 +14,12 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use vtq_gen::cosim::{
-    record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, RtUnitWithStatus, Simulator,
-    Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
+    datapath_tables, record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, RtUnitReplay,
+    RtUnitWithStatus, Simulator, Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
 };
 use vtq_gen::rtl::{
-    controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_verilog,
-    toy_datapath_verilog,
+    controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
+    rt_unit_verilog, toy_datapath_verilog,
 };
 use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::rt_unit::rt_unit_inputs;
@@ -32,6 +33,7 @@ use vtq_hdl::Block;
 
 use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
 use crate::model::config::SimConfig;
+use crate::model::gpu::datapath::BvhDatapath;
 use crate::model::gpu::{simulate, SimOptions};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
@@ -47,7 +49,8 @@ pub enum BlockChoice {
     Tables,
     /// The treelet controller.
     Controller,
-    /// The RT unit's control (random stimulus only, with the toy datapath).
+    /// The RT unit's control (random stimulus with the toy datapath; with `--scene`, the
+    /// recorded traffic with the scene's datapath answering from its recorded results).
     RtUnit,
     /// Both tables, the controller and the RT unit.
     All,
@@ -118,8 +121,9 @@ pub struct CosimArgs {
     /// Replay real traffic instead of random stimulus: simulate this scene (with `--config`,
     /// which must be a queues design) and record the inputs of SM `--sm` for `--cycles` cycles:
     /// the tables' from the first op either table gets (before it they only get nops from
-    /// reset), the controller's from reset. Not for the RT unit, whose RTL co-simulates with the
-    /// toy datapath only.
+    /// reset), the controller's and the RT unit's from reset. The RT unit's datapath tests are
+    /// run once in Rust with the scene's datapath, and both sides answer them from those
+    /// results (`vtq_gen::cosim::RtUnitReplay`). With `--block all` every block is replayed.
     #[arg(long)]
     pub scene: Option<String>,
     /// The SM whose blocks are recorded with `--scene`.
@@ -269,12 +273,6 @@ pub fn rt_unit_params(cfg: &SimConfig) -> RtUnitParams {
 /// The jobs of a replay of real traffic: simulates `scene` and records SM `args.sm`'s table
 /// inputs.
 fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
-    if args.block == BlockChoice::RtUnit {
-        bail!(
-            "--scene replays real traffic for the tables and the controller only: the RT unit's \
-             RTL co-simulates with the toy datapath (--block rt-unit without --scene)"
-        );
-    }
     let cfg = args.config.load()?;
     let scene = load_scene(scene)?;
     let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
@@ -354,6 +352,44 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
                 out.stats.cycles
             ),
             verilog: vec![(ctl.describe().name, controller_verilog(hw, features)?)],
+        });
+    }
+    if args.block.rt_unit() {
+        let params = &log.rt_params;
+        let tables = datapath_tables(hw, params, BvhDatapath::new(&bvh), &log.rt_unit)?;
+        let tests: usize = tables.iter().map(Vec::len).sum();
+        let hits = tables
+            .iter()
+            .flatten()
+            .filter(|c| c.result.hit.is_some())
+            .count();
+        let unit = RtUnitReplay::new(hw, params)?;
+        let inputs = unit.inputs(log.rt_unit.clone(), tables);
+        let trace = record(&unit, inputs)?;
+        if unit.misses() > 0 {
+            bail!(
+                "the RT unit's replay ran {} datapath tests its tables do not hold",
+                unit.misses()
+            );
+        }
+        let warps = log.rt_unit.iter().filter(|i| i.issue.is_some()).count();
+        let responses: usize = log.rt_unit.iter().map(|i| i.responses.len()).sum();
+        jobs.push(Job {
+            // The replay's waveform shows its ports; its registers are rt_unit's.
+            rust_vcd: None,
+            trace,
+            coverage: format!(
+                "real traffic with the scene's datapath: cycles 0..{} of SM {} in scene {} ({}, \
+                 {} cycles in all), from reset: {warps} warps issued, {responses} memory \
+                 responses, {tests} datapath tests ({hits} with a hit), answered from their \
+                 recorded results on both sides",
+                log.rt_unit.len(),
+                args.sm,
+                scene.name,
+                cfg.mode.kind.name(),
+                out.stats.cycles
+            ),
+            verilog: rt_unit_replay_verilog(hw, params)?,
         });
     }
     Ok(jobs)

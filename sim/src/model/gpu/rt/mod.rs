@@ -251,7 +251,8 @@ impl<'a> RtPort<'a> {
     pub fn record_tables(&mut self, cycles: usize) -> bool {
         match &mut self.hw {
             Hardware::Treelet(t) => {
-                t.cache.record_tables(cycles);
+                t.cache
+                    .record_tables(cycles, t.unit.rt_unit().params().clone());
                 true
             }
             Hardware::Plain(_) => false,

@@ -1,0 +1,371 @@
+//! The RT unit replayed on a real run's traffic: the intersection datapath's answers become
+//! testbench inputs ([`RtUnitReplay`]).
+//!
+//! The RT unit's RTL leaves the box/triangle datapath outside its control (`rt_datapath`, one
+//! instance per lane), and a real scene's datapath (the simulator's BVH decoder and tests) has
+//! no Verilog. So a replay first runs the Rust RT unit with the real datapath over the recorded
+//! inputs and keeps every test it ran in each cycle — the ray, its closest hit so far, the node
+//! and the result ([`datapath_tables`]). The co-simulated block ([`RtUnitReplay`]) is the same
+//! RT unit whose datapath answers from the cycle's table, which arrives on three extra input
+//! ports (`dp_valid`, `dp_key`, `dp_result`, [`ReplayInputs`]); on the Verilog side the module
+//! `rt_unit_replay` carries the same ports around `rt_unit`, and a replay `rt_datapath`
+//! ([`crate::rtl::replay_datapath_verilog`]) looks its inputs up in them. Every output and
+//! status port of the RT unit is compared every cycle, as in the random co-simulation; what the
+//! replay does not check is the node bytes the RTL hands its datapath (not part of the key),
+//! which the random co-simulation's toy datapath checks.
+
+use super::rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
+use crate::error::GenError;
+use crate::rtl::{CHILD_BITS, CHILD_COUNT_BITS};
+use std::cell::{Cell, RefCell};
+use std::rc::Rc;
+use vtq_hdl::bits::BitPacker;
+use vtq_hdl::bundle::push_words;
+use vtq_hdl::rt_unit::{
+    Hit, NodeDatapath, NodeEntry, RayWords, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs,
+    TestResult, RAY_WORDS,
+};
+use vtq_hdl::{Block, BlockDesc, Dir, HwConfig, PortDesc, Signal, Signals};
+
+/// One test the datapath ran: its inputs (the key) and its result.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DatapathCall {
+    /// The ray's original words.
+    pub ray: RayWords,
+    /// Its closest hit so far.
+    pub best: Option<Hit>,
+    /// The node tested.
+    pub node: NodeEntry,
+    /// What the datapath decided.
+    pub result: TestResult,
+}
+
+impl DatapathCall {
+    /// Whether this call's key is `(ray, best, node)`.
+    fn answers(&self, ray: &RayWords, best: Option<&Hit>, node: &NodeEntry) -> bool {
+        self.ray == *ray && self.best.as_ref() == best && self.node == *node
+    }
+}
+
+/// A datapath that keeps every test of the one it wraps in `calls`.
+struct Recording<D> {
+    inner: D,
+    calls: Rc<RefCell<Vec<DatapathCall>>>,
+}
+
+impl<D: NodeDatapath> NodeDatapath for Recording<D> {
+    fn test(
+        &self,
+        ray: &RayWords,
+        best: Option<&Hit>,
+        node: &NodeEntry,
+        data: &[u8],
+    ) -> TestResult {
+        let result = self.inner.test(ray, best, node, data);
+        self.calls.borrow_mut().push(DatapathCall {
+            ray: *ray,
+            best: best.copied(),
+            node: *node,
+            result: result.clone(),
+        });
+        result
+    }
+}
+
+/// Runs the RT unit of `cfg` and `params` with `datapath` over `inputs` from reset and returns
+/// each cycle's datapath tests, in the order it ran them. Fails if a cycle runs more tests
+/// than a warp has lanes (the replay's table holds one per lane).
+pub fn datapath_tables<D: NodeDatapath>(
+    cfg: &HwConfig,
+    params: &RtUnitParams,
+    datapath: D,
+    inputs: &[RtUnitInputs],
+) -> Result<Vec<Vec<DatapathCall>>, GenError> {
+    let calls = Rc::new(RefCell::new(Vec::new()));
+    let unit = RtUnit::new(
+        cfg.clone(),
+        params.clone(),
+        Recording {
+            inner: datapath,
+            calls: calls.clone(),
+        },
+    )?;
+    let mut regs = unit.reset();
+    let mut tables = Vec::with_capacity(inputs.len());
+    for (cycle, i) in inputs.iter().enumerate() {
+        unit.step(&mut regs, i);
+        let calls = std::mem::take(&mut *calls.borrow_mut());
+        if calls.len() > cfg.warp_size as usize {
+            return Err(GenError::Cosim {
+                block: "rt_unit".into(),
+                reason: format!(
+                    "cycle {cycle} ran {} datapath tests, more than the {} lanes of a warp",
+                    calls.len(),
+                    cfg.warp_size
+                ),
+            });
+        }
+        tables.push(calls);
+    }
+    Ok(tables)
+}
+
+/// The datapath of [`RtUnitReplay`]: answers each test from the current cycle's table (a test
+/// not in it finds nothing and is counted).
+#[derive(Debug, Clone, Default)]
+struct TableDatapath(Rc<Table>);
+
+/// The table of [`TableDatapath`], shared with the block that fills it each cycle.
+#[derive(Debug, Default)]
+struct Table {
+    calls: RefCell<Vec<DatapathCall>>,
+    misses: Cell<u64>,
+}
+
+impl NodeDatapath for TableDatapath {
+    fn test(&self, ray: &RayWords, best: Option<&Hit>, node: &NodeEntry, _: &[u8]) -> TestResult {
+        let calls = self.0.calls.borrow();
+        match calls.iter().find(|c| c.answers(ray, best, node)) {
+            Some(c) => c.result.clone(),
+            None => {
+                self.0.misses.set(self.0.misses.get() + 1);
+                TestResult::default()
+            }
+        }
+    }
+}
+
+/// One cycle's inputs of [`RtUnitReplay`]: the RT unit's, and the table its datapath answers
+/// from: `table[k]` is entry `k`, valid this cycle when bit `k` of `valid` is set (an invalid
+/// entry's contents are whatever the cycle before left, so that a long replay's vectors hold
+/// only the entries that change).
+#[derive(Debug, Clone)]
+pub struct ReplayInputs {
+    /// The RT unit's inputs.
+    pub rt: RtUnitInputs,
+    /// The table's entries (one per lane).
+    pub table: Vec<Option<DatapathCall>>,
+    /// Which entries are this cycle's tests.
+    pub valid: u64,
+    /// Bits of a stack entry (a node reference).
+    entry_bits: u32,
+    /// Children per result (`max_children`).
+    max_children: u32,
+}
+
+impl ReplayInputs {
+    /// The `dp_key` bits of entry `call` (`None`: zeros), lowest first: the ray words (word
+    /// `j` in `[32 j +: 32]`), the closest hit's valid bit, the hit (`{attribs[1], attribs[0],
+    /// hit id, t}`, zero without one), the node (`NodeEntry::encode`).
+    fn push_key(&self, p: &mut BitPacker, call: Option<&DatapathCall>) {
+        for j in 0..RAY_WORDS {
+            p.push(call.map_or(0, |c| c.ray[j] as u64), 32);
+        }
+        let best = call.and_then(|c| c.best);
+        p.push(best.is_some() as u64, 1);
+        push_hit(p, best.as_ref());
+        p.push(call.map_or(0, |c| c.node.encode()), self.entry_bits);
+    }
+
+    /// The `dp_result` bits of entry `call`, lowest first: the child count (saturating), the
+    /// children (`max_children` of [`CHILD_BITS`], child `c` at `[c CHILD_BITS +: CHILD_BITS]`
+    /// as `{address[63:0], kind, chunks}`), the hit's valid bit and the hit.
+    fn push_result(&self, p: &mut BitPacker, call: Option<&DatapathCall>) {
+        let r = call.map(|c| &c.result);
+        // The datapath's child count saturates.
+        let count = r.map_or(0, |r| r.children.len() as u64);
+        p.push(count.min((1 << CHILD_COUNT_BITS) - 1), CHILD_COUNT_BITS);
+        for k in 0..self.max_children as usize {
+            let child = r.and_then(|r| r.children.get(k));
+            p.push(child.map_or(0, |c| c.chunks as u64), 8);
+            p.push(child.map_or(0, |c| c.kind.code()), 3);
+            p.push(child.map_or(0, |c| c.address), 64);
+        }
+        let hit = r.and_then(|r| r.hit);
+        p.push(hit.is_some() as u64, 1);
+        push_hit(p, hit.as_ref());
+    }
+
+    /// Bits of one `dp_key` entry.
+    fn key_bits(&self) -> u32 {
+        RAY_WORDS as u32 * 32 + 1 + 128 + self.entry_bits
+    }
+
+    /// Bits of one `dp_result` entry.
+    fn result_bits(&self) -> u32 {
+        CHILD_COUNT_BITS + self.max_children * CHILD_BITS + 1 + 128
+    }
+}
+
+/// Pushes a hit's 128 bits (`t` lowest, then the hit id and the two attributes; zeros without
+/// one).
+fn push_hit(p: &mut BitPacker, hit: Option<&Hit>) {
+    p.push(hit.map_or(0, |h| h.t as u64), 32);
+    p.push(hit.map_or(0, |h| h.hit_id as u64), 32);
+    p.push(hit.map_or(0, |h| h.attribs[0] as u64), 32);
+    p.push(hit.map_or(0, |h| h.attribs[1] as u64), 32);
+}
+
+impl Signals for ReplayInputs {
+    fn signals(&self) -> Vec<Signal> {
+        let mut s = self.rt.signals();
+        s.push(Signal::new("dp_valid", self.table.len() as u32, self.valid));
+        s
+    }
+
+    fn bulk_signals(&self) -> Vec<Signal> {
+        let mut s = self.rt.bulk_signals();
+        let (mut keys, mut results) = (BitPacker::new(), BitPacker::new());
+        for call in &self.table {
+            self.push_key(&mut keys, call.as_ref());
+            self.push_result(&mut results, call.as_ref());
+        }
+        let n = self.table.len() as u32;
+        push_words(&mut s, "dp_key", n * self.key_bits(), keys.into_words());
+        push_words(
+            &mut s,
+            "dp_result",
+            n * self.result_bits(),
+            results.into_words(),
+        );
+        s
+    }
+}
+
+/// The RT unit whose datapath answers from tables that arrive with its inputs (see the module
+/// documentation); its outputs are [`RtUnitWithStatus`]'s.
+#[derive(Debug)]
+pub struct RtUnitReplay {
+    unit: RtUnitWithStatus<TableDatapath>,
+    table: Rc<Table>,
+}
+
+impl RtUnitReplay {
+    /// The replay block of the RT unit of `cfg` and `params`.
+    pub fn new(cfg: &HwConfig, params: &RtUnitParams) -> Result<Self, GenError> {
+        let table = Rc::new(Table::default());
+        let unit = RtUnit::new(cfg.clone(), params.clone(), TableDatapath(table.clone()))?;
+        Ok(RtUnitReplay {
+            unit: RtUnitWithStatus(unit),
+            table,
+        })
+    }
+
+    /// Tests the block's datapath found in no table so far (0 when the tables came from
+    /// [`datapath_tables`] over the same inputs).
+    pub fn misses(&self) -> u64 {
+        self.table.misses.get()
+    }
+
+    /// The inputs of a replay: each cycle's RT-unit inputs with its tests (from
+    /// [`datapath_tables`]) in the first entries of a table of `warp_size` entries, the others
+    /// left as the cycle before left them.
+    pub fn inputs(
+        &self,
+        rt: Vec<RtUnitInputs>,
+        tables: Vec<Vec<DatapathCall>>,
+    ) -> Vec<ReplayInputs> {
+        let cfg = self.unit.0.config();
+        let lanes = cfg.warp_size as usize;
+        let mut table: Vec<Option<DatapathCall>> = vec![None; lanes];
+        rt.into_iter()
+            .zip(tables.into_iter().chain(std::iter::repeat_with(Vec::new)))
+            .map(|(rt, calls)| {
+                let valid = u64::MAX.checked_shr(64 - calls.len() as u32).unwrap_or(0);
+                for (slot, call) in table.iter_mut().zip(calls) {
+                    *slot = Some(call);
+                }
+                ReplayInputs {
+                    rt,
+                    table: table.clone(),
+                    valid,
+                    entry_bits: NodeEntry::bits(cfg.address_bits),
+                    max_children: self.unit.0.params().max_children,
+                }
+            })
+            .collect()
+    }
+}
+
+impl Block for RtUnitReplay {
+    type Inputs = ReplayInputs;
+    type Outputs = RtUnitAllOutputs;
+    type Regs = RtUnitRegs;
+
+    fn reset(&self) -> RtUnitRegs {
+        self.unit.reset()
+    }
+
+    fn idle_inputs(&self) -> ReplayInputs {
+        let cfg = self.unit.0.config();
+        ReplayInputs {
+            rt: self.unit.idle_inputs(),
+            table: vec![None; cfg.warp_size as usize],
+            valid: 0,
+            entry_bits: NodeEntry::bits(cfg.address_bits),
+            max_children: self.unit.0.params().max_children,
+        }
+    }
+
+    fn next_into(
+        &self,
+        regs: &RtUnitRegs,
+        inputs: &ReplayInputs,
+        next: &mut RtUnitRegs,
+    ) -> RtUnitAllOutputs {
+        *self.table.calls.borrow_mut() = inputs
+            .table
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| inputs.valid >> k & 1 == 1)
+            .filter_map(|(_, c)| c.clone())
+            .collect();
+        self.unit.next_into(regs, &inputs.rt, next)
+    }
+
+    fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {
+        self.unit.reg_signals(regs)
+    }
+
+    /// The RT unit's ports and the table's, as module `rt_unit_replay`; no registers (they
+    /// are `rt_unit`'s, one level down).
+    fn describe(&self) -> BlockDesc {
+        let mut d = self.unit.describe();
+        let idle = self.idle_inputs();
+        let n = idle.table.len() as u32;
+        d.name = REPLAY_MODULE.into();
+        d.doc = format!(
+            "The RT unit's control replayed on recorded traffic: rt_unit with the table its \
+             datapath answers from as input ports. {}",
+            d.doc
+        );
+        d.registers.clear();
+        d.memories.clear();
+        d.fsms.clear();
+        d.ports.extend([
+            PortDesc {
+                name: "dp_valid".into(),
+                dir: Dir::In,
+                width: n,
+                doc: "per entry: the entry is one of this cycle's datapath tests".into(),
+            },
+            PortDesc {
+                name: "dp_key".into(),
+                dir: Dir::In,
+                width: n * idle.key_bits(),
+                doc: "per entry: the test's ray words, closest hit (valid bit and hit) and node"
+                    .into(),
+            },
+            PortDesc {
+                name: "dp_result".into(),
+                dir: Dir::In,
+                width: n * idle.result_bits(),
+                doc: "per entry: the test's child count, children, hit valid bit and hit".into(),
+            },
+        ]);
+        d
+    }
+}
+
+/// The Verilog module name of [`RtUnitReplay`].
+pub const REPLAY_MODULE: &str = "rt_unit_replay";
