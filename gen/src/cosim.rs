@@ -3,7 +3,8 @@
 //! [`record`] runs the Rust block from reset over a sequence of inputs and keeps, per cycle,
 //! the flattened input and output [`vtq_hdl::Signals`]. [`write_testbench`] turns the trace into
 //! a self-checking Verilog-2005 testbench that reads the vectors (each cycle's changed signals)
-//! from a file with `$fscanf`, and [`run_cosim`] runs it with Icarus Verilog or Verilator and parses the verdict.
+//! from a file with `$fscanf`, and [`run_cosim`] runs it with Icarus Verilog or Verilator and
+//! parses the verdict.
 //!
 //! # Timing convention
 //!

@@ -561,7 +561,8 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
 }
 
 /// `vtq cosim --block rt-unit`: the RT unit's RTL against the Rust block at the configured
-/// (paper) sizes, with the toy datapath; a real run's replay is refused with the reason.
+/// (paper) sizes, with the toy datapath, and (`--scene`) on a real run's traffic with the
+/// scene's datapath answering from its recorded tests.
 #[test]
 fn cosim_of_the_rt_unit_matches() {
     let dir = temp_dir("cosim-rt");
@@ -579,8 +580,28 @@ fn cosim_of_the_rt_unit_matches() {
     let line = line_starting(&stdout, "rt_unit: ");
     assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
     assert!(dir.join("rt_unit").join("rt_datapath.v").is_file());
-    let out = vtq(&["cosim", "--block", "rt-unit", "--scene", "cornell"]);
-    assert_one_line_error(&out, "toy datapath");
+    let Some(stdout) = vtq_cosim(&[
+        "cosim",
+        "--block",
+        "rt-unit",
+        "--scene",
+        "cornell",
+        "--set",
+        "mode.kind=queues",
+        "--cycles",
+        "300",
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ]) else {
+        return;
+    };
+    let line = line_starting(&stdout, "rt_unit_replay: ");
+    assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
+    let stimulus = line_starting(&stdout, "  stimulus: ");
+    assert!(
+        stimulus.contains("real traffic with the scene's datapath: cycles 0..300 of SM 0"),
+        "{stimulus}"
+    );
 }
 
 #[test]

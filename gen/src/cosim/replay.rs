@@ -5,14 +5,15 @@
 //! instance per lane), and a real scene's datapath (the simulator's BVH decoder and tests) has
 //! no Verilog. So a replay first runs the Rust RT unit with the real datapath over the recorded
 //! inputs and keeps every test it ran in each cycle — the ray, its closest hit so far, the node
-//! and the result ([`datapath_tables`]). The co-simulated block ([`RtUnitReplay`]) is the same
-//! RT unit whose datapath answers from the cycle's table, which arrives on three extra input
-//! ports (`dp_valid`, `dp_key`, `dp_result`, [`ReplayInputs`]); on the Verilog side the module
-//! `rt_unit_replay` carries the same ports around `rt_unit`, and a replay `rt_datapath`
-//! ([`crate::rtl::replay_datapath_verilog`]) looks its inputs up in them. Every output and
-//! status port of the RT unit is compared every cycle, as in the random co-simulation; what the
-//! replay does not check is the node bytes the RTL hands its datapath (not part of the key),
-//! which the random co-simulation's toy datapath checks.
+//! and the result, with the lane it served ([`datapath_tables`]). The co-simulated block
+//! ([`RtUnitReplay`]) is the same RT unit whose datapath answers from the cycle's table, one
+//! entry per lane, which arrives on three extra input ports (`dp_valid`, `dp_key`,
+//! `dp_result`, [`ReplayInputs`]); on the Verilog side the module `rt_unit_replay` carries the
+//! same ports around `rt_unit`, and the replay `rt_datapath` instance of lane `l`
+//! ([`crate::rtl::rt_unit_replay_verilog`]) answers from entry `l` when its key is the test's.
+//! Every output and status port of the RT unit is compared every cycle, as in the random
+//! co-simulation; what the replay does not check is the node bytes the RTL hands its datapath
+//! (not part of the key), which the random co-simulation's toy datapath checks.
 
 use super::rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
 use crate::error::GenError;
@@ -27,9 +28,11 @@ use vtq_hdl::rt_unit::{
 };
 use vtq_hdl::{Block, BlockDesc, Dir, HwConfig, PortDesc, Signal, Signals};
 
-/// One test the datapath ran: its inputs (the key) and its result.
+/// One test the datapath ran: the lane it served, its inputs (the key) and its result.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DatapathCall {
+    /// The lane of the warp buffer whose test it was (the datapath instance's index).
+    pub lane: u32,
     /// The ray's original words.
     pub ray: RayWords,
     /// Its closest hit so far.
@@ -63,6 +66,7 @@ impl<D: NodeDatapath> NodeDatapath for Recording<D> {
     ) -> TestResult {
         let result = self.inner.test(ray, best, node, data);
         self.calls.borrow_mut().push(DatapathCall {
+            lane: 0,
             ray: *ray,
             best: best.copied(),
             node: *node,
@@ -73,8 +77,10 @@ impl<D: NodeDatapath> NodeDatapath for Recording<D> {
 }
 
 /// Runs the RT unit of `cfg` and `params` with `datapath` over `inputs` from reset and returns
-/// each cycle's datapath tests, in the order it ran them. Fails if a cycle runs more tests
-/// than a warp has lanes (the replay's table holds one per lane).
+/// each cycle's datapath tests, in the order it ran them, each with its lane: the lane whose
+/// node in flight, ray words and closest hit are the test's, in the slot of the response
+/// popped (the head of the response FIFO, else the cycle's first response) if it holds one.
+/// Fails if a test matches no lane, or two tests one lane.
 pub fn datapath_tables<D: NodeDatapath>(
     cfg: &HwConfig,
     params: &RtUnitParams,
@@ -90,24 +96,62 @@ pub fn datapath_tables<D: NodeDatapath>(
             calls: calls.clone(),
         },
     )?;
+    let lane_bits = unit.widths().lane;
     let mut regs = unit.reset();
     let mut tables = Vec::with_capacity(inputs.len());
     for (cycle, i) in inputs.iter().enumerate() {
+        let popped = regs
+            .fifo
+            .front()
+            .or(i.responses.first())
+            .map(|r| (r.tag >> lane_bits) as usize);
+        let before = regs.clone();
         unit.step(&mut regs, i);
-        let calls = std::mem::take(&mut *calls.borrow_mut());
-        if calls.len() > cfg.warp_size as usize {
-            return Err(GenError::Cosim {
+        let mut cycle_calls = std::mem::take(&mut *calls.borrow_mut());
+        let mut taken = 0u64;
+        for call in &mut cycle_calls {
+            let lane = lane_of(&before, popped, call, taken).ok_or_else(|| GenError::Cosim {
                 block: "rt_unit".into(),
                 reason: format!(
-                    "cycle {cycle} ran {} datapath tests, more than the {} lanes of a warp",
-                    calls.len(),
-                    cfg.warp_size
+                    "cycle {cycle}: a datapath test of node {:#x} matches no lane's node in \
+                     flight, or a lane tested twice",
+                    call.node.address
                 ),
-            });
+            })?;
+            taken |= 1 << lane;
+            call.lane = lane;
         }
-        tables.push(calls);
+        tables.push(cycle_calls);
     }
     Ok(tables)
+}
+
+/// The lane (not in `taken`) whose node in flight, ray words and closest hit are `call`'s,
+/// looked for in slot `popped` first.
+fn lane_of(
+    regs: &RtUnitRegs,
+    popped: Option<usize>,
+    call: &DatapathCall,
+    taken: u64,
+) -> Option<u32> {
+    let order = popped
+        .into_iter()
+        .chain((0..regs.slots.len()).filter(|&s| Some(s) != popped));
+    for s in order {
+        let Some(slot) = regs.slots.get(s).filter(|w| w.valid) else {
+            continue;
+        };
+        let found = slot.lanes.iter().enumerate().position(|(l, lane)| {
+            taken >> l & 1 == 0
+                && lane.in_flight.is_some_and(|f| f.node == call.node)
+                && lane.ray.words == call.ray
+                && lane.ray.hit == call.best
+        });
+        if let Some(l) = found {
+            return Some(l as u32);
+        }
+    }
+    None
 }
 
 /// The datapath of [`RtUnitReplay`]: answers each test from the current cycle's table (a test
@@ -136,9 +180,9 @@ impl NodeDatapath for TableDatapath {
 }
 
 /// One cycle's inputs of [`RtUnitReplay`]: the RT unit's, and the table its datapath answers
-/// from: `table[k]` is entry `k`, valid this cycle when bit `k` of `valid` is set (an invalid
-/// entry's contents are whatever the cycle before left, so that a long replay's vectors hold
-/// only the entries that change).
+/// from: `table[l]` is lane `l`'s test, valid this cycle when bit `l` of `valid` is set (an
+/// invalid entry's contents are whatever the cycle before left, so that a long replay's vectors
+/// hold only the entries that change).
 #[derive(Debug, Clone)]
 pub struct ReplayInputs {
     /// The RT unit's inputs.
@@ -258,8 +302,8 @@ impl RtUnitReplay {
     }
 
     /// The inputs of a replay: each cycle's RT-unit inputs with its tests (from
-    /// [`datapath_tables`]) in the first entries of a table of `warp_size` entries, the others
-    /// left as the cycle before left them.
+    /// [`datapath_tables`]) in their lanes' entries of a table of `warp_size` entries, the
+    /// others left as the cycle before left them.
     pub fn inputs(
         &self,
         rt: Vec<RtUnitInputs>,
@@ -271,9 +315,11 @@ impl RtUnitReplay {
         rt.into_iter()
             .zip(tables.into_iter().chain(std::iter::repeat_with(Vec::new)))
             .map(|(rt, calls)| {
-                let valid = u64::MAX.checked_shr(64 - calls.len() as u32).unwrap_or(0);
-                for (slot, call) in table.iter_mut().zip(calls) {
-                    *slot = Some(call);
+                let mut valid = 0u64;
+                for call in calls {
+                    valid |= 1 << call.lane;
+                    let lane = call.lane as usize;
+                    table[lane] = Some(call);
                 }
                 ReplayInputs {
                     rt,

@@ -51,7 +51,9 @@ pub const CHILD_BITS: u32 = 75;
 pub const CHILD_COUNT_BITS: u32 = 8;
 
 /// The interface of the intersection datapath (`rt_datapath`, one instance per lane), as
-/// `(port, direction, width, meaning)`; `E` is a stack entry's width, `R` `max_children`.
+/// `(port, direction, width, meaning)`; `E` is a stack entry's width, `R` `max_children`. Its
+/// parameters are `AB` (address bits), `E`, `R` and `LANE`, the lane index the instance
+/// serves.
 pub const DATAPATH_PORTS: [(&str, &str, &str, &str); 9] = [
     (
         "ray",
@@ -533,7 +535,8 @@ const TOY_DATAPATH: &str = r#"// The intersection datapath interface of the RT u
 module rt_datapath #(
     parameter AB = 32,  // address bits (the toy format does not need them)
     parameter E = 37,   // stack entry bits: {address, kind, chunks - 1}
-    parameter R = 8     // children returned at most
+    parameter R = 8,    // children returned at most
+    parameter LANE = 0  // the lane index this instance serves (the toy format does not need it)
 ) (
     /* verilator lint_off UNUSED */
     input  wire [255:0]    ray,         // origin, direction, tmin, tmax (f32 bits, word 0 lowest)

@@ -90,7 +90,7 @@ wire [N*128-1:0] dp_hit;
 genvar gl, gs;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_datapath
-        rt_datapath #(.AB(AB), .E(E), .R(R)) u_datapath (
+        rt_datapath #(.AB(AB), .E(E), .R(R), .LANE(gl)) u_datapath (
             .ray(dp_ray[gl*256 +: 256]),
             .best_valid(dp_best_valid[gl]),
             .best(dp_best[gl*128 +: 128]),
