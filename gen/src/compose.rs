@@ -79,21 +79,7 @@ pub fn emit_top(top: &BlockDesc, children: &[Instance]) -> Result<String, GenErr
     validate_desc(&top_ports)?;
     let mut w = VerilogWriter::new();
     emit_header(&mut w, &top_ports);
-    w.line(format!("module {} (", top.name));
-    w.indent();
-    w.line("input  wire clk,");
-    w.line("input  wire rst,");
-    let last = top.ports.len().saturating_sub(1);
-    for (i, p) in top.ports.iter().enumerate() {
-        let dir = match p.dir {
-            Dir::In => "input  wire",
-            Dir::Out => "output wire",
-        };
-        let comma = if i == last { "" } else { "," };
-        w.line(format!("{dir} {}{}{comma}", range(p.width), p.name));
-    }
-    w.dedent();
-    w.line(");");
+    emit_module_start(&mut w, &top.name, &top.ports);
     w.indent();
     for c in children {
         w.line("");
@@ -136,8 +122,27 @@ pub fn emit_top(top: &BlockDesc, children: &[Instance]) -> Result<String, GenErr
     Ok(w.finish())
 }
 
+/// `module <name> (` with `clk`, `rst` and `ports`, one a line, up to the closing `);`.
+pub(crate) fn emit_module_start(w: &mut VerilogWriter, name: &str, ports: &[PortDesc]) {
+    w.line(format!("module {name} ("));
+    w.indent();
+    w.line("input  wire clk,");
+    w.line("input  wire rst,");
+    let last = ports.len().saturating_sub(1);
+    for (i, p) in ports.iter().enumerate() {
+        let dir = match p.dir {
+            Dir::In => "input  wire",
+            Dir::Out => "output wire",
+        };
+        let comma = if i == last { "" } else { "," };
+        w.line(format!("{dir} {}{}{comma}", range(p.width), p.name));
+    }
+    w.dedent();
+    w.line(");");
+}
+
 /// Port connections, one a line, comma-separated.
-fn emit_connections(w: &mut VerilogWriter, conns: &[String]) {
+pub(crate) fn emit_connections(w: &mut VerilogWriter, conns: &[String]) {
     let last = conns.len().saturating_sub(1);
     for (i, c) in conns.iter().enumerate() {
         w.line(if i == last {

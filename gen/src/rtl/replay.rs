@@ -7,11 +7,12 @@
 //! hardware interface ([`super::DATAPATH_PORTS`]) only.
 
 use super::rt_unit::{CHILD_BITS, CHILD_COUNT_BITS};
+use crate::compose::{emit_connections, emit_module_start};
 use crate::cosim::{RtUnitReplay, REPLAY_MODULE, TESTBENCH_TOP};
-use crate::emit::{range, VerilogWriter};
+use crate::emit::VerilogWriter;
 use crate::error::GenError;
 use vtq_hdl::rt_unit::{NoDatapath, NodeEntry, RtUnit, RtUnitParams, RAY_WORDS};
-use vtq_hdl::{Block, Dir, HwConfig};
+use vtq_hdl::{Block, HwConfig};
 
 /// The RTL of a replay of the RT unit of `cfg` and `params`, as `(module name, Verilog text)`
 /// pairs: `rt_unit` ([`super::rt_unit_verilog`]), `rt_unit_replay` and the replay
@@ -29,34 +30,13 @@ pub fn rt_unit_replay_verilog(
          they are read there by a hierarchical reference.",
         inner.name
     ));
-    w.line(format!("module {REPLAY_MODULE} ("));
-    w.indent();
-    w.line("input  wire clk,");
-    w.line("input  wire rst,");
-    let last = outer.ports.len().saturating_sub(1);
-    for (i, p) in outer.ports.iter().enumerate() {
-        let dir = match p.dir {
-            Dir::In => "input  wire",
-            Dir::Out => "output wire",
-        };
-        let comma = if i == last { "" } else { "," };
-        w.line(format!("{dir} {}{}{comma}", range(p.width), p.name));
-    }
-    w.dedent();
-    w.line(");");
+    emit_module_start(&mut w, REPLAY_MODULE, &outer.ports);
     w.indent();
     w.line(format!("{} u_rt (", inner.name));
     w.indent();
     let mut conns = vec![".clk(clk)".to_string(), ".rst(rst)".to_string()];
     conns.extend(inner.ports.iter().map(|p| format!(".{0}({0})", p.name)));
-    let last = conns.len() - 1;
-    for (i, c) in conns.iter().enumerate() {
-        w.line(if i == last {
-            c.clone()
-        } else {
-            format!("{c},")
-        });
-    }
+    emit_connections(&mut w, &conns);
     w.dedent();
     w.line(");");
     w.dedent();
