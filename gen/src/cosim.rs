@@ -37,7 +37,9 @@ mod replay;
 mod rt_unit;
 mod waveform;
 
-pub use replay::{datapath_tables, DatapathCall, ReplayInputs, RtUnitReplay, REPLAY_MODULE};
+pub use replay::{
+    datapath_tables, tests_and_hits, DatapathCall, ReplayInputs, RtUnitReplay, REPLAY_MODULE,
+};
 pub use rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
 
 use waveform::{declares, desc_registers, vcd_scopes};

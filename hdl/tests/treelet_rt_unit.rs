@@ -17,7 +17,7 @@ use vtq_hdl::treelet_rt_unit::{
     ProbeCycle, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
 };
-use vtq_hdl::{Block, HwConfig, Signal};
+use vtq_hdl::{Block, HwConfig, Signal, Signals};
 
 mod common;
 use common::{node, words, ToyDatapath, Tree, ALL};
@@ -314,8 +314,12 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
         }
         let offered = offer.as_ref().map_or(0, |o| o.len());
         let resp_max = u.resp_free(&fast).min(resp_ports) as usize;
+        let ready = u.sm_ready(&fast, &cache);
         let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max);
         let (want, next) = u.eval(&reference, &inputs);
+        // The register-only outputs on the ports are what the environment read before the cycle.
+        assert_eq!((want.sm_ready, want.resp_free), (ready, u.resp_free(&fast)));
+        ports_fit(&inputs, &want, now);
         let out = if now % 2 == 0 {
             u.step_cached_into(&mut fast, &mut cache, &inputs, &mut kept);
             kept.clone()
@@ -349,6 +353,54 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
         modes,
         cycles: now,
         skipped,
+    }
+}
+
+/// Every port value of the cycle fits its port's width, traced signals and bulk words alike
+/// (the bulk ones panic on a word that does not fit), and the counts ports carry the cycle's
+/// statistics events: each one's value is its counter's increment.
+fn ports_fit(inputs: &TreeletRtUnitInputs, out: &TreeletRtUnitOutputs, now: u64) {
+    let signals: Vec<Signal> = [inputs.signals(), inputs.bulk_signals()]
+        .into_iter()
+        .chain([out.signals(), out.bulk_signals()])
+        .flatten()
+        .collect();
+    for s in &signals {
+        assert!(
+            s.width >= 64 || s.value >> s.width == 0,
+            "cycle {now}: {} = {:#x} does not fit {} bits",
+            s.name,
+            s.value,
+            s.width
+        );
+    }
+    let port = |name: &str| {
+        signals
+            .iter()
+            .find(|s| s.name == name)
+            .unwrap_or_else(|| panic!("no port {name}"))
+            .value
+    };
+    let c = &out.counts;
+    let pairs = [
+        ("count_rt_active", c.rt.active_thread_cycles),
+        ("count_rt_tests_triangle_leaf", c.rt.tests[4]),
+        ("count_ctl_initial", c.ctl.cycles_initial),
+        ("count_ctl_final", c.ctl.cycles_final),
+        ("count_ctl_terminated_rays", c.ctl.terminated_rays),
+        ("count_ctl_repack_starved", c.ctl.repack_starved_cycles),
+        ("count_spill", c.spills),
+        ("count_refill", c.refills),
+        ("count_ray_loads", c.ray_loads),
+        ("count_ray_stores", c.ray_stores),
+        ("count_restart", c.restarts),
+    ];
+    for (name, count) in pairs {
+        assert_eq!(port(name), count, "cycle {now}: port {name}");
+    }
+    assert_eq!(port("finished_count"), out.finished.len() as u64);
+    for (i, f) in out.finished.iter().enumerate() {
+        assert_eq!(port(&format!("finished_id_{i}")), f.ray as u64);
     }
 }
 

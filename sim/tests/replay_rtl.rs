@@ -6,7 +6,9 @@
 mod common;
 
 use common::{setup, small_config};
-use vtq_gen::cosim::{datapath_tables, record, run_cosim, CosimOptions, RtUnitReplay};
+use vtq_gen::cosim::{
+    datapath_tables, record, run_cosim, tests_and_hits, CosimOptions, RtUnitReplay,
+};
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
 };
@@ -144,12 +146,7 @@ fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
         &log.rt_unit,
     )
     .unwrap();
-    let tests: usize = tables.iter().map(Vec::len).sum();
-    let hits = tables
-        .iter()
-        .flatten()
-        .filter(|c| c.result.hit.is_some())
-        .count();
+    let (tests, hits) = tests_and_hits(&tables);
     let issued = log.rt_unit.iter().filter(|i| i.issue.is_some()).count();
     eprintln!("{issued} warps issued, {tests} tests, {hits} hits in {CYCLES} cycles");
     assert!(

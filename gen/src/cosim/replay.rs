@@ -126,6 +126,13 @@ pub fn datapath_tables<D: NodeDatapath>(
     Ok(tables)
 }
 
+/// How many datapath tests `tables` ([`datapath_tables`]) hold, and how many of them hit.
+pub fn tests_and_hits(tables: &[Vec<DatapathCall>]) -> (usize, usize) {
+    let calls = tables.iter().flatten();
+    let hits = calls.clone().filter(|c| c.result.hit.is_some()).count();
+    (tables.iter().map(Vec::len).sum(), hits)
+}
+
 /// The lane (not in `taken`) whose node in flight, ray words and closest hit are `call`'s,
 /// looked for in slot `popped` first.
 fn lane_of(

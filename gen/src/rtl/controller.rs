@@ -166,6 +166,19 @@ pub fn controller_verilog(
             lit(lnw, repack)
         )
     };
+    // What TreeletController::repack_withheld says: repack_ok's threshold test on the report,
+    // in the final phase, with no rays to refill from (the report's slot is not checked).
+    let repack_starved = if repack == 0 {
+        "1'b0".to_string()
+    } else {
+        format!(
+            "(e_mode == {}) && !rays_waiting && active_valid && (active_count != {}) \
+             && (active_count < {})",
+            state_param(mode_fsm, "final_ray_stationary"),
+            lit(lnw, 0),
+            lit(lnw, repack)
+        )
+    };
     let sh = |x: &str| format!("({} * {})", zext(x, lnw, shw), lit(shw, rw as u64));
     let bool_lit = |b: bool| if b { "1'b1" } else { "1'b0" }.to_string();
     let vars: Vec<(&str, String)> = vec![
@@ -243,6 +256,7 @@ pub fn controller_verilog(
         ("CUR_LOW", cur_low),
         ("MAX_UNDER", max_under),
         ("REPACK_OK", repack_ok),
+        ("REPACK_STARVED", repack_starved),
         ("WD_OK", slot_ok("warp_done_slot")),
         ("INIT_OK", slot_ok("init_slot")),
         ("FREE_OK", slot_ok("wb_free_slot")),

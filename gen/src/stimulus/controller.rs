@@ -68,6 +68,8 @@ pub struct ControllerCoverage {
     pub grouped_warps: u64,
     /// Warps repacked.
     pub repacks: u64,
+    /// Cycles with a repack withheld for want of rays (`repack_starved`).
+    pub repack_starved: u64,
     /// Fills given from the spare buffer.
     pub spare_fills: u64,
     /// Fills that close a slot without rays.
@@ -89,7 +91,8 @@ pub struct ControllerCoverage {
 impl ControllerCoverage {
     /// Every mode and every sequencer state was reached, and every action happened at least
     /// `n` times: terminations, enqueues, claims, preloads, resident pops, pop_any, empty pops,
-    /// grouped warps, repacks, spare fills, refills, removes, evictions and restarts. The
+    /// grouped warps, repacks, cycles with a repack withheld for want of rays, spare fills,
+    /// refills, removes, evictions and restarts. The
     /// design variant decides which apply: without grouping (the naive design) there is no
     /// final ray-stationary phase (nor its fill sequence, grouped warps, repacks and spare
     /// fills), and without preloading no preloads. An error lists what was not covered.
@@ -125,6 +128,7 @@ impl ControllerCoverage {
             actions.extend([
                 ("grouped warps", self.grouped_warps),
                 ("repacks", self.repacks),
+                ("repack-starved cycles", self.repack_starved),
                 ("spare fills", self.spare_fills),
             ]);
         }
@@ -180,6 +184,7 @@ impl std::fmt::Display for ControllerCoverage {
             ("treelet warps", self.treelet_warps),
             ("grouped warps", self.grouped_warps),
             ("repacks", self.repacks),
+            ("repack-starved cycles", self.repack_starved),
             ("spare fills", self.spare_fills),
             ("empty closes", self.empty_closes),
             ("refills", self.refills),
@@ -572,6 +577,7 @@ impl Env {
             c.empty_closes += u64::from(f.rays.is_empty());
         }
         c.repacks += u64::from(out.repack.is_some());
+        c.repack_starved += u64::from(out.repack_starved);
         c.refills += u64::from(out.qt_op == QueueOp::Refill);
         c.removes += u64::from(matches!(out.ct_op, CountOp::Remove { .. }));
         c.ct_not_ready +=

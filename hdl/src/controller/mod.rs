@@ -324,6 +324,7 @@ impl ControllerStats {
         self.claims += u64::from(out.claim);
         self.preloads += u64::from(out.preload.is_some());
         self.repacks += u64::from(out.repack.is_some());
+        self.repack_starved_cycles += u64::from(out.repack_starved);
         if let Some(f) = &out.fill {
             self.treelet_warps += u64::from(f.kind == FillKind::Treelet);
             self.grouped_warps += u64::from(f.kind == FillKind::Grouped && f.first);
@@ -394,8 +395,9 @@ impl TreeletController {
 
     /// Whether, in a cycle starting with registers `regs` and inputs `inputs`, a repack is
     /// withheld for want of rays ([`crate::warp_repacking::withheld_for_want_of_rays`], on the
-    /// active-lane report): what [`ControllerStats::repack_starved_cycles`] counts. A function of
-    /// registers and inputs, like an output, kept off the ports (nothing in the hardware reads it).
+    /// active-lane report): the `repack_starved` output, what
+    /// [`ControllerStats::repack_starved_cycles`] counts; callable without the rest of `eval`
+    /// for cycles a simulator does not evaluate (nothing in the hardware reads it).
     pub fn repack_withheld(&self, regs: &ControllerRegs, inputs: &ControllerInputs) -> bool {
         inputs.active_report.is_some_and(|r| {
             crate::warp_repacking::withheld_for_want_of_rays(
@@ -477,6 +479,7 @@ impl Block for TreeletController {
             qt_op: QueueOp::Nop,
             resident: regs.resident_order().map(|i| regs.res[i].treelet).collect(),
             claim: false,
+            repack_starved: self.repack_withheld(regs, inputs),
         };
         let slots = self.widths.warp_slots;
 

@@ -247,6 +247,9 @@ crate::bundle! {
         pub resident: Vec<u32>,
         /// A treelet was made resident (claimed from the count table) this cycle.
         pub claim: bool,
+        /// A repack is withheld for want of rays this cycle
+        /// ([`TreeletController::repack_withheld`](super::TreeletController::repack_withheld)).
+        pub repack_starved: bool,
     }
     ports {
         /// Traversal mode: 0 initial, 1 treelet stationary, 2 final ray stationary, 3 done.
@@ -307,5 +310,7 @@ crate::bundle! {
         };
         /// A treelet is made resident (claimed from the count table) this cycle (an event for the statistics observer).
         sig claim (1) = this.claim as u64;
+        /// A repack is withheld for want of rays: in the final ray-stationary phase the reported warp is below the repack threshold but the queues and the spare buffer are empty (an event for the statistics observer).
+        sig repack_starved (1) = this.repack_starved as u64;
     }
 }

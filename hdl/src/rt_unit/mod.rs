@@ -104,6 +104,7 @@ pub use node::{
     NodeKind, RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,
     STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
+pub(crate) use ports::{data_word, ray_state, ray_state_words, HIT_BITS};
 pub use ports::{RtUnitInputs, RtUnitOutputs, RtUnitStatus, SlotStatus, Widths};
 
 use crate::bits::{bits_for, clog2};

@@ -16,7 +16,7 @@ use crate::bits::{bits_for, BitPacker};
 /// Bits of a memory data chunk (32 B).
 pub(super) const DATA_BITS: u32 = CHUNK_BYTES * 8;
 /// Bits of a hit: t, hit id and two attributes.
-pub(super) const HIT_BITS: u32 = 4 * 32;
+pub(crate) const HIT_BITS: u32 = 4 * 32;
 /// Bits of a request's size field (bytes, always 32).
 const SIZE_BITS: u32 = 6;
 /// Bits of the ray words (origin, direction, tmin, tmax).
@@ -350,7 +350,7 @@ impl RtUnitOutputs {
 /// The bulk fields of every lane's ray state, as `(field, width, doc)`: what the ray-state
 /// ports carry beside the traced `active` and `ray_id` (loaded at issue, written back at
 /// completion).
-fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
+pub(crate) fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
     let n = w.warp_size;
     let stack = n * w.stack_depth * w.entry();
     [
@@ -371,7 +371,7 @@ fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
 /// `[i*width +: width]`, zero for a lane without a ray): ray words `[j*32 +: 32]`, hit
 /// `{attribs[1], attribs[0], hit id, t}` (t lowest), stacks entry `j` (bottom first) in
 /// `[j*entry +: entry]` as [`NodeEntry::encode`], entries above the pointer zero.
-fn ray_state_words<'a>(
+pub(crate) fn ray_state_words<'a>(
     w: &Widths,
     f: usize,
     lane: impl Fn(usize) -> Option<&'a RayRecord>,
@@ -434,7 +434,7 @@ fn mask(n: u32, on: impl Fn(usize) -> bool) -> u64 {
 }
 
 /// 64-bit word `k` of a 32 B chunk (word 0 holds the lowest bytes; 0 without a chunk).
-fn data_word(data: Option<&[u8; CHUNK_BYTES as usize]>, k: usize) -> u64 {
+pub(crate) fn data_word(data: Option<&[u8; CHUNK_BYTES as usize]>, k: usize) -> u64 {
     data.map_or(0, |d| {
         let mut bytes = [0u8; 8];
         bytes.copy_from_slice(&d[8 * k..8 * k + 8]);

@@ -7,7 +7,7 @@
 
 use super::wiring::{
     admitting, after_children, children_inputs, controller_inputs, controller_inputs_into,
-    place_records, reads_distinct, reset_outputs, set_offering, Peeks,
+    place_records, reads_distinct, reset_outputs, set_offering, sm_ready_in, Peeks,
 };
 use super::{
     probe, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs, TreeletRtUnitOutputs,
@@ -77,6 +77,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     }
     cache.rt_status_current = None;
     let peeks = Peeks::new(u, &cache.rt_status, ctl, ct, qt);
+    out.sm_ready = sm_ready_in(u, g, peeks.mode, &cache.rt_status);
     let restart = peeks.mode == Mode::Done && offering;
     // The dry run of the last step computed the controller's inputs from these registers,
     // unless cycles were skipped since (they change the RT unit's delays) or it restarts.
@@ -100,7 +101,6 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     super::log_controller(&mut cache.tables, ctl_in);
     let mode = if restart { Mode::Initial } else { peeks.mode };
     let idle = reused && cache.idle && !(offering && admitting(u, mode));
-    out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(ctl, ctl_in));
     let ctl_out = if idle {
         debug_assert!(
             {
@@ -110,6 +110,8 @@ pub(super) fn step_in_place<D: NodeDatapath>(
             "the controller was not idle"
         );
         out.counts.ctl.count_cycles(mode, 1);
+        // The controller's `repack_starved` output, without the rest of its `eval`.
+        out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(ctl, ctl_in));
         None
     } else {
         // The next-state function into the scratch registers, then the clock edge (a swap):

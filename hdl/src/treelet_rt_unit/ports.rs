@@ -2,13 +2,13 @@
 //! description.
 
 use super::TreeletRtUnit;
-use crate::bits::{bits_for, clog2};
+use crate::bits::{bits_for, clog2, BitPacker};
 use crate::config::HwConfig;
 use crate::controller::ControllerStats;
 use crate::describe::BlockDesc;
 use crate::rt_unit::{
-    ErrorRecord, Hit, MemRequest, MemResponse, NodeDatapath, NodeEntry, RayRecord, RequestKind,
-    RtStats, Widths, RAY_WORDS,
+    data_word, ray_state, ray_state_words, ErrorRecord, Hit, MemRequest, MemResponse, NodeDatapath,
+    NodeEntry, RayRecord, RequestKind, RtStats, Widths, HIT_BITS, RAY_WORDS,
 };
 use serde::Serialize;
 
@@ -34,6 +34,10 @@ pub struct TreeletRtUnitWidths {
     pub resp_ports: u32,
     /// Bits of an RT-unit request tag.
     pub tag: u32,
+    /// Bits of a count of a warp's lanes (0..=warp_size).
+    pub warp_lanes: u32,
+    /// The RT unit's widths.
+    pub rt: Widths,
 }
 
 impl TreeletRtUnitWidths {
@@ -59,6 +63,8 @@ impl TreeletRtUnitWidths {
             record,
             resp_ports: rt.resp_ports,
             tag: rt.tag,
+            warp_lanes: bits_for(cfg.warp_size as u64),
+            rt,
         }
     }
 }
@@ -156,23 +162,29 @@ crate::bundle! {
         /// The SM offers a warp.
         sig sm_valid (1) = this.sm_warp.is_some() as u64;
         /// Per lane: the offered warp's lane holds a ray.
-        sig sm_active (w.warp_size) = this.sm_warp.as_ref().map_or(0, |l| {
-            l.iter().enumerate().fold(0, |m, (i, r)| m | (u64::from(r.is_some()) << i))
-        });
-        /// Per lane: the offered rays' records (words, root on the stacks).
-        bulk sm_rays (w.warp_size * w.record);
-        /// Per response port: a 32 B chunk returns (node chunk or stack fill).
-        lanes resp_valid (1, w.resp_ports) = |i: usize| (i < this.responses.len()) as u64;
-        /// Per response port: its byte address.
-        lanes resp_address (w.address, w.resp_ports) = |i: usize| this.responses.get(i).map_or(0, |r| r.address);
-        /// Per response port: its request tag.
-        lanes resp_tag (w.tag, w.resp_ports) = |i: usize| this.responses.get(i).map_or(0, |r| r.tag as u64);
-        /// Per response port: its 256 bits.
-        bulk resp_data (256 * w.resp_ports);
+        sig sm_active (w.warp_size) = mask(w.warp_size, |i| this.sm_lane(i).is_some());
+        /// Per lane: the offered rays' state (words, hit, treelet, stacks with the root), as the RT unit's issue ports carry it.
+        bulks sm (ray_state(&w.rt)) = |f: usize| ray_state_words(&w.rt, f, |i| this.sm_lane(i));
+        group resp (k < w.resp_ports) {
+            /// A 32 B chunk returns on this response port (node chunk or stack fill).
+            sig valid (1) = (k < this.responses.len()) as u64;
+            /// Its byte address.
+            sig address (w.address) = this.responses.get(k).map_or(0, |r| r.address);
+            /// The tag of the request it answers.
+            sig tag (w.tag) = this.responses.get(k).map_or(0, |r| r.tag as u64);
+            /// Its 256 bits.
+            lanes data (64, 4) = |j: usize| data_word(this.responses.get(k).map(|r| &r.data), j);
+        }
         /// Ray records returning this cycle (up to a warp's worth).
         sig ray_count (w.lanes) = this.ray_records.len() as u64;
-        /// The returning records with their slots and ray ids.
-        bulk ray_records (w.warp_size * (w.slot + w.ray + w.record));
+        /// Per returning record: the slot whose fill asked for it.
+        lanes ray_record_slot (w.slot, w.warp_size) = |i: usize| this.ray_records.get(i).map_or(0, |r| r.slot as u64);
+        /// Per returning record: its ray id.
+        lanes ray_record_id (w.ray, w.warp_size) = |i: usize| this.ray_records.get(i).map_or(0, |r| r.ray as u64);
+        /// Per returning record: the ray's state as it left the RT unit at its treelet boundary.
+        bulks ray_record (ray_state(&w.rt)) = |f: usize| {
+            ray_state_words(&w.rt, f, |i| this.ray_records.get(i).map(|r| &r.record))
+        };
         /// The spill FIFO is not empty.
         sig spill_head_valid (1) = this.spill_head.is_some() as u64;
         /// Treelet of its oldest ray.
@@ -182,10 +194,21 @@ crate::bundle! {
     }
 }
 
+impl TreeletRtUnitInputs {
+    /// Lane `i` of the offered SM warp, if it holds a ray.
+    fn sm_lane(&self, i: usize) -> Option<&RayRecord> {
+        self.sm_warp.as_ref()?.get(i)?.as_ref()
+    }
+}
+
 crate::bundle! {
     /// The treelet RT unit's outputs for one cycle.
     #[derive(Debug, Clone, PartialEq, Eq)]
     pub struct TreeletRtUnitOutputs (Out, w: TreeletRtUnitWidths, this) {
+        /// The SM may offer a warp (registers only: [`super::TreeletRtUnit::sm_ready`]).
+        pub sm_ready: bool,
+        /// Free response-FIFO entries of the RT unit (registers only); memory delivers no more.
+        pub resp_free: u32,
         /// The offered SM warp was accepted: the ray id given to each lane's ray.
         pub sm_accepted: Option<Vec<Option<u32>>>,
         /// Memory requests of the cycle, in issue order.
@@ -211,6 +234,10 @@ crate::bundle! {
         pub counts: TreeletCounts,
     }
     ports {
+        /// The SM may offer a warp (registers only).
+        sig sm_ready (1) = this.sm_ready as u64;
+        /// Free response-FIFO entries of the RT unit (registers only); memory delivers no more than this.
+        sig resp_free (w.rt.fifo_count) = this.resp_free as u64;
         /// The offered SM warp is accepted this cycle.
         sig sm_accept (1) = this.sm_accepted.is_some() as u64;
         /// Per lane: the ray id given to the accepted warp's ray.
@@ -218,11 +245,13 @@ crate::bundle! {
             this.sm_accepted.as_ref().and_then(|l| l.get(i).copied().flatten()).unwrap_or(0) as u64
         };
         /// Ray-record loads issued this cycle.
-        sig ray_load_count (w.lanes) = this.requests.iter().filter(|r| matches!(r, TreeletRequest::RayLoad { .. })).count() as u64;
+        sig ray_load_count (w.lanes) = this.ray_requests().filter(|r| r.0).count() as u64;
         /// Ray-record stores issued this cycle.
-        sig ray_store_count (w.lanes) = this.requests.iter().filter(|r| matches!(r, TreeletRequest::RayStore { .. })).count() as u64;
-        /// Their ray ids and addresses, in issue order (up to two warps' worth).
-        bulk ray_requests (2 * w.warp_size * (w.ray + w.address));
+        sig ray_store_count (w.lanes) = this.ray_requests().filter(|r| !r.0).count() as u64;
+        /// Per ray-record request, in issue order (the loads, then the stores; up to two warps' worth): its ray id.
+        lanes ray_request_id (w.ray, 2 * w.warp_size) = |i: usize| this.ray_requests().nth(i).map_or(0, |r| r.1 as u64);
+        /// Per ray-record request: the record's byte address.
+        lanes ray_request_address (w.address, 2 * w.warp_size) = |i: usize| this.ray_requests().nth(i).map_or(0, |r| r.2);
         /// The RT unit requests a 32 B access.
         sig mem_req_valid (1) = this.rt_request().is_some() as u64;
         /// Its byte address.
@@ -231,16 +260,26 @@ crate::bundle! {
         sig mem_req_kind (RequestKind::BITS) = this.rt_request().map_or(0, |r| r.kind.code());
         /// Its tag.
         sig mem_req_tag (w.tag) = this.rt_request().map_or(0, |r| r.tag as u64);
-        /// Store data.
-        bulk mem_req_data (256);
+        /// Store data (hit record or spilled stack entries).
+        lanes mem_req_data (64, 4) = |k: usize| {
+            data_word(this.rt_request().filter(|r| r.is_store()).map(|r| &r.data), k)
+        };
         /// Rays finishing this cycle.
         sig finished_count (w.lanes) = this.finished.len() as u64;
-        /// Their ray ids and closest hits (up to two warps' worth: a repack's released lanes and a completed warp).
-        bulk finished (2 * w.warp_size * (w.ray + 1 + 4 * 32));
+        /// Per finishing ray (up to two warps' worth: a repack's released lanes, then a completed warp's): its id.
+        lanes finished_id (w.ray, 2 * w.warp_size) = |i: usize| this.finished.get(i).map_or(0, |f| f.ray as u64);
+        /// Per finishing ray: it has a hit.
+        lanes finished_hit_valid (1, 2 * w.warp_size) = |i: usize| this.finished.get(i).is_some_and(|f| f.hit.is_some()) as u64;
+        /// Per finishing ray: its closest hit.
+        bulks finished ([("hit", 2 * w.warp_size * HIT_BITS, "per finishing ray: closest hit t, hit id, two attributes (t lowest)")]) = |_f: usize| {
+            hit_words(2 * w.warp_size as usize, |i| this.finished.get(i).and_then(|f| f.hit))
+        };
         /// Rays parked at a treelet boundary this cycle.
         sig parked_count (w.lanes) = this.parked.len() as u64;
-        /// Their records, for the ray-record store (up to a warp's worth).
-        bulk parked (w.warp_size * w.record);
+        /// Per parked ray (up to a warp's worth): its id.
+        lanes parked_id (w.ray, w.warp_size) = |i: usize| this.parked.get(i).map_or(0, |r| r.ray_id as u64);
+        /// Per parked ray: its state, for the ray-record store.
+        bulks parked (ray_state(&w.rt)) = |f: usize| ray_state_words(&w.rt, f, |i| this.parked.get(i));
         /// Preload a treelet into the L1 (section 4.3).
         sig preload_valid (1) = this.preload.is_some() as u64;
         /// The treelet.
@@ -255,14 +294,130 @@ crate::bundle! {
         sig spill_pop (1) = this.spill_pop as u64;
         /// The RT unit's sticky error flags.
         sig errors (crate::rt_unit::errors::BITS) = this.errors as u64;
+        /// The RT unit captured an error (first error, sticky).
+        sig error_valid (1) = this.first_error.is_some() as u64;
+        /// First error: bit index of its flag in errors.
+        sig error_kind (3) = this.first_error.map_or(0, |e| e.kind.code());
+        /// First error: warp-buffer slot.
+        sig error_slot (w.slot) = this.first_error.map_or(0, |e| e.slot as u64);
+        /// First error: lane.
+        sig error_lane (w.rt.lane) = this.first_error.map_or(0, |e| e.lane as u64);
+        /// First error: ray id.
+        sig error_ray_id (w.ray) = this.first_error.map_or(0, |e| e.ray_id as u64);
+        /// First error: the value needed or seen.
+        sig error_value (64) = this.first_error.map_or(0, |e| e.value);
+        /// First error: the limit it broke.
+        sig error_limit (64) = this.first_error.map_or(0, |e| e.limit);
         /// The wiring found an inconsistency (sticky).
         sig fault (1) = this.fault.is_some() as u64;
-        /// The cycle's statistics events (the RT unit's and the controller's event ports, spills, refills, ray-record traffic, restarts, tests per phase).
-        bulk counts (64);
+        // The cycle's statistics events: the RT unit's event ports, the controller's events as
+        // its observer counts them, and the wiring's own.
+        /// RT unit: valid warps this cycle (warp cycles).
+        sig count_rt_warps (bits_for(w.rt.slots as u64)) = this.counts.rt.warp_cycles;
+        /// RT unit: traversing lanes of the valid warps (active-thread cycles).
+        sig count_rt_active (w.lanes) = this.counts.rt.active_thread_cycles;
+        /// RT unit: of those, lanes waiting for a node in flight.
+        sig count_rt_waiting (w.lanes) = this.counts.rt.waiting_lane_cycles;
+        /// RT unit: lanes of the valid warps whose ray has finished.
+        sig count_rt_done_lanes (w.lanes) = this.counts.rt.done_lane_cycles;
+        /// RT unit: lanes of the valid warps parked at a treelet boundary.
+        sig count_rt_parked_lanes (w.lanes) = this.counts.rt.parked_lane_cycles;
+        /// RT unit: a node-chunk load was requested.
+        sig count_rt_request (1) = this.counts.rt.load_requests;
+        /// RT unit: a hit-record store was requested.
+        sig count_rt_store (1) = this.counts.rt.stores;
+        /// RT unit: a stack spill was requested.
+        sig count_rt_spill (1) = this.counts.rt.stack_spills;
+        /// RT unit: a stack fill was requested.
+        sig count_rt_fill (1) = this.counts.rt.stack_fills;
+        /// RT unit: lanes served by the leader's request (merged).
+        sig count_rt_merged (w.warp_lanes) = this.counts.rt.merged;
+        /// RT unit: header tests completed.
+        sig count_rt_tests_header (w.warp_lanes) = this.counts.rt.tests[0];
+        /// RT unit: internal-node tests completed.
+        sig count_rt_tests_internal (w.warp_lanes) = this.counts.rt.tests[1];
+        /// RT unit: instance-leaf tests completed.
+        sig count_rt_tests_instance_leaf (w.warp_lanes) = this.counts.rt.tests[2];
+        /// RT unit: primitive-descriptor tests completed.
+        sig count_rt_tests_primitive_descriptor (w.warp_lanes) = this.counts.rt.tests[3];
+        /// RT unit: triangle-leaf tests completed.
+        sig count_rt_tests_triangle_leaf (w.warp_lanes) = this.counts.rt.tests[4];
+        /// RT unit: procedural tests completed.
+        sig count_rt_tests_procedural (w.warp_lanes) = this.counts.rt.tests[5];
+        /// RT unit: of the tests completed, those of lanes in warps in treelet-stop order.
+        sig count_rt_tests_treelet_order (w.warp_lanes) = this.counts.rt.treelet_order_tests;
+        /// RT unit: triangle tests that produced a new closest hit.
+        sig count_rt_hits (w.warp_lanes) = this.counts.rt.triangle_hits;
+        /// RT unit: a warp completed.
+        sig count_rt_warp_done (1) = this.counts.rt.warps;
+        /// Controller: a cycle in the initial phase.
+        sig count_ctl_initial (1) = this.counts.ctl.cycles_initial;
+        /// Controller: a cycle treelet-stationary.
+        sig count_ctl_treelet (1) = this.counts.ctl.cycles_treelet;
+        /// Controller: a cycle in the final ray-stationary phase.
+        sig count_ctl_final (1) = this.counts.ctl.cycles_final;
+        /// Controller: an initial-phase warp was terminated into the queues.
+        sig count_ctl_terminated_warps (1) = this.counts.ctl.terminated_warps;
+        /// Controller: the terminated warp's active rays.
+        sig count_ctl_terminated_rays (w.warp_lanes) = this.counts.ctl.terminated_rays;
+        /// Controller: a ray was inserted into the treelet queues.
+        sig count_ctl_enqueued (1) = this.counts.ctl.enqueued_rays;
+        /// Controller: a treelet was made resident.
+        sig count_ctl_claim (1) = this.counts.ctl.claims;
+        /// Controller: a treelet was preloaded.
+        sig count_ctl_preload (1) = this.counts.ctl.preloads;
+        /// Controller: a treelet warp was dispatched.
+        sig count_ctl_treelet_warp (1) = this.counts.ctl.treelet_warps;
+        /// Controller: a grouped ray-stationary warp was started.
+        sig count_ctl_grouped_warp (1) = this.counts.ctl.grouped_warps;
+        /// Controller: a warp was repacked.
+        sig count_ctl_repack (1) = this.counts.ctl.repacks;
+        /// Controller: a repack was withheld for want of rays.
+        sig count_ctl_repack_starved (1) = this.counts.ctl.repack_starved_cycles;
+        /// Controller: the count table evicted a treelet.
+        sig count_ctl_eviction (1) = this.counts.ctl.evictions;
+        /// A queue-table insert spilled to memory.
+        sig count_spill (1) = this.counts.spills;
+        /// A spilled ray was brought back into the queue table.
+        sig count_refill (1) = this.counts.refills;
+        /// Ray-record loads issued.
+        sig count_ray_loads (w.lanes) = this.counts.ray_loads;
+        /// Ray-record stores issued.
+        sig count_ray_stores (w.lanes) = this.counts.ray_stores;
+        /// The controller restarted from done.
+        sig count_restart (1) = this.counts.restarts;
     }
 }
 
+/// 64-bit words of `n` hits side by side, `{attribs[1], attribs[0], hit id, t}` (t lowest) each,
+/// zero for `None`.
+fn hit_words(n: usize, hit: impl Fn(usize) -> Option<Hit>) -> Vec<u64> {
+    let mut p = BitPacker::new();
+    for i in 0..n {
+        let h = hit(i).unwrap_or_default();
+        for v in [h.t, h.hit_id, h.attribs[0], h.attribs[1]] {
+            p.push(v as u64, 32);
+        }
+    }
+    p.into_words()
+}
+
+/// A mask of `n` lanes, bit `i` set where `on(i)`.
+fn mask(n: u32, on: impl Fn(usize) -> bool) -> u64 {
+    (0..n as usize).fold(0, |m, i| m | (u64::from(on(i)) << i))
+}
+
 impl TreeletRtUnitOutputs {
+    /// The ray-record requests among this cycle's requests, in issue order, as `(load, ray,
+    /// address)`.
+    fn ray_requests(&self) -> impl Iterator<Item = (bool, u32, u64)> + '_ {
+        self.requests.iter().filter_map(|r| match *r {
+            TreeletRequest::RayLoad { ray, address, .. } => Some((true, ray, address)),
+            TreeletRequest::RayStore { ray, address } => Some((false, ray, address)),
+            TreeletRequest::Rt(_) => None,
+        })
+    }
+
     /// The RT unit's request among this cycle's requests, if any.
     pub fn rt_request(&self) -> Option<&MemRequest> {
         self.requests.iter().find_map(|r| match r {

@@ -82,10 +82,10 @@ pub(super) fn kernel<D: NodeDatapath>(
     let mut g = regs.glue.clone();
     let mut out = empty_outputs(u);
     place_records(&mut g, &inputs.ray_records);
+    out.sm_ready = sm_ready_in(u, &g, peeks.mode, peeks.rt);
     let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
     out.counts.restarts += u64::from(restart);
     out.counts.ctl.observe(&ctl_in, &q.ctl);
-    out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(&regs.ctl, &ctl_in));
     let mut rt_in = u.rt.idle_inputs();
     let (ct_in, qt_in) = children_inputs(
         u,
@@ -112,6 +112,8 @@ pub(super) fn kernel<D: NodeDatapath>(
 pub(super) fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtUnitOutputs {
     TreeletRtUnitOutputs {
         widths: u.widths,
+        sm_ready: false,
+        resp_free: 0,
         sm_accepted: None,
         requests: Vec::new(),
         finished: Vec::new(),
@@ -130,6 +132,8 @@ pub(super) fn empty_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> TreeletRtU
 /// bundle it is given allocates nothing for them.
 pub(super) fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut TreeletRtUnitOutputs) {
     out.widths = u.widths;
+    out.sm_ready = false;
+    out.resp_free = 0;
     out.sm_accepted = None;
     out.requests.clear();
     out.finished.clear();
@@ -204,10 +208,18 @@ pub(super) fn sm_ready<D: NodeDatapath>(
     regs: &TreeletRtUnitRegs,
     rt: &RtUnitStatus,
 ) -> bool {
-    let g = &regs.glue;
-    admitting(u, u.ctl.mode(&regs.ctl, false))
-        && g.ids.len() >= u.cfg.warp_size
-        && free_slot(g, rt, None).is_some()
+    sm_ready_in(u, &regs.glue, u.ctl.mode(&regs.ctl, false), rt)
+}
+
+/// The `sm_ready` output from the wiring's registers `g` (its slots and free ids; the records
+/// that arrive in a cycle change neither), the controller's mode and the RT unit's status.
+pub(super) fn sm_ready_in<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &GlueRegs,
+    mode: Mode,
+    rt: &RtUnitStatus,
+) -> bool {
+    admitting(u, mode) && g.ids.len() >= u.cfg.warp_size && free_slot(g, rt, None).is_some()
 }
 
 /// The lowest slot the wiring has not given out and whose RT-unit slot holds no warp, other
@@ -554,6 +566,7 @@ pub(super) fn after_children(
         out.requests.push(TreeletRequest::Rt(req));
     }
     out.counts.rt = rt.counts;
+    out.resp_free = rt.resp_free;
     out.errors = rt.errors;
     out.first_error = rt.first_error;
     if let Some(done) = &rt.released {

@@ -181,7 +181,9 @@ always @* begin : p_next
     integer j;"#;
 
 /// The next-state block's body (after the defaults).
-pub(super) const NEXT_BODY: &str = r#"    ct_port_free = ct_ready;
+pub(super) const NEXT_BODY: &str = r#"    // A repack withheld for want of rays (an event for the statistics observer).
+    o_repack_starved = ${REPACK_STARVED};
+    ct_port_free = ct_ready;
     popped = ${Z_LNW};
     take = ${Z_LNW};
     left_n = ${Z_LNW};

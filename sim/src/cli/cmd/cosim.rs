@@ -14,8 +14,8 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use vtq_gen::cosim::{
-    datapath_tables, record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, RtUnitReplay,
-    RtUnitWithStatus, Simulator, Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
+    datapath_tables, record, run_cosim, tests_and_hits, write_rust_vcd, CosimOptions, CosimResult,
+    RtUnitReplay, RtUnitWithStatus, Simulator, Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
 };
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
@@ -357,12 +357,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     if args.block.rt_unit() {
         let params = &log.rt_params;
         let tables = datapath_tables(hw, params, BvhDatapath::new(&bvh), &log.rt_unit)?;
-        let tests: usize = tables.iter().map(Vec::len).sum();
-        let hits = tables
-            .iter()
-            .flatten()
-            .filter(|c| c.result.hit.is_some())
-            .count();
+        let (tests, hits) = tests_and_hits(&tables);
         let unit = RtUnitReplay::new(hw, params)?;
         let inputs = unit.inputs(log.rt_unit.clone(), tables);
         let trace = record(&unit, inputs)?;
