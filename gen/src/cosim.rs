@@ -38,7 +38,8 @@ mod rt_unit;
 mod waveform;
 
 pub use replay::{
-    datapath_tables, tests_and_hits, DatapathCall, ReplayInputs, RtUnitReplay, REPLAY_MODULE,
+    datapath_tables, tests_and_hits, DatapathCall, ReplayInputs, RtUnitReplay, TreeletRtUnitReplay,
+    REPLAY_MODULE, TREELET_REPLAY_MODULE,
 };
 pub use rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
 

@@ -2,12 +2,15 @@
 //! treelet queue table, treelet controller and RT unit, recorded cycle by cycle in a simulation
 //! of the VTQ design (with tables small enough to evict and spill), replayed as a Verilog
 //! testbench against the blocks' RTL: every output must match the Rust block's in every cycle.
+//! The whole treelet RT unit's recorded inputs replay the run on the Rust side (its wiring's
+//! RTL is still a skeleton, so there is no Verilog to replay them against yet).
 
 mod common;
 
 use common::{setup, small_config};
 use vtq_gen::cosim::{
-    datapath_tables, record, run_cosim, tests_and_hits, CosimOptions, RtUnitReplay,
+    datapath_tables, record, run_cosim, tests_and_hits, CosimOptions, DatapathCall, RtUnitReplay,
+    Trace, TreeletRtUnitReplay,
 };
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
@@ -17,7 +20,10 @@ use vtq_hdl::controller::TreeletController;
 use vtq_hdl::count_table::{CountOp, CountTable};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::{QueueOp, QueueTable};
+use vtq_hdl::treelet_rt_unit::{TableLog, TreeletRtUnit, TreeletRtUnitCache};
 use vtq_hdl::Block;
+use vtq_sim::model::bvh::HwBvh;
+use vtq_sim::model::config::SimConfig;
 use vtq_sim::model::gpu::datapath::BvhDatapath;
 use vtq_sim::model::gpu::{simulate, SimOptions};
 
@@ -110,14 +116,10 @@ fn a_real_runs_table_traffic_matches_the_rtl() {
     }
 }
 
-/// The RT unit's input ports on SM 0 of a VTQ run, from reset, replayed against its RTL with the
-/// scene's datapath: the datapath's tests run once in Rust with the real BVH and are answered
-/// from their results on both sides ([`RtUnitReplay`]); every output and status port must
-/// match in every cycle. Short (Icarus runs a 32-lane RT unit at about 50 cycles a second);
-/// `vtq cosim --block rt-unit --scene` replays longer runs, under Verilator.
-#[test]
-fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
-    const CYCLES: usize = 3000;
+/// SM 0's recorded inputs of the first `cycles` cycles of a cornell VTQ run (32x32 pixels, two
+/// SMs, a low divergence threshold), with its configuration, the scene's BVH and the datapath
+/// tests of the RT unit's recorded inputs ([`datapath_tables`]).
+fn recorded_vtq_run(cycles: usize) -> (SimConfig, HwBvh, TableLog, Vec<Vec<DatapathCall>>) {
     let cfg = small_config(
         "queues",
         2,
@@ -131,21 +133,28 @@ fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
     );
     let (scene, bvh) = setup("cornell", &cfg);
     let options = SimOptions {
-        record_tables: Some((0, CYCLES)),
+        record_tables: Some((0, cycles)),
         ..SimOptions::default()
     };
     let out = simulate(&scene, &bvh, &cfg, options, None).expect("simulation runs");
     let log = out.table_log.expect("inputs recorded");
+    let datapath = BvhDatapath::new(&bvh);
+    let tables = datapath_tables(&cfg.hw, &log.params.rt, datapath, &log.rt_unit).unwrap();
+    (cfg, bvh, log, tables)
+}
+
+/// The RT unit's input ports on SM 0 of a VTQ run, from reset, replayed against its RTL with the
+/// scene's datapath: the datapath's tests run once in Rust with the real BVH and are answered
+/// from their results on both sides ([`RtUnitReplay`]); every output and status port must
+/// match in every cycle. Short (Icarus runs a 32-lane RT unit at about 50 cycles a second);
+/// `vtq cosim --block rt-unit --scene` replays longer runs.
+#[test]
+fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
+    const CYCLES: usize = 3000;
+    let (cfg, _, log, tables) = recorded_vtq_run(CYCLES);
     assert_eq!(log.rt_unit.len(), CYCLES);
     // The recorded inputs replayed on the Rust RT unit with the scene's datapath: warps run
     // and complete.
-    let tables = datapath_tables(
-        &cfg.hw,
-        &log.rt_params,
-        BvhDatapath::new(&bvh),
-        &log.rt_unit,
-    )
-    .unwrap();
     let (tests, hits) = tests_and_hits(&tables);
     let issued = log.rt_unit.iter().filter(|i| i.issue.is_some()).count();
     eprintln!("{issued} warps issued, {tests} tests, {hits} hits in {CYCLES} cycles");
@@ -153,13 +162,13 @@ fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
         issued >= 2 && tests > 200 && hits > 10,
         "{issued} warps, {tests} tests, {hits} hits"
     );
-    let unit = RtUnitReplay::new(&cfg.hw, &log.rt_params).unwrap();
+    let unit = RtUnitReplay::new(&cfg.hw, &log.params.rt).unwrap();
     let trace = record(&unit, unit.inputs(log.rt_unit, tables)).unwrap();
     assert_eq!(unit.misses(), 0);
     let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-rt-unit");
     std::fs::create_dir_all(&work).unwrap();
     let mut files = Vec::new();
-    for (module, text) in rt_unit_replay_verilog(&cfg.hw, &log.rt_params).unwrap() {
+    for (module, text) in rt_unit_replay_verilog(&cfg.hw, &log.params.rt).unwrap() {
         let path = work.join(format!("{module}.v"));
         std::fs::write(&path, text).unwrap();
         files.push(path);
@@ -170,4 +179,60 @@ fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
     };
     assert_eq!(result.cycles, CYCLES as u64);
     assert_eq!(result.mismatches, 0, "{:?}", result.reported);
+}
+
+/// The whole treelet RT unit's input ports on SM 0 of a VTQ run, from reset, replay the run:
+/// stepped on a fresh block with the scene's datapath they reproduce the RT unit's and the
+/// controller's recorded inputs cycle for cycle (skipped idle cycles recorded as idle inputs),
+/// and the block whose RT unit answers from the datapath tables of the RT unit's recorded
+/// inputs ([`TreeletRtUnitReplay`], what the composed RTL's co-simulation will run) gives the
+/// outputs of the block with the real datapath in every cycle, every port encoded.
+#[test]
+fn a_real_runs_treelet_rt_unit_inputs_replay_the_run() {
+    const CYCLES: usize = 10_000;
+    let (cfg, bvh, log, tables) = recorded_vtq_run(CYCLES);
+    assert_eq!(log.treelet.len(), CYCLES);
+    let accepted = log.treelet.iter().filter(|i| i.sm_warp.is_some()).count();
+    let responses: usize = log.treelet.iter().map(|i| i.responses.len()).sum();
+    eprintln!("{accepted} warps offered, {responses} responses in {CYCLES} cycles");
+    assert!(
+        accepted >= 4 && responses > 100,
+        "{accepted} warps offered, {responses} responses"
+    );
+    // Stepped again from reset, the block sees what it saw in the run.
+    let unit =
+        TreeletRtUnit::new(cfg.hw.clone(), log.params.clone(), BvhDatapath::new(&bvh)).unwrap();
+    let mut regs = unit.reset();
+    let mut cache = TreeletRtUnitCache::of(&regs);
+    cache.record_tables(CYCLES, log.params.clone());
+    for inputs in &log.treelet {
+        unit.step_cached(&mut regs, &mut cache, inputs);
+    }
+    let again = cache.take_table_log().unwrap();
+    assert!(again.rt_unit == log.rt_unit, "the RT unit's inputs differ");
+    assert!(
+        again.controller == log.controller,
+        "the controller's inputs differ"
+    );
+    // The replay block answers from the RT unit's tables and gives the real datapath's outputs.
+    let replay = TreeletRtUnitReplay::new(&cfg.hw, &log.params).unwrap();
+    let trace = record(&replay, replay.inputs(log.treelet.clone(), tables)).unwrap();
+    assert_eq!(replay.misses(), 0);
+    let plain = record(&unit, log.treelet).unwrap();
+    let outputs =
+        |t: &Trace| -> Vec<Vec<u64>> { t.rows().map(|r| r[t.inputs.len()..].to_vec()).collect() };
+    assert_eq!(trace.outputs, plain.outputs);
+    let (a, b) = (outputs(&trace), outputs(&plain));
+    assert_eq!(a.len(), CYCLES);
+    assert!(
+        a == b,
+        "the replay's outputs differ from the real datapath's"
+    );
+    // The run did something the ports show: rays accepted, records stored, requests out.
+    let column = |name: &str| {
+        let k = trace.outputs.iter().position(|s| s.name == name).unwrap();
+        a.iter().map(|r| r[k]).sum::<u64>()
+    };
+    assert!(column("sm_accept") >= 2 && column("ray_store_count") >= 32);
+    assert!(column("mem_req_valid") > 100 && column("count_rt_tests_internal") > 100);
 }

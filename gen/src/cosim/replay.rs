@@ -26,6 +26,10 @@ use vtq_hdl::rt_unit::{
     Hit, NodeDatapath, NodeEntry, RayWords, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs,
     TestResult, RAY_WORDS,
 };
+use vtq_hdl::treelet_rt_unit::{
+    TreeletRtUnit, TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams,
+    TreeletRtUnitRegs,
+};
 use vtq_hdl::{Block, BlockDesc, Dir, HwConfig, PortDesc, Signal, Signals};
 
 /// One test the datapath ran: the lane it served, its inputs (the key) and its result.
@@ -186,14 +190,15 @@ impl NodeDatapath for TableDatapath {
     }
 }
 
-/// One cycle's inputs of [`RtUnitReplay`]: the RT unit's, and the table its datapath answers
-/// from: `table[l]` is lane `l`'s test, valid this cycle when bit `l` of `valid` is set (an
-/// invalid entry's contents are whatever the cycle before left, so that a long replay's vectors
-/// hold only the entries that change).
+/// One cycle's inputs of a replay ([`RtUnitReplay`], [`TreeletRtUnitReplay`]): the replayed
+/// block's (`I`), and the table its RT unit's datapath answers from: `table[l]` is lane `l`'s
+/// test, valid this cycle when bit `l` of `valid` is set (an invalid entry's contents are
+/// whatever the cycle before left, so that a long replay's vectors hold only the entries that
+/// change).
 #[derive(Debug, Clone)]
-pub struct ReplayInputs {
-    /// The RT unit's inputs.
-    pub rt: RtUnitInputs,
+pub struct ReplayInputs<I = RtUnitInputs> {
+    /// The replayed block's inputs.
+    pub block: I,
     /// The table's entries (one per lane).
     pub table: Vec<Option<DatapathCall>>,
     /// Which entries are this cycle's tests.
@@ -204,7 +209,7 @@ pub struct ReplayInputs {
     max_children: u32,
 }
 
-impl ReplayInputs {
+impl<I> ReplayInputs<I> {
     /// The `dp_key` bits of entry `call` (`None`: zeros), lowest first: the ray words (word
     /// `j` in `[32 j +: 32]`), the closest hit's valid bit, the hit (`{attribs[1], attribs[0],
     /// hit id, t}`, zero without one), the node (`NodeEntry::encode`).
@@ -257,15 +262,15 @@ fn push_hit(p: &mut BitPacker, hit: Option<&Hit>) {
     p.push(hit.map_or(0, |h| h.attribs[1] as u64), 32);
 }
 
-impl Signals for ReplayInputs {
+impl<I: Signals> Signals for ReplayInputs<I> {
     fn signals(&self) -> Vec<Signal> {
-        let mut s = self.rt.signals();
+        let mut s = self.block.signals();
         s.push(Signal::new("dp_valid", self.table.len() as u32, self.valid));
         s
     }
 
     fn bulk_signals(&self) -> Vec<Signal> {
-        let mut s = self.rt.bulk_signals();
+        let mut s = self.block.bulk_signals();
         let (mut keys, mut results) = (BitPacker::new(), BitPacker::new());
         for call in &self.table {
             self.push_key(&mut keys, call.as_ref());
@@ -316,28 +321,98 @@ impl RtUnitReplay {
         rt: Vec<RtUnitInputs>,
         tables: Vec<Vec<DatapathCall>>,
     ) -> Vec<ReplayInputs> {
-        let cfg = self.unit.0.config();
-        let lanes = cfg.warp_size as usize;
-        let mut table: Vec<Option<DatapathCall>> = vec![None; lanes];
-        rt.into_iter()
-            .zip(tables.into_iter().chain(std::iter::repeat_with(Vec::new)))
-            .map(|(rt, calls)| {
-                let mut valid = 0u64;
-                for call in calls {
-                    valid |= 1 << call.lane;
-                    let lane = call.lane as usize;
-                    table[lane] = Some(call);
-                }
-                ReplayInputs {
-                    rt,
-                    table: table.clone(),
-                    valid,
-                    entry_bits: NodeEntry::bits(cfg.address_bits),
-                    max_children: self.unit.0.params().max_children,
-                }
-            })
-            .collect()
+        let idle = self.idle_inputs();
+        with_tables(rt, tables, &idle)
     }
+}
+
+/// Each cycle's inputs of the replayed block with its tests (from [`datapath_tables`]) in
+/// their lanes' entries of a table shaped as `idle`'s, the other entries left as the cycle
+/// before left them.
+fn with_tables<I: Clone>(
+    block: Vec<I>,
+    tables: Vec<Vec<DatapathCall>>,
+    idle: &ReplayInputs<I>,
+) -> Vec<ReplayInputs<I>> {
+    let mut table = idle.table.clone();
+    block
+        .into_iter()
+        .zip(tables.into_iter().chain(std::iter::repeat_with(Vec::new)))
+        .map(|(block, calls)| {
+            let mut valid = 0u64;
+            for call in calls {
+                valid |= 1 << call.lane;
+                let lane = call.lane as usize;
+                table[lane] = Some(call);
+            }
+            ReplayInputs {
+                block,
+                table: table.clone(),
+                valid,
+                ..idle.clone()
+            }
+        })
+        .collect()
+}
+
+/// An empty table for the RT unit of `cfg` and `params` around the replayed block's idle
+/// inputs `block`.
+fn idle_replay<I>(block: I, cfg: &HwConfig, params: &RtUnitParams) -> ReplayInputs<I> {
+    ReplayInputs {
+        block,
+        table: vec![None; cfg.warp_size as usize],
+        valid: 0,
+        entry_bits: NodeEntry::bits(cfg.address_bits),
+        max_children: params.max_children,
+    }
+}
+
+/// Loads the cycle's valid entries of `inputs` into `table`.
+fn load_table<I>(table: &Table, inputs: &ReplayInputs<I>) {
+    *table.calls.borrow_mut() = inputs
+        .table
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| inputs.valid >> k & 1 == 1)
+        .filter_map(|(_, c)| c.clone())
+        .collect();
+}
+
+/// A replay block's description: the replayed block's `d` as module `name`, documented with
+/// `what`, with the table's ports (for `idle`'s table) and no registers (they are the replayed
+/// block's, one level down).
+fn replay_desc<I>(mut d: BlockDesc, name: &str, what: &str, idle: &ReplayInputs<I>) -> BlockDesc {
+    let n = idle.table.len() as u32;
+    d.doc = format!(
+        "{what} replayed on recorded traffic: {} with the table its datapath answers from as \
+         input ports. {}",
+        d.name, d.doc
+    );
+    d.name = name.into();
+    d.registers.clear();
+    d.memories.clear();
+    d.fsms.clear();
+    d.ports.extend([
+        PortDesc {
+            name: "dp_valid".into(),
+            dir: Dir::In,
+            width: n,
+            doc: "per entry: the entry is one of this cycle's datapath tests".into(),
+        },
+        PortDesc {
+            name: "dp_key".into(),
+            dir: Dir::In,
+            width: n * idle.key_bits(),
+            doc: "per entry: the test's ray words, closest hit (valid bit and hit) and node".into(),
+        },
+        PortDesc {
+            name: "dp_result".into(),
+            dir: Dir::In,
+            width: n * idle.result_bits(),
+            doc: "per entry: the test's child count, children, hit valid bit and hit".into(),
+        },
+    ]);
+    d
 }
 
 impl Block for RtUnitReplay {
@@ -350,14 +425,8 @@ impl Block for RtUnitReplay {
     }
 
     fn idle_inputs(&self) -> ReplayInputs {
-        let cfg = self.unit.0.config();
-        ReplayInputs {
-            rt: self.unit.idle_inputs(),
-            table: vec![None; cfg.warp_size as usize],
-            valid: 0,
-            entry_bits: NodeEntry::bits(cfg.address_bits),
-            max_children: self.unit.0.params().max_children,
-        }
+        let u = &self.unit.0;
+        idle_replay(self.unit.idle_inputs(), u.config(), u.params())
     }
 
     fn next_into(
@@ -366,14 +435,8 @@ impl Block for RtUnitReplay {
         inputs: &ReplayInputs,
         next: &mut RtUnitRegs,
     ) -> RtUnitAllOutputs {
-        *self.table.calls.borrow_mut() = inputs
-            .table
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| inputs.valid >> k & 1 == 1)
-            .filter_map(|(_, c)| c.clone())
-            .collect();
-        self.unit.next_into(regs, &inputs.rt, next)
+        load_table(&self.table, inputs);
+        self.unit.next_into(regs, &inputs.block, next)
     }
 
     fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {
@@ -383,42 +446,94 @@ impl Block for RtUnitReplay {
     /// The RT unit's ports and the table's, as module `rt_unit_replay`; no registers (they
     /// are `rt_unit`'s, one level down).
     fn describe(&self) -> BlockDesc {
-        let mut d = self.unit.describe();
-        let idle = self.idle_inputs();
-        let n = idle.table.len() as u32;
-        d.name = REPLAY_MODULE.into();
-        d.doc = format!(
-            "The RT unit's control replayed on recorded traffic: rt_unit with the table its \
-             datapath answers from as input ports. {}",
-            d.doc
-        );
-        d.registers.clear();
-        d.memories.clear();
-        d.fsms.clear();
-        d.ports.extend([
-            PortDesc {
-                name: "dp_valid".into(),
-                dir: Dir::In,
-                width: n,
-                doc: "per entry: the entry is one of this cycle's datapath tests".into(),
-            },
-            PortDesc {
-                name: "dp_key".into(),
-                dir: Dir::In,
-                width: n * idle.key_bits(),
-                doc: "per entry: the test's ray words, closest hit (valid bit and hit) and node"
-                    .into(),
-            },
-            PortDesc {
-                name: "dp_result".into(),
-                dir: Dir::In,
-                width: n * idle.result_bits(),
-                doc: "per entry: the test's child count, children, hit valid bit and hit".into(),
-            },
-        ]);
-        d
+        let d = self.unit.describe();
+        replay_desc(
+            d,
+            REPLAY_MODULE,
+            "The RT unit's control",
+            &self.idle_inputs(),
+        )
     }
 }
 
 /// The Verilog module name of [`RtUnitReplay`].
 pub const REPLAY_MODULE: &str = "rt_unit_replay";
+
+/// The treelet RT unit (RT unit, controller, tables and wiring) whose RT unit's datapath
+/// answers from tables that arrive with its inputs, as [`RtUnitReplay`] does for the RT unit
+/// alone: the tables of [`datapath_tables`] over the RT unit's inputs recorded in the same run
+/// (`TableLog::rt_unit`) serve the whole block's replay (`TableLog::treelet`), cycle for cycle.
+#[derive(Debug)]
+pub struct TreeletRtUnitReplay {
+    unit: TreeletRtUnit<TableDatapath>,
+    table: Rc<Table>,
+}
+
+impl TreeletRtUnitReplay {
+    /// The replay block of the treelet RT unit of `cfg` and `params`.
+    pub fn new(cfg: &HwConfig, params: &TreeletRtUnitParams) -> Result<Self, GenError> {
+        let table = Rc::new(Table::default());
+        let unit = TreeletRtUnit::new(cfg.clone(), params.clone(), TableDatapath(table.clone()))?;
+        Ok(TreeletRtUnitReplay { unit, table })
+    }
+
+    /// Tests the block's datapath found in no table so far (0 when the tables came from
+    /// [`datapath_tables`] over the RT unit's inputs of the same run).
+    pub fn misses(&self) -> u64 {
+        self.table.misses.get()
+    }
+
+    /// The inputs of a replay: each cycle's treelet-RT-unit inputs with the RT unit's tests of
+    /// that cycle in their lanes' entries (as [`RtUnitReplay::inputs`]).
+    pub fn inputs(
+        &self,
+        block: Vec<TreeletRtUnitInputs>,
+        tables: Vec<Vec<DatapathCall>>,
+    ) -> Vec<ReplayInputs<TreeletRtUnitInputs>> {
+        with_tables(block, tables, &self.idle_inputs())
+    }
+}
+
+impl Block for TreeletRtUnitReplay {
+    type Inputs = ReplayInputs<TreeletRtUnitInputs>;
+    type Outputs = TreeletRtUnitOutputs;
+    type Regs = TreeletRtUnitRegs;
+
+    fn reset(&self) -> TreeletRtUnitRegs {
+        self.unit.reset()
+    }
+
+    fn idle_inputs(&self) -> ReplayInputs<TreeletRtUnitInputs> {
+        let rt = self.unit.rt_unit();
+        idle_replay(self.unit.idle_inputs(), rt.config(), rt.params())
+    }
+
+    fn next_into(
+        &self,
+        regs: &TreeletRtUnitRegs,
+        inputs: &ReplayInputs<TreeletRtUnitInputs>,
+        next: &mut TreeletRtUnitRegs,
+    ) -> TreeletRtUnitOutputs {
+        load_table(&self.table, inputs);
+        self.unit.next_into(regs, &inputs.block, next)
+    }
+
+    fn reg_signals(&self, regs: &TreeletRtUnitRegs) -> Vec<Signal> {
+        self.unit.reg_signals(regs)
+    }
+
+    /// The treelet RT unit's ports and the table's, as module `treelet_rt_unit_replay`; no
+    /// registers (they are `treelet_rt_unit`'s, one level down).
+    fn describe(&self) -> BlockDesc {
+        let d = self.unit.describe();
+        replay_desc(
+            d,
+            TREELET_REPLAY_MODULE,
+            "The treelet RT unit",
+            &self.idle_inputs(),
+        )
+    }
+}
+
+/// The Verilog module name of [`TreeletRtUnitReplay`].
+pub const TREELET_REPLAY_MODULE: &str = "treelet_rt_unit_replay";

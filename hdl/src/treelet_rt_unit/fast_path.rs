@@ -61,6 +61,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     let probe_regs = cache
         .probe
         .then(|| probe::start_regs(u, (rt, ctl, ct, qt), u.glue_signals(g)));
+    super::log_treelet(&mut cache.tables, inputs);
     place_records(g, &inputs.ray_records);
     let offering = inputs.sm_warp.is_some();
     // The RT unit's status ports: computed by the dry run at the end of the last step unless

@@ -176,9 +176,10 @@ pub struct TreeletRtUnitCache {
 /// starts at the first cycle in which either table gets an op: until then both get only `Nop`s
 /// from reset, which leave them in their reset state, so a replay from reset is exact. Beside
 /// them, the treelet controller's input ports from reset (its registers change without table
-/// ops, so its log starts at the first cycle), and the RT unit's input ports from reset with
-/// its parameters, to replay the RT unit with the same datapath.
-#[derive(Debug, Clone, PartialEq, Default)]
+/// ops, so its log starts at the first cycle), the RT unit's input ports from reset, to replay
+/// the RT unit with the same datapath, and the whole block's input ports from reset with its
+/// parameters, to replay the block.
+#[derive(Debug, Clone, PartialEq)]
 pub struct TableLog {
     /// Cycles to record at most.
     pub limit: usize,
@@ -197,8 +198,12 @@ pub struct TableLog {
     /// The RT unit's inputs of the first `limit` cycles from reset, every cycle (a skipped idle
     /// cycle has idle inputs: a skip is exactly that many idle steps).
     pub rt_unit: Vec<RtUnitInputs>,
-    /// The RT unit's parameters (latencies, response FIFO, hit records, stack spill area).
-    pub rt_params: RtUnitParams,
+    /// The treelet RT unit's own inputs of the first `limit` cycles from reset, every cycle (a
+    /// skipped idle cycle has idle inputs): what replays the whole block.
+    pub treelet: Vec<TreeletRtUnitInputs>,
+    /// The treelet RT unit's parameters (the RT unit's latencies, response FIFO, hit records
+    /// and stack spill area; the controller's features; the ray-record base).
+    pub params: TreeletRtUnitParams,
 }
 
 impl TreeletRtUnitCache {
@@ -238,14 +243,20 @@ impl TreeletRtUnitCache {
         self.probed.take()
     }
 
-    /// Starts recording the tables', the controller's and the RT unit's inputs of the next
-    /// `cycles` cycles (from reset: start before the first step); `rt_params` are the RT
-    /// unit's parameters, kept with the log.
-    pub fn record_tables(&mut self, cycles: usize, rt_params: RtUnitParams) {
+    /// Starts recording the tables', the controller's, the RT unit's and the whole block's
+    /// inputs of the next `cycles` cycles (from reset: start before the first step); `params`
+    /// are the block's parameters ([`TreeletRtUnit::params`]), kept with the log.
+    pub fn record_tables(&mut self, cycles: usize, params: TreeletRtUnitParams) {
         self.tables = Some(TableLog {
             limit: cycles,
-            rt_params,
-            ..TableLog::default()
+            first_cycle: 0,
+            skipped: 0,
+            count: Vec::new(),
+            queue: Vec::new(),
+            controller: Vec::new(),
+            rt_unit: Vec::new(),
+            treelet: Vec::new(),
+            params,
         });
     }
 
@@ -264,6 +275,14 @@ impl TreeletRtUnitCache {
 fn log_controller(tables: &mut Option<TableLog>, inputs: &ControllerInputs) {
     if let Some(log) = tables.as_mut().filter(|l| l.controller.len() < l.limit) {
         log.controller.push(inputs.clone());
+    }
+}
+
+/// Appends one cycle's inputs of the whole block to `tables`, while recording (up to its
+/// limit).
+fn log_treelet(tables: &mut Option<TableLog>, inputs: &TreeletRtUnitInputs) {
+    if let Some(log) = tables.as_mut().filter(|l| l.treelet.len() < l.limit) {
+        log.treelet.push(inputs.clone());
     }
 }
 
@@ -329,6 +348,15 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
     /// The hardware configuration.
     pub fn config(&self) -> &HwConfig {
         &self.cfg
+    }
+
+    /// The parameters the block was built with.
+    pub fn params(&self) -> TreeletRtUnitParams {
+        TreeletRtUnitParams {
+            rt: self.rt.params().clone(),
+            features: self.ctl.features(),
+            ray_base: self.ray_base,
+        }
     }
 
     /// The `sm_ready` output for these registers: an SM warp may be offered (SM warps are
@@ -439,6 +467,11 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             let idle = self.rt.idle_inputs();
             log.rt_unit
                 .extend(std::iter::repeat_n(idle, n.min(room) as usize));
+            let room = log.limit.saturating_sub(log.treelet.len()) as u64;
+            log.treelet.extend(std::iter::repeat_n(
+                self.idle_inputs(),
+                n.min(room) as usize,
+            ));
             let (ct, qt) = (
                 self.ct.input(crate::count_table::CountOp::Nop),
                 self.qt.input(crate::queue_table::QueueOp::Nop),

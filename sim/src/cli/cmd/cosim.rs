@@ -355,7 +355,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         });
     }
     if args.block.rt_unit() {
-        let params = &log.rt_params;
+        let params = &log.params.rt;
         let tables = datapath_tables(hw, params, BvhDatapath::new(&bvh), &log.rt_unit)?;
         let (tests, hits) = tests_and_hits(&tables);
         let unit = RtUnitReplay::new(hw, params)?;

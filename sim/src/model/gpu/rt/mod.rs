@@ -251,8 +251,7 @@ impl<'a> RtPort<'a> {
     pub fn record_tables(&mut self, cycles: usize) -> bool {
         match &mut self.hw {
             Hardware::Treelet(t) => {
-                t.cache
-                    .record_tables(cycles, t.unit.rt_unit().params().clone());
+                t.cache.record_tables(cycles, t.unit.params());
                 true
             }
             Hardware::Plain(_) => false,
