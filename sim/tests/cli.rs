@@ -562,7 +562,7 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
 
 /// `vtq cosim --block rt-unit`: the RT unit's RTL against the Rust block at the configured
 /// (paper) sizes, with the toy datapath, and (`--scene`) on a real run's traffic with the
-/// scene's datapath answering from its recorded tests.
+/// scene's datapath answering from its recorded tests, with both waveforms (`--vcd`).
 #[test]
 fn cosim_of_the_rt_unit_matches() {
     let dir = temp_dir("cosim-rt");
@@ -596,11 +596,19 @@ fn cosim_of_the_rt_unit_matches() {
         "300",
         "--work-dir",
         dir.to_str().unwrap(),
+        "--vcd",
     ]) else {
         return;
     };
     let line = line_starting(&stdout, "rt_unit_replay: ");
     assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
+    // --vcd: both waveforms with the replay's ports (the RT unit's and the table's).
+    for file in ["rtl.vcd", "rust.vcd"] {
+        let vcd = std::fs::read_to_string(dir.join("rt_unit_replay").join(file)).expect(file);
+        for port in ["issue_valid", "req_valid", "dp_valid"] {
+            assert!(vcd.contains(&format!(" {port} ")), "{file}: {port}");
+        }
+    }
     let stimulus = line_starting(&stdout, "  stimulus: ");
     assert!(
         stimulus.contains("real traffic with the scene's datapath: cycles 0..300 of SM 0"),

@@ -290,7 +290,9 @@ impl<I: Signals> Signals for ReplayInputs<I> {
 
 /// The RT unit whose datapath answers from tables that arrive with its inputs (see the module
 /// documentation); its outputs are [`RtUnitWithStatus`]'s.
-#[derive(Debug)]
+/// A clone shares the table (each cycle's `next_into` loads it, so clones replay alike) and its
+/// miss count.
+#[derive(Debug, Clone)]
 pub struct RtUnitReplay {
     unit: RtUnitWithStatus<TableDatapath>,
     table: Rc<Table>,

@@ -360,6 +360,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let (tests, hits) = tests_and_hits(&tables);
         let unit = RtUnitReplay::new(hw, params)?;
         let inputs = unit.inputs(log.rt_unit.clone(), tables);
+        let vcd = rust_vcd(&unit, &inputs, args.vcd);
         let trace = record(&unit, inputs)?;
         if unit.misses() > 0 {
             bail!(
@@ -370,8 +371,9 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let warps = log.rt_unit.iter().filter(|i| i.issue.is_some()).count();
         let responses: usize = log.rt_unit.iter().map(|i| i.responses.len()).sum();
         jobs.push(Job {
-            // The replay's waveform shows its ports; its registers are rt_unit's.
-            rust_vcd: None,
+            // Its ports and the RT unit's registers (in rtl.vcd, one level down in the
+            // rt_unit instance).
+            rust_vcd: vcd,
             trace,
             coverage: format!(
                 "real traffic with the scene's datapath: cycles 0..{} of SM {} in scene {} ({}, \
