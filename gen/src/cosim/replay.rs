@@ -219,7 +219,7 @@ impl<I> ReplayInputs<I> {
         }
         let best = call.and_then(|c| c.best);
         p.push(best.is_some() as u64, 1);
-        push_hit(p, best.as_ref());
+        Hit::pack(best.as_ref(), p);
         p.push(call.map_or(0, |c| c.node.encode()), self.entry_bits);
     }
 
@@ -239,7 +239,7 @@ impl<I> ReplayInputs<I> {
         }
         let hit = r.and_then(|r| r.hit);
         p.push(hit.is_some() as u64, 1);
-        push_hit(p, hit.as_ref());
+        Hit::pack(hit.as_ref(), p);
     }
 
     /// Bits of one `dp_key` entry.
@@ -251,15 +251,6 @@ impl<I> ReplayInputs<I> {
     fn result_bits(&self) -> u32 {
         CHILD_COUNT_BITS + self.max_children * CHILD_BITS + 1 + 128
     }
-}
-
-/// Pushes a hit's 128 bits (`t` lowest, then the hit id and the two attributes; zeros without
-/// one).
-fn push_hit(p: &mut BitPacker, hit: Option<&Hit>) {
-    p.push(hit.map_or(0, |h| h.t as u64), 32);
-    p.push(hit.map_or(0, |h| h.hit_id as u64), 32);
-    p.push(hit.map_or(0, |h| h.attribs[0] as u64), 32);
-    p.push(hit.map_or(0, |h| h.attribs[1] as u64), 32);
 }
 
 impl<I: Signals> Signals for ReplayInputs<I> {

@@ -275,6 +275,17 @@ pub struct Hit {
     pub attribs: [u32; 2],
 }
 
+impl Hit {
+    /// Pushes the 128 bits a hit takes on the ports onto `p`, lowest first: t, the hit id and
+    /// the two attributes (zeros for `None`).
+    pub fn pack(hit: Option<&Hit>, p: &mut crate::bits::BitPacker) {
+        let h = hit.copied().unwrap_or_default();
+        for v in [h.t, h.hit_id, h.attribs[0], h.attribs[1]] {
+            p.push(v as u64, 32);
+        }
+    }
+}
+
 /// What one node test decided for one ray.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct TestResult {

@@ -10,7 +10,7 @@ use super::bundles::{
     errors, BoundaryEvent, ErrorRecord, IssueTarget, MemRequest, MemResponse, RayOutcome,
     RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
 };
-use super::node::{NodeEntry, CHUNK_BYTES, RAY_WORDS};
+use super::node::{Hit, NodeEntry, CHUNK_BYTES, RAY_WORDS};
 use crate::bits::{bits_for, BitPacker};
 
 /// Bits of a memory data chunk (32 B).
@@ -397,12 +397,7 @@ pub(crate) fn ray_state_words<'a>(
             1 => {
                 p.push(hit.is_some() as u64, 1);
             }
-            2 => {
-                let h = hit.unwrap_or_default();
-                for v in [h.t, h.hit_id, h.attribs[0], h.attribs[1]] {
-                    p.push(v as u64, 32);
-                }
-            }
+            2 => Hit::pack(hit.as_ref(), &mut p),
             3 => {
                 p.push(r.map_or(0, |r| r.current_treelet), w.treelet);
             }

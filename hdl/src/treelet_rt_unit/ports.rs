@@ -394,10 +394,7 @@ crate::bundle! {
 fn hit_words(n: usize, hit: impl Fn(usize) -> Option<Hit>) -> Vec<u64> {
     let mut p = BitPacker::new();
     for i in 0..n {
-        let h = hit(i).unwrap_or_default();
-        for v in [h.t, h.hit_id, h.attribs[0], h.attribs[1]] {
-            p.push(v as u64, 32);
-        }
+        Hit::pack(hit(i).as_ref(), &mut p);
     }
     p.into_words()
 }
