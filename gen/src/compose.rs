@@ -5,7 +5,8 @@
 //! The wiring module ([`wiring_desc`]) carries the composite's ports, one port per port of
 //! every child in the other direction (a child's input is a wiring output and the other way
 //! round), named `<instance>_<port>`, and the composite's own registers: it is the kernel.
-//! Like every block without complete RTL it is emitted as a skeleton ([`crate::emit_module`]).
+//! Its body is generated for each composite ([`crate::rtl::treelet_wiring_verilog`] for the
+//! treelet RT unit).
 //! The top ([`emit_top`]) declares one net per child port and connects each child and the
 //! wiring to them by name, so the child modules (complete RTL where there is some) plug in
 //! unchanged.
@@ -153,17 +154,15 @@ pub(crate) fn emit_connections(w: &mut VerilogWriter, conns: &[String]) {
     }
 }
 
-/// The composite's top module and its wiring module (a skeleton), as `(module name, Verilog)`
-/// pairs; the children's modules are generated on their own.
+/// The composite's top module and its wiring module (`wiring`, its Verilog), as `(module
+/// name, Verilog)` pairs; the children's modules are generated on their own.
 pub fn composite_modules(
     top: &BlockDesc,
     children: &[Instance],
+    wiring: String,
 ) -> Result<Vec<(String, String)>, GenError> {
     Ok(vec![
         (top.name.clone(), emit_top(top, children)?),
-        (
-            wiring_name(top),
-            crate::emit_module(&wiring_desc(top, children))?,
-        ),
+        (wiring_name(top), wiring),
     ])
 }

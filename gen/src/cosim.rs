@@ -36,12 +36,14 @@ use vtq_hdl::{Block, Dir, Signal, Signals};
 mod replay;
 mod rt_unit;
 mod waveform;
+mod wiring;
 
 pub use replay::{
     datapath_tables, tests_and_hits, DatapathCall, ReplayInputs, RtUnitReplay, TreeletRtUnitReplay,
     REPLAY_MODULE, TREELET_REPLAY_MODULE,
 };
 pub use rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
+pub use wiring::{wiring_ports, TreeletWiring};
 
 use waveform::{declares, desc_registers, vcd_scopes};
 pub use waveform::{write_rust_vcd, RegSignal};

@@ -3,8 +3,10 @@
 //! configuration and a scaled one.
 
 use std::path::PathBuf;
-use vtq_gen::compose::{composite_modules, Instance};
-use vtq_gen::rtl::{rt_unit_verilog, rtl_modules, toy_datapath_verilog};
+use vtq_gen::compose::composite_modules;
+use vtq_gen::rtl::{
+    instances, rt_unit_verilog, rtl_modules, toy_datapath_verilog, treelet_wiring_verilog,
+};
 use vtq_gen::synth::{lint, synthesize};
 use vtq_gen::tools::or_skip;
 use vtq_gen::verilog::MAX_WIDTH;
@@ -117,8 +119,8 @@ fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
 }
 
 /// The composed treelet RT unit's top module instantiates the tables', the controller's and the
-/// RT unit's complete RTL (the RT unit with the toy datapath) and its wiring module (a
-/// skeleton), connected port by port; all of it lints clean under `verilator --lint-only -Wall`.
+/// RT unit's complete RTL (the RT unit with the toy datapath) and its wiring module's,
+/// connected port by port; all of it lints clean under `verilator --lint-only -Wall`.
 #[test]
 fn the_composed_treelet_rt_unit_lints_clean() {
     let cfg = HwConfig::default();
@@ -128,21 +130,19 @@ fn the_composed_treelet_rt_unit_lints_clean() {
         ray_base: 0,
     };
     let unit = TreeletRtUnit::new(cfg.clone(), params, NoHits).unwrap();
-    let children: Vec<Instance> = unit
-        .children()
-        .into_iter()
-        .map(|(name, desc)| Instance {
-            name: name.into(),
-            desc,
-        })
-        .collect();
+    let children = instances(&unit);
     let mut modules = rtl_modules(&cfg, ControllerFeatures::FULL).unwrap();
     for c in children.iter().filter(|c| c.name == "rt") {
         let rtl = rt_unit_verilog(&cfg, &RtUnitParams::default()).unwrap();
         modules.push((c.desc.name.clone(), rtl));
         modules.push(("rt_datapath".into(), toy_datapath_verilog(cfg.address_bits)));
     }
-    let top = composite_modules(&unit.describe(), &children).unwrap();
+    let wiring = treelet_wiring_verilog(&unit).unwrap();
+    assert!(
+        !wiring.contains("Skeleton body"),
+        "the wiring is complete RTL"
+    );
+    let top = composite_modules(&unit.describe(), &children, wiring).unwrap();
     let top_text = &top[0].1;
     for c in &children {
         assert!(

@@ -132,19 +132,17 @@ macro_rules! composite {
                 ($cout { $( $name: $name.0, )+ }, $cregs { $( $name: $name.1, )+ })
             }
 
-            /// One cycle of the composite solved by [`settle`]: the kernel's results and the
-            /// children's next registers, from the children's outputs for idle inputs.
+            /// One cycle of the composite solved by [`settle`]: the children's settled inputs,
+            /// the kernel's results, the children's settled outputs and their next registers,
+            /// from the children's outputs for idle inputs.
             fn settle_children<K>(
                 &self,
                 regs: &$regs,
                 max_rounds: usize,
                 kernel: impl Fn(&$cout) -> ($cin, K),
-            ) -> Result<(K, $cregs), $crate::compose::SettleError> {
+            ) -> Result<($cin, K, $cout, $cregs), $crate::compose::SettleError> {
                 let q0 = self.eval_children(regs, &self.children_idle_inputs()).0;
-                let (_, k, _, r) = $crate::compose::settle(q0, max_rounds, kernel, |d| {
-                    self.eval_children(regs, d)
-                })?;
-                Ok((k, r))
+                $crate::compose::settle(q0, max_rounds, kernel, |d| self.eval_children(regs, d))
             }
 
             /// Every child's register signals prefixed with its instance name (`rt_...`), then
@@ -286,7 +284,7 @@ mod tests {
         let mut regs = c.children_reset(7);
         assert_eq!((regs.first, regs.second, regs.cycles), (0, 0, 7));
         for _ in 0..3 {
-            let ((), next) = c
+            let (_, (), _, next) = c
                 .settle_children(&regs, 4, |q: &ChainOuts| {
                     let d = ChainIns {
                         first: AccIn(5),

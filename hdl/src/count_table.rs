@@ -130,6 +130,9 @@ crate::bundle! {
         /// The presented op is accepted this cycle (low only for a full-table Add while the
         /// minimum is stale; hold the op until high).
         pub ready: bool,
+        /// The table accepts any op this cycle (registers only: low only while it is full and
+        /// its minimum is stale, [`CountTableStatus::ready`]).
+        pub accepts: bool,
         /// The accepted op was invalid and ignored.
         pub error: bool,
         /// An entry was evicted this cycle (its rays go to ray-stationary processing later).
@@ -152,6 +155,8 @@ crate::bundle! {
     ports {
         /// op accepted this cycle (low: full-table Add waits for the minimum)
         sig ready (1) = this.ready as u64;
+        /// any op is accepted this cycle (registers only: low only while full with a stale minimum)
+        sig accepts (1) = this.accepts as u64;
         /// op invalid (unknown treelet, too many rays, n out of range) and ignored
         sig error (1) = this.error as u64;
         /// an entry was evicted: process its rays ray-stationary later
@@ -419,6 +424,7 @@ impl CountTable {
         let w = self.widths;
         let mut out = CountTableOut {
             ready: true,
+            accepts: c.occupancy != self.entries() || c.min.valid,
             error: false,
             evict_valid: false,
             evict_treelet: 0,

@@ -316,7 +316,15 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
         let resp_max = u.resp_free(&fast).min(resp_ports) as usize;
         let ready = u.sm_ready(&fast, &cache);
         let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max);
-        let (want, next) = u.eval(&reference, &inputs);
+        let (want, next, wiring_in, wiring_out) = u.eval_wiring(&reference, &inputs);
+        // The wiring alone, from its ports (the children's register-only outputs standing for
+        // their registers), is the wiring of the definition.
+        let (alone, glue) = u.wiring_eval(&reference.glue, &wiring_in);
+        assert_eq!(alone, wiring_out, "the wiring from its ports, cycle {now}");
+        assert_eq!(
+            glue, next.glue,
+            "the wiring's registers from its ports, cycle {now}"
+        );
         // The register-only outputs on the ports are what the environment read before the cycle.
         assert_eq!((want.sm_ready, want.resp_free), (ready, u.resp_free(&fast)));
         ports_fit(&inputs, &want, now);

@@ -616,6 +616,43 @@ fn cosim_of_the_rt_unit_matches() {
     );
 }
 
+/// `vtq cosim --block wiring --scene`: the treelet RT unit's wiring alone against its RTL on
+/// the ports of a real run; without `--scene` it says what it needs.
+#[test]
+fn cosim_of_the_wiring_matches_on_a_real_run() {
+    let dir = temp_dir("cosim-wiring");
+    let Some(stdout) = vtq_cosim(&[
+        "cosim",
+        "--block",
+        "wiring",
+        "--scene",
+        "cornell",
+        "--set",
+        "mode.kind=queues",
+        "--set",
+        "mode.virtualization=true",
+        "--set",
+        "mode.grouping=true",
+        "--cycles",
+        "300",
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ]) else {
+        return;
+    };
+    let line = line_starting(&stdout, "treelet_rt_unit_wiring: ");
+    assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
+    let stimulus = line_starting(&stdout, "  stimulus: ");
+    assert!(
+        stimulus.contains("the wiring's ports in cycles 0..300 of SM 0"),
+        "{stimulus}"
+    );
+    assert_one_line_error(
+        &vtq(&["cosim", "--block", "wiring", "--cycles", "10"]),
+        "give --scene",
+    );
+}
+
 #[test]
 fn cosim_matches_on_a_small_configuration() {
     let dir = temp_dir("cosim");

@@ -2,18 +2,19 @@
 //! treelet queue table, treelet controller and RT unit, recorded cycle by cycle in a simulation
 //! of the VTQ design (with tables small enough to evict and spill), replayed as a Verilog
 //! testbench against the blocks' RTL: every output must match the Rust block's in every cycle.
-//! The whole treelet RT unit's recorded inputs replay the run on the Rust side (its wiring's
-//! RTL is still a skeleton, so there is no Verilog to replay them against yet).
+//! The whole treelet RT unit's recorded inputs replay the run on the Rust side, and its wiring's
+//! ports in that run replay against the wiring's RTL.
 
 mod common;
 
 use common::{setup, small_config};
 use vtq_gen::cosim::{
-    datapath_tables, record, run_cosim, tests_and_hits, CosimOptions, DatapathCall, RtUnitReplay,
-    Trace, TreeletRtUnitReplay,
+    datapath_tables, record, run_cosim, tests_and_hits, wiring_ports, CosimOptions, DatapathCall,
+    RtUnitReplay, Trace, TreeletRtUnitReplay, TreeletWiring,
 };
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
+    treelet_wiring_verilog,
 };
 use vtq_gen::tools::or_skip;
 use vtq_hdl::controller::TreeletController;
@@ -120,17 +121,22 @@ fn a_real_runs_table_traffic_matches_the_rtl() {
 /// SMs, a low divergence threshold), with its configuration, the scene's BVH and the datapath
 /// tests of the RT unit's recorded inputs ([`datapath_tables`]).
 fn recorded_vtq_run(cycles: usize) -> (SimConfig, HwBvh, TableLog, Vec<Vec<DatapathCall>>) {
-    let cfg = small_config(
-        "queues",
-        2,
-        32,
-        &[
-            "mode.virtualization=true",
-            "mode.grouping=true",
-            "hw.divergence_threshold=2",
-            "hw.underpopulation_threshold=8",
-        ],
-    );
+    recorded_run(cycles, &[])
+}
+
+/// [`recorded_vtq_run`] with more settings `extra`.
+fn recorded_run(
+    cycles: usize,
+    extra: &[&str],
+) -> (SimConfig, HwBvh, TableLog, Vec<Vec<DatapathCall>>) {
+    let mut settings = vec![
+        "mode.virtualization=true",
+        "mode.grouping=true",
+        "hw.divergence_threshold=2",
+        "hw.underpopulation_threshold=8",
+    ];
+    settings.extend_from_slice(extra);
+    let cfg = small_config("queues", 2, 32, &settings);
     let (scene, bvh) = setup("cornell", &cfg);
     let options = SimOptions {
         record_tables: Some((0, cycles)),
@@ -235,4 +241,83 @@ fn a_real_runs_treelet_rt_unit_inputs_replay_the_run() {
     };
     assert!(column("sm_accept") >= 2 && column("ray_store_count") >= 32);
     assert!(column("mem_req_valid") > 100 && column("count_rt_tests_internal") > 100);
+}
+
+/// The treelet RT unit's wiring against its RTL on a real run: the wiring's ports (the block's
+/// inputs and its children's outputs in, the block's outputs and its children's inputs out)
+/// in every cycle of the block's definition stepped over SM 0's recorded inputs, replayed
+/// against `treelet_rt_unit_wiring` alone; every output must match in every cycle
+/// (`TreeletWiring`, the wiring from its ports alone, records what the RTL must drive). A warp
+/// of 8 lanes on a 16 x 16 image, so Icarus runs the 26,000 cycles (which reach the final
+/// phase's first repack) in about two minutes. A deliberately broken line of the RTL must be
+/// caught.
+#[test]
+fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
+    const CYCLES: usize = 26_000;
+    let extra = [
+        "hw.treelet_bytes=1024",
+        "hw.divergence_threshold=1",
+        "hw.warp_size=8",
+        "gpu.warp_size=8",
+        "gpu.max_ctas_per_sm=4",
+        "hw.repack_threshold=6",
+        "width=16",
+        "height=16",
+    ];
+    let (cfg, bvh, log, _) = recorded_run(CYCLES, &extra);
+    let unit =
+        TreeletRtUnit::new(cfg.hw.clone(), log.params.clone(), BvhDatapath::new(&bvh)).unwrap();
+    let ports = wiring_ports(&unit, log.treelet);
+    let wiring = TreeletWiring::new(&unit);
+    let trace = record(&wiring, ports.iter().cloned()).unwrap();
+    // The run exercised the wiring: warps admitted, records loaded for fills, fills issued,
+    // rays finished and parked, warps repacked.
+    let column = |name: &str| {
+        let k = (trace.inputs.iter().chain(&trace.outputs))
+            .position(|s| s.name == name)
+            .unwrap_or_else(|| panic!("no signal {name}"));
+        trace.rows().map(|r| r[k]).sum::<u64>()
+    };
+    let seen: Vec<(&str, u64)> = [
+        "sm_accept",
+        "ray_load_count",
+        "finished_count",
+        "parked_count",
+        "rt_issue_valid",
+        "rt_released_valid",
+        "ctl_repack_valid",
+        "ctl_enq_valid",
+        "ctl_warp_done_valid",
+    ]
+    .into_iter()
+    .map(|name| (name, column(name)))
+    .collect();
+    eprintln!("{seen:?}");
+    assert!(seen.iter().all(|&(_, n)| n > 0), "{seen:?}");
+    let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-wiring");
+    std::fs::create_dir_all(&work).unwrap();
+    let rtl = treelet_wiring_verilog(&unit).unwrap();
+    let path = work.join("treelet_rt_unit_wiring.v");
+    std::fs::write(&path, &rtl).unwrap();
+    let Some(result) = or_skip(run_cosim(
+        &trace,
+        std::slice::from_ref(&path),
+        &CosimOptions::icarus(&work),
+    ))
+    .unwrap() else {
+        return;
+    };
+    assert_eq!(result.cycles, CYCLES as u64);
+    assert_eq!(result.mismatches, 0, "{:?}", result.reported);
+    // The check can fail: the second of an admitted warp's rays given the third free id.
+    let line = "if (c == 0) low_ids[k*RB +: RB] = id32[RB-1:0];";
+    assert!(rtl.contains(line));
+    std::fs::write(&path, rtl.replace(line, &line.replace("c == 0", "c == 1"))).unwrap();
+    let short = record(&wiring, ports.into_iter().take(1000)).unwrap();
+    let broken = run_cosim(&short, &[path], &CosimOptions::icarus(&work)).unwrap();
+    assert!(broken.mismatches > 0, "a broken line went unnoticed");
+    assert!(broken
+        .reported
+        .iter()
+        .any(|m| m.signal.starts_with("sm_ray_id")));
 }

@@ -315,13 +315,14 @@ fn effective_registers(desc: &BlockDesc) -> String {
 }
 
 /// Output ports driven by the combinational block through `o_<port>` (the others: `mode`
-/// and the resident list, which come from the effective registers).
+/// and the resident list, which come from the effective registers, and `mode_reg`, the mode
+/// register itself).
 fn driven_outputs(desc: &BlockDesc) -> impl Iterator<Item = &vtq_hdl::PortDesc> {
     desc.ports.iter().filter(|p| {
         p.dir == Dir::Out
             && !matches!(
                 p.name.as_str(),
-                "mode" | "resident_valid" | "resident_treelet"
+                "mode" | "mode_reg" | "resident_valid" | "resident_treelet"
             )
     })
 }
@@ -354,6 +355,7 @@ fn output_assigns(desc: &BlockDesc) -> String {
     for p in desc.ports.iter().filter(|p| p.dir == Dir::Out) {
         let src = match p.name.as_str() {
             "mode" => "e_mode".to_string(),
+            "mode_reg" => "mode_q".to_string(),
             "resident_valid" => "ord_valid".to_string(),
             "resident_treelet" => "ord_treelet".to_string(),
             n => format!("o_{n}"),

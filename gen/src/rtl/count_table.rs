@@ -74,6 +74,7 @@ pub fn count_table_verilog(cfg: &HwConfig) -> Result<String, GenError> {
     };
     let vars: Vec<(&str, String)> = vec![
         ("N", n.to_string()),
+        ("N_EW", lit(ew, n)),
         ("NM1", (n - 1).to_string()),
         ("W", w.to_string()),
         ("WM1", (w - 1).to_string()),
@@ -553,6 +554,7 @@ end
 
 // ---- Outputs ----------------------------------------------------------------------------------
 assign ready = ready_o;
+assign accepts = (occupancy_q != ${N_EW}) || min_valid_q;
 assign error = error_o;
 assign evict_valid = evict_valid_o;
 assign evict_treelet = evict_treelet_o;

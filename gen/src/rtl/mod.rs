@@ -23,6 +23,7 @@ mod count_table;
 mod queue_table;
 mod replay;
 mod rt_unit;
+mod treelet_wiring;
 
 pub use controller::controller_verilog;
 pub use count_table::count_table_verilog;
@@ -32,6 +33,7 @@ pub use rt_unit::{
     datapath_blackbox_verilog, rt_unit_verilog, toy_datapath_verilog, CHILD_BITS, CHILD_COUNT_BITS,
     DATAPATH_PORTS,
 };
+pub use treelet_wiring::{instances, treelet_wiring_desc, treelet_wiring_verilog};
 
 use crate::emit::{one_line, range, VerilogWriter};
 use crate::error::GenError;
@@ -145,6 +147,21 @@ impl<'a> DescInfo<'a> {
     }
 }
 
+/// Zero of `width` bits: a sized literal, or a replication past 64 bits (simulators limit the
+/// width of a literal).
+fn zero(width: u32) -> String {
+    if width > 64 {
+        // Replications of at most 8192 bits (Verilator's linter flags longer ones).
+        let mut parts = vec!["{8192{1'b0}}".to_string(); (width / 8192) as usize];
+        if !width.is_multiple_of(8192) {
+            parts.push(format!("{{{}{{1'b0}}}}", width % 8192));
+        }
+        format!("{{{}}}", parts.join(", "))
+    } else {
+        lit(width, 0)
+    }
+}
+
 /// A sized decimal literal.
 fn lit(width: u32, value: u64) -> String {
     format!("{width}'d{value}")
@@ -255,7 +272,7 @@ fn emit_registers_as(
             .iter()
             .find(|(n, _)| *n == r.name)
             .map(|(_, v)| v.clone())
-            .unwrap_or_else(|| lit(width, 0));
+            .unwrap_or_else(|| zero(width));
         w.line(format!("{}_q <= {value};", r.name));
     }
     w.dedent();

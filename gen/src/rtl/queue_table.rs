@@ -628,6 +628,7 @@ assign spill_valid = spill_valid_o;
 assign spill_treelet = spill_treelet_o;
 assign spill_ray = spill_ray_o;
 assign refill_req = refill_req_o;
+assign refill_waiting = (state_q == ${REFILL_WAIT});
 assign free_entries = free_count_q;
 assign spilled = spilled_q;
 assign walk_len = walk_len_o;"#;

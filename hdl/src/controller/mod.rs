@@ -457,6 +457,7 @@ impl Block for TreeletController {
         inputs: &ControllerInputs,
         n: &mut ControllerRegs,
     ) -> ControllerOutputs {
+        let mode_reg = regs.mode;
         // A restart in mode done starts this cycle from the reset state.
         let reset;
         let regs = if inputs.restart && regs.mode == Mode::Done {
@@ -469,6 +470,7 @@ impl Block for TreeletController {
         let mut out = ControllerOutputs {
             widths: self.widths,
             mode: regs.mode,
+            mode_reg,
             enq_ready: false,
             terminate: None,
             reserve: None,

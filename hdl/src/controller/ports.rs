@@ -227,6 +227,9 @@ crate::bundle! {
     pub struct ControllerOutputs (Out, w: ControllerWidths, this) {
         /// Current traversal mode.
         pub mode: Mode,
+        /// The mode register (registers only): `mode` before this cycle's restart, what the
+        /// wiring decides the restart from.
+        pub mode_reg: Mode,
         /// The enqueue request is taken this cycle.
         pub enq_ready: bool,
         /// Terminate this initial-phase warp: its rays go to the treelet queues.
@@ -254,6 +257,8 @@ crate::bundle! {
     ports {
         /// Traversal mode: 0 initial, 1 treelet stationary, 2 final ray stationary, 3 done.
         sig mode (Mode::BITS) = this.mode.encoding();
+        /// The mode register (registers only): mode before this cycle's restart.
+        sig mode_reg (Mode::BITS) = this.mode_reg.encoding();
         /// The enqueue request is taken this cycle.
         sig enq_ready (1) = this.enq_ready as u64;
         /// Terminate an initial-phase warp: its rays go to the treelet queues.

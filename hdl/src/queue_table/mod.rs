@@ -192,6 +192,8 @@ crate::bundle! {
         pub spill_ray: u32,
         /// Request for one spilled ray (answer on `refill_*`).
         pub refill_req: bool,
+        /// The table waits for the answer to its refill request (registers only).
+        pub refill_waiting: bool,
         /// Free entries.
         pub free_entries: u32,
         /// Rays handed to the spill store and not yet refilled.
@@ -224,6 +226,8 @@ crate::bundle! {
         sig spill_ray (w.ray) = this.spill_ray as u64;
         /// request one spilled ray (answer on refill_*)
         sig refill_req (1) = this.refill_req as u64;
+        /// waiting for the answer to a refill request (registers only)
+        sig refill_waiting (1) = this.refill_waiting as u64;
         /// free table entries
         sig free_entries (w.entries) = this.free_entries as u64;
         /// rays spilled and not yet refilled
@@ -471,6 +475,7 @@ impl QueueTable {
                 spill_treelet: 0,
                 spill_ray: 0,
                 refill_req: false,
+                refill_waiting: c.state == QueueState::RefillWait,
                 free_entries: c.free_count,
                 spilled: c.spilled,
                 walk_len: 0,

@@ -203,6 +203,22 @@ crate::bundle! {
         Out sig released_mask (w.warp_size) = mask(w.warp_size, |i| {
             this.released.as_ref().is_some_and(|d| d.lanes.get(i).is_some_and(Option::is_some))
         });
+        /// per lane: the released ray's id
+        Out lanes released_ray_id (w.ray_id, w.warp_size) = |i: usize| {
+            this.released_lane(i).map_or(0, |r| r.ray_id as u64)
+        };
+        /// per lane: the released ray has a hit
+        Out sig released_hit_valid (w.warp_size) = mask(w.warp_size, |i| {
+            this.released_lane(i).is_some_and(|r| r.hit.is_some())
+        });
+        /// per lane: the released ray's closest hit
+        Out bulks released ([("hit", w.warp_size * HIT_BITS, "per lane: the released ray's closest hit t, hit id, two attributes (t lowest)")]) = |_f: usize| {
+            let mut p = BitPacker::new();
+            for i in 0..w.warp_size as usize {
+                Hit::pack(this.released_lane(i).and_then(|r| r.hit.as_ref()), &mut p);
+            }
+            p.into_words()
+        };
         /// sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack spill area full, bad child, bad controller command
         Out sig errors (errors::BITS) = this.errors as u64;
         /// an error was captured (first error, sticky)
@@ -339,6 +355,16 @@ impl RtUnitOutputs {
     /// The completed warp's lane `i`, if it held a ray.
     fn done_lane(&self, i: usize) -> Option<&(RayRecord, RayOutcome)> {
         self.done.as_ref()?.lanes.get(i)?.as_ref()
+    }
+
+    /// Lane `i`'s ray released by this cycle's repack, if any.
+    fn released_lane(&self, i: usize) -> Option<&RayRecord> {
+        self.released
+            .as_ref()?
+            .lanes
+            .get(i)?
+            .as_ref()
+            .map(|(r, _)| r)
     }
 
     /// The boundary event of lane `i`, if any.

@@ -146,7 +146,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     let qt_out =
         (qt_in.op != QueueOp::Nop || qt_in.refill_valid || qt_busy).then(|| u.qt.step(qt, &qt_in));
     let rt_out = u.rt.step_cached(rt, &mut cache.rt, rt_in);
-    after_children(g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, out);
+    after_children(u, g, ct_out.as_ref(), qt_out.as_ref(), &rt_out, out);
     if let Some(start) = probe_regs {
         let ins = (ctl_in, &ct_in, &qt_in, &*rt_in);
         let outs = (ctl_out.as_ref(), ct_out.as_ref(), qt_out.as_ref(), &rt_out);

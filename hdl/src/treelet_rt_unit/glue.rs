@@ -281,6 +281,12 @@ pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'st
         slots * cfg.warp_size,
         "per slot: the fill's loaded ray records",
     )
+    .untraced(
+        "build_arrived",
+        1,
+        slots * cfg.warp_size,
+        "per slot: whether each of the fill's records has arrived",
+    )
     .untraced("build_count", lanes, slots, "per slot: the fill's rays")
     .bank(
         "build_loading",

@@ -56,7 +56,8 @@
 //!
 //! # Files
 //! `ports` (the port bundles and widths), `glue` (the wiring's registers, declared once),
-//! `wiring` (the kernel's stages), `fast_path` (the stages once, children stepped in place),
+//! `wiring` (the kernel's stages), `wiring_ports` (the kernel on its own, from its ports, as
+//! its RTL module sees it), `fast_path` (the stages once, children stepped in place),
 //! `probe` (the probe that checks the fast path against the definition), this file (the block,
 //! its cache, idle skipping).
 
@@ -65,6 +66,7 @@ mod glue;
 mod ports;
 mod probe;
 mod wiring;
+mod wiring_ports;
 
 pub use glue::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 pub use ports::{
@@ -72,6 +74,7 @@ pub use ports::{
     TreeletRtUnitWidths,
 };
 pub use probe::ProbeCycle;
+pub use wiring_ports::{WiringInputs, WiringOutputs};
 
 use crate::block::{Block, Signal};
 use crate::config::HwConfig;
@@ -623,9 +626,10 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
         let rt_status = self.rt.status(&regs.rt, &RtCache::of(&regs.rt), distinct);
         let peeks = wiring::Peeks::of(self, regs, &rt_status);
-        let settled =
-            self.settle_children(regs, 8, |q| wiring::kernel(self, regs, &peeks, inputs, q));
-        let ((out, glue), children) =
+        let settled = self.settle_children(regs, 8, |q| {
+            wiring::kernel(self, &regs.glue, &peeks, inputs, q)
+        });
+        let (_, (out, glue), _, children) =
             settled.expect("the treelet RT unit's wiring has no combinational cycle");
         *next = children.with_glue(glue);
         out

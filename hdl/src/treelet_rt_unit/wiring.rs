@@ -16,7 +16,9 @@ use crate::controller::{
     ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
     FillKind, InitReport,
 };
-use crate::count_table::{CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus};
+use crate::count_table::{
+    CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus, QueueCount,
+};
 use crate::mode::Mode;
 use crate::queue_table::{QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus};
 use crate::rt_unit::{
@@ -60,6 +62,38 @@ impl<'a> Peeks<'a> {
         }
     }
 
+    /// The peeks as the wiring's ports carry them: the RT unit's status ports `rt`, the
+    /// controller's mode register and the tables' register-only outputs (what the wiring's
+    /// RTL reads).
+    pub(super) fn from_ports<D: NodeDatapath>(
+        u: &TreeletRtUnit<D>,
+        rt: &'a RtUnitStatus,
+        ctl: &ControllerOutputs,
+        ct: &CountTableOut,
+        qt: &QueueTableOut,
+    ) -> Self {
+        Peeks {
+            rt,
+            ct: CountTableStatus {
+                ready: ct.accepts,
+                max: ct.max_valid.then_some(QueueCount {
+                    treelet: ct.max_treelet as u32,
+                    count: ct.max_count,
+                }),
+                occupancy: ct.occupancy,
+                above_threshold: ct.above_threshold,
+            },
+            qt: QueueTableStatus {
+                ready: qt.ready,
+                free_entries: qt.free_entries,
+                spilled: qt.spilled,
+                refill_waiting: qt.refill_waiting,
+            },
+            mode: ctl.mode_reg,
+            admit_ts: u.ctl.features().admit_in_treelet_stationary,
+        }
+    }
+
     /// The peeks of `regs` with the RT unit's status ports `rt` (of `regs.rt`).
     pub(super) fn of<D: NodeDatapath>(
         u: &TreeletRtUnit<D>,
@@ -74,12 +108,12 @@ impl<'a> Peeks<'a> {
 /// wiring registers))`, the three stages chained.
 pub(super) fn kernel<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
-    regs: &TreeletRtUnitRegs,
+    glue: &GlueRegs,
     peeks: &Peeks,
     inputs: &TreeletRtUnitInputs,
     q: &ChildOutputs,
 ) -> (ChildInputs, (TreeletRtUnitOutputs, GlueRegs)) {
-    let mut g = regs.glue.clone();
+    let mut g = glue.clone();
     let mut out = empty_outputs(u);
     place_records(&mut g, &inputs.ray_records);
     out.sm_ready = sm_ready_in(u, &g, peeks.mode, peeks.rt);
@@ -98,7 +132,7 @@ pub(super) fn kernel<D: NodeDatapath>(
         &mut out,
         &mut rt_in,
     );
-    after_children(&mut g, Some(&q.ct), Some(&q.qt), &q.rt, &mut out);
+    after_children(u, &mut g, Some(&q.ct), Some(&q.qt), &q.rt, &mut out);
     let d = ChildInputs {
         ctl: ctl_in,
         ct: ct_in,
@@ -160,7 +194,11 @@ pub(super) fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
                     .iter()
                     .zip(&b.records)
                     .position(|(&r, rec)| r == load.ray && rec.is_none())?;
-                b.records.as_mut_slice()[k] = Some(load.record.clone());
+                // The fill knows the ray's id: the record's own is not on the ports.
+                b.records.as_mut_slice()[k] = Some(RayRecord {
+                    ray_id: load.ray,
+                    ..load.record.clone()
+                });
                 b.loading = b.loading.saturating_sub(1);
                 Some(())
             });
@@ -543,7 +581,8 @@ fn admit<D: NodeDatapath>(
 /// hits and free their ids, rays stopped at a boundary leave their records to the store and are
 /// queued for enqueueing, then the slot's `warp_done`.
 /// A table that was not stepped (`None`: no op and nothing in progress) answers nothing.
-pub(super) fn after_children(
+pub(super) fn after_children<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
     ct: Option<&CountTableOut>,
     qt: Option<&QueueTableOut>,
@@ -570,18 +609,24 @@ pub(super) fn after_children(
     out.errors = rt.errors;
     out.first_error = rt.first_error;
     if let Some(done) = &rt.released {
-        unpack(g, done, out);
+        unpack(u, g, done, out);
     }
     if let Some(done) = &rt.done {
-        unpack(g, done, out);
+        unpack(u, g, done, out);
         g.uses[done.slot as usize] = SlotUse::Closing;
         g.push_event(Event::WarpDone(done.slot));
     }
     out.fault = g.fault.clone();
 }
 
-/// Returns finished rays and parks stopped ones.
-fn unpack(g: &mut GlueRegs, done: &WarpDone, out: &mut TreeletRtUnitOutputs) {
+/// Returns finished rays and parks stopped ones. A parked ray is queued for the treelet of
+/// its next node (the record's, as the RT unit's completion ports carry it).
+fn unpack<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &mut GlueRegs,
+    done: &WarpDone,
+    out: &mut TreeletRtUnitOutputs,
+) {
     for (rec, outcome) in done.lanes.iter().flatten() {
         let id = rec.ray_id;
         if !g.ids.in_use(id) {
@@ -596,7 +641,8 @@ fn unpack(g: &mut GlueRegs, done: &WarpDone, out: &mut TreeletRtUnitOutputs) {
                 });
                 g.ids.give(id);
             }
-            RayOutcome::AtBoundary { treelet } => {
+            RayOutcome::AtBoundary { .. } => {
+                let treelet = rec.next_node().map_or(0, |n| u.rt.treelet_of(n.address));
                 out.parked.push(rec.clone());
                 g.push_event(Event::Enqueue {
                     ray: id,

@@ -758,14 +758,26 @@ always @* begin : p_back
     end
 end
 
-// The lanes the repack released (lane l of the repacked slot).
+// The lanes the repack released (lane l of the repacked slot), with their rays' ids and hits
+// (quiescent lanes: their registers are what the repack takes).
 reg [N-1:0] o_released_mask;
+reg [N*RB-1:0] o_released_ray_id;
+reg [N-1:0] o_released_hit_valid;
+reg [N*128-1:0] o_released_hit;
 always @* begin : p_released
     integer s, l;
     o_released_mask = {N{1'b0}};
+    o_released_ray_id = {N*RB{1'b0}};
+    o_released_hit_valid = {N{1'b0}};
+    for (l = 0; l < N; l = l + 1) o_released_hit[l*128 +: 128] = 128'd0;
     for (s = 0; s < S; s = s + 1)
         for (l = 0; l < N; l = l + 1)
-            if (l_released[s*N+l]) o_released_mask[l] = 1'b1;
+            if (l_released[s*N+l]) begin
+                o_released_mask[l] = 1'b1;
+                o_released_ray_id[l*RB +: RB] = lane_ray_id_q[(s*N+l)*RB +: RB];
+                o_released_hit_valid[l] = lane_hit_valid_q[s*N+l];
+                o_released_hit[l*128 +: 128] = lane_hit_q[(s*N+l)*128 +: 128];
+            end
 end
 
 // ---- Register-only status ports -----------------------------------------------------------------

@@ -6,7 +6,8 @@
 //! toy node format's datapath on both sides), or (`--scene`) on the real traffic of a
 //! simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle by cycle
 //! from reset and replayed as the testbench's stimulus (the RT unit's with its datapath's tests
-//! answered from their recorded results, [`vtq_gen::cosim::RtUnitReplay`]).
+//! answered from their recorded results, [`vtq_gen::cosim::RtUnitReplay`]; the treelet RT
+//! unit's wiring, alone, on its ports in the recorded run, [`vtq_gen::cosim::TreeletWiring`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -17,9 +18,10 @@ use vtq_gen::cosim::{
     datapath_tables, record, run_cosim, tests_and_hits, write_rust_vcd, CosimOptions, CosimResult,
     RtUnitReplay, RtUnitWithStatus, Simulator, Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
 };
+use vtq_gen::cosim::{wiring_ports, TreeletWiring};
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
-    rt_unit_verilog, toy_datapath_verilog,
+    rt_unit_verilog, toy_datapath_verilog, treelet_wiring_verilog,
 };
 use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::rt_unit::rt_unit_inputs;
@@ -29,6 +31,7 @@ use vtq_hdl::controller::{ControllerInputs, ControllerStats, TreeletController};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::QueueOp;
 use vtq_hdl::rt_unit::RtUnitParams;
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, WiringInputs};
 use vtq_hdl::Block;
 
 use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
@@ -52,7 +55,10 @@ pub enum BlockChoice {
     /// The RT unit's control (random stimulus with the toy datapath; with `--scene`, the
     /// recorded traffic with the scene's datapath answering from its recorded results).
     RtUnit,
-    /// Both tables, the controller and the RT unit.
+    /// The treelet RT unit's wiring, alone (with `--scene` only: its ports in the recorded run,
+    /// the block stepped by its definition over SM `--sm`'s recorded inputs).
+    Wiring,
+    /// Both tables, the controller and the RT unit (and with `--scene`, the wiring).
     All,
 }
 
@@ -74,6 +80,9 @@ impl BlockChoice {
     }
     fn rt_unit(self) -> bool {
         matches!(self, BlockChoice::RtUnit | BlockChoice::All)
+    }
+    fn wiring(self) -> bool {
+        matches!(self, BlockChoice::Wiring | BlockChoice::All)
     }
 }
 
@@ -213,6 +222,9 @@ struct Job {
 /// Builds the stimulus, records the Rust block and generates the RTL of each chosen block.
 fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     let hw = &cfg.hw;
+    if args.block == BlockChoice::Wiring {
+        bail!("--block wiring replays a real run's ports: give --scene");
+    }
     let mut out = Vec::new();
     if args.block.count() {
         let (table, inputs, coverage) = count_table_inputs(hw, args.cycles, args.seed)?;
@@ -387,6 +399,38 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
                 out.stats.cycles
             ),
             verilog: rt_unit_replay_verilog(hw, params)?,
+        });
+    }
+    if args.block.wiring() {
+        let unit = TreeletRtUnit::new(hw.clone(), log.params.clone(), BvhDatapath::new(&bvh))?;
+        let ports = wiring_ports(&unit, log.treelet.iter().cloned());
+        let sum = |f: &dyn Fn(&WiringInputs) -> usize| ports.iter().map(f).sum::<usize>();
+        let done = sum(&|p| usize::from(p.rt.done.is_some()));
+        let released = sum(&|p| usize::from(p.rt.released.is_some()));
+        let fills = sum(&|p| usize::from(p.ctl.fill.is_some()));
+        let records = sum(&|p| p.top.ray_records.len());
+        let offered = sum(&|p| usize::from(p.top.sm_warp.is_some()));
+        let wiring = TreeletWiring::new(&unit);
+        let trace = record(&wiring, ports)?;
+        jobs.push(Job {
+            // The wiring block borrows the unit: no Rust waveform for it.
+            rust_vcd: None,
+            trace,
+            coverage: format!(
+                "real traffic: the wiring's ports in cycles 0..{} of SM {} in scene {} ({}, {} \
+                 cycles in all), the block stepped by its definition from reset: {offered} \
+                 cycles with an SM warp offered, {fills} fill commands, {records} ray records \
+                 returned, {done} warps completed, {released} repacks released lanes",
+                log.treelet.len(),
+                args.sm,
+                scene.name,
+                cfg.mode.kind.name(),
+                out.stats.cycles
+            ),
+            verilog: vec![(
+                vtq_gen::compose::wiring_name(&unit.describe()),
+                treelet_wiring_verilog(&unit)?,
+            )],
         });
     }
     Ok(jobs)

@@ -3,13 +3,13 @@
 //! configuration's design features when it is a queues design, the full design otherwise) and
 //! the RT unit's control (with `rt_datapath`, the toy node format's datapath standing in for the
 //! box/triangle datapath), and the composed treelet RT unit: a top module instantiating the four
-//! with its wiring module (a skeleton).
+//! with its wiring module.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use vtq_gen::compose::{composite_modules, Instance};
+use vtq_gen::compose::composite_modules;
 use vtq_gen::rtl::{rt_unit_verilog, toy_datapath_verilog};
 use vtq_hdl::rt_unit::NoDatapath;
 use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
@@ -41,14 +41,7 @@ pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
         ray_base: 0,
     };
     let unit = TreeletRtUnit::new(cfg.hw.clone(), params, NoDatapath)?;
-    let children: Vec<Instance> = unit
-        .children()
-        .into_iter()
-        .map(|(name, desc)| Instance {
-            name: name.to_string(),
-            desc,
-        })
-        .collect();
+    let children = vtq_gen::rtl::instances(&unit);
     out.push((
         children[0].desc.name.clone(),
         rt_unit_verilog(&cfg.hw, &rt_params)?,
@@ -57,7 +50,8 @@ pub fn modules(cfg: &SimConfig) -> anyhow::Result<Vec<(String, String)>> {
         "rt_datapath".to_string(),
         toy_datapath_verilog(cfg.hw.address_bits),
     ));
-    out.extend(composite_modules(&unit.describe(), &children)?);
+    let wiring = vtq_gen::rtl::treelet_wiring_verilog(&unit)?;
+    out.extend(composite_modules(&unit.describe(), &children, wiring)?);
     Ok(out)
 }
 

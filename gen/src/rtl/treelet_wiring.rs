@@ -1,0 +1,246 @@
+//! RTL of the treelet RT unit's wiring (`vtq_hdl::treelet_rt_unit`'s kernel, module
+//! `treelet_rt_unit_wiring`): the slot owners, the fills of ray records, the event FIFO to the
+//! controller, the tables' registered answers, the free ray ids and the first fault, between the
+//! composite's ports and its children's (see [`crate::compose`] for the module's ports).
+//!
+//! The body follows the Rust kernel's stages in dependency order, each an always block of its
+//! own: arriving records join their fills (`p_place`); the controller's inputs come from
+//! registers and the children's register-only ports (`p_reports` and the assigns after it: the
+//! RT unit's status ports, the tables' `accepts`/`ready`/`refill_waiting`, the controller's
+//! `mode_reg`); the children's inputs follow from the controller's outputs (`p_children`: the
+//! event taken, a fill's rays, the issue of a complete fill or the admission of an SM warp with
+//! the lowest free ray ids from `p_ids`; the ray-record requests in `p_requests`); the RT unit's
+//! released and completed lanes are unpacked (`p_unpack`); `p_next` gives the next registers.
+//!
+//! Every width comes from the wiring's description (its ports and registers) and is checked
+//! against the block's; ray ids on the RT unit's lanes are unique (the wiring gives them out),
+//! which the RTL relies on where the Rust kernel checks ids one lane at a time.
+
+use super::{emit_full_module, emit_registers_as, emit_text, fill, lit, vector_range, DescInfo};
+use crate::compose::{wiring_desc, Instance};
+use crate::emit::VerilogWriter;
+use crate::error::GenError;
+use vtq_hdl::rt_unit::NodeDatapath;
+use vtq_hdl::treelet_rt_unit::TreeletRtUnit;
+use vtq_hdl::{bits_for, clog2, Block, BlockDesc, Dir};
+
+/// The template of the module body (`${NAME}` placeholders).
+const BODY: &str = include_str!("treelet_wiring/body.v");
+
+/// The children of `unit` as instances (name and description), in the order of its
+/// registers: `rt`, `ctl`, `ct`, `qt`.
+pub fn instances<D: NodeDatapath>(unit: &TreeletRtUnit<D>) -> Vec<Instance> {
+    unit.children()
+        .into_iter()
+        .map(|(name, desc)| Instance {
+            name: name.to_string(),
+            desc,
+        })
+        .collect()
+}
+
+/// The wiring module's description for `unit` ([`wiring_desc`] of its description and
+/// children).
+pub fn treelet_wiring_desc<D: NodeDatapath>(unit: &TreeletRtUnit<D>) -> BlockDesc {
+    wiring_desc(&unit.describe(), &instances(unit))
+}
+
+/// Complete Verilog-2005 for the treelet RT unit's wiring (module `treelet_rt_unit_wiring`),
+/// cycle-exact with the Rust kernel (see the module documentation).
+pub fn treelet_wiring_verilog<D: NodeDatapath>(
+    unit: &TreeletRtUnit<D>,
+) -> Result<String, GenError> {
+    let desc = treelet_wiring_desc(unit);
+    let info = DescInfo::new(&desc)?;
+    let cfg = unit.config();
+    let params = unit.params();
+    let n = info.param("warp_size")? as u32;
+    let s = info.param("warp_buffer_size")? as u32;
+    let mr = info.param("max_rays")? as u32;
+    let ray_base = info.param("ray_base")?;
+    let sb = info.port("rt_issue_slot", Dir::Out)?;
+    let rb = info.port("sm_ray_id", Dir::Out)? / n;
+    let tw = info.port("spill_head_treelet", Dir::In)?;
+    let ab = info.port("mem_req_address", Dir::Out)?;
+    let spw = info.port("sm_cur_sp", Dir::In)? / n;
+    let scw = info.port("sm_cur_spilled", Dir::In)? / n;
+    let de = info.port("sm_cur_stack", Dir::In)? / n;
+    let d = cfg.stack_depth;
+    let e = de / d;
+    let cw = info.port("ctl_fill_count", Dir::In)?;
+    let lw = info.port("finished_count", Dir::Out)?;
+    let cmw = info.port("ctl_ct_max_count", Dir::Out)?;
+    let ctcw = info.port("ct_max_count", Dir::In)?;
+    let fcw = info.reg("free_count")?;
+    let evw = info.reg("event_count")?;
+    let events = desc
+        .registers
+        .iter()
+        .find(|r| r.name == "events")
+        .ok_or_else(|| info.bad("the RTL needs a register bank `events`".into()))?;
+    let evd = events.count;
+    let records = desc
+        .registers
+        .iter()
+        .find(|r| r.name == "build_records")
+        .ok_or_else(|| info.bad("the RTL needs a register bank `build_records`".into()))?;
+    let rec = records.width;
+    let qdw = desc
+        .registers
+        .iter()
+        .find(|r| r.name == "last_qt_done")
+        .map_or(0, |r| r.width);
+    let tsh = clog2(cfg.treelet_bytes as u64);
+    let consistent = rec == rb + 256 + 1 + 128 + tw + 2 * spw + 2 * scw + 2 * de
+        && qdw == 1 + tw + cw + n * rb
+        && events.width == 1 + rb + tw
+        && cw == bits_for(n as u64)
+        && info.port("rt_status_traversing", Dir::In)? == s * cw
+        && info.port("ctl_init_active", Dir::Out)? == cw
+        && fcw == bits_for(mr as u64)
+        && lw >= cw
+        && ctcw >= cmw
+        && ab >= rb + 5
+        && rb >= sb
+        && d * e == de
+        && tsh + 5 + tw <= e;
+    if !consistent {
+        return Err(info.bad(format!(
+            "sizes are inconsistent: record {rec}, ray {rb}, treelet {tw}, lanes {cw}, \
+             stack {de} bits from the description"
+        )));
+    }
+    let params_text = [
+        format!("localparam N = {n};        // lanes per warp"),
+        format!("localparam S = {s};        // warp-buffer slots"),
+        format!("localparam SB = {sb};      // slot index bits"),
+        format!("localparam RB = {rb};      // ray id bits"),
+        format!("localparam TW = {tw};      // treelet number bits"),
+        format!("localparam AB = {ab};      // address bits"),
+        format!("localparam MR = {mr};      // ray ids (max_rays)"),
+        format!(
+            "localparam NW = {};        // 64-id words of the free-id bitmap",
+            mr.div_ceil(64)
+        ),
+        format!("localparam D = {d};        // on-chip entries per stack"),
+        format!("localparam E = {e};        // stack entry: {{address, kind, chunks - 1}}"),
+        format!("localparam DE = {de};      // bits of a stack"),
+        format!("localparam SPW = {spw};    // stack pointer bits"),
+        format!("localparam SCW = {scw};    // spilled-chunk count bits"),
+        format!("localparam TSH = {tsh};    // log2(treelet_bytes)"),
+        format!("localparam CW = {cw};      // a warp's lane count bits"),
+        format!("localparam LW = {lw};      // two warps' lane count bits"),
+        format!("localparam CMW = {cmw};    // the controller's count-table count bits"),
+        format!("localparam CTCW = {ctcw};  // the count table's count bits"),
+        format!("localparam FCW = {fcw};    // free-id count bits"),
+        format!("localparam EVD = {evd};    // event FIFO entries"),
+        format!("localparam EVW = {evw};    // event count bits"),
+        format!("localparam REC = {rec};    // a kept ray record"),
+        format!("localparam QDW = {qdw};    // the queue table's registered answer"),
+        format!(
+            "localparam ADMIT_TS = {}; // SM warps admitted in the treelet-stationary mode",
+            u8::from(params.features.admit_in_treelet_stationary)
+        ),
+        format!("localparam [AB-1:0] RAY_BASE = {};", lit(ab, ray_base)),
+        format!("localparam [CW-1:0] ONE_CW = {};", lit(cw, 1)),
+    ]
+    .join("\n");
+    let mut regs = VerilogWriter::new();
+    emit_registers_as(
+        &mut regs,
+        &desc,
+        &[
+            ("free_ids", format!("{{{mr}{{1'b1}}}}")),
+            ("free_count", lit(fcw, mr as u64)),
+        ],
+        vector_range,
+    );
+    let pop_rays = (0..n)
+        .rev()
+        .map(|i| format!("qt_pop_ray_{i}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let zext = |expr: &str, from: u32, to: u32| {
+        if to > from {
+            format!("{{{}'d0, {expr}}}", to - from)
+        } else {
+            expr.to_string()
+        }
+    };
+    let mut responses = Vec::new();
+    for k in 0.. {
+        if desc.port(&format!("resp{k}_valid")).is_none() {
+            break;
+        }
+        for f in ["valid", "address", "tag", "data"] {
+            responses.push(format!("assign rt_resp{k}_{f} = resp{k}_{f};"));
+        }
+    }
+    // The RT unit's request, errors, FIFO room and statistics events leave unchanged.
+    let mut pass = vec![
+        "assign resp_free = rt_resp_free;".to_string(),
+        "assign mem_req_valid = rt_req_valid;".to_string(),
+        "assign mem_req_address = rt_req_address;".to_string(),
+        "assign mem_req_kind = rt_req_kind;".to_string(),
+        "assign mem_req_tag = rt_req_tag;".to_string(),
+        "assign mem_req_data = rt_req_data;".to_string(),
+    ];
+    for p in &desc.ports {
+        let child = if p.name == "errors" || p.name.starts_with("error_") {
+            Some(format!("rt_{}", p.name))
+        } else {
+            p.name
+                .strip_prefix("count_rt_")
+                .map(|rest| format!("rt_count_{rest}"))
+        };
+        if let Some(child) = child {
+            let from = info.port(&child, Dir::In)?;
+            pass.push(format!(
+                "assign {} = {};",
+                p.name,
+                zext(&child, from, p.width)
+            ));
+        }
+    }
+    let mut text = fill(
+        BODY,
+        &[
+            ("PARAMS", params_text),
+            ("REGISTERS", regs.finish()),
+            ("QT_POP_RAYS", format!("{{{pop_rays}}}")),
+            ("RESPONSES", responses.join("\n")),
+            ("NLOADS_LW", zext("nloads", cw, lw)),
+            ("NEED_LW", zext("need", cw, lw)),
+            ("PASS_THROUGH", pass.join("\n")),
+            ("UNUSED", String::new()),
+        ],
+    );
+    // Inputs the wiring does not read (or reads in part) are gathered for the linter.
+    let unused: Vec<String> = desc
+        .ports
+        .iter()
+        .filter(|p| p.dir == Dir::In && !mentions(&text, &p.name))
+        .map(|p| p.name.clone())
+        .collect();
+    if !unused.is_empty() {
+        text.push_str(&format!(
+            "\n// Inputs the wiring does not read.\n/* verilator lint_off UNUSEDSIGNAL */\n\
+             wire unused_inputs = &{{1'b0, {}}};\n/* verilator lint_on UNUSEDSIGNAL */\n",
+            unused.join(", ")
+        ));
+    }
+    let note = "Complete RTL of the wiring kernel, cycle-exact with vtq_hdl's treelet RT unit \
+                (co-simulated from the ports of real runs): slot owners, fills of ray records, \
+                the event FIFO, the tables' registered answers, free ray ids.";
+    Ok(emit_full_module(&desc, note, |w| emit_text(w, &text)))
+}
+
+/// Whether `text` mentions identifier `name` (not as part of a longer identifier).
+fn mentions(text: &str, name: &str) -> bool {
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    text.match_indices(name).any(|(i, _)| {
+        let before = text[..i].chars().next_back();
+        let after = text[i + name.len()..].chars().next();
+        !before.is_some_and(ident) && !after.is_some_and(ident)
+    })
+}

@@ -1,0 +1,676 @@
+${PARAMS}
+
+// Slot owners (slot_use) and the codes of the other fields.
+localparam [1:0] U_FREE = 2'd0;
+localparam [1:0] U_INITIAL = 2'd1;
+localparam [1:0] U_CONTROLLER = 2'd2;
+localparam [1:0] U_CLOSING = 2'd3;
+localparam [1:0] M_INITIAL = 2'd0;
+localparam [1:0] M_TREELET = 2'd1;
+localparam [1:0] M_FINAL = 2'd2;
+localparam [1:0] M_DONE = 2'd3;
+localparam [1:0] K_TREELET = 2'd0;
+localparam [1:0] K_GROUPED = 2'd1;
+localparam [1:0] K_REPACK = 2'd2;
+localparam [1:0] O_RAY_STATIONARY = 2'd0;
+localparam [1:0] O_CONTINUE = 2'd1;
+localparam [1:0] O_STOP = 2'd2;
+// A ray record as the wiring keeps it: {other_stack, cur_stack, other_spilled, cur_spilled,
+// other_sp, cur_sp, cur_treelet, hit, hit_valid, ray_words, ray id} (ray id lowest).
+localparam F_WORDS = RB;
+localparam F_HV = F_WORDS + 256;
+localparam F_HIT = F_HV + 1;
+localparam F_CT = F_HIT + 128;
+localparam F_CSP = F_CT + TW;
+localparam F_OSP = F_CSP + SPW;
+localparam F_CSC = F_OSP + SPW;
+localparam F_OSC = F_CSC + SCW;
+localparam F_CST = F_OSC + SCW;
+localparam F_OST = F_CST + DE;
+// An event: {warp done, ray id (or the slot), treelet}.
+localparam EW = 1 + RB + TW;
+${REGISTERS}
+
+// The RT unit's per-slot status bits, as vectors.
+wire [S-1:0] st_valid = rt_status_valid;
+wire [S-1:0] st_held = rt_status_held;
+wire [S-1:0] st_quiescent = rt_status_quiescent;
+// Slots and counts as 32-bit indices.
+wire [31:0] fill_slot32 = {{(32-SB){1'b0}}, ctl_fill_slot};
+wire [31:0] fill_count32 = {{(32-CW){1'b0}}, ctl_fill_count};
+wire [31:0] pop_count32 = {{(32-CW){1'b0}}, qt_pop_count};
+
+// The queue table's popped rays, one port per lane.
+wire [N*RB-1:0] qt_pop_rays = ${QT_POP_RAYS};
+
+// SM warps are admitted in mode m (not in the final ray-stationary phase; in the
+// treelet-stationary one only with the controller's feature).
+function admits;
+    input [1:0] m;
+    begin
+        admits = m == M_INITIAL || m == M_DONE || (m == M_TREELET && ADMIT_TS);
+    end
+endfunction
+
+// ---- 0: ray records that arrived join their fills --------------------------------------------
+reg [S*N-1:0] arr_p;
+reg [S*N*REC-1:0] rec_p;
+reg [S*CW-1:0] loading_p;
+reg fault_place;
+always @* begin : p_place
+    integer r, e, s, k, sel;
+    reg taken;
+    reg [N-1:0] found;
+    arr_p = build_arrived_q;
+    rec_p = build_records_q;
+    loading_p = build_loading_q;
+    found = {N{1'b0}};
+    for (e = 0; e < S*N; e = e + 1) begin
+        s = e / N;
+        k = e % N;
+        taken = 1'b0;
+        sel = 0;
+        for (r = 0; r < N; r = r + 1) begin
+            if (!taken && r < ray_count && build_valid_q[s] && !build_arrived_q[e]
+                && k < build_count_q[s*CW +: CW]
+                && {{(32-SB){1'b0}}, ray_record_slot[r*SB +: SB]} == s
+                && ray_record_id[r*RB +: RB] == build_rays_q[e*RB +: RB]) begin
+                taken = 1'b1;
+                sel = r;
+                found[r] = 1'b1;
+            end
+        end
+        if (taken) begin
+            arr_p[e] = 1'b1;
+            rec_p[e*REC +: REC] = {
+                ray_record_other_stack[sel*DE +: DE], ray_record_cur_stack[sel*DE +: DE],
+                ray_record_other_spilled[sel*SCW +: SCW], ray_record_cur_spilled[sel*SCW +: SCW],
+                ray_record_other_sp[sel*SPW +: SPW], ray_record_cur_sp[sel*SPW +: SPW],
+                ray_record_cur_treelet[sel*TW +: TW], ray_record_hit[sel*128 +: 128],
+                ray_record_hit_valid[sel], ray_record_ray_words[sel*256 +: 256],
+                ray_record_id[sel*RB +: RB]};
+            if (loading_p[s*CW +: CW] != {CW{1'b0}})
+                loading_p[s*CW +: CW] = loading_p[s*CW +: CW] - ONE_CW;
+        end
+    end
+    fault_place = 1'b0;
+    for (r = 0; r < N; r = r + 1)
+        if (r < ray_count && !found[r]) fault_place = 1'b1;
+end
+
+// ---- 1: the controller's inputs, from registers and register-only ports ----------------------
+wire restart = ctl_mode_reg == M_DONE && sm_valid;
+wire [1:0] mode = restart ? M_INITIAL : ctl_mode_reg;
+wire mode_terminates = mode == M_INITIAL || mode == M_TREELET;
+wire waiting = sm_valid && admits(mode);
+wire [EW-1:0] head = events_q[EW-1:0];
+wire head_valid = event_count_q != {EVW{1'b0}};
+wire head_done = head_valid && head[EW-1];
+reg any_initial;
+reg free_valid;
+reg [SB-1:0] free_slot;
+reg init_valid;
+reg [SB-1:0] init_slot;
+reg [CW-1:0] init_active;
+reg [CW-1:0] init_distinct;
+reg active_valid;
+reg [SB-1:0] active_slot;
+reg [CW-1:0] active_count;
+always @* begin : p_reports
+    integer s;
+    reg initial_warp;
+    any_initial = 1'b0;
+    free_valid = 1'b0;
+    free_slot = {SB{1'b0}};
+    init_valid = 1'b0;
+    init_slot = {SB{1'b0}};
+    init_active = {CW{1'b0}};
+    init_distinct = {CW{1'b0}};
+    active_valid = 1'b0;
+    active_slot = {SB{1'b0}};
+    active_count = {CW{1'b0}};
+    for (s = S - 1; s >= 0; s = s - 1) begin
+        if (slot_use_q[s*2 +: 2] == U_INITIAL) any_initial = 1'b1;
+        if (slot_use_q[s*2 +: 2] == U_FREE && !st_valid[s]) begin
+            free_valid = 1'b1;
+            free_slot = s[SB-1:0];
+        end
+    end
+    for (s = 0; s < S; s = s + 1) begin
+        initial_warp = slot_use_q[s*2 +: 2] == U_INITIAL
+            && rt_status_order[s*2 +: 2] != O_STOP && mode_terminates;
+        // A warp that completes this cycle (quiescent, not held) is not reported.
+        if (st_valid[s] && !(st_quiescent[s] && !st_held[s]) && initial_warp
+            && (!init_valid || rt_status_distinct[s*CW +: CW] > init_distinct)) begin
+            init_valid = 1'b1;
+            init_slot = s[SB-1:0];
+            init_active = rt_status_traversing[s*CW +: CW];
+            init_distinct = rt_status_distinct[s*CW +: CW];
+        end
+        if (mode == M_FINAL && st_valid[s] && !st_quiescent[s] && !st_held[s]
+            && !build_valid_q[s] && rt_status_order[s*2 +: 2] != O_STOP
+            && (!active_valid || rt_status_busy[s*CW +: CW] < active_count)) begin
+            active_valid = 1'b1;
+            active_slot = s[SB-1:0];
+            active_count = rt_status_busy[s*CW +: CW];
+        end
+    end
+end
+
+assign ctl_restart = sm_valid;
+assign ctl_launch_done = !waiting;
+assign ctl_initial_warps = any_initial || waiting;
+assign ctl_rt_idle = rt_status_valid == {S{1'b0}} && build_valid_q == {S{1'b0}} && !head_valid;
+assign ctl_wb_free_valid = free_valid;
+assign ctl_wb_free_slot = free_slot;
+assign ctl_init_valid = init_valid;
+assign ctl_init_slot = init_slot;
+assign ctl_init_active = init_active;
+assign ctl_init_distinct = init_distinct;
+assign ctl_active_valid = active_valid;
+assign ctl_active_slot = active_slot;
+assign ctl_active_count = active_count;
+assign ctl_warp_done_valid = head_done;
+assign ctl_warp_done_slot = head_done ? head[TW +: SB] : {SB{1'b0}};
+assign ctl_enq_valid = head_valid && !head[EW-1];
+assign ctl_enq_ray = ctl_enq_valid ? head[TW +: RB] : {RB{1'b0}};
+assign ctl_enq_treelet = ctl_enq_valid ? head[TW-1:0] : {TW{1'b0}};
+assign ctl_ct_ready = ct_accepts;
+assign ctl_ct_max_valid = ct_max_valid;
+assign ctl_ct_max_treelet = ct_max_treelet;
+/* verilator lint_off UNUSEDSIGNAL */
+wire [CTCW-1:0] ct_max_m1 = ct_max_count - {{(CTCW-1){1'b0}}, 1'b1};
+/* verilator lint_on UNUSEDSIGNAL */
+assign ctl_ct_max_count = ct_max_valid ? ct_max_m1[CMW-1:0] : {CMW{1'b0}};
+assign ctl_ct_occupancy = ct_occupancy;
+assign ctl_ct_above_threshold = ct_above_threshold;
+assign ctl_ct_evict_valid = last_ct_evict_q[TW];
+assign ctl_ct_evict_treelet = last_ct_evict_q[TW-1:0];
+assign ctl_qt_ready = qt_ready;
+assign ctl_qt_free_entries = qt_free_entries;
+assign ctl_qt_spilled = qt_spilled;
+assign ctl_qt_done = last_qt_done_q[QDW-1];
+assign ctl_qt_pop_treelet = last_qt_done_q[CW + N*RB +: TW];
+assign ctl_qt_pop_count = last_qt_done_q[N*RB +: CW];
+assign ctl_qt_pop_rays = last_qt_done_q[N*RB-1:0];
+
+// ---- 2: the children's inputs: events, fills, the issue of a complete fill or an SM warp -----
+// The lowest N free ray ids, in order (what an admitted warp's active lanes get).
+reg [N*RB-1:0] low_ids;
+reg [FCW-1:0] base [0:NW];
+always @* begin : p_ids
+    integer wd, k, j, c, sel;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] id32;
+    /* verilator lint_on UNUSEDSIGNAL */
+    reg [63:0] word;
+    id32 = 32'd0;
+    base[0] = {FCW{1'b0}};
+    for (wd = 0; wd < NW; wd = wd + 1) begin
+        c = 0;
+        for (j = 0; j < 64; j = j + 1)
+            if (wd*64 + j < MR && free_ids_q[(wd*64 + j) % MR]) c = c + 1;
+        base[wd+1] = base[wd] + c[FCW-1:0];
+    end
+    for (k = 0; k < N; k = k + 1) begin
+        sel = 0;
+        for (wd = 0; wd < NW; wd = wd + 1)
+            if ({{(32-FCW){1'b0}}, base[wd]} <= k && k < {{(32-FCW){1'b0}}, base[wd+1]}) sel = wd;
+        word = 64'd0;
+        for (j = 0; j < 64; j = j + 1)
+            if (sel*64 + j < MR) word[j] = free_ids_q[(sel*64 + j) % MR];
+        c = k - {{(32-FCW){1'b0}}, base[sel]};
+        low_ids[k*RB +: RB] = {RB{1'b0}};
+        for (j = 0; j < 64; j = j + 1) begin
+            if (word[j]) begin
+                id32 = sel*64 + j;
+                if (c == 0) low_ids[k*RB +: RB] = id32[RB-1:0];
+                c = c - 1;
+            end
+        end
+    end
+end
+
+reg pop;
+reg [2*S-1:0] use_b;
+reg [S-1:0] bv;
+reg [2*S-1:0] bk;
+reg [S*N*RB-1:0] brays;
+reg [S*N-1:0] barr;
+reg [S*CW-1:0] bcount;
+reg [S*CW-1:0] bload;
+reg [S-1:0] blast;
+reg fault_fill;
+reg issue_build;
+reg [SB-1:0] issue_slot;
+reg [1:0] issue_order;
+reg [1:0] issue_target;
+reg issue_last;
+reg [N-1:0] issue_active;
+reg [N*RB-1:0] issue_ray_id;
+reg [N*REC-1:0] issue_rec;
+reg fault_unplaced;
+reg admit;
+reg [SB-1:0] admit_slot;
+reg [CW-1:0] need;
+reg [N*RB-1:0] admit_ids;
+always @* begin : p_children
+    integer s, i, k, l, c, placed;
+    reg [N-1:0] free_lanes;
+    reg found;
+    // The first event leaves when the controller takes it (a warp done always does).
+    pop = head_done || (head_valid && ctl_enq_ready);
+    use_b = slot_use_q;
+    if (pop && head_done) use_b[head[TW +: SB]*2 +: 2] = U_FREE;
+    // A fill starts loading its rays' records.
+    bv = build_valid_q;
+    bk = build_kind_q;
+    brays = build_rays_q;
+    barr = arr_p;
+    bcount = build_count_q;
+    bload = loading_p;
+    blast = build_last_q;
+    fault_fill = 1'b0;
+    if (ctl_fill_valid) begin
+        s = fill_slot32;
+        if (!bv[s]) begin
+            bv[s] = 1'b1;
+            bk[s*2 +: 2] = ctl_fill_kind;
+            bcount[s*CW +: CW] = {CW{1'b0}};
+            bload[s*CW +: CW] = {CW{1'b0}};
+            blast[s] = 1'b0;
+        end
+        for (i = 0; i < N; i = i + 1) begin
+            if (i < fill_count32) begin
+                if (bcount[s*CW +: CW] < N) begin
+                    c = {{(32-CW){1'b0}}, bcount[s*CW +: CW]};
+                    brays[(s*N + c)*RB +: RB] = ctl_fill_rays[i*RB +: RB];
+                    barr[s*N + c] = 1'b0;
+                    bcount[s*CW +: CW] = bcount[s*CW +: CW] + ONE_CW;
+                    bload[s*CW +: CW] = bload[s*CW +: CW] + ONE_CW;
+                end else begin
+                    fault_fill = 1'b1;
+                end
+            end
+        end
+        blast[s] = blast[s] | ctl_fill_last;
+        if (ctl_fill_kind != K_REPACK) use_b[s*2 +: 2] = U_CONTROLLER;
+    end
+    // The first complete fill with every record in is issued.
+    issue_build = 1'b0;
+    issue_slot = {SB{1'b0}};
+    for (s = S - 1; s >= 0; s = s - 1) begin
+        if (bv[s] && blast[s] && bload[s*CW +: CW] == {CW{1'b0}}) begin
+            issue_build = 1'b1;
+            issue_slot = s[SB-1:0];
+        end
+    end
+    issue_order = O_RAY_STATIONARY;
+    issue_target = 2'd0;
+    issue_last = 1'b0;
+    issue_active = {N{1'b0}};
+    issue_ray_id = {N*RB{1'b0}};
+    fault_unplaced = 1'b0;
+    for (l = 0; l < N; l = l + 1) issue_rec[l*REC +: REC] = {REC{1'b0}};
+    admit = 1'b0;
+    admit_slot = {SB{1'b0}};
+    admit_ids = {N*RB{1'b0}};
+    need = {CW{1'b0}};
+    if (issue_build) begin
+        s = {{(32-SB){1'b0}}, issue_slot};
+        bv[s] = 1'b0;
+        case (bk[s*2 +: 2])
+            K_TREELET: begin issue_order = O_STOP; issue_target = 2'd1; free_lanes = {N{1'b1}}; end
+            K_GROUPED: begin issue_order = O_CONTINUE; issue_target = 2'd1; free_lanes = {N{1'b1}}; end
+            default: begin
+                issue_order = st_valid[s] ? rt_status_order[s*2 +: 2] : O_RAY_STATIONARY;
+                issue_target = 2'd2;
+                issue_last = 1'b1;
+                free_lanes = st_valid[s] ? rt_status_inactive[s*N +: N] : {N{1'b0}};
+            end
+        endcase
+        k = 0;
+        placed = 0;
+        for (l = 0; l < N; l = l + 1) begin
+            if (free_lanes[l] && k < {{(32-CW){1'b0}}, bcount[s*CW +: CW]}) begin
+                if (barr[s*N + k]) begin
+                    issue_active[l] = 1'b1;
+                    issue_rec[l*REC +: REC] = rec_p[(s*N + k)*REC +: REC];
+                    issue_ray_id[l*RB +: RB] = rec_p[(s*N + k)*REC +: RB];
+                    placed = placed + 1;
+                end
+                k = k + 1;
+            end
+        end
+        if (placed != {{(32-CW){1'b0}}, bcount[s*CW +: CW]}) fault_unplaced = 1'b1;
+    end else if (admits(mode) && sm_valid) begin
+        // An SM warp takes the lowest slot nobody owns (not the one the controller reserves)
+        // if enough ray ids are free; its rays get the lowest free ids.
+        found = 1'b0;
+        for (s = S - 1; s >= 0; s = s - 1) begin
+            if (use_b[s*2 +: 2] == U_FREE && !st_valid[s]
+                && !(ctl_reserve_valid && ctl_reserve_slot == s[SB-1:0])) begin
+                found = 1'b1;
+                admit_slot = s[SB-1:0];
+            end
+        end
+        for (l = 0; l < N; l = l + 1) need = need + {{(CW-1){1'b0}}, sm_active[l]};
+        if (found && {{(FCW > CW ? FCW - CW : 0){1'b0}}, need} <= free_count_q) begin
+            admit = 1'b1;
+            use_b[admit_slot*2 +: 2] = U_INITIAL;
+            issue_order = O_CONTINUE;
+            issue_target = 2'd1;
+            issue_slot = admit_slot;
+            k = 0;
+            for (l = 0; l < N; l = l + 1) begin
+                if (sm_active[l]) begin
+                    admit_ids[l*RB +: RB] = low_ids[k*RB +: RB];
+                    k = k + 1;
+                    issue_active[l] = 1'b1;
+                    issue_ray_id[l*RB +: RB] = admit_ids[l*RB +: RB];
+                    issue_rec[l*REC +: REC] = {
+                        sm_other_stack[l*DE +: DE], sm_cur_stack[l*DE +: DE],
+                        sm_other_spilled[l*SCW +: SCW], sm_cur_spilled[l*SCW +: SCW],
+                        sm_other_sp[l*SPW +: SPW], sm_cur_sp[l*SPW +: SPW],
+                        sm_cur_treelet[l*TW +: TW], sm_hit[l*128 +: 128],
+                        sm_hit_valid[l], sm_ray_words[l*256 +: 256], admit_ids[l*RB +: RB]};
+                end
+            end
+        end
+    end
+end
+
+wire issue = issue_build || admit;
+assign rt_issue_valid = issue;
+assign rt_issue_order = issue ? issue_order : 2'd0;
+assign rt_issue_target = issue ? issue_target : 2'd0;
+assign rt_issue_slot = issue ? issue_slot : {SB{1'b0}};
+assign rt_issue_last = issue_last;
+assign rt_issue_active = issue_active;
+assign rt_issue_ray_id = issue_ray_id;
+genvar gl;
+generate
+    for (gl = 0; gl < N; gl = gl + 1) begin : g_lanes
+        assign rt_issue_ray_words[gl*256 +: 256] = issue_rec[gl*REC + F_WORDS +: 256];
+        assign rt_issue_hit_valid[gl] = issue_rec[gl*REC + F_HV];
+        assign rt_issue_hit[gl*128 +: 128] = issue_rec[gl*REC + F_HIT +: 128];
+        assign rt_issue_cur_treelet[gl*TW +: TW] = issue_rec[gl*REC + F_CT +: TW];
+        assign rt_issue_cur_sp[gl*SPW +: SPW] = issue_rec[gl*REC + F_CSP +: SPW];
+        assign rt_issue_other_sp[gl*SPW +: SPW] = issue_rec[gl*REC + F_OSP +: SPW];
+        assign rt_issue_cur_spilled[gl*SCW +: SCW] = issue_rec[gl*REC + F_CSC +: SCW];
+        assign rt_issue_other_spilled[gl*SCW +: SCW] = issue_rec[gl*REC + F_OSC +: SCW];
+        assign rt_issue_cur_stack[gl*DE +: DE] = issue_rec[gl*REC + F_CST +: DE];
+        assign rt_issue_other_stack[gl*DE +: DE] = issue_rec[gl*REC + F_OST +: DE];
+    end
+endgenerate
+assign rt_stop_valid = ctl_terminate_valid;
+assign rt_stop_slot = ctl_terminate_slot;
+assign rt_repack_valid = ctl_repack_valid;
+assign rt_repack_slot = ctl_repack_slot;
+${RESPONSES}
+assign sm_accept = admit;
+assign sm_ray_id = admit_ids;
+
+// The tables: the controller's ops, or the spill FIFO's head answering a refill request.
+wire refill = spill_head_valid && qt_refill_waiting;
+assign spill_pop = refill;
+assign qt_op_kind = refill ? 3'd0 : ctl_qt_op;
+assign qt_op_treelet = refill ? {TW{1'b0}} : ctl_qt_treelet;
+assign qt_op_ray = refill ? {RB{1'b0}} : ctl_qt_ray;
+assign qt_refill_valid = refill;
+assign qt_refill_treelet = refill ? spill_head_treelet : {TW{1'b0}};
+assign qt_refill_ray = refill ? spill_head_ray : {RB{1'b0}};
+assign ct_op_kind = ctl_ct_op;
+assign ct_op_treelet = ctl_ct_treelet;
+assign ct_op_n = ctl_ct_n;
+assign preload_valid = ctl_preload_valid;
+assign preload_treelet = ctl_preload_treelet;
+
+// Ray-record requests: the fill's loads, then the admitted rays' stores.
+reg [CW-1:0] nloads;
+reg [2*N*RB-1:0] req_ids;
+reg [2*N*AB-1:0] req_addrs;
+always @* begin : p_requests
+    integer i, l, c;
+    nloads = ctl_fill_valid ? ctl_fill_count : {CW{1'b0}};
+    req_ids = {2*N*RB{1'b0}};
+    req_addrs = {2*N*AB{1'b0}};
+    c = 0;
+    for (i = 0; i < N; i = i + 1) begin
+        if (i < nloads) begin
+            req_ids[c*RB +: RB] = ctl_fill_rays[i*RB +: RB];
+            c = c + 1;
+        end
+    end
+    for (l = 0; l < N; l = l + 1) begin
+        if (admit && sm_active[l]) begin
+            req_ids[c*RB +: RB] = admit_ids[l*RB +: RB];
+            c = c + 1;
+        end
+    end
+    for (i = 0; i < 2*N; i = i + 1)
+        if (i < c) req_addrs[i*AB +: AB] = RAY_BASE + {{(AB-RB-5){1'b0}}, req_ids[i*RB +: RB], 5'd0};
+end
+assign ray_load_count = ${NLOADS_LW};
+assign ray_store_count = admit ? ${NEED_LW} : {LW{1'b0}};
+assign ray_request_id = req_ids;
+assign ray_request_address = req_addrs;
+assign count_ray_loads = ray_load_count;
+assign count_ray_stores = ray_store_count;
+
+// ---- 3: after the children: registered answers, spills, the unpacked warps -------------------
+assign spill_push_valid = qt_spill_valid;
+assign spill_push_treelet = qt_spill_valid ? qt_spill_treelet : {TW{1'b0}};
+assign spill_push_ray = qt_spill_valid ? qt_spill_ray : {RB{1'b0}};
+assign count_spill = qt_spill_valid;
+assign count_refill = refill;
+${PASS_THROUGH}
+
+// The released lanes (finished), then the completed warp's lanes: finished rays leave with
+// their hits and free their ids, parked rays leave their records and queue an enqueue.
+reg [LW-1:0] nfin;
+reg [2*N*RB-1:0] fin_id;
+reg [2*N-1:0] fin_hv;
+reg [2*N*128-1:0] fin_hit;
+reg [LW-1:0] npark;
+reg [N*RB-1:0] park_id;
+reg [N*TW-1:0] park_treelet;
+reg [N*REC-1:0] park_rec;
+reg fault_unknown;
+always @* begin : p_unpack
+    integer l, c, p, m;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] m1;
+    reg [31:0] id32;
+    reg [E-1:0] top;
+    /* verilator lint_on UNUSEDSIGNAL */
+    reg [RB-1:0] id;
+    reg known;
+    m1 = 32'd0;
+    id32 = 32'd0;
+    top = {E{1'b0}};
+    nfin = {LW{1'b0}};
+    npark = {LW{1'b0}};
+    c = 0;
+    p = 0;
+    fin_id = {2*N*RB{1'b0}};
+    fin_hv = {2*N{1'b0}};
+    for (l = 0; l < 2*N; l = l + 1) fin_hit[l*128 +: 128] = 128'd0;
+    park_id = {N*RB{1'b0}};
+    park_treelet = {N*TW{1'b0}};
+    for (l = 0; l < N; l = l + 1) park_rec[l*REC +: REC] = {REC{1'b0}};
+    fault_unknown = 1'b0;
+    for (l = 0; l < N; l = l + 1) begin
+        id = rt_released_ray_id[l*RB +: RB];
+        id32 = {{(32-RB){1'b0}}, id};
+        known = id32 < MR && !free_ids_q[id32 % MR];
+        if (rt_released_valid && rt_released_mask[l]) begin
+            if (!known) begin
+                fault_unknown = 1'b1;
+            end else begin
+                fin_id[c*RB +: RB] = id;
+                fin_hv[c] = rt_released_hit_valid[l];
+                fin_hit[c*128 +: 128] = rt_released_hit[l*128 +: 128];
+                c = c + 1;
+            end
+        end
+    end
+    for (l = 0; l < N; l = l + 1) begin
+        id = rt_done_ray_id[l*RB +: RB];
+        id32 = {{(32-RB){1'b0}}, id};
+        known = id32 < MR && !free_ids_q[id32 % MR];
+        if (rt_done_valid && rt_done_active[l]) begin
+            if (!known) begin
+                fault_unknown = 1'b1;
+            end else if (!rt_done_parked[l]) begin
+                fin_id[c*RB +: RB] = id;
+                fin_hv[c] = rt_done_hit_valid[l];
+                fin_hit[c*128 +: 128] = rt_done_hit[l*128 +: 128];
+                c = c + 1;
+            end else begin
+                park_id[p*RB +: RB] = id;
+                park_rec[p*REC +: REC] = {
+                    rt_done_other_stack[l*DE +: DE], rt_done_cur_stack[l*DE +: DE],
+                    rt_done_other_spilled[l*SCW +: SCW], rt_done_cur_spilled[l*SCW +: SCW],
+                    rt_done_other_sp[l*SPW +: SPW], rt_done_cur_sp[l*SPW +: SPW],
+                    rt_done_cur_treelet[l*TW +: TW], rt_done_hit[l*128 +: 128],
+                    rt_done_hit_valid[l], rt_done_ray_words[l*256 +: 256], id};
+                // The treelet of its next node: the current stack's top, or the other
+                // stack's when the current one is empty and nothing of it is spilled.
+                top = {E{1'b0}};
+                for (m = 0; m < D; m = m + 1) begin
+                    m1 = m + 1;
+                    if (rt_done_cur_sp[l*SPW +: SPW] == m1[SPW-1:0])
+                        top = rt_done_cur_stack[l*DE + m*E +: E];
+                    if (rt_done_cur_sp[l*SPW +: SPW] == {SPW{1'b0}}
+                        && rt_done_cur_spilled[l*SCW +: SCW] == {SCW{1'b0}}
+                        && rt_done_other_sp[l*SPW +: SPW] == m1[SPW-1:0])
+                        top = rt_done_other_stack[l*DE + m*E +: E];
+                end
+                park_treelet[p*TW +: TW] = top[TSH + 5 +: TW];
+                p = p + 1;
+            end
+        end
+    end
+    nfin = c[LW-1:0];
+    npark = p[LW-1:0];
+end
+assign finished_count = nfin;
+assign finished_id = fin_id;
+assign finished_hit_valid = fin_hv;
+assign finished_hit = fin_hit;
+assign parked_count = npark;
+assign parked_id = park_id;
+generate
+    for (gl = 0; gl < N; gl = gl + 1) begin : g_parked
+        assign parked_ray_words[gl*256 +: 256] = park_rec[gl*REC + F_WORDS +: 256];
+        assign parked_hit_valid[gl] = park_rec[gl*REC + F_HV];
+        assign parked_hit[gl*128 +: 128] = park_rec[gl*REC + F_HIT +: 128];
+        assign parked_cur_treelet[gl*TW +: TW] = park_rec[gl*REC + F_CT +: TW];
+        assign parked_cur_sp[gl*SPW +: SPW] = park_rec[gl*REC + F_CSP +: SPW];
+        assign parked_other_sp[gl*SPW +: SPW] = park_rec[gl*REC + F_OSP +: SPW];
+        assign parked_cur_spilled[gl*SCW +: SCW] = park_rec[gl*REC + F_CSC +: SCW];
+        assign parked_other_spilled[gl*SCW +: SCW] = park_rec[gl*REC + F_OSC +: SCW];
+        assign parked_cur_stack[gl*DE +: DE] = park_rec[gl*REC + F_CST +: DE];
+        assign parked_other_stack[gl*DE +: DE] = park_rec[gl*REC + F_OST +: DE];
+    end
+endgenerate
+
+// ---- Next registers ---------------------------------------------------------------------------
+always @* begin : p_next
+    integer i, c, l;
+    reg [EVD*EW-1:0] ev;
+    reg [31:0] cnt;
+    reg full;
+    c = 0;
+    free_ids_d = free_ids_q;
+    free_count_d = free_count_q;
+    fault_d = fault_q;
+    slot_use_d = use_b;
+    if (rt_done_valid) slot_use_d[rt_done_slot*2 +: 2] = U_CLOSING;
+    build_valid_d = bv;
+    build_kind_d = bk;
+    build_rays_d = brays;
+    build_records_d = rec_p;
+    build_arrived_d = barr;
+    build_count_d = bcount;
+    build_loading_d = bload;
+    build_last_d = blast;
+    // Events: the head leaves, then the enqueues and the warp done are appended.
+    ev = events_q;
+    cnt = {{(32-EVW){1'b0}}, event_count_q};
+    if (pop) begin
+        ev = ev >> EW;
+        cnt = cnt - 1;
+    end
+    full = 1'b0;
+    for (i = 0; i < N; i = i + 1) begin
+        if (i < npark) begin
+            if (cnt < EVD) begin
+                ev[cnt*EW +: EW] = {1'b0, park_id[i*RB +: RB], park_treelet[i*TW +: TW]};
+                cnt = cnt + 1;
+            end else begin
+                full = 1'b1;
+            end
+        end
+    end
+    if (rt_done_valid) begin
+        if (cnt < EVD) begin
+            ev[cnt*EW +: EW] = {1'b1, {{(RB-SB){1'b0}}, rt_done_slot}, {TW{1'b0}}};
+            cnt = cnt + 1;
+        end else begin
+            full = 1'b1;
+        end
+    end
+    events_d = ev;
+    event_count_d = cnt[EVW-1:0];
+    last_ct_evict_d = ct_evict_valid ? {1'b1, ct_evict_treelet} : {(TW+1){1'b0}};
+    last_qt_done_d = {QDW{1'b0}};
+    if (qt_done) begin
+        c = pop_count32 < N ? pop_count32 : N;
+        last_qt_done_d[QDW-1] = 1'b1;
+        last_qt_done_d[CW + N*RB +: TW] = qt_pop_treelet;
+        last_qt_done_d[N*RB +: CW] = c[CW-1:0];
+        for (l = 0; l < N; l = l + 1)
+            if (l < c) last_qt_done_d[l*RB +: RB] = qt_pop_rays[l*RB +: RB];
+    end
+    // Ray ids: the admitted rays' are taken, the finished rays' given back.
+    free_ids_d = free_ids_q;
+    cnt = {{(32-FCW){1'b0}}, free_count_q};
+    if (admit) begin
+        for (l = 0; l < N; l = l + 1) begin
+            if (sm_active[l]) free_ids_d[{{(32-RB){1'b0}}, admit_ids[l*RB +: RB]} % MR] = 1'b0;
+        end
+        cnt = cnt - {{(32-CW){1'b0}}, need};
+    end
+    for (i = 0; i < 2*N; i = i + 1) begin
+        if (i < nfin) begin
+            free_ids_d[{{(32-RB){1'b0}}, fin_id[i*RB +: RB]} % MR] = 1'b1;
+            cnt = cnt + 1;
+        end
+    end
+    free_count_d = cnt[FCW-1:0];
+    fault_d = fault_q || fault_place || fault_fill || fault_unplaced || fault_unknown || full
+        || ct_error || qt_error;
+end
+assign fault = fault_d;
+
+// Register-only: an SM warp may be offered.
+assign sm_ready = admits(ctl_mode_reg) && free_count_q >= N && free_valid;
+
+// The controller's events as its observer counts them, and the restart.
+assign count_ctl_initial = ctl_mode == M_INITIAL;
+assign count_ctl_treelet = ctl_mode == M_TREELET;
+assign count_ctl_final = ctl_mode == M_FINAL;
+assign count_ctl_terminated_warps = ctl_terminate_valid;
+assign count_ctl_terminated_rays = ctl_terminate_valid ? init_active : {CW{1'b0}};
+assign count_ctl_enqueued = ctl_enq_ready;
+assign count_ctl_claim = ctl_claim;
+assign count_ctl_preload = ctl_preload_valid;
+assign count_ctl_treelet_warp = ctl_fill_valid && ctl_fill_kind == K_TREELET;
+assign count_ctl_grouped_warp = ctl_fill_valid && ctl_fill_kind == K_GROUPED && ctl_fill_first;
+assign count_ctl_repack = ctl_repack_valid;
+assign count_ctl_repack_starved = ctl_repack_starved;
+assign count_ctl_eviction = last_ct_evict_q[TW];
+assign count_restart = restart;
+${UNUSED}

@@ -1,0 +1,176 @@
+//! The wiring kernel on its own, as its RTL module sees it ([`WiringInputs`] ->
+//! [`WiringOutputs`] over the wiring's registers): the block's inputs and every child's output
+//! ports in, the block's outputs and every child's input ports out. The children's ports are
+//! named `<instance>_<port>` (the RT unit's status ports included, as `rt_status_*`), the
+//! names of the wiring module's ports in `vtq verilog`.
+//!
+//! [`TreeletRtUnit::eval_wiring`] runs one cycle of the definition and returns the wiring's
+//! ports as they settled; [`TreeletRtUnit::wiring_eval`] evaluates the wiring from those ports
+//! alone (the children's register-only outputs stand for their registers). Tests check the two
+//! agree every cycle, so the wiring reads nothing of its children but their ports; the
+//! co-simulation of the wiring's RTL replays the same ports.
+
+use super::glue::GlueRegs;
+use super::wiring::{self, Peeks};
+use super::TreeletRtUnitRegs;
+use super::{ChildOutputs, TreeletRtUnit, TreeletRtUnitInputs, TreeletRtUnitOutputs};
+use crate::block::{Block, Signal, Signals};
+use crate::controller::{ControllerInputs, ControllerOutputs};
+use crate::count_table::{CountTableIn, CountTableOut};
+use crate::queue_table::{QueueTableIn, QueueTableOut};
+use crate::rt_unit::{NodeDatapath, RtCache, RtUnitInputs, RtUnitOutputs, RtUnitStatus};
+
+/// The wiring's input ports for one cycle: the block's inputs and the children's outputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WiringInputs {
+    /// The treelet RT unit's inputs.
+    pub top: TreeletRtUnitInputs,
+    /// The RT unit's outputs (`rt_*`).
+    pub rt: RtUnitOutputs,
+    /// The RT unit's register-only status ports (`rt_status_*`), distinct treelets always
+    /// counted, as its RTL drives them.
+    pub rt_status: RtUnitStatus,
+    /// The controller's outputs (`ctl_*`).
+    pub ctl: ControllerOutputs,
+    /// The count table's outputs (`ct_*`).
+    pub ct: CountTableOut,
+    /// The queue table's outputs (`qt_*`).
+    pub qt: QueueTableOut,
+}
+
+/// The wiring's output ports for one cycle: the block's outputs and the children's inputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WiringOutputs {
+    /// The treelet RT unit's outputs.
+    pub top: TreeletRtUnitOutputs,
+    /// The RT unit's inputs (`rt_*`).
+    pub rt: RtUnitInputs,
+    /// The controller's inputs (`ctl_*`).
+    pub ctl: ControllerInputs,
+    /// The count table's inputs (`ct_*`).
+    pub ct: CountTableIn,
+    /// The queue table's inputs (`qt_*`).
+    pub qt: QueueTableIn,
+}
+
+/// `signals` with `prefix_` before each name.
+fn prefixed(prefix: &str, signals: Vec<Signal>) -> impl Iterator<Item = Signal> + '_ {
+    signals.into_iter().map(move |s| Signal {
+        name: format!("{prefix}_{}", s.name),
+        ..s
+    })
+}
+
+impl Signals for WiringInputs {
+    fn signals(&self) -> Vec<Signal> {
+        let mut s = self.top.signals();
+        s.extend(prefixed("rt", self.rt.signals()));
+        s.extend(prefixed("rt", self.rt_status.signals()));
+        s.extend(prefixed("ctl", self.ctl.signals()));
+        s.extend(prefixed("ct", self.ct.signals()));
+        s.extend(prefixed("qt", self.qt.signals()));
+        s
+    }
+
+    fn bulk_signals(&self) -> Vec<Signal> {
+        let mut s = self.top.bulk_signals();
+        s.extend(prefixed("rt", self.rt.bulk_signals()));
+        s.extend(prefixed("rt", self.rt_status.bulk_signals()));
+        s.extend(prefixed("ctl", self.ctl.bulk_signals()));
+        s.extend(prefixed("ct", self.ct.bulk_signals()));
+        s.extend(prefixed("qt", self.qt.bulk_signals()));
+        s
+    }
+}
+
+impl Signals for WiringOutputs {
+    fn signals(&self) -> Vec<Signal> {
+        let mut s = self.top.signals();
+        s.extend(prefixed("rt", self.rt.signals()));
+        s.extend(prefixed("ctl", self.ctl.signals()));
+        s.extend(prefixed("ct", self.ct.signals()));
+        s.extend(prefixed("qt", self.qt.signals()));
+        s
+    }
+
+    fn bulk_signals(&self) -> Vec<Signal> {
+        let mut s = self.top.bulk_signals();
+        s.extend(prefixed("rt", self.rt.bulk_signals()));
+        s.extend(prefixed("ctl", self.ctl.bulk_signals()));
+        s.extend(prefixed("ct", self.ct.bulk_signals()));
+        s.extend(prefixed("qt", self.qt.bulk_signals()));
+        s
+    }
+}
+
+impl<D: NodeDatapath> TreeletRtUnit<D> {
+    /// One cycle of the definition ([`Block::eval`]) with the wiring's ports as they settled:
+    /// the block's outputs, its next registers, and the wiring's inputs and outputs.
+    pub fn eval_wiring(
+        &self,
+        regs: &TreeletRtUnitRegs,
+        inputs: &TreeletRtUnitInputs,
+    ) -> (
+        TreeletRtUnitOutputs,
+        TreeletRtUnitRegs,
+        WiringInputs,
+        WiringOutputs,
+    ) {
+        let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
+        let cache = RtCache::of(&regs.rt);
+        let status = self.rt.status(&regs.rt, &cache, distinct);
+        let peeks = Peeks::of(self, regs, &status);
+        let (d, (out, glue), q, children) = self
+            .settle_children(regs, 8, |q| {
+                wiring::kernel(self, &regs.glue, &peeks, inputs, q)
+            })
+            .expect("the treelet RT unit's wiring has no combinational cycle");
+        let ports_in = WiringInputs {
+            top: inputs.clone(),
+            rt: q.rt,
+            rt_status: self.rt.status(&regs.rt, &cache, true),
+            ctl: q.ctl,
+            ct: q.ct,
+            qt: q.qt,
+        };
+        let ports_out = WiringOutputs {
+            top: out.clone(),
+            rt: d.rt,
+            ctl: d.ctl,
+            ct: d.ct,
+            qt: d.qt,
+        };
+        (out, children.with_glue(glue), ports_in, ports_out)
+    }
+
+    /// The wiring alone: its outputs and next registers from its registers `glue` and its input
+    /// ports `ports` (nothing of the children but their ports).
+    pub fn wiring_eval(&self, glue: &GlueRegs, ports: &WiringInputs) -> (WiringOutputs, GlueRegs) {
+        let peeks = Peeks::from_ports(self, &ports.rt_status, &ports.ctl, &ports.ct, &ports.qt);
+        let q = ChildOutputs {
+            rt: ports.rt.clone(),
+            ctl: ports.ctl.clone(),
+            ct: ports.ct,
+            qt: ports.qt.clone(),
+        };
+        let (d, (top, next)) = wiring::kernel(self, glue, &peeks, &ports.top, &q);
+        let out = WiringOutputs {
+            top,
+            rt: d.rt,
+            ctl: d.ctl,
+            ct: d.ct,
+            qt: d.qt,
+        };
+        (out, next)
+    }
+
+    /// The wiring's registers `g` as trace signals (unprefixed).
+    pub fn wiring_reg_signals(&self, g: &GlueRegs) -> Vec<Signal> {
+        self.glue_signals(g)
+    }
+
+    /// The wiring's registers after reset.
+    pub fn wiring_reset(&self) -> GlueRegs {
+        self.reset().glue
+    }
+}
