@@ -617,7 +617,8 @@ fn cosim_of_the_rt_unit_matches() {
 }
 
 /// `vtq cosim --block wiring --scene`: the treelet RT unit's wiring alone against its RTL on
-/// the ports of a real run; without `--scene` it says what it needs.
+/// the ports of a real run (without `--scene` it says what it needs), and `--block
+/// treelet-rt-unit --scene`: the whole composed block on the run's recorded inputs.
 #[test]
 fn cosim_of_the_wiring_matches_on_a_real_run() {
     let dir = temp_dir("cosim-wiring");
@@ -651,6 +652,32 @@ fn cosim_of_the_wiring_matches_on_a_real_run() {
         &vtq(&["cosim", "--block", "wiring", "--cycles", "10"]),
         "give --scene",
     );
+    // The whole block, composed: the top, its children and the wiring.
+    let Some(stdout) = vtq_cosim(&[
+        "cosim",
+        "--block",
+        "treelet-rt-unit",
+        "--scene",
+        "cornell",
+        "--set",
+        "mode.kind=queues",
+        "--set",
+        "mode.virtualization=true",
+        "--set",
+        "mode.grouping=true",
+        "--cycles",
+        "200",
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ]) else {
+        return;
+    };
+    let line = line_starting(&stdout, "treelet_rt_unit_replay: ");
+    assert!(line.contains("200 cycles compared, 0 mismatches"), "{line}");
+    assert!(dir
+        .join("treelet_rt_unit_replay")
+        .join("treelet_rt_unit_wiring.v")
+        .is_file());
 }
 
 #[test]

@@ -14,7 +14,7 @@ use vtq_gen::cosim::{
 };
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
-    treelet_wiring_verilog,
+    treelet_rt_unit_replay_verilog, treelet_wiring_verilog,
 };
 use vtq_gen::tools::or_skip;
 use vtq_hdl::controller::TreeletController;
@@ -243,6 +243,20 @@ fn a_real_runs_treelet_rt_unit_inputs_replay_the_run() {
     assert!(column("mem_req_valid") > 100 && column("count_rt_tests_internal") > 100);
 }
 
+/// Settings of a run with 8-lane warps on a 16 x 16 image (beside [`recorded_run`]'s): small
+/// treelets and a low divergence threshold, so one SM's first 26,000 cycles reach the final
+/// phase's first repack.
+const EIGHT_LANES: [&str; 8] = [
+    "hw.treelet_bytes=1024",
+    "hw.divergence_threshold=1",
+    "hw.warp_size=8",
+    "gpu.warp_size=8",
+    "gpu.max_ctas_per_sm=4",
+    "hw.repack_threshold=6",
+    "width=16",
+    "height=16",
+];
+
 /// The treelet RT unit's wiring against its RTL on a real run: the wiring's ports (the block's
 /// inputs and its children's outputs in, the block's outputs and its children's inputs out)
 /// in every cycle of the block's definition stepped over SM 0's recorded inputs, replayed
@@ -254,17 +268,7 @@ fn a_real_runs_treelet_rt_unit_inputs_replay_the_run() {
 #[test]
 fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     const CYCLES: usize = 26_000;
-    let extra = [
-        "hw.treelet_bytes=1024",
-        "hw.divergence_threshold=1",
-        "hw.warp_size=8",
-        "gpu.warp_size=8",
-        "gpu.max_ctas_per_sm=4",
-        "hw.repack_threshold=6",
-        "width=16",
-        "height=16",
-    ];
-    let (cfg, bvh, log, _) = recorded_run(CYCLES, &extra);
+    let (cfg, bvh, log, _) = recorded_run(CYCLES, &EIGHT_LANES);
     let unit =
         TreeletRtUnit::new(cfg.hw.clone(), log.params.clone(), BvhDatapath::new(&bvh)).unwrap();
     let ports = wiring_ports(&unit, log.treelet);
@@ -320,4 +324,34 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
         .reported
         .iter()
         .any(|m| m.signal.starts_with("sm_ray_id")));
+}
+
+/// The whole treelet RT unit against its composed RTL on a real run: SM 0's recorded input
+/// ports replayed from reset against `treelet_rt_unit` (both tables, the controller, the RT
+/// unit and the wiring, connected port by port) in the replay wrapper whose datapath answers
+/// from the run's recorded tests ([`TreeletRtUnitReplay`] on the Rust side); every output of
+/// the block must match in every cycle.
+#[test]
+fn a_real_runs_treelet_rt_unit_matches_the_composed_rtl() {
+    const CYCLES: usize = 26_000;
+    let (cfg, _, log, tables) = recorded_run(CYCLES, &EIGHT_LANES);
+    let replay = TreeletRtUnitReplay::new(&cfg.hw, &log.params).unwrap();
+    let trace = record(&replay, replay.inputs(log.treelet, tables)).unwrap();
+    assert_eq!(replay.misses(), 0);
+    let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-treelet");
+    std::fs::create_dir_all(&work).unwrap();
+    let mut files = Vec::new();
+    for (module, text) in treelet_rt_unit_replay_verilog(&cfg.hw, &log.params).unwrap() {
+        let path = work.join(format!("{module}.v"));
+        std::fs::write(&path, text).unwrap();
+        files.push(path);
+    }
+    let t = std::time::Instant::now();
+    let Some(result) = or_skip(run_cosim(&trace, &files, &CosimOptions::icarus(&work))).unwrap()
+    else {
+        return;
+    };
+    eprintln!("icarus {:?}", t.elapsed());
+    assert_eq!(result.cycles, CYCLES as u64);
+    assert_eq!(result.mismatches, 0, "{:?}", result.reported);
 }

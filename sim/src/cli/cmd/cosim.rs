@@ -7,7 +7,8 @@
 //! simulation: the blocks' input ports of one SM's treelet RT unit, recorded cycle by cycle
 //! from reset and replayed as the testbench's stimulus (the RT unit's with its datapath's tests
 //! answered from their recorded results, [`vtq_gen::cosim::RtUnitReplay`]; the treelet RT
-//! unit's wiring, alone, on its ports in the recorded run, [`vtq_gen::cosim::TreeletWiring`]).
+//! unit's wiring, alone, on its ports in the recorded run, [`vtq_gen::cosim::TreeletWiring`];
+//! the whole treelet RT unit, composed, [`vtq_gen::cosim::TreeletRtUnitReplay`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -18,10 +19,10 @@ use vtq_gen::cosim::{
     datapath_tables, record, run_cosim, tests_and_hits, write_rust_vcd, CosimOptions, CosimResult,
     RtUnitReplay, RtUnitWithStatus, Simulator, Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
 };
-use vtq_gen::cosim::{wiring_ports, TreeletWiring};
+use vtq_gen::cosim::{wiring_ports, TreeletRtUnitReplay, TreeletWiring};
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
-    rt_unit_verilog, toy_datapath_verilog, treelet_wiring_verilog,
+    rt_unit_verilog, toy_datapath_verilog, treelet_rt_unit_replay_verilog, treelet_wiring_verilog,
 };
 use vtq_gen::stimulus::controller::controller_inputs;
 use vtq_gen::stimulus::rt_unit::rt_unit_inputs;
@@ -58,7 +59,12 @@ pub enum BlockChoice {
     /// The treelet RT unit's wiring, alone (with `--scene` only: its ports in the recorded run,
     /// the block stepped by its definition over SM `--sm`'s recorded inputs).
     Wiring,
-    /// Both tables, the controller and the RT unit (and with `--scene`, the wiring).
+    /// The whole treelet RT unit (both tables, the controller, the RT unit and the wiring,
+    /// composed), with `--scene` only: SM `--sm`'s recorded inputs from reset, its datapath
+    /// answering from the run's recorded tests.
+    TreeletRtUnit,
+    /// Both tables, the controller and the RT unit (and with `--scene`, the wiring and the
+    /// whole treelet RT unit).
     All,
 }
 
@@ -83,6 +89,9 @@ impl BlockChoice {
     }
     fn wiring(self) -> bool {
         matches!(self, BlockChoice::Wiring | BlockChoice::All)
+    }
+    fn treelet_rt_unit(self) -> bool {
+        matches!(self, BlockChoice::TreeletRtUnit | BlockChoice::All)
     }
 }
 
@@ -222,8 +231,8 @@ struct Job {
 /// Builds the stimulus, records the Rust block and generates the RTL of each chosen block.
 fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     let hw = &cfg.hw;
-    if args.block == BlockChoice::Wiring {
-        bail!("--block wiring replays a real run's ports: give --scene");
+    if matches!(args.block, BlockChoice::Wiring | BlockChoice::TreeletRtUnit) {
+        bail!("--block wiring and --block treelet-rt-unit replay a real run: give --scene");
     }
     let mut out = Vec::new();
     if args.block.count() {
@@ -431,6 +440,38 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
                 vtq_gen::compose::wiring_name(&unit.describe()),
                 treelet_wiring_verilog(&unit)?,
             )],
+        });
+    }
+    if args.block.treelet_rt_unit() {
+        let tables = datapath_tables(hw, &log.params.rt, BvhDatapath::new(&bvh), &log.rt_unit)?;
+        let (tests, hits) = tests_and_hits(&tables);
+        let unit = TreeletRtUnitReplay::new(hw, &log.params)?;
+        let inputs = unit.inputs(log.treelet.clone(), tables);
+        let trace = record(&unit, inputs)?;
+        if unit.misses() > 0 {
+            bail!(
+                "the treelet RT unit's replay ran {} datapath tests its tables do not hold",
+                unit.misses()
+            );
+        }
+        let offered = log.treelet.iter().filter(|i| i.sm_warp.is_some()).count();
+        let records: usize = log.treelet.iter().map(|i| i.ray_records.len()).sum();
+        jobs.push(Job {
+            rust_vcd: None,
+            trace,
+            coverage: format!(
+                "real traffic with the scene's datapath: the whole treelet RT unit's inputs in \
+                 cycles 0..{} of SM {} in scene {} ({}, {} cycles in all), from reset: \
+                 {offered} cycles with an SM warp offered, {records} ray records returned, \
+                 {tests} datapath tests ({hits} with a hit), answered from their recorded \
+                 results on both sides",
+                log.treelet.len(),
+                args.sm,
+                scene.name,
+                cfg.mode.kind.name(),
+                out.stats.cycles
+            ),
+            verilog: treelet_rt_unit_replay_verilog(hw, &log.params)?,
         });
     }
     Ok(jobs)
