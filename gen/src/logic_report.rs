@@ -1,10 +1,11 @@
 //! The synthesized-logic report of `vtq area --synth`: the treelet hardware (the treelet count
-//! table, the treelet queue table and the treelet controller) synthesized with
-//! [`crate::synth::synthesize_logic`] and the RT unit's control with
-//! [`crate::synth::synthesize_logic_hierarchy`] (its lane module once, counted per lane; the
-//! intersection datapath a black box), priced with [`crate::logic_area`], beside the storage
-//! model of [`crate::area`] and the paper's section 6.5 figures; and the treelet hardware's
-//! logic over the RT unit control's.
+//! table, the treelet queue table and the treelet controller, synthesized with
+//! [`crate::synth::synthesize_logic`], and the composed treelet RT unit's wiring, synthesized
+//! with [`crate::synth::synthesize_logic_hierarchy`]: its record crossbars and free-id words
+//! once, counted per instance) and the RT unit's control (hierarchically too: its lane module
+//! once, counted per lane; the intersection datapath a black box), priced with
+//! [`crate::logic_area`], beside the storage model of [`crate::area`] and the paper's section
+//! 6.5 figures; and the treelet hardware's logic over the RT unit control's.
 //!
 //! The blocks are synthesized in parallel (one Yosys process each).
 
@@ -20,6 +21,7 @@ use vtq_hdl::controller::{ControllerFeatures, TreeletController};
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
 use vtq_hdl::rt_unit::{NoDatapath, RtUnit, RtUnitParams};
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitParams};
 use vtq_hdl::{Block, BlockDesc, HwConfig};
 
 /// What the report's RT-unit line covers.
@@ -79,7 +81,7 @@ impl BlockLogic {
 /// The report: the blocks and their sum.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LogicReport {
-    /// Count table, queue table, controller.
+    /// Count table, queue table, controller, the treelet RT unit's wiring.
     pub blocks: Vec<BlockLogic>,
     /// Sum of the blocks' NAND2 equivalents.
     pub total_nand2_eq: f64,
@@ -138,14 +140,25 @@ pub fn logic_report(
     storage: &AreaReport,
     work_dir: &Path,
 ) -> Result<LogicReport, GenError> {
+    let unit = TreeletRtUnit::new(
+        cfg.clone(),
+        TreeletRtUnitParams {
+            rt: rt.clone(),
+            features,
+            ray_base: 0,
+        },
+        NoDatapath,
+    )?;
     let descs = [
         CountTable::new(cfg)?.describe(),
         QueueTable::new(cfg)?.describe(),
         TreeletController::new(cfg.clone(), features)?.describe(),
+        crate::rtl::treelet_wiring_desc(&unit),
     ];
     let structures = [
         Some("treelet count table"),
         Some("treelet queue table"),
+        None,
         None,
     ];
     let modules = crate::rtl::rtl_modules(cfg, features)?;
@@ -155,6 +168,8 @@ pub fn logic_report(
         crate::tools::write_file(&path, text)?;
         files.push((name.clone(), path));
     }
+    let wiring_file = work_dir.join("treelet_rt_unit_wiring.v");
+    crate::tools::write_file(&wiring_file, &crate::rtl::treelet_wiring_verilog(&unit)?)?;
     let rt_files = [
         work_dir.join("rt_unit.v"),
         work_dir.join("rt_datapath_black_box.v"),
@@ -171,7 +186,7 @@ pub fn logic_report(
                     start.elapsed().as_secs_f64(),
                 ))
             });
-            let handles: Vec<_> = files
+            let mut handles: Vec<_> = files
                 .iter()
                 .map(|(name, path)| {
                     s.spawn(move || {
@@ -181,6 +196,13 @@ pub fn logic_report(
                     })
                 })
                 .collect();
+            let wiring = &wiring_file;
+            handles.push(s.spawn(move || {
+                let start = Instant::now();
+                let top = "treelet_rt_unit_wiring";
+                let r = synthesize_logic_hierarchy(std::slice::from_ref(wiring), top, work_dir)?;
+                Ok((r, start.elapsed().as_secs_f64()))
+            }));
             let blocks = handles
                 .into_iter()
                 .map(|h| h.join().expect("a synthesis thread panicked"))

@@ -40,7 +40,8 @@ fn every_block_with_rtl_is_priced() {
         [
             "treelet_count_table",
             "treelet_queue_table",
-            "treelet_controller"
+            "treelet_controller",
+            "treelet_rt_unit_wiring"
         ]
     );
     // The cheapest priced cell is an inverter (2/3 NAND2), the dearest a flip-flop with enable,

@@ -12,6 +12,14 @@
 //! the lowest free ray ids from `p_ids`; the ray-record requests in `p_requests`); the RT unit's
 //! released and completed lanes are unpacked (`p_unpack`); `p_next` gives the next registers.
 //!
+//! Records (2,806 bits at the defaults) only move through one-hot crossbars: the always blocks
+//! compute selects from ids, ranks and counts, and one `treelet_rt_unit_wiring_pick` instance
+//! per destination (fill entry, issued lane, parked ray, finished ray) moves the data; the
+//! free-id bitmap's words are updated by one `treelet_rt_unit_wiring_ids` instance each. No
+//! wide vector is indexed by a computed position, which is what keeps Yosys' front end and
+//! synthesis tractable (the first body, written with running indices into the records, was
+//! killed for memory at the defaults), and hierarchical synthesis builds each crossbar once.
+//!
 //! Every width comes from the wiring's description (its ports and registers) and is checked
 //! against the block's; ray ids on the RT unit's lanes are unique (the wiring gives them out),
 //! which the RTL relies on where the Rust kernel checks ids one lane at a time.
@@ -213,6 +221,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
             ("NEED_LW", zext("need", cw, lw)),
             ("PASS_THROUGH", pass.join("\n")),
             ("UNUSED", String::new()),
+            ("FREE_WORDS", zext("free_ids_q", mr, mr.div_ceil(64) * 64)),
+            ("FREE_PAD", zext("free_ids_q", mr, 1 << rb)),
         ],
     );
     // Inputs the wiring does not read (or reads in part) are gathered for the linter.
@@ -232,8 +242,69 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     let note = "Complete RTL of the wiring kernel, cycle-exact with vtq_hdl's treelet RT unit \
                 (co-simulated from the ports of real runs): slot owners, fills of ray records, \
                 the event FIFO, the tables' registered answers, free ray ids.";
-    Ok(emit_full_module(&desc, note, |w| emit_text(w, &text)))
+    let mut out = emit_full_module(&desc, note, |w| emit_text(w, &text));
+    out.push_str(PICK);
+    Ok(out)
 }
+
+/// The wiring's crossbar: one of `NI` inputs of `W` bits picked by a one-hot select (zero when
+/// none is selected). Every record the wiring moves to a computed place goes through one
+/// instance per destination, so synthesis builds each crossbar once per shape.
+const PICK: &str = "
+// One of NI W-bit inputs picked by a one-hot select (zero when none is): the wiring's record
+// crossbars, one instance per destination.
+/* verilator lint_off DECLFILENAME */
+module treelet_rt_unit_wiring_pick #(
+    parameter NI = 1,
+    parameter W = 1
+) (
+    input wire [NI-1:0] sel,
+    input wire [NI*W-1:0] in,
+    output reg [W-1:0] out
+);
+always @* begin : p_pick
+    integer i;
+    out = {W{1'b0}};
+    for (i = 0; i < NI; i = i + 1)
+        out = out | ({W{sel[i]}} & in[i*W +: W]);
+end
+endmodule
+
+// One 64-id word (number wd) of the free-id bitmap after a cycle: the ids taken cleared, the
+// ids given back set; one instance per word.
+module treelet_rt_unit_wiring_ids #(
+    parameter RB = 1,
+    parameter NT = 1,
+    parameter NG = 1
+) (
+    input wire [RB-1:0] wd,
+    input wire [NT-1:0] take_valid,
+    input wire [NT*RB-1:0] take_id,
+    input wire [NG-1:0] give_valid,
+    input wire [NG*RB-1:0] give_id,
+    input wire [63:0] q,
+    output wire [63:0] d
+);
+reg [63:0] taken;
+reg [63:0] given;
+always @* begin : p_ids
+    integer i;
+    reg [RB+5:0] x;
+    taken = 64'd0;
+    given = 64'd0;
+    for (i = 0; i < NT; i = i + 1) begin
+        x = {6'd0, take_id[i*RB +: RB]};
+        if (take_valid[i] && x[RB+5:6] == wd) taken = taken | (64'd1 << x[5:0]);
+    end
+    for (i = 0; i < NG; i = i + 1) begin
+        x = {6'd0, give_id[i*RB +: RB]};
+        if (give_valid[i] && x[RB+5:6] == wd) given = given | (64'd1 << x[5:0]);
+    end
+end
+assign d = (q & ~taken) | given;
+endmodule
+/* verilator lint_on DECLFILENAME */
+";
 
 /// Whether `text` mentions identifier `name` (not as part of a longer identifier).
 fn mentions(text: &str, name: &str) -> bool {

@@ -171,6 +171,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
 
     /// The wiring's registers after reset.
     pub fn wiring_reset(&self) -> GlueRegs {
-        self.reset().glue
+        GlueRegs::reset(&self.cfg)
     }
 }

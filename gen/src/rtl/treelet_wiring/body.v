@@ -53,42 +53,52 @@ function admits;
 endfunction
 
 // ---- 0: ray records that arrived join their fills --------------------------------------------
+// Every record moves through one-hot crossbars (treelet_rt_unit_wiring_pick, one instance per
+// destination): each always block computes the selects from ids and counts, never indexes a
+// record by a computed position.
+genvar gl, gj;
+// The records on the ray-record ports, as the wiring keeps them (the fill's ray id lowest).
+wire [N*REC-1:0] arr_recs;
+generate
+    for (gl = 0; gl < N; gl = gl + 1) begin : g_arrived
+        assign arr_recs[gl*REC +: REC] = {
+            ray_record_other_stack[gl*DE +: DE], ray_record_cur_stack[gl*DE +: DE],
+            ray_record_other_spilled[gl*SCW +: SCW], ray_record_cur_spilled[gl*SCW +: SCW],
+            ray_record_other_sp[gl*SPW +: SPW], ray_record_cur_sp[gl*SPW +: SPW],
+            ray_record_cur_treelet[gl*TW +: TW], ray_record_hit[gl*128 +: 128],
+            ray_record_hit_valid[gl], ray_record_ray_words[gl*256 +: 256],
+            ray_record_id[gl*RB +: RB]};
+    end
+endgenerate
+// place_sel[e*N + r]: fill entry e takes the record on lane r (the first lane with its ray).
+reg [S*N*N-1:0] place_sel;
 reg [S*N-1:0] arr_p;
-reg [S*N*REC-1:0] rec_p;
 reg [S*CW-1:0] loading_p;
 reg fault_place;
 always @* begin : p_place
-    integer r, e, s, k, sel;
+    integer r, e, s, k;
     reg taken;
+    reg m;
     reg [N-1:0] found;
     arr_p = build_arrived_q;
-    rec_p = build_records_q;
     loading_p = build_loading_q;
+    place_sel = {S*N*N{1'b0}};
     found = {N{1'b0}};
     for (e = 0; e < S*N; e = e + 1) begin
         s = e / N;
         k = e % N;
         taken = 1'b0;
-        sel = 0;
         for (r = 0; r < N; r = r + 1) begin
-            if (!taken && r < ray_count && build_valid_q[s] && !build_arrived_q[e]
+            m = !taken && r < ray_count && build_valid_q[s] && !build_arrived_q[e]
                 && k < build_count_q[s*CW +: CW]
                 && {{(32-SB){1'b0}}, ray_record_slot[r*SB +: SB]} == s
-                && ray_record_id[r*RB +: RB] == build_rays_q[e*RB +: RB]) begin
-                taken = 1'b1;
-                sel = r;
-                found[r] = 1'b1;
-            end
+                && ray_record_id[r*RB +: RB] == build_rays_q[e*RB +: RB];
+            place_sel[e*N + r] = m;
+            taken = taken | m;
+            found[r] = found[r] | m;
         end
         if (taken) begin
             arr_p[e] = 1'b1;
-            rec_p[e*REC +: REC] = {
-                ray_record_other_stack[sel*DE +: DE], ray_record_cur_stack[sel*DE +: DE],
-                ray_record_other_spilled[sel*SCW +: SCW], ray_record_cur_spilled[sel*SCW +: SCW],
-                ray_record_other_sp[sel*SPW +: SPW], ray_record_cur_sp[sel*SPW +: SPW],
-                ray_record_cur_treelet[sel*TW +: TW], ray_record_hit[sel*128 +: 128],
-                ray_record_hit_valid[sel], ray_record_ray_words[sel*256 +: 256],
-                ray_record_id[sel*RB +: RB]};
             if (loading_p[s*CW +: CW] != {CW{1'b0}})
                 loading_p[s*CW +: CW] = loading_p[s*CW +: CW] - ONE_CW;
         end
@@ -97,6 +107,17 @@ always @* begin : p_place
     for (r = 0; r < N; r = r + 1)
         if (r < ray_count && !found[r]) fault_place = 1'b1;
 end
+// The fill entries' records after the placement.
+wire [S*N*REC-1:0] placed_recs;
+wire [S*N*REC-1:0] rec_p;
+generate
+    for (gj = 0; gj < S*N; gj = gj + 1) begin : g_place
+        treelet_rt_unit_wiring_pick #(.NI(N), .W(REC)) pick (
+            .sel(place_sel[gj*N +: N]), .in(arr_recs), .out(placed_recs[gj*REC +: REC]));
+        assign rec_p[gj*REC +: REC] = place_sel[gj*N +: N] != {N{1'b0}}
+            ? placed_recs[gj*REC +: REC] : build_records_q[gj*REC +: REC];
+    end
+endgenerate
 
 // ---- 1: the controller's inputs, from registers and register-only ports ----------------------
 wire restart = ctl_mode_reg == M_DONE && sm_valid;
@@ -195,38 +216,51 @@ assign ctl_qt_pop_count = last_qt_done_q[N*RB +: CW];
 assign ctl_qt_pop_rays = last_qt_done_q[N*RB-1:0];
 
 // ---- 2: the children's inputs: events, fills, the issue of a complete fill or an SM warp -----
-// The lowest N free ray ids, in order (what an admitted warp's active lanes get).
+// The lowest N free ray ids, in order (what an admitted warp's active lanes get): each 64-id
+// word's free ids counted, their running sums (base), and for lane k the word holding the k-th
+// free id and that id's rank in it.
+wire [NW*64-1:0] free_words = ${FREE_WORDS};
 reg [N*RB-1:0] low_ids;
-reg [FCW-1:0] base [0:NW];
+reg [(NW+1)*FCW-1:0] base;
 always @* begin : p_ids
-    integer wd, k, j, c, sel;
+    integer wd, k, j;
     /* verilator lint_off UNUSEDSIGNAL */
     reg [31:0] id32;
+    reg [31:0] wsel;
+    reg [31:0] rank;
     /* verilator lint_on UNUSEDSIGNAL */
+    reg [31:0] pc;
+    reg [6:0] c;
+    reg hit;
+    reg pick;
     reg [63:0] word;
+    reg [FCW-1:0] start;
     id32 = 32'd0;
-    base[0] = {FCW{1'b0}};
+    base[FCW-1:0] = {FCW{1'b0}};
     for (wd = 0; wd < NW; wd = wd + 1) begin
-        c = 0;
-        for (j = 0; j < 64; j = j + 1)
-            if (wd*64 + j < MR && free_ids_q[(wd*64 + j) % MR]) c = c + 1;
-        base[wd+1] = base[wd] + c[FCW-1:0];
+        pc = 32'd0;
+        for (j = 0; j < 64; j = j + 1) pc = pc + {31'd0, free_words[wd*64 + j]};
+        base[(wd+1)*FCW +: FCW] = base[wd*FCW +: FCW] + pc[FCW-1:0];
     end
     for (k = 0; k < N; k = k + 1) begin
-        sel = 0;
-        for (wd = 0; wd < NW; wd = wd + 1)
-            if ({{(32-FCW){1'b0}}, base[wd]} <= k && k < {{(32-FCW){1'b0}}, base[wd+1]}) sel = wd;
         word = 64'd0;
-        for (j = 0; j < 64; j = j + 1)
-            if (sel*64 + j < MR) word[j] = free_ids_q[(sel*64 + j) % MR];
-        c = k - {{(32-FCW){1'b0}}, base[sel]};
+        start = {FCW{1'b0}};
+        wsel = 32'd0;
+        for (wd = 0; wd < NW; wd = wd + 1) begin
+            hit = {{(32-FCW){1'b0}}, base[wd*FCW +: FCW]} <= k
+                && k < {{(32-FCW){1'b0}}, base[(wd+1)*FCW +: FCW]};
+            word = word | ({64{hit}} & free_words[wd*64 +: 64]);
+            start = start | ({FCW{hit}} & base[wd*FCW +: FCW]);
+            wsel = wsel | (hit ? wd : 0);
+        end
+        rank = k - {{(32-FCW){1'b0}}, start};
+        c = rank[6:0];
         low_ids[k*RB +: RB] = {RB{1'b0}};
         for (j = 0; j < 64; j = j + 1) begin
-            if (word[j]) begin
-                id32 = sel*64 + j;
-                if (c == 0) low_ids[k*RB +: RB] = id32[RB-1:0];
-                c = c - 1;
-            end
+            id32 = {wsel[25:0], j[5:0]};
+            pick = word[j] && c == 7'd0;
+            low_ids[k*RB +: RB] = low_ids[k*RB +: RB] | ({RB{pick}} & id32[RB-1:0]);
+            c = c - {6'd0, word[j]};
         end
     end
 end
@@ -246,23 +280,26 @@ reg [SB-1:0] issue_slot;
 reg [1:0] issue_order;
 reg [1:0] issue_target;
 reg issue_last;
-reg [N-1:0] issue_active;
-reg [N*RB-1:0] issue_ray_id;
-reg [N*REC-1:0] issue_rec;
+reg [N-1:0] build_active;
+// issue_sel[(l*S + s)*N + k]: lane l of the issued fill takes entry k of slot s.
+reg [N*S*N-1:0] issue_sel;
 reg fault_unplaced;
 reg admit;
 reg [SB-1:0] admit_slot;
 reg [CW-1:0] need;
 reg [N*RB-1:0] admit_ids;
 always @* begin : p_children
-    integer s, i, k, l, c, placed;
+    integer s, k, l, c, n, placed, s2, k2, j;
     reg [N-1:0] free_lanes;
     reg found;
+    reg take;
+    reg got;
+    free_lanes = {N{1'b0}};
     // The first event leaves when the controller takes it (a warp done always does).
     pop = head_done || (head_valid && ctl_enq_ready);
     use_b = slot_use_q;
     if (pop && head_done) use_b[head[TW +: SB]*2 +: 2] = U_FREE;
-    // A fill starts loading its rays' records.
+    // A fill starts loading its rays' records: its rays join the slot's, as many as fit.
     bv = build_valid_q;
     bk = build_kind_q;
     brays = build_rays_q;
@@ -271,30 +308,32 @@ always @* begin : p_children
     bload = loading_p;
     blast = build_last_q;
     fault_fill = 1'b0;
-    if (ctl_fill_valid) begin
-        s = fill_slot32;
-        if (!bv[s]) begin
-            bv[s] = 1'b1;
-            bk[s*2 +: 2] = ctl_fill_kind;
-            bcount[s*CW +: CW] = {CW{1'b0}};
-            bload[s*CW +: CW] = {CW{1'b0}};
-            blast[s] = 1'b0;
-        end
-        for (i = 0; i < N; i = i + 1) begin
-            if (i < fill_count32) begin
-                if (bcount[s*CW +: CW] < N) begin
-                    c = {{(32-CW){1'b0}}, bcount[s*CW +: CW]};
-                    brays[(s*N + c)*RB +: RB] = ctl_fill_rays[i*RB +: RB];
-                    barr[s*N + c] = 1'b0;
-                    bcount[s*CW +: CW] = bcount[s*CW +: CW] + ONE_CW;
-                    bload[s*CW +: CW] = bload[s*CW +: CW] + ONE_CW;
-                end else begin
-                    fault_fill = 1'b1;
+    for (s = 0; s < S; s = s + 1) begin
+        if (ctl_fill_valid && fill_slot32 == s) begin
+            if (!bv[s]) begin
+                bv[s] = 1'b1;
+                bk[s*2 +: 2] = ctl_fill_kind;
+                bcount[s*CW +: CW] = {CW{1'b0}};
+                bload[s*CW +: CW] = {CW{1'b0}};
+                blast[s] = 1'b0;
+            end
+            c = {{(32-CW){1'b0}}, bcount[s*CW +: CW]};
+            n = fill_count32 < N ? fill_count32 : N;
+            if (n > N - c) begin
+                fault_fill = 1'b1;
+                n = N - c;
+            end
+            for (k = 0; k < N; k = k + 1) begin
+                if (k >= c && k < c + n) begin
+                    brays[(s*N + k)*RB +: RB] = ctl_fill_rays[(k - c)*RB +: RB];
+                    barr[s*N + k] = 1'b0;
                 end
             end
+            bcount[s*CW +: CW] = bcount[s*CW +: CW] + n[CW-1:0];
+            bload[s*CW +: CW] = bload[s*CW +: CW] + n[CW-1:0];
+            blast[s] = blast[s] | ctl_fill_last;
+            if (ctl_fill_kind != K_REPACK) use_b[s*2 +: 2] = U_CONTROLLER;
         end
-        blast[s] = blast[s] | ctl_fill_last;
-        if (ctl_fill_kind != K_REPACK) use_b[s*2 +: 2] = U_CONTROLLER;
     end
     // The first complete fill with every record in is issued.
     issue_build = 1'b0;
@@ -308,10 +347,9 @@ always @* begin : p_children
     issue_order = O_RAY_STATIONARY;
     issue_target = 2'd0;
     issue_last = 1'b0;
-    issue_active = {N{1'b0}};
-    issue_ray_id = {N*RB{1'b0}};
+    build_active = {N{1'b0}};
+    issue_sel = {N*S*N{1'b0}};
     fault_unplaced = 1'b0;
-    for (l = 0; l < N; l = l + 1) issue_rec[l*REC +: REC] = {REC{1'b0}};
     admit = 1'b0;
     admit_slot = {SB{1'b0}};
     admit_ids = {N*RB{1'b0}};
@@ -329,20 +367,6 @@ always @* begin : p_children
                 free_lanes = st_valid[s] ? rt_status_inactive[s*N +: N] : {N{1'b0}};
             end
         endcase
-        k = 0;
-        placed = 0;
-        for (l = 0; l < N; l = l + 1) begin
-            if (free_lanes[l] && k < {{(32-CW){1'b0}}, bcount[s*CW +: CW]}) begin
-                if (barr[s*N + k]) begin
-                    issue_active[l] = 1'b1;
-                    issue_rec[l*REC +: REC] = rec_p[(s*N + k)*REC +: REC];
-                    issue_ray_id[l*RB +: RB] = rec_p[(s*N + k)*REC +: RB];
-                    placed = placed + 1;
-                end
-                k = k + 1;
-            end
-        end
-        if (placed != {{(32-CW){1'b0}}, bcount[s*CW +: CW]}) fault_unplaced = 1'b1;
     end else if (admits(mode) && sm_valid) begin
         // An SM warp takes the lowest slot nobody owns (not the one the controller reserves)
         // if enough ray ids are free; its rays get the lowest free ids.
@@ -361,24 +385,53 @@ always @* begin : p_children
             issue_order = O_CONTINUE;
             issue_target = 2'd1;
             issue_slot = admit_slot;
-            k = 0;
-            for (l = 0; l < N; l = l + 1) begin
-                if (sm_active[l]) begin
-                    admit_ids[l*RB +: RB] = low_ids[k*RB +: RB];
-                    k = k + 1;
-                    issue_active[l] = 1'b1;
-                    issue_ray_id[l*RB +: RB] = admit_ids[l*RB +: RB];
-                    issue_rec[l*REC +: REC] = {
-                        sm_other_stack[l*DE +: DE], sm_cur_stack[l*DE +: DE],
-                        sm_other_spilled[l*SCW +: SCW], sm_cur_spilled[l*SCW +: SCW],
-                        sm_other_sp[l*SPW +: SPW], sm_cur_sp[l*SPW +: SPW],
-                        sm_cur_treelet[l*TW +: TW], sm_hit[l*128 +: 128],
-                        sm_hit_valid[l], sm_ray_words[l*256 +: 256], admit_ids[l*RB +: RB]};
-                end
-            end
         end
     end
+    // The issued fill's entries go to its free lanes in order.
+    s = {{(32-SB){1'b0}}, issue_slot};
+    c = {{(32-CW){1'b0}}, bcount[s*CW +: CW]};
+    k = 0;
+    placed = 0;
+    for (l = 0; l < N; l = l + 1) begin
+        take = issue_build && free_lanes[l] && k < c;
+        got = take && barr[s*N + k];
+        build_active[l] = got;
+        placed = placed + {31'd0, got};
+        for (s2 = 0; s2 < S; s2 = s2 + 1)
+            for (k2 = 0; k2 < N; k2 = k2 + 1)
+                issue_sel[(l*S + s2)*N + k2] = got && s2 == s && k2 == k;
+        k = k + {31'd0, take};
+    end
+    fault_unplaced = issue_build && placed != c;
+    // An admitted warp's active lanes take the lowest free ids in order.
+    k = 0;
+    for (l = 0; l < N; l = l + 1) begin
+        for (j = 0; j < N; j = j + 1)
+            admit_ids[l*RB +: RB] = admit_ids[l*RB +: RB]
+                | ({RB{admit && sm_active[l] && j == k}} & low_ids[j*RB +: RB]);
+        k = k + {31'd0, sm_active[l]};
+    end
 end
+
+// The issued lanes' records: a complete fill's through the crossbar, an admitted SM warp's
+// from its lanes with their new ray ids.
+wire [N-1:0] admit_lanes = admit ? sm_active : {N{1'b0}};
+wire [N-1:0] issue_active = build_active | admit_lanes;
+wire [N*REC-1:0] built_recs;
+wire [N*REC-1:0] issue_rec;
+generate
+    for (gl = 0; gl < N; gl = gl + 1) begin : g_issue
+        treelet_rt_unit_wiring_pick #(.NI(S*N), .W(REC)) pick (
+            .sel(issue_sel[gl*S*N +: S*N]), .in(rec_p), .out(built_recs[gl*REC +: REC]));
+        assign issue_rec[gl*REC +: REC] = admit_lanes[gl] ? {
+                sm_other_stack[gl*DE +: DE], sm_cur_stack[gl*DE +: DE],
+                sm_other_spilled[gl*SCW +: SCW], sm_cur_spilled[gl*SCW +: SCW],
+                sm_other_sp[gl*SPW +: SPW], sm_cur_sp[gl*SPW +: SPW],
+                sm_cur_treelet[gl*TW +: TW], sm_hit[gl*128 +: 128],
+                sm_hit_valid[gl], sm_ray_words[gl*256 +: 256], admit_ids[gl*RB +: RB]}
+            : built_recs[gl*REC +: REC];
+    end
+endgenerate
 
 wire issue = issue_build || admit;
 assign rt_issue_valid = issue;
@@ -387,10 +440,9 @@ assign rt_issue_target = issue ? issue_target : 2'd0;
 assign rt_issue_slot = issue ? issue_slot : {SB{1'b0}};
 assign rt_issue_last = issue_last;
 assign rt_issue_active = issue_active;
-assign rt_issue_ray_id = issue_ray_id;
-genvar gl;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_lanes
+        assign rt_issue_ray_id[gl*RB +: RB] = issue_rec[gl*REC +: RB];
         assign rt_issue_ray_words[gl*256 +: 256] = issue_rec[gl*REC + F_WORDS +: 256];
         assign rt_issue_hit_valid[gl] = issue_rec[gl*REC + F_HV];
         assign rt_issue_hit[gl*128 +: 128] = issue_rec[gl*REC + F_HIT +: 128];
@@ -431,25 +483,26 @@ reg [CW-1:0] nloads;
 reg [2*N*RB-1:0] req_ids;
 reg [2*N*AB-1:0] req_addrs;
 always @* begin : p_requests
-    integer i, l, c;
+    integer i, l, c, k, j;
     nloads = ctl_fill_valid ? ctl_fill_count : {CW{1'b0}};
     req_ids = {2*N*RB{1'b0}};
     req_addrs = {2*N*AB{1'b0}};
-    c = 0;
-    for (i = 0; i < N; i = i + 1) begin
-        if (i < nloads) begin
-            req_ids[c*RB +: RB] = ctl_fill_rays[i*RB +: RB];
-            c = c + 1;
-        end
-    end
+    c = {{(32-CW){1'b0}}, nloads};
+    if (c > N) c = N;
+    for (i = 0; i < N; i = i + 1)
+        if (i < c) req_ids[i*RB +: RB] = ctl_fill_rays[i*RB +: RB];
+    // The admitted rays' stores follow the loads (ids of different lanes never share a place).
+    k = 0;
     for (l = 0; l < N; l = l + 1) begin
-        if (admit && sm_active[l]) begin
-            req_ids[c*RB +: RB] = admit_ids[l*RB +: RB];
-            c = c + 1;
-        end
+        for (j = 0; j < 2*N; j = j + 1)
+            req_ids[j*RB +: RB] = req_ids[j*RB +: RB]
+                | ({RB{admit && sm_active[l] && j == c + k}} & admit_ids[l*RB +: RB]);
+        k = k + {31'd0, admit && sm_active[l]};
     end
+    c = c + k;
     for (i = 0; i < 2*N; i = i + 1)
-        if (i < c) req_addrs[i*AB +: AB] = RAY_BASE + {{(AB-RB-5){1'b0}}, req_ids[i*RB +: RB], 5'd0};
+        req_addrs[i*AB +: AB] = i < c
+            ? RAY_BASE + {{(AB-RB-5){1'b0}}, req_ids[i*RB +: RB], 5'd0} : {AB{1'b0}};
 end
 assign ray_load_count = ${NLOADS_LW};
 assign ray_store_count = admit ? ${NEED_LW} : {LW{1'b0}};
@@ -468,97 +521,117 @@ ${PASS_THROUGH}
 
 // The released lanes (finished), then the completed warp's lanes: finished rays leave with
 // their hits and free their ids, parked rays leave their records and queue an enqueue.
+// fin_sel[j*2*N + q]: finished ray j is item q (released lane q, then completed lane q - N);
+// park_sel[p*N + l]: parked ray p is the completed warp's lane l.
+wire [(1<<RB)-1:0] free_pad = ${FREE_PAD};
 reg [LW-1:0] nfin;
-reg [2*N*RB-1:0] fin_id;
-reg [2*N-1:0] fin_hv;
-reg [2*N*128-1:0] fin_hit;
 reg [LW-1:0] npark;
-reg [N*RB-1:0] park_id;
-reg [N*TW-1:0] park_treelet;
-reg [N*REC-1:0] park_rec;
+reg [4*N*N-1:0] fin_sel;
+reg [N*N-1:0] park_sel;
 reg fault_unknown;
 always @* begin : p_unpack
-    integer l, c, p, m;
-    /* verilator lint_off UNUSEDSIGNAL */
-    reg [31:0] m1;
-    reg [31:0] id32;
-    reg [E-1:0] top;
-    /* verilator lint_on UNUSEDSIGNAL */
+    integer l, j;
+    reg [LW-1:0] c;
+    reg [LW-1:0] p;
     reg [RB-1:0] id;
     reg known;
-    m1 = 32'd0;
-    id32 = 32'd0;
-    top = {E{1'b0}};
-    nfin = {LW{1'b0}};
-    npark = {LW{1'b0}};
-    c = 0;
-    p = 0;
-    fin_id = {2*N*RB{1'b0}};
-    fin_hv = {2*N{1'b0}};
-    for (l = 0; l < 2*N; l = l + 1) fin_hit[l*128 +: 128] = 128'd0;
-    park_id = {N*RB{1'b0}};
-    park_treelet = {N*TW{1'b0}};
-    for (l = 0; l < N; l = l + 1) park_rec[l*REC +: REC] = {REC{1'b0}};
+    reg act;
+    reg fin;
+    reg park;
+    c = {LW{1'b0}};
+    p = {LW{1'b0}};
     fault_unknown = 1'b0;
     for (l = 0; l < N; l = l + 1) begin
         id = rt_released_ray_id[l*RB +: RB];
-        id32 = {{(32-RB){1'b0}}, id};
-        known = id32 < MR && !free_ids_q[id32 % MR];
-        if (rt_released_valid && rt_released_mask[l]) begin
-            if (!known) begin
-                fault_unknown = 1'b1;
-            end else begin
-                fin_id[c*RB +: RB] = id;
-                fin_hv[c] = rt_released_hit_valid[l];
-                fin_hit[c*128 +: 128] = rt_released_hit[l*128 +: 128];
-                c = c + 1;
-            end
-        end
+        known = {{(32-RB){1'b0}}, id} < MR && !free_pad[id];
+        act = rt_released_valid && rt_released_mask[l];
+        fault_unknown = fault_unknown | (act && !known);
+        fin = act && known;
+        for (j = 0; j < 2*N; j = j + 1)
+            fin_sel[j*2*N + l] = fin && j == {{(32-LW){1'b0}}, c};
+        c = c + {{(LW-1){1'b0}}, fin};
     end
     for (l = 0; l < N; l = l + 1) begin
         id = rt_done_ray_id[l*RB +: RB];
-        id32 = {{(32-RB){1'b0}}, id};
-        known = id32 < MR && !free_ids_q[id32 % MR];
-        if (rt_done_valid && rt_done_active[l]) begin
-            if (!known) begin
-                fault_unknown = 1'b1;
-            end else if (!rt_done_parked[l]) begin
-                fin_id[c*RB +: RB] = id;
-                fin_hv[c] = rt_done_hit_valid[l];
-                fin_hit[c*128 +: 128] = rt_done_hit[l*128 +: 128];
-                c = c + 1;
-            end else begin
-                park_id[p*RB +: RB] = id;
-                park_rec[p*REC +: REC] = {
-                    rt_done_other_stack[l*DE +: DE], rt_done_cur_stack[l*DE +: DE],
-                    rt_done_other_spilled[l*SCW +: SCW], rt_done_cur_spilled[l*SCW +: SCW],
-                    rt_done_other_sp[l*SPW +: SPW], rt_done_cur_sp[l*SPW +: SPW],
-                    rt_done_cur_treelet[l*TW +: TW], rt_done_hit[l*128 +: 128],
-                    rt_done_hit_valid[l], rt_done_ray_words[l*256 +: 256], id};
-                // The treelet of its next node: the current stack's top, or the other
-                // stack's when the current one is empty and nothing of it is spilled.
-                top = {E{1'b0}};
-                for (m = 0; m < D; m = m + 1) begin
-                    m1 = m + 1;
-                    if (rt_done_cur_sp[l*SPW +: SPW] == m1[SPW-1:0])
-                        top = rt_done_cur_stack[l*DE + m*E +: E];
-                    if (rt_done_cur_sp[l*SPW +: SPW] == {SPW{1'b0}}
-                        && rt_done_cur_spilled[l*SCW +: SCW] == {SCW{1'b0}}
-                        && rt_done_other_sp[l*SPW +: SPW] == m1[SPW-1:0])
-                        top = rt_done_other_stack[l*DE + m*E +: E];
-                end
-                park_treelet[p*TW +: TW] = top[TSH + 5 +: TW];
-                p = p + 1;
-            end
-        end
+        known = {{(32-RB){1'b0}}, id} < MR && !free_pad[id];
+        act = rt_done_valid && rt_done_active[l];
+        fault_unknown = fault_unknown | (act && !known);
+        fin = act && known && !rt_done_parked[l];
+        park = act && known && rt_done_parked[l];
+        for (j = 0; j < 2*N; j = j + 1)
+            fin_sel[j*2*N + N + l] = fin && j == {{(32-LW){1'b0}}, c};
+        c = c + {{(LW-1){1'b0}}, fin};
+        for (j = 0; j < N; j = j + 1)
+            park_sel[j*N + l] = park && j == {{(32-LW){1'b0}}, p};
+        p = p + {{(LW-1){1'b0}}, park};
     end
-    nfin = c[LW-1:0];
-    npark = p[LW-1:0];
+    nfin = c;
+    npark = p;
 end
+// The treelet of a completed lane's next node: the current stack's top, or the other stack's
+// when the current one is empty and nothing of it is spilled.
+reg [N*TW-1:0] next_treelet;
+always @* begin : p_next_treelet
+    integer l, m;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] m1;
+    reg [E-1:0] top;
+    /* verilator lint_on UNUSEDSIGNAL */
+    m1 = 32'd0;
+    for (l = 0; l < N; l = l + 1) begin
+        top = {E{1'b0}};
+        for (m = 0; m < D; m = m + 1) begin
+            m1 = m + 1;
+            if (rt_done_cur_sp[l*SPW +: SPW] == m1[SPW-1:0])
+                top = rt_done_cur_stack[l*DE + m*E +: E];
+            if (rt_done_cur_sp[l*SPW +: SPW] == {SPW{1'b0}}
+                && rt_done_cur_spilled[l*SCW +: SCW] == {SCW{1'b0}}
+                && rt_done_other_sp[l*SPW +: SPW] == m1[SPW-1:0])
+                top = rt_done_other_stack[l*DE + m*E +: E];
+        end
+        next_treelet[l*TW +: TW] = top[TSH + 5 +: TW];
+    end
+end
+// A finished item: {hit, hit valid, ray id}; a parked one: {next treelet, record}.
+localparam FIN = RB + 129;
+localparam PARK = REC + TW;
+wire [2*N*FIN-1:0] fin_items;
+wire [2*N*FIN-1:0] fin_out;
+wire [N*PARK-1:0] park_items;
+wire [N*PARK-1:0] park_out;
+wire [2*N*RB-1:0] fin_id;
+wire [N*RB-1:0] park_id;
+wire [N*TW-1:0] park_treelet;
+wire [N*REC-1:0] park_rec;
+generate
+    for (gl = 0; gl < N; gl = gl + 1) begin : g_items
+        assign fin_items[gl*FIN +: FIN] = {rt_released_hit[gl*128 +: 128],
+            rt_released_hit_valid[gl], rt_released_ray_id[gl*RB +: RB]};
+        assign fin_items[(N + gl)*FIN +: FIN] = {rt_done_hit[gl*128 +: 128],
+            rt_done_hit_valid[gl], rt_done_ray_id[gl*RB +: RB]};
+        assign park_items[gl*PARK +: PARK] = {next_treelet[gl*TW +: TW],
+            rt_done_other_stack[gl*DE +: DE], rt_done_cur_stack[gl*DE +: DE],
+            rt_done_other_spilled[gl*SCW +: SCW], rt_done_cur_spilled[gl*SCW +: SCW],
+            rt_done_other_sp[gl*SPW +: SPW], rt_done_cur_sp[gl*SPW +: SPW],
+            rt_done_cur_treelet[gl*TW +: TW], rt_done_hit[gl*128 +: 128],
+            rt_done_hit_valid[gl], rt_done_ray_words[gl*256 +: 256],
+            rt_done_ray_id[gl*RB +: RB]};
+        treelet_rt_unit_wiring_pick #(.NI(N), .W(PARK)) pick_park (
+            .sel(park_sel[gl*N +: N]), .in(park_items), .out(park_out[gl*PARK +: PARK]));
+        assign park_rec[gl*REC +: REC] = park_out[gl*PARK +: REC];
+        assign park_treelet[gl*TW +: TW] = park_out[gl*PARK + REC +: TW];
+        assign park_id[gl*RB +: RB] = park_out[gl*PARK +: RB];
+    end
+    for (gj = 0; gj < 2*N; gj = gj + 1) begin : g_finished
+        treelet_rt_unit_wiring_pick #(.NI(2*N), .W(FIN)) pick_fin (
+            .sel(fin_sel[gj*2*N +: 2*N]), .in(fin_items), .out(fin_out[gj*FIN +: FIN]));
+        assign fin_id[gj*RB +: RB] = fin_out[gj*FIN +: RB];
+        assign finished_hit_valid[gj] = fin_out[gj*FIN + RB];
+        assign finished_hit[gj*128 +: 128] = fin_out[gj*FIN + RB + 1 +: 128];
+    end
+endgenerate
 assign finished_count = nfin;
 assign finished_id = fin_id;
-assign finished_hit_valid = fin_hv;
-assign finished_hit = fin_hit;
 assign parked_count = npark;
 assign parked_id = park_id;
 generate
@@ -576,13 +649,34 @@ generate
     end
 endgenerate
 
+// The free-id bitmap's words after the cycle: the admitted rays' ids taken, the finished
+// rays' given back (an admitted id is free, a finished one is not: the two never meet).
+wire [NW*64-1:0] new_words;
+wire [2*N-1:0] fin_valid;
+generate
+    for (gj = 0; gj < 2*N; gj = gj + 1) begin : g_fin_valid
+        assign fin_valid[gj] = gj < nfin;
+    end
+    for (gj = 0; gj < NW; gj = gj + 1) begin : g_free_ids
+        localparam integer WDI = gj;
+        localparam [RB-1:0] WD = WDI[RB-1:0];
+        treelet_rt_unit_wiring_ids #(.RB(RB), .NT(N), .NG(2*N)) ids (
+            .wd(WD), .take_valid(admit_lanes), .take_id(admit_ids), .give_valid(fin_valid),
+            .give_id(fin_id), .q(free_words[gj*64 +: 64]), .d(new_words[gj*64 +: 64]));
+    end
+endgenerate
+/* verilator lint_off UNUSEDSIGNAL */
+wire [NW*64-1:0] new_words_unused = new_words;
+/* verilator lint_on UNUSEDSIGNAL */
+
 // ---- Next registers ---------------------------------------------------------------------------
 always @* begin : p_next
-    integer i, c, l;
+    integer i, c, l, j, n;
     reg [EVD*EW-1:0] ev;
     reg [31:0] cnt;
     reg full;
     c = 0;
+    l = 0;
     free_ids_d = free_ids_q;
     free_count_d = free_count_q;
     fault_d = fault_q;
@@ -596,32 +690,25 @@ always @* begin : p_next
     build_count_d = bcount;
     build_loading_d = bload;
     build_last_d = blast;
-    // Events: the head leaves, then the enqueues and the warp done are appended.
+    // Events: the head leaves, then the enqueues and the warp done are appended, as many as
+    // fit (the FIFO full is a fault).
     ev = events_q;
     cnt = {{(32-EVW){1'b0}}, event_count_q};
     if (pop) begin
         ev = ev >> EW;
         cnt = cnt - 1;
     end
-    full = 1'b0;
-    for (i = 0; i < N; i = i + 1) begin
-        if (i < npark) begin
-            if (cnt < EVD) begin
-                ev[cnt*EW +: EW] = {1'b0, park_id[i*RB +: RB], park_treelet[i*TW +: TW]};
-                cnt = cnt + 1;
-            end else begin
-                full = 1'b1;
-            end
-        end
+    n = {{(32-LW){1'b0}}, npark};
+    for (j = 0; j < EVD; j = j + 1) begin
+        for (i = 0; i < N; i = i + 1)
+            ev[j*EW +: EW] = i < n && cnt + i == j
+                ? {1'b0, park_id[i*RB +: RB], park_treelet[i*TW +: TW]} : ev[j*EW +: EW];
+        ev[j*EW +: EW] = rt_done_valid && cnt + n == j
+            ? {1'b1, {{(RB-SB){1'b0}}, rt_done_slot}, {TW{1'b0}}} : ev[j*EW +: EW];
     end
-    if (rt_done_valid) begin
-        if (cnt < EVD) begin
-            ev[cnt*EW +: EW] = {1'b1, {{(RB-SB){1'b0}}, rt_done_slot}, {TW{1'b0}}};
-            cnt = cnt + 1;
-        end else begin
-            full = 1'b1;
-        end
-    end
+    cnt = cnt + n + (rt_done_valid ? 1 : 0);
+    full = cnt > EVD;
+    if (full) cnt = EVD;
     events_d = ev;
     event_count_d = cnt[EVW-1:0];
     last_ct_evict_d = ct_evict_valid ? {1'b1, ct_evict_treelet} : {(TW+1){1'b0}};
@@ -634,21 +721,13 @@ always @* begin : p_next
         for (l = 0; l < N; l = l + 1)
             if (l < c) last_qt_done_d[l*RB +: RB] = qt_pop_rays[l*RB +: RB];
     end
-    // Ray ids: the admitted rays' are taken, the finished rays' given back.
-    free_ids_d = free_ids_q;
+    // Ray ids: the admitted rays' are taken, the finished rays' given back (the bitmap's words
+    // from g_free_ids below).
+    free_ids_d = new_words[MR-1:0];
     cnt = {{(32-FCW){1'b0}}, free_count_q};
-    if (admit) begin
-        for (l = 0; l < N; l = l + 1) begin
-            if (sm_active[l]) free_ids_d[{{(32-RB){1'b0}}, admit_ids[l*RB +: RB]} % MR] = 1'b0;
-        end
-        cnt = cnt - {{(32-CW){1'b0}}, need};
-    end
-    for (i = 0; i < 2*N; i = i + 1) begin
-        if (i < nfin) begin
-            free_ids_d[{{(32-RB){1'b0}}, fin_id[i*RB +: RB]} % MR] = 1'b1;
-            cnt = cnt + 1;
-        end
-    end
+    if (admit) cnt = cnt - {{(32-CW){1'b0}}, need};
+    for (i = 0; i < 2*N; i = i + 1)
+        if (i < nfin) cnt = cnt + 1;
     free_count_d = cnt[FCW-1:0];
     fault_d = fault_q || fault_place || fault_fill || fault_unplaced || fault_unknown || full
         || ct_error || qt_error;
