@@ -14,7 +14,7 @@ use super::glue::GlueRegs;
 use super::wiring::{self, Peeks};
 use super::TreeletRtUnitRegs;
 use super::{ChildOutputs, TreeletRtUnit, TreeletRtUnitInputs, TreeletRtUnitOutputs};
-use crate::block::{Block, Signal, Signals};
+use crate::block::{Signal, Signals};
 use crate::controller::{ControllerInputs, ControllerOutputs};
 use crate::count_table::{CountTableIn, CountTableOut};
 use crate::queue_table::{QueueTableIn, QueueTableOut};
