@@ -346,7 +346,9 @@ impl fmt::Display for LogicReport {
         writeln!(
             f,
             "(the count table's RTL keeps its entries in flip-flops, a CAM with scan ports: its \
-             logic includes its storage; the queue table's SRAM arrays are storage, not logic)"
+             logic includes its storage; the queue table's SRAM arrays are storage, not logic; \
+             the wiring keeps each slot's fill of whole ray records in flip-flops and moves \
+             records through one-hot crossbars, up to a warp of them each way a cycle)"
         )?;
         for (name, areas) in &self.storage_sram_mm2 {
             let list: Vec<String> = areas

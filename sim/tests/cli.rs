@@ -782,7 +782,8 @@ fn area_synth_prices_every_block_with_rtl() {
         [
             "treelet_count_table",
             "treelet_queue_table",
-            "treelet_controller"
+            "treelet_controller",
+            "treelet_rt_unit_wiring"
         ]
     );
     for b in blocks {
