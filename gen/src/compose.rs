@@ -16,6 +16,9 @@ use crate::error::GenError;
 use crate::verilog::{emit_header, validate_desc};
 use vtq_hdl::{BlockDesc, Dir, PortDesc};
 
+/// The instance name of the wiring module in a composite's module.
+pub const WIRING_INSTANCE: &str = "wiring";
+
 /// One child of a composite: its instance name and description.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Instance {
@@ -105,7 +108,7 @@ pub fn emit_top(top: &BlockDesc, children: &[Instance]) -> Result<String, GenErr
         w.line(");");
     }
     w.line("");
-    w.line(format!("{} wiring (", wiring.name));
+    w.line(format!("{} {WIRING_INSTANCE} (", wiring.name));
     w.indent();
     let mut conns = vec![".clk(clk)".to_string(), ".rst(rst)".to_string()];
     conns.extend(top.ports.iter().map(|p| format!(".{0}({0})", p.name)));

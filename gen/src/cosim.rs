@@ -87,7 +87,9 @@ pub struct Trace {
     pub ports: Vec<PortConn>,
     /// The Rust block's register signals ([`Block::reg_signals`]) that are registers of the
     /// block description, with where the RTL holds them; the waveform of
-    /// [`CosimOptions::vcd`] shows them under the same names.
+    /// [`CosimOptions::vcd`] shows them under the same names. A replay block has none of its
+    /// own: its replayed block's are [`RtUnitReplay::waveform_registers`] and
+    /// [`TreeletRtUnitReplay::waveform_registers`].
     pub registers: Vec<RegSignal>,
     /// Per cycle, the signals whose value differs from the cycle before (at cycle 0, from
     /// zero) as `(index, value)`, the index counting the inputs then the outputs: most of a

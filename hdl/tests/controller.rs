@@ -5,6 +5,7 @@
 //! real tables and RT unit is tested end to end in `treelet_rt_unit.rs` (the composed block).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use vtq_hdl::bits::fits;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::controller::{
     ActiveReport, ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs,
@@ -194,7 +195,7 @@ impl Harness {
             .chain(self.ctl.reg_signals(&self.regs).iter())
         {
             assert!(
-                s.width >= 64 || s.value >> s.width == 0,
+                fits(s.value, s.width),
                 "{} = {} overflows {} bits",
                 s.name,
                 s.value,

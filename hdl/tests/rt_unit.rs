@@ -1,6 +1,7 @@
 //! Tests of the RT unit control block with a toy datapath and a fixed-latency memory.
 
 use std::collections::BTreeMap;
+use vtq_hdl::bits::fits;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
     errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
@@ -1056,11 +1057,7 @@ fn signals_are_stable_fit_their_widths_and_name_described_items() {
     ]
     .concat();
     for s in all {
-        assert!(
-            s.width >= 64 || s.value >> s.width == 0,
-            "{} overflows",
-            s.name
-        );
+        assert!(fits(s.value, s.width), "{} overflows", s.name);
         let base = base_name(&s.name);
         let known = desc.port(base).is_some() || desc.registers.iter().any(|r| r.name == base);
         assert!(known, "{} ({base}) is not described", s.name);

@@ -7,6 +7,7 @@
 //! controller's phases, in every design variant.
 
 use std::collections::{BTreeMap, VecDeque};
+use vtq_hdl::bits::fits;
 use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{
@@ -375,7 +376,7 @@ fn ports_fit(inputs: &TreeletRtUnitInputs, out: &TreeletRtUnitOutputs, now: u64)
         .collect();
     for s in &signals {
         assert!(
-            s.width >= 64 || s.value >> s.width == 0,
+            fits(s.value, s.width),
             "cycle {now}: {} = {:#x} does not fit {} bits",
             s.name,
             s.value,

@@ -1,7 +1,8 @@
 //! End-to-end tests of the `vtq` binary: render, trace, scenes, help, the hardware commands
 //! (area, verilog, cosim), and one-line errors for bad input.
 
-use std::path::PathBuf;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use glam::Vec3;
@@ -560,6 +561,30 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
     assert!(report.is_clean(), "treelet_rt_unit:\n{report}");
 }
 
+/// `vtq cosim --block <block> --scene cornell` with a queues design (ray virtualization and
+/// grouping on) for `cycles` cycles, files and waveforms (`--vcd`) kept in `dir`; `None`
+/// when the simulator is missing outside CI.
+fn cosim_on_cornell(block: &str, cycles: &str, dir: &Path) -> Option<String> {
+    vtq_cosim(&[
+        "cosim",
+        "--block",
+        block,
+        "--scene",
+        "cornell",
+        "--set",
+        "mode.kind=queues",
+        "--set",
+        "mode.virtualization=true",
+        "--set",
+        "mode.grouping=true",
+        "--cycles",
+        cycles,
+        "--work-dir",
+        dir.to_str().unwrap(),
+        "--vcd",
+    ])
+}
+
 /// `vtq cosim --block rt-unit`: the RT unit's RTL against the Rust block at the configured
 /// (paper) sizes, with the toy datapath, and (`--scene`) on a real run's traffic with the
 /// scene's datapath answering from its recorded tests, with both waveforms (`--vcd`).
@@ -580,35 +605,23 @@ fn cosim_of_the_rt_unit_matches() {
     let line = line_starting(&stdout, "rt_unit: ");
     assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
     assert!(dir.join("rt_unit").join("rt_datapath.v").is_file());
-    let Some(stdout) = vtq_cosim(&[
-        "cosim",
-        "--block",
-        "rt-unit",
-        "--scene",
-        "cornell",
-        "--set",
-        "mode.kind=queues",
-        "--set",
-        "mode.virtualization=true",
-        "--set",
-        "mode.grouping=true",
-        "--cycles",
-        "300",
-        "--work-dir",
-        dir.to_str().unwrap(),
-        "--vcd",
-    ]) else {
+    let Some(stdout) = cosim_on_cornell("rt-unit", "300", &dir) else {
         return;
     };
     let line = line_starting(&stdout, "rt_unit_replay: ");
     assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
-    // --vcd: both waveforms with the replay's ports (the RT unit's and the table's).
-    for file in ["rtl.vcd", "rust.vcd"] {
-        let vcd = std::fs::read_to_string(dir.join("rt_unit_replay").join(file)).expect(file);
-        for port in ["issue_valid", "req_valid", "dp_valid"] {
-            assert!(vcd.contains(&format!(" {port} ")), "{file}: {port}");
-        }
-    }
+    // --vcd: both waveforms with the replay's ports (the RT unit's and the table's) and the
+    // RT unit's registers, named alike.
+    assert_same_names(
+        &dir.join("rt_unit_replay"),
+        &[
+            "issue_valid",
+            "req_valid",
+            "dp_valid",
+            "fifo_count",
+            "lane_status_0_0",
+        ],
+    );
     let stimulus = line_starting(&stdout, "  stimulus: ");
     assert!(
         stimulus.contains("real traffic with the scene's datapath: cycles 0..300 of SM 0"),
@@ -618,31 +631,18 @@ fn cosim_of_the_rt_unit_matches() {
 
 /// `vtq cosim --block wiring --scene`: the treelet RT unit's wiring alone against its RTL on
 /// the ports of a real run (without `--scene` it says what it needs), and `--block
-/// treelet-rt-unit --scene`: the whole composed block on the run's recorded inputs.
+/// treelet-rt-unit --scene`: the whole composed block on the run's recorded inputs; both with
+/// their waveforms (`--vcd`), the Rust one's ports and registers named as in the RTL one.
 #[test]
 fn cosim_of_the_wiring_matches_on_a_real_run() {
     let dir = temp_dir("cosim-wiring");
-    let Some(stdout) = vtq_cosim(&[
-        "cosim",
-        "--block",
-        "wiring",
-        "--scene",
-        "cornell",
-        "--set",
-        "mode.kind=queues",
-        "--set",
-        "mode.virtualization=true",
-        "--set",
-        "mode.grouping=true",
-        "--cycles",
-        "300",
-        "--work-dir",
-        dir.to_str().unwrap(),
-    ]) else {
+    let Some(stdout) = cosim_on_cornell("wiring", "300", &dir) else {
         return;
     };
     let line = line_starting(&stdout, "treelet_rt_unit_wiring: ");
     assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
+    let wiring = dir.join("treelet_rt_unit_wiring");
+    assert_same_names(&wiring, &["sm_valid", "rt_issue_ready", "free_count"]);
     let stimulus = line_starting(&stdout, "  stimulus: ");
     assert!(
         stimulus.contains("the wiring's ports in cycles 0..300 of SM 0"),
@@ -653,31 +653,78 @@ fn cosim_of_the_wiring_matches_on_a_real_run() {
         "give --scene",
     );
     // The whole block, composed: the top, its children and the wiring.
-    let Some(stdout) = vtq_cosim(&[
-        "cosim",
-        "--block",
-        "treelet-rt-unit",
-        "--scene",
-        "cornell",
-        "--set",
-        "mode.kind=queues",
-        "--set",
-        "mode.virtualization=true",
-        "--set",
-        "mode.grouping=true",
-        "--cycles",
-        "200",
-        "--work-dir",
-        dir.to_str().unwrap(),
-    ]) else {
+    let Some(stdout) = cosim_on_cornell("treelet-rt-unit", "200", &dir) else {
         return;
     };
     let line = line_starting(&stdout, "treelet_rt_unit_replay: ");
     assert!(line.contains("200 cycles compared, 0 mismatches"), "{line}");
+    // The composed block's registers are its children's (`<child>_<register>`, a grid's
+    // members too) and the wiring's (`glue_<register>`), held one level down in the RTL.
+    assert_same_names(
+        &dir.join("treelet_rt_unit_replay"),
+        &[
+            "sm_valid",
+            "dp_valid",
+            "rt_lane_status_0_0",
+            "ctl_mode",
+            "glue_free_count",
+        ],
+    );
     assert!(dir
         .join("treelet_rt_unit_replay")
         .join("treelet_rt_unit_wiring.v")
         .is_file());
+}
+
+/// The variables of the scopes `inputs`, `outputs` and `regs` of a VCD's header, as
+/// `(scope, name, width)`.
+fn vcd_scope_vars(path: &Path) -> BTreeSet<(String, String, String)> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut scopes: Vec<String> = Vec::new();
+    let mut vars = BTreeSet::new();
+    for line in text
+        .lines()
+        .take_while(|l| !l.starts_with("$enddefinitions"))
+    {
+        let t: Vec<&str> = line.split_whitespace().collect();
+        match t.first() {
+            Some(&"$scope") if t.len() > 2 => scopes.push(t[2].to_string()),
+            Some(&"$upscope") => {
+                scopes.pop();
+            }
+            Some(&"$var") if t.len() > 4 => {
+                if let Some(s) = scopes
+                    .last()
+                    .filter(|s| ["inputs", "outputs", "regs"].contains(&s.as_str()))
+                {
+                    vars.insert((s.clone(), t[4].to_string(), t[2].to_string()));
+                }
+            }
+            _ => {}
+        }
+    }
+    vars
+}
+
+/// A co-simulation directory's `rust.vcd` names every variable of its scopes `inputs`,
+/// `outputs` and `regs` as `rtl.vcd` does (same scope, name and width), and names each of
+/// `expected`.
+fn assert_same_names(dir: &Path, expected: &[&str]) {
+    let rtl = vcd_scope_vars(&dir.join("rtl.vcd"));
+    let rust = vcd_scope_vars(&dir.join("rust.vcd"));
+    let missing: Vec<_> = rust.difference(&rtl).take(5).collect();
+    assert!(
+        missing.is_empty(),
+        "{}: in rust.vcd only: {missing:?}",
+        dir.display()
+    );
+    for name in expected {
+        assert!(
+            rust.iter().any(|(_, n, _)| n == name),
+            "{}: rust.vcd has no {name}",
+            dir.display()
+        );
+    }
 }
 
 #[test]

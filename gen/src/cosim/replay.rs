@@ -16,8 +16,10 @@
 //! (not part of the key), which the random co-simulation's toy datapath checks.
 
 use super::rt_unit::{RtUnitAllOutputs, RtUnitWithStatus};
+use super::waveform::{nested_registers, RegSignal};
+use crate::compose::WIRING_INSTANCE;
 use crate::error::GenError;
-use crate::rtl::{CHILD_BITS, CHILD_COUNT_BITS};
+use crate::rtl::{instances, treelet_wiring_desc, CHILD_BITS, CHILD_COUNT_BITS, REPLAY_INSTANCE};
 use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 use vtq_hdl::bits::BitPacker;
@@ -317,6 +319,18 @@ impl RtUnitReplay {
         let idle = self.idle_inputs();
         with_tables(rt, tables, &idle)
     }
+
+    /// The RT unit's registers where the replay wrapper's RTL holds them (its instance of
+    /// `rt_unit`), for the waveform of a co-simulation ([`crate::cosim::Trace::registers`]).
+    pub fn waveform_registers(&self) -> Vec<RegSignal> {
+        let regs = self.reg_signals(&self.reset());
+        nested_registers(
+            &self.unit.describe(),
+            &format!("{REPLAY_INSTANCE}."),
+            "",
+            &regs,
+        )
+    }
 }
 
 /// Each cycle's inputs of the replayed block with its tests (from [`datapath_tables`]) in
@@ -456,7 +470,8 @@ pub const REPLAY_MODULE: &str = "rt_unit_replay";
 /// answers from tables that arrive with its inputs, as [`RtUnitReplay`] does for the RT unit
 /// alone: the tables of [`datapath_tables`] over the RT unit's inputs recorded in the same run
 /// (`TableLog::rt_unit`) serve the whole block's replay (`TableLog::treelet`), cycle for cycle.
-#[derive(Debug)]
+/// A clone shares the table and its miss count, as [`RtUnitReplay`]'s does.
+#[derive(Debug, Clone)]
 pub struct TreeletRtUnitReplay {
     unit: TreeletRtUnit<TableDatapath>,
     table: Rc<Table>,
@@ -484,6 +499,28 @@ impl TreeletRtUnitReplay {
         tables: Vec<Vec<DatapathCall>>,
     ) -> Vec<ReplayInputs<TreeletRtUnitInputs>> {
         with_tables(block, tables, &self.idle_inputs())
+    }
+
+    /// The treelet RT unit's registers where the replay wrapper's RTL holds them: each child's
+    /// (Rust signals `<child>_<register>`) in its instance of the composite, the wiring's
+    /// (`glue_<register>`, the composite's field `glue`) in the wiring's instance; for the
+    /// waveform of a co-simulation ([`crate::cosim::Trace::registers`]).
+    pub fn waveform_registers(&self) -> Vec<RegSignal> {
+        let regs = self.reg_signals(&self.reset());
+        let mut out: Vec<RegSignal> = instances(&self.unit)
+            .iter()
+            .flat_map(|c| {
+                let path = format!("{REPLAY_INSTANCE}.{}.", c.name);
+                nested_registers(&c.desc, &path, &format!("{}_", c.name), &regs)
+            })
+            .collect();
+        out.extend(nested_registers(
+            &treelet_wiring_desc(&self.unit),
+            &format!("{REPLAY_INSTANCE}.{WIRING_INSTANCE}."),
+            "glue_",
+            &regs,
+        ));
+        out
     }
 }
 

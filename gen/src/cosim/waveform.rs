@@ -24,12 +24,35 @@ pub struct RegSignal {
     /// The signal's least significant bit in a bank's packed vector; `None` for a single
     /// register.
     pub lsb: Option<u32>,
+    /// Where the RTL register lies below the testbench's instance of the module: `""` for the
+    /// module's own registers, else instance names each followed by `.` (a child's in a
+    /// replay wrapper or a composite, e.g. `u_dut.rt.`).
+    pub path: String,
 }
 
 /// The register signals of `regs` that are registers of `desc`: single registers by name and
-/// width, bank members as `<bank>_<i>` (words of a bank of bits as `<bank>_<k>`); a grid's
-/// `<bank>_<row>_<col>` members are left out.
+/// width, bank members as `<bank>_<i>` (words of a bank of bits as `<bank>_<k>`), a grid's
+/// members as `<bank>_<row>_<col>` (member `row * cols + col` of the bank, `cols` the most
+/// columns `regs` names).
 pub(super) fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<RegSignal> {
+    let grid = |s: &Signal| -> Option<(String, Option<u32>)> {
+        let (rest, col) = s.name.rsplit_once('_')?;
+        let (bank, row) = rest.rsplit_once('_')?;
+        let (row, col): (u32, u32) = (row.parse().ok()?, col.parse().ok()?);
+        let r = desc.registers.iter().find(|r| r.name == bank)?;
+        let cols = regs
+            .iter()
+            .filter_map(|t| {
+                let (rest, c) = t.name.rsplit_once('_')?;
+                let (b, _) = rest.rsplit_once('_')?;
+                (b == bank).then(|| c.parse::<u32>().ok()).flatten()
+            })
+            .max()?
+            + 1;
+        let k = row * cols + col;
+        (s.width == r.width && r.count % cols == 0 && k < r.count)
+            .then(|| (bank.to_string(), Some(k * r.width)))
+    };
     let place = |s: &Signal| -> Option<(String, Option<u32>)> {
         let single = desc
             .registers
@@ -57,12 +80,43 @@ pub(super) fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<
     };
     regs.iter()
         .filter_map(|s| {
-            place(s).map(|(rtl, lsb)| RegSignal {
+            place(s).or_else(|| grid(s)).map(|(rtl, lsb)| RegSignal {
                 name: s.name.clone(),
                 width: s.width,
                 rtl,
                 lsb,
+                path: String::new(),
             })
+        })
+        .collect()
+}
+
+/// The register signals of `regs` named `<prefix><name>` where `<name>` is a register of
+/// `desc` (as [`desc_registers`] finds them), held by the instance of `desc` at `path` below
+/// the testbench's instance (instance names each followed by `.`): a replayed block's, or a
+/// composite's child's, whose Rust signals the composite prefixes with the child's name.
+pub(super) fn nested_registers(
+    desc: &vtq_hdl::BlockDesc,
+    path: &str,
+    prefix: &str,
+    regs: &[Signal],
+) -> Vec<RegSignal> {
+    let own: Vec<Signal> = regs
+        .iter()
+        .filter_map(|s| {
+            let name = s.name.strip_prefix(prefix)?;
+            Some(Signal {
+                name: name.to_string(),
+                ..s.clone()
+            })
+        })
+        .collect();
+    desc_registers(desc, &own)
+        .into_iter()
+        .map(|r| RegSignal {
+            name: format!("{prefix}{}", r.name),
+            path: path.to_string(),
+            ..r
         })
         .collect()
 }
@@ -84,8 +138,8 @@ pub(super) fn vcd_scopes(trace: &Trace, registers: &[RegSignal]) -> String {
         .iter()
         .map(|r| {
             let source = match r.lsb {
-                None => format!("dut.{}_q", r.rtl),
-                Some(lsb) => format!("dut.{}_q[{lsb} +: {}]", r.rtl, r.width),
+                None => format!("dut.{}{}_q", r.path, r.rtl),
+                Some(lsb) => format!("dut.{}{}_q[{lsb} +: {}]", r.path, r.rtl, r.width),
             };
             (r.name.clone(), r.width, source)
         })
@@ -108,11 +162,13 @@ pub(super) fn vcd_scopes(trace: &Trace, registers: &[RegSignal]) -> String {
     v
 }
 
-/// `text` declares `name` as a `reg` (a line `reg [..] name;`, a comment may follow).
+/// `text` declares `name` as a `reg` or a `wire` (a line `reg [..] name;`, a comment may
+/// follow): a module's register, or a bank a module keeps in child instances and reads back
+/// through wires (the RT unit's lanes).
 pub(super) fn declares(text: &str, name: &str) -> bool {
     text.lines().any(|l| {
         let l = l.trim_start();
-        l.starts_with("reg ")
+        (l.starts_with("reg ") || l.starts_with("wire "))
             && l.split("//")
                 .next()
                 .unwrap_or("")

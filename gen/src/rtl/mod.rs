@@ -28,7 +28,7 @@ mod treelet_wiring;
 pub use controller::controller_verilog;
 pub use count_table::count_table_verilog;
 pub use queue_table::queue_table_verilog;
-pub use replay::{rt_unit_replay_verilog, treelet_rt_unit_replay_verilog};
+pub use replay::{rt_unit_replay_verilog, treelet_rt_unit_replay_verilog, REPLAY_INSTANCE};
 pub use rt_unit::{
     datapath_blackbox_verilog, rt_unit_verilog, toy_datapath_verilog, CHILD_BITS, CHILD_COUNT_BITS,
     DATAPATH_PORTS,

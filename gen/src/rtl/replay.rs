@@ -66,6 +66,9 @@ pub fn treelet_rt_unit_replay_verilog(
     Ok(out)
 }
 
+/// The instance name of the replayed block in a replay wrapper's module.
+pub const REPLAY_INSTANCE: &str = "u_dut";
+
 /// The testbench wrapper `module` with the ports of `outer` (the block's and the datapath
 /// table's) around an instance of `inner`.
 fn wrapper(module: &str, outer: &BlockDesc, inner: &BlockDesc) -> String {
@@ -78,7 +81,7 @@ fn wrapper(module: &str, outer: &BlockDesc, inner: &BlockDesc) -> String {
     ));
     emit_module_start(&mut w, module, &outer.ports);
     w.indent();
-    w.line(format!("{} u_dut (", inner.name));
+    w.line(format!("{} {REPLAY_INSTANCE} (", inner.name));
     w.indent();
     let mut conns = vec![".clk(clk)".to_string(), ".rst(rst)".to_string()];
     conns.extend(inner.ports.iter().map(|p| format!(".{0}({0})", p.name)));

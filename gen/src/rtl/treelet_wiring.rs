@@ -223,6 +223,19 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
             ("UNUSED", String::new()),
             ("FREE_WORDS", zext("free_ids_q", mr, mr.div_ceil(64) * 64)),
             ("FREE_PAD", zext("free_ids_q", mr, 1 << rb)),
+            ("NEW_WORDS_PAD", new_words_pad(mr)),
+            ("RECORD_OFFSETS", record_offsets()),
+            (
+                "PACK_ARRIVED",
+                pack_record("ray_record", "ray_record_id[gl*RB +: RB]"),
+            ),
+            ("PACK_SM", pack_record("sm", "admit_ids[gl*RB +: RB]")),
+            (
+                "PACK_DONE",
+                pack_record("rt_done", "rt_done_ray_id[gl*RB +: RB]"),
+            ),
+            ("UNPACK_ISSUE", unpack_record("rt_issue", "issue_rec")),
+            ("UNPACK_PARKED", unpack_record("parked", "park_rec")),
         ],
     );
     // Inputs the wiring does not read (or reads in part) are gathered for the linter.
@@ -245,6 +258,91 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     let mut out = emit_full_module(&desc, note, |w| emit_text(w, &text));
     out.push_str(PICK);
     Ok(out)
+}
+
+/// For `max_rays` not a multiple of 64, the padding bits of the free-id bitmap's last word
+/// after the cycle (never read) gathered for the linter; nothing otherwise.
+fn new_words_pad(max_rays: u32) -> String {
+    if max_rays % 64 == 0 {
+        return String::new();
+    }
+    "/* verilator lint_off UNUSEDSIGNAL */\n\
+     wire [NW*64-1:MR] new_words_pad = new_words[NW*64-1:MR];\n\
+     /* verilator lint_on UNUSEDSIGNAL */"
+        .to_string()
+}
+
+/// A ray record's fields as the wiring keeps it, highest first, above its ray id (bits
+/// `[0 +: RB]`): `(field, width, offset)`, the field as the ports name it
+/// (`<prefix>_<field>`), its width and the localparam of its offset in the record. One list
+/// for every place a record is packed from or unpacked into a lane's ports.
+const RECORD_FIELDS: [(&str, &str, &str); 10] = [
+    ("other_stack", "DE", "F_OST"),
+    ("cur_stack", "DE", "F_CST"),
+    ("other_spilled", "SCW", "F_OSC"),
+    ("cur_spilled", "SCW", "F_CSC"),
+    ("other_sp", "SPW", "F_OSP"),
+    ("cur_sp", "SPW", "F_CSP"),
+    ("cur_treelet", "TW", "F_CT"),
+    ("hit", "128", "F_HIT"),
+    ("hit_valid", "1", "F_HV"),
+    ("ray_words", "256", "F_WORDS"),
+];
+
+/// The localparams of [`RECORD_FIELDS`]' offsets, lowest first (the first above the ray id).
+fn record_offsets() -> String {
+    let mut below = "RB".to_string();
+    RECORD_FIELDS
+        .iter()
+        .rev()
+        .map(|(_, width, offset)| {
+            let line = format!("localparam {offset} = {below};");
+            below = format!("{offset} + {width}");
+            line
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Lane `gl`'s slice of port `<prefix>_<field>` of `width` bits per lane.
+fn lane_slice(prefix: &str, field: &str, width: &str) -> String {
+    if width == "1" {
+        format!("{prefix}_{field}[gl]")
+    } else {
+        format!("{prefix}_{field}[gl*{width} +: {width}]")
+    }
+}
+
+/// Lane `gl`'s ray record packed from the lane's ports `<prefix>_<field>`, its ray id `id`.
+fn pack_record(prefix: &str, id: &str) -> String {
+    let mut parts: Vec<String> = RECORD_FIELDS
+        .iter()
+        .map(|(field, width, _)| lane_slice(prefix, field, width))
+        .collect();
+    parts.push(id.to_string());
+    let lines: Vec<String> = parts.chunks(2).map(|pair| pair.join(", ")).collect();
+    format!("{{\n            {}}}", lines.join(",\n            "))
+}
+
+/// Lane `gl`'s ports `<prefix>_<field>` (all but the ray id) driven from its record in
+/// `records` (`REC` bits per lane).
+fn unpack_record(prefix: &str, records: &str) -> String {
+    RECORD_FIELDS
+        .iter()
+        .rev()
+        .map(|(field, width, offset)| {
+            let bits = if *width == "1" {
+                format!("{records}[gl*REC + {offset}]")
+            } else {
+                format!("{records}[gl*REC + {offset} +: {width}]")
+            };
+            format!(
+                "        assign {} = {bits};",
+                lane_slice(prefix, field, width)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 /// The wiring's crossbar: one of `NI` inputs of `W` bits picked by a one-hot select (zero when

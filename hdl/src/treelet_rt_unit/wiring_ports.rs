@@ -53,53 +53,71 @@ pub struct WiringOutputs {
     pub qt: QueueTableIn,
 }
 
-/// `signals` with `prefix_` before each name.
-fn prefixed(prefix: &str, signals: Vec<Signal>) -> impl Iterator<Item = Signal> + '_ {
-    signals.into_iter().map(move |s| Signal {
-        name: format!("{prefix}_{}", s.name),
-        ..s
-    })
+/// A port bundle made of parts, each part's signals named `<prefix>_<name>` (a part with
+/// prefix `""` keeps its names).
+type Parts<'a> = [(&'static str, &'a dyn Signals)];
+
+/// The signals of `parts` taken by `get` (a bundle's [`Signals::signals`] or
+/// [`Signals::bulk_signals`]), each with its part's prefix.
+fn joined(parts: &Parts, get: fn(&dyn Signals) -> Vec<Signal>) -> Vec<Signal> {
+    parts
+        .iter()
+        .flat_map(|&(prefix, part)| {
+            get(part).into_iter().map(move |s| match prefix {
+                "" => s,
+                _ => Signal {
+                    name: format!("{prefix}_{}", s.name),
+                    ..s
+                },
+            })
+        })
+        .collect()
+}
+
+impl WiringInputs {
+    /// The ports in the wiring module's order: the block's inputs, then each child's outputs.
+    fn parts(&self) -> [(&'static str, &dyn Signals); 6] {
+        [
+            ("", &self.top),
+            ("rt", &self.rt),
+            ("rt", &self.rt_status),
+            ("ctl", &self.ctl),
+            ("ct", &self.ct),
+            ("qt", &self.qt),
+        ]
+    }
 }
 
 impl Signals for WiringInputs {
     fn signals(&self) -> Vec<Signal> {
-        let mut s = self.top.signals();
-        s.extend(prefixed("rt", self.rt.signals()));
-        s.extend(prefixed("rt", self.rt_status.signals()));
-        s.extend(prefixed("ctl", self.ctl.signals()));
-        s.extend(prefixed("ct", self.ct.signals()));
-        s.extend(prefixed("qt", self.qt.signals()));
-        s
+        joined(&self.parts(), |p| p.signals())
     }
 
     fn bulk_signals(&self) -> Vec<Signal> {
-        let mut s = self.top.bulk_signals();
-        s.extend(prefixed("rt", self.rt.bulk_signals()));
-        s.extend(prefixed("rt", self.rt_status.bulk_signals()));
-        s.extend(prefixed("ctl", self.ctl.bulk_signals()));
-        s.extend(prefixed("ct", self.ct.bulk_signals()));
-        s.extend(prefixed("qt", self.qt.bulk_signals()));
-        s
+        joined(&self.parts(), |p| p.bulk_signals())
+    }
+}
+
+impl WiringOutputs {
+    /// The ports in the wiring module's order: the block's outputs, then each child's inputs.
+    fn parts(&self) -> [(&'static str, &dyn Signals); 5] {
+        [
+            ("", &self.top),
+            ("rt", &self.rt),
+            ("ctl", &self.ctl),
+            ("ct", &self.ct),
+            ("qt", &self.qt),
+        ]
     }
 }
 
 impl Signals for WiringOutputs {
     fn signals(&self) -> Vec<Signal> {
-        let mut s = self.top.signals();
-        s.extend(prefixed("rt", self.rt.signals()));
-        s.extend(prefixed("ctl", self.ctl.signals()));
-        s.extend(prefixed("ct", self.ct.signals()));
-        s.extend(prefixed("qt", self.qt.signals()));
-        s
+        joined(&self.parts(), |p| p.signals())
     }
 
     fn bulk_signals(&self) -> Vec<Signal> {
-        let mut s = self.top.bulk_signals();
-        s.extend(prefixed("rt", self.rt.bulk_signals()));
-        s.extend(prefixed("ctl", self.ctl.bulk_signals()));
-        s.extend(prefixed("ct", self.ct.bulk_signals()));
-        s.extend(prefixed("qt", self.qt.bulk_signals()));
-        s
+        joined(&self.parts(), |p| p.bulk_signals())
     }
 }
 

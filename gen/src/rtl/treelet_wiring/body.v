@@ -16,17 +16,9 @@ localparam [1:0] O_RAY_STATIONARY = 2'd0;
 localparam [1:0] O_CONTINUE = 2'd1;
 localparam [1:0] O_STOP = 2'd2;
 // A ray record as the wiring keeps it: {other_stack, cur_stack, other_spilled, cur_spilled,
-// other_sp, cur_sp, cur_treelet, hit, hit_valid, ray_words, ray id} (ray id lowest).
-localparam F_WORDS = RB;
-localparam F_HV = F_WORDS + 256;
-localparam F_HIT = F_HV + 1;
-localparam F_CT = F_HIT + 128;
-localparam F_CSP = F_CT + TW;
-localparam F_OSP = F_CSP + SPW;
-localparam F_CSC = F_OSP + SPW;
-localparam F_OSC = F_CSC + SCW;
-localparam F_CST = F_OSC + SCW;
-localparam F_OST = F_CST + DE;
+// other_sp, cur_sp, cur_treelet, hit, hit_valid, ray_words, ray id} (ray id lowest); each
+// field's offset:
+${RECORD_OFFSETS}
 // An event: {warp done, ray id (or the slot), treelet}.
 localparam EW = 1 + RB + TW;
 ${REGISTERS}
@@ -61,13 +53,7 @@ genvar gl, gj;
 wire [N*REC-1:0] arr_recs;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_arrived
-        assign arr_recs[gl*REC +: REC] = {
-            ray_record_other_stack[gl*DE +: DE], ray_record_cur_stack[gl*DE +: DE],
-            ray_record_other_spilled[gl*SCW +: SCW], ray_record_cur_spilled[gl*SCW +: SCW],
-            ray_record_other_sp[gl*SPW +: SPW], ray_record_cur_sp[gl*SPW +: SPW],
-            ray_record_cur_treelet[gl*TW +: TW], ray_record_hit[gl*128 +: 128],
-            ray_record_hit_valid[gl], ray_record_ray_words[gl*256 +: 256],
-            ray_record_id[gl*RB +: RB]};
+        assign arr_recs[gl*REC +: REC] = ${PACK_ARRIVED};
     end
 endgenerate
 // place_sel[e*N + r]: fill entry e takes the record on lane r (the first lane with its ray).
@@ -423,12 +409,7 @@ generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_issue
         treelet_rt_unit_wiring_pick #(.NI(S*N), .W(REC)) pick (
             .sel(issue_sel[gl*S*N +: S*N]), .in(rec_p), .out(built_recs[gl*REC +: REC]));
-        assign issue_rec[gl*REC +: REC] = admit_lanes[gl] ? {
-                sm_other_stack[gl*DE +: DE], sm_cur_stack[gl*DE +: DE],
-                sm_other_spilled[gl*SCW +: SCW], sm_cur_spilled[gl*SCW +: SCW],
-                sm_other_sp[gl*SPW +: SPW], sm_cur_sp[gl*SPW +: SPW],
-                sm_cur_treelet[gl*TW +: TW], sm_hit[gl*128 +: 128],
-                sm_hit_valid[gl], sm_ray_words[gl*256 +: 256], admit_ids[gl*RB +: RB]}
+        assign issue_rec[gl*REC +: REC] = admit_lanes[gl] ? ${PACK_SM}
             : built_recs[gl*REC +: REC];
     end
 endgenerate
@@ -443,16 +424,7 @@ assign rt_issue_active = issue_active;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_lanes
         assign rt_issue_ray_id[gl*RB +: RB] = issue_rec[gl*REC +: RB];
-        assign rt_issue_ray_words[gl*256 +: 256] = issue_rec[gl*REC + F_WORDS +: 256];
-        assign rt_issue_hit_valid[gl] = issue_rec[gl*REC + F_HV];
-        assign rt_issue_hit[gl*128 +: 128] = issue_rec[gl*REC + F_HIT +: 128];
-        assign rt_issue_cur_treelet[gl*TW +: TW] = issue_rec[gl*REC + F_CT +: TW];
-        assign rt_issue_cur_sp[gl*SPW +: SPW] = issue_rec[gl*REC + F_CSP +: SPW];
-        assign rt_issue_other_sp[gl*SPW +: SPW] = issue_rec[gl*REC + F_OSP +: SPW];
-        assign rt_issue_cur_spilled[gl*SCW +: SCW] = issue_rec[gl*REC + F_CSC +: SCW];
-        assign rt_issue_other_spilled[gl*SCW +: SCW] = issue_rec[gl*REC + F_OSC +: SCW];
-        assign rt_issue_cur_stack[gl*DE +: DE] = issue_rec[gl*REC + F_CST +: DE];
-        assign rt_issue_other_stack[gl*DE +: DE] = issue_rec[gl*REC + F_OST +: DE];
+${UNPACK_ISSUE}
     end
 endgenerate
 assign rt_stop_valid = ctl_terminate_valid;
@@ -609,13 +581,7 @@ generate
             rt_released_hit_valid[gl], rt_released_ray_id[gl*RB +: RB]};
         assign fin_items[(N + gl)*FIN +: FIN] = {rt_done_hit[gl*128 +: 128],
             rt_done_hit_valid[gl], rt_done_ray_id[gl*RB +: RB]};
-        assign park_items[gl*PARK +: PARK] = {next_treelet[gl*TW +: TW],
-            rt_done_other_stack[gl*DE +: DE], rt_done_cur_stack[gl*DE +: DE],
-            rt_done_other_spilled[gl*SCW +: SCW], rt_done_cur_spilled[gl*SCW +: SCW],
-            rt_done_other_sp[gl*SPW +: SPW], rt_done_cur_sp[gl*SPW +: SPW],
-            rt_done_cur_treelet[gl*TW +: TW], rt_done_hit[gl*128 +: 128],
-            rt_done_hit_valid[gl], rt_done_ray_words[gl*256 +: 256],
-            rt_done_ray_id[gl*RB +: RB]};
+        assign park_items[gl*PARK +: PARK] = {next_treelet[gl*TW +: TW], ${PACK_DONE}};
         treelet_rt_unit_wiring_pick #(.NI(N), .W(PARK)) pick_park (
             .sel(park_sel[gl*N +: N]), .in(park_items), .out(park_out[gl*PARK +: PARK]));
         assign park_rec[gl*REC +: REC] = park_out[gl*PARK +: REC];
@@ -636,16 +602,7 @@ assign parked_count = npark;
 assign parked_id = park_id;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_parked
-        assign parked_ray_words[gl*256 +: 256] = park_rec[gl*REC + F_WORDS +: 256];
-        assign parked_hit_valid[gl] = park_rec[gl*REC + F_HV];
-        assign parked_hit[gl*128 +: 128] = park_rec[gl*REC + F_HIT +: 128];
-        assign parked_cur_treelet[gl*TW +: TW] = park_rec[gl*REC + F_CT +: TW];
-        assign parked_cur_sp[gl*SPW +: SPW] = park_rec[gl*REC + F_CSP +: SPW];
-        assign parked_other_sp[gl*SPW +: SPW] = park_rec[gl*REC + F_OSP +: SPW];
-        assign parked_cur_spilled[gl*SCW +: SCW] = park_rec[gl*REC + F_CSC +: SCW];
-        assign parked_other_spilled[gl*SCW +: SCW] = park_rec[gl*REC + F_OSC +: SCW];
-        assign parked_cur_stack[gl*DE +: DE] = park_rec[gl*REC + F_CST +: DE];
-        assign parked_other_stack[gl*DE +: DE] = park_rec[gl*REC + F_OST +: DE];
+${UNPACK_PARKED}
     end
 endgenerate
 
@@ -665,10 +622,7 @@ generate
             .give_id(fin_id), .q(free_words[gj*64 +: 64]), .d(new_words[gj*64 +: 64]));
     end
 endgenerate
-/* verilator lint_off UNUSEDSIGNAL */
-wire [NW*64-1:0] new_words_unused = new_words;
-/* verilator lint_on UNUSEDSIGNAL */
-
+${NEW_WORDS_PAD}
 // ---- Next registers ---------------------------------------------------------------------------
 always @* begin : p_next
     integer i, c, l, j, n;

@@ -31,7 +31,7 @@ use vtq_gen::GenError;
 use vtq_hdl::controller::{ControllerInputs, ControllerStats, TreeletController};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::QueueOp;
-use vtq_hdl::rt_unit::RtUnitParams;
+use vtq_hdl::rt_unit::{NoDatapath, RtUnitParams};
 use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, WiringInputs};
 use vtq_hdl::Block;
 
@@ -382,7 +382,8 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let unit = RtUnitReplay::new(hw, params)?;
         let inputs = unit.inputs(log.rt_unit.clone(), tables);
         let vcd = rust_vcd(&unit, &inputs, args.vcd);
-        let trace = record(&unit, inputs)?;
+        let mut trace = record(&unit, inputs)?;
+        trace.registers = unit.waveform_registers();
         if unit.misses() > 0 {
             bail!(
                 "the RT unit's replay ran {} datapath tests its tables do not hold",
@@ -392,8 +393,6 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let warps = log.rt_unit.iter().filter(|i| i.issue.is_some()).count();
         let responses: usize = log.rt_unit.iter().map(|i| i.responses.len()).sum();
         jobs.push(Job {
-            // Its ports and the RT unit's registers (in rtl.vcd, one level down in the
-            // rt_unit instance).
             rust_vcd: vcd,
             trace,
             coverage: format!(
@@ -419,11 +418,19 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let fills = sum(&|p| usize::from(p.ctl.fill.is_some()));
         let records = sum(&|p| p.top.ray_records.len());
         let offered = sum(&|p| usize::from(p.top.sm_warp.is_some()));
-        let wiring = TreeletWiring::new(&unit);
-        let trace = record(&wiring, ports)?;
+        // The wiring's behaviour does not depend on the RT unit's datapath: the block whose
+        // trace, RTL and waveform are taken owns a unit without one.
+        let own = TreeletRtUnit::new(hw.clone(), log.params.clone(), NoDatapath)?;
+        let vcd_ports = args.vcd.then(|| ports.clone());
+        let trace = record(&TreeletWiring::new(&own), ports)?;
+        let verilog = treelet_wiring_verilog(&own)?;
+        let name = vtq_gen::compose::wiring_name(&own.describe());
         jobs.push(Job {
-            // The wiring block borrows the unit: no Rust waveform for it.
-            rust_vcd: None,
+            rust_vcd: vcd_ports.map(|ports| {
+                Box::new(move |path: &Path| {
+                    write_rust_vcd(&TreeletWiring::new(&own), ports.iter().cloned(), path)
+                }) as RustVcd
+            }),
             trace,
             coverage: format!(
                 "real traffic: the wiring's ports in cycles 0..{} of SM {} in scene {} ({}, {} \
@@ -436,10 +443,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
                 cfg.mode.kind.name(),
                 out.stats.cycles
             ),
-            verilog: vec![(
-                vtq_gen::compose::wiring_name(&unit.describe()),
-                treelet_wiring_verilog(&unit)?,
-            )],
+            verilog: vec![(name, verilog)],
         });
     }
     if args.block.treelet_rt_unit() {
@@ -447,7 +451,9 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let (tests, hits) = tests_and_hits(&tables);
         let unit = TreeletRtUnitReplay::new(hw, &log.params)?;
         let inputs = unit.inputs(log.treelet.clone(), tables);
-        let trace = record(&unit, inputs)?;
+        let vcd = rust_vcd(&unit, &inputs, args.vcd);
+        let mut trace = record(&unit, inputs)?;
+        trace.registers = unit.waveform_registers();
         if unit.misses() > 0 {
             bail!(
                 "the treelet RT unit's replay ran {} datapath tests its tables do not hold",
@@ -457,7 +463,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let offered = log.treelet.iter().filter(|i| i.sm_warp.is_some()).count();
         let records: usize = log.treelet.iter().map(|i| i.ray_records.len()).sum();
         jobs.push(Job {
-            rust_vcd: None,
+            rust_vcd: vcd,
             trace,
             coverage: format!(
                 "real traffic with the scene's datapath: the whole treelet RT unit's inputs in \
