@@ -263,7 +263,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
 /// For `max_rays` not a multiple of 64, the padding bits of the free-id bitmap's last word
 /// after the cycle (never read) gathered for the linter; nothing otherwise.
 fn new_words_pad(max_rays: u32) -> String {
-    if max_rays % 64 == 0 {
+    if max_rays.is_multiple_of(64) {
         return String::new();
     }
     "/* verilator lint_off UNUSEDSIGNAL */\n\
