@@ -16,8 +16,11 @@
 //!    low: the registers now hold `Block::reset()`;
 //! 2. for each cycle `k`, with `clk` low: applies the inputs of cycle `k`, waits 1 ns for the
 //!    combinational logic to settle, and compares every output with the outputs that
-//!    `Block::eval(regs_k, inputs_k)` returned (`!==`, so an `x` or `z` is a mismatch); then
-//!    raises `clk` (the registers take `eval`'s next values) and lowers it again.
+//!    `Block::eval(regs_k, inputs_k)` returned (`!==`, so an `x` or `z` is a mismatch), and
+//!    every register of [`Trace::registers`] the RTL declares with the Rust block's `regs_k`
+//!    (a register whose RTL value has an `x` bit, storage the RTL does not reset, is not
+//!    compared that cycle); then raises `clk` (the registers take `eval`'s next values) and
+//!    lowers it again.
 //!
 //! So outputs are this cycle's combinational function of the registers and this cycle's inputs
 //! (Mealy outputs, exactly `eval`'s first result); a registered output simply does not depend
@@ -86,13 +89,15 @@ pub struct Trace {
     /// made of.
     pub ports: Vec<PortConn>,
     /// The Rust block's register signals ([`Block::reg_signals`]) that are registers of the
-    /// block description, with where the RTL holds them; the waveform of
-    /// [`CosimOptions::vcd`] shows them under the same names. A replay block has none of its
-    /// own: its replayed block's are [`RtUnitReplay::waveform_registers`] and
-    /// [`TreeletRtUnitReplay::waveform_registers`].
+    /// block description, with where the RTL holds them, each cycle's start value recorded:
+    /// the testbench compares them every cycle and the waveform of [`CosimOptions::vcd`]
+    /// shows them under the same names. A replay block has none of its own: its replayed
+    /// block's are [`RtUnitReplay::registers`] and [`TreeletRtUnitReplay::registers`]
+    /// ([`record_with_registers`]).
     pub registers: Vec<RegSignal>,
     /// Per cycle, the signals whose value differs from the cycle before (at cycle 0, from
-    /// zero) as `(index, value)`, the index counting the inputs then the outputs: most of a
+    /// zero) as `(index, value)`, the index counting the inputs, the outputs, then the
+    /// registers (their values at the cycle's start): most of a
     /// block's wide ports (ray records, stacks) are zero or unchanged most cycles, so a long
     /// run of a large configuration stays small.
     changes: Vec<(u32, u64)>,
@@ -112,10 +117,18 @@ impl Trace {
         let mut row = vec![0u64; self.inputs.len() + self.outputs.len()];
         (0..self.cycles()).map(move |c| {
             for &(i, v) in self.cycle_changes(c) {
-                row[i as usize] = v;
+                if let Some(x) = row.get_mut(i as usize) {
+                    *x = v;
+                }
             }
             row.clone()
         })
+    }
+
+    /// The index that ends a cycle in the vectors: one past the last signal's (inputs,
+    /// outputs, registers).
+    fn end_of_cycle(&self) -> usize {
+        self.inputs.len() + self.outputs.len() + self.registers.len()
     }
 
     /// The changes of cycle `c` (see [`Trace::changes`]).
@@ -128,8 +141,8 @@ impl Trace {
         &self.changes[self.starts[c]..end]
     }
 
-    /// Appends a cycle whose values are `values` (inputs then outputs); `last` holds the
-    /// previous cycle's and becomes this one's.
+    /// Appends a cycle whose values are `values` (inputs, outputs, registers); `last` holds
+    /// the previous cycle's and becomes this one's.
     fn push_cycle(&mut self, last: &mut [u64], values: impl Iterator<Item = u64>) {
         self.starts.push(self.changes.len());
         for (i, (old, v)) in last.iter_mut().zip(values).enumerate() {
@@ -141,12 +154,24 @@ impl Trace {
     }
 }
 
-/// Runs `block` from reset over `inputs` and records every cycle's signals. The signal lists
-/// must be the same every cycle, every value must fit its width, and the signals must match
-/// the block description's ports (same names, directions and widths, every port covered).
+/// Runs `block` from reset over `inputs` and records every cycle's signals, and the start
+/// values of its registers that are registers of its description. The signal lists must be
+/// the same every cycle, every value must fit its width, and the signals must match the
+/// block description's ports (same names, directions and widths, every port covered).
 pub fn record<B: Block>(
     block: &B,
     inputs: impl IntoIterator<Item = B::Inputs>,
+) -> Result<Trace, GenError> {
+    let registers = desc_registers(&block.describe(), &block.reg_signals(&block.reset()));
+    record_with_registers(block, inputs, registers)
+}
+
+/// [`record`] with the registers to record given: those of a block whose description has
+/// none of its own, a replay wrapper's ([`RtUnitReplay::registers`]).
+pub fn record_with_registers<B: Block>(
+    block: &B,
+    inputs: impl IntoIterator<Item = B::Inputs>,
+    registers: Vec<RegSignal>,
 ) -> Result<Trace, GenError> {
     let desc = block.describe();
     let fail = |reason: String| GenError::Cosim {
@@ -156,7 +181,28 @@ pub fn record<B: Block>(
     let mut regs = block.reset();
     let mut trace: Option<Trace> = None;
     let mut last: Vec<u64> = Vec::new();
+    // Where each recorded register lies in the block's register signals (the same list every
+    // cycle).
+    let place: Vec<usize> = {
+        let names = block.reg_signals(&regs);
+        registers
+            .iter()
+            .map(|r| {
+                names
+                    .iter()
+                    .position(|s| s.name == r.name)
+                    .ok_or_else(|| fail(format!("register `{}` is not a register signal", r.name)))
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let mut registers = Some(registers);
     for (cycle, inp) in inputs.into_iter().enumerate() {
+        let now: Vec<u64> = if place.is_empty() {
+            Vec::new()
+        } else {
+            let sigs = block.reg_signals(&regs);
+            place.iter().map(|&k| sigs[k].value).collect()
+        };
         let (out, next) = block.eval(&regs, &inp);
         regs = next;
         let (mut ins, mut outs) = (inp.signals(), out.signals());
@@ -169,7 +215,7 @@ pub fn record<B: Block>(
                 inputs: infos(&ins),
                 outputs: infos(&outs),
                 ports: Vec::new(),
-                registers: desc_registers(&desc, &block.reg_signals(&block.reset())),
+                registers: registers.take().unwrap_or_default(),
                 changes: Vec::new(),
                 starts: Vec::new(),
             }),
@@ -196,8 +242,9 @@ pub fn record<B: Block>(
                 )));
             }
         }
-        last.resize(ins.len() + outs.len(), 0);
-        t.push_cycle(&mut last, ins.iter().chain(outs.iter()).map(|s| s.value));
+        last.resize(ins.len() + outs.len() + now.len(), 0);
+        let values = ins.iter().chain(outs.iter()).map(|s| s.value);
+        t.push_cycle(&mut last, values.chain(now.iter().copied()));
     }
     let mut trace = trace.ok_or_else(|| fail("no input cycles to simulate".to_string()))?;
     for s in trace.inputs.iter().chain(trace.outputs.iter()) {
@@ -381,7 +428,7 @@ pub struct CosimResult {
     pub simulator: Simulator,
     /// Cycles compared.
     pub cycles: u64,
-    /// (cycle, output) pairs that differed.
+    /// (cycle, signal) pairs that differed, outputs and registers.
     pub mismatches: u64,
     /// The first mismatches, in cycle order.
     pub reported: Vec<Mismatch>,
@@ -414,9 +461,10 @@ impl std::fmt::Display for CosimResult {
 
 /// The vectors file for `trace`: per cycle one line `<index> <value>` (hex) for each signal
 /// whose value changed since the cycle before (at cycle 0, each nonzero one), the index
-/// counting the inputs then the outputs, and a line `<inputs + outputs> 0` ending the cycle.
+/// counting the inputs, the outputs, then the registers, and a line
+/// `<inputs + outputs + registers> 0` ending the cycle.
 pub fn vectors(trace: &Trace) -> String {
-    let end = trace.inputs.len() + trace.outputs.len();
+    let end = trace.end_of_cycle();
     let mut out = String::new();
     for c in 0..trace.cycles() {
         for &(i, v) in trace.cycle_changes(c) {
@@ -427,26 +475,33 @@ pub fn vectors(trace: &Trace) -> String {
     out
 }
 
-/// The self-checking testbench for `trace` (see the module documentation for its timing).
+/// The self-checking testbench for `trace` (see the module documentation for its timing),
+/// comparing the outputs only.
 pub fn write_testbench(trace: &Trace, max_reported: u32) -> String {
-    testbench(trace, max_reported, None)
+    write_testbench_with(trace, max_reported, &[], false)
 }
 
-/// The testbench of [`write_testbench`] that also dumps the waveform to [`RTL_VCD_FILE`]: the
-/// ports under the Rust trace's scopes and names (`inputs.<signal>`, `outputs.<signal>`; a
-/// packed port's lanes one signal each), the registers in `registers` as `regs.<name>` (the
-/// DUT's `<rtl>_q` or a bank member's bits of it), and the DUT's own signals (scope `dut`, one level).
-pub fn write_testbench_with_vcd(
+/// The testbench of [`write_testbench`] that also compares the registers
+/// `trace.registers[k]` for each `k` of `checked` (the DUT's `<rtl>_q` or a bank member's
+/// bits of it, at `dut.<path>`; the RTL must declare them), a mismatch reported as signal
+/// `regs.<name>`, and with `vcd` dumps the waveform to [`RTL_VCD_FILE`]: the ports under the
+/// Rust trace's scopes and names (`inputs.<signal>`, `outputs.<signal>`; a packed port's lanes
+/// one signal each), the checked registers as `regs.<name>`, and the DUT's own signals (scope
+/// `dut`, one level).
+pub fn write_testbench_with(
     trace: &Trace,
     max_reported: u32,
-    registers: &[RegSignal],
+    checked: &[usize],
+    vcd: bool,
 ) -> String {
-    testbench(trace, max_reported, Some(registers))
-}
-
-fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> String {
+    let registers: Vec<RegSignal> = checked
+        .iter()
+        .map(|&k| trace.registers[k].clone())
+        .collect();
+    let vcd = vcd.then_some(registers.as_slice());
     let n_in = trace.inputs.len();
-    let end = n_in + trace.outputs.len();
+    let n_out = trace.outputs.len();
+    let end = trace.end_of_cycle();
     let mut v = String::new();
     let _ = writeln!(
         v,
@@ -479,6 +534,17 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
         let _ = writeln!(v, "    wire {}o_{};", range(s.width), s.name);
         let _ = writeln!(v, "    reg  {}e_{};", range(s.width), s.name);
     }
+    // The checked registers: q_ the RTL's, x_ the Rust block's at the cycle's start.
+    for r in &registers {
+        let _ = writeln!(
+            v,
+            "    wire {}q_{} = {};",
+            range(r.width),
+            r.name,
+            r.source()
+        );
+        let _ = writeln!(v, "    reg  {}x_{};", range(r.width), r.name);
+    }
     let _ = writeln!(v);
     let _ = writeln!(v, "    {} dut (", trace.module);
     let mut conns = vec![
@@ -506,7 +572,17 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     let _ = writeln!(v, "        end");
     let _ = writeln!(v, "    endtask");
     let _ = writeln!(v);
-    // One cycle's changes: each sets an input or an expected output.
+    // A register holding an x bit is storage the RTL does not reset: not compared.
+    let _ = writeln!(v, "    task check_reg(input integer c, input [8*64-1:0] name, input [63:0] expected, input [63:0] got);");
+    let _ = writeln!(v, "        begin");
+    let _ = writeln!(
+        v,
+        "            if (^got !== 1'bx) check(c, name, expected, got);"
+    );
+    let _ = writeln!(v, "        end");
+    let _ = writeln!(v, "    endtask");
+    let _ = writeln!(v);
+    // One cycle's changes: each sets an input, an expected output or an expected register.
     let _ = writeln!(v, "    task apply(input [31:0] index, input [63:0] value);");
     let _ = writeln!(v, "        begin");
     let _ = writeln!(v, "            case (index)");
@@ -525,6 +601,15 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
             n_in + j,
             s.name,
             s.width - 1
+        );
+    }
+    for (&k, r) in checked.iter().zip(&registers) {
+        let _ = writeln!(
+            v,
+            "                {}: x_{} = value[{}:0];",
+            n_in + n_out + k,
+            r.name,
+            r.width - 1
         );
     }
     let _ = writeln!(v, "                default: ;");
@@ -568,6 +653,9 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     }
     for s in &trace.outputs {
         let _ = writeln!(v, "        e_{} = {}'d0;", s.name, s.width);
+    }
+    for r in &registers {
+        let _ = writeln!(v, "        x_{} = {}'d0;", r.name, r.width);
     }
     let _ = writeln!(
         v,
@@ -619,23 +707,40 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
         all("e_")
     );
     for s in &trace.outputs {
-        // Zero-extend both sides to the task's 64-bit arguments.
-        let pad = |x: String| {
-            if s.width >= 64 {
-                x
-            } else {
-                format!("{{{}'d0, {x}}}", 64 - s.width)
-            }
-        };
         let _ = writeln!(
             v,
             "                check(cycle, \"{}\", {}, {});",
             s.name,
-            pad(format!("e_{}", s.name)),
-            pad(format!("o_{}", s.name))
+            pad64(&format!("e_{}", s.name), s.width),
+            pad64(&format!("o_{}", s.name), s.width)
         );
     }
     let _ = writeln!(v, "            end");
+    if !registers.is_empty() {
+        let names = |prefix: &str| {
+            registers
+                .iter()
+                .map(|r| format!("{prefix}{}", r.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            v,
+            "            if ({{{}}} !== {{{}}}) begin",
+            names("q_"),
+            names("x_")
+        );
+        for r in &registers {
+            let _ = writeln!(
+                v,
+                "                check_reg(cycle, \"regs.{}\", {}, {});",
+                r.name,
+                pad64(&format!("x_{}", r.name), r.width),
+                pad64(&format!("q_{}", r.name), r.width)
+            );
+        }
+        let _ = writeln!(v, "            end");
+    }
     let _ = writeln!(v, "            #4 clk = 1'b1;");
     let _ = writeln!(v, "            #5 clk = 1'b0;");
     let _ = writeln!(v, "        end");
@@ -650,8 +755,18 @@ fn testbench(trace: &Trace, max_reported: u32, vcd: Option<&[RegSignal]>) -> Str
     v
 }
 
+/// `expr` of `width` bits zero-extended to the check tasks' 64-bit arguments.
+fn pad64(expr: &str, width: u32) -> String {
+    if width >= 64 {
+        expr.to_string()
+    } else {
+        format!("{{{}'d0, {expr}}}", 64 - width)
+    }
+}
+
 /// Writes the testbench and vectors for `trace` into `opts.work_dir`, simulates them with the
-/// DUT `sources`, and parses the verdict.
+/// DUT `sources` (comparing the outputs and the registers of `trace.registers` the sources
+/// declare), and parses the verdict.
 pub fn run_cosim(
     trace: &Trace,
     sources: &[PathBuf],
@@ -673,25 +788,16 @@ pub fn run_cosim(
     for s in sources {
         let abs = std::fs::canonicalize(s)
             .map_err(|e| GenError::io(format!("finding Verilog source {}", s.display()), e))?;
-        if opts.vcd {
-            texts += &std::fs::read_to_string(&abs)
-                .map_err(|e| GenError::io(format!("reading {}", abs.display()), e))?;
-        }
+        texts += &std::fs::read_to_string(&abs)
+            .map_err(|e| GenError::io(format!("reading {}", abs.display()), e))?;
         files.push(abs.display().to_string());
     }
-    let tb = if opts.vcd {
-        // Only the registers the RTL declares as `<name>_q` (a hierarchical reference to a
-        // missing one would not compile).
-        let registers: Vec<RegSignal> = trace
-            .registers
-            .iter()
-            .filter(|r| declares(&texts, &format!("{}_q", r.rtl)))
-            .cloned()
-            .collect();
-        write_testbench_with_vcd(trace, opts.max_reported, &registers)
-    } else {
-        write_testbench(trace, opts.max_reported)
-    };
+    // Only the registers the RTL declares as `<name>_q` (a hierarchical reference to a missing
+    // one would not compile).
+    let checked: Vec<usize> = (0..trace.registers.len())
+        .filter(|&k| declares(&texts, &format!("{}_q", trace.registers[k].rtl)))
+        .collect();
+    let tb = write_testbench_with(trace, opts.max_reported, &checked, opts.vcd);
     write_file(&dir.join(TESTBENCH_FILE), &tb)?;
     let files: Vec<&str> = files.iter().map(String::as_str).collect();
     let output = match opts.simulator {

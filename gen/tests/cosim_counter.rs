@@ -8,7 +8,7 @@ use vtq_gen::synth::lint;
 use vtq_gen::tools::or_skip;
 use vtq_gen::GenError;
 use vtq_hdl::splitmix::SplitMix64;
-use vtq_hdl::{Block, BlockDesc, Signal};
+use vtq_hdl::{Block, BlockDesc, RegDesc, Signal};
 
 /// The counter: `count` is the register (a Moore output); `wrap` is high in a cycle where the
 /// counter is enabled at 15 (a Mealy output, combinational in the inputs). `load` wins over
@@ -309,4 +309,99 @@ fn record_rejects_signals_that_do_not_match_the_ports() {
     assert!(e.to_string().contains("`value`"), "{e}");
     let e = record(&Counter { skip_ten: false }, Vec::new()).unwrap_err();
     assert!(e.to_string().contains("no input cycles"), "{e}");
+}
+
+/// The counter with its register described (`count`, the RTL's `count_q`), so the testbench
+/// compares it every cycle.
+struct DescribedCounter(Counter);
+
+impl Block for DescribedCounter {
+    type Inputs = CounterIn;
+    type Outputs = CounterOut;
+    type Regs = CounterRegs;
+
+    fn reset(&self) -> CounterRegs {
+        self.0.reset()
+    }
+
+    fn idle_inputs(&self) -> CounterIn {
+        self.0.idle_inputs()
+    }
+
+    fn next_into(&self, regs: &CounterRegs, i: &CounterIn, n: &mut CounterRegs) -> CounterOut {
+        self.0.next_into(regs, i, n)
+    }
+
+    fn reg_signals(&self, regs: &CounterRegs) -> Vec<Signal> {
+        self.0.reg_signals(regs)
+    }
+
+    fn describe(&self) -> BlockDesc {
+        let mut d = self.0.describe();
+        d.registers.push(RegDesc {
+            name: "count".to_string(),
+            width: 4,
+            count: 1,
+            doc: "the count".to_string(),
+        });
+        d
+    }
+}
+
+/// RTL whose outputs come from a correct counter `good_q` while the described register
+/// `count_q` runs one ahead after every counting step: only the register comparison sees it.
+const HIDDEN_V: &str = "\
+module counter4 (
+    input  wire       clk,
+    input  wire       rst,
+    input  wire       en,
+    input  wire       load,
+    input  wire [3:0] value,
+    output wire [3:0] count,
+    output wire       wrap
+);
+    reg [3:0] good_q;
+    reg [3:0] count_q;
+    always @(posedge clk) begin
+        if (rst) begin
+            good_q <= 4'd0;
+            count_q <= 4'd0;
+        end else if (load) begin
+            good_q <= value;
+            count_q <= value;
+        end else if (en) begin
+            good_q <= good_q + 4'd1;
+            count_q <= good_q + 4'd2;
+        end
+    end
+    assign count = good_q;
+    assign wrap = en && (good_q == 4'd15);
+endmodule
+";
+
+/// The registers of the block's description are compared every cycle, with the Rust block's
+/// values at the cycle's start: the correct RTL matches them, and a register that differs
+/// while every output matches is reported as `regs.count`.
+#[test]
+fn a_described_register_is_compared_every_cycle() {
+    let block = DescribedCounter(Counter { skip_ten: false });
+    let trace = record(&block, inputs(3_000, 5)).unwrap();
+    assert_eq!(trace.registers.len(), 1);
+    let dir = work_dir("counter-registers");
+    let dut = write_dut(&dir, false);
+    let Some(good) = or_skip(run_cosim(&trace, &[dut], &CosimOptions::icarus(&dir))).unwrap()
+    else {
+        return;
+    };
+    assert!(good.passed(), "{good}");
+    let tb = std::fs::read_to_string(dir.join(vtq_gen::cosim::TESTBENCH_FILE)).unwrap();
+    assert!(tb.contains("check_reg(cycle, \"regs.count\""), "{tb}");
+    let hidden = dir.join("hidden.v");
+    std::fs::write(&hidden, HIDDEN_V).unwrap();
+    let bad = run_cosim(&trace, &[hidden], &CosimOptions::icarus(&dir)).unwrap();
+    assert!(bad.mismatches > 100, "{bad}");
+    assert!(
+        bad.reported.iter().all(|m| m.signal == "regs.count"),
+        "{bad}"
+    );
 }

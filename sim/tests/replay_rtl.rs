@@ -9,8 +9,8 @@ mod common;
 
 use common::{setup, small_config};
 use vtq_gen::cosim::{
-    datapath_tables, record, run_cosim, tests_and_hits, wiring_ports, CosimOptions, DatapathCall,
-    RtUnitReplay, Trace, TreeletRtUnitReplay, TreeletWiring,
+    datapath_tables, record, record_with_registers, run_cosim, tests_and_hits, wiring_ports,
+    CosimOptions, DatapathCall, RtUnitReplay, Trace, TreeletRtUnitReplay, TreeletWiring,
 };
 use vtq_gen::rtl::{
     controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_replay_verilog,
@@ -151,8 +151,8 @@ fn recorded_run(
 
 /// The RT unit's input ports on SM 0 of a VTQ run, from reset, replayed against its RTL with the
 /// scene's datapath: the datapath's tests run once in Rust with the real BVH and are answered
-/// from their results on both sides ([`RtUnitReplay`]); every output and status port must
-/// match in every cycle. Short (Icarus runs a 32-lane RT unit at about 50 cycles a second);
+/// from their results on both sides ([`RtUnitReplay`]); every output and status port, and
+/// every register of the RT unit, must match in every cycle. Short (Icarus runs a 32-lane RT unit at about 50 cycles a second);
 /// `vtq cosim --block rt-unit --scene` replays longer runs.
 #[test]
 fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
@@ -169,8 +169,10 @@ fn a_real_runs_rt_unit_traffic_matches_the_rtl() {
         "{issued} warps, {tests} tests, {hits} hits"
     );
     let unit = RtUnitReplay::new(&cfg.hw, &log.params.rt).unwrap();
-    let trace = record(&unit, unit.inputs(log.rt_unit, tables)).unwrap();
+    let trace =
+        record_with_registers(&unit, unit.inputs(log.rt_unit, tables), unit.registers()).unwrap();
     assert_eq!(unit.misses(), 0);
+    assert!(trace.registers.len() > 50, "{}", trace.registers.len());
     let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-rt-unit");
     std::fs::create_dir_all(&work).unwrap();
     let mut files = Vec::new();
@@ -330,14 +332,22 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
 /// ports replayed from reset against `treelet_rt_unit` (both tables, the controller, the RT
 /// unit and the wiring, connected port by port) in the replay wrapper whose datapath answers
 /// from the run's recorded tests ([`TreeletRtUnitReplay`] on the Rust side); every output of
-/// the block must match in every cycle.
+/// the block and every register of its children and its wiring must match in every cycle.
 #[test]
 fn a_real_runs_treelet_rt_unit_matches_the_composed_rtl() {
     const CYCLES: usize = 26_000;
     let (cfg, _, log, tables) = recorded_run(CYCLES, &EIGHT_LANES);
     let replay = TreeletRtUnitReplay::new(&cfg.hw, &log.params).unwrap();
-    let trace = record(&replay, replay.inputs(log.treelet, tables)).unwrap();
+    let inputs = replay.inputs(log.treelet, tables);
+    let trace = record_with_registers(&replay, inputs, replay.registers()).unwrap();
     assert_eq!(replay.misses(), 0);
+    // Every child's registers and the wiring's.
+    for prefix in ["rt_", "ctl_", "ct_", "qt_", "glue_"] {
+        assert!(
+            trace.registers.iter().any(|r| r.name.starts_with(prefix)),
+            "no {prefix} register"
+        );
+    }
     let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-treelet");
     std::fs::create_dir_all(&work).unwrap();
     let mut files = Vec::new();

@@ -321,8 +321,9 @@ impl RtUnitReplay {
     }
 
     /// The RT unit's registers where the replay wrapper's RTL holds them (its instance of
-    /// `rt_unit`), for the waveform of a co-simulation ([`crate::cosim::Trace::registers`]).
-    pub fn waveform_registers(&self) -> Vec<RegSignal> {
+    /// `rt_unit`): what a co-simulation compares and shows in its waveform
+    /// ([`crate::cosim::record_with_registers`]).
+    pub fn registers(&self) -> Vec<RegSignal> {
         let regs = self.reg_signals(&self.reset());
         nested_registers(
             &self.unit.describe(),
@@ -503,9 +504,10 @@ impl TreeletRtUnitReplay {
 
     /// The treelet RT unit's registers where the replay wrapper's RTL holds them: each child's
     /// (Rust signals `<child>_<register>`) in its instance of the composite, the wiring's
-    /// (`glue_<register>`, the composite's field `glue`) in the wiring's instance; for the
-    /// waveform of a co-simulation ([`crate::cosim::Trace::registers`]).
-    pub fn waveform_registers(&self) -> Vec<RegSignal> {
+    /// (`glue_<register>`, the composite's field `glue`) in the wiring's instance: what a
+    /// co-simulation compares and shows in its waveform
+    /// ([`crate::cosim::record_with_registers`]).
+    pub fn registers(&self) -> Vec<RegSignal> {
         let regs = self.reg_signals(&self.reset());
         let mut out: Vec<RegSignal> = instances(&self.unit)
             .iter()

@@ -30,6 +30,16 @@ pub struct RegSignal {
     pub path: String,
 }
 
+impl RegSignal {
+    /// The RTL bits holding it, seen from the testbench: `dut.<path><rtl>_q`, or its slice.
+    pub fn source(&self) -> String {
+        match self.lsb {
+            None => format!("dut.{}{}_q", self.path, self.rtl),
+            Some(lsb) => format!("dut.{}{}_q[{lsb} +: {}]", self.path, self.rtl, self.width),
+        }
+    }
+}
+
 /// The register signals of `regs` that are registers of `desc`: single registers by name and
 /// width, bank members as `<bank>_<i>` (words of a bank of bits as `<bank>_<k>`), a grid's
 /// members as `<bank>_<row>_<col>` (member `row * cols + col` of the bank, `cols` the most
@@ -136,13 +146,7 @@ pub(super) fn vcd_scopes(trace: &Trace, registers: &[RegSignal]) -> String {
     };
     let regs: Vec<(String, u32, String)> = registers
         .iter()
-        .map(|r| {
-            let source = match r.lsb {
-                None => format!("dut.{}{}_q", r.path, r.rtl),
-                Some(lsb) => format!("dut.{}{}_q[{lsb} +: {}]", r.path, r.rtl, r.width),
-            };
-            (r.name.clone(), r.width, source)
-        })
+        .map(|r| (r.name.clone(), r.width, r.source()))
         .collect();
     let groups = [
         ("inputs", ports(&trace.inputs, "i_")),

@@ -16,8 +16,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use vtq_gen::cosim::{
-    datapath_tables, record, run_cosim, tests_and_hits, write_rust_vcd, CosimOptions, CosimResult,
-    RtUnitReplay, RtUnitWithStatus, Simulator, Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
+    datapath_tables, record, record_with_registers, run_cosim, tests_and_hits, write_rust_vcd,
+    CosimOptions, CosimResult, RtUnitReplay, RtUnitWithStatus, Simulator, Trace, RESET_CYCLES,
+    RTL_VCD_FILE, RUST_VCD_FILE,
 };
 use vtq_gen::cosim::{wiring_ports, TreeletRtUnitReplay, TreeletWiring};
 use vtq_gen::rtl::{
@@ -382,8 +383,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let unit = RtUnitReplay::new(hw, params)?;
         let inputs = unit.inputs(log.rt_unit.clone(), tables);
         let vcd = rust_vcd(&unit, &inputs, args.vcd);
-        let mut trace = record(&unit, inputs)?;
-        trace.registers = unit.waveform_registers();
+        let trace = record_with_registers(&unit, inputs, unit.registers())?;
         if unit.misses() > 0 {
             bail!(
                 "the RT unit's replay ran {} datapath tests its tables do not hold",
@@ -452,8 +452,7 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         let unit = TreeletRtUnitReplay::new(hw, &log.params)?;
         let inputs = unit.inputs(log.treelet.clone(), tables);
         let vcd = rust_vcd(&unit, &inputs, args.vcd);
-        let mut trace = record(&unit, inputs)?;
-        trace.registers = unit.waveform_registers();
+        let trace = record_with_registers(&unit, inputs, unit.registers())?;
         if unit.misses() > 0 {
             bail!(
                 "the treelet RT unit's replay ran {} datapath tests its tables do not hold",
