@@ -690,57 +690,20 @@ pub fn write_testbench_with(
     let _ = writeln!(v, "                $finish;");
     let _ = writeln!(v, "            end");
     let _ = writeln!(v, "            #1;");
-    // One comparison of all outputs per cycle; the per-signal checks (which count and report
-    // each mismatching signal) run only when it fails, which keeps long runs fast.
-    let all = |prefix: &str| {
-        trace
-            .outputs
-            .iter()
-            .map(|s| format!("{prefix}{}", s.name))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let _ = writeln!(
-        v,
-        "            if ({{{}}} !== {{{}}}) begin",
-        all("o_"),
-        all("e_")
-    );
-    for s in &trace.outputs {
-        let _ = writeln!(
-            v,
-            "                check(cycle, \"{}\", {}, {});",
-            s.name,
-            pad64(&format!("e_{}", s.name), s.width),
-            pad64(&format!("o_{}", s.name), s.width)
-        );
-    }
-    let _ = writeln!(v, "            end");
-    if !registers.is_empty() {
-        let names = |prefix: &str| {
-            registers
-                .iter()
-                .map(|r| format!("{prefix}{}", r.name))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let _ = writeln!(
-            v,
-            "            if ({{{}}} !== {{{}}}) begin",
-            names("q_"),
-            names("x_")
-        );
-        for r in &registers {
-            let _ = writeln!(
-                v,
-                "                check_reg(cycle, \"regs.{}\", {}, {});",
-                r.name,
-                pad64(&format!("x_{}", r.name), r.width),
-                pad64(&format!("q_{}", r.name), r.width)
-            );
-        }
-        let _ = writeln!(v, "            end");
-    }
+    // One comparison of all outputs (and one of all registers) per cycle; the per-signal checks
+    // (which count and report each mismatching signal) run only when it fails, which keeps long
+    // runs fast.
+    let outputs: Vec<(&str, u32)> = trace
+        .outputs
+        .iter()
+        .map(|s| (s.name.as_str(), s.width))
+        .collect();
+    emit_compare(&mut v, &outputs, ("o_", "e_"), "check", "");
+    let regs: Vec<(&str, u32)> = registers
+        .iter()
+        .map(|r| (r.name.as_str(), r.width))
+        .collect();
+    emit_compare(&mut v, &regs, ("q_", "x_"), "check_reg", "regs.");
     let _ = writeln!(v, "            #4 clk = 1'b1;");
     let _ = writeln!(v, "            #5 clk = 1'b0;");
     let _ = writeln!(v, "        end");
@@ -753,6 +716,43 @@ pub fn write_testbench_with(
     let _ = writeln!(v, "    end");
     let _ = writeln!(v, "endmodule");
     v
+}
+
+/// A cycle's comparison of `signals` (name, width) in the testbench: one `!==` of all the
+/// `<got prefix><name>` against all the `<expected prefix><name>`, and when it fails a call of
+/// `task` for each, reporting it as `<label><name>`; nothing for no signals.
+fn emit_compare(
+    v: &mut String,
+    signals: &[(&str, u32)],
+    (got, expected): (&str, &str),
+    task: &str,
+    label: &str,
+) {
+    if signals.is_empty() {
+        return;
+    }
+    let all = |prefix: &str| {
+        signals
+            .iter()
+            .map(|(name, _)| format!("{prefix}{name}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let _ = writeln!(
+        v,
+        "            if ({{{}}} !== {{{}}}) begin",
+        all(got),
+        all(expected)
+    );
+    for &(name, width) in signals {
+        let _ = writeln!(
+            v,
+            "                {task}(cycle, \"{label}{name}\", {}, {});",
+            pad64(&format!("{expected}{name}"), width),
+            pad64(&format!("{got}{name}"), width)
+        );
+    }
+    let _ = writeln!(v, "            end");
 }
 
 /// `expr` of `width` bits zero-extended to the check tasks' 64-bit arguments.

@@ -350,16 +350,11 @@ impl Block for DescribedCounter {
 
 /// RTL whose outputs come from a correct counter `good_q` while the described register
 /// `count_q` runs one ahead after every counting step: only the register comparison sees it.
-const HIDDEN_V: &str = "\
-module counter4 (
-    input  wire       clk,
-    input  wire       rst,
-    input  wire       en,
-    input  wire       load,
-    input  wire [3:0] value,
-    output wire [3:0] count,
-    output wire       wrap
-);
+/// Its ports are the counter's.
+fn hidden_v() -> String {
+    let ports = COUNTER_V.split_inclusive(");\n").next().unwrap();
+    format!(
+        "{ports}\
     reg [3:0] good_q;
     reg [3:0] count_q;
     always @(posedge clk) begin
@@ -377,7 +372,9 @@ module counter4 (
     assign count = good_q;
     assign wrap = en && (good_q == 4'd15);
 endmodule
-";
+"
+    )
+}
 
 /// The registers of the block's description are compared every cycle, with the Rust block's
 /// values at the cycle's start: the correct RTL matches them, and a register that differs
@@ -397,7 +394,7 @@ fn a_described_register_is_compared_every_cycle() {
     let tb = std::fs::read_to_string(dir.join(vtq_gen::cosim::TESTBENCH_FILE)).unwrap();
     assert!(tb.contains("check_reg(cycle, \"regs.count\""), "{tb}");
     let hidden = dir.join("hidden.v");
-    std::fs::write(&hidden, HIDDEN_V).unwrap();
+    std::fs::write(&hidden, hidden_v()).unwrap();
     let bad = run_cosim(&trace, &[hidden], &CosimOptions::icarus(&dir)).unwrap();
     assert!(bad.mismatches > 100, "{bad}");
     assert!(
