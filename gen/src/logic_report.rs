@@ -58,7 +58,7 @@ impl BlockLogic {
     fn row(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{:<20} {:>7} {:>10} {:>10.0} {:>9.0}",
+            "{:<22} {:>8} {:>10} {:>10.0} {:>9.0}",
             self.synth.top,
             self.synth.cells,
             self.synth.flip_flops,
@@ -295,7 +295,7 @@ impl fmt::Display for LogicReport {
         )?;
         write!(
             f,
-            "{:<20} {:>7} {:>10} {:>10} {:>9}",
+            "{:<22} {:>8} {:>10} {:>10} {:>9}",
             "block", "cells", "flip-flops", "NAND2 eq.", "(of FFs)"
         )?;
         for nm in NODES_NM {
@@ -307,7 +307,7 @@ impl fmt::Display for LogicReport {
         }
         write!(
             f,
-            "{:<20} {:>7} {:>10} {:>10.0} {:>9}",
+            "{:<22} {:>8} {:>10} {:>10.0} {:>9}",
             "treelet hardware",
             self.blocks.iter().map(|b| b.synth.cells).sum::<u64>(),
             self.blocks.iter().map(|b| b.synth.flip_flops).sum::<u64>(),

@@ -142,6 +142,13 @@ fn the_composed_treelet_rt_unit_lints_clean() {
         !wiring.contains("Skeleton body"),
         "the wiring is complete RTL"
     );
+    // The record crossbars gate each input with a conditional, not with a replicated select
+    // bit, which Verilator builds one bit at a time (docs/hardware.md, "The wiring on its own").
+    assert!(wiring.contains("(sel[i] ? in[i*W +: W] : {W{1'b0}})"));
+    assert!(
+        !wiring.contains("{W{sel"),
+        "a replicated select bit in the crossbar"
+    );
     let top = composite_modules(&unit.describe(), &children, wiring).unwrap();
     let top_text = &top[0].1;
     for c in &children {

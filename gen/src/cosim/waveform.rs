@@ -6,6 +6,7 @@ use super::{SignalInfo, Trace, RESET_CYCLES};
 use crate::emit::range;
 use crate::error::GenError;
 use serde::Serialize;
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use vtq_hdl::{Block, Signal};
 
@@ -45,20 +46,24 @@ impl RegSignal {
 /// members as `<bank>_<row>_<col>` (member `row * cols + col` of the bank, `cols` the most
 /// columns `regs` names).
 pub(super) fn desc_registers(desc: &vtq_hdl::BlockDesc, regs: &[Signal]) -> Vec<RegSignal> {
+    // Grid members `<bank>_<row>_<col>`: each bank's column count, the largest column plus one.
+    let mut grid_cols: HashMap<&str, u32> = HashMap::new();
+    for t in regs {
+        let Some((rest, c)) = t.name.rsplit_once('_') else {
+            continue;
+        };
+        let (Some((b, _)), Ok(c)) = (rest.rsplit_once('_'), c.parse::<u32>()) else {
+            continue;
+        };
+        let cols = grid_cols.entry(b).or_insert(0);
+        *cols = (*cols).max(c + 1);
+    }
     let grid = |s: &Signal| -> Option<(String, Option<u32>)> {
         let (rest, col) = s.name.rsplit_once('_')?;
         let (bank, row) = rest.rsplit_once('_')?;
         let (row, col): (u32, u32) = (row.parse().ok()?, col.parse().ok()?);
         let r = desc.registers.iter().find(|r| r.name == bank)?;
-        let cols = regs
-            .iter()
-            .filter_map(|t| {
-                let (rest, c) = t.name.rsplit_once('_')?;
-                let (b, _) = rest.rsplit_once('_')?;
-                (b == bank).then(|| c.parse::<u32>().ok()).flatten()
-            })
-            .max()?
-            + 1;
+        let cols = *grid_cols.get(bank)?;
         let k = row * cols + col;
         (s.width == r.width && r.count % cols == 0 && k < r.count)
             .then(|| (bank.to_string(), Some(k * r.width)))

@@ -364,7 +364,7 @@ always @* begin : p_pick
     integer i;
     out = {W{1'b0}};
     for (i = 0; i < NI; i = i + 1)
-        out = out | ({W{sel[i]}} & in[i*W +: W]);
+        out = out | (sel[i] ? in[i*W +: W] : {W{1'b0}});
 end
 endmodule
 
