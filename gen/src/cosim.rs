@@ -171,7 +171,7 @@ pub fn record<B: Block>(
 pub fn record_with_registers<B: Block>(
     block: &B,
     inputs: impl IntoIterator<Item = B::Inputs>,
-    registers: Vec<RegSignal>,
+    mut registers: Vec<RegSignal>,
 ) -> Result<Trace, GenError> {
     let desc = block.describe();
     let fail = |reason: String| GenError::Cosim {
@@ -195,7 +195,6 @@ pub fn record_with_registers<B: Block>(
             })
             .collect::<Result<_, _>>()?
     };
-    let mut registers = Some(registers);
     for (cycle, inp) in inputs.into_iter().enumerate() {
         let now: Vec<u64> = if place.is_empty() {
             Vec::new()
@@ -215,7 +214,7 @@ pub fn record_with_registers<B: Block>(
                 inputs: infos(&ins),
                 outputs: infos(&outs),
                 ports: Vec::new(),
-                registers: registers.take().unwrap_or_default(),
+                registers: std::mem::take(&mut registers),
                 changes: Vec::new(),
                 starts: Vec::new(),
             }),
