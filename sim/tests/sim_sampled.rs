@@ -138,6 +138,8 @@ fn bad_sample_settings_are_one_line_errors() {
         ("3/16", "sample.cluster=1", "whole number of SMs"),
         ("1/4x0", "sample.cluster=1", "sample.replicates"),
         ("1/4x2", "sample.cluster=0", "sample.cluster"),
+        ("1/4x2", "sample.cluster=[1, 0]", "sample.cluster"),
+        ("1/4x2", "sample.cluster=[]", "sample.cluster"),
         (
             "1/2x4",
             "sample.cluster=1",
@@ -436,6 +438,28 @@ fn stratified_samples_come_in_clumps_of_neighbours() {
             assert!(pairs < samples[0].len() / 2, "{pairs}");
         }
     }
+}
+
+/// `sample.cluster = [1, 2]` gives each replicate its clump size in turn: replicate 0 draws
+/// single CTAs and replicate 1 pairs, each exactly the sample its size gives that replicate on
+/// its own (the same stream), replicate 2 single CTAs again.
+#[test]
+fn a_cluster_list_gives_each_replicate_its_size_in_turn() {
+    let draw = |cluster: &str| {
+        let c = format!("sample.cluster={cluster}");
+        let cfg = sampled_config("baseline", "1/4x3", &["width=136", "height=136", &c]);
+        let (scene, bvh) = setup("cornell", &cfg);
+        let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
+        vtq_sim::estimate::sample::run::samples(&cfg, &profile).unwrap()
+    };
+    let (single, pairs, mixed) = (draw("1"), draw("2"), draw("[1, 2]"));
+    assert_eq!(mixed.len(), 3);
+    assert_eq!(mixed[0], single[0]);
+    assert_eq!(mixed[1], pairs[1]);
+    assert_eq!(mixed[2], single[2]);
+    assert_ne!(mixed[1], single[1]);
+    // A one-element list is the plain size.
+    assert_eq!(draw("[2]"), pairs);
 }
 
 /// A stratified replicate's cycles are carried to the whole frame by the dispatch model with

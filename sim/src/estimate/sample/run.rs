@@ -254,7 +254,10 @@ pub fn samples(cfg: &SimConfig, profile: &Profile) -> Result<Vec<Vec<u32>>, Stri
     }
     let costs: Vec<u64> = profile.ctas.iter().map(|c| c.fetches).collect();
     Ok((0..s.replicates)
-        .map(|r| stratified_sample(&costs, s.fraction, s.seed, r, s.cluster as usize))
+        .map(|r| {
+            let cluster = s.cluster.for_replicate(r) as usize;
+            stratified_sample(&costs, s.fraction, s.seed, r, cluster)
+        })
         .collect())
 }
 

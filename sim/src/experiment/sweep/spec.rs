@@ -164,15 +164,16 @@ impl SweepSpec {
     }
 
     /// Adds a `--grid key=v1,v2,...` axis (values as `--set` takes them: TOML, or a bare word
-    /// as a string).
+    /// as a string; a comma inside brackets or quotes belongs to its value, so
+    /// `sample.cluster=1,[1,2]` is two values).
     pub fn add_grid_arg(&mut self, arg: &str) -> anyhow::Result<()> {
         let context = || format!("--grid `{arg}`");
         let (key, list) = arg
             .split_once('=')
             .ok_or_else(|| anyhow::anyhow!("expected key=v1,v2,..., e.g. hw.max_rays=2048,4096"))
             .with_context(context)?;
-        let values = list
-            .split(',')
+        let values = split_values(list)
+            .into_iter()
             .map(|raw| parse_override_value(raw).map_err(anyhow::Error::msg))
             .collect::<anyhow::Result<Vec<Value>>>()
             .with_context(context)?;
@@ -345,6 +346,28 @@ impl Shard {
     }
 }
 
+/// `list` cut at its commas outside brackets, braces and quotes (a TOML array or string keeps
+/// its commas).
+fn split_values(list: &str) -> Vec<&str> {
+    let (mut parts, mut depth, mut quote, mut start) = (Vec::new(), 0i32, None, 0);
+    for (i, c) in list.char_indices() {
+        match (quote, c) {
+            (Some(q), _) if c == q => quote = None,
+            (Some(_), _) => {}
+            (None, '"' | '\'') => quote = Some(c),
+            (None, '[' | '{') => depth += 1,
+            (None, ']' | '}') => depth -= 1,
+            (None, ',') if depth <= 0 => {
+                parts.push(&list[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    parts.push(&list[start..]);
+    parts
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -371,6 +394,16 @@ mod tests {
         assert_eq!(points[1].config.hw.repack_threshold, 22);
         assert_eq!(points[1].config.workload.width, 16);
         assert!(points.iter().enumerate().all(|(i, p)| p.index == i));
+    }
+
+    #[test]
+    fn grid_values_keep_their_own_commas() {
+        assert_eq!(split_values("1,[1, 2],'a,b'"), ["1", "[1, 2]", "'a,b'"]);
+        let mut s = spec("scenes = ['wknd']");
+        s.add_grid_arg("sample.cluster=1,[1,2]").unwrap();
+        let points = s.points().unwrap();
+        assert_eq!(points.len(), 2);
+        assert_eq!(points[1].config.sample.cluster.for_replicate(1), 2);
     }
 
     #[test]

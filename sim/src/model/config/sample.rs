@@ -24,7 +24,7 @@ pub const GHOST_FOOTPRINT: f64 = MAX_GHOST_FOOTPRINT;
 /// Largest `profile_stride`.
 pub const MAX_PROFILE_STRIDE: u32 = 64;
 
-/// Largest `cluster`.
+/// Largest `cluster`, and most sizes in a per-replicate list.
 pub const MAX_CLUSTER: u32 = 64;
 
 /// The default `cluster`: single CTAs. Pairs fit scenes whose GPU dispatch gives an SM clumps
@@ -32,6 +32,50 @@ pub const MAX_CLUSTER: u32 = 64;
 /// issue's 33 pairs at 1024x1024 they lowered the mean error of cycles but raised the worst
 /// errors of cycles and speedups (docs/accuracy.md, "Samples in clumps of neighbours").
 pub const CLUSTER: u32 = 1;
+
+/// `sample.cluster`: CTAs per unit of a stratified sample, one size for every replicate
+/// (`cluster = 2`) or one per replicate in turn (`cluster = [1, 2]`: replicates 0, 2, ... draw
+/// single CTAs, 1, 3, ... pairs of neighbours; docs/accuracy.md, "One replicate of single CTAs,
+/// one of pairs").
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Cluster {
+    /// Every replicate draws units of this many CTAs.
+    Each(u32),
+    /// Replicate `r` draws units of the `r mod len`-th size.
+    PerReplicate(Vec<u32>),
+}
+
+impl Cluster {
+    /// CTAs per unit of replicate `replicate`'s sample.
+    pub fn for_replicate(&self, replicate: u32) -> u32 {
+        match self {
+            Cluster::Each(g) => *g,
+            Cluster::PerReplicate(sizes) if sizes.is_empty() => CLUSTER,
+            Cluster::PerReplicate(sizes) => sizes[replicate as usize % sizes.len()],
+        }
+    }
+
+    /// The sizes given, each to be checked.
+    fn sizes(&self) -> &[u32] {
+        match self {
+            Cluster::Each(g) => std::slice::from_ref(g),
+            Cluster::PerReplicate(sizes) => sizes,
+        }
+    }
+}
+
+impl std::fmt::Display for Cluster {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Cluster::Each(g) => write!(f, "{g}"),
+            Cluster::PerReplicate(sizes) => {
+                let sizes: Vec<String> = sizes.iter().map(u32::to_string).collect();
+                write!(f, "[{}]", sizes.join(", "))
+            }
+        }
+    }
+}
 
 /// Largest number of replicates.
 pub const MAX_REPLICATES: u32 = 256;
@@ -90,8 +134,9 @@ pub struct SampleConfig {
     pub profile_stride: u32,
     /// CTAs per unit of a stratified sample: the frame's CTAs are cut into runs of this many
     /// consecutive CTAs (neighbouring tiles), and the strata and draws are of runs, by their
-    /// work (1..=64; 1: single CTAs).
-    pub cluster: u32,
+    /// work (1..=64; 1: single CTAs). A list gives each replicate its size in turn
+    /// (`[1, 2]`: one replicate of single CTAs, one of pairs, ...).
+    pub cluster: Cluster,
 }
 
 impl Default for SampleConfig {
@@ -106,7 +151,7 @@ impl Default for SampleConfig {
             warm_l2: true,
             ghost_l2_footprint: GHOST_FOOTPRINT,
             profile_stride: 1,
-            cluster: CLUSTER,
+            cluster: Cluster::Each(CLUSTER),
         }
     }
 }
@@ -214,11 +259,18 @@ impl SampleConfig {
                 format!("must be 1..={MAX_PROFILE_STRIDE}"),
             ));
         }
-        if !(1..=MAX_CLUSTER).contains(&self.cluster) {
+        let sizes = self.cluster.sizes();
+        if sizes.is_empty()
+            || sizes.len() > MAX_CLUSTER as usize
+            || !sizes.iter().all(|g| (1..=MAX_CLUSTER).contains(g))
+        {
             return Err(invalid(
                 "cluster",
-                self.cluster,
-                format!("must be 1..={MAX_CLUSTER} (CTAs per sampling unit)"),
+                &self.cluster,
+                format!(
+                    "must be 1..={MAX_CLUSTER} (CTAs per sampling unit), or a list of 1 to \
+                     {MAX_CLUSTER} such sizes, one per replicate in turn"
+                ),
             ));
         }
         if !(1..=MAX_REPLICATES).contains(&self.replicates) {
@@ -338,6 +390,36 @@ mod tests {
         assert!(half.below_one_sm(cfg.gpu.sms) && !one.below_one_sm(cfg.gpu.sms));
         assert_eq!(half.scale_sms(cfg.gpu.sms), Some(1));
         assert_eq!(half.scale_model(&cfg), one.scale_model(&cfg));
+    }
+
+    #[test]
+    fn cluster_sizes_per_replicate() {
+        assert_eq!(Cluster::Each(2).for_replicate(5), 2);
+        let mix = Cluster::PerReplicate(vec![1, 2]);
+        let sizes: Vec<u32> = (0..4).map(|r| mix.for_replicate(r)).collect();
+        assert_eq!(sizes, [1, 2, 1, 2]);
+        assert_eq!(mix.to_string(), "[1, 2]");
+        // Written and read back as TOML, a size or a list.
+        for cluster in [Cluster::Each(3), mix] {
+            let s = SampleConfig {
+                cluster: cluster.clone(),
+                ..SampleConfig::default()
+            };
+            let text = toml::to_string(&s).unwrap();
+            assert_eq!(
+                toml::from_str::<SampleConfig>(&text).unwrap().cluster,
+                cluster
+            );
+        }
+        let cfg = SimConfig::default();
+        for bad in [vec![], vec![1, 0], vec![1, MAX_CLUSTER + 1], vec![1; 65]] {
+            let s = SampleConfig {
+                cluster: Cluster::PerReplicate(bad.clone()),
+                ..SampleConfig::default()
+            };
+            let e = s.validate(&cfg).unwrap_err();
+            assert_eq!(e.key(), Some("sample.cluster"), "{bad:?}: {e}");
+        }
     }
 
     #[test]
