@@ -10,7 +10,7 @@ use std::process::Command;
 use common::{setup, small_config};
 use vtq_sim::estimate::sample::stripes::ranked;
 use vtq_sim::estimate::sample::{paired_speedup, simulate_sampled, Method, Profile, SampledStats};
-use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::config::{Cluster, SimConfig};
 use vtq_sim::model::gpu::stats::comparable_json;
 use vtq_sim::model::gpu::{simulate, SimOptions};
 
@@ -445,9 +445,12 @@ fn stratified_samples_come_in_clumps_of_neighbours() {
 /// its own (the same stream), replicate 2 single CTAs again.
 #[test]
 fn a_cluster_list_gives_each_replicate_its_size_in_turn() {
-    let draw = |cluster: &str| {
+    let config = |cluster: &str| {
         let c = format!("sample.cluster={cluster}");
-        let cfg = sampled_config("baseline", "1/4x3", &["width=136", "height=136", &c]);
+        sampled_config("baseline", "1/4x3", &["width=136", "height=136", &c])
+    };
+    let draw = |cluster: &str| {
+        let cfg = config(cluster);
         let (scene, bvh) = setup("cornell", &cfg);
         let profile = Profile::new(&scene, &bvh, &cfg).unwrap();
         vtq_sim::estimate::sample::run::samples(&cfg, &profile).unwrap()
@@ -460,6 +463,11 @@ fn a_cluster_list_gives_each_replicate_its_size_in_turn() {
     assert_ne!(mixed[1], single[1]);
     // A one-element list is the plain size.
     assert_eq!(draw("[2]"), pairs);
+    // The replicates simulate samples of those sizes, and the estimates say which drew them.
+    let s = sampled("cornell", &config("[1, 2]"), 2);
+    assert_eq!(s.cluster, Cluster::PerReplicate(vec![1, 2]));
+    let ctas: Vec<usize> = s.replicate_runs.iter().map(|r| r.ctas).collect();
+    assert_eq!(ctas, mixed.iter().map(Vec::len).collect::<Vec<_>>());
 }
 
 /// A stratified replicate's cycles are carried to the whole frame by the dispatch model with

@@ -12,7 +12,7 @@ use crate::cli::cmd::options::{
 };
 use crate::cli::output::{check_file, write_or_keep, Failures};
 use crate::estimate::sample::{simulate_sampled, Profile};
-use crate::model::config::SimConfig;
+use crate::model::config::{Cluster, SimConfig};
 use crate::model::gpu::rt::waveform::parse_cycles;
 use crate::model::gpu::sm::CtaSpan;
 use crate::model::gpu::stats::write_time_series;
@@ -209,10 +209,14 @@ fn run_sampled(
     write_json(&args.out, &(json + "\n"))?;
     let how = match s.method {
         crate::estimate::sample::Method::Strata => format!(
-            "{} replicates of {} SM(s) on 1/{:.0} of the frame, 95% intervals{}",
+            "{} replicates of {} SM(s) on 1/{:.0} of the frame{}, 95% intervals{}",
             s.replicates,
             s.scale_sms,
             1.0 / s.fraction,
+            match &s.cluster {
+                Cluster::Each(1) => String::new(),
+                c => format!(" in units of {c} neighbouring CTAs"),
+            },
             if s.stripes_dynamic {
                 "; stratified because the stripes' scale model found the CTA dispatch not static"
             } else {

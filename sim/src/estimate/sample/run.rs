@@ -29,7 +29,7 @@ use super::profile::{total_work, CtaWork, Profile, LINE_BYTES};
 use super::strata::stratified_sample;
 use super::stripes::stripe_samples;
 use crate::model::bvh::HwBvh;
-use crate::model::config::SimConfig;
+use crate::model::config::{Cluster, SimConfig};
 use crate::model::gpu::sm::CtaSpan;
 use crate::model::gpu::{simulate, SimError, SimOptions, SimStats};
 use crate::model::memory::GhostReads;
@@ -71,6 +71,9 @@ pub struct SampledStats {
     pub replicates: u32,
     /// Seed of the samples.
     pub seed: u64,
+    /// CTAs per unit of the stratified samples, one size or one per replicate in turn
+    /// (`sample.cluster`; stripe sampling does not use it).
+    pub cluster: Cluster,
     /// Whether every CTA of the frame is resident on its SM at once in this design (its SMs'
     /// resident CTAs, [`resident_ctas`], cover the frame): each SM then runs a fixed stripe of
     /// CTAs, the run ends with the slowest stripe, and a stratified sample, which mixes the
@@ -463,6 +466,7 @@ fn combine(
         scale_sms: cfg.sample.scale_sms(cfg.gpu.sms).unwrap_or(1),
         replicates: cfg.sample.replicates,
         seed: cfg.sample.seed,
+        cluster: cfg.sample.cluster.clone(),
         every_cta_resident: every_cta_resident(cfg, profile),
         method,
         bias_bound,

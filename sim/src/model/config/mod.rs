@@ -39,7 +39,7 @@ mod virtualization;
 pub use mode::{ModeConfig, ModeKind, TreeletPrefetch};
 pub use overrides::parse_override_value;
 use overrides::{apply_override, merge, Origin};
-pub use sample::SampleConfig;
+pub use sample::{Cluster, SampleConfig};
 pub use virtualization::{RestorePolicy, SuspendPolicy, VirtualizationConfig};
 
 /// Workload keys that `--set` also accepts without their `workload.` prefix (`--set width=64`).
