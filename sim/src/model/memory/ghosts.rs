@@ -30,14 +30,14 @@ pub struct GhostReads {
     map: PartitionMap,
     /// Per partition, per stream with reads there, its runs in order.
     parts: Vec<Vec<Vec<GhostRun>>>,
-    /// Ghost reads after each BVH read of a simulated SM.
+    /// Ghost reads after each demand BVH read of a simulated SM.
     per_read: u32,
 }
 
 impl GhostReads {
     /// The streams `streams` (`streams[g]`: left-out SM `g`'s sector reads at the L2, byte
     /// address / 32, in order) split for the L2 of `cfg` (validated), `per_read` of them to
-    /// follow each BVH read of a simulated SM.
+    /// follow each demand BVH read of a simulated SM.
     pub fn new(cfg: &MemConfig, streams: &[Vec<u32>], per_read: u32) -> Self {
         let map = PartitionMap::new(cfg);
         let line_bytes = u64::from(cfg.line_bytes);
@@ -84,7 +84,7 @@ impl GhostReads {
         self.parts.get(p).map_or(&[], Vec::as_slice)
     }
 
-    /// Ghost reads after each BVH read of a simulated SM.
+    /// Ghost reads after each demand BVH read of a simulated SM.
     pub(super) fn per_read(&self) -> u32 {
         self.per_read
     }

@@ -372,6 +372,7 @@ impl L1Port {
             sector,
             class: req.class,
             write: req.store,
+            prefetch: req.prefetch,
         });
         self.replies.push(Reply { fill, respond });
         self.results.push(None);

@@ -53,6 +53,9 @@ pub struct L2Op {
     pub class: AccessClass,
     /// A store (write-back, write-allocate) rather than a read.
     pub write: bool,
+    /// A prefetch (the treelet prefetcher's or the treelet controller's preload) rather than
+    /// a demand access.
+    pub prefetch: bool,
 }
 
 impl L2Op {
@@ -126,7 +129,8 @@ impl L2Side {
 
     /// Sets the BVH reads of the SMs a scale model leaves out (the sampled tier's
     /// `sample.ghost_l2_footprint`; [`GhostReads`], built for this L2's configuration): after
-    /// each BVH read of a simulated SM, its partition applies the next
+    /// each demand BVH read of a simulated SM (not its prefetches: the streams are the
+    /// left-out SMs' demand reads, which keep pace with its own), its partition applies the next
     /// [`GhostReads::per_read`] reads of its share of the streams (the streams in turn, each
     /// from where it stopped, from its start again when it runs out; reads of one line in a
     /// row together). They take room in the L2 and refresh lines as mirrored accesses do: no
@@ -296,7 +300,7 @@ impl L2Partition {
                     op.class,
                 );
             }
-        } else if !op.write && self.ghosts.is_some() {
+        } else if !op.write && !op.prefetch && self.ghosts.is_some() {
             self.ghost_reads(at);
         }
         result
@@ -564,6 +568,7 @@ mod tests {
                 sector,
                 class: AccessClass::Bvh,
                 write: false,
+                prefetch: false,
             };
             let hit = 10 + u64::from(cfg.l1_latency) + u64::from(cfg.l2_latency);
             assert_eq!(l2.apply(&read(5, 1, 0)), (hit, Source::L2Hit));
@@ -607,13 +612,20 @@ mod tests {
                 sector,
                 class,
                 write,
+                prefetch: false,
             };
             let read = |line, s, seq| op(line, s, seq, AccessClass::Bvh, false);
-            // A write and a ray-record read bring nothing.
+            // A write, a ray-record read and a BVH prefetch bring nothing: the left-out SMs'
+            // reads keep pace with the simulated SM's demand reads.
             l2.apply(&op(100, 0, 0, AccessClass::Bvh, true));
             l2.apply(&op(101, 0, 1, AccessClass::RayRecord, false));
+            l2.apply(&L2Op {
+                prefetch: true,
+                ..read(102, 0, 1)
+            });
             let present = |l2: &L2Side, line, s| l2.sector(line, s, 1_000) != SectorState::Absent;
             assert!(!present(&l2, 5, 0));
+            assert!(!present(&l2, 40, 2));
             // In partitions, a stream's reads go with its lines' partition: one channel only.
             if channels == 1 {
                 assert_eq!(l2.apply(&read(7, 0, 2)).1, Source::Dram);
@@ -626,9 +638,9 @@ mod tests {
                 assert_eq!(l2.apply(&read(40, 2, 5)).1, Source::L2Hit);
                 assert!(present(&l2, 9, 0), "stream 0 went on where it stopped");
                 let bvh = l2.stats().bvh;
-                assert_eq!((bvh.l2_accesses, bvh.l2_hits, bvh.dram_reads), (5, 2, 2));
-                // DRAM read the two BVH misses and the ray record, nothing for the ghosts.
-                assert_eq!(l2.stats().dram.reads, 3);
+                assert_eq!((bvh.l2_accesses, bvh.l2_hits, bvh.dram_reads), (6, 2, 3));
+                // DRAM read the three BVH misses and the ray record, nothing for the ghosts.
+                assert_eq!(l2.stats().dram.reads, 4);
             } else {
                 // Line 5's partition has stream 0's line 5 alone: each read there brings it.
                 let p5 = l2.map.partition(5);
@@ -658,6 +670,7 @@ mod tests {
             sector: 0,
             class: AccessClass::Bvh,
             write: false,
+            prefetch: false,
         };
         l2.apply(&read);
         assert_eq!(
@@ -690,6 +703,7 @@ mod tests {
             sector: 0,
             class: AccessClass::Bvh,
             write: false,
+            prefetch: false,
         };
         let present = |l2: &L2Side, line, s| l2.sector(line, s, 1_000) != SectorState::Absent;
         l2.apply(&read(0));
@@ -721,6 +735,7 @@ mod tests {
             sector: 0,
             class: AccessClass::RayRecord,
             write: false,
+            prefetch: false,
         });
         assert_ne!(l2.sector(0, 0, 1_000), SectorState::Absent, "line 0 stays");
         // 16 sets over 4 mirrors: a mirror every 4 sets.
@@ -753,6 +768,7 @@ mod tests {
                     sector,
                     class: AccessClass::ALL[class],
                     write,
+                    prefetch: false,
                 }
             })
             .collect()
