@@ -620,6 +620,7 @@ mod tests {
             l2.apply(&op(100, 0, 0, AccessClass::Bvh, true));
             l2.apply(&op(101, 0, 1, AccessClass::RayRecord, false));
             l2.apply(&L2Op {
+                phase: 1,
                 prefetch: true,
                 ..read(102, 0, 1)
             });
