@@ -386,3 +386,80 @@ fn the_tail_after_the_last_dispatch_is_counted_from_the_samples() {
     let t = run(&scene, &bvh, &none).stats.tail;
     assert_eq!((t.cycles, t.warp_cycles, t.from_cycle), (0, 0, s.cycles));
 }
+
+/// Ray records held on chip (`rt.ray_record_latency`): the same rays, hits and image; no ray
+/// record reaches the memory system, every queued ray is still loaded once; records nearer than
+/// the L2 make the fills and the run shorter here; exact skipping idle cycles and on any
+/// threads; only treelet queues take the key.
+#[test]
+fn on_chip_ray_records_move_no_memory_and_change_only_timing() {
+    let memory = vtq(1, 32, &[]);
+    let on_chip = vtq(1, 32, &["rt.ray_record_latency=4"]);
+    check_against_functional("wknd", &on_chip);
+    let (a, b) = same_results("wknd", &memory, &on_chip);
+    assert!(a.stats.memory.ray_record.l1_bypasses > 0);
+    assert_eq!(b.stats.memory.ray_record, Default::default());
+    let q = &b.stats.queues.counts;
+    assert!(q.ray_loads > 0);
+    assert_eq!(
+        q.ray_loads, q.ctl.enqueued_rays,
+        "every queued ray is loaded once"
+    );
+    assert!(
+        b.stats.cycles < a.stats.cycles,
+        "records 4 cycles away fill warps sooner"
+    );
+    check_skip_matches_lockstep(&on_chip);
+    check_deterministic(&vtq(2, 32, &["rt.ray_record_latency=4"]));
+    let e = SimConfig::load(None, &["rt.ray_record_latency=4".to_string()]).unwrap_err();
+    assert!(e.to_string().contains("rt.ray_record_latency"), "{e}");
+}
+
+/// The per-phase, per-warp-kind costs (`warp_costs`) partition the RT units' counters: the
+/// cells' tests, warp cycles and BVH loads add up to the run's; treelet warps appear only in
+/// treelet-stationary mode and grouped warps only in the final phase; a design without treelet
+/// queues has none; skipping idle cycles counts them as lockstep does.
+#[test]
+fn warp_costs_partition_the_rt_units_work() {
+    let out = check_deterministic(&vtq(2, 32, &[]));
+    let s = &out.stats;
+    let w = s
+        .warp_costs
+        .as_ref()
+        .expect("queues mode reports warp costs");
+    let phases = [&w.initial, &w.treelet_stationary, &w.ray_stationary];
+    let cells: Vec<_> = phases
+        .iter()
+        .flat_map(|p| [p.sm, p.treelet, p.grouped])
+        .collect();
+    let sum = |f: &dyn Fn(&vtq_sim::model::gpu::rt::warp_costs::CostReport) -> u64| {
+        cells.iter().map(f).sum::<u64>()
+    };
+    assert_eq!(sum(&|c| c.intersection_tests), s.rt.total_tests());
+    assert_eq!(sum(&|c| c.warp_cycles), s.rt.warp_cycles);
+    assert_eq!(sum(&|c| c.bvh_l1_accesses), s.bvh_l1_accesses);
+    assert_eq!(sum(&|c| c.ray_record_loads), s.queues.counts.ray_loads);
+    assert_eq!(
+        sum(&|c| c.rays_in),
+        s.rays_issued + s.queues.counts.ray_loads,
+        "every SM ray and every loaded ray enters a warp once"
+    );
+    for p in [&w.initial, &w.ray_stationary] {
+        assert_eq!(
+            p.treelet.warp_cycles, 0,
+            "treelet warps only in treelet mode"
+        );
+    }
+    for p in [&w.initial, &w.treelet_stationary] {
+        assert_eq!(
+            p.grouped.warp_cycles, 0,
+            "grouped warps only in the final phase"
+        );
+    }
+    assert!(w.treelet_stationary.treelet.intersection_tests > 0);
+    assert!(w.ray_stationary.grouped.intersection_tests > 0);
+    assert!(w.treelet_stationary.treelet.queue_wait_cycles_per_ray > 0.0);
+    let cfg = small_config("baseline", 1, 16, &[]);
+    let (scene, bvh) = setup("wknd", &cfg);
+    assert!(run(&scene, &bvh, &cfg).stats.warp_costs.is_none());
+}

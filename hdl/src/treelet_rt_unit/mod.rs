@@ -79,14 +79,15 @@ pub use wiring_ports::{WiringInputs, WiringOutputs};
 use crate::block::{Block, Signal};
 use crate::config::HwConfig;
 use crate::controller::{
-    ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs, TreeletController,
+    ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs, FillKind,
+    TreeletController,
 };
 use crate::count_table::{CountTable, CountTableIn, CountTableOut, CountTableRegs};
 use crate::describe::BlockDesc;
 use crate::queue_table::{QueueTable, QueueTableIn, QueueTableOut, QueueTableRegs};
 use crate::rt_unit::{
     NodeDatapath, RtCache, RtUnit, RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams,
-    RtUnitRegs,
+    RtUnitRegs, TraversalOrder,
 };
 
 /// Parameters of a treelet RT unit beyond the hardware configuration.
@@ -582,6 +583,37 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         self.ctl.mode(&regs.ctl, false)
     }
 
+    /// The kind of warp the lowest occupied warp-buffer slot holds (a register-only output:
+    /// what an observer attributes a cycle's events to, docs/fidelity.md cause G); `None` when
+    /// no slot holds a warp. With one warp-buffer slot (Table 1) this is the kind of the one
+    /// warp traversing.
+    pub fn warp_kind(&self, regs: &TreeletRtUnitRegs) -> Option<WarpKind> {
+        regs.rt
+            .slots
+            .iter()
+            .zip(regs.glue.uses.iter())
+            .find(|(slot, _)| slot.valid)
+            .and_then(|(slot, use_)| match use_ {
+                SlotUse::Initial => Some(WarpKind::Sm),
+                SlotUse::Controller if slot.order == TraversalOrder::TreeletStop => {
+                    Some(WarpKind::Treelet)
+                }
+                SlotUse::Controller => Some(WarpKind::Grouped),
+                SlotUse::Free | SlotUse::Closing => None,
+            })
+    }
+
+    /// The kind of warp the fill being built in warp-buffer slot `slot` makes (a register-only
+    /// output: what an observer attributes the fill's ray-record loads to); `None` when the slot
+    /// builds no fill. A repack's fill counts as grouped: repacking refills final-phase warps.
+    pub fn fill_kind(&self, regs: &TreeletRtUnitRegs, slot: u32) -> Option<WarpKind> {
+        let build = regs.glue.builds.get(slot as usize)?.as_ref()?;
+        Some(match build.kind {
+            FillKind::Treelet => WarpKind::Treelet,
+            FillKind::Grouped | FillKind::Repack => WarpKind::Grouped,
+        })
+    }
+
     /// The count table's occupancy and entries above the underpopulation threshold (register-only
     /// outputs: what an observer keeps the largest number of queues from).
     pub fn queues(&self, regs: &TreeletRtUnitRegs) -> (u32, u32) {
@@ -592,6 +624,40 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
     /// A one-paragraph summary of the registers, for a watchdog's dump.
     pub fn debug_state(&self, regs: &TreeletRtUnitRegs) -> String {
         wiring::debug_state(self, regs)
+    }
+}
+
+/// The kinds of RT-unit warp of the treelet RT unit, as an observer tells them apart
+/// ([`TreeletRtUnit::warp_kind`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WarpKind {
+    /// A warp from the SM in its initial phase (ray-stationary in treelet order), also once the
+    /// controller terminated it and it finishes its current treelet.
+    Sm = 0,
+    /// A treelet warp: one queue entry of the treelet being processed, traversing to the
+    /// treelet's boundary (treelet-stationary).
+    Treelet = 1,
+    /// A warp grouped from underpopulated queues, traversing ray-stationary to completion, and
+    /// the rays repacking appends to it.
+    Grouped = 2,
+}
+
+impl WarpKind {
+    /// Every kind, in index order.
+    pub const ALL: [WarpKind; 3] = [WarpKind::Sm, WarpKind::Treelet, WarpKind::Grouped];
+
+    /// The kind's index in [`WarpKind::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The kind's name in statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            WarpKind::Sm => "sm",
+            WarpKind::Treelet => "treelet",
+            WarpKind::Grouped => "grouped",
+        }
     }
 }
 

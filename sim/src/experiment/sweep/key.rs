@@ -5,8 +5,9 @@ use std::fmt;
 use crate::model::config::{ConfigError, SimConfig};
 
 /// Version of the result file format and of what a key covers; part of every key, so a change
-/// starts a fresh set of results instead of misreading old ones.
-pub const RESULT_FORMAT: u32 = 1;
+/// starts a fresh set of results instead of misreading old ones. 2: the statistics gained
+/// `warp_costs` (what each kind of RT-unit warp costs per phase).
+pub const RESULT_FORMAT: u32 = 2;
 
 /// The vtq version (the crate version) results are keyed by.
 pub const VTQ_VERSION: &str = env!("CARGO_PKG_VERSION");

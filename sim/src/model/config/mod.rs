@@ -260,6 +260,19 @@ pub struct RtConfig {
     /// only the record). True: parking a ray stores the 32 B chunks holding its on-chip stack
     /// entries and forming a warp loads them back beside the record (class `ray_stack`).
     pub queued_stack_traffic: bool,
+    /// Queues mode: where ray records are held. 0 (the default): in memory, a reserved part of
+    /// the L2 (paper 4.2: ray data "resides in a reserved portion of the L2 cache"; loads and
+    /// stores of 32 B bypass the L1). `N > 0`: on chip, in the register file or a dedicated
+    /// partition "for quick access by the RT unit" (paper 3.1): a record load is answered `N`
+    /// cycles after its request and neither loads nor stores reach the memory system. Written
+    /// only when not 0, so configurations without it keep their text and result keys.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub ray_record_latency: u32,
+}
+
+/// Whether `v` is 0 (a key left out of the configuration text at its default).
+fn is_zero(v: &u32) -> bool {
+    *v == 0
 }
 
 impl Default for RtConfig {
@@ -270,6 +283,7 @@ impl Default for RtConfig {
             resp_fifo_depth: p.resp_fifo_depth,
             resp_ports: p.resp_ports,
             queued_stack_traffic: false,
+            ray_record_latency: 0,
         }
     }
 }
@@ -446,9 +460,16 @@ impl SimConfig {
         toml::to_string(self).map_err(|e| ConfigError::Toml(e.to_string()))
     }
 
-    /// The configuration as a TOML table.
+    /// The configuration as a TOML table, every key present (also those [`SimConfig::to_toml`]
+    /// leaves out at their defaults, `rt.ray_record_latency`): the table of valid keys that
+    /// files and overrides are checked against.
     fn to_table(&self) -> Result<Table, ConfigError> {
-        Table::try_from(self).map_err(|e| ConfigError::Toml(e.to_string()))
+        let mut table = Table::try_from(self).map_err(|e| ConfigError::Toml(e.to_string()))?;
+        if let Some(Value::Table(rt)) = table.get_mut("rt") {
+            rt.entry("ray_record_latency")
+                .or_insert(Value::Integer(self.rt.ray_record_latency.into()));
+        }
+        Ok(table)
     }
 
     /// Checks every value's range and the rules between them, reporting the first violation
@@ -598,7 +619,12 @@ impl SimConfig {
             Err(other) => return Err(invalid("rt.latencies", "[rt.latencies]", other.to_string())),
         }
         in_range("rt.resp_fifo_depth", self.rt.resp_fifo_depth, 1..=1024)?;
-        in_range("rt.resp_ports", self.rt.resp_ports, 1..=8)
+        in_range("rt.resp_ports", self.rt.resp_ports, 1..=8)?;
+        in_range(
+            "rt.ray_record_latency",
+            self.rt.ray_record_latency,
+            0..=100_000,
+        )
     }
 
     /// Checks the RT-unit hardware, and that its ray ids cover every ray the CTA slots issue.

@@ -241,6 +241,16 @@ impl SimConfig {
                     ));
                 }
             }
+            if self.rt.ray_record_latency != 0 {
+                return Err(invalid(
+                    "rt.ray_record_latency",
+                    self.rt.ray_record_latency,
+                    format!(
+                        "only treelet queues hold ray records (0 keeps them in memory), and \
+                         mode.kind is \"{kind}\""
+                    ),
+                ));
+            }
             if !m.admit_in_treelet_stationary {
                 return Err(invalid(
                     "mode.admit_in_treelet_stationary",

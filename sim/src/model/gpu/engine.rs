@@ -179,6 +179,7 @@ pub fn simulate(
                 .rt
                 .queued_stack_traffic
                 .then(|| queued_stacks_base + sm as u64 * queued_stacks_bytes),
+            record_latency: (cfg.rt.ray_record_latency > 0).then_some(cfg.rt.ray_record_latency),
         });
         let mut rt = RtPort::new(
             &cfg.hw,

@@ -7,6 +7,7 @@ use vtq_hdl::rt_unit::RtStats;
 use crate::model::bvh::HwBvh;
 use crate::model::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::model::gpu::output::SimOutput;
+use crate::model::gpu::rt::warp_costs::WarpCosts;
 use crate::model::gpu::rt::QueueObserver;
 use crate::model::gpu::sm::VirtTiming;
 use crate::model::gpu::stats::{Phases, QueueStats, Sample, SimStats, TailStats, WarpLanes};
@@ -190,6 +191,13 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         max_rays_in_flight: nodes.iter().map(|n| n.sm.max_in_flight).max().unwrap_or(0),
         stack_spill_chunks: stack_spill_chunks as u64,
         rt,
+        warp_costs: (!queues.is_empty()).then(|| {
+            let mut costs = WarpCosts::default();
+            for q in &queues {
+                costs.add(&q.costs);
+            }
+            costs.stats(warp_size)
+        }),
         max_access_queue: nodes.iter().map(|n| n.rt.max_queue).max().unwrap_or(0),
         queues: {
             let mut t = QueueStats::default();

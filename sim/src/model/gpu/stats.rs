@@ -10,6 +10,7 @@ use vtq_hdl::rt_unit::RtStats;
 use vtq_hdl::treelet_rt_unit::TreeletCounts;
 
 use crate::model::bvh::BvhStats;
+use crate::model::gpu::rt::warp_costs::WarpCostStats;
 use crate::model::gpu::sm::VirtTiming;
 use crate::model::memory::MemStats;
 
@@ -269,6 +270,9 @@ pub struct SimStats {
     pub stack_spill_chunks: u64,
     /// RT-unit counters summed over the SMs.
     pub rt: RtStats,
+    /// What each kind of RT-unit warp cost in each traversal phase, summed over the SMs
+    /// (`queues` mode; `None`, written as `null`, otherwise).
+    pub warp_costs: Option<WarpCostStats>,
     /// Treelet-controller and treelet-queue counters summed over the SMs (zeros outside
     /// `queues` mode).
     pub queues: QueueStats,

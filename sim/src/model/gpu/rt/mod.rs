@@ -18,7 +18,7 @@ use vtq_hdl::rt_unit::{
     ErrorRecord, MemRequest as HwRequest, MemResponse, RayRecord, RequestKind, RtCache, RtStats,
     RtUnit, RtUnitError, RtUnitParams, TraversalOrder, CHUNK_BYTES,
 };
-use vtq_hdl::treelet_rt_unit::{RayLoad, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitParams};
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitParams, WarpKind};
 use vtq_hdl::{Block, HwConfig};
 
 use crate::model::bvh::layout::HEADER_ADDR;
@@ -35,6 +35,7 @@ use crate::model::memory::{AccessClass, AccessError, L1Port, MemRequest, Respons
 
 mod plain;
 mod treelet;
+pub mod warp_costs;
 
 use plain::Plain;
 use treelet::Treelet;
@@ -195,6 +196,10 @@ impl<'a> RtPort<'a> {
                         .map(|base| QueuedStacks::new(base, hw.max_rays, hw.stack_depth)),
                     observer: QueueObserver::default(),
                     prefetch: setup.prefetch,
+                    parked_at: vec![0; hw.max_rays as usize],
+                    cell: (0, WarpKind::Sm),
+                    record_latency: setup.record_latency,
+                    record_loads: VecDeque::new(),
                 };
                 (Hardware::Treelet(Box::new(treelet)), wake)
             }
@@ -367,6 +372,15 @@ impl<'a> RtPort<'a> {
     /// record from the store. CTA-state loads (ray virtualization) are the SM's: they go to
     /// `cta_state`.
     pub fn collect_responses(&mut self, now: u64, mem: &mut L1Port, cta_state: &mut Vec<Response>) {
+        if let Hardware::Treelet(t) = &mut self.hw {
+            while let Some(&(due, slot, ray)) = t.record_loads.front() {
+                if due > now {
+                    break;
+                }
+                t.record_loads.pop_front();
+                t.record_arrived(slot, ray);
+            }
+        }
         for r in mem.pop_ready(now) {
             if r.store {
                 continue;
@@ -377,21 +391,7 @@ impl<'a> RtPort<'a> {
                     if let Hardware::Treelet(t) = &mut self.hw {
                         let slot = (r.tag & 0xFFFF) as u32;
                         let ray = ((r.tag & !RAY_LOAD_TAG) >> 16) as u32;
-                        match t.store.take(ray) {
-                            Some(record) => {
-                                let load = RayLoad { slot, ray, record };
-                                let ready = match t.stacks.as_mut() {
-                                    Some(q) => q.record_arrived(load),
-                                    None => Some(load),
-                                };
-                                t.arrived.extend(ready);
-                            }
-                            None => {
-                                t.fault.get_or_insert(format!(
-                                    "the record of ray {ray} was loaded but the store holds none"
-                                ));
-                            }
-                        }
+                        t.record_arrived(slot, ray);
                     }
                 }
                 AccessClass::RayStack => {
@@ -473,10 +473,13 @@ impl<'a> RtPort<'a> {
             Hardware::Treelet(t) => {
                 // The controller is not evaluated in idle cycles: its mode holds throughout.
                 let phase = treelet::phase_index(t.unit.mode(&t.regs));
+                let kind = t.unit.warp_kind(&t.regs).unwrap_or(t.cell.1);
                 let counts = t.unit.skip(&mut t.regs, &mut t.cache, n);
                 self.stats.add(&counts.rt);
                 t.observer.counts.add(&counts);
                 t.observer.add_warp_cycles(phase, &counts.rt);
+                t.observer.costs.cell(phase, kind).rt.add(&counts.rt);
+                t.cell = (phase, kind);
             }
         }
         self.at = now;
@@ -540,8 +543,17 @@ impl<'a> RtPort<'a> {
             return Ok(false);
         }
         match mem.access(now, phase, req) {
-            Ok(_) => {
+            Ok(acceptance) => {
                 self.requests.pop_front();
+                if let Hardware::Treelet(t) = &mut self.hw {
+                    if req.class == AccessClass::Bvh && !req.store && !req.prefetch {
+                        let (phase, kind) = t.cell;
+                        t.observer
+                            .costs
+                            .cell(phase, kind)
+                            .count_bvh_access(&acceptance);
+                    }
+                }
                 Ok(true)
             }
             Err(AccessError::Stall(s)) => {
@@ -582,6 +594,9 @@ impl<'a> RtPort<'a> {
         if let Hardware::Treelet(t) = &self.hw {
             if !t.completed.is_empty() || !t.arrived.is_empty() {
                 at(now + 1);
+            }
+            if let Some(&(due, ..)) = t.record_loads.front() {
+                at(due.max(now + 1));
             }
         }
         next

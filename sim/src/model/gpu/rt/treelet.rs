@@ -9,9 +9,10 @@ use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{RtStats, CHUNK_BYTES};
 use vtq_hdl::treelet_rt_unit::{
     RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
-    TreeletRtUnitOutputs, TreeletRtUnitRegs,
+    TreeletRtUnitOutputs, TreeletRtUnitRegs, WarpKind,
 };
 
+use super::warp_costs::WarpCosts;
 use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
 use crate::model::config::TreeletPrefetch;
 use crate::model::geometry::{Hit, Ray};
@@ -38,6 +39,8 @@ pub struct QueueObserver {
     pub max_queues: u64,
     /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
     pub max_queues_above_threshold: u64,
+    /// What each kind of warp cost in each phase ([`WarpCosts`]).
+    pub costs: WarpCosts,
 }
 
 impl QueueObserver {
@@ -71,6 +74,9 @@ pub struct QueueSetup {
     pub stack_base: Option<u64>,
     /// In which phases the port's treelet prefetcher watches the rays (`mode.treelet_prefetch`).
     pub prefetch: TreeletPrefetch,
+    /// Ray records held on chip (`rt.ray_record_latency`): the cycles a record load takes;
+    /// `None`: records go through memory.
+    pub record_latency: Option<u32>,
 }
 
 /// Queues mode: an SM warp whose rays are spread over the RT unit and the treelet queues.
@@ -113,6 +119,39 @@ pub(super) struct Treelet<'a> {
     pub(super) observer: QueueObserver,
     /// In which phases the prefetcher watches the rays.
     pub(super) prefetch: TreeletPrefetch,
+    /// Per ray id, the cycle it was last parked in the queues (for the queue wait of
+    /// [`WarpCosts`]).
+    pub(super) parked_at: Vec<u64>,
+    /// The (phase index, warp kind) the last stepped or skipped cycle counted in: where BVH
+    /// loads the L1 accepts since are attributed.
+    pub(super) cell: (usize, WarpKind),
+    /// Ray records held on chip (`rt.ray_record_latency`): the cycles a record load takes.
+    pub(super) record_latency: Option<u32>,
+    /// On-chip record loads in flight, in request order: (cycle due, slot, ray id).
+    pub(super) record_loads: VecDeque<(u64, u32, u32)>,
+}
+
+impl Treelet<'_> {
+    /// The record of ray `ray`, loaded for the fill in slot `slot`, arrived: taken from the
+    /// store and handed to the next step (after its stack chunks, when they move through
+    /// memory).
+    pub(super) fn record_arrived(&mut self, slot: u32, ray: u32) {
+        match self.store.take(ray) {
+            Some(record) => {
+                let load = RayLoad { slot, ray, record };
+                let ready = match self.stacks.as_mut() {
+                    Some(q) => q.record_arrived(load),
+                    None => Some(load),
+                };
+                self.arrived.extend(ready);
+            }
+            None => {
+                self.fault.get_or_insert(format!(
+                    "the record of ray {ray} was loaded but the store holds none"
+                ));
+            }
+        }
+    }
 }
 
 impl<'a> RtPort<'a> {
@@ -156,8 +195,13 @@ impl<'a> RtPort<'a> {
             t.cache.probe(true);
         }
         let during = phase_index(t.unit.mode(&t.regs));
+        let kind_before = t.unit.warp_kind(&t.regs);
         t.unit
             .step_cached_into(&mut t.regs, &mut t.cache, inputs, &mut t.outputs);
+        let kind = kind_before
+            .or_else(|| t.unit.warp_kind(&t.regs))
+            .unwrap_or(t.cell.1);
+        t.cell = (during, kind);
         let out = &t.outputs;
         if let (true, Some(w)) = (record, self.waveform.as_mut()) {
             w.record_treelet(inputs, out, t.cache.take_probe());
@@ -167,6 +211,7 @@ impl<'a> RtPort<'a> {
         let obs = &mut t.observer;
         obs.counts.add(&out.counts);
         obs.add_warp_cycles(during, &out.counts.rt);
+        obs.costs.cell(during, kind).rt.add(&out.counts.rt);
         obs.tests[phase_index(t.unit.mode(&t.regs))] += out.counts.rt.total_tests();
         let (queues, above) = t.unit.queues(&t.regs);
         obs.max_queues = obs.max_queues.max(queues as u64);
@@ -184,6 +229,7 @@ impl<'a> RtPort<'a> {
         if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
             let active = ids.iter().flatten().count();
             self.rays_issued += active as u64;
+            t.observer.costs.cell(during, WarpKind::Sm).rays_in += active as u64;
             for (lane, id) in ids.iter().enumerate() {
                 if let Some(id) = id {
                     t.owners[*id as usize] = Some((idx, lane as u32));
@@ -201,6 +247,9 @@ impl<'a> RtPort<'a> {
             cycle.accepted = Some(idx);
         }
         for r in &out.parked {
+            if let Some(at) = t.parked_at.get_mut(r.ray_id as usize) {
+                *at = now;
+            }
             if let Some(q) = t.stacks.as_mut() {
                 self.requests.extend(q.park(r));
             }
@@ -253,7 +302,26 @@ impl<'a> RtPort<'a> {
         let mut stacks = t.stacks.take();
         let requests = std::mem::take(&mut t.outputs.requests);
         for r in &requests {
+            if let TreeletRequest::RayLoad { slot, ray, .. } = *r {
+                let kind = t.unit.fill_kind(&t.regs, slot).unwrap_or(WarpKind::Grouped);
+                let parked = t.parked_at.get(ray as usize).copied().unwrap_or(now);
+                let cell = t.observer.costs.cell(during, kind);
+                cell.rays_in += 1;
+                cell.ray_loads += 1;
+                cell.queue_wait_cycles += now.saturating_sub(parked);
+            }
+        }
+        let onchip = t.record_latency;
+        let mut record_loads = Vec::new();
+        for r in &requests {
             match *r {
+                TreeletRequest::RayLoad { slot, ray, .. } if onchip.is_some() => {
+                    let due = now + u64::from(onchip.unwrap_or(0));
+                    record_loads.push((due, slot, ray));
+                    if let Some(q) = stacks.as_mut() {
+                        self.requests.extend(q.load(ray));
+                    }
+                }
                 TreeletRequest::RayLoad { slot, ray, address } => {
                     self.requests.push_back(
                         MemRequest::load(
@@ -268,6 +336,7 @@ impl<'a> RtPort<'a> {
                         self.requests.extend(q.load(ray));
                     }
                 }
+                TreeletRequest::RayStore { .. } if onchip.is_some() => {}
                 TreeletRequest::RayStore { address, .. } => self.requests.push_back(
                     MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
                         .bypassing_l1(),
@@ -276,6 +345,7 @@ impl<'a> RtPort<'a> {
             }
         }
         if let Hardware::Treelet(t) = &mut self.hw {
+            t.record_loads.extend(record_loads);
             t.stacks = stacks;
             t.outputs.requests = requests;
         }
