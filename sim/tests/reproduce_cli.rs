@@ -76,14 +76,16 @@ fn reproduce_writes_every_figure_and_resumes() {
     let dir = scratch("page");
     let out = dir.join("page");
     let log = reproduce(&dir, &out, &[]);
-    // 9 designs (baseline, prefetch, vtq, naive, grouping, repack 16, vtq with free suspends,
-    // vtq with treelet prefetching in the ray-stationary phases and in all) on 2 scenes: each
-    // distinct run once.
+    // The paper's figures: 9 designs (baseline, prefetch, vtq, naive, grouping, repack 16, vtq
+    // with free suspends, vtq with treelet prefetching in the ray-stationary phases and in all)
+    // on 2 scenes; cause G: the factorial's 6 cells beyond those (V, T, TG, G, VG, VGR) and the
+    // map's 27 pairs less its two at Table 1's machine (VTQ and VGR: 52 runs), on the same 2
+    // scenes: each distinct run once.
     assert!(
-        log.contains("reproduce: 18 points; 0 already done"),
+        log.contains("reproduce: 134 points; 0 already done"),
         "{log}"
     );
-    assert!(log.contains("ran 18 (18 ok, 0 failed)"), "{log}");
+    assert!(log.contains("ran 134 (134 ok, 0 failed)"), "{log}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();
     assert!(
@@ -104,6 +106,8 @@ fn reproduce_writes_every_figure_and_resumes() {
         "fig15",
         "fig16",
         "ext-vtq-prefetch",
+        "cause-g-mechanisms",
+        "cause-g-map",
     ] {
         for ext in ["svg", "png"] {
             let path = out.join(format!("figures/{stem}.{ext}"));
@@ -151,7 +155,7 @@ fn reproduce_writes_every_figure_and_resumes() {
     // A second run draws from the store and runs nothing; the page is the same.
     let again = reproduce(&dir, &out, &[]);
     assert!(
-        again.contains("18 already done") && again.contains("ran 0"),
+        again.contains("134 already done") && again.contains("ran 0"),
         "{again}"
     );
     let html_again = std::fs::read_to_string(out.join("index.html")).unwrap();
@@ -201,7 +205,7 @@ fn reproduce_reuses_what_a_sweep_stored() {
     );
     // Baseline, prefetch and VTQ on both scenes were stored by the sweep.
     assert!(
-        log.contains("reproduce: 18 points; 6 already done"),
+        log.contains("reproduce: 134 points; 6 already done"),
         "{log}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

@@ -20,7 +20,9 @@ use crate::experiment::reproduce::beyond;
 use crate::experiment::reproduce::figures::{self, Figure};
 use crate::experiment::reproduce::page::Page;
 use crate::experiment::reproduce::tables;
-use crate::experiment::reproduce::{scene_labels, Experiments, Results, FIGURE_EXPERIMENTS};
+use crate::experiment::reproduce::{
+    cause_g, scene_labels, Experiments, Results, CAUSE_G_EXPERIMENTS, FIGURE_EXPERIMENTS,
+};
 use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse};
 use crate::model::bvh::BvhParams;
 use crate::model::config::SimConfig;
@@ -77,7 +79,13 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     // Every experiment's points, each distinct run once.
     let mut points: Vec<Point> = Vec::new();
     let mut seen = HashSet::new();
-    for name in FIGURE_EXPERIMENTS {
+    // The paper's experiments first: their scenes are then the first of the prepared scenes,
+    // which the paper's figures are drawn over.
+    let mut paper_points = 0;
+    for name in FIGURE_EXPERIMENTS.into_iter().chain(CAUSE_G_EXPERIMENTS) {
+        if name == CAUSE_G_EXPERIMENTS[0] {
+            paper_points = points.len();
+        }
         let mut spec = experiments.load(name, &args.scenes)?;
         spec.set.extend(args.set.iter().cloned());
         for p in spec
@@ -94,6 +102,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         }
     }
     let scenes = prepare_scenes(&points)?;
+    let paper_scenes = prepare_count(&scenes, &points[..paper_points]);
     let results_dir = args
         .results
         .clone()
@@ -117,7 +126,8 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let figures_dir = args.out.join("figures");
     std::fs::create_dir_all(&figures_dir)
         .with_context(|| format!("creating {}", figures_dir.display()))?;
-    let results = Results::new(&store, &scenes, root.clone()).with_sets(&args.set);
+    let results = Results::new(&store, &scenes[..paper_scenes], root.clone()).with_sets(&args.set);
+    let all_results = Results::new(&store, &scenes, root.clone()).with_sets(&args.set);
     let out = args.out.as_path();
     // A figure that cannot be drawn leaves a note on the page instead of stopping the others
     // (the runs are stored: a rerun draws it without running them again).
@@ -156,10 +166,27 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         .iter()
         .map(|(id, title, f)| drawn(id, title, f(&results, out)))
         .collect();
+    let cause_g: [(&str, &str, FigureFn); 2] = [
+        (
+            "cause-g-mechanisms",
+            "Cause G: which mechanism carries VTQ's gain",
+            cause_g::mechanisms,
+        ),
+        (
+            "cause-g-map",
+            "Cause G: when the treelet-stationary phase pays",
+            cause_g::treelet_map,
+        ),
+    ];
+    figures.extend(
+        cause_g
+            .iter()
+            .map(|(id, title, f)| drawn(id, title, f(&all_results, out))),
+    );
     let vtq_path = root.join("configs/designs/vtq/config.toml");
     let vtq = designs::load(Some(&vtq_path), &args.set)?;
-    let fig5 =
-        figure5_rows(&scenes, &vtq, &args.cache).and_then(|rows| figures::figure5(&rows, out));
+    let fig5 = figure5_rows(&scenes[..paper_scenes], &vtq, &args.cache)
+        .and_then(|rows| figures::figure5(&rows, out));
     figures.insert(0, drawn("fig05", "Figure 5", fig5));
     let area = area_report(&vtq.hw, &area_params(&vtq))?;
     let page = Page {
@@ -225,6 +252,15 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         anyhow::bail!("{}", problems.join("; "));
     }
     Ok(())
+}
+
+/// How many of `scenes` (prepared in the order their points first name them) the points
+/// `first` name: they are the first that many.
+fn prepare_count(scenes: &[PreparedScene], first: &[Point]) -> usize {
+    scenes
+        .iter()
+        .take_while(|s| first.iter().any(|p| p.scene == s.spec))
+        .count()
 }
 
 /// A figure of the page drawn from the stored runs into the output folder.

@@ -11,6 +11,7 @@
 //! Markdown twin ([`page`]).
 
 pub mod beyond;
+pub mod cause_g;
 pub mod figures;
 pub mod page;
 pub mod tables;
@@ -37,12 +38,22 @@ pub const FIGURE_EXPERIMENTS: [&str; 9] = [
     "ext-vtq-prefetch",
 ];
 
+/// The experiment files of docs/fidelity.md's cause G that `vtq reproduce` also runs and draws
+/// ([`cause_g`]): the factorial over VTQ's mechanisms and the map of when the
+/// treelet-stationary phase pays. (`dev-treelet-map-size` and `dev-treelet-readings` are sweeps
+/// of their own: city:32M alone takes 9.4 GB.)
+pub const CAUSE_G_EXPERIMENTS: [&str; 2] = ["dev-mechanisms", "dev-treelet-map"];
+
 /// The experiment files of `configs/experiments/`, compiled in as (stem, text), so `vtq
 /// reproduce` and `vtq sweep --spec` run from any directory (a cluster node with only the binary).
-pub const EXPERIMENT_FILES: [(&str, &str); 19] = [
+pub const EXPERIMENT_FILES: [(&str, &str); 23] = [
     (
         "dev-frame-size",
         include_str!("../../../../configs/experiments/dev-frame-size.toml"),
+    ),
+    (
+        "dev-mechanisms",
+        include_str!("../../../../configs/experiments/dev-mechanisms.toml"),
     ),
     (
         "dev-memory",
@@ -63,6 +74,18 @@ pub const EXPERIMENT_FILES: [(&str, &str); 19] = [
     (
         "dev-treelet-formation",
         include_str!("../../../../configs/experiments/dev-treelet-formation.toml"),
+    ),
+    (
+        "dev-treelet-map",
+        include_str!("../../../../configs/experiments/dev-treelet-map.toml"),
+    ),
+    (
+        "dev-treelet-map-size",
+        include_str!("../../../../configs/experiments/dev-treelet-map-size.toml"),
+    ),
+    (
+        "dev-treelet-readings",
+        include_str!("../../../../configs/experiments/dev-treelet-readings.toml"),
     ),
     (
         "dev-virtualization-baseline",
