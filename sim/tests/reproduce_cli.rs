@@ -107,7 +107,9 @@ fn reproduce_writes_every_figure_and_resumes() {
         "fig16",
         "ext-vtq-prefetch",
         "cause-g-mechanisms",
-        "cause-g-map",
+        "cause-g-map-1",
+        "cause-g-map-2",
+        "cause-g-map-3",
     ] {
         for ext in ["svg", "png"] {
             let path = out.join(format!("figures/{stem}.{ext}"));
