@@ -7,11 +7,18 @@
 pub trait Count {
     /// Adds `other`'s counts to these.
     fn add_counts(&mut self, other: &Self);
+    /// Takes `other`'s counts from these (an earlier snapshot of the same running total, so
+    /// no counter goes below 0): what was counted since the snapshot.
+    fn sub_counts(&mut self, other: &Self);
 }
 
 impl Count for u64 {
     fn add_counts(&mut self, other: &Self) {
         *self += *other;
+    }
+
+    fn sub_counts(&mut self, other: &Self) {
+        *self -= *other;
     }
 }
 
@@ -19,6 +26,12 @@ impl<T: Count, const N: usize> Count for [T; N] {
     fn add_counts(&mut self, other: &Self) {
         for (a, b) in self.iter_mut().zip(other) {
             a.add_counts(b);
+        }
+    }
+
+    fn sub_counts(&mut self, other: &Self) {
+        for (a, b) in self.iter_mut().zip(other) {
+            a.sub_counts(b);
         }
     }
 }
@@ -41,6 +54,8 @@ impl<T: Count, const N: usize> Count for [T; N] {
 /// let mut total = Pair { loads: 1, stores: [2, 3] };
 /// total.add(&Pair { loads: 10, stores: [20, 30] });
 /// assert_eq!(total, Pair { loads: 11, stores: [22, 33] });
+/// total.sub(&Pair { loads: 1, stores: [2, 3] });
+/// assert_eq!(total, Pair { loads: 10, stores: [20, 30] });
 /// ```
 #[macro_export]
 macro_rules! counters {
@@ -59,12 +74,23 @@ macro_rules! counters {
             fn add_counts(&mut self, other: &Self) {
                 $( $crate::counters::Count::add_counts(&mut self.$field, &other.$field); )*
             }
+
+            fn sub_counts(&mut self, other: &Self) {
+                $( $crate::counters::Count::sub_counts(&mut self.$field, &other.$field); )*
+            }
         }
 
         impl $name {
             /// Adds every counter of `other` to these.
             pub fn add(&mut self, other: &Self) {
                 $crate::counters::Count::add_counts(self, other);
+            }
+
+            /// Takes every counter of `other`, an earlier snapshot of the same running total,
+            /// from these: what was counted since.
+            #[allow(dead_code)]
+            pub fn sub(&mut self, other: &Self) {
+                $crate::counters::Count::sub_counts(self, other);
             }
         }
     };

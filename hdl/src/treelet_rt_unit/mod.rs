@@ -629,10 +629,12 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
 
 /// The kinds of RT-unit warp of the treelet RT unit, as an observer tells them apart
 /// ([`TreeletRtUnit::warp_kind`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum WarpKind {
     /// A warp from the SM in its initial phase (ray-stationary in treelet order), also once the
-    /// controller terminated it and it finishes its current treelet.
+    /// controller terminated it and it finishes its current treelet (the default: the first
+    /// warps of a run are the SM's).
+    #[default]
     Sm = 0,
     /// A treelet warp: one queue entry of the treelet being processed, traversing to the
     /// treelet's boundary (treelet-stationary).

@@ -193,8 +193,8 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         rt,
         warp_costs: (!queues.is_empty()).then(|| {
             let mut costs = WarpCosts::default();
-            for q in &queues {
-                costs.add(&q.costs);
+            for c in nodes.iter().filter_map(|n| n.rt.warp_costs()) {
+                costs.add(&c);
             }
             costs.stats(warp_size)
         }),

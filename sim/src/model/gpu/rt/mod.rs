@@ -18,7 +18,7 @@ use vtq_hdl::rt_unit::{
     ErrorRecord, MemRequest as HwRequest, MemResponse, RayRecord, RequestKind, RtCache, RtStats,
     RtUnit, RtUnitError, RtUnitParams, TraversalOrder, CHUNK_BYTES,
 };
-use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitParams, WarpKind};
+use vtq_hdl::treelet_rt_unit::{TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitParams};
 use vtq_hdl::{Block, HwConfig};
 
 use crate::model::bvh::layout::HEADER_ADDR;
@@ -197,7 +197,6 @@ impl<'a> RtPort<'a> {
                     observer: QueueObserver::default(),
                     prefetch: setup.prefetch,
                     parked_at: vec![0; hw.max_rays as usize],
-                    cell: (0, WarpKind::Sm),
                     record_latency: setup.record_latency,
                     record_loads: VecDeque::new(),
                 };
@@ -231,6 +230,14 @@ impl<'a> RtPort<'a> {
         RtPort {
             prefetcher: Some(prefetcher),
             ..self
+        }
+    }
+
+    /// What each kind of warp cost in each phase so far, if this port runs in queues mode.
+    pub fn warp_costs(&self) -> Option<warp_costs::WarpCosts> {
+        match &self.hw {
+            Hardware::Treelet(t) => Some(t.observer.warp_costs(&self.stats)),
+            Hardware::Plain(_) => None,
         }
     }
 
@@ -473,13 +480,12 @@ impl<'a> RtPort<'a> {
             Hardware::Treelet(t) => {
                 // The controller is not evaluated in idle cycles: its mode holds throughout.
                 let phase = treelet::phase_index(t.unit.mode(&t.regs));
-                let kind = t.unit.warp_kind(&t.regs).unwrap_or(t.cell.1);
+                let kind = t.unit.warp_kind(&t.regs).unwrap_or(t.observer.cell.1);
+                t.observer.enter_cell((phase, kind), &self.stats);
                 let counts = t.unit.skip(&mut t.regs, &mut t.cache, n);
                 self.stats.add(&counts.rt);
                 t.observer.counts.add(&counts);
                 t.observer.add_warp_cycles(phase, &counts.rt);
-                t.observer.costs.cell(phase, kind).rt.add(&counts.rt);
-                t.cell = (phase, kind);
             }
         }
         self.at = now;
@@ -547,7 +553,7 @@ impl<'a> RtPort<'a> {
                 self.requests.pop_front();
                 if let Hardware::Treelet(t) = &mut self.hw {
                     if req.class == AccessClass::Bvh && !req.store && !req.prefetch {
-                        let (phase, kind) = t.cell;
+                        let (phase, kind) = t.observer.cell;
                         t.observer
                             .costs
                             .cell(phase, kind)

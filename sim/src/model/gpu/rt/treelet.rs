@@ -39,11 +39,41 @@ pub struct QueueObserver {
     pub max_queues: u64,
     /// Most of them holding at least `hw.underpopulation_threshold` rays at once.
     pub max_queues_above_threshold: u64,
-    /// What each kind of warp cost in each phase ([`WarpCosts`]).
+    /// What each kind of warp cost in each phase ([`WarpCosts`]), up to when `cell` was
+    /// entered.
     pub costs: WarpCosts,
+    /// The (phase index, warp kind) the last stepped or skipped cycle counted in: where BVH
+    /// loads the L1 accepts since are attributed, and the RT unit's counters since `cell_since`.
+    pub cell: (usize, WarpKind),
+    /// The port's RT-unit counters when `cell` was entered: what was counted since belongs to
+    /// it (taken by difference when the cell changes, so a cycle costs a comparison).
+    pub cell_since: RtStats,
 }
 
 impl QueueObserver {
+    /// Enters cell `cell` (phase index, warp kind) for the cycles counted from now, `total`
+    /// being the port's RT-unit counters so far: the counters since the current cell was
+    /// entered go to it.
+    pub(super) fn enter_cell(&mut self, cell: (usize, WarpKind), total: &RtStats) {
+        if cell != self.cell {
+            let mut since = *total;
+            since.sub(&self.cell_since);
+            self.costs.cell(self.cell.0, self.cell.1).rt.add(&since);
+            self.cell_since = *total;
+            self.cell = cell;
+        }
+    }
+
+    /// The warp costs so far, the current cell's counters since it was entered included
+    /// (`total`: the port's RT-unit counters).
+    pub(super) fn warp_costs(&self, total: &RtStats) -> WarpCosts {
+        let mut costs = self.costs;
+        let mut since = *total;
+        since.sub(&self.cell_since);
+        costs.cell(self.cell.0, self.cell.1).rt.add(&since);
+        costs
+    }
+
     /// Adds the warp cycles and lanes of `counts` (one cycle's, or a skip's) to phase `phase`
     /// (an index of [`phase_index`]).
     pub(super) fn add_warp_cycles(&mut self, phase: usize, counts: &RtStats) {
@@ -122,9 +152,6 @@ pub(super) struct Treelet<'a> {
     /// Per ray id, the cycle it was last parked in the queues (for the queue wait of
     /// [`WarpCosts`]).
     pub(super) parked_at: Vec<u64>,
-    /// The (phase index, warp kind) the last stepped or skipped cycle counted in: where BVH
-    /// loads the L1 accepts since are attributed.
-    pub(super) cell: (usize, WarpKind),
     /// Ray records held on chip (`rt.ray_record_latency`): the cycles a record load takes.
     pub(super) record_latency: Option<u32>,
     /// On-chip record loads in flight, in request order: (cycle due, slot, ray id).
@@ -200,8 +227,8 @@ impl<'a> RtPort<'a> {
             .step_cached_into(&mut t.regs, &mut t.cache, inputs, &mut t.outputs);
         let kind = kind_before
             .or_else(|| t.unit.warp_kind(&t.regs))
-            .unwrap_or(t.cell.1);
-        t.cell = (during, kind);
+            .unwrap_or(t.observer.cell.1);
+        t.observer.enter_cell((during, kind), &self.stats);
         let out = &t.outputs;
         if let (true, Some(w)) = (record, self.waveform.as_mut()) {
             w.record_treelet(inputs, out, t.cache.take_probe());
@@ -211,7 +238,6 @@ impl<'a> RtPort<'a> {
         let obs = &mut t.observer;
         obs.counts.add(&out.counts);
         obs.add_warp_cycles(during, &out.counts.rt);
-        obs.costs.cell(during, kind).rt.add(&out.counts.rt);
         obs.tests[phase_index(t.unit.mode(&t.regs))] += out.counts.rt.total_tests();
         let (queues, above) = t.unit.queues(&t.regs);
         obs.max_queues = obs.max_queues.max(queues as u64);
