@@ -31,11 +31,13 @@ use crate::model::bvh::{BvhParams, TreeletFormation};
 use crate::model::memory::{MemConfig, MemConfigError};
 use crate::model::workload::pathtracer::RenderSettings;
 
+mod energy;
 mod mode;
 mod overrides;
 mod sample;
 mod virtualization;
 
+pub use energy::{CoefficientSet, EnergyConfig};
 pub use mode::{ModeConfig, ModeKind, TreeletPrefetch};
 pub use overrides::parse_override_value;
 use overrides::{apply_override, merge, Origin};
@@ -182,6 +184,10 @@ pub struct SimConfig {
     pub sim: EngineConfig,
     /// `[sample]`: the sampled tier's settings (used only when sampling is asked for).
     pub sample: SampleConfig,
+    /// `[energy]`: the energy model's coefficients and clock (observes the statistics; changes
+    /// nothing simulated). Written to the TOML only when it differs from its defaults.
+    #[serde(skip_serializing_if = "EnergyConfig::is_default")]
+    pub energy: EnergyConfig,
 }
 
 /// `[gpu]`: the simulated GPU's SMs (paper Table 1) and the timing of the shaders run on them.
@@ -446,9 +452,16 @@ impl SimConfig {
         toml::to_string(self).map_err(|e| ConfigError::Toml(e.to_string()))
     }
 
-    /// The configuration as a TOML table.
+    /// The configuration as a TOML table, every section included (`[energy]` too, which
+    /// [`SimConfig::to_toml`] leaves out at its defaults): the keys a file may set.
     fn to_table(&self) -> Result<Table, ConfigError> {
-        Table::try_from(self).map_err(|e| ConfigError::Toml(e.to_string()))
+        let mut table = Table::try_from(self).map_err(|e| ConfigError::Toml(e.to_string()))?;
+        if !table.contains_key("energy") {
+            let energy =
+                Table::try_from(self.energy).map_err(|e| ConfigError::Toml(e.to_string()))?;
+            table.insert("energy".to_string(), Value::Table(energy));
+        }
+        Ok(table)
     }
 
     /// Checks every value's range and the rules between them, reporting the first violation
@@ -462,6 +475,7 @@ impl SimConfig {
         self.validate_workload()?;
         self.validate_bvh()?;
         self.validate_engine()?;
+        self.energy.validate()?;
         self.sample.validate_ranges()
     }
 
