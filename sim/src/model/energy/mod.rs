@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 pub use coefficients::{Coefficients, Term, REFERENCE_SMS};
 pub use events::{EnergyEvents, MemoryEvents, TimeInputs};
 
-use crate::model::config::{CoefficientSet, SimConfig};
+use crate::model::config::SimConfig;
 use events::StatsView;
 
 /// Picojoules per millijoule.
@@ -209,17 +209,6 @@ fn memory_pj(e: &MemoryEvents, c: &Coefficients) -> (f64, f64, f64) {
     (l1, l2, dram)
 }
 
-/// The energy of `stats` under every coefficient set, for reports (`vtq energy`, reproduce).
-pub fn under_every_set(
-    stats: &serde_json::Value,
-    cfg: &SimConfig,
-) -> Result<Vec<EnergyReport>, String> {
-    CoefficientSet::ALL
-        .into_iter()
-        .map(|set| EnergyReport::of_stats_with(stats, cfg, &Coefficients::of(set, cfg)))
-        .collect()
-}
-
 /// A design's energy relative to a reference design's (the baseline's), with the terms of the
 /// identity E = f x T + (1 - f) x D (energy-sources.md, "An identity worth printing").
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -228,8 +217,7 @@ pub struct Relative {
     pub energy: f64,
     /// f: the reference's time-proportional share.
     pub time_share: f64,
-    /// T: the design's time over the reference's (= the reference's cycles over the design's
-    /// speedup).
+    /// T: the design's time over the reference's (1 / speedup at one clock).
     pub time: f64,
     /// D: the design's event energy over the reference's.
     pub events: f64,
