@@ -196,3 +196,69 @@ fn the_coefficient_set_is_chosen_by_configuration_and_recorded() {
     let err = SimConfig::load(None, &["energy.clock_mhz=0".into()]).unwrap_err();
     assert!(err.to_string().contains("energy.clock_mhz"), "{err}");
 }
+
+/// Runs `vtq args` in `dir`; returns (success, stdout, stderr).
+fn vtq(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("the vtq binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn vtq_energy_evaluates_stored_statistics_under_every_set_and_varies_them() {
+    let dir = std::env::temp_dir().join(format!("vtq-energy-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let tiny = [
+        "--scene",
+        "cornell",
+        "--set",
+        "width=16",
+        "--set",
+        "height=16",
+    ];
+    for (config, out) in [("baseline", "base.json"), ("vtq", "vtq.json")] {
+        let mut args = vec!["sim", "--config", config, "--out", out];
+        args.extend(tiny);
+        let (ok, stdout, stderr) = vtq(&dir, &args);
+        assert!(ok, "{stderr}");
+        assert!(stdout.contains("energy (accelwattch-ptx):"), "{stdout}");
+    }
+    let (ok, stdout, stderr) = vtq(&dir, &["energy", "base.json", "vtq.json", "--vary"]);
+    assert!(ok, "{stderr}");
+    for set in CoefficientSet::ALL {
+        assert!(stdout.contains(&format!("coefficients {set}")), "{stdout}");
+    }
+    // The first run is the reference: the baseline's row reads 1.000; VTQ's has CTA state.
+    let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("base ")).collect();
+    assert_eq!(rows.len(), 3, "{stdout}");
+    assert!(rows
+        .iter()
+        .all(|r| r.split_whitespace().nth(4) == Some("1.000")));
+    let vtq_row = stdout.lines().find(|l| l.starts_with("vtq ")).unwrap();
+    let virt: f64 = vtq_row.split_whitespace().last().unwrap().parse().unwrap();
+    assert!(virt > 0.0, "{vtq_row}");
+    assert!(
+        stdout.contains("sensitivity") && stdout.contains("dram_read"),
+        "{stdout}"
+    );
+    // Bad input: clear errors, no panic.
+    let (ok, _, stderr) = vtq(&dir, &["energy", "base.json", "--coefficients", "mcpat"]);
+    assert!(
+        !ok && stderr.contains("unknown energy coefficient set `mcpat`"),
+        "{stderr}"
+    );
+    std::fs::write(dir.join("empty.json"), "{}").unwrap();
+    let (ok, _, stderr) = vtq(&dir, &["energy", "empty.json"]);
+    assert!(
+        !ok && stderr.contains("no statistics") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}

@@ -1,4 +1,4 @@
-//! `[energy]`: which coefficients the energy model (`crate::model::energy`, docs/energy.md)
+//! `[energy]`: which coefficients the energy model (`sim/src/model/energy/`, docs/energy.md)
 //! evaluates a run's statistics with, and the clock that turns cycles into seconds. The energy
 //! model observes the statistics after a run; nothing here changes what is simulated.
 //!
