@@ -158,7 +158,7 @@ fn compare_baseline_and_prefetch() {
         Some(energy(p) / energy(b))
     );
     assert!(
-        stdout.contains("energy, coefficients accelwattch-ptx:"),
+        stdout.contains("energy, coefficients accelwattch-ptx"),
         "{stdout}"
     );
     assert!(stdout.contains("fT+(1-f)D"), "{stdout}");

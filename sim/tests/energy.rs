@@ -237,12 +237,18 @@ fn vtq_energy_evaluates_stored_statistics_under_every_set_and_varies_them() {
         assert!(stdout.contains(&format!("coefficients {set}")), "{stdout}");
     }
     // The first run is the reference: the baseline's row reads 1.000; VTQ's has CTA state.
-    let rows: Vec<&str> = stdout.lines().filter(|l| l.starts_with("base ")).collect();
+    // (Rows of the energy tables have 10 cells, those of the component stacks 8.)
+    let table_row = |l: &&str, who: &str| l.starts_with(who) && l.split_whitespace().count() == 10;
+    let rows: Vec<&str> = stdout.lines().filter(|l| table_row(l, "base ")).collect();
     assert_eq!(rows.len(), 3, "{stdout}");
     assert!(rows
         .iter()
         .all(|r| r.split_whitespace().nth(4) == Some("1.000")));
-    let vtq_row = stdout.lines().find(|l| l.starts_with("vtq ")).unwrap();
+    let stacks = stdout
+        .lines()
+        .filter(|l| l.starts_with("base ") && !table_row(l, "base "));
+    assert_eq!(stacks.count(), 3, "one component stack per set:\n{stdout}");
+    let vtq_row = stdout.lines().find(|l| table_row(l, "vtq ")).unwrap();
     let virt: f64 = vtq_row.split_whitespace().last().unwrap().parse().unwrap();
     assert!(virt > 0.0, "{vtq_row}");
     assert!(

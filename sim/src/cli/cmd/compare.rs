@@ -18,7 +18,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 use glam::Vec3;
 
-use crate::cli::cmd::energy::print_table as print_energy_table;
+use crate::cli::cmd::energy::print_comparison as print_energy_comparison;
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::cli::output::{check_file, write_or_keep};
 use crate::estimate::sample::{paired_speedup, simulate_sampled, Profile};
@@ -359,14 +359,16 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             .map(|r| r as f64 / stats.cycles as f64)
     };
 
-    let reference_energy = match &outcomes[reference].result {
-        Ok((stats, _)) => Some(stats.energy.total_mj),
-        Err(_) => None,
-    };
-    let energy = |stats: &SimStats| {
-        reference_energy
+    // Energy relative to the reference design's (docs/energy.md).
+    let reference_mj = outcomes[reference]
+        .result
+        .as_ref()
+        .ok()
+        .map(|(s, _)| s.energy.total_mj);
+    let energy = |s: &SimStats| {
+        reference_mj
             .filter(|&e| e > 0.0)
-            .map(|e| stats.energy.total_mj / e)
+            .map(|e| s.energy.total_mj / e)
     };
     let label_width = label_width(&designs);
     println!(
@@ -405,17 +407,17 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
          initial / treelet-stationary / ray-stationary share of traversal-phase cycles",
         designs[reference].label, designs[reference].label
     );
-    // Energy (docs/energy.md), the reference design first so the ratios divide its energy.
-    let mut energy_rows: Vec<(&str, &EnergyReport)> = Vec::new();
-    for i in std::iter::once(reference).chain((0..designs.len()).filter(|&i| i != reference)) {
-        if let Ok((stats, _)) = &outcomes[i].result {
-            energy_rows.push((designs[i].label.as_str(), &stats.energy));
-        }
-    }
-    if let Some((_, first)) = energy_rows.first() {
-        println!("energy, coefficients {}:", first.coefficients);
-        print_energy_table(&energy_rows, label_width);
-    }
+    let energy_rows: Vec<Option<(&str, &EnergyReport)>> = designs
+        .iter()
+        .zip(&outcomes)
+        .map(|(d, o)| {
+            o.result
+                .as_ref()
+                .ok()
+                .map(|(s, _)| (d.label.as_str(), &s.energy))
+        })
+        .collect();
+    print_energy_comparison(&energy_rows, reference, label_width);
 
     let perturbed = if args.perturb > 0 {
         perturbed_table(args, &scene, &runs, jobs, reference, &outcomes, label_width)?

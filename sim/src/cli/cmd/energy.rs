@@ -15,8 +15,9 @@ use crate::model::energy::{stats_config, Coefficients, EnergyReport, Relative, T
 #[derive(Debug, Args)]
 pub struct EnergyArgs {
     /// Statistics JSON files: `vtq sim --out` files, `vtq compare --json` files (every design
-    /// in them) or sweep result files (`DIR/runs/*.json`). The first run is the reference of
-    /// the ratios (compare files list the baseline first).
+    /// in them) or sweep result files (`DIR/runs/*.json`). A compare file's designs are
+    /// reported together, relative to its first (the baseline where it was compared); the other
+    /// files together, relative to the first of them.
     #[arg(required = true, value_name = "STATS.json")]
     pub stats: Vec<PathBuf>,
     /// A coefficient set (`accelwattch-ptx`, `accelwattch-sass`, `physical`) or `all`.
@@ -38,8 +39,9 @@ struct Run {
     cfg: SimConfig,
 }
 
-/// The runs of one statistics file (one, or every design of a `vtq compare --json` file).
-fn read_runs(path: &PathBuf) -> anyhow::Result<Vec<Run>> {
+/// The runs of one statistics file (one, or every design of a `vtq compare --json` file), and
+/// whether they are a compare file's (a group of their own).
+fn read_runs(path: &PathBuf) -> anyhow::Result<(Vec<Run>, bool)> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let json: serde_json::Value =
@@ -49,6 +51,7 @@ fn read_runs(path: &PathBuf) -> anyhow::Result<Vec<Run>> {
         |s| s.to_string_lossy().into(),
     );
     let mut found: Vec<(String, serde_json::Value)> = Vec::new();
+    let is_compare = json.get("designs").is_some();
     if let Some(designs) = json.get("designs").and_then(|d| d.as_array()) {
         for d in designs {
             let label = d.get("design").and_then(|l| l.as_str()).unwrap_or("?");
@@ -68,7 +71,7 @@ fn read_runs(path: &PathBuf) -> anyhow::Result<Vec<Run>> {
             path.display()
         );
     }
-    found
+    let runs = found
         .into_iter()
         .map(|(label, stats)| {
             let cfg = stats_config(&stats)
@@ -76,7 +79,8 @@ fn read_runs(path: &PathBuf) -> anyhow::Result<Vec<Run>> {
                 .with_context(|| format!("{} ({label})", path.display()))?;
             Ok(Run { label, stats, cfg })
         })
-        .collect()
+        .collect::<anyhow::Result<Vec<Run>>>()?;
+    Ok((runs, is_compare))
 }
 
 /// Run `vtq energy`.
@@ -86,24 +90,45 @@ pub fn run(args: &EnergyArgs) -> anyhow::Result<()> {
     } else {
         vec![CoefficientSet::from_name(&args.coefficients).map_err(anyhow::Error::msg)?]
     };
-    let mut runs = Vec::new();
+    // Groups of runs reported together: each compare file's, and the other files'.
+    let mut groups: Vec<(String, Vec<Run>)> = Vec::new();
+    let mut singles: Vec<Run> = Vec::new();
     for path in &args.stats {
-        runs.extend(read_runs(path)?);
-    }
-    let width = runs.iter().map(|r| r.label.len()).max().unwrap_or(0).max(6);
-    for set in sets {
-        let reports = evaluate_all(&runs, set, None)?;
-        println!("coefficients {set} (docs/energy.md):");
-        let rows: Vec<(&str, &EnergyReport)> = runs
-            .iter()
-            .map(|r| r.label.as_str())
-            .zip(reports.iter())
-            .collect();
-        print_table(&rows, width);
-        if args.vary {
-            print_variations(&runs, set, width)?;
+        match read_runs(path)? {
+            (runs, true) => groups.push((path.display().to_string(), runs)),
+            (runs, false) => singles.extend(runs),
         }
-        println!();
+    }
+    if !singles.is_empty() {
+        groups.insert(0, (String::new(), singles));
+    }
+    let width = groups
+        .iter()
+        .flat_map(|(_, runs)| runs.iter().map(|r| r.label.len()))
+        .max()
+        .unwrap_or(0)
+        .max(6);
+    for set in sets {
+        for (name, runs) in &groups {
+            let reports = evaluate_all(runs, set, None)?;
+            let from = if name.is_empty() {
+                String::new()
+            } else {
+                format!(", {name}")
+            };
+            println!("coefficients {set}{from} (docs/energy.md):");
+            let rows: Vec<(&str, &EnergyReport)> = runs
+                .iter()
+                .map(|r| r.label.as_str())
+                .zip(reports.iter())
+                .collect();
+            print_table(&rows, width);
+            print_components(&rows, width);
+            if args.vary {
+                print_variations(runs, set, width)?;
+            }
+            println!();
+        }
     }
     Ok(())
 }
@@ -125,6 +150,22 @@ fn evaluate_all(
                 .with_context(|| r.label.clone())
         })
         .collect()
+}
+
+/// Prints the energy table of `vtq compare`: the designs that ran (`None`: failed), the one at
+/// `reference` first so the ratios divide its energy.
+pub fn print_comparison(rows: &[Option<(&str, &EnergyReport)>], reference: usize, width: usize) {
+    let order = std::iter::once(reference).chain((0..rows.len()).filter(|&i| i != reference));
+    let ran: Vec<(&str, &EnergyReport)> = order
+        .filter_map(|i| rows.get(i).copied().flatten())
+        .collect();
+    if let Some((_, first)) = ran.first() {
+        println!(
+            "energy, coefficients {} (docs/energy.md):",
+            first.coefficients
+        );
+        print_table(&ran, width);
+    }
 }
 
 /// Prints the energy table of `rows` (label, report), ratios against the first row.
@@ -158,6 +199,32 @@ pub fn print_table(rows: &[(&str, &EnergyReport)], width: usize) {
          energy ratio; virt. % = CTA-state traffic's share of the design's energy",
         rows[0].0, rows[0].0
     );
+}
+
+/// Prints each run's components as fractions of the first run's energy (Figure 17's stacks).
+fn print_components(rows: &[(&str, &EnergyReport)], width: usize) {
+    let Some((first, reference)) = rows.first() else {
+        return;
+    };
+    let names = reference.components.named().map(|(n, _)| n);
+    let mut header = format!("{:<width$}", "design");
+    for n in names {
+        header += &format!("  {n:>15}");
+    }
+    println!("{header}");
+    for (label, r) in rows {
+        let mut line = format!("{label:<width$}");
+        for (_, v) in r.components.named() {
+            let share = if reference.total_mj > 0.0 {
+                v / reference.total_mj
+            } else {
+                0.0
+            };
+            line += &format!("  {share:>15.4}");
+        }
+        println!("{line}");
+    }
+    println!("components as fractions of {first}'s energy");
 }
 
 /// Prints, for each coefficient halved and doubled, every run's energy relative to the first.
