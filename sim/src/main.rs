@@ -7,8 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use vtq_sim::cli::cmd::{
-    accuracy, area, bench, compare, cosim, designs, figure5, fuzz, render, reproduce, scenes, sim,
-    sweep, trace, verilog,
+    accuracy, area, bench, compare, cosim, designs, energy, figure5, fuzz, render, reproduce,
+    scenes, sim, sweep, trace, verilog,
 };
 
 /// Virtualized Treelet Queues: scenes, the path-traced workload and the functional ray tracer.
@@ -39,6 +39,9 @@ enum Command {
     /// Simulate one scene on several designs (baseline, prefetch, vtq, or configuration files)
     /// and print cycles, speedups, miss rates, SIMT efficiency and the phase split side by side.
     Compare(compare::CompareArgs),
+    /// The energy model on stored statistics, no rerun: each run under every coefficient set,
+    /// relative to the first, and with --vary each coefficient halved and doubled.
+    Energy(energy::EnergyArgs),
     /// Run a grid or list of configurations over scenes into a results folder (one file per
     /// run, so a rerun resumes), locally, as one shard or as a Slurm job array; or collect the
     /// results into one CSV table (--collect).
@@ -88,6 +91,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(args),
         Command::Designs(args) => designs::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Energy(args) => energy::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::Accuracy(args) => accuracy::run(args),
         Command::Figure5(args) => figure5::run(args),

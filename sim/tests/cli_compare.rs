@@ -107,6 +107,7 @@ fn compare_baseline_and_prefetch() {
     for column in [
         "cycles",
         "speedup",
+        "energy",
         "BVH L1 miss",
         "SIMT eff.",
         "phases",
@@ -116,12 +117,13 @@ fn compare_baseline_and_prefetch() {
     }
     let base = row(&stdout, "baseline");
     let pre = row(&stdout, "prefetch");
-    // design, cycles, speedup, miss rate, SIMT efficiency, phase split, wall seconds.
-    assert_eq!(base.len(), 7, "{base:?}");
-    assert_eq!(pre.len(), 7, "{pre:?}");
+    // design, cycles, speedup, energy, miss rate, SIMT efficiency, phase split, wall seconds.
+    assert_eq!(base.len(), 8, "{base:?}");
+    assert_eq!(pre.len(), 8, "{pre:?}");
     assert_eq!(base[2], "1.00", "the baseline's speedup over itself");
+    assert_eq!(base[3], "1.000", "the baseline's energy over itself");
     // The baseline has only ray-stationary traversal (docs/stats.md).
-    assert_eq!(base[5], "0.0/0.0/100.0");
+    assert_eq!(base[6], "0.0/0.0/100.0");
     assert!(
         stdout.contains("images: identical"),
         "no identical-image line in:\n{stdout}"
@@ -147,8 +149,21 @@ fn compare_baseline_and_prefetch() {
     assert_eq!(pre[1], pc.to_string());
     assert_eq!(pre[2], format!("{:.2}", bc as f64 / pc as f64));
     assert_eq!(designs[0]["speedup"].as_f64(), Some(1.0));
+    // The energy column is prefetch's energy over the baseline's (docs/energy.md), and an
+    // energy table follows with the identity's terms.
+    let energy = |s: &Value| s["energy"]["total_mj"].as_f64().unwrap();
+    assert_eq!(pre[3], format!("{:.3}", energy(p) / energy(b)));
     assert_eq!(
-        pre[4],
+        designs[1]["energy_ratio"].as_f64(),
+        Some(energy(p) / energy(b))
+    );
+    assert!(
+        stdout.contains("energy, coefficients accelwattch-ptx"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("fT+(1-f)D"), "{stdout}");
+    assert_eq!(
+        pre[5],
         format!("{:.3}", p["simt_efficiency"].as_f64().unwrap())
     );
     assert!(p["prefetches_issued"].as_u64().unwrap() > 0);

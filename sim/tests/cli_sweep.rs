@@ -112,10 +112,20 @@ fn a_killed_sweep_resumes_to_the_uninterrupted_table() {
         "dram_bytes",
         "max_queues",
         "cta_suspends",
+        "energy_mj",
+        "energy_time_share",
+        "energy_virtualization_mj",
         "error",
         "key",
     ] {
         assert!(header.contains(&column), "no {column} in {header:?}");
+    }
+    // The energy columns are computed from the stored counters: a positive energy per run.
+    let energy = header.iter().position(|c| *c == "energy_mj").unwrap();
+    for row in expected.lines().skip(1) {
+        let cells: Vec<&str> = row.split(',').collect();
+        let mj: f64 = cells[energy].parse().unwrap_or(0.0);
+        assert!(mj > 0.0, "energy_mj {} in {row}", cells[energy]);
     }
 
     // The same sweep, one at a time, killed once a few results exist.

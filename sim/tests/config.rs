@@ -554,6 +554,8 @@ fn to_toml_round_trips() {
             "rt.latencies.triangle_hit=9",
             "sim.lockstep=true",
             "width=17",
+            "energy.coefficients=physical",
+            "energy.clock_mhz=1000",
         ])
         .unwrap(),
     ];

@@ -19,6 +19,7 @@ const ORDER: &[(&str, &str)] = &[
     ("model", "memory"),
     ("model", "config"),
     ("model", "designs"),
+    ("model", "energy"),
     ("model", "gpu"),
     ("estimate", "figure5"),
     ("estimate", "sample"),

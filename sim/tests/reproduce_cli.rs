@@ -105,6 +105,7 @@ fn reproduce_writes_every_figure_and_resumes() {
         "fig14",
         "fig15",
         "fig16",
+        "fig17",
         "ext-vtq-prefetch",
         "cause-g-mechanisms",
         "cause-g-map-1",
@@ -138,6 +139,18 @@ fn reproduce_writes_every_figure_and_resumes() {
     let fig10 = std::fs::read_to_string(out.join("figures/fig10.svg")).unwrap();
     assert!(fig10.contains("paper: VTQ mean 1.95"));
     assert!(html.contains("Section 6.5: storage and area of the tables"));
+    // Figure 17 and the section 6.6 table evaluate the energy model on the stored runs: every
+    // scene's VTQ energy relative to the baseline under each coefficient set.
+    let fig17 = std::fs::read_to_string(out.join("figures/fig17.svg")).unwrap();
+    assert!(fig17.contains("paper: VTQ 0.40"));
+    let csv = std::fs::read_to_string(out.join("tables/fig17.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert!(lines[0].starts_with("scene,accelwattch-ptx: VTQ,"), "{csv}");
+    assert!(
+        lines[1].starts_with("wknd,") && !lines[1].contains(",-"),
+        "{csv}"
+    );
+    assert!(html.contains("Section 6.6: ray virtualization"));
     assert!(html.contains("<td>treelet count table</td>"));
     let csv = std::fs::read_to_string(out.join("tables/fig10.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();

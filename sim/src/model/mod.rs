@@ -22,5 +22,8 @@ pub mod memory;
 pub mod config;
 pub mod designs;
 
+// The energy model: an observer of a run's statistics.
+pub mod energy;
+
 // The cycle-exact GPU stepping the hardware blocks.
 pub mod gpu;

@@ -18,12 +18,14 @@ use anyhow::{bail, Context};
 use clap::Args;
 use glam::Vec3;
 
+use crate::cli::cmd::energy::print_comparison as print_energy_comparison;
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::cli::output::{check_file, write_or_keep};
 use crate::estimate::sample::{paired_speedup, simulate_sampled, Profile};
 use crate::experiment::perturb::{perturbations, perturbed, speedups, Spread};
 use crate::model::bvh::HwBvh;
 use crate::model::designs::{self, Design};
+use crate::model::energy::EnergyReport;
 use crate::model::gpu::{simulate, SimOptions, SimStats};
 use crate::model::scene::Scene;
 
@@ -357,19 +359,38 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             .map(|r| r as f64 / stats.cycles as f64)
     };
 
+    // Energy relative to the reference design's (docs/energy.md).
+    let reference_mj = outcomes[reference]
+        .result
+        .as_ref()
+        .ok()
+        .map(|(s, _)| s.energy.total_mj);
+    let energy = |s: &SimStats| {
+        reference_mj
+            .filter(|&e| e > 0.0)
+            .map(|e| s.energy.total_mj / e)
+    };
     let label_width = label_width(&designs);
     println!(
-        "{:<label_width$}  {:>12}  {:>8}  {:>11}  {:>9}  {:>23}  {:>8}",
-        "design", "cycles", "speedup", "BVH L1 miss", "SIMT eff.", "phases % init/TS/RS", "wall s"
+        "{:<label_width$}  {:>12}  {:>8}  {:>7}  {:>11}  {:>9}  {:>23}  {:>8}",
+        "design",
+        "cycles",
+        "speedup",
+        "energy",
+        "BVH L1 miss",
+        "SIMT eff.",
+        "phases % init/TS/RS",
+        "wall s"
     );
     let mut failures = Vec::new();
     for (design, outcome) in designs.iter().zip(&outcomes) {
         match &outcome.result {
             Ok((stats, _)) => println!(
-                "{:<label_width$}  {:>12}  {:>8}  {:>11.3}  {:>9.3}  {:>23}  {:>8.2}",
+                "{:<label_width$}  {:>12}  {:>8}  {:>7}  {:>11.3}  {:>9.3}  {:>23}  {:>8.2}",
                 design.label,
                 stats.cycles,
                 speedup(stats).map_or_else(|| "-".into(), |s| format!("{s:.2}")),
+                energy(stats).map_or_else(|| "-".into(), |e| format!("{e:.3}")),
                 stats.bvh_l1_miss_rate,
                 stats.simt_efficiency,
                 phase_split(stats),
@@ -382,10 +403,21 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         }
     }
     println!(
-        "speedup = {} cycles / design cycles; phases: initial / treelet-stationary / \
-         ray-stationary share of traversal-phase cycles",
-        designs[reference].label
+        "speedup = {} cycles / design cycles; energy = design energy / {}'s (below); phases: \
+         initial / treelet-stationary / ray-stationary share of traversal-phase cycles",
+        designs[reference].label, designs[reference].label
     );
+    let energy_rows: Vec<Option<(&str, &EnergyReport)>> = designs
+        .iter()
+        .zip(&outcomes)
+        .map(|(d, o)| {
+            o.result
+                .as_ref()
+                .ok()
+                .map(|(s, _)| (d.label.as_str(), &s.energy))
+        })
+        .collect();
+    print_energy_comparison(&energy_rows, reference, label_width);
 
     let perturbed = if args.perturb > 0 {
         perturbed_table(args, &scene, &runs, jobs, reference, &outcomes, label_width)?
@@ -444,6 +476,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
                     "design": d.label,
                     "source": d.source,
                     "speedup": speedup(stats),
+                    "energy_ratio": energy(stats),
                     "wall_seconds": o.wall_seconds,
                     "stats": stats,
                     "perturbed": perturbed.get(i),

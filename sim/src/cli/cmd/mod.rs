@@ -6,6 +6,7 @@ pub mod bench;
 pub mod compare;
 pub mod cosim;
 pub mod designs;
+pub mod energy;
 pub mod figure5;
 pub mod fuzz;
 pub mod options;

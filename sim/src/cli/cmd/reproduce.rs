@@ -17,6 +17,7 @@ use super::runner::{prepare_scenes, Runner};
 use crate::cli::output::check_dir;
 use crate::estimate::figure5::{model, Figure5Row};
 use crate::experiment::reproduce::beyond;
+use crate::experiment::reproduce::energy;
 use crate::experiment::reproduce::figures::{self, Figure};
 use crate::experiment::reproduce::page::Page;
 use crate::experiment::reproduce::tables;
@@ -147,7 +148,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             }
         }
     };
-    let figure_fns: [(&str, &str, FigureFn); 9] = [
+    let figure_fns: [(&str, &str, FigureFn); 10] = [
         ("fig01", "Figure 1", figures::figure1),
         ("fig10", "Figure 10", figures::figure10),
         ("fig11", "Figure 11", figures::figure11),
@@ -156,6 +157,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         ("fig14", "Figure 14", figures::figure14),
         ("fig15", "Figure 15", figures::figure15),
         ("fig16", "Figure 16", figures::figure16),
+        ("fig17", "Figure 17", energy::figure17),
         (
             "ext-vtq-prefetch",
             "VTQ with treelet prefetching",
@@ -209,6 +211,15 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
                  entries) evicts its smallest queue. The paper: at most 549 and 13."
                     .into(),
                 tables::section65(&results),
+            ),
+            (
+                "Section 6.6: ray virtualization's share of the energy".into(),
+                "CTA-state traffic's share of VTQ's energy under each coefficient set \
+                 (docs/energy.md; an estimate), and the share of VTQ's energy saved when its \
+                 state moves for free (Figure 16's run, time included). The paper: \
+                 virtualization is 11% of the design's energy."
+                    .into(),
+                energy::section66(&results),
             ),
             (
                 "Section 6.5: storage and area of the tables".into(),

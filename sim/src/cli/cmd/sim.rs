@@ -128,6 +128,17 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         s.sim_wall_seconds,
         s.simulated_rays_per_second
     );
+    let e = &s.energy;
+    println!(
+        "energy ({}): {:.4} mJ/frame, {:.2} W, {:.2} nJ/ray, {:.0}% time-proportional, {:.1}% \
+         virtualization (docs/energy.md)",
+        e.coefficients,
+        e.total_mj,
+        e.average_power_w,
+        e.nj_per_ray,
+        100.0 * e.time_share,
+        100.0 * e.virtualization_share
+    );
     if failures.is_empty() {
         println!("wrote {} and {}", args.out.display(), csv.display());
     }

@@ -16,7 +16,7 @@ use crate::experiment::plot::{
 };
 
 /// The baseline GPU's configuration file.
-const BASELINE: &str = "configs/designs/baseline/config.toml";
+pub(super) const BASELINE: &str = "configs/designs/baseline/config.toml";
 /// Treelet prefetching.
 pub(super) const PREFETCH: &str = "configs/designs/prefetch/config.toml";
 /// The full design (repacking below 22 active rays).
@@ -97,7 +97,7 @@ fn pct(v: Option<f64>) -> String {
 
 /// How a per-scene series is averaged into its "mean" category.
 #[derive(Debug, Clone, Copy)]
-enum Mean {
+pub(super) enum Mean {
     /// Geometric (speedups, cycle ratios).
     Geometric,
     /// Arithmetic (rates, shares, efficiencies).
@@ -105,7 +105,7 @@ enum Mean {
 }
 
 /// Per-scene values plus their mean over the scenes that are not built-ins.
-fn with_mean(scenes: &[&str], values: Vec<Option<f64>>, how: Mean) -> Vec<Option<f64>> {
+pub(super) fn with_mean(scenes: &[&str], values: Vec<Option<f64>>, how: Mean) -> Vec<Option<f64>> {
     let counted: Vec<Option<f64>> = scenes
         .iter()
         .zip(&values)
@@ -125,7 +125,7 @@ fn with_mean(scenes: &[&str], values: Vec<Option<f64>>, how: Mean) -> Vec<Option
 }
 
 /// The categories of a per-scene chart: the scenes' names, then the mean.
-fn categories(names: &[String], how: Mean) -> Vec<String> {
+pub(super) fn categories(names: &[String], how: Mean) -> Vec<String> {
     let name = match how {
         Mean::Geometric => "geo. mean",
         Mean::Arithmetic => "mean",
@@ -181,7 +181,7 @@ fn series_table(
 }
 
 /// Writes a bar chart under `out/figures/<id>` and returns its image stem.
-fn bars(out: &Path, id: &str, chart: &Bars) -> anyhow::Result<String> {
+pub(super) fn bars(out: &Path, id: &str, chart: &Bars) -> anyhow::Result<String> {
     let stem = format!("figures/{id}");
     write_bars(&out.join(&stem), chart)?;
     Ok(stem)

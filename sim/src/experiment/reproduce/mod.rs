@@ -8,10 +8,12 @@
 //! ([`figures`]) and the section 6.5 tables ([`tables`]) read the stored statistics through
 //! [`Results`], which names each scene by its own name ([`scene_labels`]), and are written as
 //! SVG and PNG with the paper's published values drawn beside vtq's, on an HTML page and its
-//! Markdown twin ([`page`]).
+//! Markdown twin ([`page`]). Figure 17 and section 6.6's energy table ([`energy`]) evaluate the
+//! energy model on the stored runs of Figures 10 and 16.
 
 pub mod beyond;
 pub mod cause_g;
+pub mod energy;
 pub mod figures;
 pub mod page;
 pub mod tables;

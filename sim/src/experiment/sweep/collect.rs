@@ -12,6 +12,7 @@ use toml::{Table, Value};
 
 use super::record::RunRecord;
 use super::spec::{leaves, value_text};
+use crate::model::energy::{stats_config, Components, EnergyReport};
 
 /// A run's status in the table when a sweep point has no result file yet (its job was killed,
 /// cancelled or has not run).
@@ -188,7 +189,48 @@ fn stat_columns() -> Vec<String> {
     names.extend(PHASES.iter().map(|p| format!("{p}_test_share")));
     names.extend((1..=DECILES).map(|d| format!("miss_rate_d{d}")));
     names.extend((1..=DECILES).map(|d| format!("miss_rate_pf_d{d}")));
+    names.extend(ENERGY.iter().map(|n| n.to_string()));
+    names.extend(
+        Components::default()
+            .named()
+            .iter()
+            .map(|(c, _)| format!("energy_{c}_mj")),
+    );
     names
+}
+
+/// The energy columns before the components' (`energy_<component>_mj`): the run's energy under
+/// its `energy.coefficients`, computed from its counters (so results stored before the energy
+/// model get them too; docs/energy.md).
+const ENERGY: [&str; 7] = [
+    "energy_coefficients",
+    "energy_mj",
+    "energy_power_w",
+    "energy_nj_per_ray",
+    "energy_edp_j_s",
+    "energy_time_share",
+    "energy_virtualization_share",
+];
+
+/// The energy cells of one statistics JSON ([`ENERGY`], then the components), empty when the
+/// statistics cannot be evaluated.
+fn energy_cells(stats: &Json) -> Vec<String> {
+    let report = stats_config(stats).and_then(|cfg| EnergyReport::of_stats(stats, &cfg));
+    match report {
+        Ok(r) => [
+            r.coefficients.clone(),
+            r.total_mj.to_string(),
+            r.average_power_w.to_string(),
+            r.nj_per_ray.to_string(),
+            r.edp_j_s.to_string(),
+            r.time_share.to_string(),
+            r.virtualization_share.to_string(),
+        ]
+        .into_iter()
+        .chain(r.components.named().iter().map(|(_, v)| v.to_string()))
+        .collect(),
+        Err(_) => vec![String::new(); ENERGY.len() + Components::default().named().len()],
+    }
 }
 
 /// The shares of `field` over the three phases, as cells (empty when absent or all zero).
@@ -242,6 +284,7 @@ fn stat_cells(stats: &Json) -> Vec<String> {
             cells.push(json_cell(deciles.and_then(|v| v.get(d))));
         }
     }
+    cells.extend(energy_cells(stats));
     cells
 }
 

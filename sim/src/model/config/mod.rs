@@ -31,11 +31,13 @@ use crate::model::bvh::{BvhParams, TreeletFormation};
 use crate::model::memory::{MemConfig, MemConfigError};
 use crate::model::workload::pathtracer::RenderSettings;
 
+mod energy;
 mod mode;
 mod overrides;
 mod sample;
 mod virtualization;
 
+pub use energy::{CoefficientSet, EnergyConfig};
 pub use mode::{ModeConfig, ModeKind, TreeletPrefetch};
 pub use overrides::parse_override_value;
 use overrides::{apply_override, merge, Origin};
@@ -182,6 +184,10 @@ pub struct SimConfig {
     pub sim: EngineConfig,
     /// `[sample]`: the sampled tier's settings (used only when sampling is asked for).
     pub sample: SampleConfig,
+    /// `[energy]`: the energy model's coefficients and clock (observes the statistics; changes
+    /// nothing simulated). Written to the TOML only when it differs from its defaults.
+    #[serde(skip_serializing_if = "EnergyConfig::is_default")]
+    pub energy: EnergyConfig,
 }
 
 /// `[gpu]`: the simulated GPU's SMs (paper Table 1) and the timing of the shaders run on them.
@@ -461,13 +467,18 @@ impl SimConfig {
     }
 
     /// The configuration as a TOML table, every key present (also those [`SimConfig::to_toml`]
-    /// leaves out at their defaults, `rt.ray_record_latency`): the table of valid keys that
-    /// files and overrides are checked against.
+    /// leaves out at their defaults: `rt.ray_record_latency`, the `[energy]` section): the table
+    /// of valid keys that files and overrides are checked against.
     fn to_table(&self) -> Result<Table, ConfigError> {
         let mut table = Table::try_from(self).map_err(|e| ConfigError::Toml(e.to_string()))?;
         if let Some(Value::Table(rt)) = table.get_mut("rt") {
             rt.entry("ray_record_latency")
                 .or_insert(Value::Integer(self.rt.ray_record_latency.into()));
+        }
+        if !table.contains_key("energy") {
+            let energy =
+                Table::try_from(self.energy).map_err(|e| ConfigError::Toml(e.to_string()))?;
+            table.insert("energy".to_string(), Value::Table(energy));
         }
         Ok(table)
     }
@@ -483,6 +494,7 @@ impl SimConfig {
         self.validate_workload()?;
         self.validate_bvh()?;
         self.validate_engine()?;
+        self.energy.validate()?;
         self.sample.validate_ranges()
     }
 

@@ -34,6 +34,7 @@ use vtq_hdl::rt_unit::{TraversalOrder, CHUNK_BYTES};
 
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
+use crate::model::energy::EnergyReport;
 use crate::model::gpu::coordinator;
 use crate::model::gpu::cta_scheduler::CtaScheduler;
 use crate::model::gpu::error::SimError;
@@ -297,6 +298,9 @@ pub fn simulate(
         bvh,
         stack_spill_chunks: spill.chunks,
     });
+    // The energy model observes the finished statistics.
+    let json = serde_json::to_value(&out.stats).map_err(|e| SimError::Energy(e.to_string()))?;
+    out.stats.energy = EnergyReport::of_stats(&json, cfg).map_err(SimError::Energy)?;
     out.table_log = table_log;
     out.waveform = waveform;
     out.parallelism = outcome.profile;

@@ -47,6 +47,10 @@ pub enum SimError {
     /// A waveform (`vtq sim --vcd`) could not be written as asked.
     #[error("waveform (--vcd): {0}")]
     Waveform(String),
+    /// The energy model could not read the run's statistics (a modelling bug, reported rather
+    /// than giving no energy).
+    #[error("energy model: {0}")]
+    Energy(String),
     /// Nothing progressed for `sim.watchdog_cycles` cycles.
     #[error("watchdog: no ray completed and no request issued from cycle {last_progress} to cycle {cycle}; state:\n{dump}")]
     Watchdog {

@@ -5,6 +5,7 @@ use glam::Vec3;
 use vtq_hdl::rt_unit::RtStats;
 
 use crate::model::bvh::HwBvh;
+use crate::model::energy::EnergyReport;
 use crate::model::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::model::gpu::output::SimOutput;
 use crate::model::gpu::rt::warp_costs::WarpCosts;
@@ -223,6 +224,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         time_series_samples: time_series.len() as u64,
         active_units: units.into_iter().map(String::from).collect(),
         bvh: bvh.stats(),
+        energy: EnergyReport::default(),
         config,
         sm_visits: nodes.iter().map(|n| n.visits).sum(),
         sim_wall_seconds: wall,

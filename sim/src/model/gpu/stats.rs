@@ -10,6 +10,7 @@ use vtq_hdl::rt_unit::RtStats;
 use vtq_hdl::treelet_rt_unit::TreeletCounts;
 
 use crate::model::bvh::BvhStats;
+use crate::model::energy::EnergyReport;
 use crate::model::gpu::rt::warp_costs::WarpCostStats;
 use crate::model::gpu::sm::VirtTiming;
 use crate::model::memory::MemStats;
@@ -297,6 +298,9 @@ pub struct SimStats {
     pub active_units: Vec<String>,
     /// The hardware BVH: node counts, bytes, treelets and their fill.
     pub bvh: BvhStats,
+    /// The frame's energy under `energy.coefficients` (the energy model observes the other
+    /// statistics; docs/energy.md).
+    pub energy: EnergyReport,
     /// The effective configuration (TOML).
     pub config: String,
     /// (SM, cycle) pairs the engine evaluated (every cycle of every SM holding work in lockstep
