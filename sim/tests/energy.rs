@@ -197,20 +197,6 @@ fn the_coefficient_set_is_chosen_by_configuration_and_recorded() {
     assert!(err.to_string().contains("energy.clock_mhz"), "{err}");
 }
 
-/// Runs `vtq args` in `dir`; returns (success, stdout, stderr).
-fn vtq(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the vtq binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn vtq_energy_evaluates_stored_statistics_under_every_set_and_varies_them() {
     let dir = std::env::temp_dir().join(format!("vtq-energy-cli-{}", std::process::id()));
@@ -227,11 +213,12 @@ fn vtq_energy_evaluates_stored_statistics_under_every_set_and_varies_them() {
     for (config, out) in [("baseline", "base.json"), ("vtq", "vtq.json")] {
         let mut args = vec!["sim", "--config", config, "--out", out];
         args.extend(tiny);
-        let (ok, stdout, stderr) = vtq(&dir, &args);
+        let (ok, stdout, stderr) = common::vtq_cli(&dir, &args);
         assert!(ok, "{stderr}");
         assert!(stdout.contains("energy (accelwattch-ptx):"), "{stdout}");
     }
-    let (ok, stdout, stderr) = vtq(&dir, &["energy", "base.json", "vtq.json", "--vary"]);
+    let (ok, stdout, stderr) =
+        common::vtq_cli(&dir, &["energy", "base.json", "vtq.json", "--vary"]);
     assert!(ok, "{stderr}");
     for set in CoefficientSet::ALL {
         assert!(stdout.contains(&format!("coefficients {set}")), "{stdout}");
@@ -256,13 +243,14 @@ fn vtq_energy_evaluates_stored_statistics_under_every_set_and_varies_them() {
         "{stdout}"
     );
     // Bad input: clear errors, no panic.
-    let (ok, _, stderr) = vtq(&dir, &["energy", "base.json", "--coefficients", "mcpat"]);
+    let (ok, _, stderr) =
+        common::vtq_cli(&dir, &["energy", "base.json", "--coefficients", "mcpat"]);
     assert!(
         !ok && stderr.contains("unknown energy coefficient set `mcpat`"),
         "{stderr}"
     );
     std::fs::write(dir.join("empty.json"), "{}").unwrap();
-    let (ok, _, stderr) = vtq(&dir, &["energy", "empty.json"]);
+    let (ok, _, stderr) = common::vtq_cli(&dir, &["energy", "empty.json"]);
     assert!(
         !ok && stderr.contains("no statistics") && !stderr.contains("panicked"),
         "{stderr}"

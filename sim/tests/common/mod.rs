@@ -247,3 +247,17 @@ pub fn comparable_sampled(s: &vtq_sim::estimate::sample::SampledStats) -> serde_
     }
     v
 }
+
+/// Runs the `vtq` binary with `args` in `dir`; returns (success, stdout, stderr).
+pub fn vtq_cli(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("the vtq binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
