@@ -3,6 +3,8 @@
 //! moment with one `error:` line naming the path, before loading a scene, simulating or
 //! fuzzing, and leaves no file behind.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -271,16 +273,7 @@ fn trace_and_figure5_check_their_files() {
 
 /// Runs `vtq args` in `cwd`; returns (success, stdout, stderr).
 fn run(cwd: &Path, args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .current_dir(cwd)
-        .args(args)
-        .output()
-        .expect("the vtq binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::vtq_cli(cwd, args)
 }
 
 #[test]
