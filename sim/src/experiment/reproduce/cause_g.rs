@@ -7,9 +7,9 @@
 
 use std::path::Path;
 
-use super::figures::{cell, num, paper, Figure, Table};
-use super::{file_safe, Results, EXPERIMENT_FILES};
-use crate::experiment::plot::{write_bars, BarSeries, Bars};
+use super::figures::{bars, cell, num, paper, series_table, Figure, Table};
+use super::{Results, EXPERIMENT_FILES};
+use crate::experiment::plot::{BarSeries, Bars};
 use crate::experiment::sweep::spec::override_text;
 use crate::experiment::sweep::SweepSpec;
 
@@ -78,32 +78,6 @@ fn scenes_with<'r>(r: &'r Results, points: &[Sets]) -> (Vec<&'r str>, Vec<String
         .unzip()
 }
 
-/// A bar chart `id` under `out/figures` and the table of its values.
-fn chart(out: &Path, id: &str, bars: &Bars) -> anyhow::Result<(String, Table)> {
-    let stem = format!("figures/{}", file_safe(id));
-    write_bars(&out.join(&stem), bars)?;
-    let table = Table {
-        header: std::iter::once("".to_string())
-            .chain(bars.series.iter().map(|s| s.name.clone()))
-            .collect(),
-        rows: bars
-            .categories
-            .iter()
-            .enumerate()
-            .map(|(i, c)| {
-                std::iter::once(c.clone())
-                    .chain(
-                        bars.series
-                            .iter()
-                            .map(|s| cell(s.values.get(i).copied().flatten(), 3)),
-                    )
-                    .collect()
-            })
-            .collect(),
-    };
-    Ok((stem, table))
-}
-
 /// The factorial: each cell's speedup over the baseline per scene.
 pub fn mechanisms(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let pts = points("dev-mechanisms")?;
@@ -118,7 +92,7 @@ pub fn mechanisms(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         !scenes.is_empty(),
         "no scene has every run of the factorial"
     );
-    let series = CELLS[1..]
+    let series: Vec<BarSeries> = CELLS[1..]
         .iter()
         .zip(&pts[1..])
         .map(|(name, sets)| BarSeries {
@@ -129,7 +103,8 @@ pub fn mechanisms(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 .collect(),
         })
         .collect();
-    let (img, table) = chart(
+    let table = series_table("scene", &labels, &series, |v| cell(v, 3));
+    let img = bars(
         out,
         "cause-g-mechanisms",
         &Bars {
@@ -301,7 +276,7 @@ pub fn treelet_map(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 values: members.iter().map(|&i| ratio(s, &pairs[i])).collect(),
             })
             .collect();
-        let (img, _) = chart(
+        let img = bars(
             out,
             &format!("cause-g-map-{}", g + 1),
             &Bars {

@@ -154,9 +154,9 @@ pub fn figure17(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         title: "Figure 17: energy with and without ray virtualization".into(),
         caption: "Energy of VTQ, and of VTQ with suspends and resumes free \
                   (`virtualization.state_traffic = false`, Figure 16's run; the bar labelled \
-                  `free` right of each scene's), relative to the baseline's on the same scene, stacked by component (time-proportional power, \
-                  L1, L2 and interconnect, DRAM, RT tests, treelet tables, virtualization's \
-                  CTA-state traffic) under the paper's accounting (AccelWattch's PTX fit; the \
+                  `free` right of each scene's), relative to the baseline's on the same scene, \
+                  stacked by component (time-proportional power, L1, L2 and interconnect, DRAM, \
+                  RT tests, treelet tables, virtualization's CTA-state traffic) under the paper's accounting (AccelWattch's PTX fit; the \
                   energy model of docs/energy.md, an estimate). The table gives the totals under \
                   every coefficient set. The paper: VTQ uses 0.40 of the baseline's energy (60% \
                   saved), \"primarily from the reduced cycles\"."

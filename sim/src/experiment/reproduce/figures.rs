@@ -154,7 +154,7 @@ fn append_columns(table: &mut Table, prefix: &str, cats: &[String], series: &[Ba
 }
 
 /// A table with one row per category and one column per series.
-fn series_table(
+pub(super) fn series_table(
     first: &str,
     cats: &[String],
     series: &[BarSeries],
