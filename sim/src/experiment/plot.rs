@@ -281,6 +281,9 @@ pub struct BarSeries {
     pub name: String,
     /// Per category.
     pub values: Vec<Option<f64>>,
+    /// Per category, the 95% interval `(low, high)` of an estimate, drawn as an error bar on
+    /// a side-by-side chart (not stacked ones); empty or `None`: exact, no bar.
+    pub intervals: Vec<Option<(f64, f64)>>,
 }
 
 /// A horizontal reference line (e.g. a paper's published value) across a chart.
@@ -510,10 +513,12 @@ mod tests {
             categories: vec!["a".into(), "b".into()],
             series: vec![
                 BarSeries {
+                    intervals: Vec::new(),
                     name: "vtq".into(),
                     values: vec![Some(1.5), Some(2.0)],
                 },
                 BarSeries {
+                    intervals: Vec::new(),
                     name: "prefetch".into(),
                     values: vec![Some(1.1), None],
                 },
@@ -592,6 +597,7 @@ mod tests {
             y_label: "%".into(),
             categories: vec!["a".into(), "b".into()],
             series: vec![BarSeries {
+                intervals: Vec::new(),
                 name: "vtq".into(),
                 values: vec![Some(52.7), Some(98.0)],
             }],
@@ -617,10 +623,12 @@ mod tests {
         let stacked = Bars {
             series: vec![
                 BarSeries {
+                    intervals: Vec::new(),
                     name: "a".into(),
                     values: vec![Some(30.0), Some(60.0)],
                 },
                 BarSeries {
+                    intervals: Vec::new(),
                     name: "b".into(),
                     values: vec![Some(70.0), Some(40.0)],
                 },
@@ -634,6 +642,7 @@ mod tests {
         // A negative bar (a design faster than its reference): the axis goes below zero.
         let negative = Bars {
             series: vec![BarSeries {
+                intervals: Vec::new(),
                 name: "overhead".into(),
                 values: vec![Some(-3.0), Some(10.4)],
             }],

@@ -29,8 +29,9 @@ pub struct AccuracyArgs {
         value_name = "DESIGN,..."
     )]
     pub designs: Vec<String>,
-    /// Sampled-tier settings `FRACTIONxREPLICATES` to measure.
-    #[arg(long, value_delimiter = ',', default_value = "1/16x2,1/16x4,1/8x4")]
+    /// Sampled-tier settings to measure: named points (`default`, `fast`; `vtq sim --help`
+    /// lists them) or `FRACTIONxREPLICATES` with the `[sample]` section's other settings.
+    #[arg(long, value_delimiter = ',', default_value = "default,fast")]
     pub settings: Vec<String>,
     /// Override one configuration key in every design (repeatable), e.g. `--set width=64`.
     #[arg(long = "set", value_name = "KEY=VALUE")]

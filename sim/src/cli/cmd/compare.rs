@@ -77,11 +77,17 @@ pub struct CompareArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
-    /// Estimate with the sampled tier instead of full detail (docs/accuracy.md):
-    /// `FRACTION[xREPLICATES]`, e.g. `1/16x4`; without a value the `[sample]` settings. Every
-    /// design runs the same CTA samples, so speedups are paired per replicate; rows are
-    /// estimates with 95% intervals.
-    #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
+    /// Estimate with the sampled tier instead of full detail: a named point (`default`,
+    /// `fast`), `FRACTION[xREPLICATES]` or `config`; without a value `default`
+    /// (docs/accuracy.md). Every design runs the same CTA samples, so speedups are paired per
+    /// replicate; rows are estimates with 95% intervals.
+    #[arg(
+        long,
+        value_name = "POINT",
+        num_args = 0..=1,
+        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT,
+        long_help = crate::model::config::sample_points::points_help()
+    )]
     pub sample: Option<String>,
     /// Also run every design N more times with the DRAM latency moved by +1, -1, +2, -2, ...
     /// cycles and print each design's mean and range of cycles and of its speedup over those
@@ -766,6 +772,9 @@ fn compare_sampled(
             cautioned.join(", "),
             crate::estimate::sample::STRIPE_CAUTION
         );
+    }
+    for note in super::sim::sample_point_notes(args.sample.as_deref(), first) {
+        println!("note: {note}");
     }
     if let Some(path) = &args.json {
         let doc = serde_json::json!({

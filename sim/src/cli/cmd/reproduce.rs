@@ -58,6 +58,18 @@ pub struct ReproduceArgs {
     /// Run points whose stored result is a failure again.
     #[arg(long)]
     pub retry_failed: bool,
+    /// Run every point in the sampled tier at POINT (a named point, `FRACTIONxREPLICATES` or
+    /// `config`; without a value `default`; `vtq sim --help` lists the points) instead of full
+    /// detail: the figures show estimates with their 95% intervals as error bars, and figures
+    /// of statistics the tier does not estimate (the miss rate over time, tests per phase,
+    /// energy) are left out, saying so (docs/reproducing.md).
+    #[arg(
+        long,
+        value_name = "POINT",
+        num_args = 0..=1,
+        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT
+    )]
+    pub sample: Option<String>,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -89,11 +101,12 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         }
         let mut spec = experiments.load(name, &args.scenes)?;
         spec.set.extend(args.set.iter().cloned());
+        spec.sample.clone_from(&args.sample);
         for p in spec
             .points()
             .with_context(|| format!("experiment {name}"))?
         {
-            if seen.insert((p.scene.clone(), p.config.to_toml()?)) {
+            if seen.insert((p.scene.clone(), p.config.to_toml()?, p.tier)) {
                 points.push(Point {
                     index: points.len(),
                     label: format!("{name}: {}", p.label),
@@ -127,8 +140,13 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let figures_dir = args.out.join("figures");
     std::fs::create_dir_all(&figures_dir)
         .with_context(|| format!("creating {}", figures_dir.display()))?;
-    let results = Results::new(&store, &scenes[..paper_scenes], root.clone()).with_sets(&args.set);
-    let all_results = Results::new(&store, &scenes, root.clone()).with_sets(&args.set);
+    let sample = args.sample.as_deref();
+    let results = Results::new(&store, &scenes[..paper_scenes], root.clone())
+        .with_sets(&args.set)
+        .with_sample(sample);
+    let all_results = Results::new(&store, &scenes, root.clone())
+        .with_sets(&args.set)
+        .with_sample(sample);
     let out = args.out.as_path();
     // A figure that cannot be drawn leaves a note on the page instead of stopping the others
     // (the runs are stored: a rerun draws it without running them again).
@@ -166,7 +184,20 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     ];
     let mut figures: Vec<Figure> = figure_fns
         .iter()
-        .map(|(id, title, f)| drawn(id, title, f(&results, out)))
+        .map(|(id, title, f)| match (sample, not_estimated(id)) {
+            (Some(_), Some(needs)) => Figure {
+                id: id.to_string(),
+                title: title.to_string(),
+                caption: format!(
+                    "Not drawn: the sampled tier estimates cycles, SIMT efficiency, the BVH L1 \
+                     miss rate, DRAM bytes and the phases' shares of cycles; this figure needs \
+                     {needs}. Run `vtq reproduce` without --sample for it."
+                ),
+                images: Vec::new(),
+                table: Default::default(),
+            },
+            _ => drawn(id, title, f(&results, out)),
+        })
         .collect();
     let cause_g: [(&str, &str, FigureFn); 2] = [
         (
@@ -274,6 +305,17 @@ fn prepare_count(scenes: &[PreparedScene], first: &[Point]) -> usize {
         .count()
 }
 
+/// What a figure needs that the sampled tier does not estimate, for the figures it cannot draw
+/// from sampled runs (`None`: it can).
+fn not_estimated(id: &str) -> Option<&'static str> {
+    match id {
+        "fig11" => Some("the miss rate in each tenth of the run"),
+        "fig15" => Some("the intersection tests of each phase"),
+        "fig17" => Some("the energy model's event counts"),
+        _ => None,
+    }
+}
+
 /// A figure of the page drawn from the stored runs into the output folder.
 type FigureFn = fn(&Results<'_>, &Path) -> anyhow::Result<Figure>;
 
@@ -344,10 +386,22 @@ fn intro(
                 .iter()
                 .map(|s| format!(" --scene {s}"))
                 .chain(args.set.iter().map(|s| format!(" --set {s}")))
+                .chain(args.sample.iter().map(|p| format!(" --sample {p}")))
                 .collect::<String>(),
             results.display()
         ),
     ];
+    if let Some(point) = &args.sample {
+        intro.push(format!(
+            "**Estimates, not full detail.** Every run was simulated by the sampled tier at \
+             sample point `{point}` (docs/accuracy.md gives its measured speed and error): each \
+             value is an estimate, drawn with its 95% interval as an error bar and given with \
+             it in brackets in the tables (speedups paired per replicate; means and stacked \
+             shares without one). Figures of statistics the tier does not estimate are left \
+             out and say so; the section 6.5 and 6.6 tables need full detail's counts and show \
+             `-`. Full detail: the same command without --sample."
+        ));
+    }
     if !args.set.is_empty() {
         intro.push(format!(
             "Every run has these overrides: {}.",

@@ -8,9 +8,7 @@ use anyhow::Context;
 
 use super::options::{build_bvh, load_scene, CacheArgs};
 use crate::experiment::sweep::run::{run_tasks, Task};
-use crate::experiment::sweep::{
-    Point, PreparedScene, ResultStore, Reuse, RunKey, RunRecord, RunStatus,
-};
+use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse, RunRecord, RunStatus};
 use crate::model::bvh::{BvhParams, HwBvh};
 use crate::model::scene::Scene;
 
@@ -37,7 +35,20 @@ pub(crate) fn scene_of<'a>(scenes: &'a [PreparedScene], point: &Point) -> &'a Pr
 
 /// One line about a finished run.
 fn describe(record: &RunRecord) -> String {
+    let estimate = |s: &serde_json::Value, name: &str| {
+        crate::estimate::sample::stored::stored_estimate(s, name)
+            .map_or_else(|| "-".into(), |e| e.display(3))
+    };
     match (record.status, record.stats()) {
+        (RunStatus::Ok, Some(s)) if crate::estimate::sample::stored::is_sampled(s) => format!(
+            "ok (sampled, 95% intervals): {} cycles, SIMT efficiency {}, BVH L1 miss rate {} \
+             ({:.2} s)",
+            crate::estimate::sample::stored::stored_estimate(s, "cycles")
+                .map_or_else(|| "-".into(), |e| e.display(0)),
+            estimate(s, "simt_efficiency"),
+            estimate(s, "bvh_l1_miss_rate"),
+            record.wall_seconds
+        ),
         (RunStatus::Ok, Some(s)) => format!(
             "ok: {} cycles, SIMT efficiency {:.3}, BVH L1 miss rate {:.3} ({:.2} s)",
             s["cycles"],
@@ -83,7 +94,8 @@ impl Runner<'_> {
         let mut pending: Vec<&Point> = Vec::new();
         let (mut done, mut failed_before) = (0usize, Vec::new());
         for &point in selected {
-            let key = RunKey::new(&scene_of(scenes, point).hash, &point.config)
+            let key = point
+                .key(&scene_of(scenes, point).hash)
                 .with_context(|| format!("{name} point {}", point.label))?;
             match store.load(&key) {
                 Ok(Some(record)) if self.reuse.is_done(&record) => match record.status {
@@ -133,6 +145,7 @@ impl Runner<'_> {
             .map(|p| Task {
                 scene: scene_of(scenes, p),
                 config: &p.config,
+                tier: p.tier,
             })
             .collect();
         let bar = (std::io::stderr().is_terminal() && !tasks.is_empty()).then(|| {

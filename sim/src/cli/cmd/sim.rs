@@ -50,11 +50,15 @@ pub struct SimArgs {
     /// replicates simulated at once.
     #[arg(long, default_value_t = 1, value_parser = parse_threads)]
     pub threads: usize,
-    /// The sampled tier instead of full detail: estimates with 95% intervals from scale models
-    /// on stratified samples of the frame (docs/accuracy.md). `FRACTION[xREPLICATES]`, e.g.
-    /// `1/8x4`, or below one SM, e.g. `1/32x2` (one SM running 1/32 of the CTAs); without a
-    /// value the `[sample]` section's settings.
-    #[arg(long, value_name = "FRACTION[xREPLICATES]", num_args = 0..=1, default_missing_value = "")]
+    /// The sampled tier instead of full detail: a named point (`default`, `fast`),
+    /// `FRACTION[xREPLICATES]` or `config`; without a value `default` (docs/accuracy.md).
+    #[arg(
+        long,
+        value_name = "POINT",
+        num_args = 0..=1,
+        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT,
+        long_help = crate::model::config::sample_points::points_help()
+    )]
     pub sample: Option<String>,
     /// Also write a waveform (VCD, for GTKWave) of the RT unit hardware of SM --vcd-sm over
     /// the cycles --vcd-cycles: each block's ports and registers, every cycle (docs/hardware.md).
@@ -266,6 +270,16 @@ fn run_sampled(
     } else if s.every_cta_resident {
         println!("caution: {}", crate::estimate::sample::STRIPE_CAUTION);
     }
+    for note in sample_point_notes(args.sample.as_deref(), cfg) {
+        println!("note: {note}");
+    }
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// The notes of the named sample point `spec` (if it names one) for `cfg`: where the run is
+/// outside the conditions the point was measured in, and what to use instead.
+pub fn sample_point_notes(spec: Option<&str>, cfg: &SimConfig) -> Vec<String> {
+    spec.and_then(|s| crate::model::config::sample_points::point(s.trim()))
+        .map_or_else(Vec::new, |p| p.notes(cfg))
 }

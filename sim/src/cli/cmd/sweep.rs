@@ -15,7 +15,7 @@ use crate::experiment::reproduce::built_in_experiment;
 use crate::experiment::sweep::collect::{table, Row};
 use crate::experiment::sweep::key::VTQ_VERSION;
 use crate::experiment::sweep::slurm::{SlurmJob, TABLE_FILE};
-use crate::experiment::sweep::{Point, ResultStore, Reuse, RunKey};
+use crate::experiment::sweep::{Point, ResultStore, Reuse};
 use crate::experiment::sweep::{Shard, SweepSpec};
 
 /// Options of `vtq sweep`.
@@ -41,6 +41,17 @@ pub struct SweepArgs {
     /// points are every combination).
     #[arg(long = "grid", value_name = "KEY=V1,V2,...")]
     pub grids: Vec<String>,
+    /// Run every point in the sampled tier at POINT (a named point, `FRACTIONxREPLICATES` or
+    /// `config`; without a value `default`; `vtq sim --help` lists the points): estimates with
+    /// 95% intervals, stored apart from full detail's results, with interval columns in the
+    /// collected table (docs/sweeps.md).
+    #[arg(
+        long,
+        value_name = "POINT",
+        num_args = 0..=1,
+        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT
+    )]
+    pub sample: Option<String>,
     /// Results folder: one result file per run in DIR/runs, reused by every later sweep.
     #[arg(long, value_name = "DIR")]
     pub results: Option<PathBuf>,
@@ -102,6 +113,9 @@ impl SweepArgs {
         for grid in &self.grids {
             spec.add_grid_arg(grid)?;
         }
+        if let Some(sample) = &self.sample {
+            spec.sample = Some(sample.clone());
+        }
         Ok(spec)
     }
 
@@ -112,6 +126,7 @@ impl SweepArgs {
             || !self.configs.is_empty()
             || !self.set.is_empty()
             || !self.grids.is_empty()
+            || self.sample.is_some()
     }
 }
 
@@ -272,14 +287,15 @@ fn collect(args: &SweepArgs, dir: &Path) -> anyhow::Result<()> {
         let mut rows = Vec::with_capacity(points.len());
         for point in &points {
             let scene = scene_of(&scenes, point);
-            let key = RunKey::new(&scene.hash, &point.config)
+            let key = point
+                .key(&scene.hash)
                 .with_context(|| format!("sweep point {}", point.label))?;
             rows.push(match store.load(&key)? {
                 Some(record) => Row::from_record(&record)?,
                 None => Row::missing(
                     &scene.scene.name,
                     VTQ_VERSION,
-                    &point.config.to_toml()?,
+                    (&point.config.to_toml()?, point.tier),
                     &key.hex(),
                 )?,
             });

@@ -16,11 +16,15 @@
 //! - [`dispatch`]: the CTA-level dispatch model that carries a scale model's cycles to the GPU's.
 //! - [`estimate`]: estimates with Student's t intervals.
 //! - [`run`]: simulating the replicates and combining them.
+//! - [`stored`]: a sampled run's estimates as the result store keeps them.
+//! - the named operating points (`--sample default`) are the configuration's
+//!   ([`crate::model::config::sample_points`]).
 
 pub mod dispatch;
 pub mod estimate;
 pub mod profile;
 pub mod run;
+pub mod stored;
 pub mod strata;
 pub mod stripes;
 

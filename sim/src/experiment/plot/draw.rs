@@ -133,6 +133,18 @@ pub fn bars<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, chart: &Bars) -> 
         });
         ctx.draw_series(rects).map_err(err)?;
     }
+    if !chart.stacked {
+        // Estimates' intervals over the middle of their bars.
+        for (j, s) in chart.series.iter().enumerate() {
+            let w = 0.8 / k;
+            for (i, interval) in s.intervals.iter().enumerate() {
+                if let Some(interval) = *interval {
+                    let px = i as f64 - 0.4 + w * j as f64 + w * 0.46;
+                    error_bar(ctx.plotting_area(), &y, px, interval, BLACK)?;
+                }
+            }
+        }
+    }
     references(ctx.plotting_area(), &chart.references, &y, x.span())?;
     area.present().map_err(err)
 }

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use super::figures::{bars, cell, num, paper, series_table, Figure, Table};
 use super::{Results, EXPERIMENT_FILES};
+use crate::estimate::sample::Estimate;
 use crate::experiment::plot::{BarSeries, Bars};
 use crate::experiment::sweep::spec::override_text;
 use crate::experiment::sweep::SweepSpec;
@@ -69,6 +70,42 @@ fn cycles(r: &Results, scene: &str, sets: &[(String, String)]) -> Option<f64> {
     num(&r.stats(scene, BASE, &sets)?, "/cycles")
 }
 
+/// The speedup of `scene` run with the overrides `design` over the same scene with `reference`
+/// (cycles of `reference` over cycles of `design`), exact or, from sampled runs, an estimate
+/// with its 95% interval.
+fn ratio(
+    r: &Results,
+    scene: &str,
+    reference: &[(String, String)],
+    design: &[(String, String)],
+) -> Option<Estimate> {
+    fn strs(sets: &[(String, String)]) -> Vec<&str> {
+        sets.iter().map(|(_, s)| s.as_str()).collect()
+    }
+    let (a, b) = (strs(reference), strs(design));
+    r.speedup(scene, (BASE, &a), (BASE, &b))
+}
+
+/// An estimate's table cell: three decimals, and its 95% interval in brackets if it has one.
+fn estimate_cell(e: Option<Estimate>) -> String {
+    match e.and_then(|e| e.interval().map(|i| (e.value, i))) {
+        Some((v, (lo, hi))) => format!("{v:.3} [{lo:.3}, {hi:.3}]"),
+        None => cell(e.map(|e| e.value), 3),
+    }
+}
+
+/// A bar series `name` of estimates: their values, and their intervals as error bars.
+fn estimates(name: &str, values: Vec<Option<Estimate>>) -> BarSeries {
+    BarSeries {
+        name: name.to_string(),
+        intervals: values
+            .iter()
+            .map(|e| e.and_then(|e| e.interval()))
+            .collect(),
+        values: values.iter().map(|e| e.map(|e| e.value)).collect(),
+    }
+}
+
 /// The scenes (with their labels) that have a stored run of every point of `points`.
 fn scenes_with<'r>(r: &'r Results, points: &[Sets]) -> (Vec<&'r str>, Vec<String>) {
     r.scenes()
@@ -95,12 +132,9 @@ pub fn mechanisms(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let series: Vec<BarSeries> = CELLS[1..]
         .iter()
         .zip(&pts[1..])
-        .map(|(name, sets)| BarSeries {
-            name: name.to_string(),
-            values: scenes
-                .iter()
-                .map(|s| Some(cycles(r, s, &pts[0])? / cycles(r, s, sets)?))
-                .collect(),
+        .map(|(name, sets)| {
+            let values = scenes.iter().map(|s| ratio(r, s, &pts[0], sets)).collect();
+            estimates(name, values)
         })
         .collect();
     let table = series_table("scene", &labels, &series, |v| cell(v, 3));
@@ -257,7 +291,8 @@ pub fn treelet_map(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let pairs: Vec<(&Sets, &Sets)> = pts.chunks(2).map(|p| (&p[0], &p[1])).collect();
     let (scenes, names) = scenes_with(r, &pts);
     anyhow::ensure!(!scenes.is_empty(), "no scene has every run of the map");
-    let ratio = |s: &str, (v, k): &(&Sets, &Sets)| Some(cycles(r, s, v)? / cycles(r, s, k)?);
+    // VTQ's cycles over the skip variant's: the skip variant's speedup over VTQ.
+    let ratio = |s: &str, (v, k): &(&Sets, &Sets)| ratio(r, s, v, k);
     let mut corner = 0;
     let shorts: Vec<String> = pairs
         .iter()
@@ -271,9 +306,8 @@ pub fn treelet_map(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         let series = scenes
             .iter()
             .zip(&names)
-            .map(|(s, name)| BarSeries {
-                name: name.clone(),
-                values: members.iter().map(|&i| ratio(s, &pairs[i])).collect(),
+            .map(|(s, name)| {
+                estimates(name, members.iter().map(|&i| ratio(s, &pairs[i])).collect())
             })
             .collect();
         let img = bars(
@@ -306,7 +340,7 @@ pub fn treelet_map(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             .map(|(pair, short)| {
                 [short.clone(), map_label(pair.0)]
                     .into_iter()
-                    .chain(scenes.iter().map(|s| cell(ratio(s, pair), 3)))
+                    .chain(scenes.iter().map(|s| estimate_cell(ratio(s, pair))))
                     .collect()
             })
             .collect(),

@@ -100,6 +100,7 @@ pub fn figure17(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             .flat_map(|(a, b)| [*a, *b])
             .collect();
         series.push(BarSeries {
+            intervals: Vec::new(),
             name: name.replace('_', " "),
             values,
         });

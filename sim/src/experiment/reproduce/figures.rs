@@ -10,6 +10,8 @@ use serde_json::Value as Json;
 
 use super::{file_safe, is_builtin, Results};
 use crate::estimate::figure5::Figure5Row;
+use crate::estimate::sample::stored::stored_estimate;
+use crate::estimate::sample::Estimate;
 use crate::experiment::plot::{
     write_bars, write_lines, write_scatter, BarSeries, Bars, Line, Lines, Point, Reference,
     Scatter, Series,
@@ -61,11 +63,6 @@ pub struct Figure {
 /// A number read from statistics by JSON pointer.
 pub(super) fn num(stats: &Json, pointer: &str) -> Option<f64> {
     stats.pointer(pointer).and_then(Json::as_f64)
-}
-
-/// Cycles of a run.
-fn cycles(stats: &Option<Json>) -> Option<f64> {
-    stats.as_ref().and_then(|s| num(s, "/cycles"))
 }
 
 /// Geometric mean of the present values (`None` if none is).
@@ -153,7 +150,8 @@ fn append_columns(table: &mut Table, prefix: &str, cats: &[String], series: &[Ba
     }
 }
 
-/// A table with one row per category and one column per series.
+/// A table with one row per category and one column per series (an estimate's cell followed
+/// by its 95% interval in brackets).
 pub(super) fn series_table(
     first: &str,
     cats: &[String],
@@ -169,11 +167,13 @@ pub(super) fn series_table(
             .enumerate()
             .map(|(i, c)| {
                 std::iter::once(c.clone())
-                    .chain(
-                        series
-                            .iter()
-                            .map(|s| fmt(s.values.get(i).copied().flatten())),
-                    )
+                    .chain(series.iter().map(|s| {
+                        let v = fmt(s.values.get(i).copied().flatten());
+                        match s.intervals.get(i).copied().flatten() {
+                            Some((lo, hi)) => format!("{v} [{}, {}]", fmt(Some(lo)), fmt(Some(hi))),
+                            None => v,
+                        }
+                    }))
                     .collect()
             })
             .collect(),
@@ -187,15 +187,39 @@ pub(super) fn bars(out: &Path, id: &str, chart: &Bars) -> anyhow::Result<String>
     Ok(stem)
 }
 
-/// Speedups of `design` over the baseline, per scene.
-fn speedups(r: &Results, scenes: &[&str], design: &str, sets: &[&str]) -> Vec<Option<f64>> {
+/// Speedups of `design` over the baseline, per scene (estimates with their intervals from
+/// sampled runs).
+fn speedups(r: &Results, scenes: &[&str], design: &str, sets: &[&str]) -> Vec<Option<Estimate>> {
     scenes
         .iter()
-        .map(|s| {
-            let base = cycles(&r.stats(s, BASELINE, &[]))?;
-            Some(base / cycles(&r.stats(s, design, sets))?)
-        })
+        .map(|s| r.speedup(s, (BASELINE, &[]), (design, sets)))
         .collect()
+}
+
+/// A bar series `name` of per-scene estimates `values` scaled by `scale`, with their mean
+/// (`how`, over the scenes that are not built-ins) as the last category; the scenes' 95%
+/// intervals are its error bars (the mean has none).
+pub(super) fn estimate_series(
+    name: &str,
+    scenes: &[&str],
+    values: Vec<Option<Estimate>>,
+    how: Mean,
+    scale: f64,
+) -> BarSeries {
+    let intervals = values
+        .iter()
+        .map(|e| {
+            e.and_then(|e| e.interval())
+                .map(|(lo, hi)| (scale * lo, scale * hi))
+        })
+        .chain([None])
+        .collect();
+    let values = values.iter().map(|e| e.map(|e| scale * e.value)).collect();
+    BarSeries {
+        name: name.to_string(),
+        values: with_mean(scenes, values, how),
+        intervals,
+    }
 }
 
 /// A statistic of `design` per scene.
@@ -203,6 +227,19 @@ fn per_scene(r: &Results, scenes: &[&str], design: &str, pointer: &str) -> Vec<O
     scenes
         .iter()
         .map(|s| num(&r.stats(s, design, &[])?, pointer))
+        .collect()
+}
+
+/// Statistic `name` of `design` per scene as estimates (exact from full-detail runs).
+fn per_scene_estimates(
+    r: &Results,
+    scenes: &[&str],
+    design: &str,
+    name: &str,
+) -> Vec<Option<Estimate>> {
+    scenes
+        .iter()
+        .map(|s| r.estimate(s, design, &[], name))
         .collect()
 }
 
@@ -221,10 +258,7 @@ pub(super) fn speedup_bars(
     let cats = categories(&r.labels(), how);
     let series: Vec<BarSeries> = designs
         .iter()
-        .map(|(name, cfg)| BarSeries {
-            name: name.to_string(),
-            values: with_mean(&scenes, speedups(r, &scenes, cfg, &[]), how),
-        })
+        .map(|(name, cfg)| estimate_series(name, &scenes, speedups(r, &scenes, cfg, &[]), how, 1.0))
         .collect();
     let img = bars(
         out,
@@ -247,15 +281,19 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
     let how = Mean::Arithmetic;
     let cats = categories(&r.labels(), how);
-    let miss = with_mean(
+    let miss = estimate_series(
+        "measured by vtq",
         &scenes,
-        per_scene(r, &scenes, BASELINE, "/bvh_l1_miss_rate"),
+        per_scene_estimates(r, &scenes, BASELINE, "bvh_l1_miss_rate"),
         how,
+        100.0,
     );
-    let simt = with_mean(
+    let simt = estimate_series(
+        "measured by vtq",
         &scenes,
-        per_scene(r, &scenes, BASELINE, "/simt_efficiency"),
+        per_scene_estimates(r, &scenes, BASELINE, "simt_efficiency"),
         how,
+        1.0,
     );
     let a = bars(
         out,
@@ -264,10 +302,7 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             title: "Figure 1a: baseline BVH L1 miss rate".into(),
             y_label: "BVH L1 miss rate (%)".into(),
             categories: cats.clone(),
-            series: vec![BarSeries {
-                name: "measured by vtq".into(),
-                values: miss.iter().map(|v| v.map(|x| 100.0 * x)).collect(),
-            }],
+            series: vec![miss.clone()],
             references: vec![
                 paper("paper: mean 58%", 58.0),
                 paper("paper: max 70%", 70.0),
@@ -283,27 +318,18 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             title: "Figure 1b: baseline RT-unit SIMT efficiency".into(),
             y_label: "SIMT efficiency".into(),
             categories: cats.clone(),
-            series: vec![BarSeries {
-                name: "measured by vtq".into(),
-                values: simt.clone(),
-            }],
+            series: vec![simt.clone()],
             references: vec![paper("paper: mean 0.37", 0.37)],
             stacked: false,
             y_range: Some(RATE),
         },
     )?;
-    let table = Table {
-        header: vec![
-            "scene".into(),
-            "BVH L1 miss rate".into(),
-            "SIMT efficiency".into(),
-        ],
-        rows: cats
-            .iter()
-            .enumerate()
-            .map(|(i, c)| vec![c.clone(), pct(miss[i]), cell(simt[i], 3)])
-            .collect(),
-    };
+    let mut table = series_table("scene", &cats, &[miss], |v| {
+        v.map_or_else(|| "-".to_string(), |x| format!("{x:.1}%"))
+    });
+    table.header[1] = "BVH L1 miss rate".into();
+    append_columns(&mut table, "SIMT efficiency", &cats, &[simt]);
+    table.header[2] = "SIMT efficiency".into();
     Ok(Figure {
         id: "fig01".into(),
         title: "Figure 1: the baseline's BVH L1 miss rate and SIMT efficiency".into(),
@@ -539,9 +565,9 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let cats_m = categories(&r.labels(), m);
     let simt: Vec<BarSeries> = std::iter::once(("baseline", BASELINE))
         .chain(designs)
-        .map(|(name, cfg)| BarSeries {
-            name: name.to_string(),
-            values: with_mean(&scenes, per_scene(r, &scenes, cfg, "/simt_efficiency"), m),
+        .map(|(name, cfg)| {
+            let values = per_scene_estimates(r, &scenes, cfg, "simt_efficiency");
+            estimate_series(name, &scenes, values, m, 1.0)
         })
         .collect();
     let b = bars(
@@ -567,6 +593,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let per_warp: Vec<BarSeries> = std::iter::once(("baseline", BASELINE))
         .chain(designs)
         .map(|(name, cfg)| BarSeries {
+            intervals: Vec::new(),
             name: name.to_string(),
             values: with_mean(
                 &scenes,
@@ -581,6 +608,7 @@ pub fn figure13(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let starved: Vec<BarSeries> = designs[1..]
         .iter()
         .map(|&(name, cfg)| BarSeries {
+            intervals: Vec::new(),
             name: name.to_string(),
             values: with_mean(
                 &scenes,
@@ -628,7 +656,16 @@ fn phase_shares(r: &Results, scenes: &[&str], field: &str) -> [Vec<Option<f64>>;
         let stats = r.stats(scene, VTQ, &[]);
         let values: Option<Vec<f64>> = ["initial", "treelet_stationary", "ray_stationary"]
             .iter()
-            .map(|p| num(stats.as_ref()?, &format!("/phases/{p}/{field}")))
+            .map(|p| {
+                let stats = stats.as_ref()?;
+                if field == "cycles" {
+                    // A sampled run estimates the shares of cycles, not the phases' counts.
+                    if let Some(e) = stored_estimate(stats, &format!("{p}_share")) {
+                        return Some(e.value);
+                    }
+                }
+                num(stats, &format!("/phases/{p}/{field}"))
+            })
             .collect();
         let total: f64 = values.iter().flatten().sum();
         for (i, o) in out.iter_mut().enumerate() {
@@ -655,6 +692,7 @@ fn phase_series(scenes: &[&str], shares: [Vec<Option<f64>>; 3]) -> Vec<BarSeries
     ]
     .into_iter()
     .map(|(name, v)| BarSeries {
+        intervals: Vec::new(),
         name: name.to_string(),
         values: with_mean(scenes, v, Mean::Arithmetic)
             .into_iter()
@@ -778,18 +816,29 @@ pub fn figure16(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
     let how = Mean::Arithmetic;
     let cats = categories(&r.labels(), how);
-    let overhead: Vec<Option<f64>> = scenes
+    // Extra cycles = (cycles with / cycles free) - 1: the free run's speedup over the run
+    // with state traffic, less one.
+    let overhead: Vec<Option<Estimate>> = scenes
         .iter()
         .map(|s| {
-            let with = cycles(&r.stats(s, VTQ, &[]))?;
-            let free = cycles(&r.stats(s, VTQ, &["virtualization.state_traffic=false"]))?;
-            Some(100.0 * (with / free - 1.0))
+            let ratio = r.speedup(
+                s,
+                (VTQ, &[]),
+                (VTQ, &["virtualization.state_traffic=false"]),
+            )?;
+            Some(Estimate {
+                value: ratio.value - 1.0,
+                ..ratio
+            })
         })
         .collect();
-    let series = vec![BarSeries {
-        name: "measured by vtq".into(),
-        values: with_mean(&scenes, overhead, how),
-    }];
+    let series = vec![estimate_series(
+        "measured by vtq",
+        &scenes,
+        overhead,
+        how,
+        100.0,
+    )];
     let img = bars(
         out,
         "fig16",

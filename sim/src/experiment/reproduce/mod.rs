@@ -24,7 +24,9 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value as Json;
 
-use crate::experiment::sweep::{PreparedScene, ResultStore, RunKey, RunStatus, SweepSpec};
+use crate::estimate::sample::stored::{stored_estimate, stored_speedup};
+use crate::estimate::sample::Estimate;
+use crate::experiment::sweep::{PreparedScene, ResultStore, RunKey, RunStatus, SweepSpec, Tier};
 use crate::model::config::SimConfig;
 
 /// The experiment files (stems in `configs/experiments/`) the figures are computed from.
@@ -299,6 +301,9 @@ pub struct Results<'a> {
     root: PathBuf,
     /// Overrides of every run (`vtq reproduce --set`).
     sets: Vec<String>,
+    /// The sampled tier's point every run used (`vtq reproduce --sample`), `None` for full
+    /// detail.
+    sample: Option<String>,
     /// Statistics looked up so far, by scene, configuration file and overrides.
     loaded: RefCell<HashMap<String, Option<Json>>>,
 }
@@ -311,6 +316,7 @@ impl<'a> Results<'a> {
             scenes,
             root,
             sets: Vec::new(),
+            sample: None,
             loaded: RefCell::new(HashMap::new()),
         }
     }
@@ -319,6 +325,52 @@ impl<'a> Results<'a> {
     pub fn with_sets(mut self, sets: &[String]) -> Self {
         self.sets = sets.to_vec();
         self
+    }
+
+    /// The same results, looked up as the sampled tier's estimates at sample point `sample`
+    /// (`None`: full detail's).
+    pub fn with_sample(mut self, sample: Option<&str>) -> Self {
+        self.sample = sample.map(str::to_string);
+        self
+    }
+
+    /// Whether the results are the sampled tier's estimates.
+    pub fn sampled(&self) -> bool {
+        self.sample.is_some()
+    }
+
+    /// Statistic `name` (one of [`crate::estimate::sample::stored::ESTIMATED`], or any exact
+    /// statistic by JSON pointer `/name`) of `scene` under `base` and `sets`, as an estimate:
+    /// a sampled run's with its 95% interval, a full-detail run's exact value (no interval).
+    pub fn estimate(&self, scene: &str, base: &str, sets: &[&str], name: &str) -> Option<Estimate> {
+        let stats = self.stats(scene, base, sets)?;
+        stored_estimate(&stats, name).or_else(|| {
+            Some(Estimate {
+                value: stats.pointer(&format!("/{name}"))?.as_f64()?,
+                half_width: None,
+            })
+        })
+    }
+
+    /// The speedup (baseline cycles over cycles) of `design` with `sets` over `baseline` on
+    /// `scene`: exact from full-detail runs, an estimate with its 95% interval from sampled
+    /// ones (paired per replicate, [`stored_speedup`]).
+    pub fn speedup(
+        &self,
+        scene: &str,
+        baseline: (&str, &[&str]),
+        design: (&str, &[&str]),
+    ) -> Option<Estimate> {
+        let base = self.stats(scene, baseline.0, baseline.1)?;
+        let d = self.stats(scene, design.0, design.1)?;
+        if self.sampled() {
+            return stored_speedup(&base, &d);
+        }
+        let cycles = |s: &Json| s.pointer("/cycles").and_then(Json::as_f64);
+        Some(Estimate {
+            value: cycles(&base)? / cycles(&d)?,
+            half_width: None,
+        })
     }
 
     /// The scenes as given (what [`Results::stats`] looks up), in order.
@@ -359,7 +411,15 @@ impl<'a> Results<'a> {
             .chain(sets.iter().map(|s| s.to_string()))
             .collect();
         let config = SimConfig::load_unvalidated(Some((path.as_path(), &*text)), &sets).ok()?;
-        let key = RunKey::new(&prepared.hash, &config).ok()?;
+        let mut config = config;
+        let tier = match &self.sample {
+            Some(spec) => {
+                config.sample.apply_spec(spec).ok()?;
+                Tier::Sampled
+            }
+            None => Tier::Full,
+        };
+        let key = RunKey::for_tier(&prepared.hash, &config, tier).ok()?;
         self.store
             .load(&key)
             .ok()

@@ -43,8 +43,11 @@ fn inline_html(s: &str) -> String {
     out
 }
 
-/// A table as HTML.
+/// A table as HTML (nothing for a table without columns: a figure not drawn).
 fn html_table(t: &Table) -> String {
+    if t.header.is_empty() {
+        return String::new();
+    }
     let mut s = String::from("<table>\n<tr>");
     for h in &t.header {
         let _ = write!(s, "<th>{}</th>", esc(h));
@@ -61,8 +64,11 @@ fn html_table(t: &Table) -> String {
     s
 }
 
-/// A table as Markdown.
+/// A table as Markdown (nothing for a table without columns: a figure not drawn).
 fn md_table(t: &Table) -> String {
+    if t.header.is_empty() {
+        return String::new();
+    }
     let cell = |c: &str| c.replace('|', "\\|");
     let mut s = format!(
         "| {} |\n|{}\n",

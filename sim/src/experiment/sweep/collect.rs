@@ -10,8 +10,10 @@ use anyhow::Context;
 use serde_json::Value as Json;
 use toml::{Table, Value};
 
+use super::key::Tier;
 use super::record::RunRecord;
 use super::spec::{leaves, value_text};
+use crate::estimate::sample::stored::{stored_estimate, ESTIMATED};
 use crate::model::energy::{stats_config, Components, EnergyReport};
 
 /// A run's status in the table when a sweep point has no result file yet (its job was killed,
@@ -86,6 +88,8 @@ pub struct Row {
     pub error: String,
     /// The statistics of a run that finished.
     pub stats: Option<Json>,
+    /// The tier it ran (or would run) in.
+    pub tier: Tier,
     /// The run's key.
     pub key: String,
 }
@@ -109,6 +113,7 @@ impl Row {
             status: record.status.name().to_string(),
             error: record.error.clone().unwrap_or_default(),
             stats: record.stats().cloned(),
+            tier: record.tier,
             key: record.key.clone(),
         })
     }
@@ -117,7 +122,7 @@ impl Row {
     pub fn missing(
         scene: &str,
         vtq_version: &str,
-        config_toml: &str,
+        (config_toml, tier): (&str, Tier),
         key: &str,
     ) -> anyhow::Result<Row> {
         Ok(Row {
@@ -127,6 +132,7 @@ impl Row {
             status: MISSING.to_string(),
             error: String::new(),
             stats: None,
+            tier,
             key: key.to_string(),
         })
     }
@@ -273,7 +279,10 @@ fn stat_cells(stats: &Json) -> Vec<String> {
         cells.extend([min.to_string(), mean.to_string()]);
     }
     cells.push(tests.map_or_else(String::new, |t| t.to_string()));
-    cells.extend(phase_shares(stats, "cycles"));
+    match PHASES.map(|p| stored_estimate(stats, &format!("{p}_share"))) {
+        [Some(a), Some(b), Some(c)] => cells.extend([a, b, c].map(|e| e.value.to_string())),
+        _ => cells.extend(phase_shares(stats, "cycles")),
+    }
     cells.extend(phase_shares(stats, "intersection_tests"));
     for key in [
         "/bvh_l1_miss_rate_deciles",
@@ -297,10 +306,39 @@ pub struct CollectedTable {
     pub rows: Vec<Vec<String>>,
 }
 
+/// The interval columns of a table with sampled runs: `<estimate>_lo` and `<estimate>_hi`, the
+/// 95% interval of each [`ESTIMATED`] value (empty for full detail's exact rows and for an
+/// estimate from one replicate).
+fn interval_columns() -> Vec<String> {
+    ESTIMATED
+        .iter()
+        .flat_map(|e| [format!("{e}_lo"), format!("{e}_hi")])
+        .collect()
+}
+
+/// The interval cells of one statistics JSON, in [`interval_columns`] order.
+fn interval_cells(stats: Option<&Json>) -> Vec<String> {
+    ESTIMATED
+        .iter()
+        .flat_map(|name| {
+            match stats
+                .and_then(|s| stored_estimate(s, name))
+                .and_then(|e| e.interval())
+            {
+                Some((lo, hi)) => [lo.to_string(), hi.to_string()],
+                None => [String::new(), String::new()],
+            }
+        })
+        .collect()
+}
+
 /// The table of `rows`: columns `scene`, `vtq_version` (when the rows differ in it), every
-/// configuration key whose value differs between the rows (sorted), `status`, the headline
-/// statistics, `error` and `key`; rows sorted by scene, the swept values and key.
+/// configuration key whose value differs between the rows (sorted), `status`, `tier` (when
+/// a row is sampled), the headline statistics (a sampled row's estimates), the 95% intervals
+/// of the estimates ([`interval_columns`], when a row is sampled), `error` and `key`; rows
+/// sorted by scene, the swept values, the tier and key.
 pub fn table(mut rows: Vec<Row>) -> CollectedTable {
+    let sampled = rows.iter().any(|r| r.tier == Tier::Sampled);
     let mut keys: Vec<&str> = rows
         .iter()
         .flat_map(|r| r.config.iter().map(|(k, _)| k.as_str()))
@@ -329,6 +367,7 @@ pub fn table(mut rows: Vec<Row>) -> CollectedTable {
                     .unwrap_or(Ordering::Equal)
             })
             .then_with(|| a.vtq_version.cmp(&b.vtq_version))
+            .then_with(|| a.tier.name().cmp(b.tier.name()))
             .then_with(|| a.key.cmp(&b.key))
     });
     let mut header = vec!["scene".to_string()];
@@ -337,8 +376,14 @@ pub fn table(mut rows: Vec<Row>) -> CollectedTable {
     }
     header.extend(swept.iter().cloned());
     header.push("status".into());
+    if sampled {
+        header.push("tier".into());
+    }
     let stats_columns = stat_columns();
     header.extend(stats_columns.iter().cloned());
+    if sampled {
+        header.extend(interval_columns());
+    }
     header.push("error".into());
     header.push("key".into());
     let cells = rows
@@ -354,9 +399,15 @@ pub fn table(mut rows: Vec<Row>) -> CollectedTable {
                     .map(|k| r.value(k).map(value_text).unwrap_or_default()),
             );
             row.push(r.status.clone());
+            if sampled {
+                row.push(r.tier.name().to_string());
+            }
             match &r.stats {
                 Some(stats) => row.extend(stat_cells(stats)),
                 None => row.extend(stats_columns.iter().map(|_| String::new())),
+            }
+            if sampled {
+                row.extend(interval_cells(r.stats.as_ref()));
             }
             row.push(r.error.clone());
             row.push(r.key.clone());
@@ -420,6 +471,7 @@ mod tests {
                 String::new()
             },
             stats,
+            tier: Tier::Full,
             key: format!("k-{scene}-{}", config.len()),
         }
     }

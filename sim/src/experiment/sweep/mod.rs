@@ -18,7 +18,7 @@ pub mod slurm;
 pub mod spec;
 pub mod store;
 
-pub use key::RunKey;
+pub use key::{RunKey, Tier};
 pub use prepared::PreparedScene;
 pub use record::{RunRecord, RunStatus};
 pub use spec::{Point, Shard, SweepSpec};

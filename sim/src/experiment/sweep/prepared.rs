@@ -10,7 +10,9 @@ use std::time::Instant;
 
 use anyhow::Context;
 
+use super::key::Tier;
 use super::record::{RunRecord, RunResult};
+use crate::estimate::sample::{simulate_sampled, Profile};
 use crate::model::bvh::{build_cached, BvhParams, HwBvh};
 use crate::model::config::SimConfig;
 use crate::model::gpu::{simulate, SimOptions};
@@ -40,6 +42,25 @@ pub struct PreparedScene {
     pub hash: blake3::Hash,
     /// BVHs built so far, one per build parameters.
     bvhs: Mutex<Vec<(BvhParams, Arc<HwBvh>)>>,
+    /// Functional profiles made so far for sampled runs, one per [`profile_key`]: shared by
+    /// the designs of the scene, as `vtq compare --sample` shares them.
+    profiles: Mutex<Vec<(String, Arc<Profile>)>>,
+}
+
+/// What a functional profile depends on in `config`, as text: the BVH build, the image, the
+/// GPU's shape, the memory sizes, `hw.max_rays` (whether the frame can be held at once) and the
+/// `[sample]` settings — not the rest of the design, so the designs of a scene share one
+/// profile.
+fn profile_key(config: &SimConfig) -> String {
+    format!(
+        "{:?}|{:?}|{:?}|{:?}|{}|{:?}",
+        config.bvh_params(),
+        config.workload,
+        config.gpu,
+        config.memory,
+        config.hw.max_rays,
+        config.sample
+    )
 }
 
 impl PreparedScene {
@@ -50,6 +71,7 @@ impl PreparedScene {
             hash: scene.content_hash(),
             scene,
             bvhs: Mutex::new(Vec::new()),
+            profiles: Mutex::new(Vec::new()),
         }
     }
 
@@ -71,10 +93,32 @@ impl PreparedScene {
         bvhs.iter().any(|(p, _)| p == params)
     }
 
-    /// Simulates `config` (one thread, no progress bar) and records the outcome: statistics,
-    /// or the error that stopped it (invalid configuration, BVH build, simulation error or
-    /// panic). Fails only if the configuration cannot be written as TOML (then it has no key).
-    pub fn simulate(&self, config: &SimConfig, build: &BvhBuilder) -> anyhow::Result<RunRecord> {
+    /// The functional profile of `config`'s frame on `bvh`: made once per [`profile_key`],
+    /// then shared.
+    fn profile(&self, config: &SimConfig, bvh: &HwBvh) -> anyhow::Result<Arc<Profile>> {
+        let key = profile_key(config);
+        let mut profiles = self.profiles.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = profiles.iter().find(|(k, _)| *k == key) {
+            return Ok(Arc::clone(p));
+        }
+        let profile = Arc::new(
+            Profile::new(&self.scene, bvh, config)
+                .with_context(|| format!("profiling scene '{}'", self.scene.name))?,
+        );
+        profiles.push((key, Arc::clone(&profile)));
+        Ok(profile)
+    }
+
+    /// Simulates `config` in `tier` (one thread, no progress bar) and records the outcome:
+    /// statistics (a sampled run's estimates, [`crate::estimate::sample::stored`]), or the
+    /// error that stopped it (invalid configuration, BVH build, simulation error or panic).
+    /// Fails only if the configuration cannot be written as TOML (then it has no key).
+    pub fn simulate(
+        &self,
+        config: &SimConfig,
+        tier: Tier,
+        build: &BvhBuilder,
+    ) -> anyhow::Result<RunRecord> {
         let config_toml = config
             .to_toml()
             .context("writing the configuration as TOML")?;
@@ -84,6 +128,17 @@ impl PreparedScene {
             let bvh = self
                 .bvh(&config.bvh_params(), build)
                 .context("building the BVH")?;
+            if tier == Tier::Sampled {
+                config.sample.validate(config)?;
+                let profile = self.profile(config, &bvh)?;
+                let s = simulate_sampled(&self.scene, &bvh, config, &profile, 1)?;
+                return Ok(RunResult {
+                    stats: s.record_stats(),
+                    time_series: Vec::new(),
+                    image_blake3: String::new(),
+                    nonfinite_samples: 0,
+                });
+            }
             let out = simulate(&self.scene, &bvh, config, SimOptions::default(), None)?;
             let mut image = blake3::Hasher::new();
             for pixel in &out.image {
@@ -114,7 +169,7 @@ impl PreparedScene {
         };
         Ok(RunRecord::new(
             (&self.scene.name, &self.spec, &self.hash),
-            config_toml,
+            (config_toml, tier),
             outcome,
             start.elapsed().as_secs_f64(),
         ))

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::key::{RunKey, RESULT_FORMAT, VTQ_VERSION};
+use super::key::{RunKey, Tier, RESULT_FORMAT, VTQ_VERSION};
 use crate::model::gpu::stats::{Sample, HOST_DEPENDENT_KEYS};
 
 /// Whether a run produced statistics.
@@ -30,12 +30,15 @@ impl RunStatus {
 /// What a finished simulation measured.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunResult {
-    /// The statistics, as `vtq sim` writes them (docs/stats.md).
+    /// The statistics, as `vtq sim` writes them (docs/stats.md); for a sampled run the
+    /// estimates ([`crate::estimate::sample::SampledStats::record_stats`]: the headline values
+    /// under the same names, their intervals under `estimates`).
     pub stats: serde_json::Value,
-    /// The time series (BVH L1 miss rate and active rays every `sim.sample_interval` cycles).
+    /// The time series (BVH L1 miss rate and active rays every `sim.sample_interval` cycles;
+    /// empty for a sampled run).
     pub time_series: Vec<Sample>,
     /// blake3 of the image's pixel bits (row-major RGB f32, little-endian): equal images, equal
-    /// hashes.
+    /// hashes (empty for a sampled run, which renders no whole image).
     pub image_blake3: String,
     /// Samples whose radiance was NaN or infinite (written black).
     pub nonfinite_samples: u64,
@@ -58,6 +61,10 @@ pub struct RunRecord {
     pub scene_hash: String,
     /// The effective configuration, canonical TOML.
     pub config: String,
+    /// The tier it ran in (left out for full detail): a sampled run's statistics are estimates
+    /// ([`RunResult::stats`]).
+    #[serde(default, skip_serializing_if = "Tier::is_full")]
+    pub tier: Tier,
     /// Whether it produced statistics.
     pub status: RunStatus,
     /// Why it failed.
@@ -74,12 +81,12 @@ impl RunRecord {
     /// A record of a run of `config_toml` on a scene, with its outcome.
     pub fn new(
         scene: (&str, &str, &blake3::Hash),
-        config_toml: String,
+        (config_toml, tier): (String, Tier),
         outcome: Result<RunResult, String>,
         wall_seconds: f64,
     ) -> RunRecord {
         let (name, spec, hash) = scene;
-        let key = RunKey::from_canonical(hash, &config_toml);
+        let key = RunKey::of_tier(hash, &config_toml, tier);
         let (status, error, result) = match outcome {
             Ok(r) => (RunStatus::Ok, None, Some(r)),
             Err(e) => (RunStatus::Failed, Some(e), None),
@@ -92,6 +99,7 @@ impl RunRecord {
             scene_spec: spec.to_string(),
             scene_hash: hash.to_hex().to_string(),
             config: config_toml,
+            tier,
             status,
             error,
             wall_seconds,

@@ -5,6 +5,7 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
+use super::key::Tier;
 use super::prepared::{BvhBuilder, PreparedScene};
 use super::record::RunRecord;
 use super::store::ResultStore;
@@ -17,6 +18,8 @@ pub struct Task<'a> {
     pub scene: &'a PreparedScene,
     /// The effective configuration.
     pub config: &'a SimConfig,
+    /// The tier to simulate it in.
+    pub tier: Tier,
 }
 
 /// Simulates every task on up to `jobs` threads, storing each record in `store` as soon as it
@@ -45,7 +48,7 @@ pub fn run_tasks(
                     };
                     let result = task
                         .scene
-                        .simulate(task.config, build)
+                        .simulate(task.config, task.tier, build)
                         .and_then(|record| store.save(&record).map(|()| record));
                     if send.send((i, result)).is_err() {
                         return;

@@ -15,6 +15,8 @@
 //! "hw.repack_threshold" = 0
 //! "mode.grouping" = false
 //! ```
+//! A top-level `sample = "default"` (or `--sample`) runs every point in the sampled tier at
+//! that sample point: estimates with intervals, stored apart from full detail's results.
 //! Paths (scenes and configurations) are relative to the working directory, as on the command
 //! line; a configuration that is not a file there may name a built-in design, by name (`vtq`)
 //! or by its file in the project (`configs/designs/vtq/config.toml`), so a sweep of the
@@ -28,7 +30,8 @@ use anyhow::{bail, Context};
 use serde::Deserialize;
 use toml::{Table, Value};
 
-use crate::model::config::{parse_override_value, SimConfig};
+use super::key::{RunKey, Tier};
+use crate::model::config::{parse_override_value, ConfigError, SimConfig};
 
 /// The sweep file as written (keys of `grid` and `points` may be dotted TOML keys or quoted
 /// `"section.key"` strings; both mean the same).
@@ -40,6 +43,7 @@ struct SweepFile {
     set: Vec<String>,
     grid: Table,
     points: Vec<Table>,
+    sample: Option<String>,
 }
 
 /// One swept key and its values, in the given order.
@@ -65,6 +69,9 @@ pub struct SweepSpec {
     pub grid: Vec<GridAxis>,
     /// Explicit points: each a list of (dotted key, value) overrides.
     pub points: Vec<Vec<(String, Value)>>,
+    /// Run every point in the sampled tier at this sample point (`--sample`: a named point,
+    /// `FRACTIONxREPLICATES` or `config`; docs/accuracy.md) instead of full detail.
+    pub sample: Option<String>,
 }
 
 /// One run of a sweep: a scene and an effective configuration.
@@ -83,6 +90,16 @@ pub struct Point {
     pub config: SimConfig,
     /// A short description for messages: scene, base file (when several), assignment.
     pub label: String,
+    /// The tier it runs in (sampled with the sweep's `sample`, its settings in
+    /// `config.sample`).
+    pub tier: Tier,
+}
+
+impl Point {
+    /// The key of this point's result on the scene whose content hash is `scene_hash`.
+    pub fn key(&self, scene_hash: &blake3::Hash) -> Result<RunKey, ConfigError> {
+        RunKey::for_tier(scene_hash, &self.config, self.tier)
+    }
 }
 
 /// Every leaf of `table` (nested tables flattened) as `(dotted key, value)`, in table order.
@@ -145,6 +162,7 @@ impl SweepSpec {
             scenes: file.scenes,
             configs: file.configs,
             set: file.set,
+            sample: file.sample,
             ..SweepSpec::default()
         };
         for (key, value) in flat_entries(&file.grid, "[grid]")? {
@@ -217,6 +235,9 @@ impl SweepSpec {
             .map(|p| Value::Table(p.iter().cloned().collect()))
             .collect();
         doc.insert("points".into(), Value::Array(points));
+        if let Some(sample) = &self.sample {
+            doc.insert("sample".into(), Value::String(sample.clone()));
+        }
         toml::to_string(&doc).context("writing the sweep file")
     }
 
@@ -280,8 +301,15 @@ impl SweepSpec {
                     let mut overrides = self.set.clone();
                     overrides.extend(assignment.iter().map(|(k, v)| override_text(k, v)));
                     let file = base.as_deref().zip(text.as_deref());
-                    let config = SimConfig::load_unvalidated(file, &overrides)
+                    let mut config = SimConfig::load_unvalidated(file, &overrides)
                         .with_context(|| format!("sweep point {label}"))?;
+                    let tier = match &self.sample {
+                        Some(spec) => {
+                            config.sample.apply_spec(spec).map_err(anyhow::Error::msg)?;
+                            Tier::Sampled
+                        }
+                        None => Tier::Full,
+                    };
                     let canonical = config
                         .to_toml()
                         .with_context(|| format!("sweep point {label}"))?;
@@ -295,6 +323,7 @@ impl SweepSpec {
                         assignment: assignment.clone(),
                         config,
                         label,
+                        tier,
                     });
                 }
             }

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 
-use super::key::{RunKey, RESULT_FORMAT};
+use super::key::{RunKey, Tier, RESULT_FORMAT};
 use super::prepared::{BvhBuilder, PreparedScene};
 use super::record::{RunRecord, RunStatus};
 use crate::model::atomic_file::write_atomic;
@@ -124,23 +124,23 @@ impl ResultStore {
         Ok(records)
     }
 
-    /// The record of simulating `config` on `scene`: the stored one if it is done (see
+    /// The record of simulating `config` on `scene` in a tier: the stored one if it is done (see
     /// [`Reuse`]), else a new run (BVH from `build`), stored before it is returned. A stored
     /// file that cannot be read is replaced by a new run.
     pub fn run_or_load(
         &self,
         scene: &PreparedScene,
-        config: &SimConfig,
+        (config, tier): (&SimConfig, Tier),
         reuse: Reuse,
         build: &BvhBuilder,
     ) -> anyhow::Result<(RunRecord, Fetched)> {
-        let key = RunKey::new(&scene.hash, config)?;
+        let key = RunKey::for_tier(&scene.hash, config, tier)?;
         if let Ok(Some(record)) = self.load(&key) {
             if reuse.is_done(&record) {
                 return Ok((record, Fetched::Stored));
             }
         }
-        let record = scene.simulate(config, build)?;
+        let record = scene.simulate(config, tier, build)?;
         self.save(&record)?;
         Ok((record, Fetched::Ran))
     }
@@ -209,13 +209,13 @@ mod tests {
         let build = cached_builder(None);
         let cfg = tiny(&[]);
         let (first, how) = store
-            .run_or_load(&scene, &cfg, Reuse::Recorded, &build)
+            .run_or_load(&scene, (&cfg, Tier::Full), Reuse::Recorded, &build)
             .unwrap();
         assert_eq!(how, Fetched::Ran);
         assert_eq!(first.status, RunStatus::Ok);
         assert!(first.stats().unwrap()["cycles"].as_u64().unwrap() > 0);
         let (second, how) = store
-            .run_or_load(&scene, &cfg, Reuse::Recorded, &build)
+            .run_or_load(&scene, (&cfg, Tier::Full), Reuse::Recorded, &build)
             .unwrap();
         assert_eq!(how, Fetched::Stored);
         assert_eq!(second, first);
@@ -230,7 +230,7 @@ mod tests {
         );
         assert!(store.records().is_err());
         let (third, how) = store
-            .run_or_load(&scene, &cfg, Reuse::Recorded, &build)
+            .run_or_load(&scene, (&cfg, Tier::Full), Reuse::Recorded, &build)
             .unwrap();
         assert_eq!(how, Fetched::Ran);
         assert_eq!(
@@ -252,17 +252,17 @@ mod tests {
         let build = cached_builder(None);
         let cfg = tiny(&["hw.repack_threshold=99"]);
         let (rec, how) = store
-            .run_or_load(&scene, &cfg, Reuse::Recorded, &build)
+            .run_or_load(&scene, (&cfg, Tier::Full), Reuse::Recorded, &build)
             .unwrap();
         assert_eq!((rec.status, how), (RunStatus::Failed, Fetched::Ran));
         let error = rec.error.as_deref().unwrap();
         assert!(error.contains("repack_threshold"), "{error}");
         let (_, how) = store
-            .run_or_load(&scene, &cfg, Reuse::Recorded, &build)
+            .run_or_load(&scene, (&cfg, Tier::Full), Reuse::Recorded, &build)
             .unwrap();
         assert_eq!(how, Fetched::Stored);
         let (_, how) = store
-            .run_or_load(&scene, &cfg, Reuse::RetryFailed, &build)
+            .run_or_load(&scene, (&cfg, Tier::Full), Reuse::RetryFailed, &build)
             .unwrap();
         assert_eq!(how, Fetched::Ran);
         // Temporary files and other names are not results.

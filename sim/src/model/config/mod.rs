@@ -35,6 +35,7 @@ mod energy;
 mod mode;
 mod overrides;
 mod sample;
+pub mod sample_points;
 mod virtualization;
 
 pub use energy::{CoefficientSet, EnergyConfig};

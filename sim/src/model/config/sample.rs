@@ -166,18 +166,28 @@ fn invalid(key: &str, value: impl ToString, reason: impl Into<String>) -> Config
 }
 
 impl SampleConfig {
-    /// Applies a command-line sample setting `FRACTION[xREPLICATES]`, e.g. `1/8x4`, `0.25`,
-    /// `1/16x8` (an empty text keeps the section's settings). The values are checked later with
-    /// the configuration ([`validate`](Self::validate)).
+    /// Applies a command-line sample setting: a named operating point
+    /// ([`super::sample_points::POINTS`]: `default`, `fast`), `FRACTION[xREPLICATES]`, e.g.
+    /// `1/8x4`, `0.25`, `1/16x8`, or `config` (as does an empty text: the section's settings
+    /// as configured). The values are checked later with the configuration
+    /// ([`validate`](Self::validate)).
     pub fn apply_spec(&mut self, spec: &str) -> Result<(), String> {
+        use super::sample_points::{point, CONFIG_POINT, POINTS};
         let spec = spec.trim();
-        if spec.is_empty() {
+        if spec.is_empty() || spec == CONFIG_POINT {
+            return Ok(());
+        }
+        if let Some(p) = point(spec) {
+            p.apply(self);
             return Ok(());
         }
         let bad = || {
+            let names: Vec<&str> = POINTS.iter().map(|p| p.name).collect();
             format!(
-                "--sample `{spec}`: expected FRACTION[xREPLICATES], e.g. `1/8x4` or `0.25` \
-                 (FRACTION a number or a/b in (0, 1])"
+                "--sample `{spec}`: expected a named point ({}), `{CONFIG_POINT}` or \
+                 FRACTION[xREPLICATES], e.g. `1/8x4` or `0.25` (FRACTION a number or a/b in \
+                 (0, 1])",
+                names.join(", ")
             )
         };
         let (fraction, replicates) = match spec.split_once(['x', 'X']) {
@@ -431,6 +441,14 @@ mod tests {
         assert_eq!((s.fraction, s.replicates), (0.5, 8));
         s.apply_spec("").unwrap();
         assert_eq!(s.fraction, 0.5);
+        s.apply_spec("config").unwrap();
+        assert_eq!(s.fraction, 0.5);
+        s.apply_spec("default").unwrap();
+        assert_eq!((s.fraction, s.replicates, s.profile_stride), (0.0625, 2, 4));
+        assert_eq!(s.cluster, Cluster::PerReplicate(vec![1, 2]));
+        s.apply_spec("fast").unwrap();
+        assert_eq!(s.fraction, 1.0 / 32.0);
+        assert!(s.apply_spec("quick").unwrap_err().contains("default, fast"));
         for bad in ["x4", "1/", "a/b", "0.5x", "0.5x-1", "half"] {
             assert!(s.apply_spec(bad).unwrap_err().contains(bad), "{bad}");
         }
