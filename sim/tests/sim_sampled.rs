@@ -637,3 +637,58 @@ fn stripes_whose_dispatch_is_not_static_fall_back_to_strata() {
         .all(|r| !r.stripes_mixed && r.stripes.is_empty()));
     assert!(s.cycles.half_width.is_some());
 }
+
+/// `--sample` without a value runs the `default` named point (1/16x2, profile stride 4,
+/// clusters [1, 2]), a name gives its settings, and a frame smaller than the point was
+/// measured at gets a note saying so and what to use instead; `--help` lists the points with
+/// their measured speed and error.
+#[test]
+fn named_sample_points_and_their_notes() {
+    let dir = std::env::temp_dir().join(format!("vtq-sample-points-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |sample: &[&str]| {
+        let out = dir.join("s.json");
+        let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
+            .args(["sim", "--scene", "cornell", "--out"])
+            .arg(&out)
+            .args(["--set", "width=64", "--set", "height=64", "--no-cache"])
+            .args(sample)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(o.status.success(), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        (stdout, json)
+    };
+    let (stdout, json) = run(&["--sample"]);
+    assert_eq!(json["fraction"], 0.0625);
+    assert_eq!(json["replicates"], 2);
+    assert_eq!(json["cluster"], serde_json::json!([1, 2]));
+    assert!(
+        stdout.contains("note: the sample point `default` was measured at 1024x1024")
+            && stdout.contains("prefer full detail"),
+        "{stdout}"
+    );
+    let (_, named) = run(&["--sample", "default"]);
+    assert_eq!(named["cycles"], json["cycles"], "no value is `default`");
+    let (_, fast) = run(&["--sample", "fast"]);
+    assert_eq!(fast["fraction"], 1.0 / 32.0);
+    // The explicit form keeps the [sample] section's other settings, and prints no note.
+    let (stdout, explicit) = run(&["--sample", "1/16x2"]);
+    assert_eq!(explicit["cluster"], 1);
+    assert!(!stdout.contains("note: the sample point"), "{stdout}");
+    let help = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .args(["sim", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    for point in vtq_sim::model::config::sample_points::POINTS {
+        assert!(
+            help.contains(&point.measured_line()) && help.contains(&point.settings()),
+            "{}: {help}",
+            point.name
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

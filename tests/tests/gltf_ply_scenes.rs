@@ -310,7 +310,8 @@ fn the_first_perspective_gltf_camera_is_the_scene_camera() {
     write(&no_camera_key, "scene.toml", "name = \"CAM\"\n");
     assert_eq!(load(&no_camera_key).scene.camera, camera);
 
-    // Without a glTF camera: scene.toml's camera, else a clear error.
+    // Without a glTF camera: scene.toml's camera, else one framing the bounds (as for OBJ and
+    // PLY files), reported; a scene.toml without a [camera] is still an error.
     let no_camera = one_triangle(json!([{"mesh": 0}]), json!([0]));
     let with_manifest = folder(
         &dir,
@@ -322,23 +323,27 @@ fn the_first_perspective_gltf_camera_is_the_scene_camera() {
         Vec3::new(0.0, 1.5, 6.0)
     );
     let bare = write(&dir, "bare.gltf", no_camera.to_string());
-    let err = load_scene_with_report(bare.to_str().unwrap())
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.contains("bare.gltf") && err.contains("no camera") && err.contains("scene.toml"),
-        "{err}"
-    );
+    let framed = load_scene_with_report(bare.to_str().unwrap()).unwrap();
     let bare_folder = dir.join("bare");
     std::fs::create_dir_all(&bare_folder).unwrap();
     write(&bare_folder, "m.gltf", no_camera.to_string());
-    let err = load_scene_with_report(bare_folder.to_str().unwrap())
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.contains("no camera") && err.contains("[camera]"),
-        "{err}"
-    );
+    let framed_folder = load_scene_with_report(bare_folder.to_str().unwrap()).unwrap();
+    for loaded in [&framed, &framed_folder] {
+        assert!(loaded.report.framed_camera);
+        assert!(loaded.report.camera_line().unwrap().contains("frames"));
+        // The camera looks at the mesh: the centre of its bounds is straight ahead.
+        let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &p in &loaded.scene.positions {
+            (min, max) = (min.min(p), max.max(p));
+        }
+        let cam = &loaded.scene.camera;
+        let to_centre = ((min + max) * 0.5 - cam.eye).normalize();
+        let view = (cam.look_at - cam.eye).normalize();
+        assert!(to_centre.dot(view) > 0.999, "{cam:?}");
+    }
+    assert_eq!(framed.scene.camera, framed_folder.scene.camera);
+    // A glTF camera is not reported as framed.
+    assert!(!load(&with_manifest).report.framed_camera);
     write(&bare_folder, "scene.toml", "name = \"X\"\n");
     let err = load_scene_with_report(bare_folder.to_str().unwrap())
         .unwrap_err()

@@ -152,7 +152,7 @@ pub struct Plan<'a> {
     pub bvh: &'a HwBvh,
     /// The designs, reference first.
     pub designs: &'a [Design],
-    /// Sampled settings `FRACTIONxREPLICATES`.
+    /// Sampled settings: named points (`default`, `fast`) or `FRACTIONxREPLICATES`.
     pub settings: &'a [String],
     /// Threads for full detail's SMs and the sampled tier's replicates.
     pub threads: usize,
@@ -164,9 +164,41 @@ pub struct Plan<'a> {
 pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     let scene = plan.scene;
     let first = &plan.designs[0].config;
-    let start = Instant::now();
-    let profile = Profile::new(scene, plan.bvh, first)?;
-    let profile_wall = start.elapsed().as_secs_f64();
+    // The settings' `[sample]` sections (the setting's fraction and replicates, a named
+    // point's profile stride and clusters, the design's other keys), and one functional
+    // profile per distinct profile they ask for (its stride, L2 warming and ghost reads), made
+    // with the first design and shared by all: setting `k` uses `profiles[of_setting[k]]`.
+    let sample_of = |d: &SimConfig, spec: &str| -> Result<SampleConfig, SimError> {
+        let defaults = SampleConfig::default();
+        let mut s = SampleConfig {
+            fraction: defaults.fraction,
+            replicates: defaults.replicates,
+            ..d.sample.clone()
+        };
+        s.apply_spec(spec).map_err(SimError::Setup)?;
+        Ok(s)
+    };
+    let profile_inputs = |s: &SampleConfig| (s.profile_stride, s.warm_l2, s.ghost_l2_footprint);
+    let mut profiles: Vec<(SampleConfig, Profile, f64)> = Vec::new();
+    let mut of_setting = Vec::new();
+    for spec in plan.settings {
+        let s = sample_of(first, spec)?;
+        let at = match profiles
+            .iter()
+            .position(|(k, _, _)| profile_inputs(k) == profile_inputs(&s))
+        {
+            Some(at) => at,
+            None => {
+                let mut cfg = first.clone();
+                cfg.sample = s.clone();
+                let start = Instant::now();
+                let profile = Profile::new(scene, plan.bvh, &cfg)?;
+                profiles.push((s, profile, start.elapsed().as_secs_f64()));
+                profiles.len() - 1
+            }
+        };
+        of_setting.push(at);
+    }
     // Per design: (full cycles, full wall), per setting the sampled result.
     let mut full = Vec::new();
     let mut sampled = Vec::new();
@@ -191,18 +223,12 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
         }
         references.push(runs);
         let mut per = Vec::new();
-        for spec in plan.settings {
+        for (k, spec) in plan.settings.iter().enumerate() {
             let mut cfg = d.config.clone();
-            // The setting's fraction and replicates; the design's other `[sample]` keys.
-            let defaults = SampleConfig::default();
-            cfg.sample = SampleConfig {
-                fraction: defaults.fraction,
-                replicates: defaults.replicates,
-                ..d.config.sample.clone()
-            };
-            cfg.sample.apply_spec(spec).map_err(SimError::Setup)?;
+            cfg.sample = sample_of(&d.config, spec)?;
             let t = Instant::now();
-            let s = simulate_sampled(scene, plan.bvh, &cfg, &profile, plan.threads)?;
+            let profile = &profiles[of_setting[k]].1;
+            let s = simulate_sampled(scene, plan.bvh, &cfg, profile, plan.threads)?;
             per.push((s, t.elapsed().as_secs_f64()));
         }
         sampled.push(per);
@@ -212,14 +238,15 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     for (i, d) in plan.designs.iter().enumerate() {
         let (cycles, wall) = full[i];
         let true_speedup = (i > 0).then(|| reference / cycles.max(1.0));
-        // A row's wall: its own plus, for the sampled tier, the profile's (whole, or shared
-        // among the designs).
-        let shared = profile_wall / plan.designs.len().max(1) as f64;
+        // A row's wall: its own plus, for the sampled tier, its setting's profile's (whole, or
+        // shared among the designs).
         let row = |tier: Tier,
                    method: Option<(Method, bool)>,
                    own: f64,
+                   profile_wall: f64,
                    c: Estimate,
                    s: Option<Estimate>| {
+            let shared = profile_wall / plan.designs.len().max(1) as f64;
             let (w, w_shared) = match tier {
                 Tier::Full => (own, own),
                 Tier::Sampled(_) => (own + profile_wall, own + shared),
@@ -258,6 +285,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
             Tier::Full,
             None,
             wall,
+            0.0,
             exact(cycles),
             true_speedup.map(exact),
         ));
@@ -268,6 +296,7 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
                 Tier::Sampled(spec.clone()),
                 Some((s.method, s.stripes_dynamic)),
                 *w,
+                profiles[of_setting[k]].2,
                 s.cycles,
                 speedup,
             ));

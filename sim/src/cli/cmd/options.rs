@@ -98,7 +98,11 @@ pub fn load_scene(spec: &str) -> anyhow::Result<Scene> {
         scene.materials.len(),
         start.elapsed().as_secs_f64()
     );
-    for line in [report.ignored_line(), report.left_out_line()]
+    for line in [
+        report.ignored_line(),
+        report.left_out_line(),
+        report.camera_line(),
+    ]
         .into_iter()
         .flatten()
     {

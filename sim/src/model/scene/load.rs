@@ -165,8 +165,8 @@ impl SceneFiles {
 
 /// Load one scene file as a scene named after the file stem, sky on: a `.obj` (and its `.mtl`
 /// libraries) or `.ply` file with a camera framing its bounds ([`Camera::framing`]), a `.gltf`
-/// or `.glb` file with its first camera (a glTF file without a camera is an error: put it in a
-/// folder with a `scene.toml` giving a `[camera]`).
+/// or `.glb` file with its first perspective camera, or framing its bounds when it has none (as
+/// most of the Khronos sample models; [`LoadReport::framed_camera`] says so).
 pub fn load_scene_file(path: &Path) -> Result<LoadedScene, SceneError> {
     let kind = FileKind::of(path).ok_or_else(|| SceneError::Parse {
         path: path.display().to_string(),
@@ -177,20 +177,11 @@ pub fn load_scene_file(path: &Path) -> Result<LoadedScene, SceneError> {
     let name = path
         .file_stem()
         .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    let camera = match files.gltf_camera {
-        Some((camera, _)) => Some(camera),
-        None if files.any_gltf => {
-            return Err(SceneError::Parse {
-                path: path.display().to_string(),
-                reason: format!(
-                    "no camera: the file has no perspective camera; put it in a folder with a \
-                     {MANIFEST_FILE} giving a [camera]"
-                ),
-            })
-        }
-        None => None,
-    };
-    scene_from_geometry(files.geometry, path, name, camera, true)
+    let framed = files.any_gltf && files.gltf_camera.is_none();
+    let camera = files.gltf_camera.map(|(camera, _)| camera);
+    let mut loaded = scene_from_geometry(files.geometry, path, name, camera, true)?;
+    loaded.report.framed_camera = framed;
+    Ok(loaded)
 }
 
 /// Load a scene folder: every scene file in it (`.obj`, `.gltf`, `.glb`, `.ply`; not
@@ -198,9 +189,9 @@ pub fn load_scene_file(path: &Path) -> Result<LoadedScene, SceneError> {
 /// into one world space, with name and sky from `scene.toml` when present.
 ///
 /// The camera is the first perspective camera of the glTF files (in that order), else the
-/// manifest's `[camera]`; without either, a folder with a `scene.toml` or a glTF file is an
-/// error, and one holding only OBJ and PLY files without a `scene.toml` gets a camera framing
-/// its bounds. A manifest camera that a glTF camera replaces is reported in
+/// manifest's `[camera]`; without either, a folder with a `scene.toml` is an error, and one
+/// without gets a camera framing its bounds (reported in [`LoadReport::framed_camera`] when it
+/// holds glTF files, which usually bring their own). A manifest camera that a glTF camera replaces is reported in
 /// [`LoadReport::unused_manifest_camera`], and a manifest `triangles` count that differs from
 /// the files' in [`LoadReport::manifest_mismatch`].
 pub fn load_folder(dir: &Path) -> Result<LoadedScene, SceneError> {
@@ -246,17 +237,9 @@ pub fn load_folder(dir: &Path) -> Result<LoadedScene, SceneError> {
                     .into(),
             })
         }
-        (None, None) if files.any_gltf => {
-            return Err(SceneError::Parse {
-                path: dir.display().to_string(),
-                reason: format!(
-                    "no camera: no glTF file of the folder has a perspective camera and there \
-                     is no {MANIFEST_FILE} giving a [camera]"
-                ),
-            })
-        }
         (None, None) => None,
     };
+    let framed = camera.is_none() && files.any_gltf;
     let name = manifest
         .as_ref()
         .and_then(|m| m.name.clone())
@@ -265,6 +248,7 @@ pub fn load_folder(dir: &Path) -> Result<LoadedScene, SceneError> {
     let mut loaded = scene_from_geometry(files.geometry, dir, name, camera, sky)?;
     loaded.report.manifest_mismatch = mismatch;
     loaded.report.unused_manifest_camera = unused_manifest_camera;
+    loaded.report.framed_camera = framed;
     Ok(loaded)
 }
 

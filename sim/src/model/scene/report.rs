@@ -32,6 +32,9 @@ pub struct LoadReport {
     /// The manifest whose `[camera]` was not used and the glTF file whose camera was, when both
     /// give one.
     pub unused_manifest_camera: Option<(PathBuf, PathBuf)>,
+    /// glTF files were loaded but none has a perspective camera (and no `scene.toml` gives
+    /// one): the camera frames the scene's bounds, as for OBJ and PLY files.
+    pub framed_camera: bool,
 }
 
 impl LoadReport {
@@ -48,6 +51,7 @@ impl LoadReport {
             undefined_materials: geometry.undefined_materials.clone(),
             manifest_mismatch: None,
             unused_manifest_camera: None,
+            framed_camera: false,
         }
     }
 
@@ -89,6 +93,16 @@ impl LoadReport {
                     "ices"
                 },
             )
+        })
+    }
+
+    /// The line saying the camera frames the scene because its glTF files have none
+    /// ([`LoadReport::framed_camera`]), or `None`.
+    pub fn camera_line(&self) -> Option<String> {
+        self.framed_camera.then(|| {
+            "camera: no glTF file has a perspective camera, so the camera frames the scene's \
+             bounds (a scene.toml [camera] in its folder chooses another)"
+                .to_string()
         })
     }
 
