@@ -229,7 +229,7 @@ fn a_sampled_reproduction_draws_estimates_with_error_bars() {
     let log = vtq(&dir, &args);
     assert!(log.contains("ok (sampled, 95% intervals)"), "{log}");
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();
-    assert!(md.contains("**Estimates, not full detail.**"), "{md}");
+    assert!(md.contains("Estimates, not full detail: every run"), "{md}");
     assert!(
         md.contains("--sample 1/4x2"),
         "the rerun command samples too: {md}"

@@ -19,7 +19,7 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::cli::cmd::energy::print_comparison as print_energy_comparison;
-use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
+use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs, SampleArg};
 use crate::cli::output::{check_file, write_or_keep};
 use crate::estimate::sample::{paired_speedup, simulate_sampled, Profile};
 use crate::experiment::perturb::{perturbations, perturbed, speedups, Spread};
@@ -77,18 +77,9 @@ pub struct CompareArgs {
     /// Step every cycle instead of skipping idle ones (verification; same results).
     #[arg(long)]
     pub lockstep: bool,
-    /// Estimate with the sampled tier instead of full detail: a named point (`default`,
-    /// `fast`), `FRACTION[xREPLICATES]` or `config`; without a value `default`
-    /// (docs/accuracy.md). Every design runs the same CTA samples, so speedups are paired per
-    /// replicate; rows are estimates with 95% intervals.
-    #[arg(
-        long,
-        value_name = "POINT",
-        num_args = 0..=1,
-        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT,
-        long_help = crate::model::config::sample_points::points_help()
-    )]
-    pub sample: Option<String>,
+    /// The sampled tier instead of full detail (`--sample [POINT]`).
+    #[command(flatten)]
+    pub sample: SampleArg,
     /// Also run every design N more times with the DRAM latency moved by +1, -1, +2, -2, ...
     /// cycles and print each design's mean and range of cycles and of its speedup over those
     /// runs: whether a difference between designs is larger than the reference's own
@@ -290,7 +281,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             d
         })
         .collect();
-    if let Some(spec) = &args.sample {
+    if let Some(spec) = &args.sample.point {
         for d in &mut designs {
             d.config
                 .sample
@@ -331,7 +322,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         Some(n) => n as usize,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
-    if args.sample.is_some() {
+    if args.sample.point.is_some() {
         return compare_sampled(args, &scene, &designs, &runs, jobs);
     }
     println!(
@@ -773,7 +764,7 @@ fn compare_sampled(
             crate::estimate::sample::STRIPE_CAUTION
         );
     }
-    for note in super::sim::sample_point_notes(args.sample.as_deref(), first) {
+    for note in super::sim::sample_point_notes(args.sample.point.as_deref(), first) {
         println!("note: {note}");
     }
     if let Some(path) = &args.json {

@@ -103,8 +103,8 @@ pub fn load_scene(spec: &str) -> anyhow::Result<Scene> {
         report.left_out_line(),
         report.camera_line(),
     ]
-        .into_iter()
-        .flatten()
+    .into_iter()
+    .flatten()
     {
         println!("scene {}: {line}", scene.name);
     }
@@ -228,4 +228,23 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
         Ok(n) if (1..=1024).contains(&n) => Ok(n),
         _ => Err(format!("`{s}` is not a thread count (1..=1024)")),
     }
+}
+
+/// `--sample [POINT]`, shared by the commands that can run the sampled tier (`sim`, `compare`,
+/// `sweep`, `reproduce`): a named point (`default`, `fast`), `FRACTION[xREPLICATES]` or
+/// `config`; without a value `default` (docs/accuracy.md). `--help` lists the named points with
+/// their measured speed and error.
+#[derive(Debug, Clone, Default, Args)]
+pub struct SampleArg {
+    /// The sampled tier instead of full detail: a named point (`default`, `fast`),
+    /// `FRACTION[xREPLICATES]` or `config`; without a value `default` (docs/accuracy.md).
+    #[arg(
+        id = "sample",
+        long = "sample",
+        value_name = "POINT",
+        num_args = 0..=1,
+        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT,
+        long_help = crate::model::config::sample_points::points_help()
+    )]
+    pub point: Option<String>,
 }

@@ -12,7 +12,7 @@ use clap::Args;
 use vtq_gen::area_report;
 
 use super::area::area_params;
-use super::options::{build_bvh, CacheArgs};
+use super::options::{build_bvh, CacheArgs, SampleArg};
 use super::runner::{prepare_scenes, Runner};
 use crate::cli::output::check_dir;
 use crate::estimate::figure5::{model, Figure5Row};
@@ -58,18 +58,9 @@ pub struct ReproduceArgs {
     /// Run points whose stored result is a failure again.
     #[arg(long)]
     pub retry_failed: bool,
-    /// Run every point in the sampled tier at POINT (a named point, `FRACTIONxREPLICATES` or
-    /// `config`; without a value `default`; `vtq sim --help` lists the points) instead of full
-    /// detail: the figures show estimates with their 95% intervals as error bars, and figures
-    /// of statistics the tier does not estimate (the miss rate over time, tests per phase,
-    /// energy) are left out, saying so (docs/reproducing.md).
-    #[arg(
-        long,
-        value_name = "POINT",
-        num_args = 0..=1,
-        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT
-    )]
-    pub sample: Option<String>,
+    /// The sampled tier instead of full detail (`--sample [POINT]`).
+    #[command(flatten)]
+    pub sample: SampleArg,
     /// The BVH build cache.
     #[command(flatten)]
     pub cache: CacheArgs,
@@ -101,7 +92,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
         }
         let mut spec = experiments.load(name, &args.scenes)?;
         spec.set.extend(args.set.iter().cloned());
-        spec.sample.clone_from(&args.sample);
+        spec.sample.clone_from(&args.sample.point);
         for p in spec
             .points()
             .with_context(|| format!("experiment {name}"))?
@@ -140,7 +131,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let figures_dir = args.out.join("figures");
     std::fs::create_dir_all(&figures_dir)
         .with_context(|| format!("creating {}", figures_dir.display()))?;
-    let sample = args.sample.as_deref();
+    let sample = args.sample.point.as_deref();
     let results = Results::new(&store, &scenes[..paper_scenes], root.clone())
         .with_sets(&args.set)
         .with_sample(sample);
@@ -386,14 +377,14 @@ fn intro(
                 .iter()
                 .map(|s| format!(" --scene {s}"))
                 .chain(args.set.iter().map(|s| format!(" --set {s}")))
-                .chain(args.sample.iter().map(|p| format!(" --sample {p}")))
+                .chain(args.sample.point.iter().map(|p| format!(" --sample {p}")))
                 .collect::<String>(),
             results.display()
         ),
     ];
-    if let Some(point) = &args.sample {
+    if let Some(point) = &args.sample.point {
         intro.push(format!(
-            "**Estimates, not full detail.** Every run was simulated by the sampled tier at \
+            "Estimates, not full detail: every run was simulated by the sampled tier at \
              sample point `{point}` (docs/accuracy.md gives its measured speed and error): each \
              value is an estimate, drawn with its 95% interval as an error bar and given with \
              it in brackets in the tables (speedups paired per replicate; means and stacked \

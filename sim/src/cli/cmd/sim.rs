@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::cli::cmd::options::{
-    build_bvh, load_scene, parse_threads, simulate_with_progress, CacheArgs,
+    build_bvh, load_scene, parse_threads, simulate_with_progress, CacheArgs, SampleArg,
 };
 use crate::cli::output::{check_file, write_or_keep, Failures};
 use crate::estimate::sample::{simulate_sampled, Profile};
@@ -50,16 +50,9 @@ pub struct SimArgs {
     /// replicates simulated at once.
     #[arg(long, default_value_t = 1, value_parser = parse_threads)]
     pub threads: usize,
-    /// The sampled tier instead of full detail: a named point (`default`, `fast`),
-    /// `FRACTION[xREPLICATES]` or `config`; without a value `default` (docs/accuracy.md).
-    #[arg(
-        long,
-        value_name = "POINT",
-        num_args = 0..=1,
-        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT,
-        long_help = crate::model::config::sample_points::points_help()
-    )]
-    pub sample: Option<String>,
+    /// The sampled tier instead of full detail (`--sample [POINT]`).
+    #[command(flatten)]
+    pub sample: SampleArg,
     /// Also write a waveform (VCD, for GTKWave) of the RT unit hardware of SM --vcd-sm over
     /// the cycles --vcd-cycles: each block's ports and registers, every cycle (docs/hardware.md).
     /// The statistics do not change.
@@ -95,12 +88,12 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         }),
         _ => None,
     };
-    if vcd.is_some() && args.sample.is_some() {
+    if vcd.is_some() && args.sample.point.is_some() {
         anyhow::bail!("--vcd records a full-detail run: it cannot be combined with --sample");
     }
     check_outputs(args)?;
     let scene = load_scene(&args.scene)?;
-    if let Some(spec) = &args.sample {
+    if let Some(spec) = &args.sample.point {
         cfg.sample.apply_spec(spec).map_err(anyhow::Error::msg)?;
         cfg.sample.validate(&cfg)?;
         let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
@@ -180,7 +173,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
 /// time series of a full-detail run, the image, the waveform), so that a bad path fails at once.
 fn check_outputs(args: &SimArgs) -> anyhow::Result<()> {
     check_file(&args.out)?;
-    if args.sample.is_none() {
+    if args.sample.point.is_none() {
         check_file(&time_series_path(&args.out))?;
     }
     for path in args.image.iter().chain(&args.vcd).chain(&args.ctas) {
@@ -270,7 +263,7 @@ fn run_sampled(
     } else if s.every_cta_resident {
         println!("caution: {}", crate::estimate::sample::STRIPE_CAUTION);
     }
-    for note in sample_point_notes(args.sample.as_deref(), cfg) {
+    for note in sample_point_notes(args.sample.point.as_deref(), cfg) {
         println!("note: {note}");
     }
     println!("wrote {}", args.out.display());

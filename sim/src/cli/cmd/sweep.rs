@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use clap::Args;
 
-use super::options::CacheArgs;
+use super::options::{CacheArgs, SampleArg};
 use super::runner::{prepare_scenes, scene_of, Runner};
 use crate::cli::output::{check_dir, check_file_or_dirs};
 use crate::experiment::reproduce::built_in_experiment;
@@ -41,17 +41,9 @@ pub struct SweepArgs {
     /// points are every combination).
     #[arg(long = "grid", value_name = "KEY=V1,V2,...")]
     pub grids: Vec<String>,
-    /// Run every point in the sampled tier at POINT (a named point, `FRACTIONxREPLICATES` or
-    /// `config`; without a value `default`; `vtq sim --help` lists the points): estimates with
-    /// 95% intervals, stored apart from full detail's results, with interval columns in the
-    /// collected table (docs/sweeps.md).
-    #[arg(
-        long,
-        value_name = "POINT",
-        num_args = 0..=1,
-        default_missing_value = crate::model::config::sample_points::DEFAULT_POINT
-    )]
-    pub sample: Option<String>,
+    /// The sampled tier instead of full detail (`--sample [POINT]`).
+    #[command(flatten)]
+    pub sample: SampleArg,
     /// Results folder: one result file per run in DIR/runs, reused by every later sweep.
     #[arg(long, value_name = "DIR")]
     pub results: Option<PathBuf>,
@@ -113,7 +105,7 @@ impl SweepArgs {
         for grid in &self.grids {
             spec.add_grid_arg(grid)?;
         }
-        if let Some(sample) = &self.sample {
+        if let Some(sample) = &self.sample.point {
             spec.sample = Some(sample.clone());
         }
         Ok(spec)
@@ -126,7 +118,7 @@ impl SweepArgs {
             || !self.configs.is_empty()
             || !self.set.is_empty()
             || !self.grids.is_empty()
-            || self.sample.is_some()
+            || self.sample.point.is_some()
     }
 }
 
