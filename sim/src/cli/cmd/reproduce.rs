@@ -13,7 +13,7 @@ use vtq_gen::area_report;
 
 use super::area::area_params;
 use super::options::{build_bvh, CacheArgs, SampleArg};
-use super::runner::{prepare_scenes, Runner};
+use super::runner::{listed, prepare_scenes, Runner};
 use crate::cli::output::check_dir;
 use crate::estimate::figure5::{model, Figure5Row};
 use crate::experiment::reproduce::beyond;
@@ -276,9 +276,10 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     if !failed.is_empty() {
         problems.push(format!(
             "{} runs failed ({}); the figures leave them out (shown as `-`); their errors are in \
-             their result files; --retry-failed runs them again",
+             their result files (`vtq sweep --collect` tables them); --retry-failed runs them \
+             again",
             failed.len(),
-            failed.join("; ")
+            listed(&failed)
         ));
     }
     if !problems.is_empty() {
@@ -405,8 +406,10 @@ fn intro(
     }
     if !failed.is_empty() {
         intro.push(format!(
-            "Failed runs (left out of the figures): {}.",
-            failed.join("; ")
+            "{} failed runs, left out of the figures (their errors are in their result files): \
+             {}.",
+            failed.len(),
+            listed(failed)
         ));
     }
     intro

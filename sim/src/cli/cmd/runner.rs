@@ -33,6 +33,20 @@ pub(crate) fn scene_of<'a>(scenes: &'a [PreparedScene], point: &Point) -> &'a Pr
         .expect("every point's scene was prepared")
 }
 
+/// Most labels a message lists before it counts the rest.
+const LISTED: usize = 5;
+
+/// The labels of `failed` points for a message: every one when there are few, else the first
+/// [`LISTED`] and how many more (each failed run's error is in its result file, and `vtq sweep
+/// --collect` tables them all).
+pub(crate) fn listed(failed: &[String]) -> String {
+    let shown = failed[..failed.len().min(LISTED)].join("; ");
+    match failed.len().saturating_sub(LISTED) {
+        0 => shown,
+        more => format!("{shown}; and {more} more"),
+    }
+}
+
 /// One line about a finished run.
 fn describe(record: &RunRecord) -> String {
     let estimate = |s: &serde_json::Value, name: &str| {
@@ -193,5 +207,18 @@ impl Runner<'_> {
             store.runs_dir().display()
         );
         Ok(failed_before.into_iter().chain(failed_now).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_failure_lists_are_cut_and_counted() {
+        let labels: Vec<String> = (0..8).map(|i| format!("p{i}")).collect();
+        assert_eq!(listed(&labels[..2]), "p0; p1");
+        assert_eq!(listed(&labels[..5]), "p0; p1; p2; p3; p4");
+        assert_eq!(listed(&labels), "p0; p1; p2; p3; p4; and 3 more");
     }
 }

@@ -9,7 +9,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use super::options::{CacheArgs, SampleArg};
-use super::runner::{prepare_scenes, scene_of, Runner};
+use super::runner::{listed, prepare_scenes, scene_of, Runner};
 use crate::cli::output::{check_dir, check_file_or_dirs};
 use crate::experiment::reproduce::built_in_experiment;
 use crate::experiment::sweep::collect::{table, Row};
@@ -176,7 +176,7 @@ fn sweep(args: &SweepArgs, spec: &SweepSpec, results: &Path) -> anyhow::Result<(
              table of `vtq sweep --collect`; --retry-failed runs them again",
             failed.len(),
             selected.len(),
-            failed.join("; ")
+            listed(&failed)
         );
     }
     Ok(())
