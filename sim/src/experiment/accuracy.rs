@@ -166,8 +166,8 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
     let first = &plan.designs[0].config;
     // The settings' `[sample]` sections (the setting's fraction and replicates, a named
     // point's profile stride and clusters, the design's other keys), and one functional
-    // profile per distinct profile they ask for (its stride, L2 warming and ghost reads), made
-    // with the first design and shared by all: setting `k` uses `profiles[of_setting[k]]`.
+    // profile per distinct profile they ask for ([`Profile::key`]), made with the first design
+    // and shared by all: setting `k` uses `profiles[of_setting[k]]`.
     let sample_of = |d: &SimConfig, spec: &str| -> Result<SampleConfig, SimError> {
         let defaults = SampleConfig::default();
         let mut s = SampleConfig {
@@ -178,22 +178,18 @@ pub fn benchmark(plan: &Plan) -> Result<Vec<Row>, SimError> {
         s.apply_spec(spec).map_err(SimError::Setup)?;
         Ok(s)
     };
-    let profile_inputs = |s: &SampleConfig| (s.profile_stride, s.warm_l2, s.ghost_l2_footprint);
-    let mut profiles: Vec<(SampleConfig, Profile, f64)> = Vec::new();
+    let mut profiles: Vec<(String, Profile, f64)> = Vec::new();
     let mut of_setting = Vec::new();
     for spec in plan.settings {
-        let s = sample_of(first, spec)?;
-        let at = match profiles
-            .iter()
-            .position(|(k, _, _)| profile_inputs(k) == profile_inputs(&s))
-        {
+        let mut cfg = first.clone();
+        cfg.sample = sample_of(first, spec)?;
+        let key = Profile::key(&cfg);
+        let at = match profiles.iter().position(|(k, _, _)| *k == key) {
             Some(at) => at,
             None => {
-                let mut cfg = first.clone();
-                cfg.sample = s.clone();
                 let start = Instant::now();
                 let profile = Profile::new(scene, plan.bvh, &cfg)?;
-                profiles.push((s, profile, start.elapsed().as_secs_f64()));
+                profiles.push((key, profile, start.elapsed().as_secs_f64()));
                 profiles.len() - 1
             }
         };

@@ -764,7 +764,7 @@ fn compare_sampled(
             crate::estimate::sample::STRIPE_CAUTION
         );
     }
-    for note in super::sim::sample_point_notes(args.sample.point.as_deref(), first) {
+    for note in crate::model::config::sample_points::notes(args.sample.point.as_deref(), first) {
         println!("note: {note}");
     }
     if let Some(path) = &args.json {

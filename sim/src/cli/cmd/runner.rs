@@ -49,18 +49,17 @@ pub(crate) fn listed(failed: &[String]) -> String {
 
 /// One line about a finished run.
 fn describe(record: &RunRecord) -> String {
-    let estimate = |s: &serde_json::Value, name: &str| {
-        crate::estimate::sample::stored::stored_estimate(s, name)
-            .map_or_else(|| "-".into(), |e| e.display(3))
+    use crate::estimate::sample::stored::{is_sampled, stored_estimate};
+    let estimate = |s: &serde_json::Value, name: &str, digits: usize| {
+        stored_estimate(s, name).map_or_else(|| "-".into(), |e| e.display(digits))
     };
     match (record.status, record.stats()) {
-        (RunStatus::Ok, Some(s)) if crate::estimate::sample::stored::is_sampled(s) => format!(
+        (RunStatus::Ok, Some(s)) if is_sampled(s) => format!(
             "ok (sampled, 95% intervals): {} cycles, SIMT efficiency {}, BVH L1 miss rate {} \
              ({:.2} s)",
-            crate::estimate::sample::stored::stored_estimate(s, "cycles")
-                .map_or_else(|| "-".into(), |e| e.display(0)),
-            estimate(s, "simt_efficiency"),
-            estimate(s, "bvh_l1_miss_rate"),
+            estimate(s, "cycles", 0),
+            estimate(s, "simt_efficiency", 3),
+            estimate(s, "bvh_l1_miss_rate", 3),
             record.wall_seconds
         ),
         (RunStatus::Ok, Some(s)) => format!(

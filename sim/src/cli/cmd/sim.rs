@@ -12,6 +12,7 @@ use crate::cli::cmd::options::{
 };
 use crate::cli::output::{check_file, write_or_keep, Failures};
 use crate::estimate::sample::{simulate_sampled, Profile};
+use crate::model::config::sample_points;
 use crate::model::config::{Cluster, SimConfig};
 use crate::model::gpu::rt::waveform::parse_cycles;
 use crate::model::gpu::sm::CtaSpan;
@@ -263,16 +264,9 @@ fn run_sampled(
     } else if s.every_cta_resident {
         println!("caution: {}", crate::estimate::sample::STRIPE_CAUTION);
     }
-    for note in sample_point_notes(args.sample.point.as_deref(), cfg) {
+    for note in sample_points::notes(args.sample.point.as_deref(), cfg) {
         println!("note: {note}");
     }
     println!("wrote {}", args.out.display());
     Ok(())
-}
-
-/// The notes of the named sample point `spec` (if it names one) for `cfg`: where the run is
-/// outside the conditions the point was measured in, and what to use instead.
-pub fn sample_point_notes(spec: Option<&str>, cfg: &SimConfig) -> Vec<String> {
-    spec.and_then(|s| crate::model::config::sample_points::point(s.trim()))
-        .map_or_else(Vec::new, |p| p.notes(cfg))
 }

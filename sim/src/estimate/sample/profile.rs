@@ -362,6 +362,27 @@ fn estimate_untraced(ctas: &mut [CtaWork], traced: &[bool], scheduler: &CtaSched
 }
 
 impl Profile {
+    /// What a profile made with `cfg` depends on, as text: two configurations with the same
+    /// key give the same profile. The BVH build, the image, the GPU's shape, the memory sizes,
+    /// `hw.max_rays` (whether the frame can be held at once, [`stripes_possible`]) and the
+    /// `[sample]` keys it reads (`profile_stride`, `warm_l2`, `ghost_l2_footprint`) — not the
+    /// rest of the design or the sample's size, so the designs of a scene and the settings of
+    /// a benchmark share one profile.
+    pub fn key(cfg: &SimConfig) -> String {
+        let s = &cfg.sample;
+        format!(
+            "{:?}|{:?}|{:?}|{:?}|{}|{}|{}|{}",
+            cfg.bvh_params(),
+            cfg.workload,
+            cfg.gpu,
+            cfg.memory,
+            cfg.hw.max_rays,
+            s.profile_stride,
+            s.warm_l2,
+            s.ghost_l2_footprint
+        )
+    }
+
     /// Profiles `cfg`'s workload on `scene` (whose BVH is `bvh`) on all rayon threads. Where
     /// the frame's footprint is within `sample.ghost_l2_footprint`, it also records the CTAs'
     /// L2 streams ([`Profile::cta_streams`]): in the one pass when the BVH's whole address

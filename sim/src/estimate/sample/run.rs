@@ -505,30 +505,45 @@ pub fn paired_speedup(baseline: &SampledStats, design: &SampledStats) -> Estimat
             half_width: baseline.cycles.half_width.map(|_| 0.0),
         };
     }
-    if baseline.method == Method::Stripes || design.method == Method::Stripes {
-        let (b, d) = (baseline.cycles, design.cycles);
-        let value = b.value / d.value.max(1.0);
-        let relative = |e: Estimate| e.half_width.map(|h| h / e.value.max(1.0));
+    let stripes = baseline.method == Method::Stripes || design.method == Method::Stripes;
+    let cycles = |s: &SampledStats| {
+        s.replicate_runs
+            .iter()
+            .map(|r| r.cycles)
+            .collect::<Vec<_>>()
+    };
+    let (b, d) = (cycles(baseline), cycles(design));
+    let paired = (!stripes).then_some((&b[..], &d[..], baseline.bias_bound + design.bias_bound));
+    speedup_of(baseline.cycles, design.cycles, paired)
+}
+
+/// The speedup `baseline / design` of two estimates of cycles, with its 95% interval. With
+/// `paired` (each replicate's cycles of the baseline and of the design, in replicate order,
+/// and the sum of their bias bounds): the mean of the per-replicate ratios with Student's t
+/// interval widened by the bounds. Without: the ratio of the estimates, its relative
+/// half-width the sum of theirs (no interval if either has none). [`paired_speedup`] and
+/// stored sampled runs ([`super::stored::stored_speedup`]) both combine this way.
+pub fn speedup_of(
+    baseline: Estimate,
+    design: Estimate,
+    paired: Option<(&[f64], &[f64], f64)>,
+) -> Estimate {
+    if let Some((b, d, bias)) = paired {
+        let ratios: Vec<f64> = b.iter().zip(d).map(|(b, d)| b / d.max(1.0)).collect();
+        // The replicates' spread, plus both designs' bias bounds (their biases need not cancel).
+        let e = Estimate::of(&ratios);
         return Estimate {
-            value,
-            half_width: relative(b)
-                .zip(relative(d))
-                .map(|(rb, rd)| value * (rb + rd)),
+            half_width: e.half_width.map(|h| h + e.value * bias),
+            ..e
         };
     }
-    let ratios: Vec<f64> = baseline
-        .replicate_runs
-        .iter()
-        .zip(&design.replicate_runs)
-        .map(|(b, d)| b.cycles / d.cycles.max(1.0))
-        .collect();
-    // The replicates' spread, plus both designs' bias bounds (their biases need not cancel).
-    let e = Estimate::of(&ratios);
+    let value = baseline.value / design.value.max(1.0);
+    let relative = |e: Estimate| e.half_width.map(|h| h / e.value.max(1.0));
     Estimate {
-        half_width: e
-            .half_width
-            .map(|h| h + e.value * (baseline.bias_bound + design.bias_bound)),
-        ..e
+        value,
+        half_width: relative(baseline)
+            .zip(relative(design))
+            .map(|(rb, rd)| value * (rb + rd)),
     }
 }
 

@@ -5,6 +5,7 @@
 
 use serde_json::{json, Value};
 
+use super::run::speedup_of;
 use super::{Estimate, Method, SampledStats};
 
 /// The estimates a stored sampled run carries an interval for, as (name, column of the
@@ -83,9 +84,10 @@ pub fn is_sampled(stats: &Value) -> bool {
 }
 
 /// The speedup of a stored sampled `design` over a stored sampled `baseline` (cycles over
-/// cycles) with its 95% interval, as [`super::paired_speedup`] computes it from the runs
-/// themselves: paired per replicate for stratified samples of the same seed, the two
-/// intervals' relative widths added otherwise. `None` unless both are sampled runs.
+/// cycles) with its 95% interval, combined as [`super::paired_speedup`] combines the runs
+/// themselves ([`speedup_of`]): paired per replicate for stratified samples of the same seed
+/// and replicate count, the two intervals' relative widths added otherwise. `None` unless both
+/// are sampled runs.
 pub fn stored_speedup(baseline: &Value, design: &Value) -> Option<Estimate> {
     let cycles = |s: &Value| stored_estimate(s, "cycles");
     let (b, d) = (cycles(baseline)?, cycles(design)?);
@@ -105,29 +107,15 @@ pub fn stored_speedup(baseline: &Value, design: &Value) -> Option<Estimate> {
             .unwrap_or(0.0)
     };
     let seed = |s: &Value| s.pointer("/sample/seed").and_then(Value::as_u64);
-    let paired = method(baseline) == Some("strata")
+    let strata = method(baseline) == Some("strata")
         && method(design) == Some("strata")
         && seed(baseline) == seed(design);
-    match (paired, replicates(baseline), replicates(design)) {
-        (true, Some(rb), Some(rd)) if rb.len() == rd.len() && !rb.is_empty() => {
-            let ratios: Vec<f64> = rb.iter().zip(&rd).map(|(b, d)| b / d.max(1.0)).collect();
-            let e = Estimate::of(&ratios);
-            Some(Estimate {
-                value: e.value,
-                half_width: e
-                    .half_width
-                    .map(|h| h + e.value * (bias(baseline) + bias(design))),
-            })
+    let (rb, rd) = (replicates(baseline), replicates(design));
+    let paired = match (&rb, &rd) {
+        (Some(rb), Some(rd)) if strata && rb.len() == rd.len() && !rb.is_empty() => {
+            Some((&rb[..], &rd[..], bias(baseline) + bias(design)))
         }
-        _ => {
-            let value = b.value / d.value.max(1.0);
-            let relative = |e: Estimate| e.half_width.map(|h| h / e.value.max(1.0));
-            Some(Estimate {
-                value,
-                half_width: relative(b)
-                    .zip(relative(d))
-                    .map(|(rb, rd)| value * (rb + rd)),
-            })
-        }
-    }
+        _ => None,
+    };
+    Some(speedup_of(b, d, paired))
 }

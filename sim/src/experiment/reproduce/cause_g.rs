@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use super::figures::{bars, cell, num, paper, series_table, Figure, Table};
+use super::figures::{bars, cell, estimate_bars, num, paper, series_table, Figure, Table};
 use super::{Results, EXPERIMENT_FILES};
 use crate::estimate::sample::Estimate;
 use crate::experiment::plot::{BarSeries, Bars};
@@ -94,18 +94,6 @@ fn estimate_cell(e: Option<Estimate>) -> String {
     }
 }
 
-/// A bar series `name` of estimates: their values, and their intervals as error bars.
-fn estimates(name: &str, values: Vec<Option<Estimate>>) -> BarSeries {
-    BarSeries {
-        name: name.to_string(),
-        intervals: values
-            .iter()
-            .map(|e| e.and_then(|e| e.interval()))
-            .collect(),
-        values: values.iter().map(|e| e.map(|e| e.value)).collect(),
-    }
-}
-
 /// The scenes (with their labels) that have a stored run of every point of `points`.
 fn scenes_with<'r>(r: &'r Results, points: &[Sets]) -> (Vec<&'r str>, Vec<String>) {
     r.scenes()
@@ -133,8 +121,8 @@ pub fn mechanisms(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         .iter()
         .zip(&pts[1..])
         .map(|(name, sets)| {
-            let values = scenes.iter().map(|s| ratio(r, s, &pts[0], sets)).collect();
-            estimates(name, values)
+            let values: Vec<_> = scenes.iter().map(|s| ratio(r, s, &pts[0], sets)).collect();
+            estimate_bars(name, &values, 1.0)
         })
         .collect();
     let table = series_table("scene", &labels, &series, |v| cell(v, 3));
@@ -307,7 +295,8 @@ pub fn treelet_map(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             .iter()
             .zip(&names)
             .map(|(s, name)| {
-                estimates(name, members.iter().map(|&i| ratio(s, &pairs[i])).collect())
+                let values: Vec<_> = members.iter().map(|&i| ratio(s, &pairs[i])).collect();
+                estimate_bars(name, &values, 1.0)
             })
             .collect();
         let img = bars(

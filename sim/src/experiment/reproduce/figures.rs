@@ -196,9 +196,25 @@ fn speedups(r: &Results, scenes: &[&str], design: &str, sets: &[&str]) -> Vec<Op
         .collect()
 }
 
-/// A bar series `name` of per-scene estimates `values` scaled by `scale`, with their mean
-/// (`how`, over the scenes that are not built-ins) as the last category; the scenes' 95%
-/// intervals are its error bars (the mean has none).
+/// A bar series `name` of estimates `values` scaled by `scale`: their values, and their 95%
+/// intervals as error bars.
+pub(super) fn estimate_bars(name: &str, values: &[Option<Estimate>], scale: f64) -> BarSeries {
+    BarSeries {
+        name: name.to_string(),
+        values: values.iter().map(|e| e.map(|e| scale * e.value)).collect(),
+        intervals: values
+            .iter()
+            .map(|e| {
+                e.and_then(|e| e.interval())
+                    .map(|(lo, hi)| (scale * lo, scale * hi))
+            })
+            .collect(),
+    }
+}
+
+/// A bar series `name` of per-scene estimates `values` scaled by `scale` ([`estimate_bars`]),
+/// with their mean (`how`, over the scenes that are not built-ins) as the last category, which
+/// has no error bar.
 pub(super) fn estimate_series(
     name: &str,
     scenes: &[&str],
@@ -206,20 +222,10 @@ pub(super) fn estimate_series(
     how: Mean,
     scale: f64,
 ) -> BarSeries {
-    let intervals = values
-        .iter()
-        .map(|e| {
-            e.and_then(|e| e.interval())
-                .map(|(lo, hi)| (scale * lo, scale * hi))
-        })
-        .chain([None])
-        .collect();
-    let values = values.iter().map(|e| e.map(|e| scale * e.value)).collect();
-    BarSeries {
-        name: name.to_string(),
-        values: with_mean(scenes, values, how),
-        intervals,
-    }
+    let mut series = estimate_bars(name, &values, scale);
+    series.values = with_mean(scenes, series.values, how);
+    series.intervals.push(None);
+    series
 }
 
 /// A statistic of `design` per scene.

@@ -26,7 +26,8 @@ use serde_json::Value as Json;
 
 use crate::estimate::sample::stored::{stored_estimate, stored_speedup};
 use crate::estimate::sample::Estimate;
-use crate::experiment::sweep::{PreparedScene, ResultStore, RunKey, RunStatus, SweepSpec, Tier};
+use crate::experiment::sweep::spec::apply_sample;
+use crate::experiment::sweep::{PreparedScene, ResultStore, RunKey, RunStatus, SweepSpec};
 use crate::model::config::SimConfig;
 
 /// The experiment files (stems in `configs/experiments/`) the figures are computed from.
@@ -410,15 +411,8 @@ impl<'a> Results<'a> {
             .cloned()
             .chain(sets.iter().map(|s| s.to_string()))
             .collect();
-        let config = SimConfig::load_unvalidated(Some((path.as_path(), &*text)), &sets).ok()?;
-        let mut config = config;
-        let tier = match &self.sample {
-            Some(spec) => {
-                config.sample.apply_spec(spec).ok()?;
-                Tier::Sampled
-            }
-            None => Tier::Full,
-        };
+        let mut config = SimConfig::load_unvalidated(Some((path.as_path(), &*text)), &sets).ok()?;
+        let tier = apply_sample(&mut config, self.sample.as_deref()).ok()?;
         let key = RunKey::for_tier(&prepared.hash, &config, tier).ok()?;
         self.store
             .load(&key)

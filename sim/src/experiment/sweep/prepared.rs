@@ -42,25 +42,9 @@ pub struct PreparedScene {
     pub hash: blake3::Hash,
     /// BVHs built so far, one per build parameters.
     bvhs: Mutex<Vec<(BvhParams, Arc<HwBvh>)>>,
-    /// Functional profiles made so far for sampled runs, one per [`profile_key`]: shared by
+    /// Functional profiles made so far for sampled runs, one per [`Profile::key`]: shared by
     /// the designs of the scene, as `vtq compare --sample` shares them.
     profiles: Mutex<Vec<(String, Arc<Profile>)>>,
-}
-
-/// What a functional profile depends on in `config`, as text: the BVH build, the image, the
-/// GPU's shape, the memory sizes, `hw.max_rays` (whether the frame can be held at once) and the
-/// `[sample]` settings — not the rest of the design, so the designs of a scene share one
-/// profile.
-fn profile_key(config: &SimConfig) -> String {
-    format!(
-        "{:?}|{:?}|{:?}|{:?}|{}|{:?}",
-        config.bvh_params(),
-        config.workload,
-        config.gpu,
-        config.memory,
-        config.hw.max_rays,
-        config.sample
-    )
 }
 
 impl PreparedScene {
@@ -93,10 +77,10 @@ impl PreparedScene {
         bvhs.iter().any(|(p, _)| p == params)
     }
 
-    /// The functional profile of `config`'s frame on `bvh`: made once per [`profile_key`],
+    /// The functional profile of `config`'s frame on `bvh`: made once per [`Profile::key`],
     /// then shared.
     fn profile(&self, config: &SimConfig, bvh: &HwBvh) -> anyhow::Result<Arc<Profile>> {
-        let key = profile_key(config);
+        let key = Profile::key(config);
         let mut profiles = self.profiles.lock().unwrap_or_else(|e| e.into_inner());
         if let Some((_, p)) = profiles.iter().find(|(k, _)| *k == key) {
             return Ok(Arc::clone(p));

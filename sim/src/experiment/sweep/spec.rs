@@ -95,6 +95,19 @@ pub struct Point {
     pub tier: Tier,
 }
 
+/// Applies a sample point `sample` (`--sample`: a named point, `FRACTIONxREPLICATES` or
+/// `config`) to `config`'s `[sample]` section and gives the tier a run of it is: sampled with a
+/// point, full detail without (`config` unchanged).
+pub fn apply_sample(config: &mut SimConfig, sample: Option<&str>) -> Result<Tier, String> {
+    match sample {
+        Some(spec) => {
+            config.sample.apply_spec(spec)?;
+            Ok(Tier::Sampled)
+        }
+        None => Ok(Tier::Full),
+    }
+}
+
 impl Point {
     /// The key of this point's result on the scene whose content hash is `scene_hash`.
     pub fn key(&self, scene_hash: &blake3::Hash) -> Result<RunKey, ConfigError> {
@@ -303,13 +316,8 @@ impl SweepSpec {
                     let file = base.as_deref().zip(text.as_deref());
                     let mut config = SimConfig::load_unvalidated(file, &overrides)
                         .with_context(|| format!("sweep point {label}"))?;
-                    let tier = match &self.sample {
-                        Some(spec) => {
-                            config.sample.apply_spec(spec).map_err(anyhow::Error::msg)?;
-                            Tier::Sampled
-                        }
-                        None => Tier::Full,
-                    };
+                    let tier = apply_sample(&mut config, self.sample.as_deref())
+                        .map_err(anyhow::Error::msg)?;
                     let canonical = config
                         .to_toml()
                         .with_context(|| format!("sweep point {label}"))?;

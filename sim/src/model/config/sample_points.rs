@@ -180,6 +180,13 @@ impl OperatingPoint {
     }
 }
 
+/// The notes of `spec` (a `--sample` value) for `cfg` when it names a point
+/// ([`OperatingPoint::notes`]); none for other values.
+pub fn notes(spec: Option<&str>, cfg: &SimConfig) -> Vec<String> {
+    spec.and_then(|s| point(s.trim()))
+        .map_or_else(Vec::new, |p| p.notes(cfg))
+}
+
 /// The named points as a table for `--help` and listings: name, settings, purpose and what
 /// each was last measured to give.
 pub fn points_help() -> String {
