@@ -48,6 +48,8 @@ pub struct Coverage {
     pub scans_restarted: u64,
     /// Count table: scans that finished and published new extreme pointers.
     pub scans_published: u64,
+    /// Count table: Clear ops (each empties the table).
+    pub clears: u64,
     /// Queue table: ops finished (`done`).
     pub ops_done: u64,
     /// Queue table: rays spilled to memory (`spill_valid`).
@@ -70,6 +72,7 @@ impl std::fmt::Display for Coverage {
             ("scans started", self.scans_started),
             ("scans restarted", self.scans_restarted),
             ("scans published", self.scans_published),
+            ("clears", self.clears),
             ("ops done", self.ops_done),
             ("spills", self.spills),
             ("refill requests", self.refills),
@@ -132,7 +135,8 @@ fn treelet_pool(rng: &mut Rng, n: usize, bits: u32) -> Vec<u64> {
 /// The count table for `cfg` and `cycles` cycles of its inputs from `seed`: Adds (to entries in
 /// the table, to a pool of mostly absent treelets, to the smallest entry, some with an invalid
 /// n), Removes (of part or all of an entry, of the largest entry, of absent treelets, some of
-/// too many rays) and Nops; an Add is held while `ready` is low.
+/// too many rays), now and then a Clear of a full table, and Nops; an Add is held while
+/// `ready` is low.
 pub fn count_table_inputs(
     cfg: &HwConfig,
     cycles: usize,
@@ -199,9 +203,14 @@ pub fn count_table_inputs(
                     treelet: from_pool(&mut rng),
                     n: rng.below(warp + 2) as u32,
                 },
+                // Now and then a full table is emptied (as the controller does after a wave).
+                90 if regs.ctl.occupancy == cfg.count_table_entries && rng.below(20) == 0 => {
+                    CountOp::Clear
+                }
                 _ => CountOp::Nop,
             }
         });
+        cov.clears += u64::from(op == CountOp::Clear);
         let input = t.input(op);
         let was_scanning = regs.ctl.scanning;
         let o = t.step(&mut regs, &input);

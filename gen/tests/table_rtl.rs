@@ -80,7 +80,7 @@ fn count_table_matches_rust_cycle_by_cycle() {
             "{tag}: {cov:?}"
         );
         assert!(
-            cov.evictions > 100 && cov.stalls > 100 && cov.errors > 100,
+            cov.evictions > 100 && cov.stalls > 100 && cov.errors > 100 && cov.clears >= 2,
             "{tag}: {cov:?}"
         );
         let trace = record(&t, inputs).unwrap();

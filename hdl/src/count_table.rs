@@ -13,8 +13,8 @@
 //! - Counters `occupancy` and `above` (entries with count >= `underpopulation_threshold`).
 //!
 //! # Operations and timing
-//! One operation per cycle (`op_kind` 0 = Nop, 1 = Add, 2 = Remove), decided combinationally in
-//! the cycle it is presented; state changes at the clock edge.
+//! One operation per cycle (`op_kind` 0 = Nop, 1 = Add, 2 = Remove, 3 = Clear), decided
+//! combinationally in the cycle it is presented; state changes at the clock edge.
 //! - **Add** `n` rays (1..=warp_size) to a treelet: a hit adds to the entry; a miss takes the
 //!   first free entry; a miss with the table full evicts the smallest entry and reports it on
 //!   `evict_*` — or, when the new treelet's `n` is not larger than the smallest count, reports the
@@ -23,6 +23,11 @@
 //! - **Remove** `n` rays: subtracts; reaching 0 frees the entry. Removing from an unknown treelet
 //!   or more rays than held, `n` = 0 or `n` > warp_size, or an Add that would exceed `max_rays`,
 //!   raises `error` for that cycle and changes nothing.
+//! - **Clear** empties the table in one cycle (a common synchronous clear of the valid bits; the
+//!   scan stops and both pointers become invalid). The controller clears the table when its
+//!   rays are all traced (mode done): the rays that grouped warps and repacks took are not
+//!   removed one by one, so without the clear their counts would outlive the wave of rays.
+//!   Always accepted.
 //!
 //! The pointers are updated incrementally: growth of any entry (or a new entry) can only raise
 //! the maximum, and shrinking can only lower the minimum, so those are folded in at once. An
@@ -62,15 +67,18 @@ pub enum CountOp {
         /// Number of rays.
         n: u32,
     },
+    /// Every entry is freed and both pointers become invalid (`op_kind` 3).
+    Clear,
 }
 
 impl CountOp {
-    /// The `op_kind` encoding: 0 Nop, 1 Add, 2 Remove.
+    /// The `op_kind` encoding: 0 Nop, 1 Add, 2 Remove, 3 Clear.
     pub fn kind_code(&self) -> u64 {
         match self {
             CountOp::Nop => 0,
             CountOp::Add { .. } => 1,
             CountOp::Remove { .. } => 2,
+            CountOp::Clear => 3,
         }
     }
 }
@@ -114,7 +122,7 @@ crate::bundle! {
         pub op: CountOp,
     }
     ports {
-        /// operation: 0 Nop, 1 Add, 2 Remove
+        /// operation: 0 Nop, 1 Add, 2 Remove, 3 Clear
         sig op_kind (CountOp::BITS) = this.op.kind_code();
         /// treelet address of the op
         sig op_treelet (w.treelet) = this.op.fields().0;
@@ -438,13 +446,18 @@ impl CountTable {
         };
         let n_entries = self.entries();
         let warp = self.cfg.warp_size;
+        if inputs.op == CountOp::Clear {
+            // Every valid bit cleared at the edge; the scan and both pointers reset.
+            mem.clear_all(|e| e.valid = false);
+            return (out, CountCtl::default());
+        }
 
         // ---- The operation (combinational lookup, write at the edge). ----
         let mut change = Change::None;
         let mut occupancy = c.occupancy;
         let mut above = c.above;
         match inputs.op {
-            CountOp::Nop => {}
+            CountOp::Nop | CountOp::Clear => {}
             CountOp::Add { treelet, n } => {
                 let hit = mem.search(|e| e.valid && e.treelet == treelet);
                 if n == 0 || n > warp {
@@ -840,7 +853,7 @@ impl CountOp {
     /// `(treelet, n)` as driven on the wires (zeros for `Nop`).
     pub fn fields(&self) -> (u64, u32) {
         match *self {
-            CountOp::Nop => (0, 0),
+            CountOp::Nop | CountOp::Clear => (0, 0),
             CountOp::Add { treelet, n } | CountOp::Remove { treelet, n } => (treelet, n),
         }
     }
@@ -897,6 +910,30 @@ mod tests {
             stalls += 1;
         }
         assert_eq!(stalls, t.scan_cycles());
+    }
+
+    #[test]
+    fn clear_empties_the_table_in_one_cycle_even_mid_scan() {
+        let t = CountTable::with_scan_width(&small(), 1).unwrap();
+        let mut r = t.reset();
+        for (treelet, n) in [(10, 3), (11, 4), (12, 2)] {
+            t.step(&mut r, &t.input(CountOp::Add { treelet, n }));
+        }
+        // Shrinking the largest entry stales the max pointer and starts a scan.
+        t.step(&mut r, &t.input(CountOp::Remove { treelet: 11, n: 4 }));
+        t.step(&mut r, &t.input(CountOp::Nop));
+        assert!(r.ctl.scanning, "a scan runs when the table is cleared");
+        let o = t.step(&mut r, &t.input(CountOp::Clear));
+        assert!(o.ready && !o.error && !o.evict_valid);
+        assert_eq!(r.ctl, CountCtl::default());
+        assert!(r.entries.words().iter().all(|e| !e.valid));
+        assert!(!t.busy(&r), "a cleared table has nothing to do");
+        let o = t.step(&mut r, &t.input(CountOp::Nop));
+        assert_eq!((o.max_valid, o.occupancy, o.above_threshold), (false, 0, 0));
+        // The table works as from reset: the next Add is its largest entry at once.
+        t.step(&mut r, &t.input(CountOp::Add { treelet: 12, n: 1 }));
+        let o = t.step(&mut r, &t.input(CountOp::Nop));
+        assert_eq!((o.max_valid, o.max_treelet, o.max_count), (true, 12, 1));
     }
 
     #[test]

@@ -95,6 +95,7 @@ impl<T: Clone> Memory<T> {
             searches: 0,
             issued: Vec::new(),
             writes: Vec::new(),
+            clear: None,
         }
     }
 
@@ -131,6 +132,7 @@ pub struct MemCycle<'a, T: Clone> {
     searches: u32,
     issued: Vec<(usize, usize)>,
     writes: Vec<(usize, T)>,
+    clear: Option<fn(&mut T)>,
 }
 
 impl<T: Clone> MemCycle<'_, T> {
@@ -190,6 +192,18 @@ impl<T: Clone> MemCycle<'_, T> {
         self.mem.words.iter().position(pred)
     }
 
+    /// Clears a field of every word at the clock edge (`clear` applied to each word), as a
+    /// flip-flop array's common synchronous clear does (the valid bits of a table emptied in one
+    /// cycle); it uses no write port, and the cycle's writes land after it. Flip-flop arrays
+    /// (latency 0) only: an SRAM has no such clear.
+    pub fn clear_all(&mut self, clear: fn(&mut T)) {
+        debug_assert_eq!(
+            self.mem.ports.read_latency, 0,
+            "clear_all() is for flip-flop arrays"
+        );
+        self.clear = Some(clear);
+    }
+
     /// Writes a whole word at the clock edge.
     pub fn write(&mut self, addr: usize, value: T) {
         debug_assert!(addr < self.mem.words.len(), "address {addr} out of range");
@@ -215,6 +229,9 @@ impl<T: Clone> Drop for MemCycle<'_, T> {
         // Read-first: reads issued this cycle capture the words before this cycle's writes.
         for &(port, addr) in &self.issued {
             self.mem.rdata[port] = self.mem.words[addr].clone();
+        }
+        if let Some(clear) = self.clear.take() {
+            self.mem.words.iter_mut().for_each(clear);
         }
         for (addr, value) in self.writes.drain(..) {
             self.mem.words[addr] = value;
@@ -295,6 +312,18 @@ mod tests {
         let mut c = m.cycle();
         c.write(0, 1);
         c.write(1, 1);
+    }
+
+    #[test]
+    fn clear_all_lands_at_the_edge_before_the_writes() {
+        let mut m: Memory<u32> = Memory::new(3, 5, FLOPS);
+        {
+            let mut c = m.cycle();
+            c.clear_all(|w| *w &= 1);
+            c.write(2, 8);
+            assert_eq!(c.read(0), 5, "the clear lands at the clock edge");
+        }
+        assert_eq!(m.words(), &[1, 1, 8]);
     }
 
     #[test]

@@ -39,6 +39,7 @@ impl RefCountTable {
     fn apply(&mut self, op: CountOp, warp_size: u32) {
         match op {
             CountOp::Nop => {}
+            CountOp::Clear => self.counts.clear(),
             CountOp::Add { treelet, n: rays } => {
                 let treelet = treelet as u32;
                 assert!((1..=warp_size).contains(&rays));
@@ -202,7 +203,7 @@ impl Harness {
                 s.width
             );
         }
-        if out.ct_op != CountOp::Nop {
+        if !matches!(out.ct_op, CountOp::Nop | CountOp::Clear) {
             assert!(inputs.ct.ready, "count-table op while not ready");
         }
         if out.qt_op != QueueOp::Nop {
@@ -601,7 +602,15 @@ fn groups_underpopulated_queues_into_full_warps_then_finishes() {
             done_at = Some(cycle);
             break;
         }
+        // Grouped warps take C's and D's rays without removing their counts (PopAny).
+        assert!(
+            o.ct_op == CountOp::Nop || h.regs.mode == Mode::Done,
+            "a count-table op before every ray is traced: {:?}",
+            o.ct_op
+        );
     }
+    // The cycle that found every ray traced cleared the counts the grouped warps left.
+    assert!(h.ct.counts.is_empty(), "stale counts: {:?}", h.ct.counts);
     // C's first entry (32) is one warp; C's other 8 and D's 20 are grouped into the second.
     assert_eq!(
         fills,

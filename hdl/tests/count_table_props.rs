@@ -75,6 +75,10 @@ fn ref_apply(p: &Params, slots: &mut [Option<(u64, u32)>], op: CountOp) -> Expec
         |slots: &[Option<(u64, u32)>], t| slots.iter().position(|s| s.is_some_and(|s| s.0 == t));
     match op {
         CountOp::Nop => Expect::default(),
+        CountOp::Clear => {
+            slots.fill(None);
+            Expect::default()
+        }
         CountOp::Add { treelet, n } => {
             if n == 0 || n > warp {
                 return Expect {
@@ -230,7 +234,13 @@ impl ReferenceStateMachine for CountRef {
                     };
                     CountOp::Remove { treelet, n }
                 });
-            prop_oneof![5 => add, 4 => remove_held, 1 => any_remove].boxed()
+            prop_oneof![
+                5 => add,
+                4 => remove_held,
+                1 => any_remove,
+                1 => Just(CountOp::Clear)
+            ]
+            .boxed()
         };
         (op, idle).prop_map(|(op, idle)| Step { op, idle }).boxed()
     }

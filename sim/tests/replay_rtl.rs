@@ -63,9 +63,11 @@ fn a_real_runs_table_traffic_matches_the_rtl() {
         .iter()
         .filter(|i| matches!(i.op, QueueOp::Pop { .. } | QueueOp::PopAny))
         .count();
+    // Clears: waves of rays that ended with counts of grouped warps' rays in the table.
+    let clears = log.count.iter().filter(|i| i.op == CountOp::Clear).count();
     assert!(
-        adds > 50 && pops > 5 && refills > 0,
-        "{adds} adds, {pops} pops, {refills} refills"
+        adds > 50 && pops > 5 && refills > 0 && clears > 0,
+        "{adds} adds, {pops} pops, {refills} refills, {clears} clears"
     );
     // The controller's inputs from reset, every cycle; replayed on the Rust block they take it
     // through the treelet-stationary and final ray-stationary phases.

@@ -179,6 +179,26 @@ fn no_ray_is_lost_when_the_tables_overflow() {
     assert!(out.stats.queue_table_spills > 0);
 }
 
+/// The skip reading of section 6.4 (every queue underpopulated, so no queue is ever claimed)
+/// under ray virtualization with a small ray budget: grouped warps take every ray with
+/// `PopAny`, which removes no count, so the counts must be cleared when a wave ends. Before that
+/// clear they outlived their rays and passed `hw.max_rays` within a few waves ("the count table
+/// rejected an op", docs/fidelity.md cause G).
+#[test]
+fn counts_do_not_outlive_their_wave_of_rays() {
+    let small_budget = [
+        "hw.max_rays=64",
+        "hw.underpopulation_threshold=64",
+        "gpu.max_ctas_per_sm=1",
+        "gpu.threads_per_cta=64",
+    ];
+    let out = check_against_functional("wknd", &cfg(VTQ, 1, 32, &small_budget));
+    let q = &out.stats.queues.counts;
+    assert!(q.restarts > 10, "many waves of rays: {}", q.restarts);
+    assert!(q.ctl.grouped_warps > 0 && q.ctl.enqueued_rays > 0, "{q:?}");
+    assert_eq!(q.ctl.treelet_warps, 0, "no queue reaches the threshold");
+}
+
 #[test]
 fn skipping_idle_cycles_matches_lockstep() {
     for variant in [VTQ, NAIVE, NO_VIRT] {

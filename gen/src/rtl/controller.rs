@@ -234,6 +234,7 @@ pub fn controller_verilog(
         ("KW1", (kindw - 1).to_string()),
         ("CT_ADD", lit(ctop, 1)),
         ("CT_REMOVE", lit(ctop, 2)),
+        ("CT_CLEAR", lit(ctop, 3)),
         ("CT_NOP", lit(ctop, 0)),
         ("QT_NOP", lit(qtop, 0)),
         ("QT_INSERT", lit(qtop, 1)),

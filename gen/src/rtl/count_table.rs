@@ -154,17 +154,19 @@ const BODY: &str = r#"
 // c in 1..=max_rays is stored as c - 1. One write port (the op's entry), combinational reads
 // (the op's entry and ${S} scan ports), two search ports (the CAM match of op_treelet and the
 // first free entry). The valid fields are entries_valid, reset to 0 like the Rust model's
-// reset(); the {treelet, count_m1} fields are `entries`, not reset: no logic reads them while
-// the entry is invalid, so the outputs are those of an all-zero reset.
+// reset() and cleared together by a Clear op; the {treelet, count_m1} fields are `entries`, not
+// reset: no logic reads them while the entry is invalid, so the outputs are those of an
+// all-zero reset.
 // ---------------------------------------------------------------------------------------------
 reg [${NM1}:0] entries_valid;                // valid field of every entry
 (* mem2reg *) reg [${DM1}:0] entries [0:${NM1}]; // {treelet, count_m1} fields
 reg          ent_we;    // write the op's entry at the clock edge
 reg [${IWM1}:0]  ent_waddr; // ... this entry
 reg [${WM1}:0] ent_wdata; // ... with this word {valid, treelet, count_m1}
+wire         op_clear = (op_kind == 2'd3); // Clear: every valid bit, the scan and both pointers reset
 
 always @(posedge clk) begin : p_entries
-    if (rst) begin
+    if (rst || op_clear) begin
         entries_valid <= ${ZERO_N_BITS};
     end else if (ent_we) begin
         entries_valid[ent_waddr] <= ent_wdata[${VB}];
@@ -219,7 +221,7 @@ always @* begin : p_search
     end
 end
 
-// ---- The op: Add or Remove n rays of op_treelet, one per cycle, decided this cycle ---------------
+// ---- The op: Add or Remove n rays of op_treelet, or Clear, one per cycle, decided this cycle -----
 wire         op_add = (op_kind == 2'd1);
 wire         op_remove = (op_kind == 2'd2);
 wire         n_bad = (op_n == ${ZERO_N}) || (op_n > ${L_WARP}); // n outside 1..=warp_size
@@ -549,6 +551,29 @@ always @* begin : p_next
         // A pointer went stale: start a scan from entry 0.
         state_d = ${SCAN};
         scan_pos_d = ${ZERO_IDX};
+    end
+    if (op_clear) begin
+        // Clear: the registers' reset values.
+        occupancy_d = ${ZERO_EW};
+        above_d = ${ZERO_EW};
+        state_d = ${IDLE};
+        scan_pos_d = ${ZERO_IDX};
+        max_valid_d = 1'b0;
+        max_idx_d = ${ZERO_IDX};
+        max_treelet_d = ${ZERO_TW};
+        max_count_m1_d = ${ZERO_CW};
+        min_valid_d = 1'b0;
+        min_idx_d = ${ZERO_IDX};
+        min_treelet_d = ${ZERO_TW};
+        min_count_m1_d = ${ZERO_CW};
+        run_max_valid_d = 1'b0;
+        run_max_idx_d = ${ZERO_IDX};
+        run_max_treelet_d = ${ZERO_TW};
+        run_max_count_m1_d = ${ZERO_CW};
+        run_min_valid_d = 1'b0;
+        run_min_idx_d = ${ZERO_IDX};
+        run_min_treelet_d = ${ZERO_TW};
+        run_min_count_m1_d = ${ZERO_CW};
     end
 end
 

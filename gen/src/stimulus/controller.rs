@@ -78,6 +78,8 @@ pub struct ControllerCoverage {
     pub refills: u64,
     /// Count-table `Remove` ops issued.
     pub removes: u64,
+    /// Count-table `Clear` ops issued (a wave ended with counts left in the table).
+    pub clears: u64,
     /// Count-table evictions seen (`ct_evict_valid`).
     pub evictions: u64,
     /// Evictions of a resident treelet.
@@ -92,10 +94,10 @@ impl ControllerCoverage {
     /// Every mode and every sequencer state was reached, and every action happened at least
     /// `n` times: terminations, enqueues, claims, preloads, resident pops, pop_any, empty pops,
     /// grouped warps, repacks, cycles with a repack withheld for want of rays, spare fills,
-    /// refills, removes, evictions and restarts. The
-    /// design variant decides which apply: without grouping (the naive design) there is no
-    /// final ray-stationary phase (nor its fill sequence, grouped warps, repacks and spare
-    /// fills), and without preloading no preloads. An error lists what was not covered.
+    /// refills, removes, clears, evictions and restarts. The design variant decides which
+    /// apply: without grouping (the naive design) there is no final ray-stationary phase (nor
+    /// its fill sequence, grouped warps, repacks and spare fills, nor the clears of the counts
+    /// they leave), and without preloading no preloads. An error lists what was not covered.
     pub fn covers_everything(&self, n: u64, features: ControllerFeatures) -> Result<(), String> {
         let naive = !features.group_underpopulated;
         let mut missing = Vec::new();
@@ -130,6 +132,7 @@ impl ControllerCoverage {
                 ("repacks", self.repacks),
                 ("repack-starved cycles", self.repack_starved),
                 ("spare fills", self.spare_fills),
+                ("clears", self.clears),
             ]);
         }
         for (name, c) in actions {
@@ -189,6 +192,7 @@ impl std::fmt::Display for ControllerCoverage {
             ("empty closes", self.empty_closes),
             ("refills", self.refills),
             ("removes", self.removes),
+            ("clears", self.clears),
             ("evictions", self.evictions),
             ("resident evictions", self.resident_evictions),
             ("max resident", self.max_resident),
@@ -580,6 +584,7 @@ impl Env {
         c.repack_starved += u64::from(out.repack_starved);
         c.refills += u64::from(out.qt_op == QueueOp::Refill);
         c.removes += u64::from(matches!(out.ct_op, CountOp::Remove { .. }));
+        c.clears += u64::from(out.ct_op == CountOp::Clear);
         c.ct_not_ready +=
             u64::from(!i.ct.ready && (i.enqueue.is_some() || regs.pending_remove.is_some()));
         if let Some(t) = i.ct_evict {

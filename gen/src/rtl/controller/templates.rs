@@ -476,7 +476,11 @@ pub(super) const NEXT_BODY: &str = r#"    // A repack withheld for want of rays 
 
     // Mode transitions, judged on this cycle's registers and inputs.
     if (e_mode != ${M_DONE}) begin
-        if (drained) mode_d = ${M_DONE};
+        if (drained) begin
+            mode_d = ${M_DONE};
+            // Every ray is traced: clear the counts grouped warps and repacks left behind.
+            if (ct_occupancy != ${Z_CE}) o_ct_op = ${CT_CLEAR};
+        end
         else if ((e_mode == ${M_INITIAL}) && divergent) mode_d = ${M_TS};
         else if ((e_mode == ${M_TS}) && phase_over) mode_d = ${M_FINAL};
     end
