@@ -249,6 +249,7 @@ fn a_sampled_reproduction_draws_estimates_with_error_bars() {
         ("fig11", "tenth of the run"),
         ("fig15", "intersection tests"),
         ("fig17", "energy"),
+        ("ext-workload-share-spp", "intersection tests"),
     ] {
         assert!(!out.join(format!("figures/{id}.svg")).exists(), "{id}");
         assert!(md.contains(needs), "{id}: {md}");

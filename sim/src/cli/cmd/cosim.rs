@@ -40,7 +40,7 @@ use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
 use crate::model::config::SimConfig;
 use crate::model::gpu::datapath::BvhDatapath;
 use crate::model::gpu::{simulate, SimOptions};
-use vtq_hdl::count_table::CountTable;
+use vtq_hdl::count_table::{CountOp, CountTable};
 use vtq_hdl::queue_table::QueueTable;
 
 /// Which block(s) to co-simulate.
@@ -489,10 +489,12 @@ fn replay_summary(ctl: &TreeletController, inputs: &[ControllerInputs]) -> Strin
     let mut stats = ControllerStats::default();
     let mut modes = [0u64; 4];
     let mut pops = 0u64;
+    let mut clears = 0u64;
     for i in inputs {
         let out = ctl.step(&mut regs, i);
         modes[out.mode as usize] += 1;
         pops += u64::from(matches!(out.qt_op, QueueOp::Pop { .. } | QueueOp::PopAny));
+        clears += u64::from(out.ct_op == CountOp::Clear);
         stats.observe(i, &out);
     }
     let modes: Vec<String> = Mode::ALL
@@ -502,7 +504,7 @@ fn replay_summary(ctl: &TreeletController, inputs: &[ControllerInputs]) -> Strin
         .collect();
     format!(
         "modes: {}; {} terminations, {} enqueues, {} claims, {} preloads, {} pops, {} treelet \
-         warps, {} grouped warps, {} repacks, {} evictions",
+         warps, {} grouped warps, {} repacks, {} evictions, {} count-table clears",
         modes.join(", "),
         stats.terminated_warps,
         stats.enqueued_rays,
@@ -512,7 +514,8 @@ fn replay_summary(ctl: &TreeletController, inputs: &[ControllerInputs]) -> Strin
         stats.treelet_warps,
         stats.grouped_warps,
         stats.repacks,
-        stats.evictions
+        stats.evictions,
+        clears
     )
 }
 

@@ -22,7 +22,8 @@ use crate::experiment::reproduce::figures::{self, Figure};
 use crate::experiment::reproduce::page::Page;
 use crate::experiment::reproduce::tables;
 use crate::experiment::reproduce::{
-    cause_g, scene_labels, Experiments, Results, CAUSE_G_EXPERIMENTS, FIGURE_EXPERIMENTS,
+    cause_g, scene_labels, Experiments, Results, BEYOND_EXPERIMENTS, CAUSE_G_EXPERIMENTS,
+    FIGURE_EXPERIMENTS,
 };
 use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse};
 use crate::model::bvh::BvhParams;
@@ -86,7 +87,11 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     // The paper's experiments first: their scenes are then the first of the prepared scenes,
     // which the paper's figures are drawn over.
     let mut paper_points = 0;
-    for name in FIGURE_EXPERIMENTS.into_iter().chain(CAUSE_G_EXPERIMENTS) {
+    for name in FIGURE_EXPERIMENTS
+        .into_iter()
+        .chain(CAUSE_G_EXPERIMENTS)
+        .chain(BEYOND_EXPERIMENTS)
+    {
         if name == CAUSE_G_EXPERIMENTS[0] {
             paper_points = points.len();
         }
@@ -176,17 +181,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let mut figures: Vec<Figure> = figure_fns
         .iter()
         .map(|(id, title, f)| match (sample, not_estimated(id)) {
-            (Some(_), Some(needs)) => Figure {
-                id: id.to_string(),
-                title: title.to_string(),
-                caption: format!(
-                    "Not drawn: the sampled tier estimates cycles, SIMT efficiency, the BVH L1 \
-                     miss rate, DRAM bytes and the phases' shares of cycles; this figure needs \
-                     {needs}. Run `vtq reproduce` without --sample for it."
-                ),
-                images: Vec::new(),
-                table: Default::default(),
-            },
+            (Some(_), Some(needs)) => not_drawn_sampled(id, title, needs),
             _ => drawn(id, title, f(&results, out)),
         })
         .collect();
@@ -207,6 +202,12 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             .iter()
             .map(|(id, title, f)| drawn(id, title, f(&all_results, out))),
     );
+    let id = "ext-workload-predictions";
+    let title = "The paper's workload predictions";
+    figures.push(match (sample, not_estimated(id)) {
+        (Some(_), Some(needs)) => not_drawn_sampled(id, title, needs),
+        _ => drawn(id, title, beyond::workload_predictions(&all_results, out)),
+    });
     let vtq_path = root.join("configs/designs/vtq/config.toml");
     let vtq = designs::load(Some(&vtq_path), &args.set)?;
     let fig5 = figure5_rows(&scenes[..paper_scenes], &vtq, &args.cache)
@@ -302,9 +303,25 @@ fn prepare_count(scenes: &[PreparedScene], first: &[Point]) -> usize {
 fn not_estimated(id: &str) -> Option<&'static str> {
     match id {
         "fig11" => Some("the miss rate in each tenth of the run"),
-        "fig15" => Some("the intersection tests of each phase"),
+        "fig15" | "ext-workload-predictions" => Some("the intersection tests of each phase"),
         "fig17" => Some("the energy model's event counts"),
         _ => None,
+    }
+}
+
+/// The page's entry for figure `id` (`title`) that a sampled reproduction does not draw because
+/// it `needs` a statistic the sampled tier does not estimate ([`not_estimated`]).
+fn not_drawn_sampled(id: &str, title: &str, needs: &str) -> Figure {
+    Figure {
+        id: id.to_string(),
+        title: title.to_string(),
+        caption: format!(
+            "Not drawn: the sampled tier estimates cycles, SIMT efficiency, the BVH L1 miss \
+             rate, DRAM bytes and the phases' shares of cycles; this figure needs {needs}. Run \
+             `vtq reproduce` without --sample for it."
+        ),
+        images: Vec::new(),
+        table: Default::default(),
     }
 }
 

@@ -4,8 +4,9 @@
 
 use std::path::Path;
 
-use super::figures::{paper, speedup_bars, Figure, PREFETCH, VTQ};
+use super::figures::{cell, num, paper, speedup_bars, Figure, Table, BASELINE, PREFETCH, VTQ};
 use super::Results;
+use crate::experiment::plot::{write_lines, Line, Lines, Reference};
 
 /// VTQ with treelet prefetching in its ray-stationary phases (design `vtq-prefetch`).
 const VTQ_PREFETCH: &str = "configs/designs/vtq-prefetch/config.toml";
@@ -39,5 +40,182 @@ pub fn vtq_prefetch(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             .into(),
         images: vec![img],
         table,
+    })
+}
+
+/// The samples per pixel of `ext-workload-predictions` (3 bounces).
+const SPP: [u32; 4] = [1, 2, 4, 8];
+/// Its bounces (1 sample per pixel; 3 is its first samples-per-pixel point).
+const BOUNCES: [u32; 4] = [1, 2, 3, 5];
+
+/// One workload point of `ext-workload-predictions`: the key it varies and its value.
+#[derive(Debug, Clone, Copy)]
+struct WorkloadPoint {
+    /// `spp` or `bounces`.
+    key: &'static str,
+    /// Its value.
+    value: u32,
+}
+
+impl WorkloadPoint {
+    /// The points in the table's order: samples per pixel, then bounces.
+    fn all() -> Vec<WorkloadPoint> {
+        let spp = SPP.iter().map(|&value| WorkloadPoint { key: "spp", value });
+        let bounces = BOUNCES.iter().map(|&value| WorkloadPoint {
+            key: "bounces",
+            value,
+        });
+        spp.chain(bounces).collect()
+    }
+
+    /// The override that selects it.
+    fn set(&self) -> String {
+        format!("workload.{}={}", self.key, self.value)
+    }
+}
+
+/// One line chart of the predictions: its file name part, its y axis, the value it draws and
+/// its reference lines.
+type Chart = (
+    &'static str,
+    &'static str,
+    fn(&PointResult) -> Option<f64>,
+    Vec<Reference>,
+);
+
+/// What one scene gives at one workload point: VTQ's treelet-stationary share of its
+/// intersection tests and the speedups over the baseline of VTQ and of prefetching.
+struct PointResult {
+    treelet_share: Option<f64>,
+    vtq: Option<f64>,
+    prefetch: Option<f64>,
+}
+
+/// [`PointResult`] of `scene` at `p`, `None` when a run is missing.
+fn point_result(r: &Results, scene: &str, p: &WorkloadPoint) -> Option<PointResult> {
+    let set = p.set();
+    let sets: &[&str] = &[&set];
+    let stats = r.stats(scene, VTQ, sets)?;
+    let tests: Vec<f64> = ["initial", "treelet_stationary", "ray_stationary"]
+        .iter()
+        .map(|phase| num(&stats, &format!("/phases/{phase}/intersection_tests")))
+        .collect::<Option<_>>()?;
+    let total: f64 = tests.iter().sum();
+    let speedup = |design| {
+        r.speedup(scene, (BASELINE, sets), (design, sets))
+            .map(|e| e.value)
+    };
+    Some(PointResult {
+        treelet_share: (total > 0.0).then(|| tests[1] / total),
+        vtq: speedup(VTQ),
+        prefetch: speedup(PREFETCH),
+    })
+}
+
+/// The paper's workload predictions: how the treelet-stationary share of VTQ's tests and its
+/// speedups move with samples per pixel and bounces, per scene with every point stored.
+pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
+    let points = WorkloadPoint::all();
+    let mut scenes: Vec<(String, Vec<PointResult>)> = Vec::new();
+    for (scene, label) in r.scenes().into_iter().zip(r.labels()) {
+        let results: Option<Vec<PointResult>> =
+            points.iter().map(|p| point_result(r, scene, p)).collect();
+        if let Some(results) = results {
+            scenes.push((label, results));
+        }
+    }
+    anyhow::ensure!(
+        !scenes.is_empty(),
+        "no scene has every run of ext-workload-predictions"
+    );
+    let mut images = Vec::new();
+    for (key, x_label) in [
+        ("spp", "samples per pixel (3 bounces)"),
+        ("bounces", "bounces (1 sample per pixel)"),
+    ] {
+        let charts: [Chart; 2] = [
+            (
+                "share",
+                "treelet-stationary share of VTQ's tests (%)",
+                |p| p.treelet_share.map(|s| 100.0 * s),
+                vec![paper("paper, 1 spp, 3 bounces: mean 15%", 15.0)],
+            ),
+            (
+                "speedup",
+                "VTQ's speedup over the baseline",
+                |p| p.vtq,
+                vec![paper("baseline", 1.0)],
+            ),
+        ];
+        for (what, y_label, value, references) in charts {
+            let lines = scenes
+                .iter()
+                .map(|(label, results)| Line {
+                    name: label.clone(),
+                    points: points
+                        .iter()
+                        .zip(results)
+                        .filter(|(p, _)| p.key == key)
+                        .filter_map(|(p, res)| Some((p.value as f64, value(res)?)))
+                        .collect(),
+                })
+                .collect();
+            let stem = format!("figures/ext-workload-{what}-{key}");
+            write_lines(
+                &out.join(&stem),
+                &Lines {
+                    title: format!("{y_label} against {key}"),
+                    x_label: x_label.into(),
+                    y_label: y_label.into(),
+                    lines,
+                    references,
+                    x_range: None,
+                    y_range: None,
+                },
+            )?;
+            images.push(stem);
+        }
+    }
+    let rows = scenes
+        .iter()
+        .flat_map(|(label, results)| {
+            points.iter().zip(results).map(move |(p, res)| {
+                let over_prefetch = res.vtq.zip(res.prefetch).map(|(v, f)| v / f);
+                vec![
+                    label.clone(),
+                    format!("{} {}", p.key, p.value),
+                    res.treelet_share
+                        .map_or_else(|| "-".into(), |s| format!("{:.1}%", 100.0 * s)),
+                    cell(res.vtq, 3),
+                    cell(res.prefetch, 3),
+                    cell(over_prefetch, 3),
+                ]
+            })
+        })
+        .collect();
+    Ok(Figure {
+        id: "ext-workload-predictions".into(),
+        title: "Beyond the paper: its workload predictions".into(),
+        caption: "The paper expects the treelet-stationary phase to process fewer of the \
+                  intersection tests with more bounces (more divergent rays) and more of them \
+                  with more samples per pixel. Per scene: the share of VTQ's tests done \
+                  treelet-stationary and VTQ's speedup over the baseline, against samples per \
+                  pixel (3 bounces) and against bounces (1 sample per pixel); the table adds \
+                  prefetching's speedup and VTQ's over prefetching (docs/fidelity.md)."
+            .into(),
+        images,
+        table: Table {
+            header: [
+                "scene",
+                "workload",
+                "treelet-stationary share of tests",
+                "VTQ over baseline",
+                "prefetching over baseline",
+                "VTQ over prefetching",
+            ]
+            .map(String::from)
+            .to_vec(),
+            rows,
+        },
     })
 }

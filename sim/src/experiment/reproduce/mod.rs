@@ -49,9 +49,14 @@ pub const FIGURE_EXPERIMENTS: [&str; 9] = [
 /// of their own: city:32M alone takes 9.4 GB.)
 pub const CAUSE_G_EXPERIMENTS: [&str; 2] = ["dev-mechanisms", "dev-treelet-map"];
 
+/// The experiment files of docs/fidelity.md's "Beyond the paper" sections that `vtq reproduce`
+/// runs on scenes of their own (their figures are in [`beyond`]): the paper's predictions about
+/// samples per pixel and bounces.
+pub const BEYOND_EXPERIMENTS: [&str; 1] = ["ext-workload-predictions"];
+
 /// The experiment files of `configs/experiments/`, compiled in as (stem, text), so `vtq
 /// reproduce` and `vtq sweep --spec` run from any directory (a cluster node with only the binary).
-pub const EXPERIMENT_FILES: [(&str, &str); 23] = [
+pub const EXPERIMENT_FILES: [(&str, &str); 24] = [
     (
         "dev-frame-size",
         include_str!("../../../../configs/experiments/dev-frame-size.toml"),
@@ -103,6 +108,10 @@ pub const EXPERIMENT_FILES: [(&str, &str); 23] = [
     (
         "ext-vtq-prefetch",
         include_str!("../../../../configs/experiments/ext-vtq-prefetch.toml"),
+    ),
+    (
+        "ext-workload-predictions",
+        include_str!("../../../../configs/experiments/ext-workload-predictions.toml"),
     ),
     (
         "fig01-baseline",
