@@ -320,7 +320,8 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             out.stats.cycles
         )
     };
-    let mut count_ops = [0u64; 3];
+    // Indexed by the op's `op_kind` code (Nop, Add, Remove, Clear).
+    let mut count_ops = [0u64; 4];
     for i in &log.count {
         count_ops[i.op.kind_code() as usize] += 1;
     }
@@ -333,8 +334,8 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
     let mut jobs = Vec::new();
     if args.block.count() {
         let ops = format!(
-            "{} adds, {} removes, {} nop cycles",
-            count_ops[1], count_ops[2], count_ops[0]
+            "{} adds, {} removes, {} clears, {} nop cycles",
+            count_ops[1], count_ops[2], count_ops[3], count_ops[0]
         );
         let table = CountTable::new(hw)?;
         jobs.push(Job {
