@@ -87,6 +87,9 @@ type Chart = (
 /// intersection tests and the speedups over the baseline of VTQ and of prefetching.
 struct PointResult {
     treelet_share: Option<f64>,
+    /// The share of VTQ's tests made by treelet-stop warps (treelet and terminated initial
+    /// warps): Figure 15's other reading.
+    order_share: Option<f64>,
     vtq: Option<f64>,
     prefetch: Option<f64>,
 }
@@ -101,15 +104,28 @@ fn point_result(r: &Results, scene: &str, p: &WorkloadPoint) -> Option<PointResu
         .map(|phase| num(&stats, &format!("/phases/{phase}/intersection_tests")))
         .collect::<Option<_>>()?;
     let total: f64 = tests.iter().sum();
+    let all_tests: f64 = stats
+        .pointer("/rt/tests")?
+        .as_object()?
+        .values()
+        .filter_map(serde_json::Value::as_f64)
+        .sum();
+    let order = num(&stats, "/rt/treelet_order_tests");
     let speedup = |design| {
         r.speedup(scene, (BASELINE, sets), (design, sets))
             .map(|e| e.value)
     };
     Some(PointResult {
         treelet_share: (total > 0.0).then(|| tests[1] / total),
+        order_share: order.filter(|_| all_tests > 0.0).map(|o| o / all_tests),
         vtq: speedup(VTQ),
         prefetch: speedup(PREFETCH),
     })
+}
+
+/// A share as a percentage cell with one decimal, `-` when missing.
+fn percent(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |s| format!("{:.1}%", 100.0 * s))
 }
 
 /// The paper's workload predictions: how the treelet-stationary share of VTQ's tests and its
@@ -184,8 +200,8 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 vec![
                     label.clone(),
                     format!("{} {}", p.key, p.value),
-                    res.treelet_share
-                        .map_or_else(|| "-".into(), |s| format!("{:.1}%", 100.0 * s)),
+                    percent(res.treelet_share),
+                    percent(res.order_share),
                     cell(res.vtq, 3),
                     cell(res.prefetch, 3),
                     cell(over_prefetch, 3),
@@ -201,7 +217,9 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   with more samples per pixel. Per scene: the share of VTQ's tests done \
                   treelet-stationary and VTQ's speedup over the baseline, against samples per \
                   pixel (3 bounces) and against bounces (1 sample per pixel); the table adds \
-                  prefetching's speedup and VTQ's over prefetching (docs/fidelity.md)."
+                  the share of tests made by treelet-stop warps (Figure 15's reading by \
+                  traversal order), prefetching's speedup and VTQ's over prefetching \
+                  (docs/fidelity.md)."
             .into(),
         images,
         table: Table {
@@ -209,6 +227,7 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                 "scene",
                 "workload",
                 "treelet-stationary share of tests",
+                "treelet-stop warps' share of tests (by traversal order)",
                 "VTQ over baseline",
                 "prefetching over baseline",
                 "VTQ over prefetching",
