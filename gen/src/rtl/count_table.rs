@@ -72,6 +72,21 @@ pub fn count_table_verilog(cfg: &HwConfig) -> Result<String, GenError> {
             format!("({x} >= {})", lit(cw, thr - 1))
         }
     };
+    // The reset values of a pointer's four registers (`max`, `run_min`, ...), one per line.
+    let reset = |ptrs: &[&str], indent: usize| {
+        ptrs.iter()
+            .flat_map(|p| {
+                [
+                    format!("{p}_valid_d = 1'b0;"),
+                    format!("{p}_idx_d = {};", lit(iw, 0)),
+                    format!("{p}_treelet_d = {};", lit(tw, 0)),
+                    format!("{p}_count_m1_d = {};", lit(cw, 0)),
+                ]
+            })
+            .map(|l| format!("{:indent$}{l}", ""))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
     let vars: Vec<(&str, String)> = vec![
         ("N", n.to_string()),
         ("N_EW", lit(ew, n)),
@@ -114,6 +129,9 @@ pub fn count_table_verilog(cfg: &HwConfig) -> Result<String, GenError> {
         ("ABOVE_NEW", above("n_m1[${CWM1}:0]")),
         ("ABOVE_MIN", above("min_count_m1_q")),
         ("ABOVE_REM", above("rem_cm1")),
+        ("RUN_RESET_12", reset(&["run_max", "run_min"], 12)),
+        ("RUN_RESET_8", reset(&["run_max", "run_min"], 8)),
+        ("PTR_RESET_8", reset(&["max", "min"], 8)),
         ("IDLE", state_param(state, "IDLE")),
         ("SCAN", state_param(state, "SCAN")),
     ];
@@ -538,14 +556,7 @@ always @* begin : p_next
                 min_count_m1_d = rmin_cm1;
             end
             scan_pos_d = ${ZERO_IDX};
-            run_max_valid_d = 1'b0;
-            run_max_idx_d = ${ZERO_IDX};
-            run_max_treelet_d = ${ZERO_TW};
-            run_max_count_m1_d = ${ZERO_CW};
-            run_min_valid_d = 1'b0;
-            run_min_idx_d = ${ZERO_IDX};
-            run_min_treelet_d = ${ZERO_TW};
-            run_min_count_m1_d = ${ZERO_CW};
+${RUN_RESET_12}
         end
     end else if ((!pmax_valid || !pmin_valid) && (occupancy_d != ${ZERO_EW})) begin
         // A pointer went stale: start a scan from entry 0.
@@ -558,22 +569,8 @@ always @* begin : p_next
         above_d = ${ZERO_EW};
         state_d = ${IDLE};
         scan_pos_d = ${ZERO_IDX};
-        max_valid_d = 1'b0;
-        max_idx_d = ${ZERO_IDX};
-        max_treelet_d = ${ZERO_TW};
-        max_count_m1_d = ${ZERO_CW};
-        min_valid_d = 1'b0;
-        min_idx_d = ${ZERO_IDX};
-        min_treelet_d = ${ZERO_TW};
-        min_count_m1_d = ${ZERO_CW};
-        run_max_valid_d = 1'b0;
-        run_max_idx_d = ${ZERO_IDX};
-        run_max_treelet_d = ${ZERO_TW};
-        run_max_count_m1_d = ${ZERO_CW};
-        run_min_valid_d = 1'b0;
-        run_min_idx_d = ${ZERO_IDX};
-        run_min_treelet_d = ${ZERO_TW};
-        run_min_count_m1_d = ${ZERO_CW};
+${PTR_RESET_8}
+${RUN_RESET_8}
     end
 end
 

@@ -4,7 +4,9 @@
 
 use std::path::Path;
 
-use super::figures::{cell, num, paper, speedup_bars, Figure, Table, BASELINE, PREFETCH, VTQ};
+use super::figures::{
+    cell, num, paper, speedup_bars, treelet_order_share, Figure, Table, BASELINE, PREFETCH, VTQ,
+};
 use super::Results;
 use crate::experiment::plot::{write_lines, Line, Lines, Reference};
 
@@ -104,20 +106,13 @@ fn point_result(r: &Results, scene: &str, p: &WorkloadPoint) -> Option<PointResu
         .map(|phase| num(&stats, &format!("/phases/{phase}/intersection_tests")))
         .collect::<Option<_>>()?;
     let total: f64 = tests.iter().sum();
-    let all_tests: f64 = stats
-        .pointer("/rt/tests")?
-        .as_object()?
-        .values()
-        .filter_map(serde_json::Value::as_f64)
-        .sum();
-    let order = num(&stats, "/rt/treelet_order_tests");
     let speedup = |design| {
         r.speedup(scene, (BASELINE, sets), (design, sets))
             .map(|e| e.value)
     };
     Some(PointResult {
         treelet_share: (total > 0.0).then(|| tests[1] / total),
-        order_share: order.filter(|_| all_tests > 0.0).map(|o| o / all_tests),
+        order_share: treelet_order_share(&stats),
         vtq: speedup(VTQ),
         prefetch: speedup(PREFETCH),
     })

@@ -782,17 +782,7 @@ pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
     let by_order: Vec<Option<f64>> = scenes
         .iter()
-        .map(|scene| {
-            let stats = r.stats(scene, VTQ, &[])?;
-            let tests: f64 = stats
-                .pointer("/rt/tests")?
-                .as_object()?
-                .values()
-                .filter_map(serde_json::Value::as_f64)
-                .sum();
-            let order = num(&stats, "/rt/treelet_order_tests")?;
-            (tests > 0.0).then(|| order / tests)
-        })
+        .map(|scene| treelet_order_share(&r.stats(scene, VTQ, &[])?))
         .collect();
     let by_order = with_mean(&scenes, by_order, Mean::Arithmetic);
     table
@@ -815,6 +805,19 @@ pub fn figure15(r: &Results, out: &Path) -> anyhow::Result<Figure> {
         images: vec![img],
         table,
     })
+}
+
+/// The share of a run's node tests made by treelet-stop warps (treelet warps and terminated
+/// initial warps): Figure 15 read by traversal order instead of controller mode.
+pub(super) fn treelet_order_share(stats: &Json) -> Option<f64> {
+    let tests: f64 = stats
+        .pointer("/rt/tests")?
+        .as_object()?
+        .values()
+        .filter_map(Json::as_f64)
+        .sum();
+    let order = num(stats, "/rt/treelet_order_tests")?;
+    (tests > 0.0).then(|| order / tests)
 }
 
 /// Figure 16: the cost of ray virtualization in the full design.
