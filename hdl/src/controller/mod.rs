@@ -17,7 +17,8 @@
 //! ## Protocol (what the integrator must honour)
 //! - Table ops fire in the cycle they are driven: the controller drives a count-table op only
 //!   when `ct_ready` is high (but `Clear`, which the table always accepts) and a queue-table op
-//!   only when `qt_ready` is high, and assumes the op is then accepted. So the tables' status inputs (`ct_ready`, `ct_max_*`, `ct_occupancy`,
+//!   only when `qt_ready` is high, and assumes the op is then accepted. So the tables' status
+//!   inputs (`ct_ready`, `ct_max_*`, `ct_occupancy`,
 //!   `ct_above_threshold`, `qt_ready`, `qt_free_entries`, `qt_spilled`) are the tables'
 //!   register-only outputs in *this* cycle ([`crate::count_table::CountTable::status`],
 //!   [`crate::queue_table::QueueTable::status`]); the count table's `ready_any` is low only
@@ -37,8 +38,9 @@
 //!   table is no longer consulted, and completion is judged on the controller's exact
 //!   `queued_rays`. In the cycle the controller finds every ray traced (it enters mode done) it
 //!   drives `Clear` if the table still holds counts, so no count outlives its wave of rays
-//!   (under ray virtualization the controller restarts for every wave). Counts on the `ct_max_count` wire are encoded `count - 1` (12 bits for 4096
-//!   rays, [`HwConfig::count_bits`]); `ct_n` carries the op's true `n`.
+//!   (under ray virtualization the controller restarts for every wave). Counts on the
+//!   `ct_max_count` wire are encoded `count - 1` (12 bits for 4096 rays,
+//!   [`HwConfig::count_bits`]); `ct_n` carries the op's true `n`.
 //! - An enqueue request is taken when `enq_valid && enq_ready`. After `terminate` (or when a
 //!   treelet warp ends) the RT unit sends one enqueue per ray, then `warp_done` for the slot.
 //! - The treelet phase ends only when nothing can refill the queues: no resident treelet, no
