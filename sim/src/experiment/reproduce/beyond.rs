@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use super::cause_g::points;
 use super::figures::{
     cell, num, paper, speedup_bars, treelet_order_share, Figure, Table, BASELINE, PREFETCH, VTQ,
 };
@@ -45,34 +46,44 @@ pub fn vtq_prefetch(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     })
 }
 
-/// The samples per pixel of `ext-workload-predictions` (3 bounces).
-const SPP: [u32; 4] = [1, 2, 4, 8];
-/// Its bounces (1 sample per pixel; 3 is its first samples-per-pixel point).
-const BOUNCES: [u32; 4] = [1, 2, 3, 5];
+/// The experiment file of the workload predictions.
+const PREDICTIONS: &str = "ext-workload-predictions";
 
-/// One workload point of `ext-workload-predictions`: the key it varies and its value.
-#[derive(Debug, Clone, Copy)]
+/// One workload point of [`PREDICTIONS`]: the workload key it varies and its value.
+#[derive(Debug, Clone)]
 struct WorkloadPoint {
     /// `spp` or `bounces`.
-    key: &'static str,
+    key: String,
     /// Its value.
     value: u32,
+    /// The override that selects it (`workload.spp=2`).
+    set: String,
 }
 
 impl WorkloadPoint {
-    /// The points in the table's order: samples per pixel, then bounces.
-    fn all() -> Vec<WorkloadPoint> {
-        let spp = SPP.iter().map(|&value| WorkloadPoint { key: "spp", value });
-        let bounces = BOUNCES.iter().map(|&value| WorkloadPoint {
-            key: "bounces",
-            value,
-        });
-        spp.chain(bounces).collect()
-    }
-
-    /// The override that selects it.
-    fn set(&self) -> String {
-        format!("workload.{}={}", self.key, self.value)
+    /// The experiment file's points in its order, each one `workload.*` override.
+    fn all() -> anyhow::Result<Vec<WorkloadPoint>> {
+        points(PREDICTIONS)?
+            .into_iter()
+            .map(|sets| {
+                let [(key, set)] = sets.as_slice() else {
+                    anyhow::bail!("{PREDICTIONS}: a point sets {} keys, not one", sets.len());
+                };
+                let key = key
+                    .strip_prefix("workload.")
+                    .ok_or_else(|| anyhow::anyhow!("{PREDICTIONS}: {key} is not a workload key"))?;
+                let value = set
+                    .rsplit('=')
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .ok_or_else(|| anyhow::anyhow!("{PREDICTIONS}: {set} is not a count"))?;
+                Ok(WorkloadPoint {
+                    key: key.to_string(),
+                    value,
+                    set: set.clone(),
+                })
+            })
+            .collect()
     }
 }
 
@@ -98,8 +109,7 @@ struct PointResult {
 
 /// [`PointResult`] of `scene` at `p`, `None` when a run is missing.
 fn point_result(r: &Results, scene: &str, p: &WorkloadPoint) -> Option<PointResult> {
-    let set = p.set();
-    let sets: &[&str] = &[&set];
+    let sets: &[&str] = &[&p.set];
     let stats = r.stats(scene, VTQ, sets)?;
     let tests: Vec<f64> = ["initial", "treelet_stationary", "ray_stationary"]
         .iter()
@@ -126,7 +136,7 @@ fn percent(v: Option<f64>) -> String {
 /// The paper's workload predictions: how the treelet-stationary share of VTQ's tests and its
 /// speedups move with samples per pixel and bounces, per scene with every point stored.
 pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
-    let points = WorkloadPoint::all();
+    let points = WorkloadPoint::all()?;
     let mut scenes: Vec<(String, Vec<PointResult>)> = Vec::new();
     for (scene, label) in r.scenes().into_iter().zip(r.labels()) {
         let results: Option<Vec<PointResult>> =
@@ -137,7 +147,7 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     }
     anyhow::ensure!(
         !scenes.is_empty(),
-        "no scene has every run of ext-workload-predictions"
+        "no scene has every run of {PREDICTIONS}"
     );
     let mut images = Vec::new();
     for (key, x_label) in [
@@ -232,4 +242,24 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             rows,
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_predictions_points_come_from_their_experiment_file() {
+        let points = WorkloadPoint::all().unwrap();
+        let of = |key: &str| -> Vec<u32> {
+            points
+                .iter()
+                .filter(|p| p.key == key)
+                .map(|p| p.value)
+                .collect()
+        };
+        assert_eq!(of("spp"), [1, 2, 4, 8]);
+        assert_eq!(of("bounces"), [1, 2, 3, 5]);
+        assert_eq!(points[1].set, "workload.spp=2");
+    }
 }

@@ -44,10 +44,10 @@ const DESIGN_KEYS: [&str; 6] = [
 ];
 
 /// A point's overrides: (key, `key=value`).
-type Sets = Vec<(String, String)>;
+pub(super) type Sets = Vec<(String, String)>;
 
 /// The points of built-in experiment file `name`, each as its `key=value` overrides.
-fn points(name: &str) -> anyhow::Result<Vec<Sets>> {
+pub(super) fn points(name: &str) -> anyhow::Result<Vec<Sets>> {
     let (_, text) = EXPERIMENT_FILES
         .iter()
         .find(|(n, _)| *n == name)
