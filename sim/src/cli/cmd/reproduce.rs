@@ -178,14 +178,17 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             beyond::vtq_prefetch,
         ),
     ];
-    let mut figures: Vec<Figure> = figure_fns
-        .iter()
-        .map(|(id, title, f)| match (sample, not_estimated(id)) {
-            (Some(_), Some(needs)) => not_drawn_sampled(id, title, needs),
-            _ => drawn(id, title, f(&results, out)),
-        })
-        .collect();
-    let cause_g: [(&str, &str, FigureFn); 2] = [
+    // Each figure is drawn from `r`, unless the sampled tier does not estimate what it needs.
+    let mut figure = |(id, title, f): &(&str, &str, FigureFn), r: &Results<'_>| match (
+        sample,
+        not_estimated(id),
+    ) {
+        (Some(_), Some(needs)) => not_drawn_sampled(id, title, needs),
+        _ => drawn(id, title, f(r, out)),
+    };
+    let mut figures: Vec<Figure> = figure_fns.iter().map(|f| figure(f, &results)).collect();
+    // Cause G's figures and the workload predictions run on scenes of their own.
+    let own_scenes: [(&str, &str, FigureFn); 3] = [
         (
             "cause-g-mechanisms",
             "Cause G: which mechanism carries VTQ's gain",
@@ -196,18 +199,13 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
             "Cause G: when the treelet-stationary phase pays",
             cause_g::treelet_map,
         ),
+        (
+            "ext-workload-predictions",
+            "The paper's workload predictions",
+            beyond::workload_predictions,
+        ),
     ];
-    figures.extend(
-        cause_g
-            .iter()
-            .map(|(id, title, f)| drawn(id, title, f(&all_results, out))),
-    );
-    let id = "ext-workload-predictions";
-    let title = "The paper's workload predictions";
-    figures.push(match (sample, not_estimated(id)) {
-        (Some(_), Some(needs)) => not_drawn_sampled(id, title, needs),
-        _ => drawn(id, title, beyond::workload_predictions(&all_results, out)),
-    });
+    figures.extend(own_scenes.iter().map(|f| figure(f, &all_results)));
     let vtq_path = root.join("configs/designs/vtq/config.toml");
     let vtq = designs::load(Some(&vtq_path), &args.set)?;
     let fig5 = figure5_rows(&scenes[..paper_scenes], &vtq, &args.cache)

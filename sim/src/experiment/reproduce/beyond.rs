@@ -6,7 +6,8 @@ use std::path::Path;
 
 use super::cause_g::points;
 use super::figures::{
-    cell, num, paper, speedup_bars, treelet_order_share, Figure, Table, BASELINE, PREFETCH, VTQ,
+    cell, paper, phase_split, speedup_bars, treelet_order_share, Figure, Table, BASELINE, PREFETCH,
+    VTQ,
 };
 use super::Results;
 use crate::experiment::plot::{write_lines, Line, Lines, Reference};
@@ -111,17 +112,12 @@ struct PointResult {
 fn point_result(r: &Results, scene: &str, p: &WorkloadPoint) -> Option<PointResult> {
     let sets: &[&str] = &[&p.set];
     let stats = r.stats(scene, VTQ, sets)?;
-    let tests: Vec<f64> = ["initial", "treelet_stationary", "ray_stationary"]
-        .iter()
-        .map(|phase| num(&stats, &format!("/phases/{phase}/intersection_tests")))
-        .collect::<Option<_>>()?;
-    let total: f64 = tests.iter().sum();
     let speedup = |design| {
         r.speedup(scene, (BASELINE, sets), (design, sets))
             .map(|e| e.value)
     };
     Some(PointResult {
-        treelet_share: (total > 0.0).then(|| tests[1] / total),
+        treelet_share: phase_split(&stats, "intersection_tests").map(|split| split[1]),
         order_share: treelet_order_share(&stats),
         vtq: speedup(VTQ),
         prefetch: speedup(PREFETCH),

@@ -655,32 +655,36 @@ fn starved_share(stats: &Json) -> Option<f64> {
     (phase > 0.0 && sms > 0.0).then(|| starved / sms / phase)
 }
 
+/// The three phases' (initial, treelet-stationary, final ray-stationary) shares of `field`
+/// (`cycles` or `intersection_tests`) in one run's statistics.
+pub(super) fn phase_split(stats: &Json, field: &str) -> Option<[f64; 3]> {
+    let mut values = [0.0; 3];
+    for (v, p) in values
+        .iter_mut()
+        .zip(["initial", "treelet_stationary", "ray_stationary"])
+    {
+        // A sampled run estimates the shares of cycles, not the phases' counts.
+        let estimated = (field == "cycles")
+            .then(|| stored_estimate(stats, &format!("{p}_share")))
+            .flatten();
+        *v = match estimated {
+            Some(e) => e.value,
+            None => num(stats, &format!("/phases/{p}/{field}"))?,
+        };
+    }
+    let total: f64 = values.iter().sum();
+    (total > 0.0).then(|| values.map(|v| v / total))
+}
+
 /// The three phases' shares of `field` (`cycles` or `intersection_tests`) in VTQ, per scene.
 fn phase_shares(r: &Results, scenes: &[&str], field: &str) -> [Vec<Option<f64>>; 3] {
     let mut out: [Vec<Option<f64>>; 3] = Default::default();
     for scene in scenes {
-        let stats = r.stats(scene, VTQ, &[]);
-        let values: Option<Vec<f64>> = ["initial", "treelet_stationary", "ray_stationary"]
-            .iter()
-            .map(|p| {
-                let stats = stats.as_ref()?;
-                if field == "cycles" {
-                    // A sampled run estimates the shares of cycles, not the phases' counts.
-                    if let Some(e) = stored_estimate(stats, &format!("{p}_share")) {
-                        return Some(e.value);
-                    }
-                }
-                num(stats, &format!("/phases/{p}/{field}"))
-            })
-            .collect();
-        let total: f64 = values.iter().flatten().sum();
+        let split = r
+            .stats(scene, VTQ, &[])
+            .and_then(|stats| phase_split(&stats, field));
         for (i, o) in out.iter_mut().enumerate() {
-            o.push(
-                values
-                    .as_ref()
-                    .filter(|_| total > 0.0)
-                    .map(|v| v[i] / total),
-            );
+            o.push(split.map(|v| v[i]));
         }
     }
     out
