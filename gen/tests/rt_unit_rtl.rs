@@ -161,6 +161,8 @@ fn a_broken_rtl_line_is_caught() {
             "if (issue_active[l] && l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE)",
             "if (1'b0)",
         ),
+        // An occlusion ray goes on traversing after its first accepted hit.
+        ("if (accepted && occlusion_t) begin", "if (1'b0) begin"),
     ];
     for (i, (from, to)) in mutations.iter().enumerate() {
         assert_eq!(

@@ -1608,3 +1608,109 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
         }
     }
 }
+
+/// What [`run_alone`] saw of one ray.
+struct Alone {
+    /// The final record.
+    record: RayRecord,
+    /// Tests the ray took.
+    tests: u64,
+    /// Its node fetches in order.
+    fetches: Vec<u64>,
+    /// The records it parked with.
+    parked: Vec<RayRecord>,
+    /// The first hit the RT unit accepted for it and the tests taken by then.
+    first_hit: Option<(Hit, u64)>,
+}
+
+/// Runs `ray` alone in one-lane warps of `order` on a unit with `stack_depth` on-chip entries
+/// until it finishes (under the treelet-stop order a parked ray is issued again, as a treelet
+/// controller would).
+fn run_alone(tree: Tree, ray: RayRecord, order: TraversalOrder, stack_depth: u32) -> Alone {
+    let cfg = HwConfig {
+        stack_depth,
+        ..small()
+    };
+    let params = RtUnitParams {
+        max_children: 3,
+        stack_spill_chunks: 8,
+        ..RtUnitParams::default()
+    };
+    let mut sim = Sim::new(cfg, params, Memory::new(tree, 3));
+    let mut parked = Vec::new();
+    let mut pending = Some(ray);
+    let mut last = None;
+    let mut first_hit = None;
+    while let Some(r) = pending.take() {
+        let before = sim.done.len();
+        sim.step(Some(warp(order, 4, vec![Some(r)])));
+        while sim.done.len() == before {
+            assert!(sim.cycle < 50_000, "the ray did not finish");
+            let lanes = sim.regs.slots.iter().flat_map(|s| s.lanes.iter());
+            if let Some(h) = lanes.filter_map(|l| l.ray.hit).next() {
+                first_hit.get_or_insert((h, sim.stats.total_tests()));
+            }
+            sim.step(None);
+        }
+        for (_, done) in &sim.done[before..] {
+            for (rec, outcome) in done.lanes.iter().flatten() {
+                match outcome {
+                    RayOutcome::Finished => last = Some(rec.clone()),
+                    RayOutcome::AtBoundary { .. } => {
+                        parked.push(rec.clone());
+                        pending = Some(rec.clone());
+                    }
+                }
+            }
+        }
+        assert_eq!(sim.regs.errors, 0, "{:?}", sim.regs.first_error);
+    }
+    let reqs: Vec<MemRequest> = sim.mem.log.iter().map(|(_, r)| *r).collect();
+    Alone {
+        record: last.expect("the ray finished"),
+        tests: sim.stats.total_tests(),
+        fetches: fetch_order(&reqs),
+        parked,
+        first_hit,
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(96))]
+
+    /// An occlusion ray (terminate on first hit) answers "the closest-hit ray hits something"
+    /// in every traversal order, on random trees and rays, with on-chip stacks that spill or
+    /// not; its node fetches are a prefix of its closest-hit twin's, so it never visits more
+    /// nodes or runs more tests; and a parked occlusion ray never holds a hit (one that hit
+    /// is finished, not queued again).
+    #[test]
+    fn an_occlusion_ray_answers_whether_its_closest_hit_twin_hits(
+        seed in proptest::prelude::any::<u64>(),
+        select in 0u32..8,
+        order in 0usize..3,
+        stack_depth in proptest::prop_oneof![proptest::strategy::Just(4u32), proptest::strategy::Just(16u32)],
+    ) {
+        let mut rng = SplitMix64::new(seed);
+        let (tree, nodes) = random_tree(&mut rng, 24);
+        let order = TraversalOrder::ALL[order];
+        let closest = RayRecord::new(0, words(select), nodes[0]);
+        let occlusion = RayRecord { occlusion: true, ..closest.clone() };
+        let c = run_alone(tree.clone(), closest, order, stack_depth);
+        let o = run_alone(tree, occlusion, order, stack_depth);
+        proptest::prop_assert_eq!(o.record.hit.is_some(), c.record.hit.is_some(), "order {:?}", order);
+        proptest::prop_assert!(o.tests <= c.tests, "{} tests > {}", o.tests, c.tests);
+        proptest::prop_assert!(
+            c.fetches.starts_with(&o.fetches),
+            "fetches {:?} are not a prefix of {:?}", o.fetches, c.fetches
+        );
+        proptest::prop_assert!(o.parked.iter().all(|r| r.hit.is_none()));
+        let r = &o.record;
+        proptest::prop_assert!(r.current_stack.is_empty() && r.other_stack.is_empty());
+        proptest::prop_assert_eq!((r.current_spilled, r.other_spilled), (0, 0));
+        // It stops at the twin's first accepted hit, with the tests taken by then.
+        proptest::prop_assert_eq!(o.record.hit.map(|h| (h, o.tests)), c.first_hit);
+        if c.record.hit.is_none() {
+            proptest::prop_assert_eq!(o.tests, c.tests);
+        }
+    }
+}

@@ -12,7 +12,9 @@ use vtq_sim::model::bvh::{
     CacheOutcome, HwBvh, NodeKind, TreeletFormation,
 };
 use vtq_sim::model::intersect::{ray_sphere, ray_triangle, RayPrecomp};
-use vtq_sim::model::traversal::{trace, trace_with_fetches, Order, TraversalState};
+use vtq_sim::model::traversal::{
+    trace, trace_occlusion, trace_occlusion_with_fetches, trace_with_fetches, Order, TraversalState,
+};
 use vtq_sim::{Hit, Ray, Scene, Sphere};
 use vtq_tests::{icosphere, mesh_scene};
 
@@ -276,6 +278,48 @@ fn check_ray(
         prop_assert_eq!(state.hit(), reference);
         prop_assert_eq!(&steps, &fetches);
     }
+    for order in [Order::RayStationary, Order::Treelet, Order::Hardware] {
+        check_occlusion(bvh, ray, order)?;
+    }
+    Ok(())
+}
+
+/// An occlusion ray in `order` hits exactly when the closest-hit ray does, and stops at the
+/// closest-hit traversal's first recorded hit: its fetches are a prefix of its twin's, its hit
+/// is the first one the twin recorded, and the stepwise API agrees.
+fn check_occlusion(bvh: &HwBvh, ray: &Ray, order: Order) -> Result<(), TestCaseError> {
+    let mut closest = TraversalState::new(bvh, ray, order);
+    let (mut twin, mut first) = (Vec::new(), None);
+    while let Some(f) = closest.next_fetch() {
+        twin.push(f);
+        if closest.visit(bvh).hit_recorded && first.is_none() {
+            first = Some((closest.hit(), twin.len()));
+        }
+    }
+    let mut fetches = Vec::new();
+    let hit = trace_occlusion_with_fetches(bvh, ray, order, &mut fetches);
+    prop_assert_eq!(
+        hit.is_some(),
+        closest.hit().is_some(),
+        "{:?} {:?}",
+        order,
+        ray
+    );
+    prop_assert_eq!(trace_occlusion(bvh, ray, order), hit);
+    prop_assert!(twin.starts_with(&fetches), "{:?}: not a prefix", order);
+    match first {
+        Some((h, n)) => prop_assert_eq!((hit, fetches.len()), (h, n)),
+        None => prop_assert_eq!(fetches.len(), twin.len()),
+    }
+    let mut state = TraversalState::occlusion(bvh, ray, order);
+    let mut steps = Vec::new();
+    while let Some(f) = state.next_fetch() {
+        steps.push(f);
+        state.visit(bvh);
+    }
+    prop_assert!(state.is_done() && state.current_treelet().is_none());
+    prop_assert_eq!(state.hit(), hit);
+    prop_assert_eq!(steps, fetches);
     Ok(())
 }
 

@@ -123,6 +123,7 @@ fn settings(width: u32, height: u32, bounces: u32) -> RenderSettings {
         height,
         spp: 1,
         bounces,
+        ..RenderSettings::default()
     }
 }
 
@@ -378,6 +379,7 @@ fn serial_and_parallel_renders_are_bit_identical() {
         height: 16,
         spp: 2,
         bounces: 4,
+        ..RenderSettings::default()
     };
     let parallel = render(&scene, &tracer, &s, None).unwrap();
     let serial = render_serial(&scene, &tracer, &s, None).unwrap();

@@ -346,10 +346,11 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
 /// A field of a lane's state: its name in `rt_unit_lane`, the register (or storage) holding
 /// every lane's in `rt_unit`, its width as a Verilog expression, and the index of its width in
 /// the widths [`lane_pieces`] checks (`None`: a fixed width).
-const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 20] = [
+const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 21] = [
     ("status", "lane_status", "2", None),
     ("ray_id", "lane_ray_id", "RB", Some(1)),
     ("ray_words", "lane_ray_words", "256", None),
+    ("occlusion", "lane_occlusion", "1", None),
     ("hit_valid", "lane_hit_valid", "1", None),
     ("hit", "lane_hit", "128", None),
     ("cur_treelet", "lane_cur_treelet", "TW", Some(2)),

@@ -99,7 +99,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         .find(|r| r.name == "last_qt_done")
         .map_or(0, |r| r.width);
     let tsh = clog2(cfg.treelet_bytes as u64);
-    let consistent = rec == rb + 256 + 1 + 128 + tw + 2 * spw + 2 * scw + 2 * de
+    let consistent = rec == rb + 256 + 1 + 1 + 128 + tw + 2 * spw + 2 * scw + 2 * de
         && qdw == 1 + tw + cw + n * rb
         && events.width == 1 + rb + tw
         && cw == bits_for(n as u64)
@@ -276,7 +276,7 @@ fn new_words_pad(max_rays: u32) -> String {
 /// `[0 +: RB]`): `(field, width, offset)`, the field as the ports name it
 /// (`<prefix>_<field>`), its width and the localparam of its offset in the record. One list
 /// for every place a record is packed from or unpacked into a lane's ports.
-const RECORD_FIELDS: [(&str, &str, &str); 10] = [
+const RECORD_FIELDS: [(&str, &str, &str); 11] = [
     ("other_stack", "DE", "F_OST"),
     ("cur_stack", "DE", "F_CST"),
     ("other_spilled", "SCW", "F_OSC"),
@@ -286,6 +286,7 @@ const RECORD_FIELDS: [(&str, &str, &str); 10] = [
     ("cur_treelet", "TW", "F_CT"),
     ("hit", "128", "F_HIT"),
     ("hit_valid", "1", "F_HV"),
+    ("occlusion", "1", "F_OCC"),
     ("ray_words", "256", "F_WORDS"),
 ];
 

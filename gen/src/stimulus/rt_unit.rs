@@ -215,6 +215,8 @@ impl Env {
         }
         let root = self.idx(self.tree.roots.len());
         let mut ray = RayRecord::new(id, words, self.tree.roots[root]);
+        // One ray in four is an occlusion ray (from its words: the stream of draws is kept).
+        ray.occlusion = words[1] & 3 == 0;
         match self.rng.below(50) {
             0 => ray.other_stack = BoundedVec::new(self.depth),
             1..=10 => {
@@ -561,6 +563,10 @@ impl Env {
             }
         }
         let c = &mut self.cov;
+        let left = out.done.iter().chain(&out.released);
+        c.occlusion_hits += (left.flat_map(|d| d.lanes.iter().flatten()))
+            .filter(|(ray, _)| ray.occlusion && ray.hit.is_some())
+            .count() as u64;
         for (ray, outcome) in out.done.iter().flat_map(|d| d.lanes.iter().flatten()) {
             if *outcome == RayOutcome::Finished {
                 self.free_ids.push(ray.ray_id);

@@ -189,6 +189,9 @@ pub struct RayRecord {
     pub ray_id: u32,
     /// Origin, direction, tmin, tmax as f32 bit patterns.
     pub words: RayWords,
+    /// An occlusion ray: traversal ends at the first hit the RT unit accepts, in every traversal
+    /// order (Vulkan's `gl_RayFlagsTerminateOnFirstHitEXT`; the ray's answer is hit or miss).
+    pub occlusion: bool,
     /// Closest hit so far.
     pub hit: Option<Hit>,
     /// Treelet (address >> log2(treelet_bytes)) the current stack belongs to.
@@ -211,6 +214,7 @@ impl RayRecord {
         RayRecord {
             ray_id,
             words,
+            occlusion: false,
             hit: None,
             current_treelet: 0,
             current_stack: BoundedVec::new(0),

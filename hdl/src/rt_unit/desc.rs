@@ -223,6 +223,12 @@ pub(super) fn registers(
         lanes,
         "per lane: origin, direction, tmin, tmax (f32 bits)",
     )
+    .untraced(
+        "lane_occlusion",
+        1,
+        lanes,
+        "per lane: an occlusion ray (traversal ends at its first accepted hit)",
+    )
     .untraced("lane_hit_valid", 1, lanes, "per lane: a hit was found")
     .untraced(
         "lane_hit",

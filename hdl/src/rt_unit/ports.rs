@@ -376,11 +376,12 @@ impl RtUnitOutputs {
 /// The bulk fields of every lane's ray state, as `(field, width, doc)`: what the ray-state
 /// ports carry beside the traced `active` and `ray_id` (loaded at issue, written back at
 /// completion).
-pub(crate) fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 10] {
+pub(crate) fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 11] {
     let n = w.warp_size;
     let stack = n * w.stack_depth * w.entry();
     [
         ("ray_words", n * WORD_BITS, "per lane: origin, direction, tmin, tmax (f32 bits)"),
+        ("occlusion", n, "per lane: an occlusion ray (traversal ends at its first accepted hit)"),
         ("hit_valid", n, "per lane: the ray has a hit"),
         ("hit", n * HIT_BITS, "per lane: closest hit t, hit id, two attributes"),
         ("cur_treelet", n * w.treelet, "per lane: current treelet"),
@@ -421,28 +422,31 @@ pub(crate) fn ray_state_words<'a>(
                 }
             }
             1 => {
+                p.push(r.is_some_and(|r| r.occlusion) as u64, 1);
+            }
+            2 => {
                 p.push(hit.is_some() as u64, 1);
             }
-            2 => Hit::pack(hit.as_ref(), &mut p),
-            3 => {
+            3 => Hit::pack(hit.as_ref(), &mut p),
+            4 => {
                 p.push(r.map_or(0, |r| r.current_treelet), w.treelet);
             }
-            4 => {
+            5 => {
                 p.push(
                     r.map_or(0, |r| r.current_stack.len() as u64),
                     w.stack_pointer,
                 );
             }
-            5 => {
+            6 => {
                 p.push(r.map_or(0, |r| r.other_stack.len() as u64), w.stack_pointer);
             }
-            6 => {
+            7 => {
                 p.push(r.map_or(0, |r| r.current_spilled as u64), w.spilled);
             }
-            7 => {
+            8 => {
                 p.push(r.map_or(0, |r| r.other_spilled as u64), w.spilled);
             }
-            8 => stack(&mut p, r.map(|r| &r.current_stack)),
+            9 => stack(&mut p, r.map(|r| &r.current_stack)),
             _ => stack(&mut p, r.map(|r| &r.other_stack)),
         }
     }

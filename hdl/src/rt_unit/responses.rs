@@ -199,6 +199,14 @@ impl<D: NodeDatapath> RtUnit<D> {
             let pushed = stack.push(*child);
             debug_assert!(pushed.is_ok(), "stack room");
         }
+        if ray.occlusion && accepted.is_some() {
+            // An occlusion ray's first accepted hit ends its traversal: both stacks are
+            // dropped, their spilled chunks abandoned in the spill area.
+            ray.current_stack.clear();
+            ray.other_stack.clear();
+            ray.current_spilled = 0;
+            ray.other_spilled = 0;
+        }
         if ray.finished() {
             lane.status = LaneStatus::Done;
             return None;

@@ -27,8 +27,8 @@ pub struct TreeletRtUnitWidths {
     pub slot: u32,
     /// Bits of a count of lanes of all warp-buffer slots (0..=slots x warp_size).
     pub lanes: u32,
-    /// Bits of a whole ray record (ray id, words, hit, current treelet, both stacks and their
-    /// pointers and spilled-chunk counts).
+    /// Bits of a whole ray record (ray id, words, occlusion flag, hit, current treelet, both
+    /// stacks and their pointers and spilled-chunk counts).
     pub record: u32,
     /// Response ports of the RT unit.
     pub resp_ports: u32,
@@ -47,6 +47,7 @@ impl TreeletRtUnitWidths {
         let entry = NodeEntry::bits(cfg.address_bits);
         let record = rt.ray_id
             + RAY_WORDS as u32 * 32
+            + 1
             + 1
             + 4 * 32
             + rt.treelet

@@ -52,7 +52,7 @@ pub fn node(address: u64, kind: NodeKind, bytes: u32) -> NodeEntry {
 }
 
 /// BVH memory of toy nodes, by 32 B chunk address.
-#[derive(Default)]
+#[derive(Default, Clone)]
 pub struct Tree {
     /// The chunks.
     pub chunks: BTreeMap<u64, [u8; 32]>,

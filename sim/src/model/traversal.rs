@@ -166,6 +166,8 @@ pub struct TraversalState {
     pre: RayPrecomp,
     slab: Slab,
     order: Order,
+    /// An occlusion ray: the traversal ends at the first hit it records.
+    occlusion: bool,
     /// The node to fetch and visit next (`None` when done).
     next: Option<Entry>,
     stacks: Stacks,
@@ -315,10 +317,24 @@ impl TraversalState {
     /// Starts the traversal of `ray`. An invalid ray ([`Ray::is_valid`] false) is already
     /// done: a miss with no fetches.
     pub fn new(bvh: &HwBvh, ray: &Ray, order: Order) -> Self {
-        Self::with_stacks(bvh, ray, order, Stacks::default())
+        Self::with_stacks(bvh, ray, order, false, Stacks::default())
     }
 
-    fn with_stacks(bvh: &HwBvh, ray: &Ray, order: Order, mut stacks: Stacks) -> Self {
+    /// Starts the traversal of `ray` as an occlusion ray (the RT unit's terminate-on-first-hit
+    /// flag): it ends at the first hit it records, which is then [`hit`](Self::hit). Whether it
+    /// hits is whether the closest-hit traversal hits; which hit it reports depends on the
+    /// order.
+    pub fn occlusion(bvh: &HwBvh, ray: &Ray, order: Order) -> Self {
+        Self::with_stacks(bvh, ray, order, true, Stacks::default())
+    }
+
+    fn with_stacks(
+        bvh: &HwBvh,
+        ray: &Ray,
+        order: Order,
+        occlusion: bool,
+        mut stacks: Stacks,
+    ) -> Self {
         stacks.stack.clear();
         stacks.other.clear();
         stacks.other_stack.clear();
@@ -333,6 +349,7 @@ impl TraversalState {
             pre: RayPrecomp::new(ray),
             slab: Slab::new(ray),
             order,
+            occlusion,
             next: valid.then_some(Entry {
                 addr: crate::model::bvh::layout::HEADER_ADDR,
                 kind: NodeKind::Header,
@@ -480,6 +497,12 @@ impl TraversalState {
                 }
             }
         }
+        if self.occlusion && out.hit_recorded {
+            // An occlusion ray's first hit ends its traversal.
+            self.next = None;
+            self.current = None;
+            return out;
+        }
         self.advance();
         out
     }
@@ -592,13 +615,19 @@ impl TraversalState {
     }
 }
 
-/// Runs a traversal on this thread's reusable stacks.
-fn run(bvh: &HwBvh, ray: &Ray, order: Order, fetches: Option<&mut Vec<Fetch>>) -> Option<Hit> {
+/// Runs a traversal (an occlusion ray's if `occlusion`) on this thread's reusable stacks.
+fn run(
+    bvh: &HwBvh,
+    ray: &Ray,
+    order: Order,
+    occlusion: bool,
+    fetches: Option<&mut Vec<Fetch>>,
+) -> Option<Hit> {
     if !ray.is_valid() {
         return None;
     }
     let stacks = SCRATCH.with(|s| std::mem::take(&mut *s.borrow_mut()));
-    let state = TraversalState::with_stacks(bvh, ray, order, stacks);
+    let state = TraversalState::with_stacks(bvh, ray, order, occlusion, stacks);
     let (hit, stacks) = state.finish(bvh, fetches);
     SCRATCH.with(|s| *s.borrow_mut() = stacks);
     hit
@@ -606,7 +635,23 @@ fn run(bvh: &HwBvh, ray: &Ray, order: Order, fetches: Option<&mut Vec<Fetch>>) -
 
 /// The closest hit of `ray` (`None` for a miss or an invalid ray).
 pub fn trace(bvh: &HwBvh, ray: &Ray, order: Order) -> Option<Hit> {
-    run(bvh, ray, order, None)
+    run(bvh, ray, order, false, None)
+}
+
+/// The first hit an occlusion ray `ray` records in `order` (`None` for a miss or an invalid
+/// ray): some hit exactly when [`trace`] finds one ([`TraversalState::occlusion`]).
+pub fn trace_occlusion(bvh: &HwBvh, ray: &Ray, order: Order) -> Option<Hit> {
+    run(bvh, ray, order, true, None)
+}
+
+/// [`trace_occlusion`], also appending every node fetch in order (header first) to `fetches`.
+pub fn trace_occlusion_with_fetches(
+    bvh: &HwBvh,
+    ray: &Ray,
+    order: Order,
+    fetches: &mut Vec<Fetch>,
+) -> Option<Hit> {
+    run(bvh, ray, order, true, Some(fetches))
 }
 
 /// [`trace`], also appending every node fetch in order (header first) to `fetches`.
@@ -616,7 +661,7 @@ pub fn trace_with_fetches(
     order: Order,
     fetches: &mut Vec<Fetch>,
 ) -> Option<Hit> {
-    run(bvh, ray, order, Some(fetches))
+    run(bvh, ray, order, false, Some(fetches))
 }
 
 #[cfg(test)]

@@ -115,12 +115,24 @@ pub fn check_scene_against_functional(scene: &Scene, bvh: &HwBvh, cfg: &SimConfi
     assert_eq!(out.stats.rays_issued, out.stats.rays_completed);
     let mut per_pixel: Vec<Vec<_>> = vec![Vec::new(); reference.image.len()];
     for r in &out.ray_log {
-        assert_eq!(
-            hit_bits(r.hit),
-            hit_bits(trace(bvh, &r.ray, Order::RayStationary)),
-            "{name}: closest hit of {:?}",
-            r.ray
-        );
+        let closest = trace(bvh, &r.ray, Order::RayStationary);
+        if r.occlusion {
+            // Whether it hits is the answer; the hit it reports lies in the ray's interval.
+            assert_eq!(
+                r.hit.is_some(),
+                closest.is_some(),
+                "{name}: occlusion {:?}",
+                r.ray
+            );
+            assert!(r.hit.is_none_or(|h| h.t >= r.ray.tmin && h.t <= r.ray.tmax));
+        } else {
+            assert_eq!(
+                hit_bits(r.hit),
+                hit_bits(closest),
+                "{name}: closest hit of {:?}",
+                r.ray
+            );
+        }
         per_pixel[r.pixel as usize].push(r.ray);
     }
     for (p, rays) in per_pixel.iter().enumerate() {

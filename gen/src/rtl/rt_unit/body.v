@@ -131,6 +131,7 @@ ${LANE_CONNECT}
                 .issue_active(issue_active[gl]),
                 .issue_ray_id(issue_ray_id[gl*RB +: RB]),
                 .issue_ray_words(issue_ray_words[gl*256 +: 256]),
+                .issue_occlusion(issue_occlusion[gl]),
                 .issue_hit_valid(issue_hit_valid[gl]),
                 .issue_hit(issue_hit[gl*128 +: 128]),
                 .issue_cur_treelet(issue_cur_treelet[gl*TW +: TW]),
@@ -511,6 +512,7 @@ reg [N-1:0] o_done_active;
 reg [N-1:0] o_done_parked;
 reg [N*RB-1:0] o_done_ray_id;
 reg [N*256-1:0] o_done_ray_words;
+reg [N-1:0] o_done_occlusion;
 reg [N-1:0] o_done_hit_valid;
 reg [N*128-1:0] o_done_hit;
 reg [N*TW-1:0] o_done_cur_treelet;
@@ -526,6 +528,7 @@ always @* begin : p_done
     o_done_active = {N{1'b0}};
     o_done_parked = {N{1'b0}};
     o_done_ray_id = {N*RB{1'b0}};
+    o_done_occlusion = {N{1'b0}};
     o_done_hit_valid = {N{1'b0}};
     o_done_cur_treelet = {N*TW{1'b0}};
     o_done_cur_sp = {N*SPW{1'b0}};
@@ -545,6 +548,7 @@ always @* begin : p_done
                 o_done_parked[l] = l_done_parked[s*N+l];
                 o_done_ray_id[l*RB +: RB] = lane_ray_id_q[(s*N+l)*RB +: RB];
                 o_done_ray_words[l*256 +: 256] = lane_ray_words_q[(s*N+l)*256 +: 256];
+                o_done_occlusion[l] = lane_occlusion_q[s*N+l];
                 o_done_hit_valid[l] = lane_hit_valid_q[s*N+l];
                 o_done_hit[l*128 +: 128] = lane_hit_q[(s*N+l)*128 +: 128];
                 o_done_cur_treelet[l*TW +: TW] = lane_cur_treelet_q[(s*N+l)*TW +: TW];

@@ -18,7 +18,7 @@ ${LANE_PORT_NAMES}
     two, stopped, complete, store_sel, merge, lead_node, lead, lead_me,
     pop_fill_here, pop_node_here, pop_leader, pop_address, pop_data, fill_expect,
     dp_child_count, dp_children, dp_hit_valid, dp_hit,
-    load, issue_active, issue_ray_id, issue_ray_words, issue_hit_valid, issue_hit,
+    load, issue_active, issue_ray_id, issue_ray_words, issue_occlusion, issue_hit_valid, issue_hit,
     issue_cur_treelet, issue_cur_sp, issue_other_sp, issue_cur_spilled, issue_other_spilled,
     issue_cur_stack, issue_other_stack, stop_here, repack_here,
     busy, act, act_index, next_valid, next_treelet,
@@ -69,6 +69,7 @@ input  wire           load;
 input  wire           issue_active;
 input  wire [RB-1:0]  issue_ray_id;
 input  wire [255:0]   issue_ray_words;
+input  wire           issue_occlusion;
 input  wire           issue_hit_valid;
 input  wire [127:0]   issue_hit;
 input  wire [TW-1:0]  issue_cur_treelet;
@@ -136,6 +137,7 @@ task leave;
     output [1:0] status;
     output [RB-1:0] ray_id;
     output [255:0] ray_words;
+    output occlusion;
     output hit_valid;
     output [127:0] hit;
     output [TW-1:0] cur_treelet;
@@ -147,6 +149,7 @@ task leave;
         status = ST_INACTIVE;
         ray_id = {RB{1'b0}};
         ray_words = 256'd0;
+        occlusion = 1'b0;
         hit_valid = 1'b0;
         hit = 128'd0;
         cur_treelet = {TW{1'b0}};
@@ -202,7 +205,7 @@ ${COPY_A}
             if (j < {{(32-SPW){1'b0}}, cur_sp_a}) done_cur_stack[j*E +: E] = cur_stack_a[j*E +: E];
             if (j < {{(32-SPW){1'b0}}, other_sp_a}) done_other_stack[j*E +: E] = other_stack_a[j*E +: E];
         end
-        leave(status_a, ray_id_a, ray_words_a, hit_valid_a, hit_a, cur_treelet_a,
+        leave(status_a, ray_id_a, ray_words_a, occlusion_a, hit_valid_a, hit_a, cur_treelet_a,
               cur_sp_a, other_sp_a, cur_spilled_a, other_spilled_a);
     end
     // 3. The hit-record store sent, the fetch merged, the leader's spill or fill.
@@ -435,6 +438,13 @@ ${COPY_T}
                 end
             end
         end
+        if (accepted && occlusion_t) begin
+            // An occlusion ray's first accepted hit ends its traversal: both stacks dropped.
+            cur_sp_t = {SPW{1'b0}};
+            other_sp_t = {SPW{1'b0}};
+            cur_spilled_t = {SCW{1'b0}};
+            other_spilled_t = {SCW{1'b0}};
+        end
         finished = cur_sp_t == {SPW{1'b0}} && cur_spilled_t == {SCW{1'b0}}
             && other_sp_t == {SPW{1'b0}} && other_spilled_t == {SCW{1'b0}};
         if (finished) begin
@@ -464,6 +474,7 @@ ${COPY_D}
         status_d = !issue_active ? ST_INACTIVE : finished ? ST_DONE : ST_TRAVERSING;
         ray_id_d = issue_ray_id;
         ray_words_d = issue_ray_words;
+        occlusion_d = issue_occlusion;
         hit_valid_d = issue_hit_valid;
         hit_d = issue_hit;
         cur_treelet_d = issue_cur_treelet;
@@ -487,7 +498,7 @@ ${COPY_D}
     if (repack_here && status_d == ST_DONE && !node_valid_d && filling_d == 2'd0
         && delay_d == {DW{1'b0}} && !store_pending_d) begin
         released = 1'b1;
-        leave(status_d, ray_id_d, ray_words_d, hit_valid_d, hit_d, cur_treelet_d,
+        leave(status_d, ray_id_d, ray_words_d, occlusion_d, hit_valid_d, hit_d, cur_treelet_d,
               cur_sp_d, other_sp_d, cur_spilled_d, other_spilled_d);
     end
 end

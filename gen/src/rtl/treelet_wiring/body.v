@@ -16,7 +16,8 @@ localparam [1:0] O_RAY_STATIONARY = 2'd0;
 localparam [1:0] O_CONTINUE = 2'd1;
 localparam [1:0] O_STOP = 2'd2;
 // A ray record as the wiring keeps it: {other_stack, cur_stack, other_spilled, cur_spilled,
-// other_sp, cur_sp, cur_treelet, hit, hit_valid, ray_words, ray id} (ray id lowest); each
+// other_sp, cur_sp, cur_treelet, hit, hit_valid, occlusion, ray_words, ray id} (ray id
+// lowest); each
 // field's offset:
 ${RECORD_OFFSETS}
 // An event: {warp done, ray id (or the slot), treelet}.

@@ -39,6 +39,8 @@ pub struct RtUnitCoverage {
     pub tests: u64,
     /// Triangle tests that gave a new closest hit.
     pub triangle_hits: u64,
+    /// Occlusion rays that left the RT unit (completed or released) with a hit.
+    pub occlusion_hits: u64,
     /// Treelet-boundary events.
     pub boundaries: u64,
     /// Rays that left in a completed warp parked at a treelet boundary.
@@ -94,7 +96,7 @@ impl RtUnitCoverage {
     }
 
     /// The behaviour counters with their names.
-    fn counters(&self) -> [(&'static str, u64); 21] {
+    fn counters(&self) -> [(&'static str, u64); 22] {
         [
             ("node loads", self.node_loads),
             ("split loads", self.split_loads),
@@ -104,6 +106,7 @@ impl RtUnitCoverage {
             ("merged", self.merged),
             ("tests", self.tests),
             ("triangle hits", self.triangle_hits),
+            ("occlusion hits", self.occlusion_hits),
             ("boundaries", self.boundaries),
             ("parked", self.parked),
             ("warps done", self.warps_done),

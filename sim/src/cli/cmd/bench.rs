@@ -286,6 +286,12 @@ fn sim_config(args: &BenchArgs) -> anyhow::Result<SimConfig> {
         ),
     ];
     let mut sets: Vec<String> = flags.iter().map(|(k, _, v)| format!("{k}={v}")).collect();
+    let image = &args.image;
+    sets.extend([
+        format!("workload.kind={}", image.workload.name()),
+        format!("workload.ao_rays={}", image.ao_rays),
+        format!("workload.ao_radius={:?}", image.ao_radius),
+    ]);
     sets.extend(args.config.overrides.iter().cloned());
     let cfg = designs::load(args.config.config.as_deref(), &sets)?;
     if let Some(path) = &args.config.config {

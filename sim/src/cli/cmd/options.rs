@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::model::bvh::{build_cached, default_cache_dir, BvhParams, CacheOutcome, HwBvh};
-use crate::model::config::SimConfig;
+use crate::model::config::{SimConfig, WorkloadKindName};
 use crate::model::designs;
 use crate::model::scene::load::{load_scene_with_report as load, LoadedScene};
 use crate::model::scene::Scene;
@@ -29,17 +29,28 @@ pub struct ImageArgs {
     /// Maximum secondary rays per path (each path traces at most 1 + bounces rays).
     #[arg(long, default_value_t = 3)]
     pub bounces: u32,
+    /// What each sample traces: the path tracer, or ambient occlusion (a primary ray, then
+    /// --ao-rays occlusion rays per hit; docs/config.md `[workload]`).
+    #[arg(long, value_enum, default_value_t = WorkloadKindName::Path)]
+    pub workload: WorkloadKindName,
+    /// `--workload ao`: occlusion rays per primary hit (1..=64).
+    #[arg(long, default_value_t = 4)]
+    pub ao_rays: u32,
+    /// `--workload ao`: their length as a fraction of the scene's bounding-box diagonal.
+    #[arg(long, default_value_t = 0.05)]
+    pub ao_radius: f64,
 }
 
 impl ImageArgs {
     /// The render settings, checked.
     pub fn settings(&self) -> anyhow::Result<RenderSettings> {
-        let settings = RenderSettings {
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            bounces: self.bounces,
-        };
+        // The [workload] section's rules, through the same checks as a configuration's.
+        let mut cfg = SimConfig::default();
+        let w = &mut cfg.workload;
+        (w.width, w.height, w.spp, w.bounces) = (self.width, self.height, self.spp, self.bounces);
+        (w.kind, w.ao_rays, w.ao_radius) = (self.workload, self.ao_rays, self.ao_radius);
+        cfg.validate_workload()?;
+        let settings = cfg.render_settings();
         settings.validate()?;
         Ok(settings)
     }

@@ -11,6 +11,7 @@ use crate::cli::cmd::options::{build_bvh, load_scene, BvhArgs, ImageArgs};
 use crate::cli::output::{check_file, write_or_keep, Failures};
 use crate::cli::rays_csv::write_rays;
 use crate::model::workload::image::write_png;
+use crate::model::workload::kind::WorkloadKind;
 use crate::model::workload::pathtracer::render;
 
 /// Options of `vtq render`.
@@ -85,13 +86,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         write_png(p, result.width, result.height, &result.image).map(|n| black = n)
     }));
     let stats = &result.stats;
+    let what = match settings.kind {
+        WorkloadKind::Path => format!("path tracer, {} bounces", settings.bounces),
+        WorkloadKind::Ao { rays, radius } => {
+            format!(
+                "ambient occlusion, {rays} rays per hit of radius {radius} x the scene's diagonal"
+            )
+        }
+    };
     println!(
-        "render: {}x{}, {} spp, {} bounces: {} rays in {:.3} s ({:.0} rays/s)",
+        "render: {}x{}, {} spp, {what}: {} rays ({} occlusion) in {:.3} s ({:.0} rays/s)",
         settings.width,
         settings.height,
         settings.spp,
-        settings.bounces,
         stats.rays_traced,
+        stats.occlusion_rays,
         stats.wall_seconds,
         stats.rays_traced as f64 / stats.wall_seconds.max(1e-9),
     );

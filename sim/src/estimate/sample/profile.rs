@@ -23,9 +23,10 @@ use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::gpu::cta_scheduler::CtaScheduler;
 use crate::model::scene::Scene;
-use crate::model::traversal::{trace_with_fetches, Fetch, Order};
+use crate::model::traversal::{trace_occlusion_with_fetches, trace_with_fetches, Fetch, Order};
 use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::pathtracer::{PathState, RenderError, RenderSettings};
+use crate::model::workload::kind::{SampleState, Workload};
+use crate::model::workload::pathtracer::{RenderError, RenderSettings};
 
 /// The work of one CTA.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -208,6 +209,7 @@ struct Frame<'a> {
     bvh: &'a HwBvh,
     camera: CameraFrame,
     settings: RenderSettings,
+    workload: Workload,
     scheduler: CtaScheduler,
 }
 
@@ -220,6 +222,7 @@ impl<'a> Frame<'a> {
             bvh,
             camera: CameraFrame::new(&scene.camera, settings.width, settings.height)?,
             scheduler: CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta),
+            workload: Workload::new(&settings, scene),
             settings,
         })
     }
@@ -253,14 +256,19 @@ impl<'a> Frame<'a> {
             }
             let Some(pixel) = pixel else { continue };
             for sample in 0..self.settings.spp {
-                let (mut path, mut ray) =
-                    PathState::new(&self.camera, &self.settings, pixel, sample);
+                let (mut path, mut next) =
+                    SampleState::new(&self.workload, &self.camera, &self.settings, pixel, sample);
                 loop {
                     fetches.clear();
-                    let hit = trace_with_fetches(self.bvh, &ray, Order::Hardware, fetches);
+                    let (ray, order) = (&next.ray, Order::Hardware);
+                    let hit = if next.occlusion {
+                        trace_occlusion_with_fetches(self.bvh, ray, order, fetches)
+                    } else {
+                        trace_with_fetches(self.bvh, ray, order, fetches)
+                    };
                     on_ray(thread, fetches);
-                    match path.on_hit(self.scene, hit) {
-                        Some(next) => ray = next,
+                    match path.on_answer(self.scene, hit) {
+                        Some(ray) => next = ray,
                         None => break,
                     }
                 }

@@ -29,6 +29,7 @@ use vtq_hdl::HwConfig;
 use crate::model::bvh::WIDTH_RANGE;
 use crate::model::bvh::{BvhParams, TreeletFormation};
 use crate::model::memory::{MemConfig, MemConfigError};
+use crate::model::workload::kind::WorkloadKind;
 use crate::model::workload::pathtracer::RenderSettings;
 
 mod energy;
@@ -295,9 +296,34 @@ impl Default for RtConfig {
     }
 }
 
-/// `[workload]`: the path-traced image (the fields of [`RenderSettings`]; paper section 5.1).
-/// Random numbers are seeded per pixel and sample (TEA), so the workload has no seed key.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+/// The workload kinds `workload.kind` names.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum WorkloadKindName {
+    /// The LumiBench path tracer (the paper's workload; closest-hit rays).
+    #[default]
+    Path,
+    /// Ambient occlusion: a primary ray per sample, then `ao_rays` occlusion rays per
+    /// primary hit (`crate::model::workload::ao`).
+    Ao,
+}
+
+impl WorkloadKindName {
+    /// The name `workload.kind` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            WorkloadKindName::Path => "path",
+            WorkloadKindName::Ao => "ao",
+        }
+    }
+}
+
+/// `[workload]`: the traced image (the fields of [`RenderSettings`]; paper section 5.1) and
+/// which rays its samples trace. Random numbers are seeded per pixel and sample (TEA), so the
+/// workload has no seed key.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WorkloadConfig {
     /// Image width in pixels (256).
@@ -308,6 +334,13 @@ pub struct WorkloadConfig {
     pub spp: u32,
     /// Maximum secondary rays per path (3); 0 traces primary rays only.
     pub bounces: u32,
+    /// What each sample traces: `"path"` (the default) or `"ao"`.
+    pub kind: WorkloadKindName,
+    /// `ao`: occlusion rays per primary hit (4), 1..=64.
+    pub ao_rays: u32,
+    /// `ao`: the occlusion rays' length as a fraction of the scene's bounding-box diagonal
+    /// (0.05), above 0 and at most 1.
+    pub ao_radius: f64,
 }
 
 impl Default for WorkloadConfig {
@@ -318,6 +351,9 @@ impl Default for WorkloadConfig {
             height: r.height,
             spp: r.spp,
             bounces: r.bounces,
+            kind: WorkloadKindName::Path,
+            ao_rays: 4,
+            ao_radius: 0.05,
         }
     }
 }
@@ -382,6 +418,9 @@ const MAX_SPP: u32 = 1024;
 
 /// Largest bounces per path.
 const MAX_BOUNCES: u32 = 64;
+
+/// Most occlusion rays per primary hit (`workload.ao_rays`).
+const MAX_AO_RAYS: u32 = 64;
 
 impl SimConfig {
     /// Reads a configuration: the defaults, then the TOML file at `path` (if any), then each
@@ -660,13 +699,22 @@ impl SimConfig {
         Ok(())
     }
 
-    /// Checks image size, samples and bounces.
-    fn validate_workload(&self) -> Result<(), ConfigError> {
+    /// Checks image size, samples, bounces and the workload kind's parameters.
+    pub fn validate_workload(&self) -> Result<(), ConfigError> {
         let w = &self.workload;
         in_range("workload.width", w.width, 1..=MAX_IMAGE_SIDE)?;
         in_range("workload.height", w.height, 1..=MAX_IMAGE_SIDE)?;
         in_range("workload.spp", w.spp, 1..=MAX_SPP)?;
-        in_range("workload.bounces", w.bounces, 0..=MAX_BOUNCES)
+        in_range("workload.bounces", w.bounces, 0..=MAX_BOUNCES)?;
+        in_range("workload.ao_rays", w.ao_rays, 1..=MAX_AO_RAYS)?;
+        if !(w.ao_radius > 0.0 && w.ao_radius <= 1.0) {
+            return Err(invalid(
+                "workload.ao_radius",
+                w.ao_radius,
+                "must be above 0 and at most 1 (a fraction of the scene's bounding-box diagonal)",
+            ));
+        }
+        Ok(())
     }
 
     /// Checks the BVH width, and the treelet size against it.
@@ -723,6 +771,13 @@ impl SimConfig {
             height: self.workload.height,
             spp: self.workload.spp,
             bounces: self.workload.bounces,
+            kind: match self.workload.kind {
+                WorkloadKindName::Path => WorkloadKind::Path,
+                WorkloadKindName::Ao => WorkloadKind::Ao {
+                    rays: self.workload.ao_rays,
+                    radius: self.workload.ao_radius as f32,
+                },
+            },
         }
     }
 

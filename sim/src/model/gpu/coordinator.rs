@@ -588,7 +588,9 @@ impl<'a> Shared<'_, 'a> {
                 .map(|chunk| {
                     chunk
                         .iter()
-                        .map(|p| p.map(|p| PathThread::new(&ctx.frame, &ctx.settings, p)))
+                        .map(|p| {
+                            p.map(|p| PathThread::new(&ctx.workload, &ctx.frame, &ctx.settings, p))
+                        })
                         .collect()
                 })
                 .collect();

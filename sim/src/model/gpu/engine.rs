@@ -52,6 +52,7 @@ use crate::model::gpu::virtualization::CtaStatePort;
 use crate::model::memory::MemorySystem;
 use crate::model::scene::Scene;
 use crate::model::workload::camera::CameraFrame;
+use crate::model::workload::kind::Workload;
 
 /// Bytes of one hit record.
 const HIT_RECORD_BYTES: u64 = 32;
@@ -252,6 +253,7 @@ pub fn simulate(
         cfg,
         settings,
         frame,
+        workload: Workload::new(&settings, scene),
         timing: ShaderTiming::new(&cfg.gpu),
         record_rays: options.record_rays,
         profile: options.profile,

@@ -151,6 +151,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         rays_issued,
         rays_completed,
         rays_hit: nodes.iter().map(|n| n.rays_hit).sum(),
+        occlusion_rays: nodes.iter().map(|n| n.occlusion_rays).sum(),
         ctas: nodes.iter().map(|n| n.sm.done.len() as u64).sum(),
         simt_efficiency: simt,
         simt_efficiency_per_warp: if warp_simt.1 == 0 {

@@ -17,7 +17,6 @@
 use glam::Vec3;
 
 use crate::model::config::SimConfig;
-use crate::model::geometry::Ray;
 use crate::model::gpu::error::SimError;
 use crate::model::gpu::l2_partitions::PartitionJobs;
 use crate::model::gpu::output::TracedRay;
@@ -28,6 +27,8 @@ use crate::model::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::model::memory::{L1Port, Response};
 use crate::model::scene::Scene;
 use crate::model::workload::camera::CameraFrame;
+use crate::model::workload::kind::TraceRay;
+use crate::model::workload::kind::Workload;
 use crate::model::workload::pathtracer::RenderSettings;
 
 /// Phase of a cycle in which the RT unit's port offers its memory request.
@@ -47,6 +48,8 @@ pub struct Ctx<'a> {
     pub settings: RenderSettings,
     /// The camera.
     pub frame: CameraFrame,
+    /// The workload resolved for the scene (which rays each sample traces).
+    pub workload: Workload,
     /// Shader timing.
     pub timing: ShaderTiming,
     /// Record every traced ray.
@@ -130,6 +133,8 @@ pub struct SmNode<'a> {
     pub nonfinite: u64,
     /// Rays that hit something.
     pub rays_hit: u64,
+    /// Occlusion rays shaded.
+    pub occlusion_rays: u64,
     /// Traced rays with their order key (cycle, phase, SM, sequence), with
     /// [`Ctx::record_rays`].
     pub ray_log: Vec<((u64, u8, usize, u64), TracedRay)>,
@@ -162,6 +167,7 @@ impl<'a> SmNode<'a> {
             pixels: Vec::new(),
             nonfinite: 0,
             rays_hit: 0,
+            occlusion_rays: 0,
             ray_log: Vec::new(),
             samples: Vec::new(),
             stretches: Vec::new(),
@@ -361,12 +367,12 @@ impl<'a> SmNode<'a> {
             None
         };
         if ctx.cfg.sim.lockstep || self.rt.busy_at(now, head.is_some()) {
-            let rays: Vec<Option<Ray>> = head
+            let rays: Vec<Option<TraceRay>> = head
                 .and_then(|w| self.sm.warp(w))
                 .map(|w| {
                     w.threads
                         .iter()
-                        .map(|t| t.as_ref().map(PathThread::ray))
+                        .map(|t| t.as_ref().map(PathThread::trace_ray))
                         .collect()
                 })
                 .unwrap_or_default();
@@ -440,6 +446,7 @@ impl<'a> SmNode<'a> {
                     TracedRay {
                         pixel: t.pixel(),
                         ray: t.ray(),
+                        occlusion: t.trace_ray().occlusion,
                         hit: *hit,
                     },
                 ));
@@ -447,7 +454,8 @@ impl<'a> SmNode<'a> {
             any_hit |= hit.is_some();
             any_miss |= hit.is_none();
             self.rays_hit += u64::from(hit.is_some());
-            match t.on_hit(ctx.scene, &ctx.frame, &ctx.settings, *hit) {
+            self.occlusion_rays += u64::from(t.trace_ray().occlusion);
+            match t.on_hit(ctx.scene, (&ctx.workload, &ctx.frame), &ctx.settings, *hit) {
                 ThreadStep::Trace => again = true,
                 ThreadStep::Finished {
                     pixel,

@@ -11,14 +11,17 @@ use crate::model::gpu::rt::waveform::WaveformSummary;
 use crate::model::gpu::sm::CtaSpan;
 use crate::model::gpu::stats::{Sample, SimStats};
 
-/// One traced ray and the closest hit the RT unit found.
+/// One traced ray and the hit the RT unit found.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TracedRay {
     /// Pixel of the thread that traced it.
     pub pixel: u32,
     /// The ray.
     pub ray: Ray,
-    /// Its closest hit (`None`: a miss).
+    /// An occlusion ray (terminate on first hit).
+    pub occlusion: bool,
+    /// Its closest hit (`None`: a miss); for an occlusion ray, the first hit it found (which
+    /// one depends on the traversal order).
     pub hit: Option<Hit>,
 }
 

@@ -1,6 +1,6 @@
 //! The shaders run on the SMs: the raygen thread of one pixel ([`PathThread`], which drives the
-//! path tracer's [`PathState`] with the hits the RT unit returns) and the timing model of shader
-//! invocations ([`ShaderTiming`]).
+//! workload's [`SampleState`] — a path, or an ambient-occlusion sample — with the answers the
+//! RT unit returns) and the timing model of shader invocations ([`ShaderTiming`]).
 
 use glam::Vec3;
 
@@ -8,16 +8,18 @@ use crate::model::config::GpuConfig;
 use crate::model::geometry::{Hit, Ray};
 use crate::model::scene::Scene;
 use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::pathtracer::{PathState, RenderSettings};
+use crate::model::workload::kind::{SampleState, TraceRay, Workload};
+use crate::model::workload::pathtracer::RenderSettings;
 
 /// One raygen thread: one pixel, its samples traced one after another (sample order, as
-/// [`crate::model::workload::pathtracer::render`] accumulates them), one ray at a time.
+/// [`crate::model::workload::pathtracer::render`] accumulates them), one ray at a time, for
+/// any workload kind.
 #[derive(Debug, Clone)]
 pub struct PathThread {
     pixel: u32,
     sample: u32,
-    path: PathState,
-    ray: Ray,
+    path: SampleState,
+    ray: TraceRay,
     sum: Vec3,
     nonfinite: u64,
 }
@@ -39,9 +41,14 @@ pub enum ThreadStep {
 }
 
 impl PathThread {
-    /// The thread of `pixel`, starting sample 0.
-    pub fn new(frame: &CameraFrame, settings: &RenderSettings, pixel: u32) -> Self {
-        let (path, ray) = PathState::new(frame, settings, pixel, 0);
+    /// The thread of `pixel` of `workload`, starting sample 0.
+    pub fn new(
+        workload: &Workload,
+        frame: &CameraFrame,
+        settings: &RenderSettings,
+        pixel: u32,
+    ) -> Self {
+        let (path, ray) = SampleState::new(workload, frame, settings, pixel, 0);
         PathThread {
             pixel,
             sample: 0,
@@ -54,6 +61,11 @@ impl PathThread {
 
     /// The ray the thread traces next.
     pub fn ray(&self) -> Ray {
+        self.ray.ray
+    }
+
+    /// The ray the thread traces next, with whether it is an occlusion ray.
+    pub fn trace_ray(&self) -> TraceRay {
         self.ray
     }
 
@@ -62,15 +74,16 @@ impl PathThread {
         self.pixel
     }
 
-    /// Shades the closest hit (or miss) of the current ray and picks what comes next.
+    /// Shades the closest hit (or miss) of the current ray — for an occlusion ray, any hit —
+    /// and picks what comes next.
     pub fn on_hit(
         &mut self,
         scene: &Scene,
-        frame: &CameraFrame,
+        (workload, frame): (&Workload, &CameraFrame),
         settings: &RenderSettings,
         hit: Option<Hit>,
     ) -> ThreadStep {
-        if let Some(next) = self.path.on_hit(scene, hit) {
+        if let Some(next) = self.path.on_answer(scene, hit) {
             self.ray = next;
             return ThreadStep::Trace;
         }
@@ -82,7 +95,7 @@ impl PathThread {
         }
         self.sample += 1;
         if self.sample < settings.spp {
-            let (path, ray) = PathState::new(frame, settings, self.pixel, self.sample);
+            let (path, ray) = SampleState::new(workload, frame, settings, self.pixel, self.sample);
             self.path = path;
             self.ray = ray;
             return ThreadStep::Trace;

@@ -204,6 +204,8 @@ pub struct SimStats {
     pub rays_completed: u64,
     /// Rays that hit something.
     pub rays_hit: u64,
+    /// Of the rays traced, occlusion rays (terminate on first hit; the `ao` workload's).
+    pub occlusion_rays: u64,
     /// CTAs run.
     pub ctas: u64,
     /// RT-unit SIMT efficiency: traversing rays / warp size per RT-unit warp cycle.

@@ -1,7 +1,10 @@
-//! The LumiBench path tracer: the workload whose rays every simulation traces.
+//! The workloads whose rays every simulation traces: the LumiBench path tracer (the default)
+//! and ambient occlusion, chosen by `[workload]` `kind` ([`kind`]).
 
+pub mod ao;
 pub mod camera;
 pub mod image;
+pub mod kind;
 pub mod pathtracer;
 pub mod rng;
 pub mod scatter;

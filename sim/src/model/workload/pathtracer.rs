@@ -13,8 +13,9 @@ use crate::model::bvh::HwBvh;
 use crate::model::geometry::{Hit, Ray};
 use crate::model::intersect::{ray_sphere, ray_triangle, RayPrecomp};
 use crate::model::scene::{Material, Scene};
-use crate::model::traversal::{trace, Order};
+use crate::model::traversal::{trace, trace_occlusion, Order};
 use crate::model::workload::camera::{CameraError, CameraFrame};
+use crate::model::workload::kind::{SampleState, Workload, WorkloadKind};
 use crate::model::workload::rng::Rng;
 use crate::model::workload::scatter::{scatter, Scatter, SurfaceHit};
 
@@ -22,12 +23,23 @@ use crate::model::workload::scatter::{scatter, Scatter, SurfaceHit};
 pub trait Tracer: Sync {
     /// The closest hit of `ray` within `[ray.tmin, ray.tmax]`, or `None` (also for invalid rays).
     fn closest_hit(&self, ray: &Ray) -> Option<Hit>;
+
+    /// Whether `ray` hits anything within `[ray.tmin, ray.tmax]` (an occlusion ray; `false`
+    /// for invalid rays): whether [`Tracer::closest_hit`] finds a hit.
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.closest_hit(ray).is_some()
+    }
 }
 
 impl Tracer for HwBvh {
     /// Ray-stationary traversal of the hardware BVH (both orders find the same closest hit).
     fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         trace(self, ray, Order::RayStationary)
+    }
+
+    /// An occlusion ray's ray-stationary traversal: it stops at its first hit.
+    fn occluded(&self, ray: &Ray) -> bool {
+        trace_occlusion(self, ray, Order::RayStationary).is_some()
     }
 }
 
@@ -73,8 +85,18 @@ impl Tracer for BruteForce<'_> {
     }
 }
 
-/// Image size and path-tracing limits (the paper's workload: 256x256, 1 spp, 3 bounces).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The answer the functional renderer gives an occlusion ray that hits (only its presence is
+/// read).
+const OCCLUDED: Hit = Hit {
+    t: 0.0,
+    prim: 0,
+    u: 0.0,
+    v: 0.0,
+};
+
+/// Image size, the workload kind and path-tracing limits (the paper's workload: 256x256,
+/// the path tracer, 1 spp, 3 bounces).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
     /// Image width in pixels.
     pub width: u32,
@@ -84,6 +106,8 @@ pub struct RenderSettings {
     pub spp: u32,
     /// Maximum secondary rays per path (a path traces at most `1 + bounces` rays).
     pub bounces: u32,
+    /// Which rays each sample traces.
+    pub kind: WorkloadKind,
 }
 
 impl Default for RenderSettings {
@@ -93,6 +117,7 @@ impl Default for RenderSettings {
             height: 256,
             spp: 1,
             bounces: 3,
+            kind: WorkloadKind::Path,
         }
     }
 }
@@ -236,8 +261,10 @@ impl PathState {
 /// Counters of one render.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RenderStats {
-    /// Rays traced (primary + secondary, all samples).
+    /// Rays traced (primary + secondary, all samples; occlusion rays included).
     pub rays_traced: u64,
+    /// Of those, occlusion rays (only whether they hit is asked).
+    pub occlusion_rays: u64,
     /// Samples whose radiance was NaN or infinite; they contribute black to their pixel.
     pub nonfinite_samples: u64,
     /// Wall-clock time of the render in seconds (informational only).
@@ -275,13 +302,14 @@ struct RowResult {
     /// Rays per pixel of the row.
     counts: Vec<usize>,
     nonfinite: u64,
+    occlusion: u64,
 }
 
 /// Trace every sample of every pixel of row `y`.
 fn render_row(
     scene: &Scene,
     tracer: &impl Tracer,
-    frame: &CameraFrame,
+    (workload, frame): (&Workload, &CameraFrame),
     settings: &RenderSettings,
     y: u32,
 ) -> RowResult {
@@ -290,17 +318,25 @@ fn render_row(
         rays: Vec::new(),
         counts: Vec::with_capacity(settings.width as usize),
         nonfinite: 0,
+        occlusion: 0,
     };
     for x in 0..settings.width {
         let pixel = y * settings.width + x;
         let before = row.rays.len();
         let mut sum = Vec3::ZERO;
         for sample in 0..settings.spp {
-            let (mut state, mut ray) = PathState::new(frame, settings, pixel, sample);
+            let (mut state, mut next) = SampleState::new(workload, frame, settings, pixel, sample);
             loop {
-                row.rays.push(ray);
-                match state.on_hit(scene, tracer.closest_hit(&ray)) {
-                    Some(next) => ray = next,
+                row.rays.push(next.ray);
+                let hit = if next.occlusion {
+                    row.occlusion += 1;
+                    // Only whether an occlusion ray hits is used.
+                    tracer.occluded(&next.ray).then_some(OCCLUDED)
+                } else {
+                    tracer.closest_hit(&next.ray)
+                };
+                match state.on_answer(scene, hit) {
+                    Some(ray) => next = ray,
                     None => break,
                 }
             }
@@ -348,9 +384,10 @@ fn render_with(
 ) -> Result<Render, RenderError> {
     settings.validate()?;
     let frame = CameraFrame::new(&scene.camera, settings.width, settings.height)?;
+    let workload = Workload::new(settings, scene);
     let start = Instant::now();
     let row = |y: u32| {
-        let r = render_row(scene, tracer, &frame, settings, y);
+        let r = render_row(scene, tracer, (&workload, &frame), settings, y);
         if let Some(p) = progress {
             p.inc(1);
         }
@@ -366,7 +403,7 @@ fn render_with(
     let mut rays = Vec::with_capacity(rows.iter().map(|r| r.rays.len()).sum());
     let mut ray_offsets = Vec::with_capacity(settings.pixels() + 1);
     ray_offsets.push(0);
-    let mut nonfinite = 0;
+    let (mut nonfinite, mut occlusion) = (0, 0);
     for r in rows {
         image.extend_from_slice(&r.colors);
         rays.extend_from_slice(&r.rays);
@@ -374,6 +411,7 @@ fn render_with(
             ray_offsets.push(ray_offsets[ray_offsets.len() - 1] + c);
         }
         nonfinite += r.nonfinite;
+        occlusion += r.occlusion;
     }
     Ok(Render {
         width: settings.width,
@@ -381,6 +419,7 @@ fn render_with(
         image,
         stats: RenderStats {
             rays_traced: rays.len() as u64,
+            occlusion_rays: occlusion,
             nonfinite_samples: nonfinite,
             wall_seconds: start.elapsed().as_secs_f64(),
         },

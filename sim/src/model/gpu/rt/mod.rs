@@ -23,7 +23,7 @@ use vtq_hdl::{Block, HwConfig};
 
 use crate::model::bvh::layout::HEADER_ADDR;
 use crate::model::bvh::{HwBvh, NodeKind};
-use crate::model::geometry::{Hit, Ray};
+use crate::model::geometry::Hit;
 use crate::model::gpu::datapath::{node_entry, ray_words, BvhDatapath};
 use crate::model::gpu::error::SimError;
 use crate::model::gpu::prefetch::Prefetcher;
@@ -32,6 +32,7 @@ use crate::model::gpu::ray_memory::{RayStore, SpillFifo, SpillMemory};
 use crate::model::gpu::rt_fault::RtFault;
 use crate::model::gpu::warp_simt::WarpSimt;
 use crate::model::memory::{AccessClass, AccessError, L1Port, MemRequest, Response};
+use crate::model::workload::kind::TraceRay;
 
 mod plain;
 mod treelet;
@@ -345,28 +346,32 @@ impl<'a> RtPort<'a> {
         }
     }
 
-    /// The warp-buffer entry of `rays` (one per lane, `None` for idle lanes), ray ids from
-    /// warp-buffer slot `slot`'s lanes; a ray that is not valid enters already finished (a miss,
-    /// as in the functional tracer).
+    /// The warp-buffer entry of `rays` (one per lane, `None` for idle lanes; an occlusion ray
+    /// carries the terminate-on-first-hit flag), ray ids from warp-buffer slot `slot`'s lanes;
+    /// a ray that is not valid enters already finished (a miss, as in the functional tracer).
     fn warp_lanes(
         &self,
         slot: usize,
-        rays: &[Option<Ray>],
+        rays: &[Option<TraceRay>],
         warp_size: usize,
     ) -> Vec<Option<RayRecord>> {
         let internal = self.bvh.params().internal_node_bytes();
         let root = node_entry(HEADER_ADDR, NodeKind::Header, internal);
         (0..warp_size)
             .map(|lane| {
-                let ray = rays.get(lane).copied().flatten()?;
+                let TraceRay { ray, occlusion } = rays.get(lane).copied().flatten()?;
                 let id = (slot * warp_size + lane) as u32;
                 let words = ray_words(&ray);
                 Some(if ray.is_valid() {
-                    RayRecord::new(id, words, root)
+                    RayRecord {
+                        occlusion,
+                        ..RayRecord::new(id, words, root)
+                    }
                 } else {
                     RayRecord {
                         ray_id: id,
                         words,
+                        occlusion,
                         ..RayRecord::default()
                     }
                 })
@@ -497,7 +502,7 @@ impl<'a> RtPort<'a> {
         &mut self,
         now: u64,
         sm: usize,
-        warp: Option<(usize, &[Option<Ray>])>,
+        warp: Option<(usize, &[Option<TraceRay>])>,
     ) -> Result<RtCycle, SimError> {
         self.catch_up(now);
         self.observe_warps(1);

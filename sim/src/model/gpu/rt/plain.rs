@@ -6,9 +6,10 @@ use vtq_hdl::rt_unit::{RtCache, RtUnit, RtUnitInputs, RtUnitRegs, RtUnitStatus, 
 use vtq_hdl::trace::BlockCycle;
 
 use super::{rt_error, waveform, Hardware, RtCycle, RtPort, TracedWarp};
-use crate::model::geometry::{Hit, Ray};
+use crate::model::geometry::Hit;
 use crate::model::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::model::gpu::error::SimError;
+use crate::model::workload::kind::TraceRay;
 
 /// The baseline RT unit with its registers, cache and input bundle.
 #[derive(Debug, Clone)]
@@ -30,7 +31,7 @@ impl<'a> RtPort<'a> {
         &mut self,
         now: u64,
         sm: usize,
-        warp: Option<(usize, &[Option<Ray>])>,
+        warp: Option<(usize, &[Option<TraceRay>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
         let record = self.recording(now);

@@ -15,13 +15,14 @@ use vtq_hdl::treelet_rt_unit::{
 use super::warp_costs::WarpCosts;
 use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
 use crate::model::config::TreeletPrefetch;
-use crate::model::geometry::{Hit, Ray};
+use crate::model::geometry::Hit;
 use crate::model::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::model::gpu::error::SimError;
 use crate::model::gpu::queued_stacks::QueuedStacks;
 use crate::model::gpu::ray_memory::{RayStore, SpillFifo};
 use crate::model::gpu::stats::WarpLanes;
 use crate::model::memory::{AccessClass, MemRequest};
+use crate::model::workload::kind::TraceRay;
 
 /// The statistics observer beside one SM's treelet RT unit: its summed events, its tests per
 /// traversal phase and the largest number of queues.
@@ -189,7 +190,7 @@ impl<'a> RtPort<'a> {
         &mut self,
         now: u64,
         sm: usize,
-        warp: Option<(usize, &[Option<Ray>])>,
+        warp: Option<(usize, &[Option<TraceRay>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
         let record = self.recording(now);

@@ -1,0 +1,130 @@
+//! Which rays a pixel sample traces: the workload kinds ([`WorkloadKind`], `[workload]`
+//! `kind`), resolved for a scene ([`Workload`]), and the per-sample state machine over every
+//! kind ([`SampleState`]) that the functional renderer and the simulator's raygen threads
+//! both drive, one [`TraceRay`] at a time.
+
+use glam::Vec3;
+
+use crate::model::geometry::{Hit, Ray};
+use crate::model::scene::Scene;
+use crate::model::workload::ao::AoState;
+use crate::model::workload::camera::CameraFrame;
+use crate::model::workload::pathtracer::{PathState, RenderSettings};
+use crate::model::workload::rng::Rng;
+
+/// A workload kind with its parameters, as configured.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum WorkloadKind {
+    /// The LumiBench path tracer (closest-hit rays; `spp` and `bounces`).
+    #[default]
+    Path,
+    /// Ambient occlusion: a primary ray per sample, then `rays` occlusion rays per primary
+    /// hit, each `radius` long as a fraction of the scene's bounding-box diagonal.
+    Ao {
+        /// Occlusion rays per primary hit.
+        rays: u32,
+        /// Their length, as a fraction of the scene's bounding-box diagonal.
+        radius: f32,
+    },
+}
+
+/// A workload resolved for one scene (lengths in the scene's units); build it once per run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Workload {
+    /// The path tracer.
+    Path,
+    /// Ambient occlusion with occlusion rays of length `radius` (scene units).
+    Ao {
+        /// Occlusion rays per primary hit.
+        rays: u32,
+        /// Their length in scene units.
+        radius: f32,
+    },
+}
+
+impl Workload {
+    /// `settings`' workload in `scene`.
+    pub fn new(settings: &RenderSettings, scene: &Scene) -> Self {
+        match settings.kind {
+            WorkloadKind::Path => Workload::Path,
+            WorkloadKind::Ao { rays, radius } => {
+                let diagonal = scene.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
+                Workload::Ao {
+                    rays,
+                    radius: radius * diagonal,
+                }
+            }
+        }
+    }
+}
+
+/// A ray to trace and what is asked of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceRay {
+    /// The ray.
+    pub ray: Ray,
+    /// An occlusion ray: only whether it hits anything is asked (the RT unit's
+    /// terminate-on-first-hit flag); otherwise its closest hit.
+    pub occlusion: bool,
+}
+
+/// One pixel sample in flight, of any workload kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SampleState {
+    /// A path.
+    Path(PathState),
+    /// An ambient-occlusion sample.
+    Ao(AoState),
+}
+
+impl SampleState {
+    /// Starts sample `sample` of row-major pixel `pixel`; returns the state and its first ray.
+    /// `frame` must be the camera frame for `settings`' image size.
+    pub fn new(
+        workload: &Workload,
+        frame: &CameraFrame,
+        settings: &RenderSettings,
+        pixel: u32,
+        sample: u32,
+    ) -> (SampleState, TraceRay) {
+        let (path, ray) = PathState::new(frame, settings, pixel, sample);
+        let state = match *workload {
+            Workload::Path => SampleState::Path(path),
+            Workload::Ao { rays, radius } => {
+                // The primary ray is the path tracer's; the occlusion rays draw from a stream of
+                // their own.
+                let rng = Rng::for_pixel(pixel, sample ^ 0x8000_0000);
+                SampleState::Ao(AoState::new(ray, rng, rays, radius))
+            }
+        };
+        let first = TraceRay {
+            ray,
+            occlusion: false,
+        };
+        (state, first)
+    }
+
+    /// Consumes the answer to the last ray — its closest hit, or for an occlusion ray any hit
+    /// (only whether there is one is used) — and returns the next ray, or `None` when the
+    /// sample has ended. Calling it after the end returns `None` and changes nothing.
+    pub fn on_answer(&mut self, scene: &Scene, hit: Option<Hit>) -> Option<TraceRay> {
+        match self {
+            SampleState::Path(p) => p.on_hit(scene, hit).map(|ray| TraceRay {
+                ray,
+                occlusion: false,
+            }),
+            SampleState::Ao(a) => a.on_answer(scene, hit).map(|ray| TraceRay {
+                ray,
+                occlusion: true,
+            }),
+        }
+    }
+
+    /// Radiance gathered so far (final once the sample has ended).
+    pub fn radiance(&self) -> Vec3 {
+        match self {
+            SampleState::Path(p) => p.radiance(),
+            SampleState::Ao(a) => a.radiance(),
+        }
+    }
+}

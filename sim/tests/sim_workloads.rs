@@ -1,0 +1,83 @@
+//! End-to-end tests of the workloads beyond the path tracer (`[workload]` `kind`): ambient
+//! occlusion's occlusion rays go through every design's RT unit with the terminate-on-first-hit
+//! flag; each design's image equals the functional renderer's bit for bit (so the designs'
+//! images are identical), each occlusion ray's answer is whether its closest-hit twin hits,
+//! the treelet queues park and resume occlusion rays, skipping idle cycles changes nothing, and
+//! bad workload keys are clear errors.
+
+mod common;
+
+use common::{
+    check_against_functional, check_skip_matches_lockstep, small_config, small_vtq, strip,
+};
+use vtq_sim::model::config::SimConfig;
+use vtq_sim::model::gpu::SimOutput;
+
+const AO: &[&str] = &["workload.kind=ao", "workload.ao_rays=3"];
+
+/// Checks an AO run traced occlusion rays and counted them.
+fn check_ao(out: &SimOutput, what: &str) {
+    let s = &out.stats;
+    assert!(s.occlusion_rays > 0, "{what}: occlusion rays traced");
+    assert!(s.occlusion_rays < s.rays, "{what}: primary rays too");
+    let logged = out.ray_log.iter().filter(|r| r.occlusion).count() as u64;
+    assert_eq!(logged, s.occlusion_rays, "{what}: occlusion rays counted");
+    let hit = out
+        .ray_log
+        .iter()
+        .filter(|r| r.occlusion && r.hit.is_some());
+    assert!(hit.count() > 0, "{what}: some occlusion ray is occluded");
+}
+
+#[test]
+fn ao_images_equal_the_functional_renderer_in_every_design() {
+    let mut images = Vec::new();
+    for (mode, scene, side) in [
+        ("baseline", "wknd", 24),
+        ("prefetch", "wknd", 24),
+        ("baseline", "cornell", 16),
+    ] {
+        let out = check_against_functional(scene, &small_config(mode, 2, side, AO));
+        check_ao(&out, mode);
+        if scene == "wknd" {
+            images.push(out.image);
+        }
+    }
+    let out = check_against_functional("wknd", &small_vtq(2, 24, AO));
+    check_ao(&out, "vtq");
+    let q = &out.stats.queues.counts;
+    assert!(q.ctl.terminated_warps > 0 && q.ctl.enqueued_rays > 0);
+    assert_eq!(q.ray_loads, q.ctl.enqueued_rays);
+    images.push(out.image);
+    assert!(images.windows(2).all(|w| w[0] == w[1]));
+}
+
+#[test]
+fn the_path_workload_is_the_default_and_traces_no_occlusion_ray() {
+    let out = check_against_functional("cornell", &small_config("baseline", 1, 12, &[]));
+    assert_eq!(out.stats.occlusion_rays, 0);
+    assert!(out.ray_log.iter().all(|r| !r.occlusion));
+}
+
+#[test]
+fn ao_skipping_idle_cycles_matches_lockstep() {
+    let (skip, _) = check_skip_matches_lockstep(&small_vtq(2, 16, AO));
+    check_ao(&skip, "vtq skip");
+    let (skip, lock) = check_skip_matches_lockstep(&small_config("baseline", 2, 16, AO));
+    assert_eq!(strip(&skip), strip(&lock));
+}
+
+#[test]
+fn bad_workload_keys_are_errors_naming_the_key() {
+    for (set, key) in [
+        ("workload.kind=whitted", "workload.kind"),
+        ("workload.ao_rays=0", "workload.ao_rays"),
+        ("workload.ao_rays=65", "workload.ao_rays"),
+        ("workload.ao_radius=0", "workload.ao_radius"),
+        ("workload.ao_radius=1.5", "workload.ao_radius"),
+        ("workload.ao_radius=nan", "workload.ao_radius"),
+    ] {
+        let err = SimConfig::load(None, &[set.to_string()]).unwrap_err();
+        assert!(err.to_string().contains(key), "{set}: {err}");
+    }
+}
