@@ -8,11 +8,12 @@ use std::process::{Command, Output};
 use glam::Vec3;
 use vtq_gen::synth::lint;
 use vtq_gen::tools::{or_skip, CI_ENV};
-use vtq_sim::cli::rays_csv::write_rays;
 use vtq_sim::model::bvh::{BvhParams, HwBvh};
 use vtq_sim::model::geometry::Ray;
 use vtq_sim::model::scene::load::load_scene;
 use vtq_sim::model::traversal::{trace, Order};
+use vtq_sim::model::workload::kind::TraceRay;
+use vtq_sim::model::workload::rays_csv::write_rays;
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
@@ -156,7 +157,7 @@ fn render_writes_a_png_of_the_requested_size() {
         "--no-cache",
     ]);
     assert!(out.status.success());
-    let rays = vtq_sim::cli::rays_csv::read_rays(&rays_path).unwrap();
+    let rays = vtq_sim::model::workload::rays_csv::read_rays(&rays_path).unwrap();
     assert!(
         rays.len() >= 30 && rays.len() <= 30 * 4,
         "{} rays",
@@ -213,7 +214,13 @@ fn trace_reports_nan_and_inf_rays_as_misses_and_matches_traversal() {
         tmax: 1e4,
     });
     let rays_path = dir.join("rays.csv");
-    write_rays(&rays_path, &rays).unwrap();
+    let closest: Vec<TraceRay> = (rays.iter())
+        .map(|&ray| TraceRay {
+            ray,
+            occlusion: false,
+        })
+        .collect();
+    write_rays(&rays_path, &closest).unwrap();
     let text = std::fs::read_to_string(&rays_path).unwrap();
     assert!(text.contains("NaN") && text.contains("inf"), "{text}");
 

@@ -29,7 +29,6 @@ const ORDER: &[(&str, &str)] = &[
     ("experiment", "accuracy"),
     ("experiment", "reproduce"),
     ("cli", "output"),
-    ("cli", "rays_csv"),
     ("cli", "fuzz"),
     ("cli", "cmd"),
 ];

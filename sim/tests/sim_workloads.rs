@@ -3,15 +3,21 @@
 //! flag; each design's image equals the functional renderer's bit for bit (so the designs'
 //! images are identical), each occlusion ray's answer is whether its closest-hit twin hits,
 //! the treelet queues park and resume occlusion rays, skipping idle cycles changes nothing, and
-//! bad workload keys are clear errors.
+//! bad workload keys are clear errors; a ray file (CSV or binary) written from a render replays
+//! ray by ray, in file order, in every design.
 
 mod common;
 
 use common::{
     check_against_functional, check_skip_matches_lockstep, small_config, small_vtq, strip,
 };
+use vtq_sim::model::bvh::HwBvh;
 use vtq_sim::model::config::SimConfig;
 use vtq_sim::model::gpu::SimOutput;
+use vtq_sim::model::scene::load::load_scene;
+use vtq_sim::model::workload::kind::TraceRay;
+use vtq_sim::model::workload::pathtracer::render;
+use vtq_sim::model::workload::ray_file::write_ray_file;
 
 const AO: &[&str] = &["workload.kind=ao", "workload.ao_rays=3"];
 
@@ -76,8 +82,74 @@ fn bad_workload_keys_are_errors_naming_the_key() {
         ("workload.ao_radius=0", "workload.ao_radius"),
         ("workload.ao_radius=1.5", "workload.ao_radius"),
         ("workload.ao_radius=nan", "workload.ao_radius"),
+        ("workload.kind=rays", "workload.rays_file"),
+        (
+            "workload.kind=rays\nworkload.rays_file=\"/nonexistent/rays.csv\"",
+            "/nonexistent/rays.csv: No such file",
+        ),
     ] {
-        let err = SimConfig::load(None, &[set.to_string()]).unwrap_err();
+        let sets: Vec<String> = set.lines().map(str::to_string).collect();
+        let err = SimConfig::load(None, &sets).unwrap_err();
         assert!(err.to_string().contains(key), "{set}: {err}");
     }
+}
+
+/// The rays of a functional AO render of cornell (closest-hit and occlusion), written to
+/// `dir` as CSV and binary ray files; returns the rays and the two paths.
+fn ray_files(dir: &std::path::Path) -> (Vec<TraceRay>, [String; 2]) {
+    let cfg = small_config("baseline", 1, 12, AO);
+    let scene = load_scene("cornell").unwrap();
+    let bvh = HwBvh::build(&scene, &cfg.bvh_params()).unwrap();
+    let rays = render(&scene, &bvh, &cfg.render_settings(), None)
+        .unwrap()
+        .trace_rays();
+    std::fs::create_dir_all(dir).unwrap();
+    let paths = ["rays.csv", "rays.bin"].map(|f| dir.join(f).to_str().unwrap().to_string());
+    for p in &paths {
+        write_ray_file(std::path::Path::new(p), &rays).unwrap();
+    }
+    (rays, paths)
+}
+
+#[test]
+fn a_ray_file_replays_in_file_order_in_every_design_from_csv_or_binary() {
+    let dir = std::env::temp_dir().join(format!("vtq-rays-{}", std::process::id()));
+    let (rays, [csv, bin]) = ray_files(&dir);
+    assert!(rays.iter().any(|r| r.occlusion) && rays.iter().any(|r| !r.occlusion));
+    let mut outs = Vec::new();
+    for (mode, file) in [("baseline", &csv), ("prefetch", &bin), ("baseline", &bin)] {
+        let sets = [
+            "workload.kind=rays".to_string(),
+            format!("workload.rays_file={file:?}"),
+        ];
+        let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+        let cfg = small_config(mode, 2, 8, &sets);
+        assert_eq!(
+            (cfg.workload.width, cfg.workload.height),
+            (rays.len() as u32, 1)
+        );
+        let out = check_against_functional("cornell", &cfg);
+        assert_eq!(out.stats.rays, rays.len() as u64);
+        let occlusion = rays.iter().filter(|r| r.occlusion).count() as u64;
+        assert_eq!(out.stats.occlusion_rays, occlusion);
+        // Each pixel traced its ray of the file, flag included.
+        for r in &out.ray_log {
+            let want = rays[r.pixel as usize];
+            assert_eq!((r.ray, r.occlusion), (want.ray, want.occlusion));
+        }
+        outs.push(out);
+    }
+    let sets = [
+        "workload.kind=rays".to_string(),
+        format!("workload.rays_file={bin:?}"),
+    ];
+    let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+    let out = check_against_functional("cornell", &small_vtq(2, 8, &sets));
+    assert!(out.stats.queues.counts.ctl.enqueued_rays > 0);
+    outs.push(out);
+    assert!(outs.windows(2).all(|w| w[0].image == w[1].image));
+    // The same rays from either form: the same run.
+    assert_eq!(strip(&outs[0]), strip(&outs[2]));
+    assert_eq!(outs[0].ray_log, outs[2].ray_log);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -3,7 +3,6 @@
 
 // Files the commands read and write.
 pub mod output;
-pub mod rays_csv;
 
 // Fuzzing of the parsers of user input.
 pub mod fuzz;

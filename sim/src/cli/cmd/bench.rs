@@ -292,6 +292,9 @@ fn sim_config(args: &BenchArgs) -> anyhow::Result<SimConfig> {
         format!("workload.ao_rays={}", image.ao_rays),
         format!("workload.ao_radius={:?}", image.ao_radius),
     ]);
+    if let Some(file) = &image.rays_file {
+        sets.push(format!("workload.rays_file={file:?}"));
+    }
     sets.extend(args.config.overrides.iter().cloned());
     let cfg = designs::load(args.config.config.as_deref(), &sets)?;
     if let Some(path) = &args.config.config {

@@ -12,7 +12,7 @@ use crate::cli::fuzz::{fuzz_parser, replay, FuzzOptions, Parser, ParserReport};
 /// Options of `vtq fuzz`.
 #[derive(Debug, Args)]
 pub struct FuzzArgs {
-    /// Parser to fuzz: obj, mtl, gltf, ply, scene-toml, config, set, rays-csv, bvh-cache or
+    /// Parser to fuzz: obj, mtl, gltf, ply, scene-toml, config, set, rays-csv, ray-file, bvh-cache or
     /// all.
     #[arg(long, default_value = "all")]
     pub parser: String,

@@ -39,6 +39,10 @@ pub struct ImageArgs {
     /// `--workload ao`: their length as a fraction of the scene's bounding-box diagonal.
     #[arg(long, default_value_t = 0.05)]
     pub ao_radius: f64,
+    /// `--workload rays`: the ray file (CSV as `vtq trace` reads, optionally with an
+    /// `occlusion` column, or binary); the image is one row of one pixel per ray.
+    #[arg(long)]
+    pub rays_file: Option<String>,
 }
 
 impl ImageArgs {
@@ -49,6 +53,8 @@ impl ImageArgs {
         let w = &mut cfg.workload;
         (w.width, w.height, w.spp, w.bounces) = (self.width, self.height, self.spp, self.bounces);
         (w.kind, w.ao_rays, w.ao_radius) = (self.workload, self.ao_rays, self.ao_radius);
+        w.rays_file = self.rays_file.clone().unwrap_or_default();
+        w.read_rays()?;
         cfg.validate_workload()?;
         let settings = cfg.render_settings();
         settings.validate()?;

@@ -9,10 +9,10 @@ use clap::Args;
 
 use crate::cli::cmd::options::{build_bvh, load_scene, BvhArgs, ImageArgs};
 use crate::cli::output::{check_file, write_or_keep, Failures};
-use crate::cli::rays_csv::write_rays;
 use crate::model::workload::image::write_png;
 use crate::model::workload::kind::WorkloadKind;
 use crate::model::workload::pathtracer::render;
+use crate::model::workload::ray_file::write_ray_file;
 
 /// Options of `vtq render`.
 #[derive(Debug, Args)]
@@ -24,8 +24,10 @@ pub struct RenderArgs {
     /// Output PNG file [default: `<scene name>.png` in the current directory].
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Also write every traced ray (pixel order, then path order) to this CSV file, in the
-    /// format `vtq trace --rays` reads.
+    /// Also write every traced ray (pixel order, then path order) to this file: CSV in the
+    /// format `vtq trace --rays` reads (with an `occlusion` column if the workload traces
+    /// occlusion rays), or the compact binary form if it ends in `.bin`; either replays with
+    /// `--set workload.kind=rays --set workload.rays_file=FILE`.
     #[arg(long)]
     pub rays_out: Option<PathBuf>,
     /// Image size and path limits.
@@ -86,21 +88,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         write_png(p, result.width, result.height, &result.image).map(|n| black = n)
     }));
     let stats = &result.stats;
-    let what = match settings.kind {
+    let what = match &settings.kind {
         WorkloadKind::Path => format!("path tracer, {} bounces", settings.bounces),
-        WorkloadKind::Ao { rays, radius } => {
-            format!(
-                "ambient occlusion, {rays} rays per hit of radius {radius} x the scene's diagonal"
-            )
-        }
+        WorkloadKind::Rays(set) => format!("rays of {}", set.path),
+        &WorkloadKind::Ao { rays, radius } => format!(
+            "ambient occlusion, {rays} rays per hit of radius {radius} x the scene's diagonal \
+             ({} occlusion rays)",
+            stats.occlusion_rays
+        ),
     };
     println!(
-        "render: {}x{}, {} spp, {what}: {} rays ({} occlusion) in {:.3} s ({:.0} rays/s)",
+        "render: {}x{}, {} spp, {what}: {} rays in {:.3} s ({:.0} rays/s)",
         settings.width,
         settings.height,
         settings.spp,
         stats.rays_traced,
-        stats.occlusion_rays,
         stats.wall_seconds,
         stats.rays_traced as f64 / stats.wall_seconds.max(1e-9),
     );
@@ -114,7 +116,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         println!("wrote {}", out.display());
     }
     if let Some(path) = &args.rays_out {
-        if failures.note(write_or_keep(path, |p| write_rays(p, &result.rays))) {
+        if failures.note(write_or_keep(path, |p| {
+            write_ray_file(p, &result.trace_rays())
+        })) {
             println!("wrote {} rays to {}", result.rays.len(), path.display());
         }
     }

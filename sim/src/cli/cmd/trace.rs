@@ -8,9 +8,9 @@ use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 
 use crate::cli::cmd::options::{build_bvh, load_scene, BvhArgs};
-use crate::cli::rays_csv::{read_rays, write_hits};
 use crate::model::geometry::Hit;
-use crate::model::traversal::{trace, Order};
+use crate::model::traversal::{trace, trace_occlusion, Order};
+use crate::model::workload::rays_csv::{read_rays, write_hits};
 
 /// Traversal order choice on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -37,7 +37,8 @@ pub struct TraceArgs {
     #[arg(long)]
     pub scene: String,
     /// Input rays CSV with header `ox,oy,oz,dx,dy,dz,tmin,tmax` (`nan`/`inf` values allowed;
-    /// such rays are reported as misses).
+    /// such rays are reported as misses), optionally with a column `occlusion` (1: an occlusion
+    /// ray, whose row is the first hit found, 0: a closest-hit ray).
     #[arg(long)]
     pub rays: PathBuf,
     /// Output hits CSV with header `ray,hit,t,prim,u,v` (one row per input ray; prim -1 on a miss).
@@ -60,16 +61,14 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
     let order = Order::from(args.order);
     let hits: Vec<Option<Hit>> = rays
         .par_iter()
-        .map(|r| {
-            if r.is_valid() {
-                trace(&bvh, r, order)
-            } else {
-                None
-            }
+        .map(|r| match (r.ray.is_valid(), r.occlusion) {
+            (false, _) => None,
+            (true, false) => trace(&bvh, &r.ray, order),
+            (true, true) => trace_occlusion(&bvh, &r.ray, order),
         })
         .collect();
     crate::cli::output::write_or_keep(&args.out, |p| write_hits(p, &hits))?;
-    let invalid = rays.iter().filter(|r| !r.is_valid()).count();
+    let invalid = rays.iter().filter(|r| !r.ray.is_valid()).count();
     let hit_count = hits.iter().filter(|h| h.is_some()).count();
     println!(
         "trace: {} rays, {} hits, {} misses ({} invalid rays reported as misses); wrote {}",

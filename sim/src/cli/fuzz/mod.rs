@@ -45,13 +45,15 @@ pub enum Parser {
     Set,
     /// Rays CSV files (`vtq trace --rays`).
     RaysCsv,
+    /// Ray files in either form, binary or CSV (`[workload]` `rays_file`).
+    RayFile,
     /// BVH cache files.
     BvhCache,
 }
 
 impl Parser {
     /// Every parser, in report order.
-    pub const ALL: [Parser; 9] = [
+    pub const ALL: [Parser; 10] = [
         Parser::Obj,
         Parser::Mtl,
         Parser::Gltf,
@@ -60,6 +62,7 @@ impl Parser {
         Parser::Config,
         Parser::Set,
         Parser::RaysCsv,
+        Parser::RayFile,
         Parser::BvhCache,
     ];
 
@@ -74,6 +77,7 @@ impl Parser {
             Parser::Config => "config",
             Parser::Set => "set",
             Parser::RaysCsv => "rays-csv",
+            Parser::RayFile => "ray-file",
             Parser::BvhCache => "bvh-cache",
         }
     }
@@ -93,6 +97,7 @@ impl Parser {
             Parser::SceneToml | Parser::Config => "toml",
             Parser::Set => "txt",
             Parser::RaysCsv => "csv",
+            Parser::RayFile => "bin",
             Parser::BvhCache => "vtqbvh",
         }
     }

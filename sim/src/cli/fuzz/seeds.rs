@@ -10,13 +10,15 @@ use toml::{Table, Value};
 use super::mesh_seeds;
 use super::mutate::Rng;
 use super::Parser;
-use crate::cli::rays_csv::format_rays;
 use crate::experiment::sweep::spec::leaves;
 use crate::model::bvh::{BvhParams, HwBvh, TreeletFormation};
 use crate::model::config::SimConfig;
 use crate::model::geometry::Ray;
 use crate::model::scene::builtin::cornell;
 use crate::model::scene::{Camera, Material, Scene};
+use crate::model::workload::kind::TraceRay;
+use crate::model::workload::ray_file::format_binary;
+use crate::model::workload::rays_csv::{format_rays, parse_rays};
 
 /// Six designs' configuration files (`configs/designs/`).
 const CONFIGS: [&str; 6] = [
@@ -44,6 +46,16 @@ pub fn seeds(parser: Parser, rng: &mut Rng) -> Vec<Vec<u8>> {
             .map(|_| overrides(rng).into_bytes())
             .collect(),
         Parser::RaysCsv => (0..GENERATED).map(|_| rays(rng)).collect(),
+        Parser::RayFile => (0..GENERATED)
+            .map(|i| {
+                let csv = rays(rng);
+                if i % 2 == 0 {
+                    return csv;
+                }
+                let parsed = parse_rays("seed.csv", csv.as_slice()).expect("seed rays parse");
+                format_binary(&parsed)
+            })
+            .collect(),
         Parser::BvhCache => bvh_files(rng),
     }
 }
@@ -256,10 +268,12 @@ fn overrides(rng: &mut Rng) -> String {
     lines.join("\n")
 }
 
-/// A rays CSV file of 1 to 20 rays (some with `nan` or `inf` components).
+/// A rays CSV file of 1 to 20 rays (some with `nan` or `inf` components; half the files with
+/// the occlusion column).
 fn rays(rng: &mut Rng) -> Vec<u8> {
     let n = 1 + rng.below(20);
-    let rays: Vec<Ray> = (0..n)
+    let flags = rng.below(2) == 0;
+    let rays: Vec<TraceRay> = (0..n)
         .map(|_| {
             let mut ray = Ray::new(
                 Vec3::new(rng.float(), rng.float(), rng.float()),
@@ -270,7 +284,8 @@ fn rays(rng: &mut Rng) -> Vec<u8> {
                 1 => ray.tmax = f32::INFINITY,
                 _ => {}
             }
-            ray
+            let occlusion = flags && rng.below(2) == 0;
+            TraceRay { ray, occlusion }
         })
         .collect();
     let mut text = Vec::new();

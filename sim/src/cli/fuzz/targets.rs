@@ -8,7 +8,6 @@ use glam::Vec3;
 
 use super::mesh_seeds::fuzz_buffer;
 use super::Parser;
-use crate::cli::rays_csv::{format_rays, parse_rays};
 use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::geometry::Ray;
@@ -22,6 +21,9 @@ use crate::model::scene::ply::parse_ply;
 use crate::model::scene::text::decode;
 use crate::model::scene::{Camera, Material, Scene};
 use crate::model::traversal::{trace, Order};
+use crate::model::workload::kind::TraceRay;
+use crate::model::workload::ray_file::{format_binary, parse_ray_file};
+use crate::model::workload::rays_csv::{format_rays, parse_rays};
 
 /// What a parser made of an input (a panic is neither: the harness catches it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,6 +70,7 @@ pub fn run(parser: Parser, input: &[u8]) -> Outcome {
             config(SimConfig::load(None, &overrides))
         }
         Parser::RaysCsv => rays(input),
+        Parser::RayFile => ray_file(input),
         Parser::BvhCache => bvh(input),
     }
 }
@@ -187,7 +190,7 @@ fn config(loaded: Result<SimConfig, crate::model::config::ConfigError>) -> Outco
 }
 
 /// A rays CSV file. Checks: accepted rays write out and read back bit-identically (a NaN as a
-/// NaN: its sign and payload are not written).
+/// NaN: its sign and payload are not written), occlusion flags included.
 fn rays(input: &[u8]) -> Outcome {
     let Ok(rays) = parse_rays("fuzz.csv", input) else {
         return Outcome::Rejected;
@@ -196,10 +199,10 @@ fn rays(input: &[u8]) -> Outcome {
     format_rays(&mut text, &rays).expect("writing to memory");
     let again = parse_rays("echo.csv", text.as_slice())
         .unwrap_or_else(|e| panic!("accepted rays do not read back: {e}"));
-    let bits = |r: &[Ray]| -> Vec<[u32; 8]> {
+    let bits = |r: &[TraceRay]| -> Vec<([u32; 8], bool)> {
         r.iter()
-            .map(|r| {
-                [
+            .map(|TraceRay { ray: r, occlusion }| {
+                let words = [
                     r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
                 ]
                 .map(|x| {
@@ -208,11 +211,25 @@ fn rays(input: &[u8]) -> Outcome {
                     } else {
                         x.to_bits()
                     }
-                })
+                });
+                (words, *occlusion)
             })
             .collect()
     };
     assert_eq!(bits(&again), bits(&rays), "rays change on a round trip");
+    Outcome::Accepted
+}
+
+/// A ray file in either form. Checks: accepted rays write out in the binary form and read
+/// back bit-identically (NaN payloads included), occlusion flags included.
+fn ray_file(input: &[u8]) -> Outcome {
+    let Ok(rays) = parse_ray_file("fuzz.bin", input) else {
+        return Outcome::Rejected;
+    };
+    let bytes = format_binary(&rays);
+    let again = parse_ray_file("echo.bin", &bytes)
+        .unwrap_or_else(|e| panic!("accepted rays do not read back: {e}"));
+    assert_eq!(format_binary(&again), bytes, "rays change on a round trip");
     Outcome::Accepted
 }
 

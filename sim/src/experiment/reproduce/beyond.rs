@@ -53,10 +53,10 @@ const PREDICTIONS: &str = "ext-workload-predictions";
 /// One workload point of [`PREDICTIONS`]: the workload key it varies and its value.
 #[derive(Debug, Clone)]
 struct WorkloadPoint {
-    /// `spp` or `bounces`.
+    /// `spp`, `bounces` or `kind`.
     key: String,
-    /// Its value.
-    value: u32,
+    /// Its value (a count, or the kind's name).
+    value: String,
     /// The override that selects it (`workload.spp=2`).
     set: String,
 }
@@ -73,14 +73,10 @@ impl WorkloadPoint {
                 let key = key
                     .strip_prefix("workload.")
                     .ok_or_else(|| anyhow::anyhow!("{PREDICTIONS}: {key} is not a workload key"))?;
-                let value = set
-                    .rsplit('=')
-                    .next()
-                    .and_then(|v| v.parse().ok())
-                    .ok_or_else(|| anyhow::anyhow!("{PREDICTIONS}: {set} is not a count"))?;
+                let value = set.rsplit('=').next().unwrap_or_default().trim_matches('"');
                 Ok(WorkloadPoint {
                     key: key.to_string(),
-                    value,
+                    value: value.to_string(),
                     set: set.clone(),
                 })
             })
@@ -130,7 +126,8 @@ fn percent(v: Option<f64>) -> String {
 }
 
 /// The paper's workload predictions: how the treelet-stationary share of VTQ's tests and its
-/// speedups move with samples per pixel and bounces, per scene with every point stored.
+/// speedups move with samples per pixel and bounces, and what they are for the other workload
+/// kinds (the table's `kind` rows), per scene with every point stored.
 pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let points = WorkloadPoint::all()?;
     let mut scenes: Vec<(String, Vec<PointResult>)> = Vec::new();
@@ -173,7 +170,7 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                         .iter()
                         .zip(results)
                         .filter(|(p, _)| p.key == key)
-                        .filter_map(|(p, res)| Some((p.value as f64, value(res)?)))
+                        .filter_map(|(p, res)| Some((p.value.parse().ok()?, value(res)?)))
                         .collect(),
                 })
                 .collect();
@@ -220,7 +217,8 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   pixel (3 bounces) and against bounces (1 sample per pixel); the table adds \
                   the share of tests made by treelet-stop warps (Figure 15's reading by \
                   traversal order), prefetching's speedup and VTQ's over prefetching \
-                  (docs/fidelity.md)."
+                  (docs/fidelity.md). The `kind` rows are the other workloads at 1 sample per \
+                  pixel: `ao`, ambient occlusion (a primary ray, then occlusion rays)."
             .into(),
         images,
         table: Table {
@@ -247,15 +245,16 @@ mod tests {
     #[test]
     fn the_predictions_points_come_from_their_experiment_file() {
         let points = WorkloadPoint::all().unwrap();
-        let of = |key: &str| -> Vec<u32> {
+        let of = |key: &str| -> Vec<&str> {
             points
                 .iter()
                 .filter(|p| p.key == key)
-                .map(|p| p.value)
+                .map(|p| p.value.as_str())
                 .collect()
         };
-        assert_eq!(of("spp"), [1, 2, 4, 8]);
-        assert_eq!(of("bounces"), [1, 2, 3, 5]);
+        assert_eq!(of("spp"), ["1", "2", "4", "8"]);
+        assert_eq!(of("bounces"), ["1", "2", "3", "5"]);
+        assert_eq!(of("kind"), ["ao"]);
         assert_eq!(points[1].set, "workload.spp=2");
     }
 }

@@ -19,6 +19,7 @@
 
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 use toml::{Table, Value};
@@ -31,6 +32,7 @@ use crate::model::bvh::{BvhParams, TreeletFormation};
 use crate::model::memory::{MemConfig, MemConfigError};
 use crate::model::workload::kind::WorkloadKind;
 use crate::model::workload::pathtracer::RenderSettings;
+use crate::model::workload::ray_file::RaySet;
 
 mod energy;
 mod mode;
@@ -308,6 +310,9 @@ pub enum WorkloadKindName {
     /// Ambient occlusion: a primary ray per sample, then `ao_rays` occlusion rays per
     /// primary hit (`crate::model::workload::ao`).
     Ao,
+    /// Rays from the file `rays_file` (`crate::model::workload::ray_file`), one per pixel of a
+    /// one-row image, in file order.
+    Rays,
 }
 
 impl WorkloadKindName {
@@ -316,6 +321,7 @@ impl WorkloadKindName {
         match self {
             WorkloadKindName::Path => "path",
             WorkloadKindName::Ao => "ao",
+            WorkloadKindName::Rays => "rays",
         }
     }
 }
@@ -341,6 +347,37 @@ pub struct WorkloadConfig {
     /// `ao`: the occlusion rays' length as a fraction of the scene's bounding-box diagonal
     /// (0.05), above 0 and at most 1.
     pub ao_radius: f64,
+    /// `rays`: the ray file (CSV or binary, `crate::model::workload::ray_file`), relative to
+    /// the working directory. Loading the configuration reads it and makes the image one row of
+    /// one pixel per ray (`width` = the ray count, `height` = 1).
+    pub rays_file: String,
+    /// `rays`: the rays read from `rays_file` (not a key).
+    #[serde(skip)]
+    pub rays: Option<Arc<RaySet>>,
+}
+
+impl WorkloadConfig {
+    /// With `kind = "rays"`, reads `rays_file` into `rays` and sizes the image to it (one row,
+    /// one pixel per ray); otherwise drops any rays read before.
+    pub fn read_rays(&mut self) -> Result<(), ConfigError> {
+        if self.kind != WorkloadKindName::Rays {
+            self.rays = None;
+            return Ok(());
+        }
+        if self.rays_file.is_empty() {
+            return Err(invalid(
+                "workload.rays_file",
+                "\"\"",
+                "workload.kind = \"rays\" needs the ray file (CSV or binary) to trace",
+            ));
+        }
+        let set = RaySet::read(&self.rays_file)
+            .map_err(|e| invalid("workload.rays_file", &self.rays_file, e.to_string()))?;
+        self.width = u32::try_from(set.rays.len()).unwrap_or(u32::MAX);
+        self.height = 1;
+        self.rays = Some(Arc::new(set));
+        Ok(())
+    }
 }
 
 impl Default for WorkloadConfig {
@@ -354,6 +391,8 @@ impl Default for WorkloadConfig {
             kind: WorkloadKindName::Path,
             ao_rays: 4,
             ao_radius: 0.05,
+            rays_file: String::new(),
+            rays: None,
         }
     }
 }
@@ -421,6 +460,9 @@ const MAX_BOUNCES: u32 = 64;
 
 /// Most occlusion rays per primary hit (`workload.ao_rays`).
 const MAX_AO_RAYS: u32 = 64;
+
+/// Most rays of a ray file (`workload.rays_file`): the image's pixel count (one row).
+const MAX_FILE_RAYS: u32 = 1 << 26;
 
 impl SimConfig {
     /// Reads a configuration: the defaults, then the TOML file at `path` (if any), then each
@@ -495,9 +537,11 @@ impl SimConfig {
         for text in overrides {
             apply_override(&defaults, &mut merged, text)?;
         }
-        Value::Table(merged)
+        let mut config: SimConfig = Value::Table(merged)
             .try_into()
-            .map_err(|e: toml::de::Error| ConfigError::Toml(e.message().to_string()))
+            .map_err(|e: toml::de::Error| ConfigError::Toml(e.message().to_string()))?;
+        config.workload.read_rays()?;
+        Ok(config)
     }
 
     /// The configuration as a TOML document, every key written out (for echoing the effective
@@ -702,11 +746,30 @@ impl SimConfig {
     /// Checks image size, samples, bounces and the workload kind's parameters.
     pub fn validate_workload(&self) -> Result<(), ConfigError> {
         let w = &self.workload;
-        in_range("workload.width", w.width, 1..=MAX_IMAGE_SIDE)?;
+        let widest = if w.kind == WorkloadKindName::Rays {
+            MAX_FILE_RAYS
+        } else {
+            MAX_IMAGE_SIDE
+        };
+        in_range("workload.width", w.width, 1..=widest)?;
         in_range("workload.height", w.height, 1..=MAX_IMAGE_SIDE)?;
         in_range("workload.spp", w.spp, 1..=MAX_SPP)?;
         in_range("workload.bounces", w.bounces, 0..=MAX_BOUNCES)?;
         in_range("workload.ao_rays", w.ao_rays, 1..=MAX_AO_RAYS)?;
+        if w.kind == WorkloadKindName::Rays {
+            let rays = w.rays.as_ref().map_or(0, |r| r.rays.len());
+            if (w.width, w.height) != (rays as u32, 1) || rays == 0 {
+                return Err(invalid(
+                    "workload.width",
+                    w.width,
+                    format!(
+                        "with workload.kind = \"rays\" the image is one row of one pixel per ray \
+                         of workload.rays_file ({rays} rays): width {rays}, height 1"
+                    ),
+                ));
+            }
+            in_range("workload.spp", w.spp, 1..=1)?;
+        }
         if !(w.ao_radius > 0.0 && w.ao_radius <= 1.0) {
             return Err(invalid(
                 "workload.ao_radius",
@@ -776,6 +839,11 @@ impl SimConfig {
                 WorkloadKindName::Ao => WorkloadKind::Ao {
                     rays: self.workload.ao_rays,
                     radius: self.workload.ao_radius as f32,
+                },
+                WorkloadKindName::Rays => match &self.workload.rays {
+                    Some(set) => WorkloadKind::Rays(set.clone()),
+                    // Not reached for a loaded configuration (it read the file).
+                    None => WorkloadKind::Path,
                 },
             },
         }

@@ -25,13 +25,18 @@ pub struct CtaScheduler {
 
 impl CtaScheduler {
     /// CTAs of `threads_per_cta` threads over a `width` x `height` image: tiles as square as a
-    /// power-of-two width dividing the thread count allows (8 x 8 for 64 threads).
+    /// power-of-two width dividing the thread count allows (8 x 8 for 64 threads); an image one
+    /// row high (the `rays` workload's) in tiles one row high, so each CTA's threads take
+    /// consecutive pixels.
     pub fn new(width: u32, height: u32, threads_per_cta: u32) -> Self {
         let mut tile_w = 1;
         while (tile_w * 2) * (tile_w * 2) <= threads_per_cta
             && threads_per_cta.is_multiple_of(tile_w * 2)
         {
             tile_w *= 2;
+        }
+        if height == 1 {
+            tile_w = threads_per_cta;
         }
         let tile_h = threads_per_cta / tile_w;
         let tiles_x = width.div_ceil(tile_w);

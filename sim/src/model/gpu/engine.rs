@@ -251,9 +251,9 @@ pub fn simulate(
     let ctx = Ctx {
         scene,
         cfg,
+        workload: Workload::new(&settings, scene),
         settings,
         frame,
-        workload: Workload::new(&settings, scene),
         timing: ShaderTiming::new(&cfg.gpu),
         record_rays: options.record_rays,
         profile: options.profile,

@@ -38,7 +38,7 @@ pub const PHASE_RT: u8 = 0;
 pub const PHASE_STATE: u8 = 1;
 
 /// What every node reads and nobody writes during a run.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Ctx<'a> {
     /// The scene (materials for shading).
     pub scene: &'a Scene,

@@ -3,6 +3,8 @@
 //! kind ([`SampleState`]) that the functional renderer and the simulator's raygen threads
 //! both drive, one [`TraceRay`] at a time.
 
+use std::sync::Arc;
+
 use glam::Vec3;
 
 use crate::model::geometry::{Hit, Ray};
@@ -10,10 +12,11 @@ use crate::model::scene::Scene;
 use crate::model::workload::ao::AoState;
 use crate::model::workload::camera::CameraFrame;
 use crate::model::workload::pathtracer::{PathState, RenderSettings};
+use crate::model::workload::ray_file::RaySet;
 use crate::model::workload::rng::Rng;
 
 /// A workload kind with its parameters, as configured.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum WorkloadKind {
     /// The LumiBench path tracer (closest-hit rays; `spp` and `bounces`).
     #[default]
@@ -26,10 +29,13 @@ pub enum WorkloadKind {
         /// Their length, as a fraction of the scene's bounding-box diagonal.
         radius: f32,
     },
+    /// Rays from a file, one per pixel of a one-row image, in file order (each closest-hit or
+    /// occlusion as the file says).
+    Rays(Arc<RaySet>),
 }
 
 /// A workload resolved for one scene (lengths in the scene's units); build it once per run.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Workload {
     /// The path tracer.
     Path,
@@ -40,14 +46,17 @@ pub enum Workload {
         /// Their length in scene units.
         radius: f32,
     },
+    /// Rays from a file: pixel `p` traces ray `p`.
+    Rays(Arc<RaySet>),
 }
 
 impl Workload {
     /// `settings`' workload in `scene`.
     pub fn new(settings: &RenderSettings, scene: &Scene) -> Self {
-        match settings.kind {
+        match &settings.kind {
             WorkloadKind::Path => Workload::Path,
-            WorkloadKind::Ao { rays, radius } => {
+            WorkloadKind::Rays(set) => Workload::Rays(set.clone()),
+            &WorkloadKind::Ao { rays, radius } => {
                 let diagonal = scene.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
                 Workload::Ao {
                     rays,
@@ -75,6 +84,11 @@ pub enum SampleState {
     Path(PathState),
     /// An ambient-occlusion sample.
     Ao(AoState),
+    /// One ray from a file; `hit` once answered.
+    Ray {
+        /// Whether the ray hit something (`None` until answered).
+        hit: Option<bool>,
+    },
 }
 
 impl SampleState {
@@ -87,9 +101,17 @@ impl SampleState {
         pixel: u32,
         sample: u32,
     ) -> (SampleState, TraceRay) {
+        if let Workload::Rays(set) = workload {
+            // The configuration makes the image one row of one pixel per ray.
+            let ray = set.rays.get(pixel as usize).copied().unwrap_or(TraceRay {
+                ray: Ray::new(Vec3::ZERO, Vec3::ZERO),
+                occlusion: false,
+            });
+            return (SampleState::Ray { hit: None }, ray);
+        }
         let (path, ray) = PathState::new(frame, settings, pixel, sample);
         let state = match *workload {
-            Workload::Path => SampleState::Path(path),
+            Workload::Path | Workload::Rays(_) => SampleState::Path(path),
             Workload::Ao { rays, radius } => {
                 // The primary ray is the path tracer's; the occlusion rays draw from a stream of
                 // their own.
@@ -117,6 +139,10 @@ impl SampleState {
                 ray,
                 occlusion: true,
             }),
+            SampleState::Ray { hit: answer } => {
+                answer.get_or_insert(hit.is_some());
+                None
+            }
         }
     }
 
@@ -125,6 +151,8 @@ impl SampleState {
         match self {
             SampleState::Path(p) => p.radiance(),
             SampleState::Ao(a) => a.radiance(),
+            // A ray from a file: white where it hit something, black where it missed.
+            SampleState::Ray { hit } => Vec3::splat(f32::from(u8::from(hit.unwrap_or(false)))),
         }
     }
 }

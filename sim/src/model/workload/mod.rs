@@ -6,5 +6,7 @@ pub mod camera;
 pub mod image;
 pub mod kind;
 pub mod pathtracer;
+pub mod ray_file;
+pub mod rays_csv;
 pub mod rng;
 pub mod scatter;

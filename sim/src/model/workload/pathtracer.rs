@@ -15,7 +15,7 @@ use crate::model::intersect::{ray_sphere, ray_triangle, RayPrecomp};
 use crate::model::scene::{Material, Scene};
 use crate::model::traversal::{trace, trace_occlusion, Order};
 use crate::model::workload::camera::{CameraError, CameraFrame};
-use crate::model::workload::kind::{SampleState, Workload, WorkloadKind};
+use crate::model::workload::kind::{SampleState, TraceRay, Workload, WorkloadKind};
 use crate::model::workload::rng::Rng;
 use crate::model::workload::scatter::{scatter, Scatter, SurfaceHit};
 
@@ -96,7 +96,7 @@ const OCCLUDED: Hit = Hit {
 
 /// Image size, the workload kind and path-tracing limits (the paper's workload: 256x256,
 /// the path tracer, 1 spp, 3 bounces).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {
     /// Image width in pixels.
     pub width: u32,
@@ -282,6 +282,8 @@ pub struct Render {
     pub image: Vec<Vec3>,
     /// Every ray traced, grouped by pixel in pixel order (samples in order within a pixel).
     pub rays: Vec<Ray>,
+    /// Per ray of `rays`, whether it is an occlusion ray.
+    pub occlusion: Vec<bool>,
     /// `rays[ray_offsets[p]..ray_offsets[p + 1]]` are pixel `p`'s rays (length = pixels + 1).
     pub ray_offsets: Vec<usize>,
     /// Counters.
@@ -293,16 +295,24 @@ impl Render {
     pub fn pixel_rays(&self, pixel: usize) -> &[Ray] {
         &self.rays[self.ray_offsets[pixel]..self.ray_offsets[pixel + 1]]
     }
+
+    /// Every ray traced with its occlusion flag, in the order of `rays`.
+    pub fn trace_rays(&self) -> Vec<TraceRay> {
+        (self.rays.iter().zip(&self.occlusion))
+            .map(|(&ray, &occlusion)| TraceRay { ray, occlusion })
+            .collect()
+    }
 }
 
 /// One row's result.
 struct RowResult {
     colors: Vec<Vec3>,
     rays: Vec<Ray>,
+    /// Per ray, whether it is an occlusion ray.
+    occlusion: Vec<bool>,
     /// Rays per pixel of the row.
     counts: Vec<usize>,
     nonfinite: u64,
-    occlusion: u64,
 }
 
 /// Trace every sample of every pixel of row `y`.
@@ -318,7 +328,7 @@ fn render_row(
         rays: Vec::new(),
         counts: Vec::with_capacity(settings.width as usize),
         nonfinite: 0,
-        occlusion: 0,
+        occlusion: Vec::new(),
     };
     for x in 0..settings.width {
         let pixel = y * settings.width + x;
@@ -328,8 +338,8 @@ fn render_row(
             let (mut state, mut next) = SampleState::new(workload, frame, settings, pixel, sample);
             loop {
                 row.rays.push(next.ray);
+                row.occlusion.push(next.occlusion);
                 let hit = if next.occlusion {
-                    row.occlusion += 1;
                     // Only whether an occlusion ray hits is used.
                     tracer.occluded(&next.ray).then_some(OCCLUDED)
                 } else {
@@ -403,7 +413,8 @@ fn render_with(
     let mut rays = Vec::with_capacity(rows.iter().map(|r| r.rays.len()).sum());
     let mut ray_offsets = Vec::with_capacity(settings.pixels() + 1);
     ray_offsets.push(0);
-    let (mut nonfinite, mut occlusion) = (0, 0);
+    let mut nonfinite = 0;
+    let mut occlusion = Vec::with_capacity(rays.capacity());
     for r in rows {
         image.extend_from_slice(&r.colors);
         rays.extend_from_slice(&r.rays);
@@ -411,7 +422,7 @@ fn render_with(
             ray_offsets.push(ray_offsets[ray_offsets.len() - 1] + c);
         }
         nonfinite += r.nonfinite;
-        occlusion += r.occlusion;
+        occlusion.extend_from_slice(&r.occlusion);
     }
     Ok(Render {
         width: settings.width,
@@ -419,11 +430,12 @@ fn render_with(
         image,
         stats: RenderStats {
             rays_traced: rays.len() as u64,
-            occlusion_rays: occlusion,
+            occlusion_rays: occlusion.iter().filter(|&&o| o).count() as u64,
             nonfinite_samples: nonfinite,
             wall_seconds: start.elapsed().as_secs_f64(),
         },
         rays,
+        occlusion,
         ray_offsets,
     })
 }

@@ -1,8 +1,11 @@
-//! Ray and hit CSV files: the input and output of `vtq trace` and of `vtq render --rays-out`.
+//! Ray and hit CSV files: the input and output of `vtq trace`, of `vtq render --rays-out` and of
+//! the `rays` workload (`[workload]` `rays_file`).
 //!
-//! Rays: header `ox,oy,oz,dx,dy,dz,tmin,tmax`, one ray per line. Values are decimal floats;
-//! `nan`, `inf` and `-inf` are accepted (such rays are invalid and reported as misses). Blank
-//! lines are skipped. Hits: header `ray,hit,t,prim,u,v`; a miss is written `i,0,inf,-1,0,0`.
+//! Rays: header `ox,oy,oz,dx,dy,dz,tmin,tmax`, one ray per line, or with a ninth column
+//! `occlusion` (`0` a closest-hit ray, `1` an occlusion ray: terminate on first hit). Values
+//! are decimal floats; `nan`, `inf` and `-inf` are accepted (such rays are invalid and
+//! reported as misses). Blank lines are skipped. Hits: header `ray,hit,t,prim,u,v`; a miss is
+//! written `i,0,inf,-1,0,0`.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
@@ -11,13 +14,26 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::model::geometry::{Hit, Ray};
+use crate::model::workload::kind::TraceRay;
 
 /// The header of a rays CSV file.
 pub const RAYS_HEADER: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax";
+/// The header of a rays CSV file with the occlusion column.
+pub const RAYS_OCCLUSION_HEADER: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax,occlusion";
 /// The header of a hits CSV file.
 pub const HITS_HEADER: &str = "ray,hit,t,prim,u,v";
 
-const COLUMNS: [&str; 8] = ["ox", "oy", "oz", "dx", "dy", "dz", "tmin", "tmax"];
+const COLUMNS: [&str; 9] = [
+    "ox",
+    "oy",
+    "oz",
+    "dx",
+    "dy",
+    "dz",
+    "tmin",
+    "tmax",
+    "occlusion",
+];
 
 /// A CSV file could not be read or written; the message names the file (and line and column).
 #[derive(Debug, thiserror::Error)]
@@ -31,7 +47,7 @@ pub enum CsvError {
         reason: String,
     },
     /// The first line is not the expected header.
-    #[error("{path}:1: expected header '{expected}', found '{found}'")]
+    #[error("{path}:1: expected header '{expected}' (or with ',occlusion'), found '{found}'")]
     Header {
         /// The file.
         path: String,
@@ -41,14 +57,26 @@ pub enum CsvError {
         found: String,
     },
     /// A row has the wrong number of fields.
-    #[error("{path}:{line}: expected 8 comma-separated values, found {found}")]
+    #[error("{path}:{line}: expected {expected} comma-separated values, found {found}")]
     FieldCount {
         /// The file.
         path: String,
         /// 1-based line number.
         line: usize,
+        /// Fields the header names.
+        expected: usize,
         /// Fields found.
         found: usize,
+    },
+    /// An occlusion field is not `0` or `1`.
+    #[error("{path}:{line}: column 9 (occlusion): '{value}' is not 0 or 1")]
+    Occlusion {
+        /// The file.
+        path: String,
+        /// 1-based line number.
+        line: usize,
+        /// The offending text.
+        value: String,
     },
     /// A field is not a number.
     #[error("{path}:{line}: column {column} ({name}): '{value}' is not a number")]
@@ -66,8 +94,9 @@ pub enum CsvError {
     },
 }
 
-/// Parse rays CSV text; `path` is only used in error messages.
-pub fn parse_rays(path: &str, reader: impl BufRead) -> Result<Vec<Ray>, CsvError> {
+/// Parse rays CSV text (each ray with its occlusion flag, `false` without the column); `path`
+/// is only used in error messages.
+pub fn parse_rays(path: &str, reader: impl BufRead) -> Result<Vec<TraceRay>, CsvError> {
     let io = |e: std::io::Error| CsvError::Io {
         path: path.to_string(),
         reason: e.to_string(),
@@ -75,7 +104,8 @@ pub fn parse_rays(path: &str, reader: impl BufRead) -> Result<Vec<Ray>, CsvError
     let mut lines = reader.lines();
     let header = lines.next().transpose().map_err(io)?.unwrap_or_default();
     let header_fields: Vec<&str> = header.trim().split(',').map(str::trim).collect();
-    if header_fields != COLUMNS {
+    let columns = header_fields.len();
+    if header_fields != COLUMNS[..columns.min(9)] || columns < 8 {
         return Err(CsvError::Header {
             path: path.to_string(),
             expected: RAYS_HEADER,
@@ -90,15 +120,27 @@ pub fn parse_rays(path: &str, reader: impl BufRead) -> Result<Vec<Ray>, CsvError
             continue;
         }
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != COLUMNS.len() {
+        if fields.len() != columns {
             return Err(CsvError::FieldCount {
                 path: path.to_string(),
                 line: line_no,
+                expected: columns,
                 found: fields.len(),
             });
         }
+        let occlusion = match fields.get(8) {
+            None | Some(&"0") => false,
+            Some(&"1") => true,
+            Some(other) => {
+                return Err(CsvError::Occlusion {
+                    path: path.to_string(),
+                    line: line_no,
+                    value: other.to_string(),
+                })
+            }
+        };
         let mut v = [0.0f32; 8];
-        for (c, text) in fields.iter().enumerate() {
+        for (c, text) in fields.iter().take(8).enumerate() {
             v[c] = text.parse::<f32>().map_err(|_| CsvError::Value {
                 path: path.to_string(),
                 line: line_no,
@@ -107,18 +149,19 @@ pub fn parse_rays(path: &str, reader: impl BufRead) -> Result<Vec<Ray>, CsvError
                 value: text.to_string(),
             })?;
         }
-        rays.push(Ray {
+        let ray = Ray {
             origin: Vec3::new(v[0], v[1], v[2]),
             dir: Vec3::new(v[3], v[4], v[5]),
             tmin: v[6],
             tmax: v[7],
-        });
+        };
+        rays.push(TraceRay { ray, occlusion });
     }
     Ok(rays)
 }
 
 /// Read a rays CSV file.
-pub fn read_rays(path: &Path) -> Result<Vec<Ray>, CsvError> {
+pub fn read_rays(path: &Path) -> Result<Vec<TraceRay>, CsvError> {
     let name = path.display().to_string();
     let file = File::open(path).map_err(|e| CsvError::Io {
         path: name.clone(),
@@ -128,15 +171,26 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>, CsvError> {
 }
 
 /// Write `rays` as CSV text (floats in shortest round-trip form, so reading gives the same bits;
-/// a NaN is written `NaN` and reads back as a NaN, without its sign or payload).
-pub fn format_rays(out: &mut impl Write, rays: &[Ray]) -> std::io::Result<()> {
-    writeln!(out, "{RAYS_HEADER}")?;
-    for r in rays {
-        writeln!(
+/// a NaN is written `NaN` and reads back as a NaN, without its sign or payload), with the
+/// occlusion column if any ray is an occlusion ray.
+pub fn format_rays(out: &mut impl Write, rays: &[TraceRay]) -> std::io::Result<()> {
+    let flags = rays.iter().any(|r| r.occlusion);
+    let header = if flags {
+        RAYS_OCCLUSION_HEADER
+    } else {
+        RAYS_HEADER
+    };
+    writeln!(out, "{header}")?;
+    for TraceRay { ray: r, occlusion } in rays {
+        write!(
             out,
             "{},{},{},{},{},{},{},{}",
             r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax
         )?;
+        if flags {
+            write!(out, ",{}", u8::from(*occlusion))?;
+        }
+        writeln!(out)?;
     }
     Ok(())
 }
@@ -168,7 +222,7 @@ fn write_file(
 }
 
 /// Write a rays CSV file.
-pub fn write_rays(path: &Path, rays: &[Ray]) -> Result<(), CsvError> {
+pub fn write_rays(path: &Path, rays: &[TraceRay]) -> Result<(), CsvError> {
     write_file(path, |out| format_rays(out, rays))
 }
 
@@ -182,7 +236,16 @@ mod tests {
     use super::*;
 
     fn parse(text: &str) -> Result<Vec<Ray>, CsvError> {
-        parse_rays("rays.csv", text.as_bytes())
+        parse_rays("rays.csv", text.as_bytes()).map(|r| r.iter().map(|t| t.ray).collect())
+    }
+
+    fn closest(rays: &[Ray]) -> Vec<TraceRay> {
+        rays.iter()
+            .map(|&ray| TraceRay {
+                ray,
+                occlusion: false,
+            })
+            .collect()
     }
 
     #[test]
@@ -197,8 +260,13 @@ mod tests {
             },
         ];
         let mut text = Vec::new();
-        format_rays(&mut text, &rays).unwrap();
-        let back = parse_rays("x", text.as_slice()).unwrap();
+        format_rays(&mut text, &closest(&rays)).unwrap();
+        assert!(text.starts_with(b"ox,oy,oz,dx,dy,dz,tmin,tmax\n"));
+        let back: Vec<Ray> = parse_rays("x", text.as_slice())
+            .unwrap()
+            .iter()
+            .map(|t| t.ray)
+            .collect();
         assert_eq!(back[0], rays[0]);
         assert!(back[1].origin.x.is_nan());
         assert_eq!(back[1].dir.x, f32::INFINITY);
@@ -213,10 +281,10 @@ mod tests {
         let rays = parse("ox,oy,oz,dx,dy,dz,tmin,tmax\n-nan,0,0,0,0,-1,0,1\n").unwrap();
         assert!(rays[0].origin.x.is_nan() && rays[0].origin.x.is_sign_negative());
         let mut text = Vec::new();
-        format_rays(&mut text, &rays).unwrap();
-        let back = parse_rays("x", text.as_slice()).unwrap();
-        assert!(back[0].origin.x.is_nan() && !back[0].is_valid());
-        assert_eq!(back[0].dir, rays[0].dir);
+        format_rays(&mut text, &closest(&rays)).unwrap();
+        let back = parse_rays("x", text.as_slice()).unwrap()[0].ray;
+        assert!(back.origin.x.is_nan() && !back.is_valid());
+        assert_eq!(back.dir, rays[0].dir);
     }
 
     #[test]
@@ -243,6 +311,39 @@ mod tests {
         let e = parse("x,y,z\n").unwrap_err();
         assert!(e.to_string().starts_with("rays.csv:1: expected header"));
         assert!(matches!(parse(""), Err(CsvError::Header { .. })));
+    }
+
+    #[test]
+    fn the_occlusion_column_is_optional_and_round_trips() {
+        let text = "ox,oy,oz,dx,dy,dz,tmin,tmax,occlusion\n0,0,0,0,0,-1,0,1,1\n0,0,0,1,0,0,0,2,0\n";
+        let rays = parse_rays("r.csv", text.as_bytes()).unwrap();
+        assert_eq!(
+            rays.iter().map(|r| r.occlusion).collect::<Vec<_>>(),
+            [true, false]
+        );
+        let mut out = Vec::new();
+        format_rays(&mut out, &rays).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), text);
+        let e = parse_rays(
+            "r.csv",
+            "ox,oy,oz,dx,dy,dz,tmin,tmax,occlusion\n0,0,0,0,0,-1,0,1,2\n".as_bytes(),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "r.csv:2: column 9 (occlusion): '2' is not 0 or 1"
+        );
+        let e = parse_rays(
+            "r.csv",
+            "ox,oy,oz,dx,dy,dz,tmin,tmax,occlusion\n0,0,0,0,0,-1,0,1\n".as_bytes(),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "r.csv:2: expected 9 comma-separated values, found 8"
+        );
+        let e = parse_rays("r.csv", "ox,oy,oz,dx,dy,dz,tmin,tmax,hit\n".as_bytes()).unwrap_err();
+        assert!(matches!(e, CsvError::Header { .. }), "{e}");
     }
 
     #[test]
