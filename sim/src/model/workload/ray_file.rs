@@ -111,7 +111,7 @@ pub fn parse_binary(path: &str, bytes: &[u8]) -> Result<Vec<TraceRay>, RayFileEr
             "the header declares {count} rays ({RECORD_BYTES} bytes each) but {body} bytes of \
              rays follow ({} whole rays{})",
             body / RECORD_BYTES as u64,
-            if body % RECORD_BYTES as u64 == 0 {
+            if body.is_multiple_of(RECORD_BYTES as u64) {
                 String::new()
             } else {
                 format!(", {} bytes over", body % RECORD_BYTES as u64)
