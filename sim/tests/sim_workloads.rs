@@ -1,5 +1,5 @@
 //! End-to-end tests of the workloads beyond the path tracer (`[workload]` `kind`): ambient
-//! occlusion's occlusion rays go through every design's RT unit with the terminate-on-first-hit
+//! occlusion's occlusion rays and next-event estimation's shadow rays go through every design's RT unit with the terminate-on-first-hit
 //! flag; each design's image equals the functional renderer's bit for bit (so the designs'
 //! images are identical), each occlusion ray's answer is whether its closest-hit twin hits,
 //! the treelet queues park and resume occlusion rays, skipping idle cycles changes nothing, and
@@ -56,6 +56,25 @@ fn ao_images_equal_the_functional_renderer_in_every_design() {
     assert_eq!(q.ray_loads, q.ctl.enqueued_rays);
     images.push(out.image);
     assert!(images.windows(2).all(|w| w[0] == w[1]));
+}
+
+#[test]
+fn path_nee_images_equal_the_functional_renderer_in_every_design() {
+    // cornell's light is an emitting quad, so every diffuse hit sends a shadow ray.
+    let nee = &["workload.kind=path-nee"];
+    let base = check_against_functional("cornell", &small_config("baseline", 2, 16, nee));
+    check_ao(&base, "path-nee baseline");
+    let vtq = check_against_functional("cornell", &small_vtq(2, 16, nee));
+    check_ao(&vtq, "path-nee vtq");
+    assert_eq!(base.image, vtq.image);
+    // The paths are the path tracer's, the shadow rays come on top.
+    let path = check_against_functional("cornell", &small_config("baseline", 2, 16, &[]));
+    assert_eq!(base.stats.rays - base.stats.occlusion_rays, path.stats.rays);
+    // wknd has no emitting triangle: its light is the sky, and the shadow rays sample it.
+    let wknd = check_against_functional("wknd", &small_vtq(2, 16, nee));
+    check_ao(&wknd, "path-nee wknd");
+    let plain = check_against_functional("wknd", &small_config("baseline", 2, 16, &[]));
+    assert_eq!(wknd.stats.rays - wknd.stats.occlusion_rays, plain.stats.rays);
 }
 
 #[test]

@@ -399,3 +399,31 @@ fn bad_settings_and_cameras_are_errors() {
     let e = render(&bad, &BruteForce { scene: &bad }, &settings(4, 4, 3), None).unwrap_err();
     assert!(e.to_string().contains("camera"), "{e}");
 }
+
+/// Next-event estimation is an estimator of the same light as the path tracer's: on cornell
+/// (lit by an emitting quad: shadow rays toward it) and wknd (lit by its sky: shadow rays
+/// toward the sky) the mean radiance of many samples agrees within 5% (measured: 1.3% and
+/// 1.1%).
+#[test]
+fn next_event_estimation_estimates_the_path_tracers_light() {
+    use vtq_sim::model::bvh::{BvhParams, HwBvh};
+    use vtq_sim::model::scene::load::load_scene;
+    use vtq_sim::model::workload::kind::WorkloadKind;
+    for (name, spp) in [("cornell", 256), ("wknd", 64)] {
+        let scene = load_scene(name).unwrap();
+        let bvh = HwBvh::build(&scene, &BvhParams::default()).unwrap();
+        let mut s = settings(16, 16, 3);
+        s.spp = spp;
+        let path = render(&scene, &bvh, &s, None).unwrap();
+        s.kind = WorkloadKind::PathNee;
+        let nee = render(&scene, &bvh, &s, None).unwrap();
+        assert!(nee.stats.occlusion_rays > 0, "{name}: shadow rays");
+        let mean =
+            |r: &Render| r.image.iter().copied().sum::<Vec3>().element_sum() / r.image.len() as f32;
+        let (a, b) = (mean(&path), mean(&nee));
+        assert!(
+            (a - b).abs() < 0.05 * a,
+            "{name}: path tracer {a}, with NEE {b}"
+        );
+    }
+}

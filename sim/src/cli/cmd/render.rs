@@ -90,6 +90,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let stats = &result.stats;
     let what = match &settings.kind {
         WorkloadKind::Path => format!("path tracer, {} bounces", settings.bounces),
+        WorkloadKind::PathNee => format!(
+            "path tracer with next-event estimation, {} bounces ({} shadow rays)",
+            settings.bounces, stats.occlusion_rays
+        ),
         WorkloadKind::Rays(set) => format!("rays of {}", set.path),
         &WorkloadKind::Ao { rays, radius } => format!(
             "ambient occlusion, {rays} rays per hit of radius {radius} x the scene's diagonal \

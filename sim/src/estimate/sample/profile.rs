@@ -267,7 +267,7 @@ impl<'a> Frame<'a> {
                         trace_with_fetches(self.bvh, ray, order, fetches)
                     };
                     on_ray(thread, fetches);
-                    match path.on_answer(self.scene, hit) {
+                    match path.on_answer(&self.workload, self.scene, hit) {
                         Some(ray) => next = ray,
                         None => break,
                     }

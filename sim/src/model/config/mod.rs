@@ -307,6 +307,10 @@ pub enum WorkloadKindName {
     /// The LumiBench path tracer (the paper's workload; closest-hit rays).
     #[default]
     Path,
+    /// The path tracer with a shadow (occlusion) ray toward a sampled emitting triangle at
+    /// each diffuse hit (`crate::model::workload::path_nee`).
+    #[serde(rename = "path-nee")]
+    PathNee,
     /// Ambient occlusion: a primary ray per sample, then `ao_rays` occlusion rays per
     /// primary hit (`crate::model::workload::ao`).
     Ao,
@@ -320,6 +324,7 @@ impl WorkloadKindName {
     pub fn name(self) -> &'static str {
         match self {
             WorkloadKindName::Path => "path",
+            WorkloadKindName::PathNee => "path-nee",
             WorkloadKindName::Ao => "ao",
             WorkloadKindName::Rays => "rays",
         }
@@ -340,7 +345,7 @@ pub struct WorkloadConfig {
     pub spp: u32,
     /// Maximum secondary rays per path (3); 0 traces primary rays only.
     pub bounces: u32,
-    /// What each sample traces: `"path"` (the default) or `"ao"`.
+    /// What each sample traces: `"path"` (the default), `"path-nee"`, `"ao"` or `"rays"`.
     pub kind: WorkloadKindName,
     /// `ao`: occlusion rays per primary hit (4), 1..=64.
     pub ao_rays: u32,
@@ -836,6 +841,7 @@ impl SimConfig {
             bounces: self.workload.bounces,
             kind: match self.workload.kind {
                 WorkloadKindName::Path => WorkloadKind::Path,
+                WorkloadKindName::PathNee => WorkloadKind::PathNee,
                 WorkloadKindName::Ao => WorkloadKind::Ao {
                     rays: self.workload.ao_rays,
                     radius: self.workload.ao_radius as f32,

@@ -83,7 +83,7 @@ impl PathThread {
         settings: &RenderSettings,
         hit: Option<Hit>,
     ) -> ThreadStep {
-        if let Some(next) = self.path.on_answer(scene, hit) {
+        if let Some(next) = self.path.on_answer(workload, scene, hit) {
             self.ray = next;
             return ThreadStep::Trace;
         }

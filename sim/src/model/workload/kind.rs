@@ -11,7 +11,8 @@ use crate::model::geometry::{Hit, Ray};
 use crate::model::scene::Scene;
 use crate::model::workload::ao::AoState;
 use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::pathtracer::{PathState, RenderSettings};
+use crate::model::workload::path_nee::{Emitters, PathNeeState};
+use crate::model::workload::pathtracer::{camera_ray, PathState, RenderSettings};
 use crate::model::workload::ray_file::RaySet;
 use crate::model::workload::rng::Rng;
 
@@ -32,6 +33,8 @@ pub enum WorkloadKind {
     /// Rays from a file, one per pixel of a one-row image, in file order (each closest-hit or
     /// occlusion as the file says).
     Rays(Arc<RaySet>),
+    /// The path tracer with a shadow ray toward a sampled emitter at each diffuse hit.
+    PathNee,
 }
 
 /// A workload resolved for one scene (lengths in the scene's units); build it once per run.
@@ -48,6 +51,8 @@ pub enum Workload {
     },
     /// Rays from a file: pixel `p` traces ray `p`.
     Rays(Arc<RaySet>),
+    /// The path tracer with next-event estimation toward the scene's emitting triangles.
+    PathNee(Arc<Emitters>),
 }
 
 impl Workload {
@@ -56,6 +61,7 @@ impl Workload {
         match &settings.kind {
             WorkloadKind::Path => Workload::Path,
             WorkloadKind::Rays(set) => Workload::Rays(set.clone()),
+            WorkloadKind::PathNee => Workload::PathNee(Arc::new(Emitters::of(scene))),
             &WorkloadKind::Ao { rays, radius } => {
                 let diagonal = scene.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
                 Workload::Ao {
@@ -84,6 +90,8 @@ pub enum SampleState {
     Path(PathState),
     /// An ambient-occlusion sample.
     Ao(AoState),
+    /// A path with next-event estimation.
+    PathNee(PathNeeState),
     /// One ray from a file; `hit` once answered.
     Ray {
         /// Whether the ray hit something (`None` until answered).
@@ -109,9 +117,20 @@ impl SampleState {
             });
             return (SampleState::Ray { hit: None }, ray);
         }
+        if let Workload::PathNee(_) = workload {
+            let (rng, ray) = camera_ray(frame, settings, pixel, sample);
+            let light_rng = Rng::for_pixel(pixel, sample ^ 0x4000_0000);
+            let max_rays = settings.bounces.saturating_add(1);
+            let state = PathNeeState::new(ray, rng, light_rng, max_rays);
+            let first = TraceRay {
+                ray,
+                occlusion: false,
+            };
+            return (SampleState::PathNee(state), first);
+        }
         let (path, ray) = PathState::new(frame, settings, pixel, sample);
         let state = match *workload {
-            Workload::Path | Workload::Rays(_) => SampleState::Path(path),
+            Workload::Path | Workload::Rays(_) | Workload::PathNee(_) => SampleState::Path(path),
             Workload::Ao { rays, radius } => {
                 // The primary ray is the path tracer's; the occlusion rays draw from a stream of
                 // their own.
@@ -129,8 +148,20 @@ impl SampleState {
     /// Consumes the answer to the last ray — its closest hit, or for an occlusion ray any hit
     /// (only whether there is one is used) — and returns the next ray, or `None` when the
     /// sample has ended. Calling it after the end returns `None` and changes nothing.
-    pub fn on_answer(&mut self, scene: &Scene, hit: Option<Hit>) -> Option<TraceRay> {
+    pub fn on_answer(
+        &mut self,
+        workload: &Workload,
+        scene: &Scene,
+        hit: Option<Hit>,
+    ) -> Option<TraceRay> {
         match self {
+            SampleState::PathNee(p) => {
+                let Workload::PathNee(emitters) = workload else {
+                    return None;
+                };
+                let (ray, occlusion) = p.on_answer(scene, emitters, hit)?;
+                Some(TraceRay { ray, occlusion })
+            }
             SampleState::Path(p) => p.on_hit(scene, hit).map(|ray| TraceRay {
                 ray,
                 occlusion: false,
@@ -151,6 +182,7 @@ impl SampleState {
         match self {
             SampleState::Path(p) => p.radiance(),
             SampleState::Ao(a) => a.radiance(),
+            SampleState::PathNee(p) => p.radiance(),
             // A ray from a file: white where it hit something, black where it missed.
             SampleState::Ray { hit } => Vec3::splat(f32::from(u8::from(hit.unwrap_or(false)))),
         }

@@ -5,6 +5,7 @@ pub mod ao;
 pub mod camera;
 pub mod image;
 pub mod kind;
+pub mod path_nee;
 pub mod pathtracer;
 pub mod ray_file;
 pub mod rays_csv;

@@ -167,6 +167,19 @@ pub fn sky(scene: &Scene, dir: Vec3) -> Vec3 {
     Vec3::ONE.lerp(Vec3::new(0.5, 0.7, 1.0), a)
 }
 
+/// The primary ray of sample `sample` of row-major pixel `pixel` and the sample's random
+/// stream after the camera's draws.
+pub fn camera_ray(
+    frame: &CameraFrame,
+    settings: &RenderSettings,
+    pixel: u32,
+    sample: u32,
+) -> (Rng, Ray) {
+    let mut rng = Rng::for_pixel(pixel, sample);
+    let ray = frame.ray(pixel % settings.width, pixel / settings.width, &mut rng);
+    (rng, ray)
+}
+
 /// One path (one sample of one pixel) in flight: the ray it is waiting on, its throughput and the
 /// radiance gathered so far.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -191,8 +204,7 @@ impl PathState {
         pixel: u32,
         sample: u32,
     ) -> (PathState, Ray) {
-        let mut rng = Rng::for_pixel(pixel, sample);
-        let ray = frame.ray(pixel % settings.width, pixel / settings.width, &mut rng);
+        let (rng, ray) = camera_ray(frame, settings, pixel, sample);
         let state = PathState {
             rng,
             ray,
@@ -345,7 +357,7 @@ fn render_row(
                 } else {
                     tracer.closest_hit(&next.ray)
                 };
-                match state.on_answer(scene, hit) {
+                match state.on_answer(workload, scene, hit) {
                     Some(ray) => next = ray,
                     None => break,
                 }
