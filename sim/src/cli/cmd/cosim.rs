@@ -392,14 +392,19 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
             );
         }
         let warps = log.rt_unit.iter().filter(|i| i.issue.is_some()).count();
+        let occlusion = (log.rt_unit.iter())
+            .filter_map(|i| i.issue.as_ref())
+            .flat_map(|w| w.lanes.iter().flatten())
+            .filter(|r| r.occlusion)
+            .count();
         let responses: usize = log.rt_unit.iter().map(|i| i.responses.len()).sum();
         jobs.push(Job {
             rust_vcd: vcd,
             trace,
             coverage: format!(
                 "real traffic with the scene's datapath: cycles 0..{} of SM {} in scene {} ({}, \
-                 {} cycles in all), from reset: {warps} warps issued, {responses} memory \
-                 responses, {tests} datapath tests ({hits} with a hit), answered from their \
+                 {} cycles in all), from reset: {warps} warps issued ({occlusion} occlusion \
+                 rays), {responses} memory responses, {tests} datapath tests ({hits} with a hit), answered from their \
                  recorded results on both sides",
                 log.rt_unit.len(),
                 args.sm,
@@ -462,14 +467,18 @@ fn replay_jobs(scene: &str, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
         }
         let offered = log.treelet.iter().filter(|i| i.sm_warp.is_some()).count();
         let records: usize = log.treelet.iter().map(|i| i.ray_records.len()).sum();
+        let occlusion = (log.treelet.iter())
+            .flat_map(|i| &i.ray_records)
+            .filter(|r| r.record.occlusion)
+            .count();
         jobs.push(Job {
             rust_vcd: vcd,
             trace,
             coverage: format!(
                 "real traffic with the scene's datapath: the whole treelet RT unit's inputs in \
                  cycles 0..{} of SM {} in scene {} ({}, {} cycles in all), from reset: \
-                 {offered} cycles with an SM warp offered, {records} ray records returned, \
-                 {tests} datapath tests ({hits} with a hit), answered from their recorded \
+                 {offered} cycles with an SM warp offered, {records} ray records returned \
+                 ({occlusion} of occlusion rays), {tests} datapath tests ({hits} with a hit), answered from their recorded \
                  results on both sides",
                 log.treelet.len(),
                 args.sm,
