@@ -25,7 +25,7 @@ struct Cli {
 enum Command {
     /// List the built-in scenes and the scene folders of ../shared/scenes with their sizes.
     Scenes(scenes::ScenesArgs),
-    /// Path trace a scene (LumiBench workload) and write a PNG.
+    /// Path trace a scene (LumiBench workload, or another with --workload) and write a PNG.
     Render(render::RenderArgs),
     /// Trace the rays of a CSV file through a scene and write the closest hits as CSV.
     Trace(trace::TraceArgs),

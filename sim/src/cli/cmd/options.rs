@@ -29,9 +29,10 @@ pub struct ImageArgs {
     /// Maximum secondary rays per path (each path traces at most 1 + bounces rays).
     #[arg(long, default_value_t = 3)]
     pub bounces: u32,
-    /// What each sample traces: the path tracer, or ambient occlusion (a primary ray, then
-    /// --ao-rays occlusion rays per hit; docs/config.md `[workload]`).
-    #[arg(long, value_enum, default_value_t = WorkloadKindName::Path)]
+    /// What each sample traces: `path` (the path tracer), `path-nee` (with shadow rays), `ao`
+    /// (a primary ray, then --ao-rays occlusion rays per hit) or `rays` (--rays-file's);
+    /// docs/workloads.md.
+    #[arg(long, value_enum, hide_possible_values = true, default_value_t = WorkloadKindName::Path)]
     pub workload: WorkloadKindName,
     /// `--workload ao`: occlusion rays per primary hit (1..=64).
     #[arg(long, default_value_t = 4)]

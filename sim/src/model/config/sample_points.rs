@@ -4,7 +4,7 @@
 //! when it is outside the conditions a point was measured in, and the docs test that checks
 //! docs/accuracy.md's reference table.
 
-use super::{Cluster, SampleConfig, SimConfig};
+use super::{Cluster, SampleConfig, SimConfig, WorkloadKindName};
 
 /// What an operating point gave against full detail in the run that measured it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -174,6 +174,16 @@ impl OperatingPoint {
                 cfg.workload.width,
                 cfg.workload.height,
                 f = m.frame,
+            ));
+        }
+        let kind = cfg.workload.kind;
+        if kind != WorkloadKindName::Path {
+            notes.push(format!(
+                "the sample point `{}` was measured on the path tracer; its error on the `{}` \
+                 workload is not measured (the 95% intervals still hold their meaning): check a \
+                 result against full detail (no --sample) before relying on it",
+                self.name,
+                kind.name(),
             ));
         }
         notes

@@ -92,9 +92,4 @@ impl AoState {
     pub fn radiance(&self) -> Vec3 {
         self.radiance
     }
-
-    /// Occlusion rays handed out so far.
-    pub fn occlusion_rays(&self) -> u32 {
-        self.issued
-    }
 }

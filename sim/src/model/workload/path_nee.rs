@@ -72,11 +72,6 @@ impl Emitters {
         self.sky
     }
 
-    /// Emitting triangles sampled.
-    pub fn len(&self) -> usize {
-        self.triangles.len()
-    }
-
     /// Whether there is nothing to sample (no emitting triangle, no sky): no shadow ray.
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty() && !self.sky
@@ -90,7 +85,7 @@ impl Emitters {
     /// A point on the emitters, uniform by area, with its unit normal and radiance.
     fn sample(&self, rng: &mut Rng) -> Option<(Vec3, Vec3, Vec3)> {
         let pick = rng.next_f32() * self.area();
-        let k = self.cdf.partition_point(|&c| c <= pick).min(self.len() - 1);
+        let k = (self.cdf.partition_point(|&c| c <= pick)).min(self.triangles.len() - 1);
         let ([a, b, c], emit) = *self.triangles.get(k)?;
         let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
         if u + v > 1.0 {
