@@ -74,7 +74,10 @@ fn path_nee_images_equal_the_functional_renderer_in_every_design() {
     let wknd = check_against_functional("wknd", &small_vtq(2, 16, nee));
     check_ao(&wknd, "path-nee wknd");
     let plain = check_against_functional("wknd", &small_config("baseline", 2, 16, &[]));
-    assert_eq!(wknd.stats.rays - wknd.stats.occlusion_rays, plain.stats.rays);
+    assert_eq!(
+        wknd.stats.rays - wknd.stats.occlusion_rays,
+        plain.stats.rays
+    );
 }
 
 #[test]

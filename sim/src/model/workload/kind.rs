@@ -109,40 +109,41 @@ impl SampleState {
         pixel: u32,
         sample: u32,
     ) -> (SampleState, TraceRay) {
-        if let Workload::Rays(set) = workload {
-            // The configuration makes the image one row of one pixel per ray.
-            let ray = set.rays.get(pixel as usize).copied().unwrap_or(TraceRay {
-                ray: Ray::new(Vec3::ZERO, Vec3::ZERO),
-                occlusion: false,
-            });
-            return (SampleState::Ray { hit: None }, ray);
-        }
-        if let Workload::PathNee(_) = workload {
-            let (rng, ray) = camera_ray(frame, settings, pixel, sample);
-            let light_rng = Rng::for_pixel(pixel, sample ^ 0x4000_0000);
-            let max_rays = settings.bounces.saturating_add(1);
-            let state = PathNeeState::new(ray, rng, light_rng, max_rays);
-            let first = TraceRay {
-                ray,
-                occlusion: false,
-            };
-            return (SampleState::PathNee(state), first);
-        }
-        let (path, ray) = PathState::new(frame, settings, pixel, sample);
-        let state = match *workload {
-            Workload::Path | Workload::Rays(_) | Workload::PathNee(_) => SampleState::Path(path),
-            Workload::Ao { rays, radius } => {
-                // The primary ray is the path tracer's; the occlusion rays draw from a stream of
-                // their own.
-                let rng = Rng::for_pixel(pixel, sample ^ 0x8000_0000);
-                SampleState::Ao(AoState::new(ray, rng, rays, radius))
-            }
-        };
-        let first = TraceRay {
+        let closest = |ray| TraceRay {
             ray,
             occlusion: false,
         };
-        (state, first)
+        match workload {
+            Workload::Path => {
+                let (path, ray) = PathState::new(frame, settings, pixel, sample);
+                (SampleState::Path(path), closest(ray))
+            }
+            Workload::PathNee(_) => {
+                // The path tracer's camera and stream; the light samples draw from their own.
+                let (rng, ray) = camera_ray(frame, settings, pixel, sample);
+                let light_rng = Rng::for_pixel(pixel, sample ^ 0x4000_0000);
+                let max_rays = settings.bounces.saturating_add(1);
+                let state = PathNeeState::new(ray, rng, light_rng, max_rays);
+                (SampleState::PathNee(state), closest(ray))
+            }
+            &Workload::Ao { rays, radius } => {
+                // The path tracer's primary ray; the occlusion rays draw from a stream of their
+                // own.
+                let (_, ray) = camera_ray(frame, settings, pixel, sample);
+                let rng = Rng::for_pixel(pixel, sample ^ 0x8000_0000);
+                (
+                    SampleState::Ao(AoState::new(ray, rng, rays, radius)),
+                    closest(ray),
+                )
+            }
+            Workload::Rays(set) => {
+                // The configuration makes the image one row of one pixel per ray (a pixel past
+                // the file would trace an invalid ray: a miss).
+                let ray = (set.rays.get(pixel as usize).copied())
+                    .unwrap_or_else(|| closest(Ray::new(Vec3::ZERO, Vec3::ZERO)));
+                (SampleState::Ray { hit: None }, ray)
+            }
+        }
     }
 
     /// Consumes the answer to the last ray — its closest hit, or for an occlusion ray any hit
