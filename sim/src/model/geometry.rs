@@ -46,6 +46,13 @@ impl Ray {
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
     }
+
+    /// The ray's eight values as f32 bit patterns: origin xyz, direction xyz, tmin, tmax (the
+    /// RT unit's ray words, the binary ray file's order).
+    pub fn bits(&self) -> [u32; 8] {
+        let (o, d) = (self.origin, self.dir);
+        [o.x, o.y, o.z, d.x, d.y, d.z, self.tmin, self.tmax].map(f32::to_bits)
+    }
 }
 
 /// The closest hit of a ray.

@@ -24,18 +24,7 @@ use crate::model::traversal::BoxTester;
 
 /// The ray words of a ray: origin, direction, tmin, tmax as f32 bits.
 pub fn ray_words(ray: &Ray) -> RayWords {
-    let o = ray.origin.to_array();
-    let d = ray.dir.to_array();
-    [
-        o[0].to_bits(),
-        o[1].to_bits(),
-        o[2].to_bits(),
-        d[0].to_bits(),
-        d[1].to_bits(),
-        d[2].to_bits(),
-        ray.tmin.to_bits(),
-        ray.tmax.to_bits(),
-    ]
+    ray.bits()
 }
 
 /// The ray held in ray words (inverse of [`ray_words`]).

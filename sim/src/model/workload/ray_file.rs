@@ -72,13 +72,7 @@ impl RaySet {
 
 impl PartialEq for RaySet {
     fn eq(&self, other: &Self) -> bool {
-        let bits = |t: &TraceRay| {
-            let r = t.ray;
-            let w = [
-                r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
-            ];
-            (w.map(f32::to_bits), t.occlusion)
-        };
+        let bits = |t: &TraceRay| (t.ray.bits(), t.occlusion);
         self.path == other.path
             && self.rays.len() == other.rays.len()
             && self
@@ -151,11 +145,9 @@ pub fn format_binary(rays: &[TraceRay]) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER_BYTES + rays.len() * RECORD_BYTES);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&(rays.len() as u64).to_le_bytes());
-    for TraceRay { ray: r, occlusion } in rays {
-        for v in [
-            r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
-        ] {
-            out.extend_from_slice(&v.to_le_bytes());
+    for TraceRay { ray, occlusion } in rays {
+        for w in ray.bits() {
+            out.extend_from_slice(&w.to_le_bytes());
         }
         out.push(u8::from(*occlusion));
     }
@@ -222,15 +214,7 @@ mod tests {
     }
 
     fn bits(r: &[TraceRay]) -> Vec<([u32; 8], bool)> {
-        r.iter()
-            .map(|t| {
-                let r = t.ray;
-                let w = [
-                    r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
-                ];
-                (w.map(f32::to_bits), t.occlusion)
-            })
-            .collect()
+        r.iter().map(|t| (t.ray.bits(), t.occlusion)).collect()
     }
 
     #[test]
