@@ -80,14 +80,14 @@ fn reproduce_writes_every_figure_and_resumes() {
     // with free suspends, vtq with treelet prefetching in the ray-stationary phases and in all)
     // on 2 scenes; cause G: the factorial's 6 cells beyond those (V, T, TG, G, VG, VGR) and the
     // map's 27 pairs less its two at Table 1's machine (VTQ and VGR: 52 runs), on the same 2
-    // scenes; the workload predictions: 7 workloads beyond the paper's (6 spp and bounces
-    // points, ambient occlusion) for the baseline, prefetching and VTQ (42 runs): each
-    // distinct run once.
+    // scenes; the workload predictions: 9 workloads beyond the paper's (6 spp and bounces
+    // points, ambient occlusion, next-event estimation, hybrid frames) for the baseline,
+    // prefetching and VTQ (54 runs): each distinct run once.
     assert!(
-        log.contains("reproduce: 176 points; 0 already done"),
+        log.contains("reproduce: 188 points; 0 already done"),
         "{log}"
     );
-    assert!(log.contains("ran 176 (176 ok, 0 failed)"), "{log}");
+    assert!(log.contains("ran 188 (188 ok, 0 failed)"), "{log}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();
     assert!(
@@ -176,7 +176,7 @@ fn reproduce_writes_every_figure_and_resumes() {
     // A second run draws from the store and runs nothing; the page is the same.
     let again = reproduce(&dir, &out, &[]);
     assert!(
-        again.contains("176 already done") && again.contains("ran 0"),
+        again.contains("188 already done") && again.contains("ran 0"),
         "{again}"
     );
     let html_again = std::fs::read_to_string(out.join("index.html")).unwrap();
@@ -226,7 +226,7 @@ fn reproduce_reuses_what_a_sweep_stored() {
     );
     // Baseline, prefetch and VTQ on both scenes were stored by the sweep.
     assert!(
-        log.contains("reproduce: 176 points; 6 already done"),
+        log.contains("reproduce: 188 points; 6 already done"),
         "{log}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

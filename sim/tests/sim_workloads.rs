@@ -4,7 +4,8 @@
 //! images are identical), each occlusion ray's answer is whether its closest-hit twin hits,
 //! the treelet queues park and resume occlusion rays, skipping idle cycles changes nothing, and
 //! bad workload keys are clear errors; a ray file (CSV or binary) written from a render replays
-//! ray by ray, in file order, in every design.
+//! ray by ray, in file order, in every design; a hybrid frame traces the path tracer's rays
+//! but its primary rays, with the path tracer's image, threads with nothing to trace included.
 
 mod common;
 
@@ -95,6 +96,62 @@ fn ao_skipping_idle_cycles_matches_lockstep() {
     assert_eq!(strip(&skip), strip(&lock));
 }
 
+const HYBRID: &[&str] = &["workload.kind=hybrid"];
+
+#[test]
+fn a_hybrid_frame_traces_the_path_tracers_rays_but_its_primaries_with_the_same_image() {
+    // wknd's sky and cornell's light end paths at their primary hit: those pixels' threads
+    // trace nothing (with 2 spp, some trace one sample only).
+    for (scene, spp) in [("wknd", "spp=2"), ("cornell", "spp=1")] {
+        let extra: Vec<&str> = HYBRID.iter().copied().chain([spp]).collect();
+        let (scene_data, bvh) = common::setup(scene, &small_config("baseline", 2, 16, &extra));
+        let settings = small_config("baseline", 2, 16, &extra).render_settings();
+        let hybrid = render(&scene_data, &bvh, &settings, None).unwrap();
+        let mut path_settings = settings.clone();
+        path_settings.kind = Default::default();
+        let path = render(&scene_data, &bvh, &path_settings, None).unwrap();
+        assert_eq!(hybrid.image, path.image, "{scene}: the path tracer's image");
+        let primaries = (settings.pixels() as u32 * settings.spp) as usize;
+        assert_eq!(hybrid.rays.len(), path.rays.len() - primaries, "{scene}");
+        let idle = (0..settings.pixels())
+            .filter(|&p| hybrid.pixel_rays(p).is_empty())
+            .count();
+        assert!(idle > 0, "{scene}: some thread traces nothing");
+        // Each pixel's traced rays are its path rays less each sample's first.
+        for p in 0..settings.pixels() {
+            let (traced, all) = (hybrid.pixel_rays(p), path.pixel_rays(p));
+            assert_eq!(
+                traced.len() + settings.spp as usize,
+                all.len(),
+                "{scene} {p}"
+            );
+            if settings.spp == 1 {
+                assert_eq!(traced, &all[1..], "{scene}: rays of pixel {p}");
+            }
+        }
+        let mut images = Vec::new();
+        for cfg in [
+            small_config("baseline", 2, 16, &extra),
+            small_config("prefetch", 2, 16, &extra),
+            small_vtq(2, 16, &extra),
+        ] {
+            let out = check_against_functional(scene, &cfg);
+            assert_eq!(out.stats.rays, hybrid.rays.len() as u64);
+            assert_eq!(out.stats.occlusion_rays, 0);
+            images.push(out.image);
+        }
+        assert!(images.windows(2).all(|w| w[0] == w[1]), "{scene}");
+    }
+}
+
+#[test]
+fn hybrid_skipping_idle_cycles_matches_lockstep() {
+    let (skip, lock) = check_skip_matches_lockstep(&small_vtq(2, 16, HYBRID));
+    assert_eq!(strip(&skip), strip(&lock));
+    let (skip, lock) = check_skip_matches_lockstep(&small_config("baseline", 2, 16, HYBRID));
+    assert_eq!(strip(&skip), strip(&lock));
+}
+
 #[test]
 fn bad_workload_keys_are_errors_naming_the_key() {
     for (set, key) in [
@@ -105,6 +162,10 @@ fn bad_workload_keys_are_errors_naming_the_key() {
         ("workload.ao_radius=1.5", "workload.ao_radius"),
         ("workload.ao_radius=nan", "workload.ao_radius"),
         ("workload.kind=rays", "workload.rays_file"),
+        (
+            "workload.kind=hybrid\nworkload.bounces=0",
+            "workload.bounces",
+        ),
         (
             "workload.kind=rays\nworkload.rays_file=\"/nonexistent/rays.csv\"",
             "/nonexistent/rays.csv: No such file",

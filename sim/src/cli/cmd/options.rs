@@ -30,7 +30,8 @@ pub struct ImageArgs {
     #[arg(long, default_value_t = 3)]
     pub bounces: u32,
     /// What each sample traces: `path` (the path tracer), `path-nee` (with shadow rays), `ao`
-    /// (a primary ray, then --ao-rays occlusion rays per hit) or `rays` (--rays-file's);
+    /// (a primary ray, then --ao-rays occlusion rays per hit), `hybrid` (the path tracer's
+    /// secondary rays only, primary hits given as by rasterization) or `rays` (--rays-file's);
     /// docs/workloads.md.
     #[arg(long, value_enum, hide_possible_values = true, default_value_t = WorkloadKindName::Path)]
     pub workload: WorkloadKindName,

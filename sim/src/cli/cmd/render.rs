@@ -90,6 +90,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let stats = &result.stats;
     let what = match &settings.kind {
         WorkloadKind::Path => format!("path tracer, {} bounces", settings.bounces),
+        WorkloadKind::Hybrid => format!(
+            "hybrid: the path tracer's secondary rays, {} bounces, primary hits given",
+            settings.bounces
+        ),
         WorkloadKind::PathNee => format!(
             "path tracer with next-event estimation, {} bounces ({} shadow rays)",
             settings.bounces, stats.occlusion_rays

@@ -25,7 +25,7 @@ use crate::model::gpu::cta_scheduler::CtaScheduler;
 use crate::model::scene::Scene;
 use crate::model::traversal::{trace_occlusion_with_fetches, trace_with_fetches, Fetch, Order};
 use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::kind::{SampleState, Workload};
+use crate::model::workload::kind::{Sampler, Workload};
 use crate::model::workload::pathtracer::{RenderError, RenderSettings};
 
 /// The work of one CTA.
@@ -250,27 +250,30 @@ impl<'a> Frame<'a> {
         } else {
             warps as f64 / traced as f64
         };
+        let sampler = Sampler {
+            scene: self.scene,
+            workload: &self.workload,
+            frame: &self.camera,
+            settings: &self.settings,
+            raster: self.bvh,
+        };
         for (thread, pixel) in pixels.into_iter().enumerate() {
             if (thread / warp) % stride != phase {
                 continue;
             }
             let Some(pixel) = pixel else { continue };
             for sample in 0..self.settings.spp {
-                let (mut path, mut next) =
-                    SampleState::new(&self.workload, &self.camera, &self.settings, pixel, sample);
-                loop {
+                let (mut path, mut next) = sampler.start(pixel, sample);
+                while let Some(traced) = next {
                     fetches.clear();
-                    let (ray, order) = (&next.ray, Order::Hardware);
-                    let hit = if next.occlusion {
+                    let (ray, order) = (&traced.ray, Order::Hardware);
+                    let hit = if traced.occlusion {
                         trace_occlusion_with_fetches(self.bvh, ray, order, fetches)
                     } else {
                         trace_with_fetches(self.bvh, ray, order, fetches)
                     };
                     on_ray(thread, fetches);
-                    match path.on_answer(&self.workload, self.scene, hit) {
-                        Some(ray) => next = ray,
-                        None => break,
-                    }
+                    next = sampler.answer(&mut path, hit);
                 }
             }
         }

@@ -218,7 +218,9 @@ pub fn workload_predictions(r: &Results, out: &Path) -> anyhow::Result<Figure> {
                   the share of tests made by treelet-stop warps (Figure 15's reading by \
                   traversal order), prefetching's speedup and VTQ's over prefetching \
                   (docs/fidelity.md). The `kind` rows are the other workloads at 1 sample per \
-                  pixel: `ao`, ambient occlusion (a primary ray, then occlusion rays)."
+                  pixel: `ao`, ambient occlusion (a primary ray, then occlusion rays); \
+                  `path-nee`, the paths with a shadow ray at each diffuse hit; `hybrid`, the \
+                  paths' secondary rays only (primary hits given, as by rasterization)."
             .into(),
         images,
         table: Table {
@@ -254,7 +256,7 @@ mod tests {
         };
         assert_eq!(of("spp"), ["1", "2", "4", "8"]);
         assert_eq!(of("bounces"), ["1", "2", "3", "5"]);
-        assert_eq!(of("kind"), ["ao"]);
+        assert_eq!(of("kind"), ["ao", "path-nee", "hybrid"]);
         assert_eq!(points[1].set, "workload.spp=2");
     }
 }

@@ -317,6 +317,9 @@ pub enum WorkloadKindName {
     /// Rays from the file `rays_file` (`crate::model::workload::ray_file`), one per pixel of a
     /// one-row image, in file order.
     Rays,
+    /// The path tracer with its primary hits given, as rasterization gives them: only the
+    /// secondary rays are traced (`crate::model::workload::kind::Sampler`).
+    Hybrid,
 }
 
 impl WorkloadKindName {
@@ -327,6 +330,7 @@ impl WorkloadKindName {
             WorkloadKindName::PathNee => "path-nee",
             WorkloadKindName::Ao => "ao",
             WorkloadKindName::Rays => "rays",
+            WorkloadKindName::Hybrid => "hybrid",
         }
     }
 }
@@ -345,7 +349,8 @@ pub struct WorkloadConfig {
     pub spp: u32,
     /// Maximum secondary rays per path (3); 0 traces primary rays only.
     pub bounces: u32,
-    /// What each sample traces: `"path"` (the default), `"path-nee"`, `"ao"` or `"rays"`.
+    /// What each sample traces: `"path"` (the default), `"path-nee"`, `"ao"`, `"hybrid"` or
+    /// `"rays"`.
     pub kind: WorkloadKindName,
     /// `ao`: occlusion rays per primary hit (4), 1..=64.
     pub ao_rays: u32,
@@ -761,6 +766,13 @@ impl SimConfig {
         in_range("workload.spp", w.spp, 1..=MAX_SPP)?;
         in_range("workload.bounces", w.bounces, 0..=MAX_BOUNCES)?;
         in_range("workload.ao_rays", w.ao_rays, 1..=MAX_AO_RAYS)?;
+        if w.kind == WorkloadKindName::Hybrid && w.bounces == 0 {
+            return Err(invalid(
+                "workload.bounces",
+                w.bounces,
+                "with workload.kind = \"hybrid\" only secondary rays are traced: at least 1",
+            ));
+        }
         if w.kind == WorkloadKindName::Rays {
             let rays = w.rays.as_ref().map_or(0, |r| r.rays.len());
             if (w.width, w.height) != (rays as u32, 1) || rays == 0 {
@@ -842,6 +854,7 @@ impl SimConfig {
             kind: match self.workload.kind {
                 WorkloadKindName::Path => WorkloadKind::Path,
                 WorkloadKindName::PathNee => WorkloadKind::PathNee,
+                WorkloadKindName::Hybrid => WorkloadKind::Hybrid,
                 WorkloadKindName::Ao => WorkloadKind::Ao {
                     rays: self.workload.ao_rays,
                     radius: self.workload.ao_radius as f32,

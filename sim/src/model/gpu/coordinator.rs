@@ -581,23 +581,23 @@ impl<'a> Shared<'_, 'a> {
         }
         let start = t + ctx.cfg.gpu.cta_launch_cycles as u64 + ctx.timing.raygen;
         let warp_size = ctx.cfg.gpu.warp_size as usize;
+        let sampler = ctx.sampler();
         for (sm, cta) in c.scheduler.dispatch(&mut free) {
-            let pixels = c.scheduler.pixels(cta);
-            let warps = pixels
-                .chunks(warp_size)
-                .map(|chunk| {
-                    chunk
-                        .iter()
-                        .map(|p| {
-                            p.map(|p| PathThread::new(&ctx.workload, &ctx.frame, &ctx.settings, p))
-                        })
-                        .collect()
-                })
-                .collect();
             let node = halted
                 .iter_mut()
                 .find(|n| n.index == sm)
                 .expect("the scheduler hands CTAs only to SMs with room");
+            // A thread none of whose samples traces a ray (a hybrid frame's) finishes at launch.
+            let threads: Vec<Option<PathThread>> = (c.scheduler.pixels(cta).into_iter())
+                .map(|p| match PathThread::new(&sampler, p?) {
+                    Ok(thread) => Some(thread),
+                    Err(done) => {
+                        node.finish_pixel(done);
+                        None
+                    }
+                })
+                .collect();
+            let warps = threads.chunks(warp_size).map(<[_]>::to_vec).collect();
             node.sm.launch(cta, warps, start);
         }
     }

@@ -252,6 +252,7 @@ pub fn simulate(
         scene,
         cfg,
         workload: Workload::new(&settings, scene),
+        raster: bvh,
         settings,
         frame,
         timing: ShaderTiming::new(&cfg.gpu),

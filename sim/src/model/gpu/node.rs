@@ -16,19 +16,19 @@
 
 use glam::Vec3;
 
+use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::gpu::error::SimError;
 use crate::model::gpu::l2_partitions::PartitionJobs;
 use crate::model::gpu::output::TracedRay;
 use crate::model::gpu::rt::{RtPort, TracedWarp};
-use crate::model::gpu::shader::{PathThread, ShaderTiming, ThreadStep};
+use crate::model::gpu::shader::{FinishedPixel, PathThread, ShaderTiming, ThreadStep};
 use crate::model::gpu::sm::{CtaRef, Resumed, Sm};
 use crate::model::gpu::virtualization::{CtaStatePort, StateSend};
 use crate::model::memory::{L1Port, Response};
 use crate::model::scene::Scene;
 use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::kind::TraceRay;
-use crate::model::workload::kind::Workload;
+use crate::model::workload::kind::{Sampler, TraceRay, Workload};
 use crate::model::workload::pathtracer::RenderSettings;
 
 /// Phase of a cycle in which the RT unit's port offers its memory request.
@@ -50,12 +50,28 @@ pub struct Ctx<'a> {
     pub frame: CameraFrame,
     /// The workload resolved for the scene (which rays each sample traces).
     pub workload: Workload,
+    /// The BVH as the functional tracer that gives a hybrid frame's primary hits (untimed, as
+    /// a rasterizer's G-buffer).
+    pub raster: &'a HwBvh,
     /// Shader timing.
     pub timing: ShaderTiming,
     /// Record every traced ray.
     pub record_rays: bool,
     /// Time the node's visits ([`SmNode::stretches`]) for the parallelism report.
     pub profile: bool,
+}
+
+impl Ctx<'_> {
+    /// What the raygen threads start and answer their samples with.
+    pub fn sampler(&self) -> Sampler<'_> {
+        Sampler {
+            scene: self.scene,
+            workload: &self.workload,
+            frame: &self.frame,
+            settings: &self.settings,
+            raster: self.raster,
+        }
+    }
 }
 
 /// Why a node stopped for the coordinator ([`crate::model::gpu::coordinator`]).
@@ -173,6 +189,13 @@ impl<'a> SmNode<'a> {
             stretches: Vec::new(),
             posted: 0,
         }
+    }
+
+    /// Records a pixel whose samples have all ended (its thread's last trace shaded, or, for a
+    /// thread that traces nothing, its CTA launched).
+    pub fn finish_pixel(&mut self, done: FinishedPixel) {
+        self.pixels.push((done.pixel, done.color));
+        self.nonfinite += done.nonfinite;
     }
 
     /// Whether the node is idle for good: it holds no CTA and none is pending.
@@ -435,6 +458,7 @@ impl<'a> SmNode<'a> {
         };
         let (mut any_hit, mut any_miss, mut again) = (false, false, false);
         let mut finished = 0;
+        let sampler = ctx.sampler();
         for (thread, hit) in warp.threads.iter_mut().zip(&done.hits) {
             let (Some(t), Some(hit)) = (thread.as_mut(), hit) else {
                 continue;
@@ -455,15 +479,12 @@ impl<'a> SmNode<'a> {
             any_miss |= hit.is_none();
             self.rays_hit += u64::from(hit.is_some());
             self.occlusion_rays += u64::from(t.trace_ray().occlusion);
-            match t.on_hit(ctx.scene, (&ctx.workload, &ctx.frame), &ctx.settings, *hit) {
+            match t.on_hit(&sampler, *hit) {
                 ThreadStep::Trace => again = true,
-                ThreadStep::Finished {
-                    pixel,
-                    color,
-                    nonfinite,
-                } => {
-                    self.pixels.push((pixel, color));
-                    self.nonfinite += nonfinite;
+                ThreadStep::Finished(done) => {
+                    // `self.finish_pixel`, with `self.sm` borrowed.
+                    self.pixels.push((done.pixel, done.color));
+                    self.nonfinite += done.nonfinite;
                     finished += 1;
                     *thread = None;
                 }

@@ -6,14 +6,12 @@ use glam::Vec3;
 
 use crate::model::config::GpuConfig;
 use crate::model::geometry::{Hit, Ray};
-use crate::model::scene::Scene;
-use crate::model::workload::camera::CameraFrame;
-use crate::model::workload::kind::{SampleState, TraceRay, Workload};
-use crate::model::workload::pathtracer::RenderSettings;
+use crate::model::workload::kind::{SampleState, Sampler, TraceRay};
 
 /// One raygen thread: one pixel, its samples traced one after another (sample order, as
 /// [`crate::model::workload::pathtracer::render`] accumulates them), one ray at a time, for
-/// any workload kind.
+/// any workload kind. A sample that traces no ray (a hybrid sample whose given primary hit
+/// ends its path) is shaded without a trace.
 #[derive(Debug, Clone)]
 pub struct PathThread {
     pixel: u32,
@@ -24,39 +22,61 @@ pub struct PathThread {
     nonfinite: u64,
 }
 
+/// A pixel whose samples have all ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FinishedPixel {
+    /// The pixel.
+    pub pixel: u32,
+    /// Average radiance over the finite samples' sum (as the functional renderer).
+    pub color: Vec3,
+    /// Samples whose radiance was not finite (contributing black).
+    pub nonfinite: u64,
+}
+
 /// What a thread does after its ray's hit or miss is shaded.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ThreadStep {
-    /// It traces another ray (the next bounce or the next sample's primary ray).
+    /// It traces another ray (the next bounce or a later sample's first ray).
     Trace,
-    /// Every sample has ended: the pixel's colour and how many samples were NaN or infinite.
-    Finished {
-        /// The pixel.
-        pixel: u32,
-        /// Average radiance over the finite samples' sum (as the functional renderer).
-        color: Vec3,
-        /// Samples whose radiance was not finite (contributing black).
-        nonfinite: u64,
-    },
+    /// Every sample has ended.
+    Finished(FinishedPixel),
 }
 
 impl PathThread {
-    /// The thread of `pixel` of `workload`, starting sample 0.
-    pub fn new(
-        workload: &Workload,
-        frame: &CameraFrame,
-        settings: &RenderSettings,
+    /// The thread of `pixel`, at the first of its samples that traces a ray; or, when none
+    /// does, the finished pixel.
+    pub fn new(sampler: &Sampler<'_>, pixel: u32) -> Result<Self, FinishedPixel> {
+        Self::from_sample(sampler, pixel, 0, (Vec3::ZERO, 0))
+    }
+
+    /// The thread of `pixel` at the first of samples `first..` that traces a ray, with the
+    /// earlier samples' radiance sum and non-finite count `tally`; or the finished pixel.
+    fn from_sample(
+        sampler: &Sampler<'_>,
         pixel: u32,
-    ) -> Self {
-        let (path, ray) = SampleState::new(workload, frame, settings, pixel, 0);
-        PathThread {
-            pixel,
-            sample: 0,
-            path,
-            ray,
-            sum: Vec3::ZERO,
-            nonfinite: 0,
+        first: u32,
+        (mut sum, mut nonfinite): (Vec3, u64),
+    ) -> Result<Self, FinishedPixel> {
+        let spp = sampler.settings.spp;
+        for sample in first..spp {
+            let (path, ray) = sampler.start(pixel, sample);
+            if let Some(ray) = ray {
+                return Ok(PathThread {
+                    pixel,
+                    sample,
+                    path,
+                    ray,
+                    sum,
+                    nonfinite,
+                });
+            }
+            add_sample(path.radiance(), &mut sum, &mut nonfinite);
         }
+        Err(FinishedPixel {
+            pixel,
+            color: sum / spp as f32,
+            nonfinite,
+        })
     }
 
     /// The ray the thread traces next.
@@ -76,35 +96,30 @@ impl PathThread {
 
     /// Shades the closest hit (or miss) of the current ray — for an occlusion ray, any hit —
     /// and picks what comes next.
-    pub fn on_hit(
-        &mut self,
-        scene: &Scene,
-        (workload, frame): (&Workload, &CameraFrame),
-        settings: &RenderSettings,
-        hit: Option<Hit>,
-    ) -> ThreadStep {
-        if let Some(next) = self.path.on_answer(workload, scene, hit) {
+    pub fn on_hit(&mut self, sampler: &Sampler<'_>, hit: Option<Hit>) -> ThreadStep {
+        if let Some(next) = sampler.answer(&mut self.path, hit) {
             self.ray = next;
             return ThreadStep::Trace;
         }
-        let l = self.path.radiance();
-        if l.is_finite() {
-            self.sum += l;
-        } else {
-            self.nonfinite += 1;
+        add_sample(self.path.radiance(), &mut self.sum, &mut self.nonfinite);
+        let tally = (self.sum, self.nonfinite);
+        match Self::from_sample(sampler, self.pixel, self.sample + 1, tally) {
+            Ok(next) => {
+                *self = next;
+                ThreadStep::Trace
+            }
+            Err(done) => ThreadStep::Finished(done),
         }
-        self.sample += 1;
-        if self.sample < settings.spp {
-            let (path, ray) = SampleState::new(workload, frame, settings, self.pixel, self.sample);
-            self.path = path;
-            self.ray = ray;
-            return ThreadStep::Trace;
-        }
-        ThreadStep::Finished {
-            pixel: self.pixel,
-            color: self.sum / settings.spp as f32,
-            nonfinite: self.nonfinite,
-        }
+    }
+}
+
+/// Adds an ended sample's radiance `l` to `sum`, or counts it in `nonfinite` if it is NaN or
+/// infinite (as the functional renderer does).
+fn add_sample(l: Vec3, sum: &mut Vec3, nonfinite: &mut u64) {
+    if l.is_finite() {
+        *sum += l;
+    } else {
+        *nonfinite += 1;
     }
 }
 

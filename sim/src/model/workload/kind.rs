@@ -1,7 +1,8 @@
 //! Which rays a pixel sample traces: the workload kinds ([`WorkloadKind`], `[workload]`
 //! `kind`), resolved for a scene ([`Workload`]), and the per-sample state machine over every
-//! kind ([`SampleState`]) that the functional renderer and the simulator's raygen threads
-//! both drive, one [`TraceRay`] at a time.
+//! kind ([`SampleState`]) that the functional renderer, the sampled tier's profile and the
+//! simulator's raygen threads all start through a [`Sampler`] and drive one [`TraceRay`] at a
+//! time.
 
 use std::sync::Arc;
 
@@ -12,7 +13,7 @@ use crate::model::scene::Scene;
 use crate::model::workload::ao::AoState;
 use crate::model::workload::camera::CameraFrame;
 use crate::model::workload::path_nee::{Emitters, PathNeeState};
-use crate::model::workload::pathtracer::{camera_ray, PathState, RenderSettings};
+use crate::model::workload::pathtracer::{camera_ray, PathState, RenderSettings, Tracer};
 use crate::model::workload::ray_file::RaySet;
 use crate::model::workload::rng::Rng;
 
@@ -35,6 +36,9 @@ pub enum WorkloadKind {
     Rays(Arc<RaySet>),
     /// The path tracer with a shadow ray toward a sampled emitter at each diffuse hit.
     PathNee,
+    /// The path tracer with its primary hits taken as given, as a rasterizer's G-buffer would
+    /// give them: only the secondary rays are traced (`spp` and `bounces` as the path tracer).
+    Hybrid,
 }
 
 /// A workload resolved for one scene (lengths in the scene's units); build it once per run.
@@ -53,6 +57,8 @@ pub enum Workload {
     Rays(Arc<RaySet>),
     /// The path tracer with next-event estimation toward the scene's emitting triangles.
     PathNee(Arc<Emitters>),
+    /// The path tracer without tracing its primary rays.
+    Hybrid,
 }
 
 impl Workload {
@@ -60,6 +66,7 @@ impl Workload {
     pub fn new(settings: &RenderSettings, scene: &Scene) -> Self {
         match &settings.kind {
             WorkloadKind::Path => Workload::Path,
+            WorkloadKind::Hybrid => Workload::Hybrid,
             WorkloadKind::Rays(set) => Workload::Rays(set.clone()),
             WorkloadKind::PathNee => Workload::PathNee(Arc::new(Emitters::of(scene))),
             &WorkloadKind::Ao { rays, radius } => {
@@ -99,10 +106,50 @@ pub enum SampleState {
     },
 }
 
+/// What starting and answering a pixel sample needs: the scene and its workload, the camera
+/// frame and image settings, and the `raster` that gives a hybrid frame's primary hits (the
+/// functional closest hit, as a rasterizer's G-buffer would hold it; not timed).
+#[derive(Clone, Copy)]
+pub struct Sampler<'a> {
+    /// The scene (materials for shading).
+    pub scene: &'a Scene,
+    /// Its workload.
+    pub workload: &'a Workload,
+    /// The camera frame for `settings`' image size.
+    pub frame: &'a CameraFrame,
+    /// Image size and path limits.
+    pub settings: &'a RenderSettings,
+    /// The primary hits of hybrid frames.
+    pub raster: &'a dyn Tracer,
+}
+
+impl Sampler<'_> {
+    /// Starts sample `sample` of row-major pixel `pixel`: its state and the first ray it
+    /// traces, or `None` when it traces none (a hybrid sample whose given primary hit ends the
+    /// path: a miss, an emitter, or no bounce left).
+    pub fn start(&self, pixel: u32, sample: u32) -> (SampleState, Option<TraceRay>) {
+        let (mut state, first) =
+            SampleState::new(self.workload, self.frame, self.settings, pixel, sample);
+        if *self.workload != Workload::Hybrid {
+            return (state, Some(first));
+        }
+        let hit = self.raster.closest_hit(&first.ray);
+        let next = state.on_answer(self.workload, self.scene, hit);
+        (state, next)
+    }
+
+    /// Consumes the answer to `state`'s last ray and returns its next ray, or `None` when the
+    /// sample has ended ([`SampleState::on_answer`]).
+    pub fn answer(&self, state: &mut SampleState, hit: Option<Hit>) -> Option<TraceRay> {
+        state.on_answer(self.workload, self.scene, hit)
+    }
+}
+
 impl SampleState {
-    /// Starts sample `sample` of row-major pixel `pixel`; returns the state and its first ray.
+    /// Starts sample `sample` of row-major pixel `pixel`; returns the state and its first ray
+    /// (a hybrid sample's primary ray, which [`Sampler::start`] answers without tracing it).
     /// `frame` must be the camera frame for `settings`' image size.
-    pub fn new(
+    fn new(
         workload: &Workload,
         frame: &CameraFrame,
         settings: &RenderSettings,
@@ -114,7 +161,7 @@ impl SampleState {
             occlusion: false,
         };
         match workload {
-            Workload::Path => {
+            Workload::Path | Workload::Hybrid => {
                 let (path, ray) = PathState::new(frame, settings, pixel, sample);
                 (SampleState::Path(path), closest(ray))
             }
@@ -149,7 +196,7 @@ impl SampleState {
     /// Consumes the answer to the last ray — its closest hit, or for an occlusion ray any hit
     /// (only whether there is one is used) — and returns the next ray, or `None` when the
     /// sample has ended. Calling it after the end returns `None` and changes nothing.
-    pub fn on_answer(
+    fn on_answer(
         &mut self,
         workload: &Workload,
         scene: &Scene,

@@ -15,7 +15,7 @@ use crate::model::intersect::{ray_sphere, ray_triangle, RayPrecomp};
 use crate::model::scene::{Material, Scene};
 use crate::model::traversal::{trace, trace_occlusion, Order};
 use crate::model::workload::camera::{CameraError, CameraFrame};
-use crate::model::workload::kind::{SampleState, TraceRay, Workload, WorkloadKind};
+use crate::model::workload::kind::{Sampler, TraceRay, Workload, WorkloadKind};
 use crate::model::workload::rng::Rng;
 use crate::model::workload::scatter::{scatter, Scatter, SurfaceHit};
 
@@ -342,25 +342,29 @@ fn render_row(
         nonfinite: 0,
         occlusion: Vec::new(),
     };
+    let sampler = Sampler {
+        scene,
+        workload,
+        frame,
+        settings,
+        raster: tracer,
+    };
     for x in 0..settings.width {
         let pixel = y * settings.width + x;
         let before = row.rays.len();
         let mut sum = Vec3::ZERO;
         for sample in 0..settings.spp {
-            let (mut state, mut next) = SampleState::new(workload, frame, settings, pixel, sample);
-            loop {
-                row.rays.push(next.ray);
-                row.occlusion.push(next.occlusion);
-                let hit = if next.occlusion {
+            let (mut state, mut next) = sampler.start(pixel, sample);
+            while let Some(ray) = next {
+                row.rays.push(ray.ray);
+                row.occlusion.push(ray.occlusion);
+                let hit = if ray.occlusion {
                     // Only whether an occlusion ray hits is used.
-                    tracer.occluded(&next.ray).then_some(OCCLUDED)
+                    tracer.occluded(&ray.ray).then_some(OCCLUDED)
                 } else {
-                    tracer.closest_hit(&next.ray)
+                    tracer.closest_hit(&ray.ray)
                 };
-                match state.on_answer(workload, scene, hit) {
-                    Some(ray) => next = ray,
-                    None => break,
-                }
+                next = sampler.answer(&mut state, hit);
             }
             let l = state.radiance();
             if l.is_finite() {
