@@ -1,5 +1,5 @@
 //! Experiment tooling over the model and the estimate tiers, listed bottom-up: charts, then
-//! sweeps of configurations and their result store, full detail under small perturbations, then what draws on them — the figures and
+//! sweeps of configurations and their result store, full detail under small perturbations, then what draws on them — the comparison of designs on one scene, the figures and
 //! tables of `vtq reproduce` and the accuracy benchmark.
 
 // Charts.
@@ -13,4 +13,5 @@ pub mod perturb;
 
 // Built on the two above.
 pub mod accuracy;
+pub mod compare;
 pub mod reproduce;

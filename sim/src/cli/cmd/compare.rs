@@ -10,27 +10,22 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use glam::Vec3;
 
 use crate::cli::cmd::energy::print_comparison as print_energy_comparison;
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs, SampleArg};
 use crate::cli::output::{check_file, write_or_keep};
-use crate::estimate::sample::{paired_speedup, simulate_sampled, Profile};
-use crate::experiment::perturb::{perturbations, perturbed, speedups, Spread};
+use crate::estimate::sample::paired_speedup;
+use crate::experiment::compare::{
+    estimate_all, perturb_all, phase_split, reference, shared_bvhs, simulate_all, Comparison,
+    Perturbed,
+};
 use crate::model::bvh::HwBvh;
 use crate::model::designs::{self, Design};
 use crate::model::energy::EnergyReport;
-use crate::model::gpu::{simulate, SimOptions, SimStats};
 use crate::model::scene::Scene;
-
-/// The design whose cycles the speedups divide, when it is among `--designs`.
-const BASELINE: &str = "baseline";
 
 /// Options of `vtq compare`.
 #[derive(Debug, Args)]
@@ -119,74 +114,6 @@ fn label_width(designs: &[Design]) -> usize {
         .max("design".len())
 }
 
-/// What one design's simulation gave.
-struct Outcome {
-    /// Statistics and image, or why the simulation failed.
-    result: Result<(SimStats, Vec<Vec3>), String>,
-    /// Wall-clock seconds of the whole `simulate` call (setup included).
-    wall_seconds: f64,
-}
-
-/// Simulates every design (each with its BVH), `jobs` at a time on `threads` threads each;
-/// outcomes in design order.
-fn simulate_all(
-    scene: &Scene,
-    runs: &[(&Design, &HwBvh)],
-    jobs: usize,
-    threads: usize,
-    bars: &[Option<indicatif::ProgressBar>],
-) -> Vec<Outcome> {
-    let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<Outcome>>> = runs.iter().map(|_| Mutex::new(None)).collect();
-    let worker = || loop {
-        let i = next.fetch_add(1, Ordering::Relaxed);
-        let Some((design, bvh)) = runs.get(i) else {
-            return;
-        };
-        let start = Instant::now();
-        let result = simulate(
-            scene,
-            bvh,
-            &design.config,
-            SimOptions {
-                threads,
-                ..SimOptions::default()
-            },
-            bars[i].as_ref(),
-        )
-        .map(|out| (out.stats, out.image))
-        .map_err(|e| e.to_string());
-        if let Some(bar) = &bars[i] {
-            match &result {
-                Ok(_) => bar.finish_with_message("done"),
-                Err(_) => bar.abandon_with_message("failed"),
-            }
-        }
-        let outcome = Outcome {
-            result,
-            wall_seconds: start.elapsed().as_secs_f64(),
-        };
-        if let Ok(mut slot) = slots[i].lock() {
-            *slot = Some(outcome);
-        }
-    };
-    std::thread::scope(|s| {
-        for _ in 0..jobs.min(runs.len()) {
-            s.spawn(worker);
-        }
-    });
-    // A simulation that panicked left its slot empty (the panic message is on stderr).
-    slots
-        .into_iter()
-        .map(|slot| {
-            slot.into_inner().ok().flatten().unwrap_or(Outcome {
-                result: Err("the simulation panicked (a simulator bug)".into()),
-                wall_seconds: 0.0,
-            })
-        })
-        .collect()
-}
-
 /// Progress bars, one per design, on a terminal only.
 fn progress_bars(designs: &[Design], pixels: u64) -> Vec<Option<indicatif::ProgressBar>> {
     if !std::io::stderr().is_terminal() {
@@ -208,33 +135,6 @@ fn progress_bars(designs: &[Design], pixels: u64) -> Vec<Option<indicatif::Progr
             Some(bar)
         })
         .collect()
-}
-
-/// Percentages of the three traversal phases' cycles (initial, treelet-stationary,
-/// ray-stationary), or `-` when no phase counted a cycle.
-fn phase_split(stats: &SimStats) -> String {
-    let p = &stats.phases;
-    let cycles = [
-        p.initial.cycles,
-        p.treelet_stationary.cycles,
-        p.ray_stationary.cycles,
-    ];
-    let total: u64 = cycles.iter().sum();
-    if total == 0 {
-        return "-".into();
-    }
-    let pct = cycles.map(|c| format!("{:.1}", 100.0 * c as f64 / total as f64));
-    pct.join("/")
-}
-
-/// The index of the first pixel whose color differs bit for bit, and how many differ.
-fn image_difference(a: &[Vec3], b: &[Vec3]) -> Option<(usize, usize)> {
-    let bits = |c: &Vec3| c.to_array().map(f32::to_bits);
-    let mut differing = (0..a.len().max(b.len()))
-        .filter(|&i| a.get(i).map(bits) != b.get(i).map(bits))
-        .peekable();
-    let first = *differing.peek()?;
-    Some((first, differing.count()))
 }
 
 /// Writes the JSON text to `path` (or keeps it in a fallback file) and says so; the error, as
@@ -298,20 +198,7 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         check_file(path)?;
     }
     let scene = load_scene(&args.scene)?;
-    // One BVH per distinct build parameters, shared by every design that uses them.
-    let mut bvhs: Vec<HwBvh> = Vec::new();
-    let mut bvh_of = Vec::with_capacity(designs.len());
-    for d in &designs {
-        let params = d.config.bvh_params();
-        let k = match bvhs.iter().position(|b| *b.params() == params) {
-            Some(k) => k,
-            None => {
-                bvhs.push(build_bvh(&scene, &params, &args.cache)?);
-                bvhs.len() - 1
-            }
-        };
-        bvh_of.push(k);
-    }
+    let (bvhs, bvh_of) = shared_bvhs(&designs, |p| build_bvh(&scene, p, &args.cache))?;
     let runs: Vec<(&Design, &HwBvh)> = designs
         .iter()
         .zip(bvh_of)
@@ -340,119 +227,28 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     for bar in bars.iter().flatten() {
         bar.finish_and_clear();
     }
-
-    // Speedups divide the baseline's cycles when it is compared, else the first design's.
-    let reference = designs
-        .iter()
-        .position(|d| d.label == BASELINE)
-        .unwrap_or(0);
-    let reference_cycles = match &outcomes[reference].result {
-        Ok((stats, _)) => Some(stats.cycles),
-        Err(_) => None,
-    };
-    let speedup = |stats: &SimStats| {
-        reference_cycles
-            .filter(|_| stats.cycles > 0)
-            .map(|r| r as f64 / stats.cycles as f64)
-    };
-
-    // Energy relative to the reference design's (docs/energy.md).
-    let reference_mj = outcomes[reference]
-        .result
-        .as_ref()
-        .ok()
-        .map(|(s, _)| s.energy.total_mj);
-    let energy = |s: &SimStats| {
-        reference_mj
-            .filter(|&e| e > 0.0)
-            .map(|e| s.energy.total_mj / e)
+    // Speedups and energy divide the baseline's when it is compared, else the first design's.
+    let comparison = Comparison {
+        designs: &designs,
+        outcomes: &outcomes,
+        reference: reference(&designs),
     };
     let label_width = label_width(&designs);
-    println!(
-        "{:<label_width$}  {:>12}  {:>8}  {:>7}  {:>11}  {:>9}  {:>23}  {:>8}",
-        "design",
-        "cycles",
-        "speedup",
-        "energy",
-        "BVH L1 miss",
-        "SIMT eff.",
-        "phases % init/TS/RS",
-        "wall s"
-    );
-    let mut failures = Vec::new();
-    for (design, outcome) in designs.iter().zip(&outcomes) {
-        match &outcome.result {
-            Ok((stats, _)) => println!(
-                "{:<label_width$}  {:>12}  {:>8}  {:>7}  {:>11.3}  {:>9.3}  {:>23}  {:>8.2}",
-                design.label,
-                stats.cycles,
-                speedup(stats).map_or_else(|| "-".into(), |s| format!("{s:.2}")),
-                energy(stats).map_or_else(|| "-".into(), |e| format!("{e:.3}")),
-                stats.bvh_l1_miss_rate,
-                stats.simt_efficiency,
-                phase_split(stats),
-                outcome.wall_seconds
-            ),
-            Err(e) => {
-                println!("{:<label_width$}  error: {e}", design.label);
-                failures.push(format!("{}: {e}", design.label));
-            }
-        }
-    }
-    println!(
-        "speedup = {} cycles / design cycles; energy = design energy / {}'s (below); phases: \
-         initial / treelet-stationary / ray-stationary share of traversal-phase cycles",
-        designs[reference].label, designs[reference].label
-    );
-    let energy_rows: Vec<Option<(&str, &EnergyReport)>> = designs
-        .iter()
-        .zip(&outcomes)
-        .map(|(d, o)| {
-            o.result
-                .as_ref()
-                .ok()
-                .map(|(s, _)| (d.label.as_str(), &s.energy))
-        })
-        .collect();
-    print_energy_comparison(&energy_rows, reference, label_width);
+    let failures = print_table(&comparison, label_width);
 
     let perturbed = if args.perturb > 0 {
-        perturbed_table(args, &scene, &runs, jobs, reference, &outcomes, label_width)?
+        perturbed_table(args, &scene, &runs, jobs, &comparison, label_width)?
     } else {
         Vec::new()
     };
 
-    let ran: Vec<(&Design, &[Vec3])> = designs
-        .iter()
-        .zip(&outcomes)
-        .filter_map(|(d, o)| {
-            o.result
-                .as_ref()
-                .ok()
-                .map(|(_, image)| (d, image.as_slice()))
-        })
-        .collect();
-    let mut mismatches = Vec::new();
-    if let Some(((first, first_image), rest)) = ran.split_first() {
-        for (design, image) in rest {
-            if let Some((pixel, count)) = image_difference(first_image, image) {
-                let w = settings.width as usize;
-                mismatches.push(format!(
-                    "{} differs from {} in {count} of {} pixels (first at x={}, y={})",
-                    design.label,
-                    first.label,
-                    settings.pixels(),
-                    pixel % w,
-                    pixel / w
-                ));
-            }
-        }
-    }
-    match (ran.len(), mismatches.is_empty()) {
+    let ran = comparison.images().len();
+    let mismatches = comparison.image_mismatches(settings.width);
+    match (ran, mismatches.is_empty()) {
         (0, _) => println!("images: no design produced an image"),
         (1, _) => println!(
             "images: only {} produced an image, nothing to compare",
-            ran[0].0.label
+            comparison.images()[0].0.label
         ),
         (n, true) => println!(
             "images: identical: all {n} designs that ran produced the same {}x{} image, \
@@ -464,33 +260,8 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
 
     let mut json_error = None;
     if let Some(path) = &args.json {
-        let entries: Vec<serde_json::Value> = designs
-            .iter()
-            .zip(&outcomes)
-            .enumerate()
-            .map(|(i, (d, o))| match &o.result {
-                Ok((stats, _)) => serde_json::json!({
-                    "design": d.label,
-                    "source": d.source,
-                    "speedup": speedup(stats),
-                    "energy_ratio": energy(stats),
-                    "wall_seconds": o.wall_seconds,
-                    "stats": stats,
-                    "perturbed": perturbed.get(i),
-                }),
-                Err(e) => serde_json::json!({
-                    "design": d.label,
-                    "source": d.source,
-                    "error": e,
-                }),
-            })
-            .collect();
-        let doc = serde_json::json!({
-            "scene": scene.name,
-            "speedup_reference": designs[reference].label,
-            "images_identical": ran.len() >= 2 && mismatches.is_empty(),
-            "designs": entries,
-        });
+        let images_identical = ran >= 2 && mismatches.is_empty();
+        let doc = comparison_json(&scene, &comparison, &perturbed, images_identical);
         let text = serde_json::to_string_pretty(&doc).context("serializing the statistics")?;
         json_error = write_json(path, &(text + "\n"));
     }
@@ -516,68 +287,123 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One design under perturbation: its cycles and speedups over the unperturbed run and the
-/// perturbed ones (JSON `perturbed` of `vtq compare --perturb`).
-#[derive(Debug, Clone, serde::Serialize)]
-struct Perturbed {
-    /// DRAM latency offsets of the runs after the first (cycles).
-    offsets: Vec<i64>,
-    /// Cycles, unperturbed first.
-    cycles: Vec<f64>,
-    /// Speedups over the reference design's run with the same offset (empty for the reference
-    /// itself).
-    speedups: Vec<f64>,
+/// Prints the comparison's table (design column `label_width` wide), its legend and the
+/// energy comparison; returns the failed designs' errors, a line each.
+fn print_table(c: &Comparison<'_>, label_width: usize) -> Vec<String> {
+    println!(
+        "{:<label_width$}  {:>12}  {:>8}  {:>7}  {:>11}  {:>9}  {:>23}  {:>8}",
+        "design",
+        "cycles",
+        "speedup",
+        "energy",
+        "BVH L1 miss",
+        "SIMT eff.",
+        "phases % init/TS/RS",
+        "wall s"
+    );
+    let mut failures = Vec::new();
+    for (design, outcome) in c.designs.iter().zip(c.outcomes) {
+        match &outcome.result {
+            Ok((stats, _)) => println!(
+                "{:<label_width$}  {:>12}  {:>8}  {:>7}  {:>11.3}  {:>9.3}  {:>23}  {:>8.2}",
+                design.label,
+                stats.cycles,
+                c.speedup(stats)
+                    .map_or_else(|| "-".into(), |s| format!("{s:.2}")),
+                c.energy_ratio(stats)
+                    .map_or_else(|| "-".into(), |e| format!("{e:.3}")),
+                stats.bvh_l1_miss_rate,
+                stats.simt_efficiency,
+                phase_split(stats),
+                outcome.wall_seconds
+            ),
+            Err(e) => {
+                println!("{:<label_width$}  error: {e}", design.label);
+                failures.push(format!("{}: {e}", design.label));
+            }
+        }
+    }
+    let reference = &c.designs[c.reference].label;
+    println!(
+        "speedup = {reference} cycles / design cycles; energy = design energy / {reference}'s \
+         (below); phases: initial / treelet-stationary / ray-stationary share of traversal-phase \
+         cycles"
+    );
+    let energy_rows: Vec<Option<(&str, &EnergyReport)>> = c
+        .designs
+        .iter()
+        .zip(c.outcomes)
+        .map(|(d, o)| {
+            o.result
+                .as_ref()
+                .ok()
+                .map(|(s, _)| (d.label.as_str(), &s.energy))
+        })
+        .collect();
+    print_energy_comparison(&energy_rows, c.reference, label_width);
+    failures
 }
 
-/// `vtq compare --perturb`: every design again with the DRAM latency moved by a cycle or two;
-/// prints each design's mean and range of cycles and speedups over its runs (design column
-/// `label_width` wide, as the main table's) and returns them per design (an error if a
-/// perturbed run fails).
+/// The JSON document of `vtq compare --json`.
+fn comparison_json(
+    scene: &Scene,
+    c: &Comparison<'_>,
+    perturbed: &[Perturbed],
+    images_identical: bool,
+) -> serde_json::Value {
+    let entries: Vec<serde_json::Value> = (c.designs.iter().zip(c.outcomes))
+        .enumerate()
+        .map(|(i, (d, o))| match &o.result {
+            Ok((stats, _)) => serde_json::json!({
+                "design": d.label,
+                "source": d.source,
+                "speedup": c.speedup(stats),
+                "energy_ratio": c.energy_ratio(stats),
+                "wall_seconds": o.wall_seconds,
+                "stats": stats,
+                "perturbed": perturbed.get(i),
+            }),
+            Err(e) => serde_json::json!({
+                "design": d.label,
+                "source": d.source,
+                "error": e,
+            }),
+        })
+        .collect();
+    serde_json::json!({
+        "scene": scene.name,
+        "speedup_reference": c.designs[c.reference].label,
+        "images_identical": images_identical,
+        "designs": entries,
+    })
+}
+
+/// `vtq compare --perturb`: every design again with the DRAM latency moved by a cycle or two
+/// ([`perturb_all`]); prints each design's mean and range of cycles and speedups over its runs
+/// (design column `label_width` wide, as the main table's) and returns them per design (an
+/// error if a perturbed run fails).
 fn perturbed_table(
     args: &CompareArgs,
     scene: &Scene,
     runs: &[(&Design, &HwBvh)],
     jobs: usize,
-    reference: usize,
-    outcomes: &[Outcome],
+    c: &Comparison<'_>,
     label_width: usize,
 ) -> anyhow::Result<Vec<Perturbed>> {
-    let offsets = perturbations(args.perturb);
-    if outcomes.iter().any(|o| o.result.is_err()) {
+    if c.outcomes.iter().any(|o| o.result.is_err()) {
         println!("under perturbation: not run (a design failed above)");
         return Ok(Vec::new());
     }
-    let designs: Vec<(Design, &HwBvh)> = offsets
-        .iter()
-        .flat_map(|&o| runs.iter().map(move |&(d, bvh)| (d, bvh, o)))
-        .map(|(d, bvh, o)| {
-            let config = perturbed(&d.config, o)
-                .map_err(anyhow::Error::msg)
-                .with_context(|| format!("design '{}'", d.label))?;
-            Ok((
-                Design {
-                    config,
-                    ..d.clone()
-                },
-                bvh,
-            ))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    let all: Vec<(&Design, &HwBvh)> = designs.iter().map(|(d, b)| (d, *b)).collect();
-    let bars: Vec<_> = all.iter().map(|_| None).collect();
-    let more = simulate_all(scene, &all, jobs, args.threads, &bars);
-    let n = runs.len();
-    let mut cycles: Vec<Vec<f64>> = vec![Vec::new(); n];
-    for (k, o) in outcomes.iter().chain(&more).enumerate() {
-        match &o.result {
-            Ok((stats, _)) => cycles[k % n].push(stats.cycles as f64),
-            Err(e) => bail!(
-                "design '{}' failed with the DRAM latency moved by {} cycles: {e}",
-                runs[k % n].0.label,
-                k.checked_sub(n).map_or(0, |j| offsets[j / n])
-            ),
-        }
-    }
+    let (threads, reference) = (args.threads, c.reference);
+    let out = perturb_all(
+        scene,
+        runs,
+        (jobs, threads),
+        reference,
+        c.outcomes,
+        args.perturb,
+    )?;
+    let offsets = out.first().map(|p| p.offsets.clone()).unwrap_or_default();
     println!();
     println!(
         "under perturbation: {} runs per design, the DRAM latency moved by {:+?} cycles",
@@ -588,16 +414,10 @@ fn perturbed_table(
         "{:<label_width$}  {:>12}  {:>25}  {:>8}  {:>17}",
         "design", "cycles mean", "cycles range", "speedup", "speedup range"
     );
-    let mut out = Vec::with_capacity(n);
     let mut unresolved = Vec::new();
-    for (i, (design, _)) in runs.iter().enumerate() {
-        let c = Spread::of(&cycles[i]).expect("every design has its runs");
-        let s = if i == reference {
-            Vec::new()
-        } else {
-            speedups(&cycles[reference], &cycles[i])
-        };
-        let (mean, range) = match Spread::of(&s) {
+    for ((design, _), p) in runs.iter().zip(&out) {
+        let cycles = p.cycle_spread();
+        let (mean, range) = match p.speedup_spread() {
             Some(x) => {
                 if x.min < 1.0 && x.max > 1.0 {
                     unresolved.push(design.label.clone());
@@ -612,28 +432,25 @@ fn perturbed_table(
         println!(
             "{:<label_width$}  {:>12.0}  {:>25}  {:>8}  {:>17}",
             design.label,
-            c.mean,
-            format!("{:.0}-{:.0} ({:.1}%)", c.min, c.max, 100.0 * c.relative()),
+            cycles.mean,
+            format!(
+                "{:.0}-{:.0} ({:.1}%)",
+                cycles.min,
+                cycles.max,
+                100.0 * cycles.relative()
+            ),
             mean,
             range
         );
-        out.push(Perturbed {
-            offsets: offsets.clone(),
-            cycles: cycles[i].clone(),
-            speedups: s,
-        });
     }
+    let reference = &runs[reference].0.label;
     if unresolved.is_empty() {
-        println!(
-            "every design is faster or slower than {} in every run",
-            runs[reference].0.label
-        );
+        println!("every design is faster or slower than {reference} in every run");
     } else {
         println!(
-            "not resolved at this frame size: {} is faster than {} in some runs and slower in \
-             others (try a larger frame)",
+            "not resolved at this frame size: {} is faster than {reference} in some runs and \
+             slower in others (try a larger frame)",
             unresolved.join(", "),
-            runs[reference].0.label
         );
     }
     Ok(out)
@@ -661,25 +478,8 @@ fn compare_sampled(
         1.0 / s.fraction,
         s.seed
     );
-    let mut profiles: Vec<(*const HwBvh, Profile)> = Vec::new();
-    let mut results = Vec::with_capacity(runs.len());
-    for (design, bvh) in runs {
-        let key: *const HwBvh = *bvh;
-        if !profiles.iter().any(|(k, _)| *k == key) {
-            let profile = Profile::new(scene, bvh, &design.config)
-                .with_context(|| format!("profiling scene '{}'", scene.name))?;
-            profiles.push((key, profile));
-        }
-        let profile = &profiles.iter().find(|(k, _)| *k == key).expect("added").1;
-        let start = Instant::now();
-        let result =
-            simulate_sampled(scene, bvh, &design.config, profile, jobs).map_err(|e| e.to_string());
-        results.push((result, start.elapsed().as_secs_f64()));
-    }
-    let reference = designs
-        .iter()
-        .position(|d| d.label == BASELINE)
-        .unwrap_or(0);
+    let results = estimate_all(scene, runs, jobs)?;
+    let reference = reference(designs);
     let width = label_width(designs);
     println!(
         "{:<width$}  {:>24}  {:>15}  {:>13}  {:>13}  {:>8}",
@@ -791,20 +591,4 @@ fn compare_sampled(
         );
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn image_difference_finds_the_first_and_counts() {
-        let a = vec![Vec3::ZERO; 4];
-        let mut b = a.clone();
-        assert_eq!(image_difference(&a, &b), None);
-        b[1] = Vec3::X;
-        b[3] = Vec3::new(-0.0, 0.0, 0.0);
-        assert_eq!(image_difference(&a, &b), Some((1, 2)));
-        assert_eq!(image_difference(&a, &a[..3]), Some((3, 1)));
-    }
 }
