@@ -3,7 +3,6 @@
 //! result store, then draws the paper's figures with its published values beside vtq's and
 //! writes `DIR/index.html` and `DIR/index.md` (docs/reproducing.md).
 
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -16,15 +15,12 @@ use super::options::{build_bvh, CacheArgs, SampleArg};
 use super::runner::{listed, prepare_scenes, Runner};
 use crate::cli::output::check_dir;
 use crate::estimate::figure5::{model, Figure5Row};
-use crate::experiment::reproduce::beyond;
 use crate::experiment::reproduce::energy;
-use crate::experiment::reproduce::figures::{self, Figure};
+use crate::experiment::reproduce::figures;
+use crate::experiment::reproduce::matrix;
 use crate::experiment::reproduce::page::Page;
 use crate::experiment::reproduce::tables;
-use crate::experiment::reproduce::{
-    cause_g, scene_labels, Experiments, Results, BEYOND_EXPERIMENTS, CAUSE_G_EXPERIMENTS,
-    FIGURE_EXPERIMENTS,
-};
+use crate::experiment::reproduce::{scene_labels, Experiments, Results};
 use crate::experiment::sweep::{Point, PreparedScene, ResultStore, Reuse};
 use crate::model::bvh::BvhParams;
 use crate::model::config::SimConfig;
@@ -82,37 +78,10 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let root = experiments.root();
 
     // Every experiment's points, each distinct run once.
-    let mut points: Vec<Point> = Vec::new();
-    let mut seen = HashSet::new();
-    // The paper's experiments first: their scenes are then the first of the prepared scenes,
-    // which the paper's figures are drawn over.
-    let mut paper_points = 0;
-    for name in FIGURE_EXPERIMENTS
-        .into_iter()
-        .chain(CAUSE_G_EXPERIMENTS)
-        .chain(BEYOND_EXPERIMENTS)
-    {
-        if name == CAUSE_G_EXPERIMENTS[0] {
-            paper_points = points.len();
-        }
-        let mut spec = experiments.load(name, &args.scenes)?;
-        spec.set.extend(args.set.iter().cloned());
-        spec.sample.clone_from(&args.sample.point);
-        for p in spec
-            .points()
-            .with_context(|| format!("experiment {name}"))?
-        {
-            if seen.insert((p.scene.clone(), p.config.to_toml()?, p.tier)) {
-                points.push(Point {
-                    index: points.len(),
-                    label: format!("{name}: {}", p.label),
-                    ..p
-                });
-            }
-        }
-    }
+    let sample = args.sample.point.as_deref();
+    let (points, paper_points) = matrix::points(&experiments, &args.scenes, &args.set, sample)?;
     let scenes = prepare_scenes(&points)?;
-    let paper_scenes = prepare_count(&scenes, &points[..paper_points]);
+    let paper_scenes = matrix::prepare_count(&scenes, &points[..paper_points]);
     let results_dir = args
         .results
         .clone()
@@ -136,7 +105,6 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     let figures_dir = args.out.join("figures");
     std::fs::create_dir_all(&figures_dir)
         .with_context(|| format!("creating {}", figures_dir.display()))?;
-    let sample = args.sample.point.as_deref();
     let results = Results::new(&store, &scenes[..paper_scenes], root.clone())
         .with_sets(&args.set)
         .with_sample(sample);
@@ -147,70 +115,12 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     // A figure that cannot be drawn leaves a note on the page instead of stopping the others
     // (the runs are stored: a rerun draws it without running them again).
     let mut undrawn: Vec<String> = Vec::new();
-    let mut drawn = |id: &str, title: &str, figure: anyhow::Result<Figure>| match figure {
-        Ok(f) => f,
-        Err(e) => {
-            let why = format!("{e:#}");
-            eprintln!("reproduce: error: {title} was not drawn: {why}");
-            undrawn.push(format!("{title}: {why}"));
-            Figure {
-                id: id.to_string(),
-                title: title.to_string(),
-                caption: format!("Not drawn: {why}"),
-                images: Vec::new(),
-                table: Default::default(),
-            }
-        }
-    };
-    let figure_fns: [(&str, &str, FigureFn); 10] = [
-        ("fig01", "Figure 1", figures::figure1),
-        ("fig10", "Figure 10", figures::figure10),
-        ("fig11", "Figure 11", figures::figure11),
-        ("fig12", "Figure 12", figures::figure12),
-        ("fig13", "Figure 13", figures::figure13),
-        ("fig14", "Figure 14", figures::figure14),
-        ("fig15", "Figure 15", figures::figure15),
-        ("fig16", "Figure 16", figures::figure16),
-        ("fig17", "Figure 17", energy::figure17),
-        (
-            "ext-vtq-prefetch",
-            "VTQ with treelet prefetching",
-            beyond::vtq_prefetch,
-        ),
-    ];
-    // Each figure is drawn from `r`, unless the sampled tier does not estimate what it needs.
-    let mut figure = |(id, title, f): &(&str, &str, FigureFn), r: &Results<'_>| match (
-        sample,
-        not_estimated(id),
-    ) {
-        (Some(_), Some(needs)) => not_drawn_sampled(id, title, needs),
-        _ => drawn(id, title, f(r, out)),
-    };
-    let mut figures: Vec<Figure> = figure_fns.iter().map(|f| figure(f, &results)).collect();
-    // Cause G's figures and the workload predictions run on scenes of their own.
-    let own_scenes: [(&str, &str, FigureFn); 3] = [
-        (
-            "cause-g-mechanisms",
-            "Cause G: which mechanism carries VTQ's gain",
-            cause_g::mechanisms,
-        ),
-        (
-            "cause-g-map",
-            "Cause G: when the treelet-stationary phase pays",
-            cause_g::treelet_map,
-        ),
-        (
-            "ext-workload-predictions",
-            "The paper's workload predictions",
-            beyond::workload_predictions,
-        ),
-    ];
-    figures.extend(own_scenes.iter().map(|f| figure(f, &all_results)));
+    let mut figures = matrix::draw_figures((&results, &all_results), out, sample, &mut undrawn);
     let vtq_path = root.join("configs/designs/vtq/config.toml");
     let vtq = designs::load(Some(&vtq_path), &args.set)?;
     let fig5 = figure5_rows(&scenes[..paper_scenes], &vtq, &args.cache)
         .and_then(|rows| figures::figure5(&rows, out));
-    figures.insert(0, drawn("fig05", "Figure 5", fig5));
+    figures.insert(0, matrix::or_note("fig05", "Figure 5", fig5, &mut undrawn));
     let area = area_report(&vtq.hw, &area_params(&vtq))?;
     let page = Page {
         title: "vtq: the paper's figures reproduced".into(),
@@ -286,45 +196,6 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
-
-/// How many of `scenes` (prepared in the order their points first name them) the points
-/// `first` name: they are the first that many.
-fn prepare_count(scenes: &[PreparedScene], first: &[Point]) -> usize {
-    scenes
-        .iter()
-        .take_while(|s| first.iter().any(|p| p.scene == s.spec))
-        .count()
-}
-
-/// What a figure needs that the sampled tier does not estimate, for the figures it cannot draw
-/// from sampled runs (`None`: it can).
-fn not_estimated(id: &str) -> Option<&'static str> {
-    match id {
-        "fig11" => Some("the miss rate in each tenth of the run"),
-        "fig15" | "ext-workload-predictions" => Some("the intersection tests of each phase"),
-        "fig17" => Some("the energy model's event counts"),
-        _ => None,
-    }
-}
-
-/// The page's entry for figure `id` (`title`) that a sampled reproduction does not draw because
-/// it `needs` a statistic the sampled tier does not estimate ([`not_estimated`]).
-fn not_drawn_sampled(id: &str, title: &str, needs: &str) -> Figure {
-    Figure {
-        id: id.to_string(),
-        title: title.to_string(),
-        caption: format!(
-            "Not drawn: the sampled tier estimates cycles, SIMT efficiency, the BVH L1 miss \
-             rate, DRAM bytes and the phases' shares of cycles; this figure needs {needs}. Run \
-             `vtq reproduce` without --sample for it."
-        ),
-        images: Vec::new(),
-        table: Default::default(),
-    }
-}
-
-/// A figure of the page drawn from the stored runs into the output folder.
-type FigureFn = fn(&Results<'_>, &Path) -> anyhow::Result<Figure>;
 
 /// Batch sizes of the Figure 5 model: one warp up to the whole GPU's 16 x 4096 rays.
 const FIGURE5_RAYS: [u64; 9] = [32, 128, 512, 1024, 2048, 4096, 8192, 16384, 65536];

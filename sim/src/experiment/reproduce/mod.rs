@@ -9,12 +9,14 @@
 //! [`Results`], which names each scene by its own name ([`scene_labels`]), and are written as
 //! SVG and PNG with the paper's published values drawn beside vtq's, on an HTML page and its
 //! Markdown twin ([`page`]). Figure 17 and section 6.6's energy table ([`energy`]) evaluate the
-//! energy model on the stored runs of Figures 10 and 16.
+//! energy model on the stored runs of Figures 10 and 16. [`matrix`] says what a reproduction
+//! runs and draws.
 
 pub mod beyond;
 pub mod cause_g;
 pub mod energy;
 pub mod figures;
+pub mod matrix;
 pub mod page;
 pub mod tables;
 
