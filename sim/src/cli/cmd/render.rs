@@ -8,8 +8,8 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::cli::cmd::options::{build_bvh, load_scene, BvhArgs, ImageArgs};
+use crate::cli::image::write_png;
 use crate::cli::output::{check_file, write_or_keep, Failures};
-use crate::model::workload::image::write_png;
 use crate::model::workload::kind::WorkloadKind;
 use crate::model::workload::pathtracer::render;
 use crate::model::workload::ray_file::write_ray_file;

@@ -10,15 +10,15 @@ use clap::Args;
 use crate::cli::cmd::options::{
     build_bvh, load_scene, parse_threads, simulate_with_progress, CacheArgs, SampleArg,
 };
+use crate::cli::image::write_png;
 use crate::cli::output::{check_file, write_or_keep, Failures};
+use crate::cli::time_series::write_time_series;
 use crate::estimate::sample::{simulate_sampled, Profile};
 use crate::model::config::sample_points;
 use crate::model::config::{Cluster, SimConfig};
 use crate::model::gpu::rt::waveform::parse_cycles;
 use crate::model::gpu::sm::CtaSpan;
-use crate::model::gpu::stats::write_time_series;
 use crate::model::gpu::{SimOptions, VcdWindow};
-use crate::model::workload::image::write_png;
 
 /// Options of `vtq sim`.
 #[derive(Debug, Args)]

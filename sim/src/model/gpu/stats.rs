@@ -1,9 +1,6 @@
 //! [`SimStats`]: what one simulation measured, written as JSON (every key is documented in
-//! docs/stats.md), and its time series ([`Sample`]), written as CSV beside the JSON.
-
-use std::fmt::Write as _;
-use std::io::Write as _;
-use std::path::Path;
+//! docs/stats.md), and its time series ([`Sample`]), which `vtq sim` writes as CSV beside the
+//! JSON (`crate::cli::time_series`).
 
 use serde::{Deserialize, Serialize};
 use vtq_hdl::rt_unit::RtStats;
@@ -171,20 +168,6 @@ pub struct Sample {
     pub bvh_l1_miss_rate: f64,
     /// Rays traversing in the RT units at the sample.
     pub active_rays: u64,
-}
-
-/// Writes the time series as CSV with a header line.
-pub fn write_time_series(path: &Path, samples: &[Sample]) -> std::io::Result<()> {
-    let mut out =
-        String::from("cycle,bvh_l1_accesses,bvh_l1_misses,bvh_l1_miss_rate,active_rays\n");
-    for s in samples {
-        let _ = writeln!(
-            out,
-            "{},{},{},{},{}",
-            s.cycle, s.bvh_l1_accesses, s.bvh_l1_misses, s.bvh_l1_miss_rate, s.active_rays
-        );
-    }
-    std::fs::File::create(path)?.write_all(out.as_bytes())
 }
 
 /// Everything one simulation measured (see docs/stats.md for each key).

@@ -3,7 +3,6 @@
 
 pub mod ao;
 pub mod camera;
-pub mod image;
 pub mod kind;
 pub mod path_nee;
 pub mod pathtracer;
