@@ -1,6 +1,8 @@
 //! The simulator crate's layers (sim/src/lib.rs): every module is in the folder of its layer,
 //! and imports run only downwards — a module names, through `crate::`, only modules listed
-//! before it in [`ORDER`] (itself included).
+//! before it in [`ORDER`] (itself included); only the command layer uses vtq-gen (the RTL
+//! generator: co-simulation, the area report); and every command module stays under
+//! [`COMMAND_LINES`] lines, its experiments living in the layers below.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -26,12 +28,19 @@ const ORDER: &[(&str, &str)] = &[
     ("experiment", "plot"),
     ("experiment", "sweep"),
     ("experiment", "perturb"),
+    ("experiment", "compare"),
     ("experiment", "accuracy"),
     ("experiment", "reproduce"),
+    ("cli", "image"),
+    ("cli", "time_series"),
     ("cli", "output"),
     ("cli", "fuzz"),
     ("cli", "cmd"),
 ];
+
+/// The most lines a command module (`sim/src/cli/cmd/*.rs`) may have: a command parses its
+/// arguments, calls the layers below and prints.
+const COMMAND_LINES: usize = 650;
 
 /// The rank of `layer::module` in [`ORDER`].
 fn rank(layer: &str, module: &str) -> Option<usize> {
@@ -139,4 +148,32 @@ fn an_upward_import_is_caught() {
     let scene = rank("model", "scene").unwrap();
     assert!(rank("model", "gpu").unwrap() > scene);
     assert!(rank("model", "geometry").unwrap() < scene);
+}
+
+#[test]
+fn only_the_command_layer_uses_the_rtl_generator_and_commands_stay_small() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let mut violations = Vec::new();
+    for file in &files {
+        let relative = file.strip_prefix(&src).expect("under src");
+        let text = std::fs::read_to_string(file).expect("read a source file");
+        let in_cli = relative.starts_with("cli") || relative.ends_with("main.rs");
+        if !in_cli && text.contains("vtq_gen") {
+            violations.push(format!(
+                "{}: uses vtq_gen outside the command layer",
+                relative.display()
+            ));
+        }
+        let lines = text.lines().count();
+        if relative.starts_with("cli/cmd") && lines > COMMAND_LINES {
+            violations.push(format!(
+                "{}: {lines} lines, more than the {COMMAND_LINES} a command module may have",
+                relative.display()
+            ));
+        }
+    }
+    assert!(violations.is_empty(), "{}", violations.join("\n"));
 }

@@ -8,6 +8,7 @@ use serde::Serialize;
 use vtq_gen::{area_report, logic_report, AreaParams, AreaReport, LogicReport};
 
 use super::options::ConfigArgs;
+use crate::experiment::reproduce::figures::Table;
 use crate::model::config::SimConfig;
 
 /// Options of `vtq area`.
@@ -80,4 +81,40 @@ pub fn run(args: &AreaArgs) -> anyhow::Result<()> {
         print!("{s}");
     }
     Ok(())
+}
+
+/// Section 6.5: the area report's structures as a table of `vtq reproduce`'s page.
+pub fn area_table(report: &AreaReport) -> Table {
+    let mut header = vec![
+        "structure".to_string(),
+        "where".into(),
+        "entries".into(),
+        "bits / entry".into(),
+        "size".into(),
+        "paper".into(),
+    ];
+    if let Some(s) = report.structures.first() {
+        for a in &s.area {
+            header.push(format!("SRAM {} nm (mm²)", a.feature_nm));
+        }
+    }
+    Table {
+        header,
+        rows: report
+            .structures
+            .iter()
+            .map(|s| {
+                let mut row = vec![
+                    s.name.clone(),
+                    s.location.clone(),
+                    s.entries.to_string(),
+                    s.entry_bits.to_string(),
+                    s.size.clone(),
+                    s.paper.clone().unwrap_or_else(|| "-".into()),
+                ];
+                row.extend(s.area.iter().map(|a| format!("{:.4}", a.sram_mm2)));
+                row
+            })
+            .collect(),
+    }
 }

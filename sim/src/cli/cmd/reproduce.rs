@@ -10,7 +10,7 @@ use anyhow::Context;
 use clap::Args;
 use vtq_gen::area_report;
 
-use super::area::area_params;
+use super::area::{area_params, area_table};
 use super::options::{build_bvh, CacheArgs, SampleArg};
 use super::runner::{listed, prepare_scenes, Runner};
 use crate::cli::output::check_dir;
@@ -158,7 +158,7 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
                  configuration: the paper gives 2.2 KB for the count table, 6.29 KB for the \
                  queue table and 128 KB of ray records."
                     .into(),
-                tables::area_table(&area),
+                area_table(&area),
             ),
         ],
     };

@@ -1,7 +1,6 @@
-//! The section 6.5 tables of `vtq reproduce`: the treelet queues VTQ tracked at once per
-//! scene, and the storage and area of the tables from the area model.
-
-use vtq_gen::AreaReport;
+//! The section 6.5 table of `vtq reproduce` drawn from the stored runs: the treelet queues VTQ
+//! tracked at once per scene (the storage and area of the tables, from the area model of
+//! `vtq-gen`, is the command's: `area_table` in the `area` command).
 
 use super::figures::{cell, num, Table, VTQ};
 use super::Results;
@@ -37,41 +36,5 @@ pub fn section65(r: &Results) -> Table {
             "count-table evictions".into(),
         ],
         rows,
-    }
-}
-
-/// Section 6.5: the area report's structures as a table.
-pub fn area_table(report: &AreaReport) -> Table {
-    let mut header = vec![
-        "structure".to_string(),
-        "where".into(),
-        "entries".into(),
-        "bits / entry".into(),
-        "size".into(),
-        "paper".into(),
-    ];
-    if let Some(s) = report.structures.first() {
-        for a in &s.area {
-            header.push(format!("SRAM {} nm (mm²)", a.feature_nm));
-        }
-    }
-    Table {
-        header,
-        rows: report
-            .structures
-            .iter()
-            .map(|s| {
-                let mut row = vec![
-                    s.name.clone(),
-                    s.location.clone(),
-                    s.entries.to_string(),
-                    s.entry_bits.to_string(),
-                    s.size.clone(),
-                    s.paper.clone().unwrap_or_else(|| "-".into()),
-                ];
-                row.extend(s.area.iter().map(|a| format!("{:.4}", a.sram_mm2)));
-                row
-            })
-            .collect(),
     }
 }

@@ -1,6 +1,6 @@
 //! [`SimStats`]: what one simulation measured, written as JSON (every key is documented in
 //! docs/stats.md), and its time series ([`Sample`]), which `vtq sim` writes as CSV beside the
-//! JSON (`crate::cli::time_series`).
+//! JSON (the command layer's `cli::time_series`).
 
 use serde::{Deserialize, Serialize};
 use vtq_hdl::rt_unit::RtStats;
