@@ -59,6 +59,15 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// The crate's source folder and every `.rs` file under it, sorted.
+fn sources() -> (PathBuf, Vec<PathBuf>) {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    (src, files)
+}
+
 /// The `(layer, module)` pairs named as `crate::layer::module` in `text`.
 fn crate_paths(text: &str) -> BTreeSet<(String, String)> {
     let mut found = BTreeSet::new();
@@ -85,10 +94,7 @@ fn crate_paths(text: &str) -> BTreeSet<(String, String)> {
 
 #[test]
 fn every_module_sits_in_its_layer_and_imports_only_downwards() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
+    let (src, files) = sources();
     let mut violations = Vec::new();
     let mut seen = BTreeSet::new();
     for file in &files {
@@ -152,10 +158,7 @@ fn an_upward_import_is_caught() {
 
 #[test]
 fn only_the_command_layer_uses_the_rtl_generator_and_commands_stay_small() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
+    let (src, files) = sources();
     let mut violations = Vec::new();
     for file in &files {
         let relative = file.strip_prefix(&src).expect("under src");
