@@ -74,6 +74,12 @@ impl Ctx<'_> {
     }
 }
 
+/// Adds a finished pixel to a node's pixels and non-finite sample count.
+fn record_pixel((pixels, nonfinite): (&mut Vec<(u32, Vec3)>, &mut u64), done: FinishedPixel) {
+    pixels.push((done.pixel, done.color));
+    *nonfinite += done.nonfinite;
+}
+
 /// Why a node stopped for the coordinator ([`crate::model::gpu::coordinator`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum HaltKind {
@@ -194,8 +200,7 @@ impl<'a> SmNode<'a> {
     /// Records a pixel whose samples have all ended (its thread's last trace shaded, or, for a
     /// thread that traces nothing, its CTA launched).
     pub fn finish_pixel(&mut self, done: FinishedPixel) {
-        self.pixels.push((done.pixel, done.color));
-        self.nonfinite += done.nonfinite;
+        record_pixel((&mut self.pixels, &mut self.nonfinite), done);
     }
 
     /// Whether the node is idle for good: it holds no CTA and none is pending.
@@ -483,8 +488,7 @@ impl<'a> SmNode<'a> {
                 ThreadStep::Trace => again = true,
                 ThreadStep::Finished(done) => {
                     // `self.finish_pixel`, with `self.sm` borrowed.
-                    self.pixels.push((done.pixel, done.color));
-                    self.nonfinite += done.nonfinite;
+                    record_pixel((&mut self.pixels, &mut self.nonfinite), done);
                     finished += 1;
                     *thread = None;
                 }

@@ -70,7 +70,7 @@ impl PathThread {
                     nonfinite,
                 });
             }
-            add_sample(path.radiance(), &mut sum, &mut nonfinite);
+            path.add_to(&mut sum, &mut nonfinite);
         }
         Err(FinishedPixel {
             pixel,
@@ -101,7 +101,7 @@ impl PathThread {
             self.ray = next;
             return ThreadStep::Trace;
         }
-        add_sample(self.path.radiance(), &mut self.sum, &mut self.nonfinite);
+        self.path.add_to(&mut self.sum, &mut self.nonfinite);
         let tally = (self.sum, self.nonfinite);
         match Self::from_sample(sampler, self.pixel, self.sample + 1, tally) {
             Ok(next) => {
@@ -110,16 +110,6 @@ impl PathThread {
             }
             Err(done) => ThreadStep::Finished(done),
         }
-    }
-}
-
-/// Adds an ended sample's radiance `l` to `sum`, or counts it in `nonfinite` if it is NaN or
-/// infinite (as the functional renderer does).
-fn add_sample(l: Vec3, sum: &mut Vec3, nonfinite: &mut u64) {
-    if l.is_finite() {
-        *sum += l;
-    } else {
-        *nonfinite += 1;
     }
 }
 

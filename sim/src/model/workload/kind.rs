@@ -130,7 +130,7 @@ impl Sampler<'_> {
     pub fn start(&self, pixel: u32, sample: u32) -> (SampleState, Option<TraceRay>) {
         let (mut state, first) =
             SampleState::new(self.workload, self.frame, self.settings, pixel, sample);
-        if *self.workload != Workload::Hybrid {
+        if !matches!(self.workload, Workload::Hybrid) {
             return (state, Some(first));
         }
         let hit = self.raster.closest_hit(&first.ray);
@@ -222,6 +222,18 @@ impl SampleState {
                 answer.get_or_insert(hit.is_some());
                 None
             }
+        }
+    }
+
+    /// Adds the ended sample's radiance to its pixel's `sum`, or, when it is NaN or infinite
+    /// (the sample then contributes black), counts it in `nonfinite`: how the functional
+    /// renderer and the simulator's raygen threads both accumulate a pixel.
+    pub fn add_to(&self, sum: &mut Vec3, nonfinite: &mut u64) {
+        let l = self.radiance();
+        if l.is_finite() {
+            *sum += l;
+        } else {
+            *nonfinite += 1;
         }
     }
 

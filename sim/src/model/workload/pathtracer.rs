@@ -366,12 +366,7 @@ fn render_row(
                 };
                 next = sampler.answer(&mut state, hit);
             }
-            let l = state.radiance();
-            if l.is_finite() {
-                sum += l;
-            } else {
-                row.nonfinite += 1;
-            }
+            state.add_to(&mut sum, &mut row.nonfinite);
         }
         row.colors.push(sum / settings.spp as f32);
         row.counts.push(row.rays.len() - before);
