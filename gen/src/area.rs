@@ -50,7 +50,8 @@ impl Ports {
         }
     }
 
-    fn label(self) -> &'static str {
+    /// Its name in tables: `1RW`, `1R+1W`.
+    pub fn label(self) -> &'static str {
         match self {
             Ports::OneRw => "1RW",
             Ports::OneROneW => "1R+1W",

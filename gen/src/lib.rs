@@ -5,6 +5,8 @@
 //! - [`cosim`]: runs a Rust [`vtq_hdl::Block`] and its Verilog side by side, cycle by cycle.
 //! - [`compose`]: the top module of a composed block (its children and a wiring module).
 //! - [`area`]: the analytical storage and area model of the paper's section 6.5.
+//! - [`datapath_area`]: the intersection datapath's area from a published datapath's units.
+//! - [`synth_cache`]: reusing a synthesis whose RTL, script and Yosys did not change.
 //! - [`logic_area`]: NAND2 equivalents and logic area of synthesized RTL (Yosys cell counts
 //!   priced with NanGate45 cell areas); [`logic_report`]: the synthesized-logic table of
 //!   `vtq area --synth` (every block with complete RTL beside the storage model).
@@ -19,6 +21,7 @@
 pub mod area;
 pub mod compose;
 pub mod cosim;
+pub mod datapath_area;
 pub mod emit;
 pub mod error;
 pub mod logic_area;
@@ -26,6 +29,7 @@ pub mod logic_report;
 pub mod rtl;
 pub mod stimulus;
 pub mod synth;
+pub mod synth_cache;
 pub mod tools;
 pub mod verilog;
 

@@ -8,7 +8,7 @@ mod common;
 use common::small;
 use std::path::PathBuf;
 use std::time::Instant;
-use vtq_gen::area::{area_report, AreaParams};
+use vtq_gen::area::{area_report, sram_area_mm2, AreaParams, Ports};
 use vtq_gen::logic_area::{cell_area_45nm, NAND2_X1_45NM_UM2};
 use vtq_gen::logic_report::{logic_report, RT_UNIT_NOTE};
 use vtq_gen::stimulus::rt_unit::small_config;
@@ -27,6 +27,8 @@ fn every_block_with_rtl_is_priced() {
     let rt = small_config().1;
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-logic-area");
     std::fs::create_dir_all(&dir).unwrap();
+    // Synthesize for real: no cached result from an earlier run of this test.
+    let _ = std::fs::remove_dir_all(dir.join("synth-cache"));
     let storage = area_report(&cfg, &AreaParams::default()).unwrap();
     let start = Instant::now();
     let report = logic_report(&cfg, ControllerFeatures::FULL, &rt, &storage, &dir);
@@ -34,6 +36,7 @@ fn every_block_with_rtl_is_priced() {
         return;
     };
     eprintln!("{r}({:.1} s)", start.elapsed().as_secs_f64());
+    assert!(r.blocks.iter().chain([&r.rt_unit_logic]).all(|b| !b.reused));
     let names: Vec<&str> = r.blocks.iter().map(|b| b.synth.top.as_str()).collect();
     assert_eq!(
         names,
@@ -93,11 +96,63 @@ fn every_block_with_rtl_is_priced() {
     assert_eq!(r.other_stack_bits, 12 * 4 * 37);
     assert!(r.other_stack_nand2_eq < r.rt_unit_logic.logic.flip_flop_nand2_eq);
     assert_eq!(r.storage_sram_mm2.len(), 2);
-    let text = r.to_string();
-    assert!(
-        text.contains("treelet hardware over the RT unit's control"),
-        "{text}"
+    // The queue table's arrays are macros with the ports it declares (1R+1W), priced by the
+    // storage model; no other block keeps one.
+    assert_eq!(q.macros.len(), 2);
+    for m in &q.macros {
+        assert_eq!((m.read_ports, m.write_ports), (1, 1), "{m:?}");
+        let bits = u64::from(m.depth) * u64::from(m.width);
+        assert_eq!(m.area_mm2[0].1, sram_area_mm2(bits, 45.0, Ports::OneROneW));
+    }
+    assert_eq!(
+        q.macros
+            .iter()
+            .map(|m| u64::from(m.depth) * u64::from(m.width))
+            .sum::<u64>(),
+        q.sram_bits
     );
+    assert!(r
+        .blocks
+        .iter()
+        .filter(|b| b.synth.top != "treelet_queue_table")
+        .all(|b| b.macros.is_empty()));
+    // One RayFlex datapath per lane's `rt_datapath`; the whole RT unit is control plus it.
+    assert_eq!(r.datapath.units, cfg.warp_size);
+    for i in 0..2 {
+        let (rt, dp) = (
+            r.rt_unit_logic.logic.area_mm2[i].1,
+            r.datapath.area_mm2[i].1,
+        );
+        assert!((r.rt_unit_mm2[i].1 - (rt + dp)).abs() < 1e-12);
+        let parts: f64 = r.blocks.iter().map(|b| b.total_mm2()[i].1).sum();
+        assert!((r.proposal_mm2[i].1 + r.wiring_mm2[i].1 - parts).abs() < 1e-12);
+    }
+    assert!((r.proposal_over_rt_unit - r.proposal_mm2[0].1 / r.rt_unit_mm2[0].1).abs() < 1e-12);
+    assert!(r.proposal_over_rt_unit < r.treelet_over_rt_unit);
+    assert!(r.proposal_over_sm > 0.0 && r.proposal_over_sm < r.proposal_over_rt_unit);
+    let text = r.to_string();
+    for line in [
+        "treelet proposal over the whole RT unit: at most",
+        "treelet proposal over an SM: at least",
+        "treelet hardware's logic over the RT unit's control alone",
+        "Memory macros",
+        "Datapath (estimate, a lower bound)",
+    ] {
+        assert!(text.contains(line), "{line}: {text}");
+    }
+    // A second report in the same directory reuses every synthesis and is the same report.
+    let again = logic_report(&cfg, ControllerFeatures::FULL, &rt, &storage, &dir).unwrap();
+    assert!(again
+        .blocks
+        .iter()
+        .chain([&again.rt_unit_logic])
+        .all(|b| b.reused));
+    let same = |b: &vtq_gen::logic_report::BlockLogic| (b.synth.clone(), b.seconds);
+    assert_eq!(
+        again.blocks.iter().map(same).collect::<Vec<_>>(),
+        r.blocks.iter().map(same).collect::<Vec<_>>()
+    );
+    assert_eq!(again.proposal_mm2, r.proposal_mm2);
     assert!(text.contains(RT_UNIT_NOTE), "{text}");
     assert!(text.contains("6.29 KB"), "{text}");
     assert!(!text.contains("warning"), "{text}");

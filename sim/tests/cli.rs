@@ -787,14 +787,14 @@ fn cosim_matches_on_a_small_configuration() {
 }
 
 /// `vtq area --synth` synthesizes every block with complete RTL and prices it in NAND2
-/// equivalents beside the storage model, the RT unit's control without its datapath and the
-/// treelet hardware's overhead over it (small configuration: a minute).
+/// equivalents beside the storage model, the RT unit's control and datapath and the treelet
+/// hardware's overhead over the whole RT unit; with `--work-dir` a second run reuses every
+/// synthesis (small configuration: a minute).
 #[test]
 fn area_synth_prices_every_block_with_rtl() {
-    let out = vtq(&[
-        "area",
-        "--synth",
-        "--json",
+    let dir = temp_dir("area-synth");
+    let work_dir = dir.to_str().unwrap();
+    let small = [
         "--set",
         "hw.count_table_entries=4",
         "--set",
@@ -815,7 +815,14 @@ fn area_synth_prices_every_block_with_rtl() {
         "hw.stack_depth=4",
         "--set",
         "bvh.width=4",
-    ]);
+    ];
+    let args = |extra: &[&'static str]| {
+        let mut a = vec!["area", "--synth", "--work-dir", work_dir];
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&small);
+        a
+    };
+    let out = vtq(&args(&["--json"]));
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     let missing = stderr.contains("yosys is not installed");
@@ -863,8 +870,24 @@ fn area_synth_prices_every_block_with_rtl() {
     assert!(s["rt_unit"]
         .as_str()
         .unwrap()
-        .contains("without the box/triangle datapath"));
+        .contains("priced from a published datapath"));
+    assert_eq!(s["datapath"]["units"], 4, "one datapath per lane");
+    let share = s["proposal_over_rt_unit"].as_f64().unwrap();
+    assert!(share > 0.0 && share < s["treelet_over_rt_unit"].as_f64().unwrap());
     assert!(s["paper"].as_str().unwrap().contains("2.2 KB"));
+    // The work directory keeps every synthesis: the second run reuses them all.
+    let text = vtq_ok(&args(&[]));
+    assert_eq!(text.matches("(reused)").count(), 5, "{text}");
+    let line = format!(
+        "treelet proposal over the whole RT unit: at most {:.1}%",
+        100.0 * share
+    );
+    assert!(text.contains(&line), "{line}\n{text}");
+    // Without --synth the option is an error naming it.
+    let bad = vtq(&["area", "--work-dir", work_dir]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--synth"));
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -5,7 +5,8 @@
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use vtq_gen::{area_report, logic_report, AreaParams, AreaReport, LogicReport};
+use vtq_gen::logic_report::logic_report_with;
+use vtq_gen::{area_report, AreaParams, AreaReport, LogicReport};
 
 use super::options::ConfigArgs;
 use crate::experiment::reproduce::figures::Table;
@@ -19,10 +20,17 @@ pub struct AreaArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Also synthesize every block with complete RTL (count table, queue table, controller)
-    /// with Yosys and report cells, flip-flops, NAND2 equivalents and logic area at 45/22 nm.
+    /// Also synthesize every block with complete RTL (count table, queue table, controller,
+    /// the composed block's wiring, the RT unit's control) with Yosys and report per block
+    /// cells, flip-flops, NAND2 equivalents, memory macros and area at 45/22 nm, the datapath,
+    /// the whole RT unit and the overheads over it and over an SM.
     #[arg(long)]
     pub synth: bool,
+    /// With --synth: synthesize in DIR and keep it: the Verilog, Yosys' statistics and a
+    /// cache of each block's synthesis, so a later run with the same RTL, script and Yosys
+    /// reuses them (default: a scratch directory removed afterwards).
+    #[arg(long, value_name = "DIR", requires = "synth")]
+    pub work_dir: Option<std::path::PathBuf>,
 }
 
 /// The area-model parameters the simulator configuration determines (CTA shape, saved state).
@@ -42,20 +50,38 @@ struct AreaJson {
     synthesis: Option<LogicReport>,
 }
 
-/// Synthesizes every block with complete RTL in a scratch directory.
-fn synthesize_blocks(cfg: &SimConfig, model: &AreaReport) -> anyhow::Result<LogicReport> {
-    let dir = std::env::temp_dir().join(format!("vtq-area-synth-{}", std::process::id()));
+/// Synthesizes every block with complete RTL in `work_dir` (kept), or in a scratch directory.
+fn synthesize_blocks(
+    cfg: &SimConfig,
+    model: &AreaReport,
+    work_dir: Option<&std::path::Path>,
+) -> anyhow::Result<LogicReport> {
+    let dir = work_dir
+        .map(std::path::Path::to_path_buf)
+        .unwrap_or_else(|| {
+            std::env::temp_dir().join(format!("vtq-area-synth-{}", std::process::id()))
+        });
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let rt = super::cosim::rt_unit_params(cfg);
-    let report = logic_report(
+    eprintln!(
+        "synthesizing 5 blocks with Yosys in {} (at the defaults about 30 minutes and 16 GB)",
+        dir.display()
+    );
+    let report = logic_report_with(
         &cfg.hw,
         cfg.hardware_controller_features(),
         &rt,
         model,
         &dir,
+        &|top, s| {
+            let how = if s.reused { "reused" } else { "synthesized" };
+            eprintln!("  {top}: {how} ({:.1} s of Yosys)", s.seconds);
+        },
     );
-    // Best effort: the reports are already in memory.
-    let _ = std::fs::remove_dir_all(&dir);
+    if work_dir.is_none() {
+        // Best effort: the reports are already in memory.
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     Ok(report?)
 }
 
@@ -64,7 +90,10 @@ pub fn run(args: &AreaArgs) -> anyhow::Result<()> {
     let cfg = args.config.load_hardware()?;
     let model = area_report(&cfg.hw, &area_params(&cfg))?;
     let synthesis = if args.synth {
-        Some(synthesize_blocks(&cfg, &model).context("yosys synthesis of the blocks' RTL")?)
+        Some(
+            synthesize_blocks(&cfg, &model, args.work_dir.as_deref())
+                .context("yosys synthesis of the blocks' RTL")?,
+        )
     } else {
         None
     };

@@ -1,0 +1,244 @@
+//! The printed form of [`LogicReport`]: a table of the synthesized blocks, the memory macros,
+//! the datapath, the totals per part of the RT unit and the overhead lines, then the notes.
+
+use super::{BlockLogic, LogicReport, NodeAreas};
+use crate::area::NODES_NM;
+use crate::logic_area::NAND2_X1_45NM_UM2;
+use std::fmt;
+
+/// `x` with three significant digits.
+pub(super) fn sig3(x: f64) -> String {
+    if x == 0.0 {
+        return "0".to_string();
+    }
+    let digits = 2 - x.abs().log10().floor() as i32;
+    format!("{x:.prec$}", prec = digits.max(0) as usize)
+}
+
+/// The areas of `a`, one column per node.
+fn areas(f: &mut fmt::Formatter<'_>, a: &NodeAreas) -> fmt::Result {
+    for (_, x) in a {
+        write!(f, " {:>11}", sig3(*x))?;
+    }
+    Ok(())
+}
+
+impl BlockLogic {
+    /// Its row of the report's table.
+    fn row(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{:<22} {:>8} {:>10} {:>10.0} {:>9.0}",
+            self.synth.top,
+            self.synth.cells,
+            self.synth.flip_flops,
+            self.logic.nand2_eq,
+            self.logic.flip_flop_nand2_eq
+        )?;
+        areas(f, &self.logic.area_mm2)?;
+        let sram = if self.sram_bits > 0 {
+            format!("{} b", self.sram_bits)
+        } else {
+            "-".to_string()
+        };
+        let took = if self.reused {
+            format!("{:.1}s (reused)", self.seconds)
+        } else {
+            format!("{:.1}s", self.seconds)
+        };
+        writeln!(f, " {sram:>9} {took:>6}")
+    }
+}
+
+/// A total's line: its name and its areas.
+fn total(f: &mut fmt::Formatter<'_>, name: &str, a: &NodeAreas) -> fmt::Result {
+    write!(f, "  {name:<70}")?;
+    areas(f, a)?;
+    writeln!(f)
+}
+
+impl LogicReport {
+    /// The table of the synthesized blocks.
+    fn table(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "Synthesized logic (Yosys generic synthesis, gen::synth::LOGIC_SCRIPT; NAND2 eq. = \
+             NanGate45 cell area / NAND2_X1 {NAND2_X1_45NM_UM2} um^2; 22 nm = 45 nm x (22/45)^2; \
+             cells only, no routing)"
+        )?;
+        write!(
+            f,
+            "{:<22} {:>8} {:>10} {:>10} {:>9}",
+            "block", "cells", "flip-flops", "NAND2 eq.", "(of FFs)"
+        )?;
+        for nm in NODES_NM {
+            write!(f, " {:>11}", format!("mm^2 {nm}nm"))?;
+        }
+        writeln!(f, " {:>9} {:>6}", "macros", "yosys")?;
+        for b in &self.blocks {
+            b.row(f)?;
+        }
+        self.rt_unit_logic.row(f)?;
+        writeln!(f)?;
+        Ok(())
+    }
+
+    /// The memory macros and what is not a macro yet.
+    fn macros(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "Memory macros (SRAM arrays Yosys keeps; the storage model of docs/area.md with the \
+             ports the block declares)"
+        )?;
+        for b in self.blocks.iter().filter(|b| !b.macros.is_empty()) {
+            for m in &b.macros {
+                write!(
+                    f,
+                    "  {:<22} {:<6} {:>5} x {:<5} {}R {}W {:<6}",
+                    b.synth.top,
+                    m.name,
+                    m.depth,
+                    m.width,
+                    m.read_ports,
+                    m.write_ports,
+                    m.ports.label()
+                )?;
+                areas(f, &m.area_mm2)?;
+                writeln!(f, " mm^2")?;
+            }
+        }
+        writeln!(
+            f,
+            "  (not macros yet: the count table's entries, a CAM searched every cycle; the RT \
+             unit's stacks, written at any depth; the wiring's fills of whole ray records)"
+        )?;
+        writeln!(f)?;
+        Ok(())
+    }
+
+    /// The datapath line and the totals per part of the RT unit.
+    fn totals(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let d = &self.datapath;
+        writeln!(
+            f,
+            "Datapath (estimate, a lower bound): {} x {:.0} NAND2 eq. = {:.0} NAND2 eq. ({} mm^2 \
+             at 45 nm, {} at 22 nm): per datapath {} FP32 adds, {} multiply-adds, {} multiplies, \
+             {} compares, {} mux bits; {}",
+            d.units,
+            d.unit_nand2_eq,
+            d.nand2_eq,
+            sig3(d.area_mm2[0].1),
+            sig3(d.area_mm2[1].1),
+            d.per_unit.adders,
+            d.per_unit.mul_adds,
+            d.per_unit.multipliers,
+            d.per_unit.comparators(),
+            d.per_unit.mux_bits(),
+            d.source
+        )?;
+        writeln!(f)?;
+        write!(f, "{:<72}", "Totals, logic + macros")?;
+        for nm in NODES_NM {
+            write!(f, " {:>11}", format!("mm^2 {nm}nm"))?;
+        }
+        writeln!(f)?;
+        total(
+            f,
+            &format!(
+                "treelet proposal: count table, queue table, controller ({:.0} NAND2 eq.)",
+                self.proposal_nand2_eq
+            ),
+            &self.proposal_mm2,
+        )?;
+        total(
+            f,
+            "treelet RT unit's wiring (whole-record crossbars, as modelled)",
+            &self.wiring_mm2,
+        )?;
+        total(f, "RT unit's control", &self.rt_unit_logic.logic.area_mm2)?;
+        total(
+            f,
+            "RT unit: control + datapath (without the treelet hardware)",
+            &self.rt_unit_mm2,
+        )?;
+        let with: NodeAreas = self
+            .rt_unit_mm2
+            .iter()
+            .zip(self.proposal_mm2.iter().zip(&self.wiring_mm2))
+            .map(|(&(nm, r), (&(_, p), &(_, w)))| (nm, r + p + w))
+            .collect();
+        total(
+            f,
+            "RT unit with the treelet hardware (proposal + wiring)",
+            &with,
+        )?;
+        writeln!(f)?;
+        Ok(())
+    }
+}
+
+impl fmt::Display for LogicReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.table(f)?;
+        self.macros(f)?;
+        self.totals(f)?;
+        writeln!(
+            f,
+            "treelet proposal over the whole RT unit: at most {:.1}% (the datapath is a lower bound); \
+             with the wiring as modelled: {:.1}%",
+            100.0 * self.proposal_over_rt_unit,
+            100.0 * self.treelet_over_rt_unit
+        )?;
+        writeln!(
+            f,
+            "treelet proposal over an SM: at least {:.3}%; with the wiring as modelled: {:.2}% ({})",
+            100.0 * self.proposal_over_sm,
+            100.0 * self.treelet_over_sm,
+            self.sm
+        )?;
+        writeln!(
+            f,
+            "treelet hardware's logic over the RT unit's control alone: {:.1}% ({:.0} / {:.0} NAND2 \
+             eq.); the RT unit's other-treelet stacks, in its figure, are {} flip-flops (at least \
+             {:.0} NAND2 eq., {:.1}% of the control)",
+            100.0 * self.overhead,
+            self.total_nand2_eq,
+            self.rt_unit_logic.logic.nand2_eq,
+            self.other_stack_bits,
+            self.other_stack_nand2_eq,
+            100.0 * self.other_stack_nand2_eq / self.rt_unit_logic.logic.nand2_eq
+        )?;
+        for b in self.blocks.iter().chain([&self.rt_unit_logic]) {
+            if !b.logic.unpriced.is_empty() {
+                writeln!(
+                    f,
+                    "warning: {}: cells without a price: {:?}",
+                    b.synth.top, b.logic.unpriced
+                )?;
+            }
+            if !b.synth.is_clean() {
+                writeln!(f, "warning: {}: Yosys warnings or latches", b.synth.top)?;
+            }
+        }
+        writeln!(
+            f,
+            "(the count table's RTL keeps its entries in flip-flops, a CAM with scan ports: its \
+             logic includes its storage; the wiring keeps each slot's fill of whole ray records \
+             in flip-flops and moves records through one-hot crossbars, up to a warp of them \
+             each way a cycle, which records moved at memory width would replace)"
+        )?;
+        for (name, a) in &self.storage_sram_mm2 {
+            let list: Vec<String> = a
+                .iter()
+                .map(|(nm, x)| format!("{} mm^2 at {nm} nm", sig3(*x)))
+                .collect();
+            writeln!(
+                f,
+                "storage model, {name} as SRAM in its cache: {}",
+                list.join(", ")
+            )?;
+        }
+        writeln!(f, "{}", self.rt_unit)?;
+        writeln!(f, "{}", self.paper)
+    }
+}
