@@ -46,7 +46,7 @@ impl BlockLogic {
         } else {
             format!("{:.1}s", self.seconds)
         };
-        writeln!(f, " {sram:>9} {took:>6}")
+        writeln!(f, " {sram:>9}  {took}")
     }
 }
 
@@ -74,7 +74,7 @@ impl LogicReport {
         for nm in NODES_NM {
             write!(f, " {:>11}", format!("mm^2 {nm}nm"))?;
         }
-        writeln!(f, " {:>9} {:>6}", "macros", "yosys")?;
+        writeln!(f, " {:>9}  {}", "macros", "yosys")?;
         for b in &self.blocks {
             b.row(f)?;
         }
@@ -234,7 +234,7 @@ impl fmt::Display for LogicReport {
                 .collect();
             writeln!(
                 f,
-                "storage model, {name} as SRAM in its cache: {}",
+                "storage model, {name} as SRAM where the paper keeps it: {}",
                 list.join(", ")
             )?;
         }
