@@ -184,6 +184,16 @@ impl ModeConfig {
 impl SimConfig {
     /// Checks the mode's switches against its kind, and the queue features against each other.
     pub(super) fn validate_mode(&self) -> Result<(), ConfigError> {
+        self.validate_shared_switches()?;
+        if self.mode.kind == ModeKind::Queues {
+            self.validate_queue_features()
+        } else {
+            self.validate_no_queue_keys()
+        }
+    }
+
+    /// The switches every kind has: ray virtualization's keys and the prefetch threshold.
+    fn validate_shared_switches(&self) -> Result<(), ConfigError> {
         let m = &self.mode;
         let kind = m.kind;
         if !m.virtualization {
@@ -217,99 +227,110 @@ impl SimConfig {
                 ),
             ));
         }
-        if kind != ModeKind::Queues {
-            if m.treelet_prefetch != TreeletPrefetch::Off {
-                return Err(invalid(
-                    "mode.treelet_prefetch",
-                    m.treelet_prefetch,
-                    format!(
-                        "only treelet queues use it (the prefetch design's prefetcher always \
-                         runs), and mode.kind is \"{kind}\""
-                    ),
-                ));
-            }
-            for (key, on) in [
-                ("mode.grouping", m.grouping),
-                ("mode.preload", m.preload),
-                ("rt.queued_stack_traffic", self.rt.queued_stack_traffic),
-            ] {
-                if on {
-                    return Err(invalid(
-                        key,
-                        on,
-                        format!("only treelet queues use it, and mode.kind is \"{kind}\""),
-                    ));
-                }
-            }
-            if self.rt.ray_record_latency != 0 {
-                return Err(invalid(
-                    "rt.ray_record_latency",
-                    self.rt.ray_record_latency,
-                    format!(
-                        "only treelet queues hold ray records (0 keeps them in memory), and \
-                         mode.kind is \"{kind}\""
-                    ),
-                ));
-            }
-            if !m.admit_in_treelet_stationary {
-                return Err(invalid(
-                    "mode.admit_in_treelet_stationary",
-                    false,
-                    format!(
-                        "only treelet queues have a treelet-stationary mode, and mode.kind is \
-                         \"{kind}\""
-                    ),
-                ));
-            }
-            let hw = &self.hw;
-            let d = HwConfig::default();
-            let queue_only = [
-                (
-                    "count_table_entries",
-                    hw.count_table_entries,
-                    d.count_table_entries,
+        Ok(())
+    }
+
+    /// A design without treelet queues: no queue switch or queue-hardware key away from its
+    /// default.
+    fn validate_no_queue_keys(&self) -> Result<(), ConfigError> {
+        let m = &self.mode;
+        let kind = m.kind;
+        if m.treelet_prefetch != TreeletPrefetch::Off {
+            return Err(invalid(
+                "mode.treelet_prefetch",
+                m.treelet_prefetch,
+                format!(
+                    "only treelet queues use it (the prefetch design's prefetcher always \
+                     runs), and mode.kind is \"{kind}\""
                 ),
-                (
-                    "queue_table_entries",
-                    hw.queue_table_entries,
-                    d.queue_table_entries,
-                ),
-                (
-                    "underpopulation_threshold",
-                    hw.underpopulation_threshold,
-                    d.underpopulation_threshold,
-                ),
-                ("repack_threshold", hw.repack_threshold, d.repack_threshold),
-                (
-                    "max_resident_treelets",
-                    hw.max_resident_treelets,
-                    d.max_resident_treelets,
-                ),
-                (
-                    "divergence_threshold",
-                    hw.divergence_threshold,
-                    d.divergence_threshold,
-                ),
-                (
-                    "preload_threshold_warps",
-                    hw.preload_threshold_warps,
-                    d.preload_threshold_warps,
-                ),
-            ];
-            for (key, value, default) in queue_only {
-                if value != default {
-                    return Err(invalid(
-                        &format!("hw.{key}"),
-                        value,
-                        format!(
-                            "only the treelet-queue hardware uses it, and mode.kind is \
-                             \"{kind}\" (leave it at {default} or set mode.kind = \"queues\")"
-                        ),
-                    ));
-                }
-            }
-            return Ok(());
+            ));
         }
+        for (key, on) in [
+            ("mode.grouping", m.grouping),
+            ("mode.preload", m.preload),
+            ("rt.queued_stack_traffic", self.rt.queued_stack_traffic),
+        ] {
+            if on {
+                return Err(invalid(
+                    key,
+                    on,
+                    format!("only treelet queues use it, and mode.kind is \"{kind}\""),
+                ));
+            }
+        }
+        if self.rt.ray_record_latency != 0 {
+            return Err(invalid(
+                "rt.ray_record_latency",
+                self.rt.ray_record_latency,
+                format!(
+                    "only treelet queues hold ray records (0 keeps them in memory), and \
+                     mode.kind is \"{kind}\""
+                ),
+            ));
+        }
+        if !m.admit_in_treelet_stationary {
+            return Err(invalid(
+                "mode.admit_in_treelet_stationary",
+                false,
+                format!(
+                    "only treelet queues have a treelet-stationary mode, and mode.kind is \
+                     \"{kind}\""
+                ),
+            ));
+        }
+        let hw = &self.hw;
+        let d = HwConfig::default();
+        let queue_only = [
+            (
+                "count_table_entries",
+                hw.count_table_entries,
+                d.count_table_entries,
+            ),
+            (
+                "queue_table_entries",
+                hw.queue_table_entries,
+                d.queue_table_entries,
+            ),
+            (
+                "underpopulation_threshold",
+                hw.underpopulation_threshold,
+                d.underpopulation_threshold,
+            ),
+            ("repack_threshold", hw.repack_threshold, d.repack_threshold),
+            (
+                "max_resident_treelets",
+                hw.max_resident_treelets,
+                d.max_resident_treelets,
+            ),
+            (
+                "divergence_threshold",
+                hw.divergence_threshold,
+                d.divergence_threshold,
+            ),
+            (
+                "preload_threshold_warps",
+                hw.preload_threshold_warps,
+                d.preload_threshold_warps,
+            ),
+        ];
+        for (key, value, default) in queue_only {
+            if value != default {
+                return Err(invalid(
+                    &format!("hw.{key}"),
+                    value,
+                    format!(
+                        "only the treelet-queue hardware uses it, and mode.kind is \
+                         \"{kind}\" (leave it at {default} or set mode.kind = \"queues\")"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// A treelet-queue design: its features against each other and the L1.
+    fn validate_queue_features(&self) -> Result<(), ConfigError> {
+        let m = &self.mode;
         let hw = &self.hw;
         if hw.repack_threshold > 0 && !m.grouping {
             return Err(invalid(

@@ -114,37 +114,7 @@ pub fn parse_obj(
         let args = words.take_while(|w| !w.starts_with('#'));
         match keyword {
             "v" => {
-                let mut values = [0.0f32; 7];
-                let mut n = 0;
-                for word in args {
-                    if n == values.len() {
-                        n += 1;
-                        break;
-                    }
-                    values[n] = word.parse().map_err(|_| {
-                        at_line(format!(
-                            "'{}' is not a number (vertex coordinate)",
-                            preview(word)
-                        ))
-                    })?;
-                    n += 1;
-                }
-                let mut p = Vec3::new(values[0], values[1], values[2]);
-                match n {
-                    3 => {}
-                    4 => p /= values[3],
-                    6 => file.ignored.add("v rgb", 1),
-                    _ => {
-                        return Err(at_line(format!(
-                            "a vertex needs x y z, x y z w or x y z r g b; found {} numbers",
-                            if n > values.len() {
-                                format!("more than {}", values.len())
-                            } else {
-                                n.to_string()
-                            }
-                        )))
-                    }
-                }
+                let p = vertex(args, &mut file).map_err(&at_line)?;
                 if !p.is_finite() {
                     file.nonfinite_vertices += 1;
                 }
@@ -189,29 +159,7 @@ pub fn parse_obj(
                     file.ignored.add("mtllib (no name)", 1);
                     continue;
                 }
-                let mut libraries = Vec::new();
-                match resolve(name)? {
-                    Some(library) => libraries.push(library),
-                    None => {
-                        let mut missing = Vec::new();
-                        if name.contains(char::is_whitespace) {
-                            for part in name.split_whitespace() {
-                                match resolve(part)? {
-                                    Some(library) => libraries.push(library),
-                                    None => missing.push(part),
-                                }
-                            }
-                        }
-                        if libraries.is_empty() {
-                            missing = vec![name];
-                        }
-                        for name in missing {
-                            if missing_seen.insert(name.to_string()) {
-                                file.missing_mtl.push(name.to_string());
-                            }
-                        }
-                    }
-                }
+                let libraries = libraries(name, resolve, &mut file, &mut missing_seen)?;
                 for library in libraries {
                     for m in &library.materials {
                         let s = u32::try_from(file.materials.len())
@@ -240,6 +188,75 @@ pub fn parse_obj(
         }
     }
     Ok(file)
+}
+
+/// The position of a `v` statement from its arguments: `x y z`, `x y z w` (divided by `w`) or
+/// `x y z r g b` (the colour counted in `file.ignored`).
+fn vertex<'a>(args: impl Iterator<Item = &'a str>, file: &mut ObjFile) -> Result<Vec3, String> {
+    let mut values = [0.0f32; 7];
+    let mut n = 0;
+    for word in args {
+        if n == values.len() {
+            n += 1;
+            break;
+        }
+        values[n] = word
+            .parse()
+            .map_err(|_| format!("'{}' is not a number (vertex coordinate)", preview(word)))?;
+        n += 1;
+    }
+    let p = Vec3::new(values[0], values[1], values[2]);
+    match n {
+        3 => Ok(p),
+        4 => Ok(p / values[3]),
+        6 => {
+            file.ignored.add("v rgb", 1);
+            Ok(p)
+        }
+        _ => Err(format!(
+            "a vertex needs x y z, x y z w or x y z r g b; found {} numbers",
+            if n > values.len() {
+                format!("more than {}", values.len())
+            } else {
+                n.to_string()
+            }
+        )),
+    }
+}
+
+/// The material libraries an `mtllib` statement names: `name` whole, or, when that file does
+/// not exist and the name has spaces, each word; the names found nowhere are added once to
+/// `file.missing_mtl`.
+fn libraries(
+    name: &str,
+    resolve: &mut LibraryResolver<'_>,
+    file: &mut ObjFile,
+    missing_seen: &mut HashSet<String>,
+) -> Result<Vec<Arc<MtlLibrary>>, SceneError> {
+    let mut libraries = Vec::new();
+    match resolve(name)? {
+        Some(library) => libraries.push(library),
+        None => {
+            let mut missing = Vec::new();
+            if name.contains(char::is_whitespace) {
+                for part in name.split_whitespace() {
+                    match resolve(part)? {
+                        Some(library) => libraries.push(library),
+                        None => missing.push(part),
+                    }
+                }
+            }
+            if libraries.is_empty() {
+                missing = vec![name];
+            }
+            for name in missing {
+                if missing_seen.insert(name.to_string()) {
+                    file.missing_mtl.push(name.to_string());
+                }
+            }
+        }
+    }
+    Ok(libraries)
 }
 
 /// The 0-based vertex index of a face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`, checking each
