@@ -74,7 +74,7 @@ impl LogicReport {
         for nm in NODES_NM {
             write!(f, " {:>11}", format!("mm^2 {nm}nm"))?;
         }
-        writeln!(f, " {:>9}  {}", "macros", "yosys")?;
+        writeln!(f, " {:>9}  yosys", "macros")?;
         for b in &self.blocks {
             b.row(f)?;
         }

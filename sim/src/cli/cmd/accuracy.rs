@@ -10,7 +10,9 @@ use clap::Args;
 
 use crate::cli::cmd::options::{build_bvh, load_scene, parse_threads, CacheArgs};
 use crate::cli::output::{check_dir, write_or_keep, Failures};
-use crate::experiment::accuracy::{benchmark, chart, csv, summarize, Design, Plan, Row, Tier};
+use crate::experiment::accuracy::{
+    benchmark, chart, csv, summarize, Design, Plan, Row, Summary, Tier,
+};
 use crate::experiment::perturb::perturbations;
 use crate::experiment::plot::write_scatter;
 use crate::model::designs;
@@ -108,6 +110,63 @@ fn print_rows(rows: &[Row]) {
 /// Run `vtq accuracy`.
 pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
     check_dir(&args.out)?;
+    let designs = resolve_designs(args)?;
+    let first = &designs[0];
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let offsets = perturbations(args.perturb);
+    let mut rows = Vec::new();
+    for name in &args.scene {
+        let scene = load_scene(name)?;
+        let bvh = build_bvh(&scene, &first.config.bvh_params(), &args.cache)?;
+        let plan = Plan {
+            scene: &scene,
+            bvh: &bvh,
+            designs: &designs,
+            settings: &args.settings,
+            threads,
+            perturbations: &offsets,
+        };
+        let scene_rows =
+            benchmark(&plan).with_context(|| format!("benchmarking scene '{}'", scene.name))?;
+        print_rows(&scene_rows);
+        rows.extend(scene_rows);
+    }
+    let summary = summarize(&rows);
+    print_summary(&summary, args.perturb, &offsets, threads);
+    // The results first; a chart that cannot be drawn is reported without losing them, and
+    // one file that cannot be written is kept in a fallback file.
+    let mut failures = Failures::default();
+    let mut wrote = Vec::new();
+    let csv_path = args.out.join("accuracy.csv");
+    let csv_text = csv(&rows);
+    if failures.note(write_or_keep(&csv_path, |p| std::fs::write(p, &csv_text))) {
+        wrote.push(csv_path.display().to_string());
+    }
+    let json_path = args.out.join("accuracy.json");
+    let doc = serde_json::json!({ "threads": threads, "rows": rows, "summary": summary });
+    let json_text = serde_json::to_string_pretty(&doc)? + "\n";
+    if failures.note(write_or_keep(&json_path, |p| std::fs::write(p, &json_text))) {
+        wrote.push(json_path.display().to_string());
+    }
+    match write_scatter(&args.out.join("accuracy"), &chart(&rows)) {
+        Ok((svg, png)) => wrote.extend([svg.display().to_string(), png.display().to_string()]),
+        Err(e) => {
+            failures.note(Err(anyhow::Error::new(e).context("the plot was not drawn")));
+        }
+    }
+    if !wrote.is_empty() {
+        println!("wrote {}", wrote.join(", "));
+    }
+    failures.finish()
+}
+
+/// The designs of `--designs` with `--set`, checked: one BVH and workload for all, and every
+/// `--settings` point valid for each.
+fn resolve_designs(args: &AccuracyArgs) -> anyhow::Result<Vec<Design>> {
     let designs: Vec<Design> = args
         .designs
         .iter()
@@ -142,29 +201,12 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("setting `{spec}` for design '{}'", d.label))?;
         }
     }
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let offsets = perturbations(args.perturb);
-    let mut rows = Vec::new();
-    for name in &args.scene {
-        let scene = load_scene(name)?;
-        let bvh = build_bvh(&scene, &first.config.bvh_params(), &args.cache)?;
-        let plan = Plan {
-            scene: &scene,
-            bvh: &bvh,
-            designs: &designs,
-            settings: &args.settings,
-            threads,
-            perturbations: &offsets,
-        };
-        let scene_rows =
-            benchmark(&plan).with_context(|| format!("benchmarking scene '{}'", scene.name))?;
-        print_rows(&scene_rows);
-        rows.extend(scene_rows);
-    }
+    Ok(designs)
+}
+
+/// Prints the summary table per tier, and with `perturb` runs the errors against the mean of
+/// full detail's perturbed runs (DRAM latency `offsets`).
+fn print_summary(summary: &[Summary], perturb: usize, offsets: &[i64], threads: usize) {
     println!();
     println!(
         "{:<16} {:>5} {:>10} {:>10} {:>10} {:>12} {:>12} {:>12} {:>12} {:>9}",
@@ -179,7 +221,6 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         "spd err max",
         "in 95%"
     );
-    let summary = summarize(&rows);
     for s in summary.iter().filter(|s| s.tier != Tier::Full.name()) {
         println!(
             "{:<16} {:>5} {:>10.1} {:>10.1} {:>10.1} {:>11.2}% {:>11.2}% {:>11.2}% {:>11.2}% {:>9}",
@@ -196,18 +237,18 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
                 .map_or_else(|| "-".into(), |c| format!("{:.0}%", 100.0 * c))
         );
     }
-    if args.perturb > 0 {
+    if perturb > 0 {
         println!();
         println!(
             "against the mean of full detail's {} runs (DRAM latency {:+?} cycles):",
-            args.perturb + 1,
+            perturb + 1,
             offsets
         );
         println!(
             "{:<16} {:>12} {:>12} {:>12} {:>12} {:>9}",
             "tier", "cyc err avg", "cyc err max", "spd err avg", "spd err max", "in 95%"
         );
-        for s in &summary {
+        for s in summary {
             if let Some([mc, wc, ms, ws]) = s.against_mean {
                 println!(
                     "{:<16} {:>11.2}% {:>11.2}% {:>11.2}% {:>11.2}% {:>9}",
@@ -231,29 +272,4 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
          x faster = full detail's wall time / the tier's; x shared = the same with the \
          functional profile shared by the scene's designs, as `vtq compare --sample` runs them"
     );
-    // The results first; a chart that cannot be drawn is reported without losing them, and
-    // one file that cannot be written is kept in a fallback file.
-    let mut failures = Failures::default();
-    let mut wrote = Vec::new();
-    let csv_path = args.out.join("accuracy.csv");
-    let csv_text = csv(&rows);
-    if failures.note(write_or_keep(&csv_path, |p| std::fs::write(p, &csv_text))) {
-        wrote.push(csv_path.display().to_string());
-    }
-    let json_path = args.out.join("accuracy.json");
-    let doc = serde_json::json!({ "threads": threads, "rows": rows, "summary": summary });
-    let json_text = serde_json::to_string_pretty(&doc)? + "\n";
-    if failures.note(write_or_keep(&json_path, |p| std::fs::write(p, &json_text))) {
-        wrote.push(json_path.display().to_string());
-    }
-    match write_scatter(&args.out.join("accuracy"), &chart(&rows)) {
-        Ok((svg, png)) => wrote.extend([svg.display().to_string(), png.display().to_string()]),
-        Err(e) => {
-            failures.note(Err(anyhow::Error::new(e).context("the plot was not drawn")));
-        }
-    }
-    if !wrote.is_empty() {
-        println!("wrote {}", wrote.join(", "));
-    }
-    failures.finish()
 }
