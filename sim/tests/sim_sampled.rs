@@ -164,20 +164,22 @@ fn bad_sample_settings_are_one_line_errors() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `vtq accuracy` measures every tier and writes the table, the summary and the plot;
-/// `vtq compare --sample` labels its rows as estimates with intervals.
+/// A 16x16 frame on 4 SMs without the BVH cache: the sampled-tier commands' small runs.
+const SMALL: [&str; 7] = [
+    "--set",
+    "width=16",
+    "--set",
+    "height=16",
+    "--set",
+    "gpu.sms=4",
+    "--no-cache",
+];
+
+/// `vtq accuracy` measures every tier and writes the table, the summary and the plot.
 #[test]
-fn accuracy_and_sampled_compare_commands() {
+fn accuracy_command_measures_every_tier() {
     let dir = std::env::temp_dir().join(format!("vtq-accuracy-cli-{}", std::process::id()));
-    let small = [
-        "--set",
-        "width=16",
-        "--set",
-        "height=16",
-        "--set",
-        "gpu.sms=4",
-        "--no-cache",
-    ];
+    let small = SMALL;
     let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
         .args([
             "accuracy",
@@ -252,6 +254,20 @@ fn accuracy_and_sampled_compare_commands() {
         off_csv.lines().nth(2).unwrap().contains(",strata,"),
         "{off_csv}"
     );
+    let png = std::fs::read(dir.join("accuracy.png")).unwrap();
+    assert_eq!(&png[..4], b"\x89PNG");
+    assert!(std::fs::read_to_string(dir.join("accuracy.svg"))
+        .unwrap()
+        .contains("<svg"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `vtq accuracy --perturb`: full detail also runs with the DRAM latency moved, and each row
+/// gets the reference's mean and spread and its error against the mean.
+#[test]
+fn accuracy_with_perturbed_references() {
+    let dir = std::env::temp_dir().join(format!("vtq-accuracy-pert-{}", std::process::id()));
+    let small = SMALL;
     // With perturbations: full detail also runs with the DRAM latency moved by +1 and -1
     // cycles; each row gets the reference's mean and spread and its error against the mean.
     let pert = Command::new(env!("CARGO_BIN_EXE_vtq"))
@@ -259,7 +275,7 @@ fn accuracy_and_sampled_compare_commands() {
         .args(["--designs", "baseline,vtq", "--perturb", "2"])
         .args(small)
         .arg("--out")
-        .arg(dir.join("pert"))
+        .arg(dir.clone())
         .output()
         .unwrap();
     let pert_out = String::from_utf8_lossy(&pert.stdout);
@@ -269,8 +285,7 @@ fn accuracy_and_sampled_compare_commands() {
         "{pert_out}"
     );
     let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("pert/accuracy.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("accuracy.json")).unwrap()).unwrap();
     for row in doc["rows"].as_array().unwrap() {
         let r = &row["reference"];
         let runs: Vec<f64> = r["cycles"]
@@ -289,7 +304,7 @@ fn accuracy_and_sampled_compare_commands() {
             assert_eq!(runs[0], est, "{row}");
         }
     }
-    let pert_csv = std::fs::read_to_string(dir.join("pert/accuracy.csv")).unwrap();
+    let pert_csv = std::fs::read_to_string(dir.join("accuracy.csv")).unwrap();
     assert!(pert_csv
         .lines()
         .next()
@@ -300,11 +315,13 @@ fn accuracy_and_sampled_compare_commands() {
         assert_eq!(f.len(), 21, "{line}");
         assert!(f[14..17].iter().all(|v| !v.is_empty()), "{line}");
     }
-    let png = std::fs::read(dir.join("accuracy.png")).unwrap();
-    assert_eq!(&png[..4], b"\x89PNG");
-    assert!(std::fs::read_to_string(dir.join("accuracy.svg"))
-        .unwrap()
-        .contains("<svg"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `vtq compare --sample` labels its rows as estimates with intervals.
+#[test]
+fn sampled_compare_labels_estimates() {
+    let small = SMALL;
     let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
         .args(["compare", "--scene", "cornell", "--sample", "1/2x2"])
         .args(small)
@@ -318,7 +335,6 @@ fn accuracy_and_sampled_compare_commands() {
         stdout.contains("estimates (sampled tier, not full detail)"),
         "{stdout}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
