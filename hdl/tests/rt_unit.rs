@@ -1446,6 +1446,60 @@ fn random_tree(rng: &mut SplitMix64, count: usize) -> (Tree, Vec<NodeEntry>) {
     (tree, nodes)
 }
 
+/// Checks every lane summary, slot summary and status port of `sim`'s registers against a scan
+/// of the lanes; returns whether the unit is idle for a while (a finite idle horizon) and the
+/// valid slots.
+fn check_lane_summaries(sim: &Sim, cfg: &HwConfig, seed: u64) -> (bool, Vec<u32>) {
+    let regs = &sim.regs;
+    let idle_cycles = sim.unit.idle_cycles(regs, &sim.cache);
+    assert_eq!(
+        idle_cycles,
+        idle_cycles_by_scan(regs),
+        "seed {seed} cycle {}",
+        sim.cycle
+    );
+    for s in 0..cfg.warp_buffer_size + 1 {
+        for distinct in [false, true] {
+            assert_eq!(
+                sim.unit.slot_summary(regs, &sim.cache, s, distinct),
+                slot_summary_by_scan(&sim.unit, regs, s, distinct),
+                "seed {seed} cycle {} slot {s}",
+                sim.cycle
+            );
+        }
+    }
+    // The status ports: each slot's state and summary by their definition (distinct
+    // next treelets for treelet-continue warps only), inactive lanes by scan.
+    let count_distinct = sim.cycle.is_multiple_of(2);
+    let status = sim.unit.status(regs, &sim.cache, count_distinct);
+    assert_eq!(status.slots.len(), cfg.warp_buffer_size as usize);
+    for (k, st) in status.slots.iter().enumerate() {
+        let slot = &regs.slots[k];
+        let want = slot.valid.then(|| {
+            let distinct = count_distinct && slot.order == TraversalOrder::TreeletContinue;
+            let inactive = slot
+                .lanes
+                .iter()
+                .enumerate()
+                .filter(|(_, l)| l.status == LaneStatus::Inactive)
+                .fold(0u64, |m, (i, _)| m | 1 << i);
+            (
+                slot.order,
+                slot.held,
+                slot_summary_by_scan(&sim.unit, regs, k as u32, distinct),
+                inactive,
+            )
+        });
+        let got = st.map(|st| (st.order, st.held, Some(st.summary), st.inactive));
+        assert_eq!(got, want, "seed {seed} cycle {} slot {k}", sim.cycle);
+    }
+    let valid: Vec<u32> = (0..cfg.warp_buffer_size)
+        .filter(|&s| regs.slots[s as usize].valid)
+        .collect();
+    assert_eq!(status.is_empty(), valid.is_empty());
+    (idle_cycles > 0 && idle_cycles < u64::MAX, valid)
+}
+
 #[test]
 fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
     /// Rays issued per run (ids below `max_rays`).
@@ -1486,54 +1540,8 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                     "seed {seed} cycle {}",
                     sim.cycle
                 );
-                let idle_cycles = sim.unit.idle_cycles(regs, &sim.cache);
-                assert_eq!(
-                    idle_cycles,
-                    idle_cycles_by_scan(regs),
-                    "seed {seed} cycle {}",
-                    sim.cycle
-                );
-                idle += u32::from(idle_cycles > 0 && idle_cycles < u64::MAX);
-                for s in 0..cfg.warp_buffer_size + 1 {
-                    for distinct in [false, true] {
-                        assert_eq!(
-                            sim.unit.slot_summary(regs, &sim.cache, s, distinct),
-                            slot_summary_by_scan(&sim.unit, regs, s, distinct),
-                            "seed {seed} cycle {} slot {s}",
-                            sim.cycle
-                        );
-                    }
-                }
-                // The status ports: each slot's state and summary by their definition (distinct
-                // next treelets for treelet-continue warps only), inactive lanes by scan.
-                let count_distinct = sim.cycle.is_multiple_of(2);
-                let status = sim.unit.status(regs, &sim.cache, count_distinct);
-                assert_eq!(status.slots.len(), cfg.warp_buffer_size as usize);
-                for (k, st) in status.slots.iter().enumerate() {
-                    let slot = &regs.slots[k];
-                    let want = slot.valid.then(|| {
-                        let distinct =
-                            count_distinct && slot.order == TraversalOrder::TreeletContinue;
-                        let inactive = slot
-                            .lanes
-                            .iter()
-                            .enumerate()
-                            .filter(|(_, l)| l.status == LaneStatus::Inactive)
-                            .fold(0u64, |m, (i, _)| m | 1 << i);
-                        (
-                            slot.order,
-                            slot.held,
-                            slot_summary_by_scan(&sim.unit, regs, k as u32, distinct),
-                            inactive,
-                        )
-                    });
-                    let got = st.map(|st| (st.order, st.held, Some(st.summary), st.inactive));
-                    assert_eq!(got, want, "seed {seed} cycle {} slot {k}", sim.cycle);
-                }
-                let valid: Vec<u32> = (0..cfg.warp_buffer_size)
-                    .filter(|&s| regs.slots[s as usize].valid)
-                    .collect();
-                assert_eq!(status.is_empty(), valid.is_empty());
+                let (was_idle, valid) = check_lane_summaries(&sim, &cfg, seed);
+                idle += u32::from(was_idle);
                 if next_ray >= RAYS && valid.is_empty() {
                     break;
                 }
