@@ -54,7 +54,7 @@ use crate::model::scene::Scene;
 pub const HEADER_ADDR: u32 = 0;
 
 /// Child type byte of an empty slot.
-const TYPE_EMPTY: u8 = 0;
+pub(super) const TYPE_EMPTY: u8 = 0;
 /// Child type byte of an internal node.
 const TYPE_INTERNAL: u8 = 1;
 /// Child type byte of a triangle leaf.
@@ -77,7 +77,7 @@ pub enum NodeKind {
 
 impl NodeKind {
     /// Decodes a child type byte (`None` for empty slots and unknown values).
-    fn from_type_byte(b: u8) -> Option<NodeKind> {
+    pub(super) fn from_type_byte(b: u8) -> Option<NodeKind> {
         match b {
             TYPE_INTERNAL => Some(NodeKind::Internal),
             TYPE_TRIANGLE => Some(NodeKind::TriangleLeaf),
@@ -132,7 +132,7 @@ impl BvhStats {
 
 /// Reads a little-endian u32 at `off`.
 #[inline(always)]
-fn rd_u32(b: &[u8], off: usize) -> u32 {
+pub(super) fn rd_u32(b: &[u8], off: usize) -> u32 {
     u32::from_le_bytes([b[off], b[off + 1], b[off + 2], b[off + 3]])
 }
 
@@ -213,7 +213,7 @@ fn quantize_interval(origin: f32, scale: f32, clo: f32, chi: f32) -> (u8, u8) {
 #[derive(Debug, Clone, Copy)]
 pub struct InternalView<'a> {
     bytes: &'a [u8],
-    slots: usize,
+    pub(super) slots: usize,
     origin: Vec3,
     scale: Vec3,
 }
@@ -389,17 +389,17 @@ impl Header {
 /// The hardware BVH: a byte-addressed memory image partitioned into treelets.
 #[derive(Debug, Clone)]
 pub struct HwBvh {
-    params: BvhParams,
+    pub(super) params: BvhParams,
     /// log2(treelet_bytes).
-    shift: u32,
+    pub(super) shift: u32,
     /// Used bytes of every treelet, concatenated.
-    image: Vec<u8>,
+    pub(super) image: Vec<u8>,
     /// Offset in `image` of each treelet's first byte.
-    slot_offset: Vec<usize>,
-    treelets: Vec<TreeletInfo>,
-    nodes: Vec<NodeInfo>,
-    header: Header,
-    stats: BvhStats,
+    pub(super) slot_offset: Vec<usize>,
+    pub(super) treelets: Vec<TreeletInfo>,
+    pub(super) nodes: Vec<NodeInfo>,
+    pub(super) header: Header,
+    pub(super) stats: BvhStats,
 }
 
 impl HwBvh {
@@ -504,221 +504,6 @@ impl HwBvh {
     /// The compact image (used bytes of every treelet, concatenated).
     pub(crate) fn image(&self) -> &[u8] {
         &self.image
-    }
-
-    /// Rebuilds the tables of a BVH from its compact image, validating every node so that
-    /// traversal of the result can never index out of range.
-    pub(crate) fn from_image(
-        params: BvhParams,
-        treelet_sizes: &[u32],
-        image: Vec<u8>,
-    ) -> Result<HwBvh, BvhError> {
-        params.validate()?;
-        let bad = |m: String| Err(BvhError::Corrupt(m));
-        let tb = params.treelet_bytes;
-        let total: u64 = treelet_sizes.iter().map(|&s| s as u64).sum();
-        if total != image.len() as u64 {
-            return bad(format!(
-                "treelet sizes add to {total} bytes but the image has {}",
-                image.len()
-            ));
-        }
-        if treelet_sizes.is_empty() {
-            return bad("the treelet table is empty".into());
-        }
-        if treelet_sizes.len() as u64 * tb as u64 > 1u64 << 32 {
-            return bad(format!(
-                "{} treelets of {tb} bytes do not fit a 32-bit address space",
-                treelet_sizes.len()
-            ));
-        }
-        if let Some(s) = treelet_sizes
-            .iter()
-            .find(|&&s| s > tb || s % 64 != 0 || s == 0)
-        {
-            return bad(format!(
-                "a treelet holds {s} bytes (max {tb}, multiple of 64)"
-            ));
-        }
-        let mut slot_offset = Vec::with_capacity(treelet_sizes.len());
-        let mut acc = 0usize;
-        for &s in treelet_sizes {
-            slot_offset.push(acc);
-            acc += s as usize;
-        }
-        if image.len() < HEADER_BYTES as usize {
-            return bad("image is shorter than the BVH header".into());
-        }
-        let header = Header::decode(&image[0..64]);
-        let ib = params.internal_node_bytes();
-        if header.treelets as usize != treelet_sizes.len()
-            || header.treelet_bytes != tb
-            || header.width as u32 != params.width
-            || header.internal_units as u32 * 64 != ib
-        {
-            return bad("header does not match the parameters or treelet table".into());
-        }
-        let shift = tb.trailing_zeros();
-        // A node range is valid if it lies inside the used bytes of one treelet.
-        let in_range = |addr: u32, len: u32| -> bool {
-            let t = (addr >> shift) as usize;
-            let off = (addr & (tb - 1)) as u64;
-            addr.is_multiple_of(64)
-                && t < treelet_sizes.len()
-                && off + len as u64 <= treelet_sizes[t] as u64
-        };
-        let mut nodes = vec![NodeInfo {
-            addr: HEADER_ADDR,
-            bytes: HEADER_BYTES,
-            kind: NodeKind::Header,
-            treelet: 0,
-            depth: 0,
-        }];
-        let (mut n_int, mut n_tri, mut n_proc) = (0u32, 0u32, 0u32);
-        let mut max_depth = 0u32;
-        if header.root != 0 {
-            if !in_range(header.root, ib) {
-                return bad(format!(
-                    "root address {:#x} is outside the image",
-                    header.root
-                ));
-            }
-            let mut stack = vec![(header.root, NodeKind::Internal, 0u32)];
-            let max_nodes = image.len() / 64;
-            while let Some((addr, kind, depth)) = stack.pop() {
-                if nodes.len() >= max_nodes {
-                    return bad("more nodes are reachable than the image can hold".into());
-                }
-                let size = if kind == NodeKind::Internal {
-                    ib
-                } else {
-                    LEAF_BYTES
-                };
-                nodes.push(NodeInfo {
-                    addr,
-                    bytes: size,
-                    kind,
-                    treelet: addr >> shift,
-                    depth,
-                });
-                max_depth = max_depth.max(depth + 1);
-                match kind {
-                    NodeKind::Internal => n_int += 1,
-                    NodeKind::TriangleLeaf => n_tri += 1,
-                    _ => n_proc += 1,
-                }
-                if kind != NodeKind::Internal {
-                    continue;
-                }
-                let b = &image[..];
-                let off = slot_offset[(addr >> shift) as usize] + (addr & (tb - 1)) as usize;
-                let node = &b[off..off + ib as usize];
-                let Some(view) = InternalView::new(node) else {
-                    return bad(format!("internal node {addr:#x} has a bad size"));
-                };
-                let count = node[19] as u32;
-                if count == 0 || count > params.width {
-                    return bad(format!("internal node {addr:#x} has {count} children"));
-                }
-                if node[16..19].iter().any(|&e| (e as i8) < -126) {
-                    return bad(format!(
-                        "internal node {addr:#x} has an exponent below -126"
-                    ));
-                }
-                let child_off = rd_u32(node, 12) as u64 * 64;
-                if child_off == 0 || addr as u64 + child_off >= 1u64 << 32 {
-                    return bad(format!("internal node {addr:#x} has a bad child offset"));
-                }
-                let base = view.child_base(addr);
-                let mut caddr = base as u64;
-                let slots = view.slots;
-                for i in 0..slots {
-                    let t = node[20 + i];
-                    if (i as u32) < count {
-                        let Some(k) = NodeKind::from_type_byte(t) else {
-                            return bad(format!("internal node {addr:#x} child {i} has type {t}"));
-                        };
-                        let csize = view.child_size(k);
-                        if caddr + csize as u64 > 1u64 << 32
-                            || !in_range(caddr as u32, csize)
-                            || (caddr as u32) >> shift != base >> shift
-                        {
-                            return bad(format!(
-                                "internal node {addr:#x} child {i} at {caddr:#x} is outside its group's treelet"
-                            ));
-                        }
-                        stack.push((caddr as u32, k, depth + 1));
-                        caddr += csize as u64;
-                    } else if t != TYPE_EMPTY {
-                        return bad(format!(
-                            "internal node {addr:#x} empty slot {i} has type {t}"
-                        ));
-                    }
-                }
-            }
-        }
-        nodes.sort_by_key(|n| n.addr);
-        // Nodes must tile the used bytes of every treelet exactly, without overlap.
-        let mut used = vec![0u64; treelet_sizes.len()];
-        for w in nodes.windows(2) {
-            if w[0].addr as u64 + w[0].bytes as u64 > w[1].addr as u64 {
-                return bad(format!(
-                    "nodes {:#x} and {:#x} overlap",
-                    w[0].addr, w[1].addr
-                ));
-            }
-        }
-        for n in &nodes {
-            used[n.treelet as usize] += n.bytes as u64;
-        }
-        if used.iter().zip(treelet_sizes).any(|(&u, &s)| u != s as u64) {
-            return bad(
-                "treelet contents are not exactly the nodes reachable from the root".into(),
-            );
-        }
-        if (n_int, n_tri, n_proc)
-            != (
-                header.internal_nodes,
-                header.triangle_leaves,
-                header.procedural_leaves,
-            )
-        {
-            return bad("header node counts do not match the tree".into());
-        }
-        let mut treelets: Vec<TreeletInfo> = treelet_sizes
-            .iter()
-            .enumerate()
-            .map(|(i, &s)| TreeletInfo {
-                base: (i as u64 * tb as u64) as u32,
-                bytes: s,
-                nodes: 0,
-                root: (i as u64 * tb as u64) as u32,
-            })
-            .collect();
-        for n in &nodes {
-            treelets[n.treelet as usize].nodes += 1;
-        }
-        let bvh_bytes = image.len() as u64;
-        let stats = BvhStats {
-            internal_nodes: n_int,
-            triangle_leaves: n_tri,
-            procedural_leaves: n_proc,
-            bvh_bytes,
-            treelets: treelets.len() as u32,
-            treelet_fill: bvh_bytes as f64 / (treelets.len() as f64 * tb as f64),
-            depth: max_depth,
-            excluded_prims: header.excluded,
-        };
-        Ok(HwBvh {
-            params,
-            shift,
-            image,
-            slot_offset,
-            treelets,
-            nodes,
-            header,
-            stats,
-        })
     }
 }
 

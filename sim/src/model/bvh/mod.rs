@@ -5,6 +5,7 @@
 pub mod address_space;
 pub mod build;
 pub mod cache;
+mod image;
 pub mod layout;
 pub mod params;
 pub mod treelet;
