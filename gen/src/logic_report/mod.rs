@@ -167,11 +167,11 @@ pub struct LogicReport {
     pub paper: String,
 }
 
-/// The storage model's port kind for `r` read and `w` write ports: `None` for more than one of
-/// either (the model has no multi-ported array).
+/// The storage model's port kind for `r` read and `w` write ports: `None` for an array without
+/// a port or with more than one of either (the model has no multi-ported array).
 pub fn macro_ports(r: u32, w: u32) -> Option<Ports> {
     match (r, w) {
-        (0 | 1, 0) | (0, 1) => Some(Ports::OneRw),
+        (1, 0) | (0, 1) => Some(Ports::OneRw),
         (1, 1) => Some(Ports::OneROneW),
         _ => None,
     }
@@ -183,13 +183,15 @@ fn macros(desc: &BlockDesc) -> Result<Vec<MacroArea>, GenError> {
         .iter()
         .filter(|m| m.read_latency >= 1)
         .map(|m: &MemDesc| {
-            let ports = macro_ports(m.read_ports, m.write_ports).ok_or_else(|| GenError::Parse {
-                tool: "vtq-gen".to_string(),
-                reason: format!(
-                    "{}.{}: {} read and {} write ports: the SRAM model prices 1RW and 1R+1W arrays only",
-                    desc.name, m.name, m.read_ports, m.write_ports
-                ),
-            })?;
+            let ports =
+                macro_ports(m.read_ports, m.write_ports).ok_or_else(|| GenError::InvalidDesc {
+                    block: desc.name.clone(),
+                    reason: format!(
+                        "memory `{}` has {} read and {} write ports; the SRAM model prices 1RW \
+                         and 1R+1W arrays only",
+                        m.name, m.read_ports, m.write_ports
+                    ),
+                })?;
             let bits = u64::from(m.depth) * u64::from(m.width);
             Ok(MacroArea {
                 name: m.name.clone(),
@@ -198,7 +200,10 @@ fn macros(desc: &BlockDesc) -> Result<Vec<MacroArea>, GenError> {
                 read_ports: m.read_ports,
                 write_ports: m.write_ports,
                 ports,
-                area_mm2: NODES_NM.iter().map(|&f| (f, sram_area_mm2(bits, f, ports))).collect(),
+                area_mm2: NODES_NM
+                    .iter()
+                    .map(|&f| (f, sram_area_mm2(bits, f, ports)))
+                    .collect(),
             })
         })
         .collect()
@@ -470,4 +475,19 @@ fn run_jobs(
             .map(|h| h.join().expect("a synthesis thread panicked"))
             .collect()
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn macro_ports_follow_the_declared_ports() {
+        assert_eq!(macro_ports(1, 0), Some(Ports::OneRw));
+        assert_eq!(macro_ports(0, 1), Some(Ports::OneRw));
+        assert_eq!(macro_ports(1, 1), Some(Ports::OneROneW));
+        assert_eq!(macro_ports(0, 0), None);
+        assert_eq!(macro_ports(2, 1), None);
+        assert_eq!(macro_ports(1, 2), None);
+    }
 }
