@@ -5,6 +5,7 @@ use glam::Vec3;
 use vtq_hdl::rt_unit::RtStats;
 
 use crate::model::bvh::HwBvh;
+use crate::model::config::SimConfig;
 use crate::model::energy::EnergyReport;
 use crate::model::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::model::gpu::output::SimOutput;
@@ -65,54 +66,10 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         .iter()
         .map(|&c| mem.class(c).l2_misses)
         .sum();
-    let mut units = vec![
-        "cta_scheduler",
-        "sm",
-        "shader",
-        "rt_unit",
-        "rt_datapath.box",
-    ];
-    if bvh.header().triangle_leaves > 0 {
-        units.push("rt_datapath.triangle");
-    }
-    if bvh.has_procedural() {
-        units.push("rt_datapath.procedural");
-    }
-    units.extend(cfg.mode.units());
-    units.extend(["memory.l1", "memory.l2", "memory.dram"]);
     let warp_size = cfg.hw.warp_size;
     let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
     let queues: Vec<&QueueObserver> = nodes.iter().filter_map(|n| n.rt.queue_stats()).collect();
-    let phases = if queues.is_empty() {
-        let all = WarpLanes {
-            warp_cycles: rt.warp_cycles,
-            active: rt.active_thread_cycles,
-            waiting: rt.waiting_lane_cycles,
-            done: rt.done_lane_cycles,
-            parked: rt.parked_lane_cycles,
-        };
-        Phases {
-            ray_stationary: all.phase(cycles, rt.total_tests(), warp_size),
-            ..Phases::default()
-        }
-    } else {
-        // Cycles: each SM's controller time per mode, averaged over the SMs; tests and warp
-        // cycles: summed over the SMs.
-        let n = queues.len() as u64;
-        let phase = |i: usize, cycles: &dyn Fn(&QueueObserver) -> u64| {
-            let sum = |f: &dyn Fn(&QueueObserver) -> u64| queues.iter().map(|q| f(q)).sum::<u64>();
-            let mut lanes = WarpLanes::default();
-            for q in &queues {
-                lanes.add(&q.lanes[i]);
-            }
-            lanes.phase(sum(cycles) / n, sum(&|q| q.tests[i]), warp_size)
-        };
-        Phases {
-            initial: phase(0, &|q| q.counts.ctl.cycles_initial),
-            treelet_stationary: phase(1, &|q| q.counts.ctl.cycles_treelet),
-            ray_stationary: phase(2, &|q| q.counts.ctl.cycles_final),
-        }
-    };
+    let phases = phases(&rt, &queues, cycles, warp_size);
     let mut image = vec![Vec3::ZERO; ctx.settings.pixels()];
     for node in nodes {
         for &(pixel, color) in &node.pixels {
@@ -201,18 +158,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
             costs.stats(warp_size)
         }),
         max_access_queue: nodes.iter().map(|n| n.rt.max_queue).max().unwrap_or(0),
-        queues: {
-            let mut t = QueueStats::default();
-            for q in queues {
-                t.counts.add(&q.counts);
-            }
-            for n in nodes {
-                let (stores, loads) = n.rt.queued_stack_chunks();
-                t.stack_stores += stores;
-                t.stack_loads += loads;
-            }
-            t
-        },
+        queues: queue_stats(&queues, nodes),
         prefetcher_treelets: nodes
             .iter()
             .filter_map(|n| n.rt.prefetcher())
@@ -223,7 +169,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         prefetches_unused_evicted: mem.prefetch.evicted_unused,
         memory: mem,
         time_series_samples: time_series.len() as u64,
-        active_units: units.into_iter().map(String::from).collect(),
+        active_units: active_units(cfg, bvh),
         bvh: bvh.stats(),
         energy: EnergyReport::default(),
         config,
@@ -242,6 +188,78 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         parallelism: None,
         cta_spans: nodes.iter().map(|n| n.sm.done.clone()).collect(),
     }
+}
+
+/// The units a run used, for the energy model: the fixed ones, the datapath units the BVH
+/// needs, the design's own and the memory levels.
+fn active_units(cfg: &SimConfig, bvh: &HwBvh) -> Vec<String> {
+    let mut units = vec![
+        "cta_scheduler",
+        "sm",
+        "shader",
+        "rt_unit",
+        "rt_datapath.box",
+    ];
+    if bvh.header().triangle_leaves > 0 {
+        units.push("rt_datapath.triangle");
+    }
+    if bvh.has_procedural() {
+        units.push("rt_datapath.procedural");
+    }
+    units.extend(cfg.mode.units());
+    units.extend(["memory.l1", "memory.l2", "memory.dram"]);
+    units.into_iter().map(String::from).collect()
+}
+
+/// The cycles, tests and lanes per controller phase: the whole run as ray-stationary without
+/// treelet queues; else each SM's controller time per mode averaged over the SMs, tests and
+/// warp cycles summed over them.
+fn phases(rt: &RtStats, queues: &[&QueueObserver], cycles: u64, warp_size: u32) -> Phases {
+    if queues.is_empty() {
+        let all = WarpLanes {
+            warp_cycles: rt.warp_cycles,
+            active: rt.active_thread_cycles,
+            waiting: rt.waiting_lane_cycles,
+            done: rt.done_lane_cycles,
+            parked: rt.parked_lane_cycles,
+        };
+        Phases {
+            ray_stationary: all.phase(cycles, rt.total_tests(), warp_size),
+            ..Phases::default()
+        }
+    } else {
+        // Cycles: each SM's controller time per mode, averaged over the SMs; tests and warp
+        // cycles: summed over the SMs.
+        let n = queues.len() as u64;
+        let phase = |i: usize, cycles: &dyn Fn(&QueueObserver) -> u64| {
+            let sum = |f: &dyn Fn(&QueueObserver) -> u64| queues.iter().map(|q| f(q)).sum::<u64>();
+            let mut lanes = WarpLanes::default();
+            for q in queues {
+                lanes.add(&q.lanes[i]);
+            }
+            lanes.phase(sum(cycles) / n, sum(&|q| q.tests[i]), warp_size)
+        };
+        Phases {
+            initial: phase(0, &|q| q.counts.ctl.cycles_initial),
+            treelet_stationary: phase(1, &|q| q.counts.ctl.cycles_treelet),
+            ray_stationary: phase(2, &|q| q.counts.ctl.cycles_final),
+        }
+    }
+}
+
+/// The treelet-queue counters summed over the SMs' observers, with every node's queued stack
+/// chunks.
+fn queue_stats(queues: &[&QueueObserver], nodes: &[SmNode]) -> QueueStats {
+    let mut t = QueueStats::default();
+    for q in queues {
+        t.counts.add(&q.counts);
+    }
+    for n in nodes {
+        let (stores, loads) = n.rt.queued_stack_chunks();
+        t.stack_stores += stores;
+        t.stack_loads += loads;
+    }
+    t
 }
 
 /// The time series: at every multiple of `interval` before `cycles`, the BVH L1 accesses and
