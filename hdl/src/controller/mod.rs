@@ -356,6 +356,57 @@ pub struct TreeletController {
 }
 
 impl TreeletController {
+    /// The mode after this cycle, judged on this cycle's registers and inputs (`divergent`:
+    /// an initial-phase warp diverged).
+    fn mode_after(
+        &self,
+        regs: &ControllerRegs,
+        inputs: &ControllerInputs,
+        divergent: bool,
+    ) -> Mode {
+        let enqueue_pending = inputs.enqueue.is_some();
+        let feeding = regs
+            .slots
+            .iter()
+            .filter(|s| s.treelet_warp || s.terminated)
+            .count() as u32;
+        let settled = regs.seq == Seq::Idle && regs.pending_remove.is_none();
+        let phase_over = regs.mode == Mode::TreeletStationary
+            && settled
+            && treelet_phase_over(
+                &TreeletPhaseStatus {
+                    largest_underpopulated: largest_queue_underpopulated(
+                        inputs.ct.max.map(|m| m.count),
+                        inputs.ct.occupancy,
+                        inputs.ct.above_threshold,
+                        self.cfg.underpopulation_threshold,
+                    ),
+                    resident_treelets: regs.resident_count(),
+                    warps_feeding_queues: feeding,
+                    initial_warps: inputs.initial_warps,
+                    enqueue_pending,
+                },
+                self.features.group_underpopulated,
+            );
+        let all_drained = drained(&DrainStatus {
+            launch_done: inputs.launch_done,
+            rt_idle: inputs.rt_idle,
+            queued_rays: regs.queued_rays,
+            held_rays: regs.spare_count,
+            resident_treelets: regs.resident_count(),
+            sequence_busy: !settled,
+            enqueue_pending,
+        });
+        next_mode(
+            regs.mode,
+            &ModeEvents {
+                divergent_warp: divergent,
+                treelet_phase_over: phase_over,
+                drained: all_drained,
+            },
+        )
+    }
+
     /// A controller for a configuration and a set of features; the configuration is validated.
     pub fn new(cfg: HwConfig, features: ControllerFeatures) -> Result<Self, ConfigError> {
         cfg.validate()?;
@@ -548,63 +599,9 @@ impl Block for TreeletController {
             }
         }
 
-        // Retire resident treelets whose queue is empty and whose warps have all finished.
-        let popping = (n.seq == Seq::PopWait).then_some(n.fill.resident).flatten();
-        for (i, e) in n.res.iter_mut().enumerate() {
-            if e.valid && e.count == 0 && e.warps == 0 && popping != Some(i as u32) {
-                *e = ResidentEntry::default();
-            }
-        }
-        if n.resident_count() == 0 {
-            n.res_head = n.res_tail;
-        } else {
-            while !n.res[n.res_head as usize].valid {
-                n.res_head = (n.res_head + 1) % n.res.len() as u32;
-            }
-        }
+        retire_residents(n);
 
-        // Mode transitions, judged on this cycle's registers and inputs.
-        let enqueue_pending = inputs.enqueue.is_some();
-        let feeding = regs
-            .slots
-            .iter()
-            .filter(|s| s.treelet_warp || s.terminated)
-            .count() as u32;
-        let settled = regs.seq == Seq::Idle && regs.pending_remove.is_none();
-        let phase_over = regs.mode == Mode::TreeletStationary
-            && settled
-            && treelet_phase_over(
-                &TreeletPhaseStatus {
-                    largest_underpopulated: largest_queue_underpopulated(
-                        inputs.ct.max.map(|m| m.count),
-                        inputs.ct.occupancy,
-                        inputs.ct.above_threshold,
-                        self.cfg.underpopulation_threshold,
-                    ),
-                    resident_treelets: regs.resident_count(),
-                    warps_feeding_queues: feeding,
-                    initial_warps: inputs.initial_warps,
-                    enqueue_pending,
-                },
-                self.features.group_underpopulated,
-            );
-        let all_drained = drained(&DrainStatus {
-            launch_done: inputs.launch_done,
-            rt_idle: inputs.rt_idle,
-            queued_rays: regs.queued_rays,
-            held_rays: regs.spare_count,
-            resident_treelets: regs.resident_count(),
-            sequence_busy: !settled,
-            enqueue_pending,
-        });
-        n.mode = next_mode(
-            regs.mode,
-            &ModeEvents {
-                divergent_warp: divergent.is_some(),
-                treelet_phase_over: phase_over,
-                drained: all_drained,
-            },
-        );
+        n.mode = self.mode_after(regs, inputs, divergent.is_some());
         // Every ray is traced: the counts still in the table are of rays that grouped warps and
         // repacks took, so clear them before the next wave (no other op can be pending: the
         // sequence is settled and no enqueue waits).
@@ -620,5 +617,23 @@ impl Block for TreeletController {
 
     fn describe(&self) -> BlockDesc {
         desc::describe(&self.cfg, self.features, &self.widths)
+    }
+}
+
+/// Retires the resident treelets of `n` whose queue is empty and whose warps have all finished
+/// (not the one a pop in flight fills), and moves the head past retired entries.
+fn retire_residents(n: &mut ControllerRegs) {
+    let popping = (n.seq == Seq::PopWait).then_some(n.fill.resident).flatten();
+    for (i, e) in n.res.iter_mut().enumerate() {
+        if e.valid && e.count == 0 && e.warps == 0 && popping != Some(i as u32) {
+            *e = ResidentEntry::default();
+        }
+    }
+    if n.resident_count() == 0 {
+        n.res_head = n.res_tail;
+    } else {
+        while !n.res[n.res_head as usize].valid {
+            n.res_head = (n.res_head + 1) % n.res.len() as u32;
+        }
     }
 }
