@@ -131,7 +131,11 @@ fn every_block_with_rtl_is_priced() {
     assert!(r.proposal_over_rt_unit < r.treelet_over_rt_unit);
     // docs/area.md's headline: the proposal is a small share of the whole RT unit (1.8% at
     // the defaults, under 1% at this configuration); the wiring as modelled is not.
-    assert!(r.proposal_over_rt_unit < 0.05, "{}", r.proposal_over_rt_unit);
+    assert!(
+        r.proposal_over_rt_unit < 0.05,
+        "{}",
+        r.proposal_over_rt_unit
+    );
     assert!(r.treelet_over_rt_unit > 0.05, "{}", r.treelet_over_rt_unit);
     assert!(r.proposal_over_sm > 0.0 && r.proposal_over_sm < r.proposal_over_rt_unit);
     let text = r.to_string();
