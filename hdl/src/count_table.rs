@@ -445,7 +445,6 @@ impl CountTable {
             widths: w,
         };
         let n_entries = self.entries();
-        let warp = self.cfg.warp_size;
         if inputs.op == CountOp::Clear {
             // Every valid bit cleared at the edge; the scan and both pointers reset.
             mem.clear_all(|e| e.valid = false);
@@ -453,10 +452,90 @@ impl CountTable {
         }
 
         // ---- The operation (combinational lookup, write at the edge). ----
+        let (change, occupancy, above) = self.operate(&c, &mut mem, inputs.op, &mut out);
+
+        // ---- Published pointers: incremental rules. ----
+        let mut max = c.max;
+        let mut min = c.min;
+        if max.valid {
+            max.valid = change.fold_max(&mut max);
+        } else if !c.scanning {
+            // Not scanning and no max: the table was empty, so only an allocation applies.
+            change.fold_max(&mut max);
+        }
+        if min.valid {
+            min.valid = change.fold_min(&mut min);
+        } else if !c.scanning {
+            change.fold_min(&mut min);
+        }
+
+        // ---- Scan engine. ----
+        let mut scanning = c.scanning;
+        let mut scan_pos = c.scan_pos;
+        let mut run_max = c.run_max;
+        let mut run_min = c.run_min;
+        if c.scanning {
+            let end = (c.scan_pos + self.scan_width).min(n_entries);
+            for i in c.scan_pos..end {
+                let e = mem.read(i as usize);
+                if e.valid {
+                    if run_max.beaten_as_max(i, e.count_m1) {
+                        run_max = Extreme::set(i, e.treelet, e.count_m1);
+                    }
+                    if run_min.beaten_as_min(i, e.count_m1) {
+                        run_min = Extreme::set(i, e.treelet, e.count_m1);
+                    }
+                }
+            }
+            let seen = change.idx().is_some_and(|i| i < end);
+            let intact = !seen || (change.fold_max(&mut run_max) & change.fold_min(&mut run_min));
+            if !intact {
+                scan_pos = 0;
+                run_max = Extreme::default();
+                run_min = Extreme::default();
+            } else if end == n_entries {
+                max = run_max;
+                min = run_min;
+                scanning = false;
+                scan_pos = 0;
+                run_max = Extreme::default();
+                run_min = Extreme::default();
+            } else {
+                scan_pos = end;
+            }
+        } else if (!max.valid || !min.valid) && occupancy > 0 {
+            scanning = true;
+            scan_pos = 0;
+        }
+        drop(mem);
+        let next = CountCtl {
+            scanning,
+            scan_pos,
+            max,
+            min,
+            run_max,
+            run_min,
+            occupancy,
+            above,
+        };
+        (out, next)
+    }
+
+    /// The cycle's operation `op` on the entry array (combinational lookup, writes at the
+    /// edge) from the start-of-cycle registers `c`, setting `out`'s error, evict and ready
+    /// ports: the change to publish and the next occupancy and above-threshold count.
+    fn operate(
+        &self,
+        c: &CountCtl,
+        mem: &mut MemCycle<'_, CountEntry>,
+        op: CountOp,
+        out: &mut CountTableOut,
+    ) -> (Change, u32, u32) {
+        let warp = self.cfg.warp_size;
         let mut change = Change::None;
         let mut occupancy = c.occupancy;
         let mut above = c.above;
-        match inputs.op {
+        match op {
             CountOp::Nop | CountOp::Clear => {}
             CountOp::Add { treelet, n } => {
                 let hit = mem.search(|e| e.valid && e.treelet == treelet);
@@ -558,72 +637,7 @@ impl CountTable {
                 }
             }
         }
-
-        // ---- Published pointers: incremental rules. ----
-        let mut max = c.max;
-        let mut min = c.min;
-        if max.valid {
-            max.valid = change.fold_max(&mut max);
-        } else if !c.scanning {
-            // Not scanning and no max: the table was empty, so only an allocation applies.
-            change.fold_max(&mut max);
-        }
-        if min.valid {
-            min.valid = change.fold_min(&mut min);
-        } else if !c.scanning {
-            change.fold_min(&mut min);
-        }
-
-        // ---- Scan engine. ----
-        let mut scanning = c.scanning;
-        let mut scan_pos = c.scan_pos;
-        let mut run_max = c.run_max;
-        let mut run_min = c.run_min;
-        if c.scanning {
-            let end = (c.scan_pos + self.scan_width).min(n_entries);
-            for i in c.scan_pos..end {
-                let e = mem.read(i as usize);
-                if e.valid {
-                    if run_max.beaten_as_max(i, e.count_m1) {
-                        run_max = Extreme::set(i, e.treelet, e.count_m1);
-                    }
-                    if run_min.beaten_as_min(i, e.count_m1) {
-                        run_min = Extreme::set(i, e.treelet, e.count_m1);
-                    }
-                }
-            }
-            let seen = change.idx().is_some_and(|i| i < end);
-            let intact = !seen || (change.fold_max(&mut run_max) & change.fold_min(&mut run_min));
-            if !intact {
-                scan_pos = 0;
-                run_max = Extreme::default();
-                run_min = Extreme::default();
-            } else if end == n_entries {
-                max = run_max;
-                min = run_min;
-                scanning = false;
-                scan_pos = 0;
-                run_max = Extreme::default();
-                run_min = Extreme::default();
-            } else {
-                scan_pos = end;
-            }
-        } else if (!max.valid || !min.valid) && occupancy > 0 {
-            scanning = true;
-            scan_pos = 0;
-        }
-        drop(mem);
-        let next = CountCtl {
-            scanning,
-            scan_pos,
-            max,
-            min,
-            run_max,
-            run_min,
-            occupancy,
-            above,
-        };
-        (out, next)
+        (change, occupancy, above)
     }
 
     fn entries(&self) -> u32 {
