@@ -402,7 +402,7 @@ pub fn area_report(cfg: &HwConfig, params: &AreaParams) -> Result<AreaReport, Ge
 }
 
 /// `x` with three significant digits (areas in mm^2).
-fn sig3(x: f64) -> String {
+pub(crate) fn sig3(x: f64) -> String {
     if x == 0.0 {
         return "0".to_string();
     }

@@ -19,8 +19,7 @@
 //! wiring. A multiply-add is priced as a multiplier plus an adder (a fused unit's wider adder
 //! costs more). docs/area.md gives the synthesis commands that reproduce the unit figures.
 
-use crate::area::NODES_NM;
-use crate::logic_area::{MUX2_X1_UM2, NAND2_X1_45NM_UM2};
+use crate::logic_area::{area_per_node, MUX2_X1_UM2, NAND2_X1_45NM_UM2};
 use serde::Serialize;
 
 /// NAND2 equivalents of HardFloat's `addRecFN #(8, 24)` (FP32 add, round-to-nearest-even
@@ -38,7 +37,7 @@ const RECODED_BITS: u32 = 33;
 /// Bits of a sort's child index travelling with each distance (4 children).
 const INDEX_BITS: u32 = 2;
 /// Compare-and-swaps of one 4-input sorting network.
-const SORT4_CAS: u32 = 5;
+pub const SORT4_CAS: u32 = 5;
 
 /// The functional units of one RayFlex baseline datapath, per pipeline stage the larger of the
 /// ray-box and the ray-triangle test's needs (`FU_summary.md`, "FU usage summary for Baseline
@@ -107,7 +106,7 @@ pub struct DatapathArea {
     pub unit_nand2_eq: f64,
     /// NAND2 equivalents of all `units` (a lower bound, see the module documentation).
     pub nand2_eq: f64,
-    /// Area per technology node of [`NODES_NM`] in mm^2: (node, area), scaled by (F / 45)^2
+    /// Area per technology node of [`crate::area::NODES_NM`] in mm^2: (node, area), scaled by (F / 45)^2
     /// like [`crate::logic_area::LogicArea::area_mm2`].
     pub area_mm2: Vec<(f64, f64)>,
     /// Where the figures come from.
@@ -130,10 +129,7 @@ pub fn datapath_area(units: u32) -> DatapathArea {
         per_unit: RAYFLEX_UNITS,
         unit_nand2_eq: unit,
         nand2_eq,
-        area_mm2: NODES_NM
-            .iter()
-            .map(|&f| (f, nand2_eq * NAND2_X1_45NM_UM2 * (f / 45.0).powi(2) / 1e6))
-            .collect(),
+        area_mm2: area_per_node(nand2_eq * NAND2_X1_45NM_UM2),
         source: DATAPATH_SOURCE.to_string(),
     }
 }
@@ -141,6 +137,7 @@ pub fn datapath_area(units: u32) -> DatapathArea {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::area::NODES_NM;
 
     #[test]
     fn rayflex_counts_add_up() {

@@ -168,12 +168,18 @@ pub fn logic_area(report: &SynthReport) -> LogicArea {
         nand2_eq: area / NAND2_X1_45NM_UM2,
         flip_flop_nand2_eq: ff_area / NAND2_X1_45NM_UM2,
         area_45nm_um2: area,
-        area_mm2: NODES_NM
-            .iter()
-            .map(|&f| (f, area * (f / 45.0).powi(2) / 1e6))
-            .collect(),
+        area_mm2: area_per_node(area),
         unpriced,
     }
+}
+
+/// An area of `um2_45nm` um^2 at 45 nm at every node of [`NODES_NM`] in mm^2: (node, area),
+/// scaled by (F / 45)^2.
+pub fn area_per_node(um2_45nm: f64) -> Vec<(f64, f64)> {
+    NODES_NM
+        .iter()
+        .map(|&f| (f, um2_45nm * (f / 45.0).powi(2) / 1e6))
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,19 +1,10 @@
 //! The printed form of [`LogicReport`]: a table of the synthesized blocks, the memory macros,
 //! the datapath, the totals per part of the RT unit and the overhead lines, then the notes.
 
-use super::{BlockLogic, LogicReport, NodeAreas};
-use crate::area::NODES_NM;
+use super::{add, BlockLogic, LogicReport, NodeAreas};
+use crate::area::{sig3, NODES_NM};
 use crate::logic_area::NAND2_X1_45NM_UM2;
 use std::fmt;
-
-/// `x` with three significant digits.
-pub(super) fn sig3(x: f64) -> String {
-    if x == 0.0 {
-        return "0".to_string();
-    }
-    let digits = 2 - x.abs().log10().floor() as i32;
-    format!("{x:.prec$}", prec = digits.max(0) as usize)
-}
 
 /// The areas of `a`, one column per node.
 fn areas(f: &mut fmt::Formatter<'_>, a: &NodeAreas) -> fmt::Result {
@@ -161,12 +152,10 @@ impl LogicReport {
             "RT unit: control + datapath (without the treelet hardware)",
             &self.rt_unit_mm2,
         )?;
-        let with: NodeAreas = self
-            .rt_unit_mm2
-            .iter()
-            .zip(self.proposal_mm2.iter().zip(&self.wiring_mm2))
-            .map(|(&(nm, r), (&(_, p), &(_, w)))| (nm, r + p + w))
-            .collect();
+        let with = add(
+            &add(&self.rt_unit_mm2, &self.proposal_mm2),
+            &self.wiring_mm2,
+        );
         total(
             f,
             "RT unit with the treelet hardware (proposal + wiring)",
