@@ -208,7 +208,7 @@ impl Env {
             self.finished[sm_ray] += 1;
             assert!(f.hit.is_some(), "every ray of the forest ends with a hit");
         }
-        for r in &out.parked {
+        for r in out.parked.iter().map(|p| &p.record) {
             assert!(self.store.insert(r.ray_id, r.clone()).is_none());
         }
         if let Some(e) = out.spill_push {
@@ -408,9 +408,15 @@ fn ports_fit(inputs: &TreeletRtUnitInputs, out: &TreeletRtUnitOutputs, now: u64)
         assert_eq!(port(name), count, "cycle {now}: port {name}");
     }
     assert_eq!(port("finished_count"), out.finished.len() as u64);
-    for (i, f) in out.finished.iter().enumerate() {
+    for f in &out.finished {
+        let i = f.position;
+        assert_eq!(port(&format!("finished_valid_{i}")), 1);
         assert_eq!(port(&format!("finished_id_{i}")), f.ray as u64);
     }
+    let valid = signals
+        .iter()
+        .filter(|s| s.name.starts_with("finished_valid_") && s.value == 1);
+    assert_eq!(valid.count(), out.finished.len());
 }
 
 /// A probe's cycle against the definition: the children's registers and the wiring's, as the

@@ -14,7 +14,8 @@
 //!
 //! Records (2,806 bits at the defaults) only move through one-hot crossbars: the always blocks
 //! compute selects from ids, ranks and counts, and one `treelet_rt_unit_wiring_pick` instance
-//! per destination (fill entry, issued lane, parked ray, finished ray) moves the data; the
+//! per destination (fill entry, issued lane; the parked rays' enqueues, ids and treelets only)
+//! moves the data; parked and finished rays leave at their lanes' positions, uncompacted; the
 //! free-id bitmap's words are updated by one `treelet_rt_unit_wiring_ids` instance each. No
 //! wide vector is indexed by a computed position, which is what keeps Yosys' front end and
 //! synthesis tractable (the first body, written with running indices into the records, was

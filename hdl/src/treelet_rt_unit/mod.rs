@@ -70,8 +70,8 @@ mod wiring_ports;
 
 pub use glue::{Build, Event, GlueFault, GlueRegs, IdPool, SlotUse};
 pub use ports::{
-    FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnitInputs, TreeletRtUnitOutputs,
-    TreeletRtUnitWidths,
+    FinishedRay, ParkedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnitInputs,
+    TreeletRtUnitOutputs, TreeletRtUnitWidths,
 };
 pub use probe::ProbeCycle;
 pub use wiring_ports::{WiringInputs, WiringOutputs};

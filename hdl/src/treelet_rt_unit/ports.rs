@@ -105,13 +105,26 @@ pub enum TreeletRequest {
     Rt(MemRequest),
 }
 
-/// A ray that finished traversal: its id and closest hit.
+/// A ray that finished traversal: its id and closest hit, at the position of the lane it left.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FinishedRay {
+    /// Where it left: lane `l` of a repack's released lanes is position `l`, lane `l` of a
+    /// completed warp is `warp_size + l` (the position on the `finished_*` ports).
+    pub position: u32,
     /// Ray id (free again).
     pub ray: u32,
     /// Closest hit (`None`: a miss).
     pub hit: Option<Hit>,
+}
+
+/// A ray that stopped at a treelet boundary: the lane of the completed warp it left and its
+/// record, for the ray-record store.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParkedRay {
+    /// The completed warp's lane it left (the position on the `parked_*` ports).
+    pub lane: u32,
+    /// The record, as the ray left the RT unit.
+    pub record: RayRecord,
 }
 
 crate::counters! {
@@ -214,11 +227,12 @@ crate::bundle! {
         pub sm_accepted: Option<Vec<Option<u32>>>,
         /// Memory requests of the cycle, in issue order.
         pub requests: Vec<TreeletRequest>,
-        /// Rays that finished traversal.
+        /// Rays that finished traversal, in position order (each at the lane it left).
         pub finished: Vec<FinishedRay>,
-        /// Records of rays that stopped at a treelet boundary, for the ray-record store (their
-        /// 32 B record was stored when they entered; the traversal stacks travel with it).
-        pub parked: Vec<RayRecord>,
+        /// Rays that stopped at a treelet boundary, in lane order, with their records for the
+        /// ray-record store (their 32 B record was stored when they entered; the traversal
+        /// stacks travel with it).
+        pub parked: Vec<ParkedRay>,
         /// Treelet to preload into the L1.
         pub preload: Option<u32>,
         /// A queue-table entry spills to the spill FIFO: `(treelet, ray)`.
@@ -267,20 +281,24 @@ crate::bundle! {
         };
         /// Rays finishing this cycle.
         sig finished_count (w.lanes) = this.finished.len() as u64;
-        /// Per finishing ray (up to two warps' worth: a repack's released lanes, then a completed warp's): its id.
-        lanes finished_id (w.ray, 2 * w.warp_size) = |i: usize| this.finished.get(i).map_or(0, |f| f.ray as u64);
-        /// Per finishing ray: it has a hit.
-        lanes finished_hit_valid (1, 2 * w.warp_size) = |i: usize| this.finished.get(i).is_some_and(|f| f.hit.is_some()) as u64;
-        /// Per finishing ray: its closest hit.
-        bulks finished ([("hit", 2 * w.warp_size * HIT_BITS, "per finishing ray: closest hit t, hit id, two attributes (t lowest)")]) = |_f: usize| {
-            hit_words(2 * w.warp_size as usize, |i| this.finished.get(i).and_then(|f| f.hit))
+        /// Per position (a repack's released lanes, then a completed warp's; no compaction): a ray finishes there.
+        lanes finished_valid (1, 2 * w.warp_size) = |i: usize| this.finished_at(i).is_some() as u64;
+        /// Per position: the finishing ray's id.
+        lanes finished_id (w.ray, 2 * w.warp_size) = |i: usize| this.finished_at(i).map_or(0, |f| f.ray as u64);
+        /// Per position: the finishing ray has a hit.
+        lanes finished_hit_valid (1, 2 * w.warp_size) = |i: usize| this.finished_at(i).is_some_and(|f| f.hit.is_some()) as u64;
+        /// Per position: the finishing ray's closest hit.
+        bulks finished ([("hit", 2 * w.warp_size * HIT_BITS, "per position: the finishing ray's closest hit t, hit id, two attributes (t lowest)")]) = |_f: usize| {
+            hit_words(2 * w.warp_size as usize, |i| this.finished_at(i).and_then(|f| f.hit))
         };
         /// Rays parked at a treelet boundary this cycle.
         sig parked_count (w.lanes) = this.parked.len() as u64;
-        /// Per parked ray (up to a warp's worth): its id.
-        lanes parked_id (w.ray, w.warp_size) = |i: usize| this.parked.get(i).map_or(0, |r| r.ray_id as u64);
-        /// Per parked ray: its state, for the ray-record store.
-        bulks parked (ray_state(&w.rt)) = |f: usize| ray_state_words(&w.rt, f, |i| this.parked.get(i));
+        /// Per lane of the completed warp (no compaction): its ray parks.
+        sig parked_valid (w.warp_size) = mask(w.warp_size, |i| this.parked_at(i).is_some());
+        /// Per lane: the parked ray's id.
+        lanes parked_id (w.ray, w.warp_size) = |i: usize| this.parked_at(i).map_or(0, |r| r.ray_id as u64);
+        /// Per lane: the parked ray's state, for the ray-record store.
+        bulks parked (ray_state(&w.rt)) = |f: usize| ray_state_words(&w.rt, f, |i| this.parked_at(i));
         /// Preload a treelet into the L1 (section 4.3).
         sig preload_valid (1) = this.preload.is_some() as u64;
         /// The treelet.
@@ -414,6 +432,17 @@ impl TreeletRtUnitOutputs {
             TreeletRequest::RayStore { ray, address } => Some((false, ray, address)),
             TreeletRequest::Rt(_) => None,
         })
+    }
+
+    /// The ray finishing at position `i` of the `finished_*` ports, if any.
+    fn finished_at(&self, i: usize) -> Option<&FinishedRay> {
+        self.finished.iter().find(|f| f.position as usize == i)
+    }
+
+    /// The record of the ray parking from lane `i` of the completed warp, if any.
+    fn parked_at(&self, i: usize) -> Option<&RayRecord> {
+        let p = self.parked.iter().find(|p| p.lane as usize == i)?;
+        Some(&p.record)
     }
 
     /// The RT unit's request among this cycle's requests, if any.

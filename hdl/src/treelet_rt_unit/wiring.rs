@@ -7,8 +7,8 @@
 
 use super::glue::{Build, Event, GlueFault, GlueRegs, SlotUse};
 use super::{
-    ChildInputs, ChildOutputs, FinishedRay, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit,
-    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs,
+    ChildInputs, ChildOutputs, FinishedRay, ParkedRay, RayLoad, TreeletCounts, TreeletRequest,
+    TreeletRtUnit, TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs,
 };
 use crate::block::Block;
 use crate::bounded::BoundedVec;
@@ -609,25 +609,28 @@ pub(super) fn after_children<D: NodeDatapath>(
     out.errors = rt.errors;
     out.first_error = rt.first_error;
     if let Some(done) = &rt.released {
-        unpack(u, g, done, out);
+        unpack(u, g, done, 0, out);
     }
     if let Some(done) = &rt.done {
-        unpack(u, g, done, out);
+        unpack(u, g, done, u.cfg.warp_size, out);
         g.uses[done.slot as usize] = SlotUse::Closing;
         g.push_event(Event::WarpDone(done.slot));
     }
     out.fault = g.fault.clone();
 }
 
-/// Returns finished rays and parks stopped ones. A parked ray is queued for the treelet of
-/// its next node (the record's, as the RT unit's completion ports carry it).
+/// Returns finished rays (lane `l` at position `base + l`) and parks stopped ones. A parked
+/// ray is queued for the treelet of its next node (the record's, as the RT unit's completion
+/// ports carry it).
 fn unpack<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
     done: &WarpDone,
+    base: u32,
     out: &mut TreeletRtUnitOutputs,
 ) {
-    for (rec, outcome) in done.lanes.iter().flatten() {
+    let lanes = done.lanes.iter().enumerate();
+    for (lane, (rec, outcome)) in lanes.filter_map(|(l, x)| Some((l as u32, x.as_ref()?))) {
         let id = rec.ray_id;
         if !g.ids.in_use(id) {
             g.set_fault(GlueFault::UnknownRay(id));
@@ -636,6 +639,7 @@ fn unpack<D: NodeDatapath>(
         match *outcome {
             RayOutcome::Finished => {
                 out.finished.push(FinishedRay {
+                    position: base + lane,
                     ray: id,
                     hit: rec.hit,
                 });
@@ -643,7 +647,10 @@ fn unpack<D: NodeDatapath>(
             }
             RayOutcome::AtBoundary { .. } => {
                 let treelet = rec.next_node().map_or(0, |n| u.rt.treelet_of(n.address));
-                out.parked.push(rec.clone());
+                out.parked.push(ParkedRay {
+                    lane,
+                    record: rec.clone(),
+                });
                 g.push_event(Event::Enqueue {
                     ray: id,
                     treelet: treelet as u32,

@@ -493,13 +493,15 @@ assign count_refill = refill;
 ${PASS_THROUGH}
 
 // The released lanes (finished), then the completed warp's lanes: finished rays leave with
-// their hits and free their ids, parked rays leave their records and queue an enqueue.
-// fin_sel[j*2*N + q]: finished ray j is item q (released lane q, then completed lane q - N);
-// park_sel[p*N + l]: parked ray p is the completed warp's lane l.
+// their hits at their position (released lane l at l, completed lane l at N + l) and free their
+// ids; parked rays leave their records at their lane and queue an enqueue. Records are not
+// compacted: only the enqueues' ray ids and treelets are, for the event FIFO.
+// park_sel[p*N + l]: the p-th parked ray is the completed warp's lane l.
 wire [(1<<RB)-1:0] free_pad = ${FREE_PAD};
 reg [LW-1:0] nfin;
 reg [LW-1:0] npark;
-reg [4*N*N-1:0] fin_sel;
+reg [2*N-1:0] fin_valid;
+reg [N-1:0] park_valid;
 reg [N*N-1:0] park_sel;
 reg fault_unknown;
 always @* begin : p_unpack
@@ -509,31 +511,30 @@ always @* begin : p_unpack
     reg [RB-1:0] id;
     reg known;
     reg act;
-    reg fin;
     reg park;
     c = {LW{1'b0}};
     p = {LW{1'b0}};
     fault_unknown = 1'b0;
+    fin_valid = {2*N{1'b0}};
+    park_valid = {N{1'b0}};
+    park_sel = {N*N{1'b0}};
     for (l = 0; l < N; l = l + 1) begin
         id = rt_released_ray_id[l*RB +: RB];
         known = {{(32-RB){1'b0}}, id} < MR && !free_pad[id];
         act = rt_released_valid && rt_released_mask[l];
         fault_unknown = fault_unknown | (act && !known);
-        fin = act && known;
-        for (j = 0; j < 2*N; j = j + 1)
-            fin_sel[j*2*N + l] = fin && j == {{(32-LW){1'b0}}, c};
-        c = c + {{(LW-1){1'b0}}, fin};
+        fin_valid[l] = act && known;
+        c = c + {{(LW-1){1'b0}}, fin_valid[l]};
     end
     for (l = 0; l < N; l = l + 1) begin
         id = rt_done_ray_id[l*RB +: RB];
         known = {{(32-RB){1'b0}}, id} < MR && !free_pad[id];
         act = rt_done_valid && rt_done_active[l];
         fault_unknown = fault_unknown | (act && !known);
-        fin = act && known && !rt_done_parked[l];
+        fin_valid[N + l] = act && known && !rt_done_parked[l];
         park = act && known && rt_done_parked[l];
-        for (j = 0; j < 2*N; j = j + 1)
-            fin_sel[j*2*N + N + l] = fin && j == {{(32-LW){1'b0}}, c};
-        c = c + {{(LW-1){1'b0}}, fin};
+        park_valid[l] = park;
+        c = c + {{(LW-1){1'b0}}, fin_valid[N + l]};
         for (j = 0; j < N; j = j + 1)
             park_sel[j*N + l] = park && j == {{(32-LW){1'b0}}, p};
         p = p + {{(LW-1){1'b0}}, park};
@@ -565,14 +566,13 @@ always @* begin : p_next_treelet
         next_treelet[l*TW +: TW] = top[TSH + 5 +: TW];
     end
 end
-// A finished item: {hit, hit valid, ray id}; a parked one: {next treelet, record}.
+// A finished item: {hit, hit valid, ray id}; a parked ray's enqueue: {next treelet, ray id}.
 localparam FIN = RB + 129;
-localparam PARK = REC + TW;
+localparam ENQ = RB + TW;
 wire [2*N*FIN-1:0] fin_items;
-wire [2*N*FIN-1:0] fin_out;
-wire [N*PARK-1:0] park_items;
-wire [N*PARK-1:0] park_out;
 wire [2*N*RB-1:0] fin_id;
+wire [N*ENQ-1:0] enq_items;
+wire [N*ENQ-1:0] enq_out;
 wire [N*RB-1:0] park_id;
 wire [N*TW-1:0] park_treelet;
 wire [N*REC-1:0] park_rec;
@@ -582,25 +582,27 @@ generate
             rt_released_hit_valid[gl], rt_released_ray_id[gl*RB +: RB]};
         assign fin_items[(N + gl)*FIN +: FIN] = {rt_done_hit[gl*128 +: 128],
             rt_done_hit_valid[gl], rt_done_ray_id[gl*RB +: RB]};
-        assign park_items[gl*PARK +: PARK] = {next_treelet[gl*TW +: TW], ${PACK_DONE}};
-        treelet_rt_unit_wiring_pick #(.NI(N), .W(PARK)) pick_park (
-            .sel(park_sel[gl*N +: N]), .in(park_items), .out(park_out[gl*PARK +: PARK]));
-        assign park_rec[gl*REC +: REC] = park_out[gl*PARK +: REC];
-        assign park_treelet[gl*TW +: TW] = park_out[gl*PARK + REC +: TW];
-        assign park_id[gl*RB +: RB] = park_out[gl*PARK +: RB];
+        assign enq_items[gl*ENQ +: ENQ] = {next_treelet[gl*TW +: TW],
+            rt_done_ray_id[gl*RB +: RB]};
+        treelet_rt_unit_wiring_pick #(.NI(N), .W(ENQ)) pick_enq (
+            .sel(park_sel[gl*N +: N]), .in(enq_items), .out(enq_out[gl*ENQ +: ENQ]));
+        assign park_id[gl*RB +: RB] = enq_out[gl*ENQ +: RB];
+        assign park_treelet[gl*TW +: TW] = enq_out[gl*ENQ + RB +: TW];
+        assign park_rec[gl*REC +: REC] = park_valid[gl] ? ${PACK_DONE} : {REC{1'b0}};
+        assign parked_id[gl*RB +: RB] = park_rec[gl*REC +: RB];
     end
     for (gj = 0; gj < 2*N; gj = gj + 1) begin : g_finished
-        treelet_rt_unit_wiring_pick #(.NI(2*N), .W(FIN)) pick_fin (
-            .sel(fin_sel[gj*2*N +: 2*N]), .in(fin_items), .out(fin_out[gj*FIN +: FIN]));
-        assign fin_id[gj*RB +: RB] = fin_out[gj*FIN +: RB];
-        assign finished_hit_valid[gj] = fin_out[gj*FIN + RB];
-        assign finished_hit[gj*128 +: 128] = fin_out[gj*FIN + RB + 1 +: 128];
+        assign fin_id[gj*RB +: RB] = fin_valid[gj] ? fin_items[gj*FIN +: RB] : {RB{1'b0}};
+        assign finished_hit_valid[gj] = fin_valid[gj] && fin_items[gj*FIN + RB];
+        assign finished_hit[gj*128 +: 128] = fin_valid[gj]
+            ? fin_items[gj*FIN + RB + 1 +: 128] : 128'd0;
     end
 endgenerate
 assign finished_count = nfin;
+assign finished_valid = fin_valid;
 assign finished_id = fin_id;
 assign parked_count = npark;
-assign parked_id = park_id;
+assign parked_valid = park_valid;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_parked
 ${UNPACK_PARKED}
@@ -610,11 +612,7 @@ endgenerate
 // The free-id bitmap's words after the cycle: the admitted rays' ids taken, the finished
 // rays' given back (an admitted id is free, a finished one is not: the two never meet).
 wire [NW*64-1:0] new_words;
-wire [2*N-1:0] fin_valid;
 generate
-    for (gj = 0; gj < 2*N; gj = gj + 1) begin : g_fin_valid
-        assign fin_valid[gj] = gj < nfin;
-    end
     for (gj = 0; gj < NW; gj = gj + 1) begin : g_free_ids
         localparam integer WDI = gj;
         localparam [RB-1:0] WD = WDI[RB-1:0];

@@ -273,7 +273,7 @@ impl<'a> RtPort<'a> {
             }
             cycle.accepted = Some(idx);
         }
-        for r in &out.parked {
+        for r in out.parked.iter().map(|p| &p.record) {
             if let Some(at) = t.parked_at.get_mut(r.ray_id as usize) {
                 *at = now;
             }
