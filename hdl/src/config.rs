@@ -55,6 +55,16 @@ pub struct HwConfig {
     /// entries (`DS_BVH_STACK_RTN`), and Intel's Xe ray-tracing unit uses a short stack backed
     /// by memory. At least the BVH width (a node's children must fit).
     pub stack_depth: u32,
+    /// Bytes of ray records the fills take from memory per cycle: the wiring's record write
+    /// ports, one per 32 B record (a record's stacks, when `rt.queued_stack_traffic` moves them
+    /// through memory, arrive before it on requests of their own). Records that return faster
+    /// wait in the SM's response queue.
+    ///
+    /// The default, 32, is one 32 B record a cycle: GPGPU-Sim's interconnect moves one flit a
+    /// cycle per port, 32 B by default (`-icnt_flit_size`, `gpu-sim.cc`; Accel-Sim's Volta and
+    /// Turing configurations use 40 B, which still carries one record). A multiple of 32, at
+    /// most a warp of records.
+    pub record_bytes_per_cycle: u32,
 }
 
 impl Default for HwConfig {
@@ -73,6 +83,7 @@ impl Default for HwConfig {
             preload_threshold_warps: 2,
             warp_buffer_size: 1,
             stack_depth: 32,
+            record_bytes_per_cycle: 32,
         }
     }
 }
@@ -173,7 +184,24 @@ impl HwConfig {
                 "must be 2..=1024 (and at least the BVH width)",
             ));
         }
+        let most = 32 * self.warp_size;
+        if self.record_bytes_per_cycle == 0
+            || self.record_bytes_per_cycle % 32 != 0
+            || self.record_bytes_per_cycle > most
+        {
+            return Err(err(
+                "record_bytes_per_cycle",
+                self.record_bytes_per_cycle,
+                format!("must be a multiple of 32 (bytes of a ray record), 32..={most} (a warp of records)"),
+            ));
+        }
         Ok(())
+    }
+
+    /// Ray records the fills take from memory per cycle (`record_bytes_per_cycle / 32`): the
+    /// wiring's record write ports.
+    pub fn record_ports(&self) -> u32 {
+        self.record_bytes_per_cycle / 32
     }
 
     /// Bits of a ray id: log2(max rays in flight) (12 for 4096).

@@ -74,6 +74,7 @@ fn small() -> HwConfig {
         max_resident_treelets: 2,
         preload_threshold_warps: 1,
         stack_depth: 8,
+        record_bytes_per_cycle: 32,
     }
 }
 
@@ -131,13 +132,15 @@ impl Env {
         Some(lanes)
     }
 
-    /// This cycle's inputs (with `offer`): due responses (at most `resp_max`) and ray records.
+    /// This cycle's inputs (with `offer`): due responses (at most `resp_max`) and ray records
+    /// (at most `record_max`, oldest first).
     fn inputs(
         &mut self,
         now: u64,
         idle: TreeletRtUnitInputs,
         offer: Option<Vec<Option<RayRecord>>>,
         resp_max: usize,
+        record_max: usize,
     ) -> TreeletRtUnitInputs {
         let mut responses = Vec::new();
         self.responses.retain(|&(due, r)| {
@@ -150,7 +153,7 @@ impl Env {
         let mut ray_records = Vec::new();
         let store = &mut self.store;
         self.loads.retain(|&(due, slot, ray)| {
-            if due > now {
+            if due > now || ray_records.len() == record_max {
                 return true;
             }
             let record = store.remove(&ray).expect("a load of a parked ray");
@@ -295,7 +298,7 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
             let got = u.skip(&mut fast, &mut cache, n);
             let mut want = TreeletCounts::default();
             for _ in 0..n {
-                let inputs = env.inputs(now, u.idle_inputs(), None, 0);
+                let inputs = env.inputs(now, u.idle_inputs(), None, 0, 0);
                 let (out, next) = u.eval(&reference, &inputs);
                 assert_eq!(
                     out.requests.len() + out.finished.len() + out.parked.len(),
@@ -316,7 +319,8 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
         let offered = offer.as_ref().map_or(0, |o| o.len());
         let resp_max = u.resp_free(&fast).min(resp_ports) as usize;
         let ready = u.sm_ready(&fast, &cache);
-        let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max);
+        let record_max = cfg.record_ports() as usize;
+        let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max, record_max);
         let (want, next, wiring_in, wiring_out) = u.eval_wiring(&reference, &inputs);
         // The wiring alone, from its ports (the children's register-only outputs standing for
         // their registers), is the wiring of the definition.
@@ -490,10 +494,12 @@ fn every_ray_is_traced_exactly_once_in_every_variant_and_the_fast_path_is_the_de
     let wide = HwConfig {
         warp_buffer_size: 4,
         max_resident_treelets: 3,
+        record_bytes_per_cycle: 128,
         ..small()
     };
     let no_repack = HwConfig {
         repack_threshold: 0,
+        record_bytes_per_cycle: 64,
         ..small()
     };
     let no_preload = ControllerFeatures {
@@ -512,8 +518,10 @@ fn every_ray_is_traced_exactly_once_in_every_variant_and_the_fast_path_is_the_de
     let mut spilled = false;
     for (name, cfg, features, probe) in variants {
         // Seed 1: a run in which every variant meets every behaviour asserted below (with some
-        // response-latency draws, e.g. seeds 7 and 9 of SplitMix64, the 4-warp variant never
-        // has a warp to repack, which is allowed hardware behaviour, not a failure).
+        // response-latency draws, e.g. seeds 7 and 9 of SplitMix64, or two record ports instead
+        // of four, the 4-warp variant never has a warp to repack, which is allowed hardware
+        // behaviour, not a failure). Record ports: one (the default), two (no repack) and a
+        // warp's worth (4 warps).
         let o = run(cfg.clone(), features, 96, 1, probe);
         let c = &o.counts;
         println!(

@@ -69,6 +69,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     let ray_base = info.param("ray_base")?;
     let sb = info.port("rt_issue_slot", Dir::Out)?;
     let rb = info.port("sm_ray_id", Dir::Out)? / n;
+    let k = info.port("ray_record_id", Dir::In)? / rb;
+    let rcw = info.port("ray_count", Dir::In)?;
     let tw = info.port("spill_head_treelet", Dir::In)?;
     let ab = info.port("mem_req_address", Dir::Out)?;
     let spw = info.port("sm_cur_sp", Dir::In)? / n;
@@ -111,6 +113,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         && ctcw >= cmw
         && ab >= rb + 5
         && rb >= sb
+        && k >= 1
+        && k <= n
         && d * e == de
         && tsh + 5 + tw <= e;
     if !consistent {
@@ -124,6 +128,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         format!("localparam S = {s};        // warp-buffer slots"),
         format!("localparam SB = {sb};      // slot index bits"),
         format!("localparam RB = {rb};      // ray id bits"),
+        format!("localparam K = {k};        // record ports (records written a cycle)"),
+        format!("localparam RCW = {rcw};    // bits of the returning-record count"),
         format!("localparam TW = {tw};      // treelet number bits"),
         format!("localparam AB = {ab};      // address bits"),
         format!("localparam MR = {mr};      // ray ids (max_rays)"),
@@ -226,10 +232,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
             ("FREE_PAD", zext("free_ids_q", mr, 1 << rb)),
             ("NEW_WORDS_PAD", new_words_pad(mr)),
             ("RECORD_OFFSETS", record_offsets()),
-            (
-                "PACK_ARRIVED",
-                pack_record("ray_record", "ray_record_id[gl*RB +: RB]"),
-            ),
+            ("ARRIVED_WIRES", port_vectors("ray_record", "rr", "K")),
+            ("PACK_ARRIVED", pack_record("rr", "rr_id[gl*RB +: RB]")),
             ("PACK_SM", pack_record("sm", "admit_ids[gl*RB +: RB]")),
             (
                 "PACK_DONE",
@@ -301,6 +305,21 @@ fn record_offsets() -> String {
             let line = format!("localparam {offset} = {below};");
             below = format!("{offset} + {width}");
             line
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The record ports' fields `<port>_<field>` (and `<port>_id`, `<port>_slot`) as vectors
+/// `<local>_<field>` of `lanes` entries: a port of one bit is a scalar, which cannot be
+/// indexed.
+fn port_vectors(port: &str, local: &str, lanes: &str) -> String {
+    RECORD_FIELDS
+        .iter()
+        .map(|(field, width, _)| (*field, *width))
+        .chain([("id", "RB"), ("slot", "SB")])
+        .map(|(field, width)| {
+            format!("wire [{lanes}*{width}-1:0] {local}_{field} = {port}_{field};")
         })
         .collect::<Vec<_>>()
         .join("\n")

@@ -62,7 +62,6 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         .probe
         .then(|| probe::start_regs(u, (rt, ctl, ct, qt), u.glue_signals(g)));
     super::log_treelet(&mut cache.tables, inputs);
-    place_records(g, &inputs.ray_records);
     let offering = inputs.sm_warp.is_some();
     // The RT unit's status ports: computed by the dry run at the end of the last step unless
     // cycles were skipped since or the mode that reads the distinct-treelet counts differs.
@@ -77,6 +76,12 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         u.rt.status_into(rt, &cache.rt, distinct, &mut cache.rt_status);
     }
     cache.rt_status_current = None;
+    place_records(
+        g,
+        &cache.rt_status,
+        &inputs.ray_records,
+        u.cfg.record_ports(),
+    );
     let peeks = Peeks::new(u, &cache.rt_status, ctl, ct, qt);
     out.sm_ready = sm_ready_in(u, g, peeks.mode, &cache.rt_status);
     let restart = peeks.mode == Mode::Done && offering;

@@ -38,15 +38,21 @@ impl SlotUse {
     }
 }
 
-/// A fill the controller is giving to a slot: its rays, and their records as they arrive.
+/// A fill the controller is giving to a slot: its rays, and their records as they arrive,
+/// each written into the lane it is issued to.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Build {
     /// What the fill builds.
     pub kind: FillKind,
-    /// Ray ids, in the order they are placed in the slot's lanes (at most `warp_size`).
+    /// Ray ids, in the order the controller gave them (at most `warp_size`; the fill's
+    /// entries).
     pub rays: BoundedVec<u32>,
-    /// The loaded record of each ray (`None` until it arrives; at most `warp_size`).
-    pub records: BoundedVec<Option<RayRecord>>,
+    /// Per entry: its record has arrived.
+    pub arrived: BoundedVec<bool>,
+    /// Per lane (`warp_size` of them): the record written there, `None` until one arrives.
+    /// Entry `k` of a treelet or grouped fill goes to lane `k`; a repack's records go, in the
+    /// order they arrive, to the lowest inactive lane of the held warp not yet written.
+    pub records: Box<[Option<RayRecord>]>,
     /// Records not yet arrived.
     pub loading: u32,
     /// The controller closed the fill.
@@ -279,13 +285,19 @@ pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'st
         "build_records",
         w.record,
         slots * cfg.warp_size,
-        "per slot: the fill's loaded ray records",
+        "per slot and lane: the fill's loaded ray record issued to that lane",
+    )
+    .untraced(
+        "build_filled",
+        1,
+        slots * cfg.warp_size,
+        "per slot and lane: a record is written there",
     )
     .untraced(
         "build_arrived",
         1,
         slots * cfg.warp_size,
-        "per slot: whether each of the fill's records has arrived",
+        "per slot: whether each of the fill's records (its entries) has arrived",
     )
     .untraced("build_count", lanes, slots, "per slot: the fill's rays")
     .bank(

@@ -36,6 +36,9 @@ pub struct TreeletRtUnitWidths {
     pub tag: u32,
     /// Bits of a count of a warp's lanes (0..=warp_size).
     pub warp_lanes: u32,
+    /// Ray records the fills take per cycle (`record_bytes_per_cycle / 32`, the wiring's
+    /// record write ports).
+    pub record_ports: u32,
     /// The RT unit's widths.
     pub rt: Widths,
 }
@@ -65,7 +68,17 @@ impl TreeletRtUnitWidths {
             resp_ports: rt.resp_ports,
             tag: rt.tag,
             warp_lanes: bits_for(cfg.warp_size as u64),
+            record_ports: cfg.record_ports(),
             rt,
+        }
+    }
+
+    /// The RT unit's widths with one lane per record port: the returning records' ports carry
+    /// a ray's state as a warp's lanes do.
+    fn record_port_lanes(&self) -> Widths {
+        Widths {
+            warp_size: self.record_ports,
+            ..self.rt
         }
     }
 }
@@ -167,7 +180,8 @@ crate::bundle! {
         /// Memory responses for the RT unit this cycle (at most its response ports and its
         /// free FIFO entries).
         pub responses: Vec<MemResponse>,
-        /// Ray records loaded this cycle.
+        /// Ray records loaded this cycle: at most `record_ports` (the wiring's record write
+        /// ports; more is a fault).
         pub ray_records: Vec<RayLoad>,
         /// The head of the queue table's spill FIFO in memory, `(treelet, ray)`, if any.
         pub spill_head: Option<(u64, u32)>,
@@ -189,15 +203,15 @@ crate::bundle! {
             /// Its 256 bits.
             lanes data (64, 4) = |j: usize| data_word(this.responses.get(k).map(|r| &r.data), j);
         }
-        /// Ray records returning this cycle (up to a warp's worth).
-        sig ray_count (w.lanes) = this.ray_records.len() as u64;
-        /// Per returning record: the slot whose fill asked for it.
-        lanes ray_record_slot (w.slot, w.warp_size) = |i: usize| this.ray_records.get(i).map_or(0, |r| r.slot as u64);
-        /// Per returning record: its ray id.
-        lanes ray_record_id (w.ray, w.warp_size) = |i: usize| this.ray_records.get(i).map_or(0, |r| r.ray as u64);
-        /// Per returning record: the ray's state as it left the RT unit at its treelet boundary.
-        bulks ray_record (ray_state(&w.rt)) = |f: usize| {
-            ray_state_words(&w.rt, f, |i| this.ray_records.get(i).map(|r| &r.record))
+        /// Ray records returning this cycle (at most one per record port).
+        sig ray_count (bits_for(w.record_ports as u64)) = this.ray_records.len() as u64;
+        /// Per record port: the slot whose fill asked for its record.
+        lanes ray_record_slot (w.slot, w.record_ports) = |i: usize| this.ray_records.get(i).map_or(0, |r| r.slot as u64);
+        /// Per record port: the record's ray id.
+        lanes ray_record_id (w.ray, w.record_ports) = |i: usize| this.ray_records.get(i).map_or(0, |r| r.ray as u64);
+        /// Per record port: the ray's state as it left the RT unit at its treelet boundary.
+        bulks ray_record (ray_state(&w.record_port_lanes())) = |f: usize| {
+            ray_state_words(&w.record_port_lanes(), f, |i| this.ray_records.get(i).map(|r| &r.record))
         };
         /// The spill FIFO is not empty.
         sig spill_head_valid (1) = this.spill_head.is_some() as u64;

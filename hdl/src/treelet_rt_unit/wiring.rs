@@ -115,7 +115,7 @@ pub(super) fn kernel<D: NodeDatapath>(
 ) -> (ChildInputs, (TreeletRtUnitOutputs, GlueRegs)) {
     let mut g = glue.clone();
     let mut out = empty_outputs(u);
-    place_records(&mut g, &inputs.ray_records);
+    place_records(&mut g, peeks.rt, &inputs.ray_records, u.cfg.record_ports());
     out.sm_ready = sm_ready_in(u, &g, peeks.mode, peeks.rt);
     let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
     out.counts.restarts += u64::from(restart);
@@ -181,32 +181,60 @@ pub(super) fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut Tre
     out.counts = TreeletCounts::default();
 }
 
-/// Stage 0: ray records that arrived join their fills.
-pub(super) fn place_records(g: &mut GlueRegs, records: &[RayLoad]) {
-    for load in records {
-        let placed = g
-            .builds
-            .get_mut(load.slot as usize)
-            .and_then(Option::as_mut)
-            .and_then(|b| {
-                let k = b
-                    .rays
-                    .iter()
-                    .zip(&b.records)
-                    .position(|(&r, rec)| r == load.ray && rec.is_none())?;
-                // The fill knows the ray's id: the record's own is not on the ports.
-                b.records.as_mut_slice()[k] = Some(RayRecord {
-                    ray_id: load.ray,
-                    ..load.record.clone()
-                });
-                b.loading = b.loading.saturating_sub(1);
-                Some(())
-            });
-        if placed.is_none() {
+/// Stage 0: ray records that arrived (at most `ports`, the wiring's record write ports; more
+/// is a fault and the rest are not taken) are written into their fills, each into the lane it
+/// is issued to ([`Build::records`]); `rt` is the RT unit's status ports (a repack's records go
+/// to the held warp's inactive lanes).
+pub(super) fn place_records(g: &mut GlueRegs, rt: &RtUnitStatus, records: &[RayLoad], ports: u32) {
+    if records.len() > ports as usize {
+        g.set_fault(GlueFault::Full {
+            what: "ray-record ports",
+            depth: ports as usize,
+        });
+    }
+    for load in records.iter().take(ports as usize) {
+        let s = load.slot as usize;
+        let inactive = rt.slot(s).map_or(0, |v| v.inactive);
+        let Some(build) = g.builds.get_mut(s).and_then(Option::as_mut) else {
             g.set_fault(GlueFault::UnexpectedRecord {
                 slot: load.slot,
                 ray: load.ray,
             });
+            continue;
+        };
+        let entry = (build.rays.iter().zip(build.arrived.iter()))
+            .position(|(&r, &arrived)| r == load.ray && !arrived);
+        let Some(k) = entry else {
+            g.set_fault(GlueFault::UnexpectedRecord {
+                slot: load.slot,
+                ray: load.ray,
+            });
+            continue;
+        };
+        build.arrived.as_mut_slice()[k] = true;
+        build.loading = build.loading.saturating_sub(1);
+        let lane = match build.kind {
+            FillKind::Repack => (0..build.records.len())
+                .find(|&l| inactive >> l & 1 == 1 && build.records[l].is_none()),
+            FillKind::Treelet | FillKind::Grouped => Some(k),
+        };
+        match lane {
+            // The fill knows the ray's id: the record's own is not on the ports.
+            Some(l) => {
+                build.records[l] = Some(RayRecord {
+                    ray_id: load.ray,
+                    ..load.record.clone()
+                })
+            }
+            None => {
+                let placed = build.records.iter().flatten().count();
+                let rays = build.rays.len();
+                g.set_fault(GlueFault::Unplaced {
+                    slot: load.slot,
+                    placed,
+                    rays,
+                });
+            }
         }
     }
 }
@@ -455,13 +483,18 @@ fn start_fill<D: NodeDatapath>(
     let build = g.builds[s].get_or_insert_with(|| Build {
         kind: fill.kind,
         rays: BoundedVec::new(lanes),
-        records: BoundedVec::new(lanes),
+        arrived: BoundedVec::new(lanes),
+        records: vec![None; lanes].into(),
         loading: 0,
         last: false,
     });
     let mut full = None;
     for &ray in &fill.rays {
-        match build.rays.push(ray).and_then(|()| build.records.push(None)) {
+        match build
+            .rays
+            .push(ray)
+            .and_then(|()| build.arrived.push(false))
+        {
             Ok(()) => build.loading += 1,
             Err(f) => full = Some(f),
         }
@@ -486,7 +519,8 @@ fn start_fill<D: NodeDatapath>(
     }
 }
 
-/// The warp issue of the first fill whose rays have all arrived and which is complete.
+/// The warp issue of the first fill whose rays have all arrived and which is complete: each
+/// record leaves from the lane it was written to.
 fn finished_build<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
@@ -499,37 +533,18 @@ fn finished_build<D: NodeDatapath>(
     let build = g.builds[s].take()?;
     let slot = s as u32;
     let rays = build.rays.len();
-    let warp_size = u.cfg.warp_size as usize;
-    let mut lanes: Vec<Option<RayRecord>> = vec![None; warp_size];
-    let (order, target, free) = match build.kind {
-        FillKind::Treelet => (
-            TraversalOrder::TreeletStop,
-            IssueTarget::Slot(slot),
-            u64::MAX,
+    let (order, target) = match build.kind {
+        FillKind::Treelet => (TraversalOrder::TreeletStop, IssueTarget::Slot(slot)),
+        FillKind::Grouped => (TraversalOrder::TreeletContinue, IssueTarget::Slot(slot)),
+        FillKind::Repack => (
+            p.rt.slot(s)
+                .map_or(TraversalOrder::RayStationary, |v| v.order),
+            IssueTarget::Append { slot, last: true },
         ),
-        FillKind::Grouped => (
-            TraversalOrder::TreeletContinue,
-            IssueTarget::Slot(slot),
-            u64::MAX,
-        ),
-        FillKind::Repack => {
-            let view = p.rt.slot(s);
-            (
-                view.map_or(TraversalOrder::RayStationary, |v| v.order),
-                IssueTarget::Append { slot, last: true },
-                view.map_or(0, |v| v.inactive),
-            )
-        }
     };
-    let mut free_lanes = (0..warp_size).filter(|&l| free >> l & 1 == 1);
-    let mut placed = 0;
-    for record in build.records.into_vec() {
-        let Some(lane) = free_lanes.next() else {
-            break;
-        };
-        placed += usize::from(record.is_some());
-        lanes[lane] = record;
-    }
+    let mut lanes = build.records.into_vec();
+    lanes.resize(u.cfg.warp_size as usize, None);
+    let placed = lanes.iter().flatten().count();
     if placed != rays {
         g.set_fault(GlueFault::Unplaced { slot, placed, rays });
     }

@@ -45,63 +45,79 @@ function admits;
     end
 endfunction
 
-// ---- 0: ray records that arrived join their fills --------------------------------------------
-// Every record moves through one-hot crossbars (treelet_rt_unit_wiring_pick, one instance per
-// destination): each always block computes the selects from ids and counts, never indexes a
-// record by a computed position.
+// ---- 0: ray records that arrived are written into their fills --------------------------------
+// A record on record port r (at most K a cycle) is written into the lane it will be issued to:
+// entry k's lane k for a treelet or grouped fill; for a repack, the lowest inactive lane of the
+// held warp not written yet (ports in order). Each lane takes its record through a K-input
+// crossbar (treelet_rt_unit_wiring_pick; a plain write enable for one port): each always block
+// computes the selects from ids and counts, never indexes a record by a computed position.
 genvar gl, gj;
-// The records on the ray-record ports, as the wiring keeps them (the fill's ray id lowest).
-wire [N*REC-1:0] arr_recs;
+// The records on the record ports, as the wiring keeps them (the fill's ray id lowest).
+${ARRIVED_WIRES}
+wire [K*REC-1:0] arr_recs;
 generate
-    for (gl = 0; gl < N; gl = gl + 1) begin : g_arrived
+    for (gl = 0; gl < K; gl = gl + 1) begin : g_arrived
         assign arr_recs[gl*REC +: REC] = ${PACK_ARRIVED};
     end
 endgenerate
-// place_sel[e*N + r]: fill entry e takes the record on lane r (the first lane with its ray).
-reg [S*N*N-1:0] place_sel;
+// place_sel[(s*N + l)*K + r]: lane l of slot s takes the record on port r.
+reg [S*N*K-1:0] place_sel;
 reg [S*N-1:0] arr_p;
+reg [S*N-1:0] filled_p;
 reg [S*CW-1:0] loading_p;
 reg fault_place;
 always @* begin : p_place
-    integer r, e, s, k;
-    reg taken;
+    integer r, e, s, k, l, ps, ek;
     reg m;
-    reg [N-1:0] found;
+    reg taken;
+    reg got;
+    reg free;
     arr_p = build_arrived_q;
+    filled_p = build_filled_q;
     loading_p = build_loading_q;
-    place_sel = {S*N*N{1'b0}};
-    found = {N{1'b0}};
-    for (e = 0; e < S*N; e = e + 1) begin
-        s = e / N;
-        k = e % N;
+    place_sel = {S*N*K{1'b0}};
+    fault_place = {{(32-RCW){1'b0}}, ray_count} > K;
+    for (r = 0; r < K; r = r + 1) begin
+        ps = {{(32-SB){1'b0}}, rr_slot[r*SB +: SB]};
+        // The fill entry waiting for this ray.
         taken = 1'b0;
-        for (r = 0; r < N; r = r + 1) begin
-            m = !taken && r < ray_count && build_valid_q[s] && !build_arrived_q[e]
-                && k < build_count_q[s*CW +: CW]
-                && {{(32-SB){1'b0}}, ray_record_slot[r*SB +: SB]} == s
-                && ray_record_id[r*RB +: RB] == build_rays_q[e*RB +: RB];
-            place_sel[e*N + r] = m;
-            taken = taken | m;
-            found[r] = found[r] | m;
-        end
-        if (taken) begin
-            arr_p[e] = 1'b1;
-            if (loading_p[s*CW +: CW] != {CW{1'b0}})
+        ek = 0;
+        for (e = 0; e < S*N; e = e + 1) begin
+            s = e / N;
+            k = e % N;
+            m = !taken && r < ray_count && build_valid_q[s] && !arr_p[e]
+                && k < build_count_q[s*CW +: CW] && ps == s
+                && rr_id[r*RB +: RB] == build_rays_q[e*RB +: RB];
+            arr_p[e] = arr_p[e] | m;
+            if (m && loading_p[s*CW +: CW] != {CW{1'b0}})
                 loading_p[s*CW +: CW] = loading_p[s*CW +: CW] - ONE_CW;
+            ek = m ? k : ek;
+            taken = taken | m;
         end
+        fault_place = fault_place | (r < ray_count && !taken);
+        // Its lane.
+        got = 1'b0;
+        for (e = 0; e < S*N; e = e + 1) begin
+            s = e / N;
+            l = e % N;
+            free = build_kind_q[s*2 +: 2] == K_REPACK
+                ? st_valid[s] && rt_status_inactive[e] && !filled_p[e] : l == ek;
+            m = taken && !got && ps == s && free;
+            place_sel[e*K + r] = m;
+            filled_p[e] = filled_p[e] | m;
+            got = got | m;
+        end
+        fault_place = fault_place | (taken && !got);
     end
-    fault_place = 1'b0;
-    for (r = 0; r < N; r = r + 1)
-        if (r < ray_count && !found[r]) fault_place = 1'b1;
 end
-// The fill entries' records after the placement.
+// The lanes' records after the writes.
 wire [S*N*REC-1:0] placed_recs;
 wire [S*N*REC-1:0] rec_p;
 generate
     for (gj = 0; gj < S*N; gj = gj + 1) begin : g_place
-        treelet_rt_unit_wiring_pick #(.NI(N), .W(REC)) pick (
-            .sel(place_sel[gj*N +: N]), .in(arr_recs), .out(placed_recs[gj*REC +: REC]));
-        assign rec_p[gj*REC +: REC] = place_sel[gj*N +: N] != {N{1'b0}}
+        treelet_rt_unit_wiring_pick #(.NI(K), .W(REC)) pick (
+            .sel(place_sel[gj*K +: K]), .in(arr_recs), .out(placed_recs[gj*REC +: REC]));
+        assign rec_p[gj*REC +: REC] = place_sel[gj*K +: K] != {K{1'b0}}
             ? placed_recs[gj*REC +: REC] : build_records_q[gj*REC +: REC];
     end
 endgenerate
@@ -258,6 +274,7 @@ reg [S-1:0] bv;
 reg [2*S-1:0] bk;
 reg [S*N*RB-1:0] brays;
 reg [S*N-1:0] barr;
+reg [S*N-1:0] bfill;
 reg [S*CW-1:0] bcount;
 reg [S*CW-1:0] bload;
 reg [S-1:0] blast;
@@ -268,20 +285,17 @@ reg [1:0] issue_order;
 reg [1:0] issue_target;
 reg issue_last;
 reg [N-1:0] build_active;
-// issue_sel[(l*S + s)*N + k]: lane l of the issued fill takes entry k of slot s.
-reg [N*S*N-1:0] issue_sel;
+// issue_sel[l*S + s]: lane l of the issued fill takes lane l's record of slot s.
+reg [N*S-1:0] issue_sel;
 reg fault_unplaced;
 reg admit;
 reg [SB-1:0] admit_slot;
 reg [CW-1:0] need;
 reg [N*RB-1:0] admit_ids;
 always @* begin : p_children
-    integer s, k, l, c, n, placed, s2, k2, j;
-    reg [N-1:0] free_lanes;
+    integer s, k, l, c, n, placed, s2, j;
     reg found;
-    reg take;
     reg got;
-    free_lanes = {N{1'b0}};
     // The first event leaves when the controller takes it (a warp done always does).
     pop = head_done || (head_valid && ctl_enq_ready);
     use_b = slot_use_q;
@@ -291,6 +305,7 @@ always @* begin : p_children
     bk = build_kind_q;
     brays = build_rays_q;
     barr = arr_p;
+    bfill = filled_p;
     bcount = build_count_q;
     bload = loading_p;
     blast = build_last_q;
@@ -301,6 +316,7 @@ always @* begin : p_children
                 bv[s] = 1'b1;
                 bk[s*2 +: 2] = ctl_fill_kind;
                 bcount[s*CW +: CW] = {CW{1'b0}};
+                bfill[s*N +: N] = {N{1'b0}};
                 bload[s*CW +: CW] = {CW{1'b0}};
                 blast[s] = 1'b0;
             end
@@ -335,7 +351,7 @@ always @* begin : p_children
     issue_target = 2'd0;
     issue_last = 1'b0;
     build_active = {N{1'b0}};
-    issue_sel = {N*S*N{1'b0}};
+    issue_sel = {N*S{1'b0}};
     fault_unplaced = 1'b0;
     admit = 1'b0;
     admit_slot = {SB{1'b0}};
@@ -345,13 +361,12 @@ always @* begin : p_children
         s = {{(32-SB){1'b0}}, issue_slot};
         bv[s] = 1'b0;
         case (bk[s*2 +: 2])
-            K_TREELET: begin issue_order = O_STOP; issue_target = 2'd1; free_lanes = {N{1'b1}}; end
-            K_GROUPED: begin issue_order = O_CONTINUE; issue_target = 2'd1; free_lanes = {N{1'b1}}; end
+            K_TREELET: begin issue_order = O_STOP; issue_target = 2'd1; end
+            K_GROUPED: begin issue_order = O_CONTINUE; issue_target = 2'd1; end
             default: begin
                 issue_order = st_valid[s] ? rt_status_order[s*2 +: 2] : O_RAY_STATIONARY;
                 issue_target = 2'd2;
                 issue_last = 1'b1;
-                free_lanes = st_valid[s] ? rt_status_inactive[s*N +: N] : {N{1'b0}};
             end
         endcase
     end else if (admits(mode) && sm_valid) begin
@@ -374,20 +389,19 @@ always @* begin : p_children
             issue_slot = admit_slot;
         end
     end
-    // The issued fill's entries go to its free lanes in order.
-    s = {{(32-SB){1'b0}}, issue_slot};
-    c = {{(32-CW){1'b0}}, bcount[s*CW +: CW]};
-    k = 0;
+    // The issued fill's records leave from the lanes they were written to; its lanes are
+    // free for the slot's next fill.
+    c = 0;
     placed = 0;
-    for (l = 0; l < N; l = l + 1) begin
-        take = issue_build && free_lanes[l] && k < c;
-        got = take && barr[s*N + k];
-        build_active[l] = got;
-        placed = placed + {31'd0, got};
-        for (s2 = 0; s2 < S; s2 = s2 + 1)
-            for (k2 = 0; k2 < N; k2 = k2 + 1)
-                issue_sel[(l*S + s2)*N + k2] = got && s2 == s && k2 == k;
-        k = k + {31'd0, take};
+    for (s2 = 0; s2 < S; s2 = s2 + 1) begin
+        got = issue_build && issue_slot == s2[SB-1:0];
+        c = c | (got ? {{(32-CW){1'b0}}, bcount[s2*CW +: CW]} : 0);
+        for (l = 0; l < N; l = l + 1) begin
+            issue_sel[l*S + s2] = got && bfill[s2*N + l];
+            build_active[l] = build_active[l] | issue_sel[l*S + s2];
+            placed = placed + {31'd0, issue_sel[l*S + s2]};
+        end
+        if (got) bfill[s2*N +: N] = {N{1'b0}};
     end
     fault_unplaced = issue_build && placed != c;
     // An admitted warp's active lanes take the lowest free ids in order.
@@ -400,16 +414,21 @@ always @* begin : p_children
     end
 end
 
-// The issued lanes' records: a complete fill's through the crossbar, an admitted SM warp's
-// from its lanes with their new ray ids.
+// The issued lanes' records: a complete fill's from its slot's lane (an S-input crossbar per
+// lane), an admitted SM warp's from its lanes with their new ray ids.
 wire [N-1:0] admit_lanes = admit ? sm_active : {N{1'b0}};
 wire [N-1:0] issue_active = build_active | admit_lanes;
+wire [N*S*REC-1:0] lane_recs;
 wire [N*REC-1:0] built_recs;
 wire [N*REC-1:0] issue_rec;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_issue
-        treelet_rt_unit_wiring_pick #(.NI(S*N), .W(REC)) pick (
-            .sel(issue_sel[gl*S*N +: S*N]), .in(rec_p), .out(built_recs[gl*REC +: REC]));
+        for (gj = 0; gj < S; gj = gj + 1) begin : g_slot
+            assign lane_recs[(gl*S + gj)*REC +: REC] = rec_p[(gj*N + gl)*REC +: REC];
+        end
+        treelet_rt_unit_wiring_pick #(.NI(S), .W(REC)) pick (
+            .sel(issue_sel[gl*S +: S]), .in(lane_recs[gl*S*REC +: S*REC]),
+            .out(built_recs[gl*REC +: REC]));
         assign issue_rec[gl*REC +: REC] = admit_lanes[gl] ? ${PACK_SM}
             : built_recs[gl*REC +: REC];
     end
@@ -640,6 +659,7 @@ always @* begin : p_next
     build_rays_d = brays;
     build_records_d = rec_p;
     build_arrived_d = barr;
+    build_filled_d = bfill;
     build_count_d = bcount;
     build_loading_d = bload;
     build_last_d = blast;

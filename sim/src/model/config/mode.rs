@@ -312,6 +312,11 @@ impl SimConfig {
                 hw.preload_threshold_warps,
                 d.preload_threshold_warps,
             ),
+            (
+                "record_bytes_per_cycle",
+                hw.record_bytes_per_cycle,
+                d.record_bytes_per_cycle,
+            ),
         ];
         for (key, value, default) in queue_only {
             if value != default {

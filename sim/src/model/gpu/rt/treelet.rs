@@ -130,7 +130,8 @@ pub(super) struct Treelet<'a> {
     pub(super) store: RayStore,
     /// The queue table's spill FIFO.
     pub(super) spill_fifo: SpillFifo,
-    /// Ray records that arrived, for the next step.
+    /// Ray records that arrived, oldest first, for the next steps (at most `record_ports` a
+    /// step: the SM's response queue in front of the wiring's record ports).
     pub(super) arrived: Vec<RayLoad>,
     /// The input bundle, reused every step.
     pub(super) inputs: TreeletRtUnitInputs,
@@ -216,8 +217,10 @@ impl<'a> RtPort<'a> {
         inputs.sm_warp = lanes;
         inputs.responses.clear();
         inputs.responses.extend(self.responses.drain(..n));
+        // At most one record per record port a cycle; the rest wait in the response queue.
         inputs.ray_records.clear();
-        std::mem::swap(&mut inputs.ray_records, &mut t.arrived);
+        let records = (t.unit.config().record_ports() as usize).min(t.arrived.len());
+        inputs.ray_records.extend(t.arrived.drain(..records));
         inputs.spill_head = t.spill_fifo.head();
         if record {
             t.cache.probe(true);
