@@ -186,7 +186,7 @@ impl HwConfig {
         }
         let most = 32 * self.warp_size;
         if self.record_bytes_per_cycle == 0
-            || self.record_bytes_per_cycle % 32 != 0
+            || !self.record_bytes_per_cycle.is_multiple_of(32)
             || self.record_bytes_per_cycle > most
         {
             return Err(err(
