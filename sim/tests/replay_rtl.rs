@@ -272,7 +272,13 @@ const EIGHT_LANES: [&str; 8] = [
 #[test]
 fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     const CYCLES: usize = 26_000;
-    let (cfg, bvh, log, _) = recorded_run(CYCLES, &EIGHT_LANES);
+    // Two record ports (the composed block's replay below has the default one), so both
+    // widths of the ray-record crossbar are co-simulated; records held on chip, so a fill's
+    // records return together and use both.
+    let mut settings = EIGHT_LANES.to_vec();
+    settings.extend(["hw.record_bytes_per_cycle=64", "rt.ray_record_latency=20"]);
+    let (cfg, bvh, log, _) = recorded_run(CYCLES, &settings);
+    assert_eq!(cfg.hw.record_ports(), 2);
     let unit =
         TreeletRtUnit::new(cfg.hw.clone(), log.params.clone(), BvhDatapath::new(&bvh)).unwrap();
     let ports = wiring_ports(&unit, log.treelet);
@@ -289,6 +295,7 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     let seen: Vec<(&str, u64)> = [
         "sm_accept",
         "ray_load_count",
+        "ray_count",
         "finished_count",
         "parked_count",
         "rt_issue_valid",
@@ -302,6 +309,9 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     .collect();
     eprintln!("{seen:?}");
     assert!(seen.iter().all(|&(_, n)| n > 0), "{seen:?}");
+    let k = (trace.inputs.iter().position(|s| s.name == "ray_count")).expect("a ray_count port");
+    let both = trace.rows().filter(|r| r[k] == 2).count();
+    assert!(both > 0, "no cycle used both record ports");
     let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-wiring");
     std::fs::create_dir_all(&work).unwrap();
     let rtl = treelet_wiring_verilog(&unit).unwrap();
