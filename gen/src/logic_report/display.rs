@@ -101,7 +101,8 @@ impl LogicReport {
         writeln!(
             f,
             "  (not macros yet: the count table's entries, a CAM searched every cycle; the RT \
-             unit's stacks, written at any depth; the wiring's fills of whole ray records)"
+             unit's stacks, written at any depth; the wiring's fill records, read a warp at a \
+             time)"
         )?;
         writeln!(f)?;
         Ok(())
@@ -143,7 +144,7 @@ impl LogicReport {
         )?;
         total(
             f,
-            "treelet RT unit's wiring (whole-record crossbars, as modelled)",
+            "treelet RT unit's wiring (fills of records, id pool, events)",
             &self.wiring_mm2,
         )?;
         total(f, "RT unit's control", &self.rt_unit_logic.logic.area_mm2)?;
@@ -212,9 +213,9 @@ impl fmt::Display for LogicReport {
         writeln!(
             f,
             "(the count table's RTL keeps its entries in flip-flops, a CAM with scan ports: its \
-             logic includes its storage; the wiring keeps each slot's fill of whole ray records \
-             in flip-flops and moves records through one-hot crossbars, up to a warp of them \
-             each way a cycle, which records moved at memory width would replace)"
+             logic includes its storage; the wiring keeps each slot's fill of ray records in \
+             flip-flops, a record written a cycle per record port into the lane it issues to, and \
+             its free-id bitmap of max_rays bits)"
         )?;
         for (name, a) in &self.storage_sram_mm2 {
             let list: Vec<String> = a
