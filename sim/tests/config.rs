@@ -376,6 +376,24 @@ const BAD_CONFIGS: &[(&str, &[&str], &str, &str)] = &[
         "33",
     ),
     (
+        "vtq.toml",
+        &["hw.record_bytes_per_cycle=48"],
+        "hw.record_bytes_per_cycle",
+        "48",
+    ),
+    (
+        "vtq.toml",
+        &["hw.record_bytes_per_cycle=2048"],
+        "hw.record_bytes_per_cycle",
+        "2048",
+    ),
+    (
+        "baseline.toml",
+        &["hw.record_bytes_per_cycle=64"],
+        "hw.record_bytes_per_cycle",
+        "64",
+    ),
+    (
         "baseline.toml",
         &["memory.l1_bytes=0"],
         "memory.l1_bytes",

@@ -12,7 +12,8 @@
 //! treelet preloads (prefetches into the L1).
 //!
 //! # One cycle (the wiring, in dependency order)
-//! 1. Ray records that arrived are placed in the fills being built.
+//! 1. Ray records that arrived (at most one per record port, `hw.record_bytes_per_cycle / 32`)
+//!    are written into the fills being built, each into the lane it will be issued to.
 //! 2. The controller's inputs come from registers only: the count table's and queue table's
 //!    status ([`crate::count_table::CountTable::status`], [`crate::queue_table::QueueTable::status`]),
 //!    their answers of the previous cycle (registered here), the RT unit's status ports
@@ -34,8 +35,9 @@
 //!    rays it grouped before new rays are fetched, section 4.4): its rays get the lowest free ids
 //!    and their 32 B records are stored.
 //! 5. The RT unit steps; a warp it completes is unpacked: finished rays leave with their hits
-//!    and free their ids, rays stopped at a boundary leave their records to the store and are
-//!    queued for enqueueing (one per cycle), then the slot's `warp_done`.
+//!    (each at its lane's position) and free their ids, rays stopped at a boundary leave their
+//!    records to the store (at their lanes) and are queued for enqueueing (one per cycle), then
+//!    the slot's `warp_done`.
 //!
 //! # Definition and fast path
 //! [`Block::eval`] is the definition: the kernel ([`wiring`]) settled with the children's pure
