@@ -460,7 +460,7 @@ pub(super) fn children_inputs<D: NodeDatapath>(
     rt_in.responses.extend_from_slice(&inputs.responses);
     rt_in.stop = ctl_out.and_then(|o| o.terminate);
     rt_in.repack = ctl_out.and_then(|o| o.repack);
-    rt_in.issue = finished_build(u, g, p);
+    rt_in.issue = finished_build(g, p);
     let reserve = ctl_out.and_then(|o| o.reserve);
     if rt_in.issue.is_none() && admitting(u, mode) {
         let slot = free_slot(g, p.rt, reserve);
@@ -521,11 +521,7 @@ fn start_fill<D: NodeDatapath>(
 
 /// The warp issue of the first fill whose rays have all arrived and which is complete: each
 /// record leaves from the lane it was written to.
-fn finished_build<D: NodeDatapath>(
-    u: &TreeletRtUnit<D>,
-    g: &mut GlueRegs,
-    p: &Peeks,
-) -> Option<WarpIssue> {
+fn finished_build(g: &mut GlueRegs, p: &Peeks) -> Option<WarpIssue> {
     let s = g
         .builds
         .iter()
@@ -542,8 +538,8 @@ fn finished_build<D: NodeDatapath>(
             IssueTarget::Append { slot, last: true },
         ),
     };
-    let mut lanes = build.records.into_vec();
-    lanes.resize(u.cfg.warp_size as usize, None);
+    // One entry per lane already (`Build::records`).
+    let lanes = build.records.into_vec();
     let placed = lanes.iter().flatten().count();
     if placed != rays {
         g.set_fault(GlueFault::Unplaced { slot, placed, rays });
