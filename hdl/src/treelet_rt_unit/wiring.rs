@@ -194,17 +194,13 @@ pub(super) fn place_records(g: &mut GlueRegs, rt: &RtUnitStatus, records: &[RayL
     }
     for load in records.iter().take(ports as usize) {
         let s = load.slot as usize;
-        let inactive = rt.slot(s).map_or(0, |v| v.inactive);
-        let Some(build) = g.builds.get_mut(s).and_then(Option::as_mut) else {
-            g.set_fault(GlueFault::UnexpectedRecord {
-                slot: load.slot,
-                ray: load.ray,
-            });
-            continue;
-        };
-        let entry = (build.rays.iter().zip(build.arrived.iter()))
-            .position(|(&r, &arrived)| r == load.ray && !arrived);
-        let Some(k) = entry else {
+        // The fill's entry waiting for this ray.
+        let found = g.builds.get_mut(s).and_then(Option::as_mut).and_then(|b| {
+            let mut waiting = b.rays.iter().zip(b.arrived.iter());
+            let k = waiting.position(|(&r, &arrived)| r == load.ray && !arrived)?;
+            Some((b, k))
+        });
+        let Some((build, k)) = found else {
             g.set_fault(GlueFault::UnexpectedRecord {
                 slot: load.slot,
                 ray: load.ray,
@@ -214,8 +210,11 @@ pub(super) fn place_records(g: &mut GlueRegs, rt: &RtUnitStatus, records: &[RayL
         build.arrived.as_mut_slice()[k] = true;
         build.loading = build.loading.saturating_sub(1);
         let lane = match build.kind {
-            FillKind::Repack => (0..build.records.len())
-                .find(|&l| inactive >> l & 1 == 1 && build.records[l].is_none()),
+            FillKind::Repack => {
+                let inactive = rt.slot(s).map_or(0, |v| v.inactive);
+                (0..build.records.len())
+                    .find(|&l| inactive >> l & 1 == 1 && build.records[l].is_none())
+            }
             FillKind::Treelet | FillKind::Grouped => Some(k),
         };
         match lane {
