@@ -349,8 +349,13 @@ fn emit_skeleton_body(w: &mut VerilogWriter, desc: &BlockDesc) {
                     .map(|(n, b)| format!("{n}:{b}"))
                     .collect::<Vec<_>>()
                     .join(" | ");
+                let banks = if m.banks > 1 {
+                    format!("{} banks of ", m.banks)
+                } else {
+                    String::new()
+                };
                 w.comment(&format!(
-                    "{} words x {} bits, {}R/{}W, read latency {}{}{}.",
+                    "{banks}{} words x {} bits, {}R/{}W, read latency {}{}{}.",
                     m.depth,
                     m.width,
                     m.read_ports,
@@ -363,7 +368,7 @@ fn emit_skeleton_body(w: &mut VerilogWriter, desc: &BlockDesc) {
                     "reg {}{} [0:{}];",
                     range(m.width),
                     m.name,
-                    m.depth - 1
+                    m.banks * m.depth - 1
                 ));
             }
             w.line("/* verilator lint_on UNDRIVEN */");

@@ -53,6 +53,7 @@ fn demo_desc() -> BlockDesc {
         ],
         memories: vec![MemDesc {
             name: "entries".to_string(),
+            banks: 1,
             depth: 8,
             width: 32,
             read_ports: 1,

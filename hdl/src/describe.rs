@@ -43,7 +43,9 @@ pub struct RegDesc {
 pub struct MemDesc {
     /// Memory name.
     pub name: String,
-    /// Number of words.
+    /// Identical arrays of this shape, each with the ports below (1: one array).
+    pub banks: u32,
+    /// Number of words (of one bank).
     pub depth: u32,
     /// Bits per word.
     pub width: u32,

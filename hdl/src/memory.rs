@@ -113,6 +113,7 @@ impl<T: Clone> Memory<T> {
         };
         MemDesc {
             name: name.to_string(),
+            banks: 1,
             depth: self.words.len() as u32,
             width: fields.iter().map(|f| f.1).sum(),
             read_ports: self.ports.read,

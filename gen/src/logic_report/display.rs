@@ -83,13 +83,17 @@ impl LogicReport {
         )?;
         for b in self.blocks.iter().filter(|b| !b.macros.is_empty()) {
             for m in &b.macros {
+                let shape = if m.banks > 1 {
+                    format!("{} x {} x {}", m.banks, m.depth, m.width)
+                } else {
+                    format!("{} x {}", m.depth, m.width)
+                };
                 write!(
                     f,
-                    "  {:<22} {:<6} {:>5} x {:<5} {}R {}W {:<6}",
+                    "  {:<22} {:<8} {:>14} {}R {}W {:<6}",
                     b.synth.top,
                     m.name,
-                    m.depth,
-                    m.width,
+                    shape,
                     m.read_ports,
                     m.write_ports,
                     m.ports.label()

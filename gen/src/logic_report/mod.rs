@@ -64,7 +64,9 @@ pub const SM_NODE_NM: f64 = 12.0;
 pub struct MacroArea {
     /// The array's name in the block's description.
     pub name: String,
-    /// Words.
+    /// Identical arrays (banks) of this shape; the area is theirs together.
+    pub banks: u32,
+    /// Words (of one bank).
     pub depth: u32,
     /// Bits per word.
     pub width: u32,
@@ -195,6 +197,7 @@ fn macros(desc: &BlockDesc) -> Result<Vec<MacroArea>, GenError> {
             let bits = u64::from(m.depth) * u64::from(m.width);
             Ok(MacroArea {
                 name: m.name.clone(),
+                banks: m.banks,
                 depth: m.depth,
                 width: m.width,
                 read_ports: m.read_ports,
@@ -202,7 +205,7 @@ fn macros(desc: &BlockDesc) -> Result<Vec<MacroArea>, GenError> {
                 ports,
                 area_mm2: NODES_NM
                     .iter()
-                    .map(|&f| (f, sram_area_mm2(bits, f, ports)))
+                    .map(|&f| (f, f64::from(m.banks) * sram_area_mm2(bits, f, ports)))
                     .collect(),
             })
         })
@@ -336,7 +339,7 @@ pub fn logic_report_with(
             synth,
             sram_bits: kept
                 .iter()
-                .map(|m| u64::from(m.depth) * u64::from(m.width))
+                .map(|m| u64::from(m.banks) * u64::from(m.depth) * u64::from(m.width))
                 .sum(),
             macros: kept,
             structure: structure.map(str::to_string),

@@ -82,7 +82,12 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     let lw = info.port("finished_count", Dir::Out)?;
     let cmw = info.port("ctl_ct_max_count", Dir::Out)?;
     let ctcw = info.port("ct_max_count", Dir::In)?;
-    let fcw = info.reg("free_count")?;
+    let fcw = info.reg("id_count")?;
+    let ring = info.mem("free_ids", &[("ray", rb)], 1)?;
+    let idb = ring.banks;
+    let idbw = clog2(idb as u64);
+    let idwd = ring.depth;
+    let idaw = clog2(idwd as u64).max(1);
     let evw = info.reg("event_count")?;
     let events = desc
         .registers
@@ -109,6 +114,12 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         && info.port("rt_status_traversing", Dir::In)? == s * cw
         && info.port("ctl_init_active", Dir::Out)? == cw
         && fcw == bits_for(mr as u64)
+        && info.reg("id_head")? == rb
+        && info.reg("id_window")? == cw
+        && idb.is_power_of_two()
+        && idb >= 2
+        && idb * idwd == mr
+        && idb == (2 * n).min(mr)
         && lw >= cw
         && ctcw >= cmw
         && ab >= rb + 5
@@ -133,10 +144,10 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         format!("localparam TW = {tw};      // treelet number bits"),
         format!("localparam AB = {ab};      // address bits"),
         format!("localparam MR = {mr};      // ray ids (max_rays)"),
-        format!(
-            "localparam NW = {};        // 64-id words of the free-id bitmap",
-            mr.div_ceil(64)
-        ),
+        format!("localparam IDB = {idb};    // banks of the free-id ring"),
+        format!("localparam IDBW = {idbw};  // bank index bits"),
+        format!("localparam IDWD = {idwd};  // words per bank"),
+        format!("localparam IDAW = {idaw};  // bank address bits (at least 1)"),
         format!("localparam D = {d};        // on-chip entries per stack"),
         format!("localparam E = {e};        // stack entry: {{address, kind, chunks - 1}}"),
         format!("localparam DE = {de};      // bits of a stack"),
@@ -161,15 +172,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     ]
     .join("\n");
     let mut regs = VerilogWriter::new();
-    emit_registers_as(
-        &mut regs,
-        &desc,
-        &[
-            ("free_ids", format!("{{{mr}{{1'b1}}}}")),
-            ("free_count", lit(fcw, mr as u64)),
-        ],
-        vector_range,
-    );
+    emit_registers_as(&mut regs, &desc, &[], vector_range);
     let pop_rays = (0..n)
         .rev()
         .map(|i| format!("qt_pop_ray_{i}"))
@@ -228,9 +231,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
             ("NEED_LW", zext("need", cw, lw)),
             ("PASS_THROUGH", pass.join("\n")),
             ("UNUSED", String::new()),
-            ("FREE_WORDS", zext("free_ids_q", mr, mr.div_ceil(64) * 64)),
-            ("FREE_PAD", zext("free_ids_q", mr, 1 << rb)),
-            ("NEW_WORDS_PAD", new_words_pad(mr)),
+            ("ID_WADDR", bank_address("wpos", rb, idbw)),
+            ("ID_RADDR", bank_address("rpos", rb, idbw)),
             ("RECORD_OFFSETS", record_offsets()),
             ("ARRIVED_WIRES", port_vectors("ray_record", "rr", "K")),
             ("PACK_ARRIVED", pack_record("rr", "rr_id[gl*RB +: RB]")),
@@ -265,16 +267,14 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     Ok(out)
 }
 
-/// For `max_rays` not a multiple of 64, the padding bits of the free-id bitmap's last word
-/// after the cycle (never read) gathered for the linter; nothing otherwise.
-fn new_words_pad(max_rays: u32) -> String {
-    if max_rays.is_multiple_of(64) {
-        return String::new();
+/// A free-id bank's word address from ring position vector `pos` (its bits above the bank
+/// index; `1'b0` when each bank holds one word).
+fn bank_address(pos: &str, rb: u32, idbw: u32) -> String {
+    if rb > idbw {
+        format!("{pos}[IDBW +: IDAW]")
+    } else {
+        "1'b0".to_string()
     }
-    "/* verilator lint_off UNUSEDSIGNAL */\n\
-     wire [NW*64-1:MR] new_words_pad = new_words[NW*64-1:MR];\n\
-     /* verilator lint_on UNUSEDSIGNAL */"
-        .to_string()
 }
 
 /// A ray record's fields as the wiring keeps it, highest first, above its ray id (bits
@@ -389,38 +389,27 @@ always @* begin : p_pick
 end
 endmodule
 
-// One 64-id word (number wd) of the free-id bitmap after a cycle: the ids taken cleared, the
-// ids given back set; one instance per word.
-module treelet_rt_unit_wiring_ids #(
+// One bank of the wiring's free-id ring: an SRAM of DEPTH ray ids with one write port and one
+// read port of read latency 1, read-first (a read and a write of one word in a cycle read the
+// old id); no reset (nothing is read before it is written).
+module treelet_rt_unit_wiring_id_bank #(
     parameter RB = 1,
-    parameter NT = 1,
-    parameter NG = 1
+    parameter DEPTH = 1,
+    parameter AW = 1
 ) (
-    input wire [RB-1:0] wd,
-    input wire [NT-1:0] take_valid,
-    input wire [NT*RB-1:0] take_id,
-    input wire [NG-1:0] give_valid,
-    input wire [NG*RB-1:0] give_id,
-    input wire [63:0] q,
-    output wire [63:0] d
+    input wire clk,
+    input wire rst,
+    input wire we,
+    input wire [AW-1:0] waddr,
+    input wire [RB-1:0] wdata,
+    input wire [AW-1:0] raddr,
+    output reg [RB-1:0] rdata
 );
-reg [63:0] taken;
-reg [63:0] given;
-always @* begin : p_ids
-    integer i;
-    reg [RB+5:0] x;
-    taken = 64'd0;
-    given = 64'd0;
-    for (i = 0; i < NT; i = i + 1) begin
-        x = {6'd0, take_id[i*RB +: RB]};
-        if (take_valid[i] && x[RB+5:6] == wd) taken = taken | (64'd1 << x[5:0]);
-    end
-    for (i = 0; i < NG; i = i + 1) begin
-        x = {6'd0, give_id[i*RB +: RB]};
-        if (give_valid[i] && x[RB+5:6] == wd) given = given | (64'd1 << x[5:0]);
-    end
+reg [RB-1:0] mem [0:DEPTH-1];
+always @(posedge clk) begin : p_bank
+    if (!rst && we) mem[waddr] <= wdata;
+    rdata <= mem[raddr];
 end
-assign d = (q & ~taken) | given;
 endmodule
 /* verilator lint_on DECLFILENAME */
 ";

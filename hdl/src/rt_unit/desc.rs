@@ -23,6 +23,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
 
     let stack = |name: &str, doc: &str| MemDesc {
         name: name.to_string(),
+        banks: 1,
         depth: lanes * cfg.stack_depth,
         width: entry,
         read_ports: 1,
@@ -36,6 +37,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         stack("other_stack", "on-chip other-treelet stacks, stack_depth entries per lane, banked per lane; older entries spill to memory"),
         MemDesc {
             name: "node_buffer".into(),
+            banks: 1,
             depth: lanes * MAX_NODE_CHUNKS as u32,
             width: DATA_BITS,
             read_ports: 1,
@@ -46,6 +48,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         },
         MemDesc {
             name: "resp_fifo".into(),
+            banks: 1,
             depth: params.resp_fifo_depth,
             width: cfg.address_bits + w.tag + DATA_BITS,
             read_ports: 1,

@@ -9,6 +9,7 @@ use crate::bits::bits_for;
 use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::HwConfig;
 use crate::controller::FillKind;
+use crate::describe::MemDesc;
 use crate::queue_table::PopResult;
 use crate::registers::RegTable;
 use crate::rt_unit::RayRecord;
@@ -77,8 +78,13 @@ pub enum Event {
 /// numbers).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum GlueFault {
-    /// A ray left the RT unit with an id that is not in use.
-    UnknownRay(u32),
+    /// Rays left the RT unit with more ids than were in use.
+    IdsReturned {
+        /// Ids given back in the cycle.
+        returned: u32,
+        /// Ids in use.
+        in_use: u32,
+    },
     /// A table raised its error output for an op.
     TableError(&'static str),
     /// A fill could not place all of its rays.
@@ -109,9 +115,10 @@ pub enum GlueFault {
 impl fmt::Display for GlueFault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            GlueFault::UnknownRay(id) => {
-                write!(f, "ray id {id} left the RT unit but is not in use")
-            }
+            GlueFault::IdsReturned { returned, in_use } => write!(
+                f,
+                "{returned} rays left the RT unit in one cycle but only {in_use} ray ids were in use"
+            ),
             GlueFault::TableError(what) => write!(f, "{what}"),
             GlueFault::Unplaced { slot, placed, rays } => write!(
                 f,
@@ -130,61 +137,119 @@ impl fmt::Display for GlueFault {
     }
 }
 
-/// The ray-record slots of an SM (`max_rays` ray ids) as a bitmap of free ids; the lowest free
-/// id is given first (a priority encoder).
+/// The free ray ids of an SM (`max_rays` ray-record slots) as a ring in SRAM, with the ids
+/// never given out yet counted apart.
+///
+/// Hardware: the ring is [`id_banks`] SRAM banks of `max_rays / banks` words of a ray id each,
+/// one read and one write port apiece (ring position `p` is word `p / banks` of bank
+/// `p % banks`, so the `warp_size` consecutive positions an admission takes and the up to
+/// `2 x warp_size` an unpacking gives back each meet a bank once). Registers: the ring's head
+/// and count, the first id never given out (`fresh`: ids from it up are free without being in
+/// the ring, so reset needs no initialisation sequence) and `window`, how many ids at the head
+/// the banks' read-data registers hold: every cycle the banks read the `warp_size` positions
+/// from the next head, so the ids given back in a cycle (written at the same clock edge) are
+/// read, and can be given out, from the cycle after next.
+///
+/// An admitted warp's active lanes take, in lane order, the window's ids and then fresh ones.
+/// The Rust model reads the window's ids from the ring itself: a position between the head and
+/// the tail is never written, so it still holds what the banks read.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct IdPool {
-    free: Box<[u64]>,
+    /// The ring (`max_rays` positions); positions `head..head + count` hold free ids.
+    ring: Box<[u32]>,
+    /// Position of the oldest free id in the ring.
+    head: u32,
+    /// Free ids in the ring.
     count: u32,
+    /// Ids from `fresh` up to `max_rays` have never been given out.
+    fresh: u32,
+    /// Ids at the ring's head that the banks' read data holds (at most `lanes`).
+    window: u32,
+    /// Lanes of a warp (the window's size).
+    lanes: u32,
+}
+
+/// Banks of the free-id ring: `2 x warp_size` (what one cycle gives back), at most `max_rays`.
+pub fn id_banks(cfg: &HwConfig) -> u32 {
+    (2 * cfg.warp_size).min(cfg.max_rays)
 }
 
 impl IdPool {
-    /// Every id below `n` free.
-    fn new(n: u32) -> Self {
-        let mut free = vec![u64::MAX; (n as usize).div_ceil(64)];
-        if !n.is_multiple_of(64) {
-            *free.last_mut().expect("at least one word") = (1u64 << (n % 64)) - 1;
-        }
+    /// Every id free, none in the ring.
+    fn new(cfg: &HwConfig) -> Self {
         IdPool {
-            free: free.into(),
-            count: n,
+            ring: vec![0; cfg.max_rays as usize].into(),
+            head: 0,
+            count: 0,
+            fresh: 0,
+            window: 0,
+            lanes: cfg.warp_size,
         }
     }
 
-    /// Free ids.
+    /// Free ids (in the ring or never given out).
     pub fn len(&self) -> u32 {
-        self.count
+        self.count + self.ring.len() as u32 - self.fresh
     }
 
     /// Whether no id is free.
     pub fn is_empty(&self) -> bool {
-        self.count == 0
+        self.len() == 0
     }
 
-    /// Whether `id` is in use.
-    pub(super) fn in_use(&self, id: u32) -> bool {
-        self.free
-            .get(id as usize / 64)
-            .is_some_and(|w| w >> (id % 64) & 1 == 0)
+    /// Ids an admission may take this cycle: the window's and the fresh ones.
+    pub fn available(&self) -> u32 {
+        self.window + self.ring.len() as u32 - self.fresh
     }
 
-    /// Takes the lowest free id.
-    pub(super) fn take(&mut self) -> Option<u32> {
-        let (i, w) = self.free.iter_mut().enumerate().find(|(_, w)| **w != 0)?;
-        let bit = w.trailing_zeros();
-        *w &= !(1 << bit);
-        self.count -= 1;
-        Some(i as u32 * 64 + bit)
+    /// Ids given out and not given back.
+    pub fn in_use(&self) -> u32 {
+        self.fresh - self.count
     }
 
-    /// Frees `id`.
-    pub(super) fn give(&mut self, id: u32) {
-        if let Some(w) = self.free.get_mut(id as usize / 64) {
-            if *w >> (id % 64) & 1 == 0 {
-                *w |= 1 << (id % 64);
-                self.count += 1;
+    /// Whether the window lags the ring (it catches up in the next cycle).
+    pub(super) fn window_lags(&self) -> bool {
+        self.window < self.count.min(self.lanes)
+    }
+
+    /// Takes `need <= available()` ids, in order: the window's, then fresh ones.
+    pub(super) fn take(&mut self, need: u32) -> impl Iterator<Item = u32> + '_ {
+        debug_assert!(need <= self.available(), "take beyond the available ids");
+        let from_ring = need.min(self.window);
+        let (head, fresh, size) = (self.head, self.fresh, self.ring.len() as u32);
+        self.head = (head + from_ring) % size;
+        self.count -= from_ring;
+        self.window -= from_ring;
+        self.fresh += need - from_ring;
+        let ring = &self.ring;
+        (0..need).map(move |k| {
+            if k < from_ring {
+                ring[((head + k) % size) as usize]
+            } else {
+                fresh + k - from_ring
             }
+        })
+    }
+
+    /// The clock edge's read: the window becomes the ids at the head written before this
+    /// cycle (call after the cycle's takes, before its gives).
+    pub(super) fn read_window(&mut self) {
+        self.window = self.count.min(self.lanes);
+    }
+
+    /// Gives `ids` back at the ring's tail, in order; more than are in use is an error (the
+    /// in-use count) and gives nothing back.
+    pub(super) fn give(&mut self, ids: &[u32]) -> Result<(), u32> {
+        let n = ids.len() as u32;
+        if n > self.in_use() {
+            return Err(self.in_use());
         }
+        let size = self.ring.len() as u32;
+        for (k, &id) in ids.iter().enumerate() {
+            self.ring[((self.head + self.count + k as u32) % size) as usize] = id;
+        }
+        self.count += n;
+        Ok(())
     }
 }
 
@@ -219,7 +284,7 @@ impl GlueRegs {
             events: BoundedDeque::new(event_depth(cfg)),
             ct_evict: None,
             qt_done: None,
-            ids: IdPool::new(cfg.max_rays),
+            ids: IdPool::new(cfg),
             fault: None,
         }
     }
@@ -246,10 +311,30 @@ pub fn event_depth(cfg: &HwConfig) -> usize {
     cfg.warp_buffer_size as usize * (cfg.warp_size as usize + 1)
 }
 
+/// The wiring's memories: the free-id ring's banks ([`IdPool`]).
+pub(super) fn memories(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<MemDesc> {
+    let banks = id_banks(cfg);
+    vec![MemDesc {
+        name: "free_ids".into(),
+        banks,
+        depth: cfg.max_rays / banks,
+        width: w.ray,
+        read_ports: 1,
+        write_ports: 1,
+        read_latency: 1,
+        fields: vec![("ray".into(), w.ray)],
+        doc: format!(
+            "the free-id ring: position p is word p / {banks} of bank p % {banks}; each cycle \
+             every bank reads the position of the next head's warp-sized window that it holds \
+             and writes at most one id given back"
+        ),
+    }]
+}
+
 /// The wiring's registers for `cfg` and widths `w`: their descriptions and trace signals,
 /// declared once. Traced: the slots' owners, whether each slot has a fill and its records still
 /// loading, and the event FIFO's and the id pool's occupancies; the fills' rays and records,
-/// the events, the tables' registered answers and the free-id bitmap are described only.
+/// the events and the tables' registered answers are described only.
 pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'static, GlueRegs> {
     let slots = cfg.warp_buffer_size;
     let lanes = bits_for(cfg.warp_size as u64);
@@ -332,13 +417,109 @@ pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'st
         1,
         "the queue table's answer of the previous cycle",
     )
-    .untraced("free_ids", 1, cfg.max_rays, "free ray ids (lowest first)")
+    .one("id_head", w.ray, "the free-id ring's head position", |g| {
+        g.ids.head as u64
+    })
     .one(
-        "free_count",
+        "id_count",
         bits_for(cfg.max_rays as u64),
-        "free ray ids (the bitmap's population count)",
-        |g| g.ids.len() as u64,
+        "free ids in the ring",
+        |g| g.ids.count as u64,
+    )
+    .one(
+        "id_fresh",
+        bits_for(cfg.max_rays as u64),
+        "the first id never given out",
+        |g| g.ids.fresh as u64,
+    )
+    .one(
+        "id_window",
+        lanes,
+        "ids at the ring's head in the banks' read data",
+        |g| g.ids.window as u64,
     )
     .untraced("fault", 1, 1, "an inconsistency was found (sticky)");
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pool(max_rays: u32, warp_size: u32) -> IdPool {
+        IdPool::new(&HwConfig {
+            max_rays,
+            warp_size,
+            ..HwConfig::default()
+        })
+    }
+
+    /// One cycle: `need` ids taken, the banks read, `back` given back.
+    fn cycle(p: &mut IdPool, need: u32, back: &[u32]) -> Vec<u32> {
+        let got: Vec<u32> = p.take(need).collect();
+        p.read_window();
+        p.give(back).expect("ids in use");
+        got
+    }
+
+    #[test]
+    fn fresh_ids_first_then_the_ring_in_order_from_the_cycle_after_next() {
+        let mut p = pool(16, 4);
+        assert_eq!((p.len(), p.available(), p.in_use()), (16, 16, 0));
+        assert_eq!(cycle(&mut p, 4, &[]), [0, 1, 2, 3]);
+        // Ids 2 and 0 come back; in their cycle and the next the window is still empty.
+        assert_eq!(cycle(&mut p, 3, &[2, 0]), [4, 5, 6]);
+        assert_eq!((p.len(), p.available(), p.in_use()), (11, 9, 5));
+        assert!(p.window_lags());
+        assert_eq!(cycle(&mut p, 1, &[]), [7]);
+        assert!(!p.window_lags());
+        // From the cycle after next, the ring's ids in the order they came back, then fresh.
+        assert_eq!(p.available(), 2 + 8);
+        assert_eq!(cycle(&mut p, 3, &[5]), [2, 0, 8]);
+        assert_eq!(cycle(&mut p, 0, &[]), Vec::<u32>::new());
+        assert_eq!(cycle(&mut p, 1, &[]), [5]);
+        assert_eq!(p.in_use(), 9);
+    }
+
+    #[test]
+    fn the_window_holds_at_most_a_warp_and_wraps_around_the_ring() {
+        let mut p = pool(8, 2);
+        assert_eq!(cycle(&mut p, 2, &[]), [0, 1]);
+        for _ in 0..3 {
+            cycle(&mut p, 2, &[]);
+        }
+        assert_eq!((p.available(), p.in_use()), (0, 8));
+        cycle(&mut p, 0, &[7, 6, 5, 4, 3]);
+        cycle(&mut p, 0, &[]);
+        assert_eq!(p.available(), 2, "a warp's worth of the ring's 5");
+        // Taking ids moves the window on; positions wrap modulo max_rays.
+        assert_eq!(cycle(&mut p, 2, &[0, 1, 2]), [7, 6]);
+        assert_eq!(cycle(&mut p, 2, &[]), [5, 4]);
+        assert_eq!(cycle(&mut p, 2, &[]), [3, 0]);
+        assert_eq!(cycle(&mut p, 2, &[]), [1, 2]);
+        assert_eq!((p.len(), p.in_use()), (0, 8));
+    }
+
+    #[test]
+    fn more_ids_back_than_in_use_is_refused_whole() {
+        let mut p = pool(8, 2);
+        cycle(&mut p, 2, &[]);
+        p.read_window();
+        assert_eq!(p.give(&[0, 1, 1]), Err(2));
+        assert_eq!((p.len(), p.in_use()), (6, 2), "nothing given back");
+    }
+
+    #[test]
+    fn banks_cover_what_a_cycle_takes_and_gives() {
+        let at = |max_rays, warp_size| {
+            id_banks(&HwConfig {
+                max_rays,
+                warp_size,
+                ..HwConfig::default()
+            })
+        };
+        assert_eq!(at(4096, 32), 64);
+        assert_eq!(at(32, 32), 32);
+        assert_eq!(at(8, 2), 4);
+    }
 }

@@ -489,7 +489,7 @@ pub(super) fn describe<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> BlockDesc {
         ],
         ports,
         registers: super::glue::registers(&u.cfg, w).descs(),
-        memories: vec![],
+        memories: super::glue::memories(&u.cfg, w),
         fsms: vec![],
         timing: vec![format!(
             "children: {}; each cycle the controller's inputs come from registers only (the tables' status, their answers of the previous cycle, the RT unit's slot summaries, the first pending event), its ops and commands drive the tables and the RT unit in the same cycle",

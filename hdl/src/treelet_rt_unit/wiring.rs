@@ -284,7 +284,7 @@ pub(super) fn sm_ready_in<D: NodeDatapath>(
     mode: Mode,
     rt: &RtUnitStatus,
 ) -> bool {
-    admitting(u, mode) && g.ids.len() >= u.cfg.warp_size && free_slot(g, rt, None).is_some()
+    admitting(u, mode) && g.ids.available() >= u.cfg.warp_size && free_slot(g, rt, None).is_some()
 }
 
 /// The lowest slot the wiring has not given out and whose RT-unit slot holds no warp, other
@@ -295,10 +295,12 @@ fn free_slot(g: &GlueRegs, rt: &RtUnitStatus, reserved: Option<u32>) -> Option<u
     })
 }
 
-/// Whether the wiring has work in the next cycle whatever the children do: events to report
-/// or a complete fill to issue.
+/// Whether the wiring has work in the next cycle whatever the children do: events to report,
+/// a complete fill to issue, or ids given back for the free-id ring's window to read.
 pub(super) fn glue_busy(g: &GlueRegs) -> bool {
-    !g.events.is_empty() || g.builds.iter().flatten().any(|b| b.last && b.loading == 0)
+    !g.events.is_empty()
+        || g.builds.iter().flatten().any(|b| b.last && b.loading == 0)
+        || g.ids.window_lags()
 }
 
 /// Sets the controller inputs that depend on whether the SM offers a warp: its waiting warps
@@ -550,8 +552,9 @@ fn finished_build(g: &mut GlueRegs, p: &Peeks) -> Option<WarpIssue> {
     })
 }
 
-/// Takes an offered SM warp into `slot` if enough ray ids are free: gives its rays the lowest
-/// free ids, stores their records and returns the warp issue.
+/// Takes an offered SM warp into `slot` if enough ray ids are available: gives its active
+/// lanes, in order, ids from the free-id ring ([`super::IdPool`]), stores their records and
+/// returns the warp issue.
 fn admit<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
@@ -559,16 +562,17 @@ fn admit<D: NodeDatapath>(
     offered: &[Option<RayRecord>],
     out: &mut TreeletRtUnitOutputs,
 ) -> Option<WarpIssue> {
-    let need = offered.iter().flatten().count();
-    if (g.ids.len() as usize) < need {
+    let need = offered.iter().flatten().count() as u32;
+    if g.ids.available() < need {
         return None;
     }
     let mut lanes: Vec<Option<RayRecord>> = offered.to_vec();
     lanes.resize(u.cfg.warp_size as usize, None);
     let mut ids = vec![None; lanes.len()];
+    let mut given = g.ids.take(need);
     for (rec, id_out) in lanes.iter_mut().zip(&mut ids) {
         let Some(rec) = rec.as_mut() else { continue };
-        let id = g.ids.take()?;
+        let id = given.next()?;
         rec.ray_id = id;
         *id_out = Some(id);
         out.requests.push(TreeletRequest::RayStore {
@@ -618,34 +622,43 @@ pub(super) fn after_children<D: NodeDatapath>(
     out.resp_free = rt.resp_free;
     out.errors = rt.errors;
     out.first_error = rt.first_error;
-    if let Some(done) = &rt.released {
-        unpack(u, g, done, 0, out);
-    }
-    if let Some(done) = &rt.done {
-        unpack(u, g, done, u.cfg.warp_size, out);
-        g.uses[done.slot as usize] = SlotUse::Closing;
-        g.push_event(Event::WarpDone(done.slot));
+    // The free-id banks read the next window at the clock edge, before the ids given back in
+    // this cycle are written.
+    g.ids.read_window();
+    if rt.released.is_some() || rt.done.is_some() {
+        let mut back = Vec::new();
+        if let Some(done) = &rt.released {
+            unpack(u, g, done, 0, &mut back, out);
+        }
+        if let Some(done) = &rt.done {
+            unpack(u, g, done, u.cfg.warp_size, &mut back, out);
+            g.uses[done.slot as usize] = SlotUse::Closing;
+            g.push_event(Event::WarpDone(done.slot));
+        }
+        if let Err(in_use) = g.ids.give(&back) {
+            g.set_fault(GlueFault::IdsReturned {
+                returned: back.len() as u32,
+                in_use,
+            });
+        }
     }
     out.fault = g.fault.clone();
 }
 
-/// Returns finished rays (lane `l` at position `base + l`) and parks stopped ones. A parked
-/// ray is queued for the treelet of its next node (the record's, as the RT unit's completion
-/// ports carry it).
+/// Returns finished rays (lane `l` at position `base + l`), their ids appended to `back`, and
+/// parks stopped ones. A parked ray is queued for the treelet of its next node (the record's,
+/// as the RT unit's completion ports carry it).
 fn unpack<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
     done: &WarpDone,
     base: u32,
+    back: &mut Vec<u32>,
     out: &mut TreeletRtUnitOutputs,
 ) {
     let lanes = done.lanes.iter().enumerate();
     for (lane, (rec, outcome)) in lanes.filter_map(|(l, x)| Some((l as u32, x.as_ref()?))) {
         let id = rec.ray_id;
-        if !g.ids.in_use(id) {
-            g.set_fault(GlueFault::UnknownRay(id));
-            continue;
-        }
         match *outcome {
             RayOutcome::Finished => {
                 out.finished.push(FinishedRay {
@@ -653,7 +666,7 @@ fn unpack<D: NodeDatapath>(
                     ray: id,
                     hit: rec.hit,
                 });
-                g.ids.give(id);
+                back.push(id);
             }
             RayOutcome::AtBoundary { .. } => {
                 let treelet = rec.next_node().map_or(0, |n| u.rt.treelet_of(n.address));
@@ -691,7 +704,7 @@ pub(super) fn debug_state<D: NodeDatapath>(
                 .as_ref()
                 .map(|b| (b.kind, b.rays.len(), b.loading, b.last)))
             .collect::<Vec<_>>(),
-        u.cfg.max_rays - g.ids.len()
+        g.ids.in_use()
     )
 }
 

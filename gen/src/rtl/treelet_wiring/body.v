@@ -219,54 +219,18 @@ assign ctl_qt_pop_count = last_qt_done_q[N*RB +: CW];
 assign ctl_qt_pop_rays = last_qt_done_q[N*RB-1:0];
 
 // ---- 2: the children's inputs: events, fills, the issue of a complete fill or an SM warp -----
-// The lowest N free ray ids, in order (what an admitted warp's active lanes get): each 64-id
-// word's free ids counted, their running sums (base), and for lane k the word holding the k-th
-// free id and that id's rank in it.
-wire [NW*64-1:0] free_words = ${FREE_WORDS};
-reg [N*RB-1:0] low_ids;
-reg [(NW+1)*FCW-1:0] base;
-always @* begin : p_ids
-    integer wd, k, j;
-    /* verilator lint_off UNUSEDSIGNAL */
-    reg [31:0] id32;
-    reg [31:0] wsel;
-    reg [31:0] rank;
-    /* verilator lint_on UNUSEDSIGNAL */
-    reg [31:0] pc;
-    reg [6:0] c;
-    reg hit;
-    reg pick;
-    reg [63:0] word;
-    reg [FCW-1:0] start;
-    id32 = 32'd0;
-    base[FCW-1:0] = {FCW{1'b0}};
-    for (wd = 0; wd < NW; wd = wd + 1) begin
-        pc = 32'd0;
-        for (j = 0; j < 64; j = j + 1) pc = pc + {31'd0, free_words[wd*64 + j]};
-        base[(wd+1)*FCW +: FCW] = base[wd*FCW +: FCW] + pc[FCW-1:0];
-    end
-    for (k = 0; k < N; k = k + 1) begin
-        word = 64'd0;
-        start = {FCW{1'b0}};
-        wsel = 32'd0;
-        for (wd = 0; wd < NW; wd = wd + 1) begin
-            hit = {{(32-FCW){1'b0}}, base[wd*FCW +: FCW]} <= k
-                && k < {{(32-FCW){1'b0}}, base[(wd+1)*FCW +: FCW]};
-            word = word | ({64{hit}} & free_words[wd*64 +: 64]);
-            start = start | ({FCW{hit}} & base[wd*FCW +: FCW]);
-            wsel = wsel | (hit ? wd : 0);
-        end
-        rank = k - {{(32-FCW){1'b0}}, start};
-        c = rank[6:0];
-        low_ids[k*RB +: RB] = {RB{1'b0}};
-        for (j = 0; j < 64; j = j + 1) begin
-            id32 = {wsel[25:0], j[5:0]};
-            pick = word[j] && c == 7'd0;
-            low_ids[k*RB +: RB] = low_ids[k*RB +: RB] | ({RB{pick}} & id32[RB-1:0]);
-            c = c - {6'd0, word[j]};
-        end
-    end
-end
+// The free-id ring (IDB SRAM banks of IDWD words, one read and one write port each; position
+// p is word p >> IDBW of bank p % IDB): an admission takes the window's ids (the banks' read
+// data at the head, id_window_q of them), then fresh ones (id_fresh_q up).
+wire [IDB*RB-1:0] id_rdata;
+wire [31:0] win32 = {{(32-CW){1'b0}}, id_window_q};
+/* verilator lint_off UNUSEDSIGNAL */
+wire [31:0] N32 = N;
+/* verilator lint_on UNUSEDSIGNAL */
+wire [31:0] id_fresh32 = {{(32-FCW){1'b0}}, id_fresh_q};
+/* verilator lint_off UNUSEDSIGNAL */
+wire [31:0] id_avail = win32 + MR - id_fresh32;
+/* verilator lint_on UNUSEDSIGNAL */
 
 reg pop;
 reg [2*S-1:0] use_b;
@@ -293,7 +257,11 @@ reg [SB-1:0] admit_slot;
 reg [CW-1:0] need;
 reg [N*RB-1:0] admit_ids;
 always @* begin : p_children
-    integer s, k, l, c, n, placed, s2, j;
+    integer s, k, l, c, n, placed, s2;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] id_fresh;
+    reg [RB-1:0] id_pos;
+    /* verilator lint_on UNUSEDSIGNAL */
     reg found;
     reg got;
     // The first event leaves when the controller takes it (a warp done always does).
@@ -381,7 +349,7 @@ always @* begin : p_children
             end
         end
         for (l = 0; l < N; l = l + 1) need = need + {{(CW-1){1'b0}}, sm_active[l]};
-        if (found && {{(FCW > CW ? FCW - CW : 0){1'b0}}, need} <= free_count_q) begin
+        if (found && {{(32-CW){1'b0}}, need} <= id_avail) begin
             admit = 1'b1;
             use_b[admit_slot*2 +: 2] = U_INITIAL;
             issue_order = O_CONTINUE;
@@ -404,12 +372,13 @@ always @* begin : p_children
         if (got) bfill[s2*N +: N] = {N{1'b0}};
     end
     fault_unplaced = issue_build && placed != c;
-    // An admitted warp's active lanes take the lowest free ids in order.
+    // An admitted warp's active lanes take, in lane order, the window's ids, then fresh ones.
     k = 0;
     for (l = 0; l < N; l = l + 1) begin
-        for (j = 0; j < N; j = j + 1)
-            admit_ids[l*RB +: RB] = admit_ids[l*RB +: RB]
-                | ({RB{admit && sm_active[l] && j == k}} & low_ids[j*RB +: RB]);
+        id_pos = id_head_q + k[RB-1:0];
+        id_fresh = id_fresh32 + k - win32;
+        admit_ids[l*RB +: RB] = {RB{admit && sm_active[l]}}
+            & (k < win32 ? id_rdata[id_pos[IDBW-1:0]*RB +: RB] : id_fresh[RB-1:0]);
         k = k + {31'd0, sm_active[l]};
     end
 end
@@ -516,42 +485,31 @@ ${PASS_THROUGH}
 // ids; parked rays leave their records at their lane and queue an enqueue. Records are not
 // compacted: only the enqueues' ray ids and treelets are, for the event FIFO.
 // park_sel[p*N + l]: the p-th parked ray is the completed warp's lane l.
-wire [(1<<RB)-1:0] free_pad = ${FREE_PAD};
 reg [LW-1:0] nfin;
 reg [LW-1:0] npark;
 reg [2*N-1:0] fin_valid;
 reg [N-1:0] park_valid;
 reg [N*N-1:0] park_sel;
-reg fault_unknown;
 always @* begin : p_unpack
     integer l, j;
     reg [LW-1:0] c;
     reg [LW-1:0] p;
-    reg [RB-1:0] id;
-    reg known;
     reg act;
     reg park;
     c = {LW{1'b0}};
     p = {LW{1'b0}};
-    fault_unknown = 1'b0;
     fin_valid = {2*N{1'b0}};
     park_valid = {N{1'b0}};
     park_sel = {N*N{1'b0}};
     for (l = 0; l < N; l = l + 1) begin
-        id = rt_released_ray_id[l*RB +: RB];
-        known = {{(32-RB){1'b0}}, id} < MR && !free_pad[id];
         act = rt_released_valid && rt_released_mask[l];
-        fault_unknown = fault_unknown | (act && !known);
-        fin_valid[l] = act && known;
+        fin_valid[l] = act;
         c = c + {{(LW-1){1'b0}}, fin_valid[l]};
     end
     for (l = 0; l < N; l = l + 1) begin
-        id = rt_done_ray_id[l*RB +: RB];
-        known = {{(32-RB){1'b0}}, id} < MR && !free_pad[id];
         act = rt_done_valid && rt_done_active[l];
-        fault_unknown = fault_unknown | (act && !known);
-        fin_valid[N + l] = act && known && !rt_done_parked[l];
-        park = act && known && rt_done_parked[l];
+        fin_valid[N + l] = act && !rt_done_parked[l];
+        park = act && rt_done_parked[l];
         park_valid[l] = park;
         c = c + {{(LW-1){1'b0}}, fin_valid[N + l]};
         for (j = 0; j < N; j = j + 1)
@@ -628,19 +586,59 @@ ${UNPACK_PARKED}
     end
 endgenerate
 
-// The free-id bitmap's words after the cycle: the admitted rays' ids taken, the finished
-// rays' given back (an admitted id is free, a finished one is not: the two never meet).
-wire [NW*64-1:0] new_words;
+// The free-id ring's banks. The finished rays' ids (position j, the k-th finished) are written
+// at the tail, position tail + k: one write per bank. Every bank reads the position of the next
+// head's window it holds (the head moved by the ids taken); the ids written in this cycle are
+// read from the next one on (read-first), which id_window_d counts.
+wire [31:0] need32 = {{(32-CW){1'b0}}, need};
+wire [31:0] id_take = admit ? (need32 < win32 ? need32 : win32) : 32'd0;
+wire [RB-1:0] id_head_next = id_head_q + id_take[RB-1:0];
+/* verilator lint_off UNUSEDSIGNAL */
+wire [FCW-1:0] id_tail_full = {1'b0, id_head_q} + id_count_q;
+/* verilator lint_on UNUSEDSIGNAL */
+wire [RB-1:0] id_tail = id_tail_full[RB-1:0];
+// Ids given back: all the finished rays', unless more than are in use (a fault: none).
+wire [31:0] id_in_use = id_fresh32 + (admit ? need32 - id_take : 32'd0)
+    - ({{(32-FCW){1'b0}}, id_count_q} - id_take);
+wire fault_ids = {{(32-LW){1'b0}}, nfin} > id_in_use;
+reg [IDB-1:0] id_we;
+reg [IDB*RB-1:0] id_wdata;
+reg [IDB*RB-1:0] id_wpos;
+always @* begin : p_id_writes
+    integer j, b;
+    reg [RB-1:0] k;
+    reg [RB-1:0] pos;
+    id_we = {IDB{1'b0}};
+    id_wdata = {IDB*RB{1'b0}};
+    id_wpos = {IDB*RB{1'b0}};
+    k = {RB{1'b0}};
+    for (j = 0; j < 2*N; j = j + 1) begin
+        pos = id_tail + k;
+        for (b = 0; b < IDB; b = b + 1) begin
+            if (fin_valid[j] && !fault_ids && pos[IDBW-1:0] == b[IDBW-1:0]) begin
+                id_we[b] = 1'b1;
+                id_wdata[b*RB +: RB] = fin_id[j*RB +: RB];
+                id_wpos[b*RB +: RB] = pos;
+            end
+        end
+        k = k + {{(RB-1){1'b0}}, fin_valid[j]};
+    end
+end
 generate
-    for (gj = 0; gj < NW; gj = gj + 1) begin : g_free_ids
-        localparam integer WDI = gj;
-        localparam [RB-1:0] WD = WDI[RB-1:0];
-        treelet_rt_unit_wiring_ids #(.RB(RB), .NT(N), .NG(2*N)) ids (
-            .wd(WD), .take_valid(admit_lanes), .take_id(admit_ids), .give_valid(fin_valid),
-            .give_id(fin_id), .q(free_words[gj*64 +: 64]), .d(new_words[gj*64 +: 64]));
+    for (gj = 0; gj < IDB; gj = gj + 1) begin : g_id_bank
+        localparam integer BI = gj;
+        localparam [IDBW-1:0] BK = BI[IDBW-1:0];
+        // The window position this bank holds: the next head plus (bank - next head) % IDB.
+        wire [IDBW-1:0] off = BK - id_head_next[IDBW-1:0];
+        /* verilator lint_off UNUSEDSIGNAL */
+        wire [31:0] rpos = {{(32-RB){1'b0}}, id_head_next} + {{(32-IDBW){1'b0}}, off};
+        wire [RB-1:0] wpos = id_wpos[gj*RB +: RB];
+        /* verilator lint_on UNUSEDSIGNAL */
+        treelet_rt_unit_wiring_id_bank #(.RB(RB), .DEPTH(IDWD), .AW(IDAW)) bank (
+            .clk(clk), .rst(rst), .we(id_we[gj]), .waddr(${ID_WADDR}), .wdata(id_wdata[gj*RB +: RB]),
+            .raddr(${ID_RADDR}), .rdata(id_rdata[gj*RB +: RB]));
     end
 endgenerate
-${NEW_WORDS_PAD}
 // ---- Next registers ---------------------------------------------------------------------------
 always @* begin : p_next
     integer i, c, l, j, n;
@@ -649,8 +647,6 @@ always @* begin : p_next
     reg full;
     c = 0;
     l = 0;
-    free_ids_d = free_ids_q;
-    free_count_d = free_count_q;
     fault_d = fault_q;
     slot_use_d = use_b;
     if (rt_done_valid) slot_use_d[rt_done_slot*2 +: 2] = U_CLOSING;
@@ -694,21 +690,22 @@ always @* begin : p_next
         for (l = 0; l < N; l = l + 1)
             if (l < c) last_qt_done_d[l*RB +: RB] = qt_pop_rays[l*RB +: RB];
     end
-    // Ray ids: the admitted rays' are taken, the finished rays' given back (the bitmap's words
-    // from g_free_ids below).
-    free_ids_d = new_words[MR-1:0];
-    cnt = {{(32-FCW){1'b0}}, free_count_q};
-    if (admit) cnt = cnt - {{(32-CW){1'b0}}, need};
-    for (i = 0; i < 2*N; i = i + 1)
-        if (i < nfin) cnt = cnt + 1;
-    free_count_d = cnt[FCW-1:0];
-    fault_d = fault_q || fault_place || fault_fill || fault_unplaced || fault_unknown || full
+    // Ray ids: the window's and fresh ids taken, the finished rays' given back at the tail;
+    // the banks read the next window before this cycle's writes land.
+    id_head_d = id_head_next;
+    cnt = {{(32-FCW){1'b0}}, id_count_q} - id_take;
+    id_window_d = cnt < N ? cnt[CW-1:0] : N32[CW-1:0];
+    if (!fault_ids) cnt = cnt + {{(32-LW){1'b0}}, nfin};
+    id_count_d = cnt[FCW-1:0];
+    cnt = id_fresh32 + (admit ? need32 - id_take : 32'd0);
+    id_fresh_d = cnt[FCW-1:0];
+    fault_d = fault_q || fault_place || fault_fill || fault_unplaced || fault_ids || full
         || ct_error || qt_error;
 end
 assign fault = fault_d;
 
 // Register-only: an SM warp may be offered.
-assign sm_ready = admits(ctl_mode_reg) && free_count_q >= N && free_valid;
+assign sm_ready = admits(ctl_mode_reg) && id_avail >= N && free_valid;
 
 // The controller's events as its observer counts them, and the restart.
 assign count_ctl_initial = ctl_mode == M_INITIAL;
