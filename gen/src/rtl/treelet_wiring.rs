@@ -9,21 +9,22 @@
 //! RT unit's status ports, the tables' `accepts`/`ready`/`refill_waiting`, the controller's
 //! `mode_reg`); the children's inputs follow from the controller's outputs (`p_children`: the
 //! event taken, a fill's rays, the issue of a complete fill or the admission of an SM warp with
-//! the lowest free ray ids from `p_ids`; the ray-record requests in `p_requests`); the RT unit's
-//! released and completed lanes are unpacked (`p_unpack`); `p_next` gives the next registers.
+//! ray ids from the free-id ring's read data and fresh ids; the ray-record requests in
+//! `p_requests`); the RT unit's released and completed lanes are unpacked (`p_unpack`) and the
+//! finished rays' ids written at the ring's tail (`p_id_writes`, one
+//! `treelet_rt_unit_wiring_id_bank` SRAM per bank); `p_next` gives the next registers.
 //!
 //! Records (2,806 bits at the defaults) only move through one-hot crossbars: the always blocks
 //! compute selects from ids, ranks and counts, and one `treelet_rt_unit_wiring_pick` instance
 //! per destination (fill entry, issued lane; the parked rays' enqueues, ids and treelets only)
-//! moves the data; parked and finished rays leave at their lanes' positions, uncompacted; the
-//! free-id bitmap's words are updated by one `treelet_rt_unit_wiring_ids` instance each. No
+//! moves the data; parked and finished rays leave at their lanes' positions, uncompacted. No
 //! wide vector is indexed by a computed position, which is what keeps Yosys' front end and
 //! synthesis tractable (the first body, written with running indices into the records, was
 //! killed for memory at the defaults), and hierarchical synthesis builds each crossbar once.
 //!
 //! Every width comes from the wiring's description (its ports and registers) and is checked
 //! against the block's; ray ids on the RT unit's lanes are unique (the wiring gives them out),
-//! which the RTL relies on where the Rust kernel checks ids one lane at a time.
+//! which the RTL relies on.
 
 use super::{emit_full_module, emit_registers_as, emit_text, fill, lit, vector_range, DescInfo};
 use crate::compose::{wiring_desc, Instance};
