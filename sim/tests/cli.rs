@@ -649,7 +649,7 @@ fn cosim_of_the_wiring_matches_on_a_real_run() {
     let line = line_starting(&stdout, "treelet_rt_unit_wiring: ");
     assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
     let wiring = dir.join("treelet_rt_unit_wiring");
-    assert_same_names(&wiring, &["sm_valid", "rt_issue_ready", "free_count"]);
+    assert_same_names(&wiring, &["sm_valid", "rt_issue_ready", "id_count"]);
     let stimulus = line_starting(&stdout, "  stimulus: ");
     assert!(
         stimulus.contains("the wiring's ports in cycles 0..300 of SM 0"),
@@ -674,7 +674,7 @@ fn cosim_of_the_wiring_matches_on_a_real_run() {
             "dp_valid",
             "rt_lane_status_0_0",
             "ctl_mode",
-            "glue_free_count",
+            "glue_id_count",
         ],
     );
     assert!(dir
