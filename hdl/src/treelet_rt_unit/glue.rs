@@ -239,13 +239,13 @@ impl IdPool {
 
     /// Gives `ids` back at the ring's tail, in order; more than are in use is an error (the
     /// in-use count) and gives nothing back.
-    pub(super) fn give(&mut self, ids: &[u32]) -> Result<(), u32> {
+    pub(super) fn give(&mut self, ids: impl ExactSizeIterator<Item = u32>) -> Result<(), u32> {
         let n = ids.len() as u32;
         if n > self.in_use() {
             return Err(self.in_use());
         }
         let size = self.ring.len() as u32;
-        for (k, &id) in ids.iter().enumerate() {
+        for (k, id) in ids.enumerate() {
             self.ring[((self.head + self.count + k as u32) % size) as usize] = id;
         }
         self.count += n;
@@ -458,7 +458,7 @@ mod tests {
     fn cycle(p: &mut IdPool, need: u32, back: &[u32]) -> Vec<u32> {
         let got: Vec<u32> = p.take(need).collect();
         p.read_window();
-        p.give(back).expect("ids in use");
+        p.give(back.iter().copied()).expect("ids in use");
         got
     }
 
@@ -505,7 +505,7 @@ mod tests {
         let mut p = pool(8, 2);
         cycle(&mut p, 2, &[]);
         p.read_window();
-        assert_eq!(p.give(&[0, 1, 1]), Err(2));
+        assert_eq!(p.give([0, 1, 1].into_iter()), Err(2));
         assert_eq!((p.len(), p.in_use()), (6, 2), "nothing given back");
     }
 

@@ -626,16 +626,18 @@ pub(super) fn after_children<D: NodeDatapath>(
     // this cycle are written.
     g.ids.read_window();
     if rt.released.is_some() || rt.done.is_some() {
-        let mut back = Vec::new();
+        let first = out.finished.len();
         if let Some(done) = &rt.released {
-            unpack(u, g, done, 0, &mut back, out);
+            unpack(u, g, done, 0, out);
         }
         if let Some(done) = &rt.done {
-            unpack(u, g, done, u.cfg.warp_size, &mut back, out);
+            unpack(u, g, done, u.cfg.warp_size, out);
             g.uses[done.slot as usize] = SlotUse::Closing;
             g.push_event(Event::WarpDone(done.slot));
         }
-        if let Err(in_use) = g.ids.give(&back) {
+        // The finished rays' ids go back to the ring, in position order.
+        let back = &out.finished[first..];
+        if let Err(in_use) = g.ids.give(back.iter().map(|f| f.ray)) {
             g.set_fault(GlueFault::IdsReturned {
                 returned: back.len() as u32,
                 in_use,
@@ -645,15 +647,14 @@ pub(super) fn after_children<D: NodeDatapath>(
     out.fault = g.fault.clone();
 }
 
-/// Returns finished rays (lane `l` at position `base + l`), their ids appended to `back`, and
-/// parks stopped ones. A parked ray is queued for the treelet of its next node (the record's,
-/// as the RT unit's completion ports carry it).
+/// Returns finished rays (lane `l` at position `base + l`) and parks stopped ones. A parked
+/// ray is queued for the treelet of its next node (the record's, as the RT unit's completion
+/// ports carry it).
 fn unpack<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
     g: &mut GlueRegs,
     done: &WarpDone,
     base: u32,
-    back: &mut Vec<u32>,
     out: &mut TreeletRtUnitOutputs,
 ) {
     let lanes = done.lanes.iter().enumerate();
@@ -666,7 +667,6 @@ fn unpack<D: NodeDatapath>(
                     ray: id,
                     hit: rec.hit,
                 });
-                back.push(id);
             }
             RayOutcome::AtBoundary { .. } => {
                 let treelet = rec.next_node().map_or(0, |n| u.rt.treelet_of(n.address));
