@@ -97,7 +97,7 @@ fn every_block_with_rtl_is_priced() {
     assert!(r.other_stack_nand2_eq < r.rt_unit_logic.logic.flip_flop_nand2_eq);
     assert_eq!(r.storage_sram_mm2.len(), 2);
     // The queue table's arrays are macros with the ports it declares (1R+1W), priced by the
-    // storage model; so is the wiring's free-id ring (below); no other block keeps one.
+    // storage model; so is the wiring's free-id stack (below); no other block keeps one.
     assert_eq!(q.macros.len(), 2);
     for m in &q.macros {
         assert_eq!((m.read_ports, m.write_ports), (1, 1), "{m:?}");
@@ -111,24 +111,28 @@ fn every_block_with_rtl_is_priced() {
             .sum::<u64>(),
         q.sram_bits
     );
-    // The wiring's free-id ring: 2 x warp_size banks of 1R+1W, priced together.
+    // The wiring's free-id stack: 2 x warp_size banks of 1R+1W, priced together.
     let w = r
         .blocks
         .iter()
         .find(|b| b.synth.top == "treelet_rt_unit_wiring")
         .expect("the wiring");
     assert_eq!(w.macros.len(), 1);
-    let ring = &w.macros[0];
+    let ids_mem = &w.macros[0];
     assert_eq!(
-        (ring.name.as_str(), ring.banks, ring.depth * ring.banks),
+        (
+            ids_mem.name.as_str(),
+            ids_mem.banks,
+            ids_mem.depth * ids_mem.banks
+        ),
         ("free_ids", 2 * cfg.warp_size, cfg.max_rays)
     );
-    let bank_bits = u64::from(ring.depth) * u64::from(ring.width);
+    let bank_bits = u64::from(ids_mem.depth) * u64::from(ids_mem.width);
     assert_eq!(
-        ring.area_mm2[0].1,
-        f64::from(ring.banks) * sram_area_mm2(bank_bits, 45.0, Ports::OneROneW)
+        ids_mem.area_mm2[0].1,
+        f64::from(ids_mem.banks) * sram_area_mm2(bank_bits, 45.0, Ports::OneROneW)
     );
-    assert_eq!(w.sram_bits, u64::from(ring.banks) * bank_bits);
+    assert_eq!(w.sram_bits, u64::from(ids_mem.banks) * bank_bits);
     assert!(r
         .blocks
         .iter()

@@ -275,7 +275,7 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     // Two record ports (the composed block's replay below has the default one), so both
     // widths of the ray-record crossbar are co-simulated; records held on chip, so a fill's
     // records return together and use both; 256 ray ids (the fewest the CTA slots allow), so admitted warps take ids given back
-    // through the free-id ring.
+    // through the free-id stack.
     let mut settings = EIGHT_LANES.to_vec();
     settings.extend([
         "hw.record_bytes_per_cycle=64",
@@ -317,7 +317,7 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     let k = (trace.inputs.iter().position(|s| s.name == "ray_count")).expect("a ray_count port");
     let both = trace.rows().filter(|r| r[k] == 2).count();
     assert!(both > 0, "no cycle used both record ports");
-    // Admitted warps' ids include ids given out before: the ring's.
+    // Admitted warps' ids include ids given out before: popped from the free-id stack.
     let at = |name: &str| {
         (trace.inputs.iter().chain(&trace.outputs))
             .position(|s| s.name == name)
@@ -349,7 +349,7 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     assert_eq!(result.cycles, CYCLES as u64);
     assert_eq!(result.mismatches, 0, "{:?}", result.reported);
     // The check can fail: an admitted warp's fresh ids one too high.
-    let line = "id_fresh = id_fresh32 + k - win32;";
+    let line = "id_fresh = id_fresh32 + k - id_top;";
     assert!(rtl.contains(line));
     std::fs::write(&path, rtl.replace(line, &line.replace("+ k", "+ k + 1"))).unwrap();
     let short = record(&wiring, ports.into_iter().take(1000)).unwrap();

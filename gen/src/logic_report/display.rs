@@ -148,7 +148,7 @@ impl LogicReport {
         )?;
         total(
             f,
-            "treelet RT unit's wiring (fills of records, id ring, events)",
+            "treelet RT unit's wiring (fills of records, id stack, events)",
             &self.wiring_mm2,
         )?;
         total(f, "RT unit's control", &self.rt_unit_logic.logic.area_mm2)?;
@@ -219,7 +219,7 @@ impl fmt::Display for LogicReport {
             "(the count table's RTL keeps its entries in flip-flops, a CAM with scan ports: its \
              logic includes its storage; the wiring keeps each slot's fill of ray records in \
              flip-flops, a record written a cycle per record port into the lane it issues to, and \
-             its free ray ids in a ring of SRAM banks, a macro above)"
+             its free ray ids in a stack of SRAM banks, a macro above)"
         )?;
         for (name, a) in &self.storage_sram_mm2 {
             let list: Vec<String> = a

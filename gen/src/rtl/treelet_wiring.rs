@@ -9,9 +9,9 @@
 //! RT unit's status ports, the tables' `accepts`/`ready`/`refill_waiting`, the controller's
 //! `mode_reg`); the children's inputs follow from the controller's outputs (`p_children`: the
 //! event taken, a fill's rays, the issue of a complete fill or the admission of an SM warp with
-//! ray ids from the free-id ring's read data and fresh ids; the ray-record requests in
+//! ray ids popped from the free-id stack (its banks' read data or bypasses) and fresh ids; the ray-record requests in
 //! `p_requests`); the RT unit's released and completed lanes are unpacked (`p_unpack`) and the
-//! finished rays' ids written at the ring's tail (`p_id_writes`, one
+//! finished rays' ids pushed on the free-id stack (`p_id_writes`, one
 //! `treelet_rt_unit_wiring_id_bank` SRAM per bank); `p_next` gives the next registers.
 //!
 //! Records (2,806 bits at the defaults) only move through one-hot crossbars: the always blocks
@@ -84,11 +84,16 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     let cmw = info.port("ctl_ct_max_count", Dir::Out)?;
     let ctcw = info.port("ct_max_count", Dir::In)?;
     let fcw = info.reg("id_count")?;
-    let ring = info.mem("free_ids", &[("ray", rb)], 1)?;
-    let idb = ring.banks;
+    let ids_mem = info.mem("free_ids", &[("ray", rb)], 1)?;
+    let idb = ids_mem.banks;
     let idbw = clog2(idb as u64);
-    let idwd = ring.depth;
+    let idwd = ids_mem.depth;
     let idaw = clog2(idwd as u64).max(1);
+    let bypass = desc
+        .registers
+        .iter()
+        .find(|r| r.name == "id_bypass")
+        .ok_or_else(|| info.bad("the RTL needs a register bank `id_bypass`".into()))?;
     let evw = info.reg("event_count")?;
     let events = desc
         .registers
@@ -115,8 +120,8 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         && info.port("rt_status_traversing", Dir::In)? == s * cw
         && info.port("ctl_init_active", Dir::Out)? == cw
         && fcw == bits_for(mr as u64)
-        && info.reg("id_head")? == rb
-        && info.reg("id_window")? == cw
+        && bypass.width == rb + 1
+        && bypass.count == idb
         && idb.is_power_of_two()
         && idb >= 2
         && idb * idwd == mr
@@ -145,7 +150,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         format!("localparam TW = {tw};      // treelet number bits"),
         format!("localparam AB = {ab};      // address bits"),
         format!("localparam MR = {mr};      // ray ids (max_rays)"),
-        format!("localparam IDB = {idb};    // banks of the free-id ring"),
+        format!("localparam IDB = {idb};    // banks of the free-id stack"),
         format!("localparam IDBW = {idbw};  // bank index bits"),
         format!("localparam IDWD = {idwd};  // words per bank"),
         format!("localparam IDAW = {idaw};  // bank address bits (at least 1)"),
@@ -268,7 +273,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     Ok(out)
 }
 
-/// A free-id bank's word address from ring position vector `pos` (its bits above the bank
+/// A free-id bank's word address from stack position vector `pos` (its bits above the bank
 /// index; `1'b0` when each bank holds one word).
 fn bank_address(pos: &str, rb: u32, idbw: u32) -> String {
     if rb > idbw {
@@ -390,7 +395,7 @@ always @* begin : p_pick
 end
 endmodule
 
-// One bank of the wiring's free-id ring: an SRAM of DEPTH ray ids with one write port and one
+// One bank of the wiring's free-id stack: an SRAM of DEPTH ray ids with one write port and one
 // read port of read latency 1, read-first (a read and a write of one word in a cycle read the
 // old id); no reset (nothing is read before it is written).
 module treelet_rt_unit_wiring_id_bank #(

@@ -137,59 +137,55 @@ impl fmt::Display for GlueFault {
     }
 }
 
-/// The free ray ids of an SM (`max_rays` ray-record slots) as a ring in SRAM, with the ids
+/// The free ray ids of an SM (`max_rays` ray-record slots) as a stack in SRAM, with the ids
 /// never given out yet counted apart.
 ///
-/// Hardware: the ring is [`id_banks`] SRAM banks of `max_rays / banks` words of a ray id each,
-/// one read and one write port apiece (ring position `p` is word `p / banks` of bank
-/// `p % banks`, so the `warp_size` consecutive positions an admission takes and the up to
-/// `2 x warp_size` an unpacking gives back each meet a bank once). Registers: the ring's head
-/// and count, the first id never given out (`fresh`: ids from it up are free without being in
-/// the ring, so reset needs no initialisation sequence) and `window`, how many ids at the head
-/// the banks' read-data registers hold: every cycle the banks read the `warp_size` positions
-/// from the next head, so the ids given back in a cycle (written at the same clock edge) are
-/// read, and can be given out, from the cycle after next.
+/// Hardware: the stack is [`id_banks`] SRAM banks of `max_rays / banks` words of a ray id each,
+/// one read and one write port apiece (stack position `p` is word `p / banks` of bank
+/// `p % banks`, so the `warp_size` positions an admission pops and the up to `2 x warp_size`
+/// an unpacking pushes each meet a bank once). Registers: the stack's count, the first id
+/// never given out (`fresh`: ids from it up are free without being on the stack, so reset needs
+/// no initialisation sequence), and per bank a bypass (the id it was written in the previous
+/// cycle, if any). Every cycle each bank reads the one position of the top `2 x warp_size` that
+/// it holds; an id pushed in a cycle is read from its bank's bypass in the next. So the top
+/// `warp_size` ids are always readable: there is no lag, and an id given back in a cycle can be
+/// given out in the next.
 ///
-/// An admitted warp's active lanes take, in lane order, the window's ids and then fresh ones.
-/// The Rust model reads the window's ids from the ring itself: a position between the head and
-/// the tail is never written, so it still holds what the banks read.
+/// An admitted warp's active lanes take, in lane order, ids popped from the top, then fresh
+/// ones. Last in, first out keeps a reused id's ray-record and hit-record lines warm in the L2
+/// (docs/hardware.md, "Free ray ids in an SRAM stack").
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct IdPool {
-    /// The ring (`max_rays` positions); positions `head..head + count` hold free ids.
-    ring: Box<[u32]>,
-    /// Position of the oldest free id in the ring.
-    head: u32,
-    /// Free ids in the ring.
+    /// The stack (`max_rays` positions); positions `0..count` hold free ids, the top last.
+    stack: Box<[u32]>,
+    /// Free ids on the stack.
     count: u32,
     /// Ids from `fresh` up to `max_rays` have never been given out.
     fresh: u32,
-    /// Ids at the ring's head that the banks' read data holds (at most `lanes`).
-    window: u32,
-    /// Lanes of a warp (the window's size).
+    /// Lanes of a warp (at most this many ids are popped in a cycle).
     lanes: u32,
 }
 
-/// Banks of the free-id ring: `2 x warp_size` (what one cycle gives back), at most `max_rays`.
+/// Banks of the free-id stack: `2 x warp_size` (a warp popped and two pushed a cycle), at most
+/// `max_rays`.
 pub fn id_banks(cfg: &HwConfig) -> u32 {
     (2 * cfg.warp_size).min(cfg.max_rays)
 }
 
 impl IdPool {
-    /// Every id free, none in the ring.
+    /// Every id free, none on the stack.
     fn new(cfg: &HwConfig) -> Self {
         IdPool {
-            ring: vec![0; cfg.max_rays as usize].into(),
-            head: 0,
+            stack: vec![0; cfg.max_rays as usize].into(),
             count: 0,
             fresh: 0,
-            window: 0,
             lanes: cfg.warp_size,
         }
     }
 
-    /// Free ids (in the ring or never given out).
+    /// Free ids (on the stack or never given out).
     pub fn len(&self) -> u32 {
-        self.count + self.ring.len() as u32 - self.fresh
+        self.count + self.stack.len() as u32 - self.fresh
     }
 
     /// Whether no id is free.
@@ -197,9 +193,9 @@ impl IdPool {
         self.len() == 0
     }
 
-    /// Ids an admission may take this cycle: the window's and the fresh ones.
+    /// Ids an admission may take this cycle: the stack's top warp and the fresh ones.
     pub fn available(&self) -> u32 {
-        self.window + self.ring.len() as u32 - self.fresh
+        self.count.min(self.lanes) + self.stack.len() as u32 - self.fresh
     }
 
     /// Ids given out and not given back.
@@ -207,46 +203,32 @@ impl IdPool {
         self.fresh - self.count
     }
 
-    /// Whether the window lags the ring (it catches up in the next cycle).
-    pub(super) fn window_lags(&self) -> bool {
-        self.window < self.count.min(self.lanes)
-    }
-
-    /// Takes `need <= available()` ids, in order: the window's, then fresh ones.
+    /// Takes `need <= available()` ids, in order: popped from the top, then fresh ones.
     pub(super) fn take(&mut self, need: u32) -> impl Iterator<Item = u32> + '_ {
         debug_assert!(need <= self.available(), "take beyond the available ids");
-        let from_ring = need.min(self.window);
-        let (head, fresh, size) = (self.head, self.fresh, self.ring.len() as u32);
-        self.head = (head + from_ring) % size;
-        self.count -= from_ring;
-        self.window -= from_ring;
-        self.fresh += need - from_ring;
-        let ring = &self.ring;
+        let popped = need.min(self.count).min(self.lanes);
+        let (top, fresh) = (self.count, self.fresh);
+        self.count -= popped;
+        self.fresh += need - popped;
+        let stack = &self.stack;
         (0..need).map(move |k| {
-            if k < from_ring {
-                ring[((head + k) % size) as usize]
+            if k < popped {
+                stack[(top - 1 - k) as usize]
             } else {
-                fresh + k - from_ring
+                fresh + k - popped
             }
         })
     }
 
-    /// The clock edge's read: the window becomes the ids at the head written before this
-    /// cycle (call after the cycle's takes, before its gives).
-    pub(super) fn read_window(&mut self) {
-        self.window = self.count.min(self.lanes);
-    }
-
-    /// Gives `ids` back at the ring's tail, in order; more than are in use is an error (the
+    /// Pushes `ids` in order (after the cycle's pops); more than are in use is an error (the
     /// in-use count) and gives nothing back.
     pub(super) fn give(&mut self, ids: impl ExactSizeIterator<Item = u32>) -> Result<(), u32> {
         let n = ids.len() as u32;
         if n > self.in_use() {
             return Err(self.in_use());
         }
-        let size = self.ring.len() as u32;
         for (k, id) in ids.enumerate() {
-            self.ring[((self.head + self.count + k as u32) % size) as usize] = id;
+            self.stack[(self.count + k as u32) as usize] = id;
         }
         self.count += n;
         Ok(())
@@ -311,7 +293,7 @@ pub fn event_depth(cfg: &HwConfig) -> usize {
     cfg.warp_buffer_size as usize * (cfg.warp_size as usize + 1)
 }
 
-/// The wiring's memories: the free-id ring's banks ([`IdPool`]).
+/// The wiring's memories: the free-id stack's banks ([`IdPool`]).
 pub(super) fn memories(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<MemDesc> {
     let banks = id_banks(cfg);
     vec![MemDesc {
@@ -324,9 +306,9 @@ pub(super) fn memories(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> Vec<MemDesc> 
         read_latency: 1,
         fields: vec![("ray".into(), w.ray)],
         doc: format!(
-            "the free-id ring: position p is word p / {banks} of bank p % {banks}; each cycle \
-             every bank reads the position of the next head's warp-sized window that it holds \
-             and writes at most one id given back"
+            "the free-id stack: position p is word p / {banks} of bank p % {banks}; each cycle \
+             every bank reads the position of the top {banks} that it holds and writes at most \
+             one id given back"
         ),
     }]
 }
@@ -417,13 +399,10 @@ pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'st
         1,
         "the queue table's answer of the previous cycle",
     )
-    .one("id_head", w.ray, "the free-id ring's head position", |g| {
-        g.ids.head as u64
-    })
     .one(
         "id_count",
         bits_for(cfg.max_rays as u64),
-        "free ids in the ring",
+        "free ids on the stack",
         |g| g.ids.count as u64,
     )
     .one(
@@ -432,11 +411,12 @@ pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'st
         "the first id never given out",
         |g| g.ids.fresh as u64,
     )
-    .one(
-        "id_window",
-        lanes,
-        "ids at the ring's head in the banks' read data",
-        |g| g.ids.window as u64,
+    .untraced(
+        "id_bypass",
+        1 + w.ray,
+        id_banks(cfg),
+        "per free-id bank: the id written in the previous cycle (valid, id), read in place of \
+         the bank's read data",
     )
     .untraced("fault", 1, 1, "an inconsistency was found (sticky)");
     t
@@ -454,49 +434,41 @@ mod tests {
         })
     }
 
-    /// One cycle: `need` ids taken, the banks read, `back` given back.
+    /// One cycle: `need` ids taken, then `back` given back.
     fn cycle(p: &mut IdPool, need: u32, back: &[u32]) -> Vec<u32> {
         let got: Vec<u32> = p.take(need).collect();
-        p.read_window();
         p.give(back.iter().copied()).expect("ids in use");
         got
     }
 
     #[test]
-    fn fresh_ids_first_then_the_ring_in_order_from_the_cycle_after_next() {
+    fn fresh_ids_first_then_the_stack_last_in_first_out_from_the_next_cycle() {
         let mut p = pool(16, 4);
         assert_eq!((p.len(), p.available(), p.in_use()), (16, 16, 0));
         assert_eq!(cycle(&mut p, 4, &[]), [0, 1, 2, 3]);
-        // Ids 2 and 0 come back; in their cycle and the next the window is still empty.
+        // Ids 2 and 0 come back; they can be given out from the next cycle.
         assert_eq!(cycle(&mut p, 3, &[2, 0]), [4, 5, 6]);
-        assert_eq!((p.len(), p.available(), p.in_use()), (11, 9, 5));
-        assert!(p.window_lags());
-        assert_eq!(cycle(&mut p, 1, &[]), [7]);
-        assert!(!p.window_lags());
-        // From the cycle after next, the ring's ids in the order they came back, then fresh.
-        assert_eq!(p.available(), 2 + 8);
-        assert_eq!(cycle(&mut p, 3, &[5]), [2, 0, 8]);
-        assert_eq!(cycle(&mut p, 0, &[]), Vec::<u32>::new());
+        assert_eq!((p.len(), p.available(), p.in_use()), (11, 11, 5));
+        // The last id given back first, then the one before, then fresh.
+        assert_eq!(cycle(&mut p, 3, &[5]), [0, 2, 7]);
         assert_eq!(cycle(&mut p, 1, &[]), [5]);
-        assert_eq!(p.in_use(), 9);
+        assert_eq!((p.len(), p.in_use()), (8, 8));
     }
 
     #[test]
-    fn the_window_holds_at_most_a_warp_and_wraps_around_the_ring() {
+    fn a_cycle_pops_at_most_a_warp_of_the_stack() {
         let mut p = pool(8, 2);
-        assert_eq!(cycle(&mut p, 2, &[]), [0, 1]);
-        for _ in 0..3 {
+        for _ in 0..4 {
             cycle(&mut p, 2, &[]);
         }
         assert_eq!((p.available(), p.in_use()), (0, 8));
         cycle(&mut p, 0, &[7, 6, 5, 4, 3]);
-        cycle(&mut p, 0, &[]);
-        assert_eq!(p.available(), 2, "a warp's worth of the ring's 5");
-        // Taking ids moves the window on; positions wrap modulo max_rays.
-        assert_eq!(cycle(&mut p, 2, &[0, 1, 2]), [7, 6]);
-        assert_eq!(cycle(&mut p, 2, &[]), [5, 4]);
-        assert_eq!(cycle(&mut p, 2, &[]), [3, 0]);
-        assert_eq!(cycle(&mut p, 2, &[]), [1, 2]);
+        assert_eq!(p.available(), 2, "a warp's worth of the stack's 5");
+        // Pops come from the top; ids pushed in a cycle sit above what is left.
+        assert_eq!(cycle(&mut p, 2, &[0, 1, 2]), [3, 4]);
+        assert_eq!(cycle(&mut p, 2, &[]), [2, 1]);
+        assert_eq!(cycle(&mut p, 2, &[]), [0, 5]);
+        assert_eq!(cycle(&mut p, 2, &[]), [6, 7]);
         assert_eq!((p.len(), p.in_use()), (0, 8));
     }
 
@@ -504,7 +476,6 @@ mod tests {
     fn more_ids_back_than_in_use_is_refused_whole() {
         let mut p = pool(8, 2);
         cycle(&mut p, 2, &[]);
-        p.read_window();
         assert_eq!(p.give([0, 1, 1].into_iter()), Err(2));
         assert_eq!((p.len(), p.in_use()), (6, 2), "nothing given back");
     }

@@ -295,12 +295,10 @@ fn free_slot(g: &GlueRegs, rt: &RtUnitStatus, reserved: Option<u32>) -> Option<u
     })
 }
 
-/// Whether the wiring has work in the next cycle whatever the children do: events to report,
-/// a complete fill to issue, or ids given back for the free-id ring's window to read.
+/// Whether the wiring has work in the next cycle whatever the children do: events to report or
+/// a complete fill to issue.
 pub(super) fn glue_busy(g: &GlueRegs) -> bool {
-    !g.events.is_empty()
-        || g.builds.iter().flatten().any(|b| b.last && b.loading == 0)
-        || g.ids.window_lags()
+    !g.events.is_empty() || g.builds.iter().flatten().any(|b| b.last && b.loading == 0)
 }
 
 /// Sets the controller inputs that depend on whether the SM offers a warp: its waiting warps
@@ -553,7 +551,7 @@ fn finished_build(g: &mut GlueRegs, p: &Peeks) -> Option<WarpIssue> {
 }
 
 /// Takes an offered SM warp into `slot` if enough ray ids are available: gives its active
-/// lanes, in order, ids from the free-id ring ([`super::IdPool`]), stores their records and
+/// lanes, in order, ids from the free-id stack ([`super::IdPool`]), stores their records and
 /// returns the warp issue.
 fn admit<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
@@ -622,9 +620,6 @@ pub(super) fn after_children<D: NodeDatapath>(
     out.resp_free = rt.resp_free;
     out.errors = rt.errors;
     out.first_error = rt.first_error;
-    // The free-id banks read the next window at the clock edge, before the ids given back in
-    // this cycle are written.
-    g.ids.read_window();
     if rt.released.is_some() || rt.done.is_some() {
         let first = out.finished.len();
         if let Some(done) = &rt.released {
@@ -635,7 +630,7 @@ pub(super) fn after_children<D: NodeDatapath>(
             g.uses[done.slot as usize] = SlotUse::Closing;
             g.push_event(Event::WarpDone(done.slot));
         }
-        // The finished rays' ids go back to the ring, in position order.
+        // The finished rays' ids are pushed on the free-id stack, in position order.
         let back = &out.finished[first..];
         if let Err(in_use) = g.ids.give(back.iter().map(|f| f.ray)) {
             g.set_fault(GlueFault::IdsReturned {

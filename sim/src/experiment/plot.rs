@@ -342,14 +342,29 @@ impl Bars {
             .collect()
     }
 
-    /// The y axis: the fixed range, else one holding every bar, reference and zero.
+    /// The y axis: the fixed range, else one holding every bar, reference and zero, and every
+    /// error bar unless it reaches further than half that span beyond it (a wide interval of an
+    /// estimate from few samples is then cut at the axis).
     pub fn y_axis(&self) -> Axis {
         if let Some((lo, hi)) = self.y_range {
             return Axis::fixed(lo, hi);
         }
         let bars = self.spans();
-        let ends = bars.iter().flatten().flatten().flat_map(|&(a, b)| [a, b]);
-        let (lo, hi) = extent(ends.chain(self.references.iter().map(|r| r.value)));
+        let ends = || bars.iter().flatten().flatten().flat_map(|&(a, b)| [a, b]);
+        let refs = || self.references.iter().map(|r| r.value);
+        let (lo, hi) = extent(ends().chain(refs()));
+        let reach = 0.5 * (hi - lo);
+        let whiskers = (!self.stacked)
+            .then(|| {
+                self.series
+                    .iter()
+                    .flat_map(|s| s.intervals.iter().flatten())
+            })
+            .into_iter()
+            .flatten()
+            .flat_map(|&(a, b)| [a, b])
+            .filter(|v| v.is_finite() && *v >= lo - reach && *v <= hi + reach);
+        let (lo, hi) = extent(ends().chain(refs()).chain(whiskers));
         Axis::linear(lo, hi)
     }
 
@@ -619,6 +634,25 @@ mod tests {
         let y = fitted.y_axis();
         assert_eq!(y.lo, 0.0);
         assert!(y.hi >= 98.0 && y.hi <= 120.0, "{}", y.hi);
+        // An estimate's error bar above its bar widens the axis to hold it, unless it reaches
+        // further than half the span beyond it.
+        let with_interval = |high: f64| Bars {
+            series: vec![BarSeries {
+                intervals: vec![Some((0.9, high)), None],
+                name: "sampled".into(),
+                values: vec![Some(1.08), Some(1.13)],
+            }],
+            references: Vec::new(),
+            y_range: None,
+            stacked: false,
+            ..bars.clone()
+        };
+        assert!(with_interval(1.0).y_axis().hi < 1.3);
+        assert!(with_interval(1.45).y_axis().hi >= 1.45);
+        assert!(
+            with_interval(9.0).y_axis().hi < 2.0,
+            "a wild interval is cut"
+        );
         // Stacked shares sum to 100: the axis is 0..=100.
         let stacked = Bars {
             series: vec![

@@ -219,17 +219,23 @@ assign ctl_qt_pop_count = last_qt_done_q[N*RB +: CW];
 assign ctl_qt_pop_rays = last_qt_done_q[N*RB-1:0];
 
 // ---- 2: the children's inputs: events, fills, the issue of a complete fill or an SM warp -----
-// The free-id ring (IDB SRAM banks of IDWD words, one read and one write port each; position
-// p is word p >> IDBW of bank p % IDB): an admission takes the window's ids (the banks' read
-// data at the head, id_window_q of them), then fresh ones (id_fresh_q up).
+// The free-id stack (IDB SRAM banks of IDWD words, one read and one write port each; position
+// p is word p >> IDBW of bank p % IDB): an admission pops the top ids (at most a warp's, id_top),
+// then takes fresh ones (id_fresh_q up). A bank written in the previous cycle gives its bypass
+// register, else its read data (every bank reads the position of the top IDB that it holds).
 wire [IDB*RB-1:0] id_rdata;
-wire [31:0] win32 = {{(32-CW){1'b0}}, id_window_q};
-/* verilator lint_off UNUSEDSIGNAL */
-wire [31:0] N32 = N;
-/* verilator lint_on UNUSEDSIGNAL */
+reg [IDB*RB-1:0] id_top_data;
+always @* begin : p_id_top
+    integer b;
+    for (b = 0; b < IDB; b = b + 1)
+        id_top_data[b*RB +: RB] = id_bypass_q[b*(RB+1) + RB]
+            ? id_bypass_q[b*(RB+1) +: RB] : id_rdata[b*RB +: RB];
+end
+wire [31:0] id_count32 = {{(32-FCW){1'b0}}, id_count_q};
+wire [31:0] id_top = id_count32 < N ? id_count32 : N;
 wire [31:0] id_fresh32 = {{(32-FCW){1'b0}}, id_fresh_q};
 /* verilator lint_off UNUSEDSIGNAL */
-wire [31:0] id_avail = win32 + MR - id_fresh32;
+wire [31:0] id_avail = id_top + MR - id_fresh32;
 /* verilator lint_on UNUSEDSIGNAL */
 
 reg pop;
@@ -260,7 +266,7 @@ always @* begin : p_children
     integer s, k, l, c, n, placed, s2;
     /* verilator lint_off UNUSEDSIGNAL */
     reg [31:0] id_fresh;
-    reg [RB-1:0] id_pos;
+    reg [31:0] id_pos;
     /* verilator lint_on UNUSEDSIGNAL */
     reg found;
     reg got;
@@ -372,13 +378,14 @@ always @* begin : p_children
         if (got) bfill[s2*N +: N] = {N{1'b0}};
     end
     fault_unplaced = issue_build && placed != c;
-    // An admitted warp's active lanes take, in lane order, the window's ids, then fresh ones.
+    // An admitted warp's active lanes take, in lane order, ids popped from the stack's top
+    // (position count - 1 - k), then fresh ones.
     k = 0;
     for (l = 0; l < N; l = l + 1) begin
-        id_pos = id_head_q + k[RB-1:0];
-        id_fresh = id_fresh32 + k - win32;
+        id_pos = id_count32 - 1 - k;
+        id_fresh = id_fresh32 + k - id_top;
         admit_ids[l*RB +: RB] = {RB{admit && sm_active[l]}}
-            & (k < win32 ? id_rdata[id_pos[IDBW-1:0]*RB +: RB] : id_fresh[RB-1:0]);
+            & (k < id_top ? id_top_data[id_pos[IDBW-1:0]*RB +: RB] : id_fresh[RB-1:0]);
         k = k + {31'd0, sm_active[l]};
     end
 end
@@ -586,20 +593,19 @@ ${UNPACK_PARKED}
     end
 endgenerate
 
-// The free-id ring's banks. The finished rays' ids (position j, the k-th finished) are written
-// at the tail, position tail + k: one write per bank. Every bank reads the position of the next
-// head's window it holds (the head moved by the ids taken); the ids written in this cycle are
-// read from the next one on (read-first), which id_window_d counts.
+// The free-id stack's banks. The finished rays' ids (position j, the k-th finished) are pushed
+// after the ids popped, at position count - popped + k: one write per bank. Every bank reads the
+// position of the top IDB (from this cycle's count) that it holds; with the bypasses of the
+// banks written in this cycle, that covers the next cycle's top warp.
 wire [31:0] need32 = {{(32-CW){1'b0}}, need};
-wire [31:0] id_take = admit ? (need32 < win32 ? need32 : win32) : 32'd0;
-wire [RB-1:0] id_head_next = id_head_q + id_take[RB-1:0];
+wire [31:0] id_take = admit ? (need32 < id_top ? need32 : id_top) : 32'd0;
 /* verilator lint_off UNUSEDSIGNAL */
-wire [FCW-1:0] id_tail_full = {1'b0, id_head_q} + id_count_q;
+wire [31:0] id_tail32 = id_count32 - id_take;
 /* verilator lint_on UNUSEDSIGNAL */
-wire [RB-1:0] id_tail = id_tail_full[RB-1:0];
+wire [RB-1:0] id_tail = id_tail32[RB-1:0];
 // Ids given back: all the finished rays', unless more than are in use (a fault: none).
 wire [31:0] id_in_use = id_fresh32 + (admit ? need32 - id_take : 32'd0)
-    - ({{(32-FCW){1'b0}}, id_count_q} - id_take);
+    - (id_count32 - id_take);
 wire fault_ids = {{(32-LW){1'b0}}, nfin} > id_in_use;
 reg [IDB-1:0] id_we;
 reg [IDB*RB-1:0] id_wdata;
@@ -628,10 +634,10 @@ generate
     for (gj = 0; gj < IDB; gj = gj + 1) begin : g_id_bank
         localparam integer BI = gj;
         localparam [IDBW-1:0] BK = BI[IDBW-1:0];
-        // The window position this bank holds: the next head plus (bank - next head) % IDB.
-        wire [IDBW-1:0] off = BK - id_head_next[IDBW-1:0];
+        // The position of the top IDB this bank holds: count - 1 - (count - 1 - bank) % IDB.
+        wire [IDBW-1:0] off = id_count_q[IDBW-1:0] - {{(IDBW-1){1'b0}}, 1'b1} - BK;
         /* verilator lint_off UNUSEDSIGNAL */
-        wire [31:0] rpos = {{(32-RB){1'b0}}, id_head_next} + {{(32-IDBW){1'b0}}, off};
+        wire [31:0] rpos = id_count32 - 1 - {{(32-IDBW){1'b0}}, off};
         wire [RB-1:0] wpos = id_wpos[gj*RB +: RB];
         /* verilator lint_on UNUSEDSIGNAL */
         treelet_rt_unit_wiring_id_bank #(.RB(RB), .DEPTH(IDWD), .AW(IDAW)) bank (
@@ -690,15 +696,15 @@ always @* begin : p_next
         for (l = 0; l < N; l = l + 1)
             if (l < c) last_qt_done_d[l*RB +: RB] = qt_pop_rays[l*RB +: RB];
     end
-    // Ray ids: the window's and fresh ids taken, the finished rays' given back at the tail;
-    // the banks read the next window before this cycle's writes land.
-    id_head_d = id_head_next;
-    cnt = {{(32-FCW){1'b0}}, id_count_q} - id_take;
-    id_window_d = cnt < N ? cnt[CW-1:0] : N32[CW-1:0];
+    // Ray ids: popped and fresh ids taken, the finished rays' pushed; each bank's bypass holds
+    // what it was written.
+    cnt = id_tail32;
     if (!fault_ids) cnt = cnt + {{(32-LW){1'b0}}, nfin};
     id_count_d = cnt[FCW-1:0];
     cnt = id_fresh32 + (admit ? need32 - id_take : 32'd0);
     id_fresh_d = cnt[FCW-1:0];
+    for (i = 0; i < IDB; i = i + 1)
+        id_bypass_d[i*(RB+1) +: RB+1] = {id_we[i], id_wdata[i*RB +: RB]};
     fault_d = fault_q || fault_place || fault_fill || fault_unplaced || fault_ids || full
         || ct_error || qt_error;
 end

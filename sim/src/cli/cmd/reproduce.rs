@@ -100,6 +100,10 @@ pub fn run(args: &ReproduceArgs) -> anyhow::Result<()> {
     };
     let selected: Vec<&Point> = points.iter().collect();
     let failed = runner.run(&selected, &scenes, points.len(), "")?;
+    let cfgs = points.iter().map(|p| &p.config);
+    for note in crate::model::config::sample_points::notes_of_all(sample, cfgs) {
+        println!("note: {note}");
+    }
 
     // The figures, from the stored runs (with --set, looked up with the same overrides).
     let figures_dir = args.out.join("figures");

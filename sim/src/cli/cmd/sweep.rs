@@ -169,6 +169,10 @@ fn sweep(args: &SweepArgs, spec: &SweepSpec, results: &Path) -> anyhow::Result<(
         jobs: args.jobs,
         cache: &args.cache,
     };
+    let cfgs = selected.iter().map(|p| &p.config);
+    for note in crate::model::config::sample_points::notes_of_all(spec.sample.as_deref(), cfgs) {
+        println!("note: {note}");
+    }
     let failed = runner.run(&selected, &scenes, total, &slice)?;
     if !failed.is_empty() {
         bail!(

@@ -197,6 +197,23 @@ pub fn notes(spec: Option<&str>, cfg: &SimConfig) -> Vec<String> {
         .map_or_else(Vec::new, |p| p.notes(cfg))
 }
 
+/// The notes of `spec` for every configuration of a sweep or reproduce run, each distinct note
+/// once, in the order first met.
+pub fn notes_of_all<'a>(
+    spec: Option<&str>,
+    cfgs: impl IntoIterator<Item = &'a SimConfig>,
+) -> Vec<String> {
+    let mut all: Vec<String> = Vec::new();
+    for cfg in cfgs {
+        for note in notes(spec, cfg) {
+            if !all.contains(&note) {
+                all.push(note);
+            }
+        }
+    }
+    all
+}
+
 /// The named points as a table for `--help` and listings: name, settings, purpose and what
 /// each was last measured to give.
 pub fn points_help() -> String {
