@@ -86,6 +86,7 @@ fn sampled_sweeps_store_estimates_apart_and_resume() {
     assert_eq!(result_files(&results).len(), 2);
     let log = sweep(&dir, "results", Some("1/4x2"));
     assert!(log.contains("ok (sampled, 95% intervals)"), "{log}");
+    assert!(!log.contains("note:"), "an explicit fraction has no notes: {log}");
     // Two exact and two sampled results of the same points: different store entries.
     let files = result_files(&results);
     assert_eq!(files.len(), 4);
@@ -149,6 +150,15 @@ fn sampled_sweeps_store_estimates_apart_and_resume() {
             other => panic!("tier {other}"),
         }
     }
+
+    // A named point below the frame it was measured at: the note, once for both points.
+    let named = sweep(&dir, "named", Some("default"));
+    let notes: Vec<&str> = named.lines().filter(|l| l.starts_with("note:")).collect();
+    assert_eq!(notes.len(), 1, "{named}");
+    assert!(
+        notes[0].contains("measured at 1024x1024") && notes[0].contains("this frame is 64x64"),
+        "{named}"
+    );
 
     // The stored estimates pair replicates into the speedup `vtq compare --sample` prints.
     let compare = vtq(
