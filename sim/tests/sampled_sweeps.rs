@@ -86,7 +86,10 @@ fn sampled_sweeps_store_estimates_apart_and_resume() {
     assert_eq!(result_files(&results).len(), 2);
     let log = sweep(&dir, "results", Some("1/4x2"));
     assert!(log.contains("ok (sampled, 95% intervals)"), "{log}");
-    assert!(!log.contains("note:"), "an explicit fraction has no notes: {log}");
+    assert!(
+        !log.contains("note:"),
+        "an explicit fraction has no notes: {log}"
+    );
     // Two exact and two sampled results of the same points: different store entries.
     let files = result_files(&results);
     assert_eq!(files.len(), 4);

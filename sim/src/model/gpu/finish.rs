@@ -11,7 +11,7 @@ use crate::model::gpu::node::{Ctx, NodeSample, SmNode};
 use crate::model::gpu::output::SimOutput;
 use crate::model::gpu::rt::warp_costs::WarpCosts;
 use crate::model::gpu::rt::QueueObserver;
-use crate::model::gpu::sm::VirtTiming;
+use crate::model::gpu::stats::VirtTiming;
 use crate::model::gpu::stats::{Phases, QueueStats, Sample, SimStats, TailStats, WarpLanes};
 use crate::model::memory::{AccessClass, MemStats};
 
@@ -60,8 +60,8 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         .iter()
         .map(|n| n.rt.warp_simt().totals())
         .fold((0.0, 0u64), |(s, w), (a, b)| (s + a, w + b));
-    let rays_issued: u64 = nodes.iter().map(|n| n.rt.rays_issued).sum();
-    let rays_completed: u64 = nodes.iter().map(|n| n.rt.rays_completed).sum();
+    let rays_issued: u64 = nodes.iter().map(|n| n.rt.rays_issued()).sum();
+    let rays_completed: u64 = nodes.iter().map(|n| n.rt.rays_completed()).sum();
     let l2_misses = AccessClass::ALL
         .iter()
         .map(|&c| mem.class(c).l2_misses)
@@ -157,7 +157,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
             }
             costs.stats(warp_size)
         }),
-        max_access_queue: nodes.iter().map(|n| n.rt.max_queue).max().unwrap_or(0),
+        max_access_queue: nodes.iter().map(|n| n.rt.max_queue()).max().unwrap_or(0),
         queues: queue_stats(&queues, nodes),
         prefetcher_treelets: nodes
             .iter()

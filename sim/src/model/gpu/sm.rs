@@ -26,11 +26,10 @@ use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 use std::fmt::Write as _;
 
-use serde::Serialize;
-
 use crate::model::config::{RestorePolicy, SuspendPolicy, VirtualizationConfig};
 use crate::model::gpu::rt::TracedWarp;
 use crate::model::gpu::shader::PathThread;
+use crate::model::gpu::stats::VirtTiming;
 
 /// Where a warp is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -132,20 +131,6 @@ pub struct RayBudget {
     pub cta_threads: u64,
     /// When CTAs suspend and restore, and whether their state moves through memory.
     pub policy: VirtualizationConfig,
-}
-
-/// Where the time of suspended CTAs went, summed over suspends and resumes (cycles).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub struct VirtTiming {
-    /// From the start of a suspend to the CTA leaving its slot (its last state store accepted):
-    /// the slot is held while the state is stored.
-    pub save_cycles: u64,
-    /// From a suspended CTA being ready to resume (all its rays traced) to its getting a slot.
-    pub resume_wait_cycles: u64,
-    /// From getting a slot to running again (its last state load back): the restore latency a
-    /// resumed CTA waits for while holding its slot. 0 for a CTA whose state came back before
-    /// it got a slot (`virtualization.restore = "on_ready"`).
-    pub restore_cycles: u64,
 }
 
 /// What [`Sm::resume`] did with a CTA it put into a slot.

@@ -9,7 +9,6 @@ use vtq_hdl::treelet_rt_unit::TreeletCounts;
 use crate::model::bvh::BvhStats;
 use crate::model::energy::EnergyReport;
 use crate::model::gpu::rt::warp_costs::WarpCostStats;
-use crate::model::gpu::sm::VirtTiming;
 use crate::model::memory::MemStats;
 
 /// Keys of [`SimStats`] that depend on the host or on the engine's stepping mode rather than on
@@ -307,4 +306,18 @@ pub fn comparable_json(stats: &SimStats) -> serde_json::Value {
         }
     }
     v
+}
+
+/// Where the time of suspended CTAs went, summed over suspends and resumes (cycles).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct VirtTiming {
+    /// From the start of a suspend to the CTA leaving its slot (its last state store accepted):
+    /// the slot is held while the state is stored.
+    pub save_cycles: u64,
+    /// From a suspended CTA being ready to resume (all its rays traced) to its getting a slot.
+    pub resume_wait_cycles: u64,
+    /// From getting a slot to running again (its last state load back): the restore latency a
+    /// resumed CTA waits for while holding its slot. 0 for a CTA whose state came back before
+    /// it got a slot (`virtualization.restore = "on_ready"`).
+    pub restore_cycles: u64,
 }

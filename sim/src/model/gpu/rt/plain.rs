@@ -2,13 +2,20 @@
 //! responses fed into its FIFO, its request queued, a completed warp's hits returned; the
 //! treelet prefetcher (prefetch mode) observes it.
 
-use vtq_hdl::rt_unit::{RtCache, RtUnit, RtUnitInputs, RtUnitRegs, RtUnitStatus, WarpIssue};
+use vtq_hdl::rt_unit::{
+    RtCache, RtStats, RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs, RtUnitStatus,
+    WarpIssue,
+};
 use vtq_hdl::trace::BlockCycle;
+use vtq_hdl::{Block, HwConfig};
 
-use super::{rt_error, waveform, Hardware, RtCycle, RtPort, TracedWarp};
+use super::hardware::RtHardware;
+use super::waveform::Waveform;
+use super::{rt_error, tally, waveform, RtCycle, Shell, TracedWarp};
 use crate::model::geometry::Hit;
 use crate::model::gpu::datapath::{hit_from_hw, BvhDatapath};
 use crate::model::gpu::error::SimError;
+use crate::model::gpu::warp_simt::WarpSimt;
 use crate::model::workload::kind::TraceRay;
 
 /// The baseline RT unit with its registers, cache and input bundle.
@@ -25,19 +32,88 @@ pub(super) struct Plain<'a> {
     pub(super) status: RtUnitStatus,
 }
 
-impl<'a> RtPort<'a> {
+impl<'a> Plain<'a> {
+    /// The RT unit of `hw` and `params` after reset.
+    pub(super) fn new(
+        hw: &HwConfig,
+        params: RtUnitParams,
+        datapath: BvhDatapath<'a>,
+    ) -> Result<Self, RtUnitError> {
+        let unit = RtUnit::new(hw.clone(), params, datapath)?;
+        let regs = unit.reset();
+        let cache = RtCache::of(&regs);
+        let inputs = unit.idle_inputs();
+        Ok(Plain {
+            slot_warp: vec![None; hw.warp_buffer_size as usize],
+            status: unit.status(&regs, &cache, false),
+            unit,
+            regs,
+            cache,
+            inputs,
+        })
+    }
+}
+
+impl<'a> RtHardware<'a> for Plain<'a> {
+    fn issue_ready(&self) -> bool {
+        self.unit.issue_ready(&self.regs)
+    }
+
+    fn observe_warps(&self, simt: &mut WarpSimt, n: u64) {
+        simt.observe(n, self.unit.slot_lanes(&self.regs, &self.cache));
+    }
+
+    fn resident(&self) -> (u64, u64) {
+        tally(self.unit.slot_lanes(&self.regs, &self.cache))
+    }
+
+    fn traversing_rays(&self) -> u64 {
+        self.unit.traversing_rays(&self.regs, &self.cache)
+    }
+
+    fn idle_cycles(&self) -> u64 {
+        self.unit.idle_cycles(&self.regs, &self.cache)
+    }
+
+    fn skip(&mut self, n: u64, stats: &mut RtStats) {
+        let counts = self.unit.skip(&mut self.regs, &mut self.cache, n);
+        stats.add(&counts);
+    }
+
+    fn idle_step(&mut self, stats: &mut RtStats, w: &mut Waveform, c: u64) {
+        let regs = self.unit.reg_signals(&self.regs);
+        let inputs: RtUnitInputs = self.unit.idle_inputs();
+        let out = self
+            .unit
+            .step_cached(&mut self.regs, &mut self.cache, &inputs);
+        debug_assert!(
+            out.request.is_none() && out.done.is_none() && out.first_error.is_none(),
+            "an idle cycle did something (cycle {c})"
+        );
+        stats.add(&out.counts);
+        w.record_rt_unit(BlockCycle::new(&inputs, &out, regs));
+    }
+
+    fn debug_state(&self, common: &str) -> String {
+        format!(
+            "{}; warps {:?}; {common}",
+            self.unit.debug_state(&self.regs, &self.cache),
+            self.slot_warp
+        )
+    }
+
     /// A cycle `now` of the baseline RT unit.
-    pub(super) fn step_plain(
+    #[inline]
+    fn step(
         &mut self,
+        shell: &mut Shell<'a>,
         now: u64,
         sm: usize,
         warp: Option<(usize, &[Option<TraceRay>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
-        let record = self.recording(now);
-        let Hardware::Plain(p) = &mut self.hw else {
-            unreachable!("a plain port")
-        };
+        let record = shell.recording(now);
+        let p = self;
         let warp_size = p.unit.config().warp_size as usize;
         // A new warp goes to the lowest slot the status ports show free.
         let free = warp.and_then(|_| {
@@ -49,22 +125,19 @@ impl<'a> RtPort<'a> {
                 idx,
                 slot,
                 WarpIssue {
-                    order: self.order,
-                    lanes: self.warp_lanes(slot as usize, rays, warp_size),
+                    order: shell.order,
+                    lanes: shell.warp_lanes(slot as usize, rays, warp_size),
                     ..WarpIssue::default()
                 },
             )),
             _ => None,
-        };
-        let Hardware::Plain(p) = &mut self.hw else {
-            unreachable!("a plain port")
         };
         p.inputs.issue = None;
         if let Some((idx, slot, issue)) = issue {
             p.unit
                 .check_issue(&issue)
                 .map_err(|e| SimError::Rt { sm, source: e })?;
-            self.rays_issued += issue.lanes.iter().flatten().count() as u64;
+            shell.rays_issued += issue.lanes.iter().flatten().count() as u64;
             p.slot_warp[slot as usize] = Some(idx);
             p.inputs.issue = Some(issue);
             cycle.accepted = Some(idx);
@@ -75,15 +148,15 @@ impl<'a> RtPort<'a> {
         // a request pops a stack, or a warp enters or completes.
         let delivers = free < p.unit.params().resp_fifo_depth || p.inputs.issue.is_some();
         let ports = free.min(p.unit.params().resp_ports);
-        let n = (ports as usize).min(self.responses.len());
+        let n = (ports as usize).min(shell.responses.len());
         p.inputs.responses.clear();
-        p.inputs.responses.extend(self.responses.drain(..n));
+        p.inputs.responses.extend(shell.responses.drain(..n));
         let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
-        if let (Some(regs), Some(w)) = (regs_before, self.waveform.as_mut()) {
+        if let (Some(regs), Some(w)) = (regs_before, shell.waveform.as_mut()) {
             w.record_rt_unit(BlockCycle::new(&p.inputs, &out, regs));
         }
-        self.stats.add(&out.counts);
-        if let Some(pf) = self.prefetcher.as_mut() {
+        shell.stats.add(&out.counts);
+        if let Some(pf) = shell.prefetcher.as_mut() {
             let next = p.unit.next_addresses(&p.regs, &p.cache);
             if delivers || out.request.is_some() || out.done.is_some() {
                 pf.observe(next);
@@ -98,14 +171,14 @@ impl<'a> RtPort<'a> {
                 .copied()
                 .flatten()
                 .map(|w| (w, record.lane));
-            return Err(rt_error(sm, record, owner, self.address_bits));
+            return Err(rt_error(sm, record, owner, shell.address_bits));
         }
         let done = out.done.map(|done| {
             let warp = p.slot_warp[done.slot as usize].take();
             (warp, done)
         });
         if let Some(req) = out.request {
-            self.push_request(&req);
+            shell.push_request(&req);
         }
         if let Some((warp, done)) = done {
             let warp = warp.ok_or_else(|| SimError::Queues {
@@ -120,7 +193,7 @@ impl<'a> RtPort<'a> {
                 .iter()
                 .map(|l| l.as_ref().map(|(rec, _)| rec.hit.as_ref().map(hit_from_hw)))
                 .collect();
-            self.rays_completed += hits.iter().flatten().count() as u64;
+            shell.rays_completed += hits.iter().flatten().count() as u64;
             cycle.done = Some(TracedWarp { warp, hits });
         }
         Ok(cycle)

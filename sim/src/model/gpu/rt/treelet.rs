@@ -6,14 +6,17 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::mode::Mode;
-use vtq_hdl::rt_unit::{RtStats, CHUNK_BYTES};
+use vtq_hdl::rt_unit::{RtStats, RtUnitError, RtUnitParams, CHUNK_BYTES};
 use vtq_hdl::treelet_rt_unit::{
-    RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs,
-    TreeletRtUnitOutputs, TreeletRtUnitRegs, WarpKind,
+    RayLoad, TableLog, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
+    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs, WarpKind,
 };
+use vtq_hdl::{Block, HwConfig};
 
+use super::hardware::RtHardware;
 use super::warp_costs::WarpCosts;
-use super::{rt_error, Hardware, RtCycle, RtPort, TracedWarp, RAY_LOAD_TAG};
+use super::waveform::Waveform;
+use super::{rt_error, tally, RtCycle, Shell, TracedWarp, RAY_LOAD_TAG};
 use crate::model::config::TreeletPrefetch;
 use crate::model::geometry::Hit;
 use crate::model::gpu::datapath::{hit_from_hw, BvhDatapath};
@@ -21,7 +24,8 @@ use crate::model::gpu::error::SimError;
 use crate::model::gpu::queued_stacks::QueuedStacks;
 use crate::model::gpu::ray_memory::{RayStore, SpillFifo};
 use crate::model::gpu::stats::WarpLanes;
-use crate::model::memory::{AccessClass, MemRequest};
+use crate::model::gpu::warp_simt::WarpSimt;
+use crate::model::memory::{Acceptance, AccessClass, MemRequest, Response};
 use crate::model::workload::kind::TraceRay;
 
 /// The statistics observer beside one SM's treelet RT unit: its summed events, its tests per
@@ -75,10 +79,13 @@ impl QueueObserver {
         costs
     }
 
-    /// Adds the warp cycles and lanes of `counts` (one cycle's, or a skip's) to phase `phase`
-    /// (an index of [`phase_index`]).
-    pub(super) fn add_warp_cycles(&mut self, phase: usize, counts: &RtStats) {
-        self.lanes[phase].add(&WarpLanes::of(counts));
+    /// Counts the events of a stepped or skipped stretch of cycles (`counts`, the RT unit's
+    /// part also into the port's `stats`), its warp cycles and lanes in phase `phase` (an index
+    /// of [`phase_index`]): the one place a stretch is counted.
+    pub(super) fn count(&mut self, phase: usize, counts: &TreeletCounts, stats: &mut RtStats) {
+        stats.add(&counts.rt);
+        self.counts.add(counts);
+        self.lanes[phase].add(&WarpLanes::of(&counts.rt));
     }
 }
 
@@ -160,7 +167,47 @@ pub(super) struct Treelet<'a> {
     pub(super) record_loads: VecDeque<(u64, u32, u32)>,
 }
 
-impl Treelet<'_> {
+impl<'a> Treelet<'a> {
+    /// The treelet RT unit of `hw`, `params` and `setup` after reset, with its surroundings
+    /// empty.
+    pub(super) fn new(
+        hw: &HwConfig,
+        params: RtUnitParams,
+        datapath: BvhDatapath<'a>,
+        setup: QueueSetup,
+    ) -> Result<Self, RtUnitError> {
+        let params = TreeletRtUnitParams {
+            rt: params,
+            features: setup.features,
+            ray_base: setup.ray_base,
+        };
+        let unit = TreeletRtUnit::new(hw.clone(), params, datapath)?;
+        let regs = unit.reset();
+        let cache = TreeletRtUnitCache::of(&regs);
+        Ok(Treelet {
+            inputs: unit.idle_inputs(),
+            outputs: unit.empty_outputs(),
+            unit,
+            regs,
+            cache,
+            store: RayStore::new(hw.max_rays),
+            spill_fifo: SpillFifo::default(),
+            arrived: Vec::new(),
+            owners: vec![None; hw.max_rays as usize],
+            pending: BTreeMap::new(),
+            completed: VecDeque::new(),
+            fault: None,
+            stacks: setup
+                .stack_base
+                .map(|base| QueuedStacks::new(base, hw.max_rays, hw.stack_depth)),
+            observer: QueueObserver::default(),
+            prefetch: setup.prefetch,
+            parked_at: vec![0; hw.max_rays as usize],
+            record_latency: setup.record_latency,
+            record_loads: VecDeque::new(),
+        })
+    }
+
     /// The record of ray `ray`, loaded for the fill in slot `slot`, arrived: taken from the
     /// store and handed to the next step (after its stack chunks, when they move through
     /// memory).
@@ -183,40 +230,170 @@ impl Treelet<'_> {
     }
 }
 
-impl<'a> RtPort<'a> {
+impl<'a> RtHardware<'a> for Treelet<'a> {
+    fn issue_ready(&self) -> bool {
+        self.unit.sm_ready(&self.regs, &self.cache)
+    }
+
+    fn observe_warps(&self, simt: &mut WarpSimt, n: u64) {
+        simt.observe(n, self.unit.slot_lanes(&self.regs, &self.cache));
+    }
+
+    fn resident(&self) -> (u64, u64) {
+        tally(self.unit.slot_lanes(&self.regs, &self.cache))
+    }
+
+    fn traversing_rays(&self) -> u64 {
+        self.unit.traversing_rays(&self.regs, &self.cache)
+    }
+
+    fn idle_cycles(&self) -> u64 {
+        self.unit.idle_cycles(&self.regs, &self.cache)
+    }
+
+    fn skip(&mut self, n: u64, stats: &mut RtStats) {
+        // The controller is not evaluated in idle cycles: its mode holds throughout.
+        let phase = phase_index(self.unit.mode(&self.regs));
+        let kind = self
+            .unit
+            .warp_kind(&self.regs)
+            .unwrap_or(self.observer.cell.1);
+        self.observer.enter_cell((phase, kind), stats);
+        let counts = self.unit.skip(&mut self.regs, &mut self.cache, n);
+        self.observer.count(phase, &counts, stats);
+    }
+
+    fn idle_step(&mut self, stats: &mut RtStats, w: &mut Waveform, c: u64) {
+        let inputs = TreeletRtUnitInputs {
+            spill_head: self.spill_fifo.head(),
+            ..self.unit.idle_inputs()
+        };
+        self.cache.probe(true);
+        let phase = phase_index(self.unit.mode(&self.regs));
+        let out = self
+            .unit
+            .step_cached(&mut self.regs, &mut self.cache, &inputs);
+        let probe = self.cache.take_probe();
+        self.cache.probe(false);
+        debug_assert!(
+            out.requests.is_empty()
+                && out.finished.is_empty()
+                && out.parked.is_empty()
+                && out.spill_push.is_none()
+                && !out.spill_pop
+                && out.preload.is_none()
+                && out.sm_accepted.is_none(),
+            "an idle cycle did something (cycle {c})"
+        );
+        self.observer.count(phase, &out.counts, stats);
+        w.record_treelet(&inputs, &out, probe);
+    }
+
+    fn debug_state(&self, common: &str) -> String {
+        format!(
+            "{}; {common}; spill FIFO {}; SM warps waiting for rays {}, returning {}; ray \
+             records waiting for their stacks {}",
+            self.unit.debug_state(&self.regs),
+            self.spill_fifo.len(),
+            self.pending.len(),
+            self.completed.len(),
+            self.stacks.as_ref().map_or(0, QueuedStacks::held)
+        )
+    }
+
+    fn records_due(&mut self, now: u64) {
+        while let Some(&(due, slot, ray)) = self.record_loads.front() {
+            if due > now {
+                break;
+            }
+            self.record_loads.pop_front();
+            self.record_arrived(slot, ray);
+        }
+    }
+
+    fn ray_response(&mut self, r: &Response) {
+        match r.class {
+            AccessClass::RayRecord => {
+                let slot = (r.tag & 0xFFFF) as u32;
+                let ray = ((r.tag & !RAY_LOAD_TAG) >> 16) as u32;
+                self.record_arrived(slot, ray);
+            }
+            AccessClass::RayStack => {
+                if let Some(load) = self.stacks.as_mut().and_then(|q| q.chunk_arrived(r.tag)) {
+                    self.arrived.push(load);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn has_work(&self) -> bool {
+        !self.completed.is_empty() || !self.arrived.is_empty()
+    }
+
+    fn next_event(&self, now: u64) -> Option<u64> {
+        let soon = self.has_work().then_some(now + 1);
+        let record = self.record_loads.front().map(|&(due, ..)| due.max(now + 1));
+        soon.into_iter().chain(record).min()
+    }
+
+    fn bvh_access_accepted(&mut self, acceptance: &Acceptance) {
+        let (phase, kind) = self.observer.cell;
+        self.observer
+            .costs
+            .cell(phase, kind)
+            .count_bvh_access(acceptance);
+    }
+
+    fn warp_costs(&self, stats: &RtStats) -> Option<WarpCosts> {
+        Some(self.observer.warp_costs(stats))
+    }
+
+    fn queue_stats(&self) -> Option<&QueueObserver> {
+        Some(&self.observer)
+    }
+
+    fn queued_stack_chunks(&self) -> (u64, u64) {
+        self.stacks.as_ref().map_or((0, 0), |q| (q.stores, q.loads))
+    }
+
+    fn record_tables(&mut self, cycles: usize) -> bool {
+        self.cache.record_tables(cycles, self.unit.params());
+        true
+    }
+
+    fn take_table_log(&mut self) -> Option<TableLog> {
+        self.cache.take_table_log()
+    }
+
     /// A cycle `now` of the treelet RT unit (out of line: the plain RT unit's step stays small
     /// enough to inline into the node's visit).
     #[inline(never)]
-    pub(super) fn step_treelet(
+    fn step(
         &mut self,
+        shell: &mut Shell<'a>,
         now: u64,
         sm: usize,
         warp: Option<(usize, &[Option<TraceRay>])>,
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
-        let record = self.recording(now);
-        let lanes = match (&self.hw, warp) {
-            (Hardware::Treelet(t), Some((_, rays))) => {
-                let warp_size = t.unit.config().warp_size as usize;
-                Some(self.warp_lanes(0, rays, warp_size))
-            }
-            _ => None,
-        };
-        let Hardware::Treelet(t) = &mut self.hw else {
-            unreachable!("a treelet port")
-        };
-        let t = &mut **t;
+        let record = shell.recording(now);
+        let lanes = warp.map(|(_, rays)| {
+            let warp_size = self.unit.config().warp_size as usize;
+            shell.warp_lanes(0, rays, warp_size)
+        });
+        let t = self;
         if let Some(reason) = t.fault.take() {
             return Err(SimError::Queues { sm, reason });
         }
         let rt = t.unit.rt_unit();
         let ports = t.unit.resp_free(&t.regs).min(rt.params().resp_ports);
-        let n = (ports as usize).min(self.responses.len());
+        let n = (ports as usize).min(shell.responses.len());
         // The input bundle is reused every cycle, so feeding it does not allocate.
         let inputs = &mut t.inputs;
         inputs.sm_warp = lanes;
         inputs.responses.clear();
-        inputs.responses.extend(self.responses.drain(..n));
+        inputs.responses.extend(shell.responses.drain(..n));
         // At most one record per record port a cycle; the rest wait in the response queue.
         inputs.ray_records.clear();
         let records = (t.unit.config().record_ports() as usize).min(t.arrived.len());
@@ -232,23 +409,21 @@ impl<'a> RtPort<'a> {
         let kind = kind_before
             .or_else(|| t.unit.warp_kind(&t.regs))
             .unwrap_or(t.observer.cell.1);
-        t.observer.enter_cell((during, kind), &self.stats);
+        t.observer.enter_cell((during, kind), &shell.stats);
         let out = &t.outputs;
-        if let (true, Some(w)) = (record, self.waveform.as_mut()) {
+        if let (true, Some(w)) = (record, shell.waveform.as_mut()) {
             w.record_treelet(inputs, out, t.cache.take_probe());
             t.cache.probe(false);
         }
-        self.stats.add(&out.counts.rt);
         let obs = &mut t.observer;
-        obs.counts.add(&out.counts);
-        obs.add_warp_cycles(during, &out.counts.rt);
+        obs.count(during, &out.counts, &mut shell.stats);
         obs.tests[phase_index(t.unit.mode(&t.regs))] += out.counts.rt.total_tests();
         let (queues, above) = t.unit.queues(&t.regs);
         obs.max_queues = obs.max_queues.max(queues as u64);
         obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
         if let Some(record) = out.first_error {
             let owner = t.owners.get(record.ray_id as usize).copied().flatten();
-            return Err(rt_error(sm, record, owner, self.address_bits));
+            return Err(rt_error(sm, record, owner, shell.address_bits));
         }
         if let Some(fault) = &out.fault {
             return Err(SimError::Queues {
@@ -258,7 +433,7 @@ impl<'a> RtPort<'a> {
         }
         if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
             let active = ids.iter().flatten().count();
-            self.rays_issued += active as u64;
+            shell.rays_issued += active as u64;
             t.observer.costs.cell(during, WarpKind::Sm).rays_in += active as u64;
             for (lane, id) in ids.iter().enumerate() {
                 if let Some(id) = id {
@@ -281,7 +456,7 @@ impl<'a> RtPort<'a> {
                 *at = now;
             }
             if let Some(q) = t.stacks.as_mut() {
-                self.requests.extend(q.park(r));
+                shell.requests.extend(q.park(r));
             }
             t.store.park(r.clone());
         }
@@ -291,7 +466,7 @@ impl<'a> RtPort<'a> {
         if out.spill_pop {
             t.spill_fifo.pop();
         }
-        if let Some(p) = self.prefetcher.as_mut() {
+        if let Some(p) = shell.prefetcher.as_mut() {
             if let Some(treelet) = out.preload {
                 p.queue_treelet(treelet);
             }
@@ -318,7 +493,7 @@ impl<'a> RtPort<'a> {
                 *h = Some(f.hit.as_ref().map(hit_from_hw));
             }
             *left -= 1;
-            self.rays_completed += 1;
+            shell.rays_completed += 1;
             if *left == 0 {
                 let done = t.pending.remove(&warp).expect("present");
                 t.completed.push_back(TracedWarp {
@@ -349,11 +524,11 @@ impl<'a> RtPort<'a> {
                     let due = now + u64::from(onchip.unwrap_or(0));
                     record_loads.push((due, slot, ray));
                     if let Some(q) = stacks.as_mut() {
-                        self.requests.extend(q.load(ray));
+                        shell.requests.extend(q.load(ray));
                     }
                 }
                 TreeletRequest::RayLoad { slot, ray, address } => {
-                    self.requests.push_back(
+                    shell.requests.push_back(
                         MemRequest::load(
                             address,
                             CHUNK_BYTES,
@@ -363,22 +538,20 @@ impl<'a> RtPort<'a> {
                         .bypassing_l1(),
                     );
                     if let Some(q) = stacks.as_mut() {
-                        self.requests.extend(q.load(ray));
+                        shell.requests.extend(q.load(ray));
                     }
                 }
                 TreeletRequest::RayStore { .. } if onchip.is_some() => {}
-                TreeletRequest::RayStore { address, .. } => self.requests.push_back(
+                TreeletRequest::RayStore { address, .. } => shell.requests.push_back(
                     MemRequest::store(address, CHUNK_BYTES, AccessClass::RayRecord, 0)
                         .bypassing_l1(),
                 ),
-                TreeletRequest::Rt(req) => self.push_request(&req),
+                TreeletRequest::Rt(req) => shell.push_request(&req),
             }
         }
-        if let Hardware::Treelet(t) = &mut self.hw {
-            t.record_loads.extend(record_loads);
-            t.stacks = stacks;
-            t.outputs.requests = requests;
-        }
+        t.record_loads.extend(record_loads);
+        t.stacks = stacks;
+        t.outputs.requests = requests;
         Ok(cycle)
     }
 }

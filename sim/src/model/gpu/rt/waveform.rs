@@ -22,12 +22,12 @@ use std::io::BufWriter;
 use std::ops::Range;
 use std::path::PathBuf;
 
-use vtq_hdl::rt_unit::{RtUnit, RtUnitInputs, RtUnitRegs};
+use vtq_hdl::rt_unit::{RtUnit, RtUnitRegs};
 use vtq_hdl::trace::{BlockCycle, ScopedSignals, TraceError, VcdStream};
 use vtq_hdl::treelet_rt_unit::{ProbeCycle, TreeletRtUnitInputs, TreeletRtUnitOutputs};
 use vtq_hdl::{Block, Signal, Signals};
 
-use super::{Hardware, RtPort};
+use super::{RtPort, Shell};
 use crate::model::gpu::datapath::BvhDatapath;
 use crate::model::gpu::error::SimError;
 
@@ -244,17 +244,12 @@ pub(super) fn rt_unit_regs(unit: &RtUnit<BvhDatapath<'_>>, regs: &RtUnitRegs) ->
 impl RtPort<'_> {
     /// Records SM `sm`'s RT unit into `waveform` over its window.
     pub fn attach_waveform(&mut self, waveform: Waveform) {
-        self.waveform = Some(Box::new(waveform));
+        self.shell.waveform = Some(Box::new(waveform));
     }
 
     /// The waveform, if one is attached.
     pub fn take_waveform(&mut self) -> Option<Waveform> {
-        self.waveform.take().map(|w| *w)
-    }
-
-    /// Whether cycle `c` is recorded.
-    pub(super) fn recording(&self, c: u64) -> bool {
-        self.waveform.as_ref().is_some_and(|w| w.covers(c))
+        self.shell.waveform.take().map(|w| *w)
     }
 
     /// Catches the registers up to the start of cycle `now` over idle cycles, stepping those in
@@ -263,10 +258,10 @@ impl RtPort<'_> {
     #[cold]
     #[inline(never)]
     pub(super) fn catch_up_recorded(&mut self, now: u64) {
-        let Some(window) = self.waveform.as_ref().map(|w| w.window.clone()) else {
+        let Some(window) = self.shell.waveform.as_ref().map(|w| w.window.clone()) else {
             return self.skip_to(now);
         };
-        let lo = self.at.max(window.start).min(now);
+        let lo = self.shell.at.max(window.start).min(now);
         let hi = now.min(window.end).max(lo);
         self.skip_to(lo);
         for c in lo..hi {
@@ -274,58 +269,28 @@ impl RtPort<'_> {
         }
         self.skip_to(now);
         // A step's dry run may know more than a skip: the wake cycle follows the registers.
-        self.wake = self.at.saturating_add(self.idle_cycles());
+        self.shell.wake = self.shell.at.saturating_add(self.idle_cycles());
     }
 
     /// One idle cycle `c` (`c == at`) stepped and recorded: no warp offered, no response, no
     /// ray record (the queue table's spill FIFO head is presented as always).
     fn idle_step(&mut self, c: u64) {
-        debug_assert_eq!(c, self.at, "idle steps follow the registers");
-        if self.waveform.is_some() {
+        debug_assert_eq!(c, self.shell.at, "idle steps follow the registers");
+        if self.shell.waveform.is_some() {
             self.observe_warps(1);
         }
-        self.at = c + 1;
-        let Some(w) = self.waveform.as_mut() else {
+        self.shell.at = c + 1;
+        let Some(w) = self.shell.waveform.as_mut() else {
             return;
         };
         w.idle_steps += 1;
-        match &mut self.hw {
-            Hardware::Plain(p) => {
-                let regs = p.unit.reg_signals(&p.regs);
-                let inputs: RtUnitInputs = p.unit.idle_inputs();
-                let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &inputs);
-                debug_assert!(
-                    out.request.is_none() && out.done.is_none() && out.first_error.is_none(),
-                    "an idle cycle did something (cycle {c})"
-                );
-                self.stats.add(&out.counts);
-                w.record_rt_unit(BlockCycle::new(&inputs, &out, regs));
-            }
-            Hardware::Treelet(t) => {
-                let inputs = TreeletRtUnitInputs {
-                    spill_head: t.spill_fifo.head(),
-                    ..t.unit.idle_inputs()
-                };
-                t.cache.probe(true);
-                let phase = super::treelet::phase_index(t.unit.mode(&t.regs));
-                let out = t.unit.step_cached(&mut t.regs, &mut t.cache, &inputs);
-                let probe = t.cache.take_probe();
-                t.cache.probe(false);
-                debug_assert!(
-                    out.requests.is_empty()
-                        && out.finished.is_empty()
-                        && out.parked.is_empty()
-                        && out.spill_push.is_none()
-                        && !out.spill_pop
-                        && out.preload.is_none()
-                        && out.sm_accepted.is_none(),
-                    "an idle cycle did something (cycle {c})"
-                );
-                self.stats.add(&out.counts.rt);
-                t.observer.counts.add(&out.counts);
-                t.observer.add_warp_cycles(phase, &out.counts.rt);
-                w.record_treelet(&inputs, &out, probe);
-            }
-        }
+        self.hw.idle_step(&mut self.shell.stats, w, c);
+    }
+}
+
+impl Shell<'_> {
+    /// Whether cycle `c` is recorded.
+    pub(super) fn recording(&self, c: u64) -> bool {
+        self.waveform.as_ref().is_some_and(|w| w.covers(c))
     }
 }
