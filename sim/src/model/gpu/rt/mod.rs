@@ -37,7 +37,7 @@ mod plain;
 mod treelet;
 pub mod warp_costs;
 
-use hardware::RtHardware;
+use hardware::{Kind, RtHardware};
 use plain::Plain;
 use treelet::Treelet;
 pub use treelet::{QueueObserver, QueueSetup};
@@ -104,7 +104,7 @@ fn tally(slots: impl Iterator<Item = Option<u32>>) -> (u64, u64) {
 /// its surroundings ([`Shell`]).
 #[derive(Debug)]
 pub struct RtPort<'a> {
-    hw: Box<dyn RtHardware<'a> + 'a>,
+    hw: Kind<'a>,
     shell: Shell<'a>,
 }
 
@@ -160,9 +160,9 @@ impl<'a> RtPort<'a> {
     ) -> Result<Self, RtUnitError> {
         let datapath = BvhDatapath::new(bvh);
         // The design's kind of RT hardware: one implementation of [`RtHardware`] each.
-        let hw_box: Box<dyn RtHardware<'a> + 'a> = match queues {
-            None => Box::new(Plain::new(hw, params, datapath)?),
-            Some(setup) => Box::new(Treelet::new(hw, params, datapath, setup)?),
+        let hw_box = match queues {
+            None => Kind::Plain(Box::new(Plain::new(hw, params, datapath)?)),
+            Some(setup) => Kind::Treelet(Box::new(Treelet::new(hw, params, datapath, setup)?)),
         };
         let wake = hw_box.idle_cycles();
         Ok(RtPort {

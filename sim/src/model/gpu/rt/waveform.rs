@@ -27,6 +27,7 @@ use vtq_hdl::trace::{BlockCycle, ScopedSignals, TraceError, VcdStream};
 use vtq_hdl::treelet_rt_unit::{ProbeCycle, TreeletRtUnitInputs, TreeletRtUnitOutputs};
 use vtq_hdl::{Block, Signal, Signals};
 
+use super::hardware::RtHardware;
 use super::{RtPort, Shell};
 use crate::model::gpu::datapath::BvhDatapath;
 use crate::model::gpu::error::SimError;
