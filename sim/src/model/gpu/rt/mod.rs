@@ -160,13 +160,13 @@ impl<'a> RtPort<'a> {
     ) -> Result<Self, RtUnitError> {
         let datapath = BvhDatapath::new(bvh);
         // The design's kind of RT hardware: one implementation of [`RtHardware`] each.
-        let hw_box = match queues {
+        let kind = match queues {
             None => Kind::Plain(Box::new(Plain::new(hw, params, datapath)?)),
             Some(setup) => Kind::Treelet(Box::new(Treelet::new(hw, params, datapath, setup)?)),
         };
-        let wake = hw_box.idle_cycles();
+        let wake = kind.idle_cycles();
         Ok(RtPort {
-            hw: hw_box,
+            hw: kind,
             shell: Shell {
                 bvh,
                 order,

@@ -113,12 +113,12 @@ impl<'a> RtHardware<'a> for Plain<'a> {
     ) -> Result<RtCycle, SimError> {
         let mut cycle = RtCycle::default();
         let record = shell.recording(now);
-        let p = self;
-        let warp_size = p.unit.config().warp_size as usize;
+        let warp_size = self.unit.config().warp_size as usize;
         // A new warp goes to the lowest slot the status ports show free.
         let free = warp.and_then(|_| {
-            p.unit.status_into(&p.regs, &p.cache, false, &mut p.status);
-            (0..p.slot_warp.len() as u32).find(|&s| p.status.slot(s as usize).is_none())
+            self.unit
+                .status_into(&self.regs, &self.cache, false, &mut self.status);
+            (0..self.slot_warp.len() as u32).find(|&s| self.status.slot(s as usize).is_none())
         });
         let issue = match (warp, free) {
             (Some((idx, rays)), Some(slot)) => Some((
@@ -132,32 +132,34 @@ impl<'a> RtHardware<'a> for Plain<'a> {
             )),
             _ => None,
         };
-        p.inputs.issue = None;
+        self.inputs.issue = None;
         if let Some((idx, slot, issue)) = issue {
-            p.unit
+            self.unit
                 .check_issue(&issue)
                 .map_err(|e| SimError::Rt { sm, source: e })?;
             shell.rays_issued += issue.lanes.iter().flatten().count() as u64;
-            p.slot_warp[slot as usize] = Some(idx);
-            p.inputs.issue = Some(issue);
+            self.slot_warp[slot as usize] = Some(idx);
+            self.inputs.issue = Some(issue);
             cycle.accepted = Some(idx);
         }
-        let free = p.unit.resp_free(&p.regs);
-        let regs_before = record.then(|| waveform::rt_unit_regs(&p.unit, &p.regs));
+        let free = self.unit.resp_free(&self.regs);
+        let regs_before = record.then(|| waveform::rt_unit_regs(&self.unit, &self.regs));
         // The rays' next nodes change only when a response is delivered (the FIFO held one),
         // a request pops a stack, or a warp enters or completes.
-        let delivers = free < p.unit.params().resp_fifo_depth || p.inputs.issue.is_some();
-        let ports = free.min(p.unit.params().resp_ports);
+        let delivers = free < self.unit.params().resp_fifo_depth || self.inputs.issue.is_some();
+        let ports = free.min(self.unit.params().resp_ports);
         let n = (ports as usize).min(shell.responses.len());
-        p.inputs.responses.clear();
-        p.inputs.responses.extend(shell.responses.drain(..n));
-        let out = p.unit.step_cached(&mut p.regs, &mut p.cache, &p.inputs);
+        self.inputs.responses.clear();
+        self.inputs.responses.extend(shell.responses.drain(..n));
+        let out = self
+            .unit
+            .step_cached(&mut self.regs, &mut self.cache, &self.inputs);
         if let (Some(regs), Some(w)) = (regs_before, shell.waveform.as_mut()) {
-            w.record_rt_unit(BlockCycle::new(&p.inputs, &out, regs));
+            w.record_rt_unit(BlockCycle::new(&self.inputs, &out, regs));
         }
         shell.stats.add(&out.counts);
         if let Some(pf) = shell.prefetcher.as_mut() {
-            let next = p.unit.next_addresses(&p.regs, &p.cache);
+            let next = self.unit.next_addresses(&self.regs, &self.cache);
             if delivers || out.request.is_some() || out.done.is_some() {
                 pf.observe(next);
             } else {
@@ -165,7 +167,7 @@ impl<'a> RtHardware<'a> for Plain<'a> {
             }
         }
         if let Some(record) = out.first_error {
-            let owner = p
+            let owner = self
                 .slot_warp
                 .get(record.slot as usize)
                 .copied()
@@ -174,7 +176,7 @@ impl<'a> RtHardware<'a> for Plain<'a> {
             return Err(rt_error(sm, record, owner, shell.address_bits));
         }
         let done = out.done.map(|done| {
-            let warp = p.slot_warp[done.slot as usize].take();
+            let warp = self.slot_warp[done.slot as usize].take();
             (warp, done)
         });
         if let Some(req) = out.request {

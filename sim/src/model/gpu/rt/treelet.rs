@@ -382,47 +382,46 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
             let warp_size = self.unit.config().warp_size as usize;
             shell.warp_lanes(0, rays, warp_size)
         });
-        let t = self;
-        if let Some(reason) = t.fault.take() {
+        if let Some(reason) = self.fault.take() {
             return Err(SimError::Queues { sm, reason });
         }
-        let rt = t.unit.rt_unit();
-        let ports = t.unit.resp_free(&t.regs).min(rt.params().resp_ports);
+        let rt = self.unit.rt_unit();
+        let ports = self.unit.resp_free(&self.regs).min(rt.params().resp_ports);
         let n = (ports as usize).min(shell.responses.len());
         // The input bundle is reused every cycle, so feeding it does not allocate.
-        let inputs = &mut t.inputs;
+        let inputs = &mut self.inputs;
         inputs.sm_warp = lanes;
         inputs.responses.clear();
         inputs.responses.extend(shell.responses.drain(..n));
         // At most one record per record port a cycle; the rest wait in the response queue.
         inputs.ray_records.clear();
-        let records = (t.unit.config().record_ports() as usize).min(t.arrived.len());
-        inputs.ray_records.extend(t.arrived.drain(..records));
-        inputs.spill_head = t.spill_fifo.head();
+        let records = (self.unit.config().record_ports() as usize).min(self.arrived.len());
+        inputs.ray_records.extend(self.arrived.drain(..records));
+        inputs.spill_head = self.spill_fifo.head();
         if record {
-            t.cache.probe(true);
+            self.cache.probe(true);
         }
-        let during = phase_index(t.unit.mode(&t.regs));
-        let kind_before = t.unit.warp_kind(&t.regs);
-        t.unit
-            .step_cached_into(&mut t.regs, &mut t.cache, inputs, &mut t.outputs);
+        let during = phase_index(self.unit.mode(&self.regs));
+        let kind_before = self.unit.warp_kind(&self.regs);
+        self.unit
+            .step_cached_into(&mut self.regs, &mut self.cache, inputs, &mut self.outputs);
         let kind = kind_before
-            .or_else(|| t.unit.warp_kind(&t.regs))
-            .unwrap_or(t.observer.cell.1);
-        t.observer.enter_cell((during, kind), &shell.stats);
-        let out = &t.outputs;
+            .or_else(|| self.unit.warp_kind(&self.regs))
+            .unwrap_or(self.observer.cell.1);
+        self.observer.enter_cell((during, kind), &shell.stats);
+        let out = &self.outputs;
         if let (true, Some(w)) = (record, shell.waveform.as_mut()) {
-            w.record_treelet(inputs, out, t.cache.take_probe());
-            t.cache.probe(false);
+            w.record_treelet(inputs, out, self.cache.take_probe());
+            self.cache.probe(false);
         }
-        let obs = &mut t.observer;
+        let obs = &mut self.observer;
         obs.count(during, &out.counts, &mut shell.stats);
-        obs.tests[phase_index(t.unit.mode(&t.regs))] += out.counts.rt.total_tests();
-        let (queues, above) = t.unit.queues(&t.regs);
+        obs.tests[phase_index(self.unit.mode(&self.regs))] += out.counts.rt.total_tests();
+        let (queues, above) = self.unit.queues(&self.regs);
         obs.max_queues = obs.max_queues.max(queues as u64);
         obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
         if let Some(record) = out.first_error {
-            let owner = t.owners.get(record.ray_id as usize).copied().flatten();
+            let owner = self.owners.get(record.ray_id as usize).copied().flatten();
             return Err(rt_error(sm, record, owner, shell.address_bits));
         }
         if let Some(fault) = &out.fault {
@@ -434,37 +433,37 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
             let active = ids.iter().flatten().count();
             shell.rays_issued += active as u64;
-            t.observer.costs.cell(during, WarpKind::Sm).rays_in += active as u64;
+            self.observer.costs.cell(during, WarpKind::Sm).rays_in += active as u64;
             for (lane, id) in ids.iter().enumerate() {
                 if let Some(id) = id {
-                    t.owners[*id as usize] = Some((idx, lane as u32));
+                    self.owners[*id as usize] = Some((idx, lane as u32));
                 }
             }
             let hits = (0..ids.len())
                 .map(|l| rays.get(l).copied().flatten().map(|_| None))
                 .collect::<Vec<_>>();
             if active == 0 {
-                t.completed.push_back(TracedWarp { warp: idx, hits });
+                self.completed.push_back(TracedWarp { warp: idx, hits });
             } else {
                 let left = active as u32;
-                t.pending.insert(idx, PendingWarp { hits, left });
+                self.pending.insert(idx, PendingWarp { hits, left });
             }
             cycle.accepted = Some(idx);
         }
         for r in out.parked.iter().map(|p| &p.record) {
-            if let Some(at) = t.parked_at.get_mut(r.ray_id as usize) {
+            if let Some(at) = self.parked_at.get_mut(r.ray_id as usize) {
                 *at = now;
             }
-            if let Some(q) = t.stacks.as_mut() {
+            if let Some(q) = self.stacks.as_mut() {
                 shell.requests.extend(q.park(r));
             }
-            t.store.park(r.clone());
+            self.store.park(r.clone());
         }
         if let Some(entry) = out.spill_push {
-            t.spill_fifo.push(entry);
+            self.spill_fifo.push(entry);
         }
         if out.spill_pop {
-            t.spill_fifo.pop();
+            self.spill_fifo.pop();
         }
         if let Some(p) = shell.prefetcher.as_mut() {
             if let Some(treelet) = out.preload {
@@ -472,18 +471,19 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
             }
             // Every stepped cycle of a watched phase: observing unchanged rays again changes
             // nothing (the prefetcher's rule), so skipped idle cycles need no observation.
-            if t.prefetch.watches(t.unit.mode(&t.regs)) {
-                p.observe(t.unit.next_addresses(&t.regs, &t.cache));
+            if self.prefetch.watches(self.unit.mode(&self.regs)) {
+                p.observe(self.unit.next_addresses(&self.regs, &self.cache));
             }
         }
         for f in &out.finished {
-            let Some((warp, lane)) = t.owners.get_mut(f.ray as usize).and_then(Option::take) else {
+            let Some((warp, lane)) = self.owners.get_mut(f.ray as usize).and_then(Option::take)
+            else {
                 return Err(SimError::Queues {
                     sm,
                     reason: format!("ray {} finished but no SM warp waits for it", f.ray),
                 });
             };
-            let Some(PendingWarp { hits, left }) = t.pending.get_mut(&warp) else {
+            let Some(PendingWarp { hits, left }) = self.pending.get_mut(&warp) else {
                 return Err(SimError::Queues {
                     sm,
                     reason: format!("a ray of SM warp {warp} finished twice"),
@@ -495,28 +495,31 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
             *left -= 1;
             shell.rays_completed += 1;
             if *left == 0 {
-                let done = t.pending.remove(&warp).expect("present");
-                t.completed.push_back(TracedWarp {
+                let done = self.pending.remove(&warp).expect("present");
+                self.completed.push_back(TracedWarp {
                     warp,
                     hits: done.hits,
                 });
             }
         }
-        cycle.done = t.completed.pop_front();
+        cycle.done = self.completed.pop_front();
         // Taken out while the requests are queued (queueing borrows the port), put back after.
-        let mut stacks = t.stacks.take();
-        let requests = std::mem::take(&mut t.outputs.requests);
+        let mut stacks = self.stacks.take();
+        let requests = std::mem::take(&mut self.outputs.requests);
         for r in &requests {
             if let TreeletRequest::RayLoad { slot, ray, .. } = *r {
-                let kind = t.unit.fill_kind(&t.regs, slot).unwrap_or(WarpKind::Grouped);
-                let parked = t.parked_at.get(ray as usize).copied().unwrap_or(now);
-                let cell = t.observer.costs.cell(during, kind);
+                let kind = self
+                    .unit
+                    .fill_kind(&self.regs, slot)
+                    .unwrap_or(WarpKind::Grouped);
+                let parked = self.parked_at.get(ray as usize).copied().unwrap_or(now);
+                let cell = self.observer.costs.cell(during, kind);
                 cell.rays_in += 1;
                 cell.ray_loads += 1;
                 cell.queue_wait_cycles += now.saturating_sub(parked);
             }
         }
-        let onchip = t.record_latency;
+        let onchip = self.record_latency;
         let mut record_loads = Vec::new();
         for r in &requests {
             match *r {
@@ -549,9 +552,9 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
                 TreeletRequest::Rt(req) => shell.push_request(&req),
             }
         }
-        t.record_loads.extend(record_loads);
-        t.stacks = stacks;
-        t.outputs.requests = requests;
+        self.record_loads.extend(record_loads);
+        self.stacks = stacks;
+        self.outputs.requests = requests;
         Ok(cycle)
     }
 }
