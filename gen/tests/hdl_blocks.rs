@@ -77,15 +77,17 @@ fn rt_unit_desc(cfg: HwConfig) -> BlockDesc {
         .describe()
 }
 
-/// The RT unit's per-warp stack ports are warp_size lanes x stack_depth entries x 37-bit
-/// entries. At the paper's configuration with 128-entry on-chip stacks (the default is 32)
-/// that is 32 x 128 x 37 = 151,552 bits, wider than the 65,536 bits IEEE 1364-2005 guarantees
+/// The RT unit's per-warp stack ports are warp_size lanes x record_stack_entries entries x
+/// 37-bit entries. With records carrying whole 128-entry on-chip stacks (the default is 4
+/// entries of 32) that is 32 x 128 x 37 = 151,552 bits, wider than the 65,536 bits IEEE
+/// 1364-2005 guarantees
 /// but within `MAX_WIDTH`: its skeleton emits with every port at full width, lints clean with
 /// `verilator -Wall` and synthesizes with Yosys without latches or warnings.
 #[test]
 fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
     let cfg = HwConfig {
         stack_depth: 128,
+        record_stack_entries: 128,
         ..HwConfig::default()
     };
     let d = rt_unit_desc(cfg.clone());
@@ -97,7 +99,7 @@ fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
         .expect("the RT unit has stack ports");
     let entry = NodeEntry::bits(cfg.address_bits);
     assert_eq!(entry, 37, "address, kind and chunk count of a stack entry");
-    let width = cfg.warp_size * cfg.stack_depth * entry;
+    let width = cfg.warp_size * cfg.record_stack_entries * entry;
     assert_eq!(stack.width, width, "{}", stack.name);
     assert!(stack.width > 1 << 16 && stack.width <= MAX_WIDTH);
     let text = emit_module(&d).unwrap_or_else(|e| panic!("{e}"));

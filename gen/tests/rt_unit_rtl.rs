@@ -104,22 +104,7 @@ fn lints_clean() {
 /// default RT-unit parameters, and a medium configuration of two slots.
 #[test]
 fn rt_unit_matches_rust_at_wider_configurations() {
-    let medium = HwConfig {
-        warp_size: 8,
-        warp_buffer_size: 2,
-        stack_depth: 8,
-        max_rays: 64,
-        address_bits: 24,
-        treelet_bytes: 256,
-        ..small_config().0
-    };
-    let medium_params = RtUnitParams {
-        max_children: 4,
-        resp_fifo_depth: 5,
-        resp_ports: 3,
-        stack_spill_chunks: 3,
-        ..Default::default()
-    };
+    let (medium, medium_params) = medium_config();
     for (tag, cfg, params, cycles) in [
         ("medium", medium, medium_params, 6000),
         (
@@ -134,6 +119,50 @@ fn rt_unit_matches_rust_at_wider_configurations() {
         if let Some(r) = cosim(&trace, &files, Simulator::Icarus, tag) {
             assert!(r.passed(), "{r}");
         }
+    }
+}
+
+/// A medium configuration of two slots whose records carry 4 of the 8 entries of a stack
+/// (`record_stack_entries` below `stack_depth`: parked lanes spill before their warp completes).
+fn medium_config() -> (HwConfig, RtUnitParams) {
+    let medium = HwConfig {
+        warp_size: 8,
+        warp_buffer_size: 2,
+        stack_depth: 8,
+        record_stack_entries: 4,
+        max_rays: 64,
+        address_bits: 24,
+        treelet_bytes: 256,
+        ..small_config().0
+    };
+    let params = RtUnitParams {
+        max_children: 4,
+        resp_fifo_depth: 5,
+        resp_ports: 3,
+        stack_spill_chunks: 3,
+        ..Default::default()
+    };
+    (medium, params)
+}
+
+/// A parked lane that keeps its whole stack instead of spilling it down to what a record
+/// carries is caught (in the medium configuration, where records carry half a stack).
+#[test]
+fn a_parked_lane_that_does_not_spill_is_caught() {
+    let (cfg, params) = medium_config();
+    let trace = trace_of(&cfg, &params, 6000, 7);
+    let good = rt_unit_verilog(&cfg, &params).unwrap();
+    // (The shared functions are in the top module and in the lane module.)
+    let from = "dl == {DW{1'b0}} && osp > RD_SPW) begin";
+    assert!(good.contains(from), "`{from}` not found");
+    let files = sources(
+        "broken-park",
+        &cfg,
+        &params,
+        Some(good.replace(from, "dl == {DW{1'b0}} && 1'b0) begin")),
+    );
+    if let Some(r) = cosim(&trace, &files, Simulator::Icarus, "broken-park") {
+        assert!(!r.passed() && r.mismatches > 0, "not caught: {r}");
     }
 }
 

@@ -55,6 +55,16 @@ pub struct HwConfig {
     /// entries (`DS_BVH_STACK_RTN`), and Intel's Xe ray-tracing unit uses a short stack backed
     /// by memory. At least the BVH width (a node's children must fit).
     pub stack_depth: u32,
+    /// On-chip entries per stack that a ray record carries into and out of the RT unit. A parked
+    /// ray spills its other stack to memory down to this many entries before its warp
+    /// completes (the current stack is empty at a boundary), and its spilled entries come back
+    /// through the ordinary stack fills after it is issued again.
+    ///
+    /// The default, 4, is one 32 B spill chunk of 64-bit entries: the memory width a record
+    /// moves at. 1 keeps only the next node; `stack_depth` is the record carrying the whole
+    /// on-chip stacks to the queues and back for free (vtq before 2026-12-03, and what the
+    /// paper's costs imply: its ray record is 32 B, section 6.5). 1..=stack_depth.
+    pub record_stack_entries: u32,
     /// Bytes of ray records the fills take from memory per cycle: the wiring's record write
     /// ports, one per 32 B record (a record's stacks, when `rt.queued_stack_traffic` moves them
     /// through memory, arrive before it on requests of their own). Records that return faster
@@ -83,6 +93,7 @@ impl Default for HwConfig {
             preload_threshold_warps: 2,
             warp_buffer_size: 1,
             stack_depth: 32,
+            record_stack_entries: 4,
             record_bytes_per_cycle: 32,
         }
     }
@@ -182,6 +193,13 @@ impl HwConfig {
                 "stack_depth",
                 self.stack_depth,
                 "must be 2..=1024 (and at least the BVH width)",
+            ));
+        }
+        if self.record_stack_entries == 0 || self.record_stack_entries > self.stack_depth {
+            return Err(err(
+                "record_stack_entries",
+                self.record_stack_entries,
+                format!("must be 1..={} (stack_depth)", self.stack_depth),
             ));
         }
         let most = 32 * self.warp_size;

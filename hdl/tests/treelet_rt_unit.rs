@@ -15,8 +15,8 @@ use vtq_hdl::rt_unit::{
 };
 use vtq_hdl::splitmix::SplitMix64;
 use vtq_hdl::treelet_rt_unit::{
-    ProbeCycle, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
-    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
+    ProbeCycle, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitInputs,
+    TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
 };
 use vtq_hdl::{Block, HwConfig, Signal, Signals};
 
@@ -74,6 +74,7 @@ fn small() -> HwConfig {
         max_resident_treelets: 2,
         preload_threshold_warps: 1,
         stack_depth: 8,
+        record_stack_entries: 2,
         record_bytes_per_cycle: 32,
     }
 }
@@ -275,7 +276,7 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
     let u = TreeletRtUnit::new(cfg.clone(), params, ToyDatapath).expect("valid unit");
     let mut reference: TreeletRtUnitRegs = u.reset();
     let mut fast = reference.clone();
-    let mut cache = TreeletRtUnitCache::of(&fast);
+    let mut cache = u.cache(&fast);
     cache.probe(probe);
     let mut env = Env::new(rays, seed);
     let mut counts = TreeletCounts::default();

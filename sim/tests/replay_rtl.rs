@@ -21,7 +21,7 @@ use vtq_hdl::controller::TreeletController;
 use vtq_hdl::count_table::{CountOp, CountTable};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::{QueueOp, QueueTable};
-use vtq_hdl::treelet_rt_unit::{TableLog, TreeletRtUnit, TreeletRtUnitCache};
+use vtq_hdl::treelet_rt_unit::{TableLog, TreeletRtUnit};
 use vtq_hdl::Block;
 use vtq_sim::model::bvh::HwBvh;
 use vtq_sim::model::config::SimConfig;
@@ -213,7 +213,7 @@ fn a_real_runs_treelet_rt_unit_inputs_replay_the_run() {
     let unit =
         TreeletRtUnit::new(cfg.hw.clone(), log.params.clone(), BvhDatapath::new(&bvh)).unwrap();
     let mut regs = unit.reset();
-    let mut cache = TreeletRtUnitCache::of(&regs);
+    let mut cache = unit.cache(&regs);
     cache.record_tables(CYCLES, log.params.clone());
     for inputs in &log.treelet {
         unit.step_cached(&mut regs, &mut cache, inputs);

@@ -153,10 +153,14 @@ fn every_design_spills_a_short_stack_and_keeps_exact_hits() {
 fn a_stack_that_never_spills_gives_the_same_statistics_as_a_deeper_one() {
     let scene = nested_shells(40);
     for name in config_names() {
+        // Records carry whole stacks (`record_stack_entries` = the depth): parked rays keep
+        // theirs, so nothing spills.
         let runs: Vec<SimOutput> = [128, 1024]
             .iter()
             .map(|d| {
-                let cfg = config(&name, 16, &[&format!("hw.stack_depth={d}")]);
+                let depth = format!("hw.stack_depth={d}");
+                let record = format!("hw.record_stack_entries={d}");
+                let cfg = config(&name, 16, &[&depth, &record]);
                 let bvh = HwBvh::build(&scene, &cfg.bvh_params()).unwrap();
                 run(&scene, &bvh, &cfg)
             })

@@ -2,7 +2,7 @@
 //! ports together, one module's outputs ([`RtUnitWithStatus`]).
 
 use vtq_hdl::rt_unit::{
-    NodeDatapath, RtCache, RtUnit, RtUnitInputs, RtUnitOutputs, RtUnitRegs, RtUnitStatus,
+    NodeDatapath, RtUnit, RtUnitInputs, RtUnitOutputs, RtUnitRegs, RtUnitStatus,
 };
 use vtq_hdl::{Block, BlockDesc, Signal, Signals};
 
@@ -55,7 +55,7 @@ impl<D: NodeDatapath> Block for RtUnitWithStatus<D> {
         inputs: &RtUnitInputs,
         next: &mut RtUnitRegs,
     ) -> RtUnitAllOutputs {
-        let status = self.0.status(regs, &RtCache::of(regs), true);
+        let status = self.0.status(regs, &self.0.cache(regs), true);
         RtUnitAllOutputs {
             out: self.0.next_into(regs, inputs, next),
             status,

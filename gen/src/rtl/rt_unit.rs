@@ -117,6 +117,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let n = info.param("warp_size")? as u32;
     let s = info.param("warp_buffer_size")? as u32;
     let d = info.param("stack_depth")? as u32;
+    let rd = info.param("record_stack_entries")? as u32;
     let ab = info.param("address_bits")? as u32;
     let treelet_bytes = info.param("treelet_bytes")?;
     let fd = info.param("resp_fifo_depth")? as u32;
@@ -132,7 +133,13 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let lb = info.port("error_lane", Dir::Out)?;
     let sb = info.port("done_slot", Dir::Out)?;
     let tw = info.port("boundary_treelet", Dir::Out)? / n;
-    let spw = info.port("issue_cur_sp", Dir::In)? / n;
+    let rspw = info.port("issue_cur_sp", Dir::In)? / n;
+    let spw = desc
+        .registers
+        .iter()
+        .find(|x| x.name == "lane_cur_sp")
+        .map(|x| x.width)
+        .ok_or_else(|| info.bad("the RTL needs a register `lane_cur_sp`".into()))?;
     let scw = info.port("issue_cur_spilled", Dir::In)? / n;
     let dw = desc
         .registers
@@ -155,6 +162,9 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         && tw == w.treelet
         && tw == ab - tsh
         && spw == w.stack_pointer
+        && rspw == w.record_pointer
+        && rd == w.record_stack
+        && rd <= d
         && scw == w.spilled
         && dw == w.delay
         && fcw == w.fifo_count
@@ -162,14 +172,14 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         && fpw == clog2(fd as u64)
         && scnt == bits_for(s as u64)
         && e == w.entry()
-        && info.port("issue_cur_stack", Dir::In)? == n * d * e
+        && info.port("issue_cur_stack", Dir::In)? == n * rd * e
         && info.port("resp0_data", Dir::In)? == 256
         && e <= 63
         && rp <= 8;
     if !consistent {
         return Err(info.bad(format!(
             "sizes are inconsistent: {w:?} from the block; lane {lb}, ray {rb}, slot {sb}, \
-             treelet {tw}, stack pointer {spw}, spilled {scw}, delay {dw} bits from the description"
+             treelet {tw}, stack pointer {spw}, record stack pointer {rspw}, spilled {scw}, delay {dw} bits from the description"
         )));
     }
     if block
@@ -189,6 +199,8 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
             n * s
         ),
         format!("localparam D = {d};        // on-chip entries per stack"),
+        format!("localparam RD = {rd};      // stack entries a ray record carries (record_stack_entries)"),
+        format!("localparam RSPW = {rspw};  // bits of a record's stack depth"),
         format!("localparam AB = {ab};      // address bits"),
         format!("localparam E = {e};        // stack entry: {{address, kind, chunks - 1}}"),
         format!("localparam TSH = {tsh};    // log2(treelet_bytes)"),
@@ -240,6 +252,8 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         format!("localparam [15:0] R16 = {};", lit(16, r as u64)),
         format!("localparam [15:0] D16 = {};", lit(16, d as u64)),
         format!("localparam [SPW-1:0] D_SPW = {};", lit(spw, d as u64)),
+        format!("localparam [SPW-1:0] RD_SPW = {};", lit(spw, rd as u64)),
+        format!("localparam [RSPW-1:0] RD_RSPW = {};", lit(rspw, rd as u64)),
         format!(
             "localparam [CW-1:0] R_CW = {};",
             lit(CHILD_COUNT_BITS, r as u64)

@@ -77,7 +77,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
     let spw = info.port("sm_cur_sp", Dir::In)? / n;
     let scw = info.port("sm_cur_spilled", Dir::In)? / n;
     let de = info.port("sm_cur_stack", Dir::In)? / n;
-    let d = cfg.stack_depth;
+    let d = cfg.record_stack_entries;
     let e = de / d;
     let cw = info.port("ctl_fill_count", Dir::In)?;
     let lw = info.port("finished_count", Dir::Out)?;
@@ -154,10 +154,10 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         format!("localparam IDBW = {idbw};  // bank index bits"),
         format!("localparam IDWD = {idwd};  // words per bank"),
         format!("localparam IDAW = {idaw};  // bank address bits (at least 1)"),
-        format!("localparam D = {d};        // on-chip entries per stack"),
+        format!("localparam D = {d};        // stack entries a ray record carries (record_stack_entries)"),
         format!("localparam E = {e};        // stack entry: {{address, kind, chunks - 1}}"),
         format!("localparam DE = {de};      // bits of a stack"),
-        format!("localparam SPW = {spw};    // stack pointer bits"),
+        format!("localparam SPW = {spw};    // a record's stack pointer bits"),
         format!("localparam SCW = {scw};    // spilled-chunk count bits"),
         format!("localparam TSH = {tsh};    // log2(treelet_bytes)"),
         format!("localparam CW = {cw};      // a warp's lane count bits"),

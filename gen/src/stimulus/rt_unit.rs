@@ -30,9 +30,9 @@ use crate::error::GenError;
 use std::collections::HashMap;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
-    pack_spill_chunk, spill_area, Hit, IssueTarget, Lane, LaneStatus, MemResponse, NodeEntry,
-    RayOutcome, RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs,
-    StackSel, TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
+    pack_spill_chunk, spill_area, Hit, IssueTarget, LaneStatus, MemResponse, NodeEntry, RayOutcome,
+    RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs, StackSel,
+    TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -88,9 +88,11 @@ struct Env {
     regs: RtUnitRegs,
     tree: Tree,
     mem: Memory,
-    /// Lanes per warp, entries per on-chip stack, spill chunks per stack, ray ids.
+    /// Lanes per warp, entries per on-chip stack, stack entries a record carries, spill chunks
+    /// per stack, ray ids.
     ws: usize,
     depth: usize,
+    record: usize,
     chunks: u32,
     rays: u32,
     /// Responses to send, each with the first cycle it may be sent in; the last node chunk
@@ -130,6 +132,7 @@ impl Env {
             mem,
             ws: cfg.warp_size as usize,
             depth: cfg.stack_depth as usize,
+            record: cfg.record_stack_entries as usize,
             chunks: params.stack_spill_chunks,
             rays: cfg.max_rays,
             pending: Vec::new(),
@@ -228,7 +231,7 @@ impl Env {
                     ray.other_spilled = self.rng.below(spare + 1) as u32;
                 }
                 let leaves = ray.current_spilled + ray.other_spilled > 0;
-                let most = self.depth.min(3) + 1;
+                let most = self.record.min(3) + 1;
                 let (a, b) = (self.idx(most), self.idx(most));
                 ray.current_stack = self.stack(a, leaves);
                 ray.other_stack = self.stack(b, leaves);
@@ -344,8 +347,8 @@ impl Env {
                 let w = self.block.widths();
                 let mut ray = self.ray(0);
                 match self.rng.below(3) {
-                    0 if (self.depth + 1) >> w.stack_pointer == 0 => {
-                        ray.current_stack = self.stack(self.depth + 1, false);
+                    0 if (self.record + 1) >> w.record_pointer == 0 => {
+                        ray.current_stack = self.stack(self.record + 1, false);
                     }
                     1 if (self.chunks + 1) >> w.spilled == 0 => ray.other_spilled = self.chunks + 1,
                     _ => {
@@ -375,7 +378,8 @@ impl Env {
             let mut lanes = vec![None; self.ws];
             let id = self.free_ids.pop().unwrap_or(0);
             let mut ray = self.ray(id);
-            ray.current_stack = self.stack(self.depth, true);
+            // (Full on chip only where a record carries a whole stack.)
+            ray.current_stack = self.stack(self.record, true);
             ray.current_spilled = self.chunks;
             self.store_spills(&ray);
             lanes[0] = Some(ray);
@@ -425,7 +429,11 @@ impl Env {
             // Never a ray-stationary warp, nor one that completes (freeing its slot) first.
             let slots = &self.regs.slots;
             let completing = (self.regs.age.iter().copied()).find(|&s| {
-                !slots[s as usize].held && slots[s as usize].lanes.iter().all(Lane::quiescent)
+                !slots[s as usize].held
+                    && slots[s as usize]
+                        .lanes
+                        .iter()
+                        .all(|l| l.quiescent(self.record))
             });
             let stoppable: Vec<u32> = (self.slots(true).into_iter())
                 .filter(|&s| slots[s as usize].order != TraversalOrder::RayStationary)

@@ -496,21 +496,32 @@ pub struct Lane {
 }
 
 impl Lane {
-    /// The lane may make its next request (a node fetch, a stack spill or a stack fill):
-    /// traversing, nothing in flight, delay 0, an entry left on a stack.
+    /// The lane is parked with more than `keep` (`hw.record_stack_entries`) entries of its
+    /// other stack on chip: it spills the oldest to its spill area before its warp may
+    /// complete, so a record leaving the RT unit carries at most `keep` entries per stack.
     #[inline]
-    pub fn ready(&self) -> bool {
-        self.status == LaneStatus::Traversing
+    pub fn park_spilling(&self, keep: usize) -> bool {
+        self.status == LaneStatus::Parked && self.ray.other_stack.len() > keep
+    }
+
+    /// The lane may make its next request (a node fetch, a stack spill or a stack fill):
+    /// traversing (or parked and spilling down to `keep` entries), nothing in flight, delay 0,
+    /// an entry left on a stack.
+    #[inline]
+    pub fn ready(&self, keep: usize) -> bool {
+        (self.status == LaneStatus::Traversing || self.park_spilling(keep))
             && self.in_flight.is_none()
             && self.filling.is_none()
             && self.delay == 0
             && !self.ray.finished()
     }
 
-    /// Nothing of the lane is outstanding (its warp may complete as far as the lane goes).
+    /// Nothing of the lane is outstanding (its warp may complete as far as the lane goes; a
+    /// parked lane has at most `keep` entries of its other stack on chip).
     #[inline]
-    pub fn quiescent(&self) -> bool {
+    pub fn quiescent(&self, keep: usize) -> bool {
         self.status != LaneStatus::Traversing
+            && !self.park_spilling(keep)
             && self.in_flight.is_none()
             && self.filling.is_none()
             && self.delay == 0
@@ -544,6 +555,10 @@ pub(super) struct LaneMasks {
     pub done: u64,
     /// `status == Parked`.
     pub parked: u64,
+    /// [`Lane::park_spilling`] with [`keep`](Self::keep).
+    pub park_spilling: u64,
+    /// Entries of the other stack a parked lane keeps on chip (`hw.record_stack_entries`).
+    pub keep: usize,
     /// `store_pending`.
     pub store: u64,
     /// `delay > 0`.
@@ -563,6 +578,8 @@ impl Default for LaneMasks {
             traversing: 0,
             done: 0,
             parked: 0,
+            park_spilling: 0,
+            keep: 0,
             store: 0,
             delayed: 0,
             in_flight: 0,
@@ -573,9 +590,12 @@ impl Default for LaneMasks {
 }
 
 impl LaneMasks {
-    /// The masks of `lanes`.
-    pub fn of(lanes: &[Lane]) -> Self {
-        let mut m = LaneMasks::default();
+    /// The masks of `lanes`, whose parked lanes keep `keep` entries of their other stack.
+    pub fn of(lanes: &[Lane], keep: usize) -> Self {
+        let mut m = LaneMasks {
+            keep,
+            ..LaneMasks::default()
+        };
         for (l, lane) in lanes.iter().enumerate() {
             m.set(l, lane);
         }
@@ -590,6 +610,7 @@ impl LaneMasks {
         put(&mut self.traversing, lane.status == LaneStatus::Traversing);
         put(&mut self.done, lane.status == LaneStatus::Done);
         put(&mut self.parked, lane.status == LaneStatus::Parked);
+        put(&mut self.park_spilling, lane.park_spilling(self.keep));
         put(&mut self.store, lane.store_pending);
         put(&mut self.delayed, lane.delay > 0);
         put(
@@ -603,13 +624,13 @@ impl LaneMasks {
     /// Lanes that are not [`Lane::quiescent`].
     #[inline]
     pub fn busy(&self) -> u64 {
-        self.traversing | self.in_flight | self.delayed | self.store
+        self.traversing | self.park_spilling | self.in_flight | self.delayed | self.store
     }
 
     /// Lanes that are [`Lane::ready`].
     #[inline]
     pub fn ready(&self) -> u64 {
-        self.traversing & !self.in_flight & !self.delayed & self.has_next
+        (self.traversing | self.park_spilling) & !self.in_flight & !self.delayed & self.has_next
     }
 }
 
@@ -746,17 +767,23 @@ pub struct RtCache {
 }
 
 impl RtCache {
-    /// The cache of `regs`.
-    pub fn of(regs: &RtUnitRegs) -> Self {
+    /// The cache of `regs`, whose parked lanes keep `keep` entries of their other stack on
+    /// chip (`hw.record_stack_entries`; [`super::RtUnit::cache`] passes the unit's).
+    pub fn of(regs: &RtUnitRegs, keep: usize) -> Self {
         RtCache {
-            masks: regs.slots.iter().map(|s| LaneMasks::of(&s.lanes)).collect(),
+            masks: regs
+                .slots
+                .iter()
+                .map(|s| LaneMasks::of(&s.lanes, keep))
+                .collect(),
         }
     }
 
     /// Whether this cache equals a fresh computation from `regs` (debug builds check it at the
     /// start of every cached step).
     pub fn consistent(&self, regs: &RtUnitRegs) -> bool {
-        *self == RtCache::of(regs)
+        let keep = self.masks.first().map_or(0, |m| m.keep);
+        *self == RtCache::of(regs, keep)
     }
 }
 

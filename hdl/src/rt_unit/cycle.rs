@@ -171,7 +171,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                         *lane = self.lane_for(ray);
                     }
                 }
-                c.masks[s as usize] = LaneMasks::of(&slot.lanes);
+                c.masks[s as usize] = LaneMasks::of(&slot.lanes, self.keep());
                 if last {
                     slot.held = false;
                 }
@@ -216,14 +216,17 @@ impl<D: NodeDatapath> RtUnit<D> {
             .lanes
             .iter_mut()
             .map(|lane| {
-                crate::warp_repacking::releases(lane.status == LaneStatus::Done, lane.quiescent())
-                    .then(|| {
-                        lane.status = LaneStatus::Inactive;
-                        (std::mem::take(&mut lane.ray), RayOutcome::Finished)
-                    })
+                crate::warp_repacking::releases(
+                    lane.status == LaneStatus::Done,
+                    lane.quiescent(self.keep()),
+                )
+                .then(|| {
+                    lane.status = LaneStatus::Inactive;
+                    (std::mem::take(&mut lane.ray), RayOutcome::Finished)
+                })
             })
             .collect();
-        c.masks[s as usize] = LaneMasks::of(&slot.lanes);
+        c.masks[s as usize] = LaneMasks::of(&slot.lanes, self.keep());
         Some(WarpDone { slot: s, lanes })
     }
 
@@ -283,7 +286,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 Some((std::mem::take(&mut lane.ray), outcome))
             })
             .collect();
-        c.masks[s as usize] = LaneMasks::of(&slot.lanes);
+        c.masks[s as usize] = LaneMasks::of(&slot.lanes, self.keep());
         Some(WarpDone { slot: s, lanes })
     }
 
@@ -298,7 +301,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 .as_ref()
                 .map_or_else(Lane::default, |ray| self.lane_for(ray));
         }
-        c.masks[s] = LaneMasks::of(&slot.lanes);
+        c.masks[s] = LaneMasks::of(&slot.lanes, self.keep());
         // A slot enters only when free, so the age list never holds more than every slot.
         let entered = r.age.push(s as u32);
         debug_assert!(entered.is_ok(), "age list full");

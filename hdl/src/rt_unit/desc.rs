@@ -76,6 +76,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             ("warp_size".into(), cfg.warp_size as u64),
             ("warp_buffer_size".into(), cfg.warp_buffer_size as u64),
             ("stack_depth".into(), cfg.stack_depth as u64),
+            ("record_stack_entries".into(), cfg.record_stack_entries as u64),
             ("address_bits".into(), cfg.address_bits as u64),
             ("treelet_bytes".into(), cfg.treelet_bytes as u64),
             ("max_rays".into(), cfg.max_rays as u64),
@@ -97,6 +98,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
         timing: vec![
             "memory scheduler: at most one 32 B request per cycle; priority: remaining chunks of the node being requested, then a hit-record store (oldest warp, lowest lane), then the request of the lowest ready lane of the oldest warp with a ready lane: a stack spill, a stack fill or its next node".into(),
             "stack spilling: before a fetch, every stack that may receive the node's children must have max_children free entries after the pop, else the lane's request is a 32 B store of up to four of that stack's oldest on-chip entries (never the one about to be popped) to the ray's spill area (stack_base + ((ray_id * 2 + stack) * stack_spill_chunks + k) * 32); a stack empty on chip with chunks in memory is refilled by a 32 B load of its last spilled chunk (the lane waits for it); the on-chip stacks never overflow".into(),
+            "parked rays: a parked lane with more than record_stack_entries entries of its other stack on chip is ready and busy; its request is a spill of up to four of that stack's oldest entries (never the newest record_stack_entries), so a completed warp's records carry at most record_stack_entries on-chip entries per stack; an issued record carries no more".into(),
             "requests for the same (address, size) by ready lanes of one warp in one cycle are merged; never across warps".into(),
             "a ray has one node in flight; its next fetch waits for every chunk and for its intersection delay to reach 0; all delays count down in parallel".into(),
             format!(
@@ -104,7 +106,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
                 l.header, l.internal, l.instance_leaf, l.primitive_descriptor, l.triangle_leaf, l.triangle_hit, l.procedural
             ),
             "response FIFO: written at the end of the cycle a response arrives, one entry popped per cycle (from the next cycle on)".into(),
-            "a warp completes when every lane is inactive, done or parked with nothing in flight, no delay and no store pending, and it is not held by a repack; at most one per cycle (oldest first); an issued warp can request from the next cycle".into(),
+            "a warp completes when every lane is inactive, done or parked (at most record_stack_entries entries of the other stack on chip) with nothing in flight, no delay and no store pending, and it is not held by a repack; at most one per cycle (oldest first); an issued warp can request from the next cycle".into(),
             "treelet controller commands (issue into a reserved slot, append, stop, repack) take effect at the end of the cycle after the warp issue; a repack releases the lanes that are done and quiescent after this cycle's completion, response delivery and issue".into(),
         ],
     }

@@ -263,6 +263,8 @@ fn checked_widths(cfg: &HwConfig, params: &RtUnitParams) -> Result<Widths, RtUni
         spilled: bits_for(params.stack_spill_chunks as u64),
         stack_depth: cfg.stack_depth,
         stack_pointer: bits_for(cfg.stack_depth as u64),
+        record_stack: cfg.record_stack_entries,
+        record_pointer: bits_for(cfg.record_stack_entries as u64),
     })
 }
 
@@ -404,6 +406,16 @@ impl<D: NodeDatapath> RtUnit<D> {
             })
     }
 
+    /// Entries of its other stack a parked lane keeps on chip (`hw.record_stack_entries`).
+    pub(crate) fn keep(&self) -> usize {
+        self.cfg.record_stack_entries as usize
+    }
+
+    /// The simulation cache of `regs` ([`RtCache::of`] with this unit's configuration).
+    pub fn cache(&self, regs: &RtUnitRegs) -> RtCache {
+        RtCache::of(regs, self.keep())
+    }
+
     /// Treelet of a byte address (address >> log2(treelet_bytes)).
     pub fn treelet_of(&self, address: u64) -> u64 {
         address >> self.treelet_shift
@@ -514,7 +526,8 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 
     /// Checks that `issue` fits the warp buffer: `warp_size` lanes, ray ids below `max_rays`,
-    /// treelet numbers in range, stacks no deeper than `stack_depth`, valid nodes.
+    /// treelet numbers in range, stacks no deeper than a record carries
+    /// (`record_stack_entries`), valid nodes.
     pub fn check_issue(&self, issue: &WarpIssue) -> Result<(), RtUnitError> {
         let bad = |lane: usize, reason: String| RtUnitError::BadIssue {
             lane: lane as u32,
@@ -561,13 +574,14 @@ impl<D: NodeDatapath> RtUnit<D> {
                 }
             }
             for (name, stack) in [("current", &ray.current_stack), ("other", &ray.other_stack)] {
-                if stack.len() > self.cfg.stack_depth as usize {
+                if stack.len() > self.keep() {
                     return Err(bad(
                         i,
                         format!(
-                            "{name} stack holds {} entries, stack_depth is {}",
+                            "{name} stack holds {} entries, a record carries at most \
+                             record_stack_entries = {}",
                             stack.len(),
-                            self.cfg.stack_depth
+                            self.cfg.record_stack_entries
                         ),
                     ));
                 }
@@ -625,7 +639,7 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
         next: &mut RtUnitRegs,
     ) -> RtUnitOutputs {
         next.clone_from(regs);
-        let mut cache = RtCache::of(regs);
+        let mut cache = self.cache(regs);
         self.update(next, &mut cache, inputs)
     }
 

@@ -54,6 +54,10 @@ pub struct Widths {
     pub stack_depth: u32,
     /// Bits of an on-chip stack's depth (0..=stack_depth).
     pub stack_pointer: u32,
+    /// Entries per stack a ray record carries in and out (`record_stack_entries`).
+    pub record_stack: u32,
+    /// Bits of a record's stack depth (0..=record_stack).
+    pub record_pointer: u32,
 }
 
 impl Widths {
@@ -378,15 +382,15 @@ impl RtUnitOutputs {
 /// completion).
 pub(crate) fn ray_state(w: &Widths) -> [(&'static str, u32, &'static str); 11] {
     let n = w.warp_size;
-    let stack = n * w.stack_depth * w.entry();
+    let stack = n * w.record_stack * w.entry();
     [
         ("ray_words", n * WORD_BITS, "per lane: origin, direction, tmin, tmax (f32 bits)"),
         ("occlusion", n, "per lane: an occlusion ray (traversal ends at its first accepted hit)"),
         ("hit_valid", n, "per lane: the ray has a hit"),
         ("hit", n * HIT_BITS, "per lane: closest hit t, hit id, two attributes"),
         ("cur_treelet", n * w.treelet, "per lane: current treelet"),
-        ("cur_sp", n * w.stack_pointer, "per lane: current-treelet stack depth"),
-        ("other_sp", n * w.stack_pointer, "per lane: other-treelet stack depth"),
+        ("cur_sp", n * w.record_pointer, "per lane: current-treelet stack depth (at most record_stack_entries)"),
+        ("other_sp", n * w.record_pointer, "per lane: other-treelet stack depth (at most record_stack_entries)"),
         ("cur_spilled", n * w.spilled, "per lane: current-treelet stack chunks in the spill area"),
         ("other_spilled", n * w.spilled, "per lane: other-treelet stack chunks in the spill area"),
         ("cur_stack", stack, "per lane: current-treelet stack entries, bottom first (parallel load of the ray state)"),
@@ -408,7 +412,7 @@ pub(crate) fn ray_state_words<'a>(
         let r = lane(i);
         let hit = r.and_then(|r| r.hit);
         let stack = |p: &mut BitPacker, s: Option<&crate::bounded::BoundedVec<NodeEntry>>| {
-            for j in 0..w.stack_depth as usize {
+            for j in 0..w.record_stack as usize {
                 p.push(
                     s.and_then(|s| s.get(j)).map_or(0, NodeEntry::encode),
                     w.entry(),
@@ -434,11 +438,14 @@ pub(crate) fn ray_state_words<'a>(
             5 => {
                 p.push(
                     r.map_or(0, |r| r.current_stack.len() as u64),
-                    w.stack_pointer,
+                    w.record_pointer,
                 );
             }
             6 => {
-                p.push(r.map_or(0, |r| r.other_stack.len() as u64), w.stack_pointer);
+                p.push(
+                    r.map_or(0, |r| r.other_stack.len() as u64),
+                    w.record_pointer,
+                );
             }
             7 => {
                 p.push(r.map_or(0, |r| r.current_spilled as u64), w.spilled);

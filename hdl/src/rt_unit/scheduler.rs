@@ -52,7 +52,18 @@ impl<D: NodeDatapath> RtUnit<D> {
             let leader = ready.trailing_zeros() as usize;
             let order = slot.order;
             let tag = s << lane_bits | leader as u32;
-            let node = match self.action(&slot.lanes[leader].ray, order) {
+            let lead = &slot.lanes[leader];
+            let action = if lead.park_spilling(self.keep()) {
+                // A parked lane spills the oldest of its other stack's entries down to `keep`.
+                let after = lead.ray.other_stack.len() - self.keep();
+                Some(LaneAction::Spill(
+                    StackSel::Other,
+                    after.min(STACK_ENTRIES_PER_CHUNK),
+                ))
+            } else {
+                self.action(&lead.ray, order)
+            };
+            let node = match action {
                 None => continue,
                 Some(LaneAction::Fetch(node)) => node,
                 Some(LaneAction::Spill(stack, k)) => {
@@ -98,7 +109,7 @@ impl<D: NodeDatapath> RtUnit<D> {
                 }
             };
             let mut served = 0;
-            for l in bits(ready) {
+            for l in bits(ready & m.traversing) {
                 let lane = &mut slot.lanes[l];
                 if self.action(&lane.ray, order) == Some(LaneAction::Fetch(node)) {
                     self.pop_next(&mut lane.ray);

@@ -213,11 +213,11 @@ pub struct TableLog {
 }
 
 impl TreeletRtUnitCache {
-    /// The cache of `regs` (nothing known about the controller yet: the next step evaluates
-    /// it).
-    pub fn of(regs: &TreeletRtUnitRegs) -> Self {
+    /// The cache around the RT unit's cache `rt` (nothing known about the controller yet: the
+    /// next step evaluates it); [`TreeletRtUnit::cache`] builds it for registers.
+    fn with_rt(rt: RtCache) -> Self {
         TreeletRtUnitCache {
-            rt: RtCache::of(&regs.rt),
+            rt,
             rt_status: crate::rt_unit::RtUnitStatus {
                 widths: Default::default(),
                 slots: Vec::new(),
@@ -344,6 +344,11 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             ray_base: params.ray_base,
             widths,
         })
+    }
+
+    /// The simulation cache of `regs` ([`TreeletRtUnitCache`]) for stepping them in place.
+    pub fn cache(&self, regs: &TreeletRtUnitRegs) -> TreeletRtUnitCache {
+        TreeletRtUnitCache::with_rt(self.rt.cache(&regs.rt))
     }
 
     /// The RT unit child (for its parameters and widths).
@@ -694,7 +699,7 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         next: &mut TreeletRtUnitRegs,
     ) -> TreeletRtUnitOutputs {
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
-        let rt_status = self.rt.status(&regs.rt, &RtCache::of(&regs.rt), distinct);
+        let rt_status = self.rt.status(&regs.rt, &self.rt.cache(&regs.rt), distinct);
         let peeks = wiring::Peeks::of(self, regs, &rt_status);
         let settled = self.settle_children(regs, 8, |q| {
             wiring::kernel(self, &regs.glue, &peeks, inputs, q)

@@ -46,7 +46,7 @@ pub struct TreeletRtUnitWidths {
 impl TreeletRtUnitWidths {
     /// The widths for `cfg`, with the RT unit's `rt`.
     pub fn new(cfg: &HwConfig, rt: Widths) -> Self {
-        let sp = bits_for(cfg.stack_depth as u64);
+        let sp = rt.record_pointer;
         let entry = NodeEntry::bits(cfg.address_bits);
         let record = rt.ray_id
             + RAY_WORDS as u32 * 32
@@ -56,7 +56,7 @@ impl TreeletRtUnitWidths {
             + rt.treelet
             + 2 * sp
             + 2 * rt.spilled
-            + 2 * cfg.stack_depth * entry;
+            + 2 * rt.record_stack * entry;
         TreeletRtUnitWidths {
             warp_size: cfg.warp_size,
             ray: rt.ray_id,

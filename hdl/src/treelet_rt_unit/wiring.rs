@@ -22,8 +22,8 @@ use crate::count_table::{
 use crate::mode::Mode;
 use crate::queue_table::{QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus};
 use crate::rt_unit::{
-    IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtCache, RtUnitInputs, RtUnitOutputs,
-    RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtUnitInputs, RtUnitOutputs, RtUnitStatus,
+    TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 
 /// The children's register-only output ports, read by the kernel before the children's inputs
@@ -687,7 +687,7 @@ pub(super) fn debug_state<D: NodeDatapath>(
     format!(
         "{}\n  treelet controller: {}; queue table {}; count table {} entries; events {}; slots \
          {:?}; fills {:?}; {} ray ids in use",
-        u.rt.debug_state(&regs.rt, &RtCache::of(&regs.rt)),
+        u.rt.debug_state(&regs.rt, &u.rt.cache(&regs.rt)),
         u.ctl.debug_state(&regs.ctl),
         u.qt.debug_state(&regs.qt),
         u.ct.status(&regs.ct).occupancy,

@@ -18,7 +18,7 @@ use crate::block::{Signal, Signals};
 use crate::controller::{ControllerInputs, ControllerOutputs};
 use crate::count_table::{CountTableIn, CountTableOut};
 use crate::queue_table::{QueueTableIn, QueueTableOut};
-use crate::rt_unit::{NodeDatapath, RtCache, RtUnitInputs, RtUnitOutputs, RtUnitStatus};
+use crate::rt_unit::{NodeDatapath, RtUnitInputs, RtUnitOutputs, RtUnitStatus};
 
 /// The wiring's input ports for one cycle: the block's inputs and the children's outputs.
 #[derive(Debug, Clone, PartialEq)]
@@ -135,7 +135,7 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         WiringOutputs,
     ) {
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
-        let cache = RtCache::of(&regs.rt);
+        let cache = self.rt.cache(&regs.rt);
         let status = self.rt.status(&regs.rt, &cache, distinct);
         let peeks = Peeks::of(self, regs, &status);
         let (d, (out, glue), q, children) = self

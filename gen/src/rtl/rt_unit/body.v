@@ -30,8 +30,8 @@ wire [NL-1:0] l_next_valid;
 wire [NL*TW-1:0] l_next_treelet;
 wire [NL-1:0] l_done_active;
 wire [NL-1:0] l_done_parked;
-wire [NL*D*E-1:0] l_done_cur_stack;
-wire [NL*D*E-1:0] l_done_other_stack;
+wire [NL*RD*E-1:0] l_done_cur_stack;
+wire [NL*RD*E-1:0] l_done_other_stack;
 wire [NL*256-1:0] l_spill_data;
 wire [NL*RB-1:0] l_fx_ray;
 wire [NL-1:0] l_fx_stack;
@@ -135,12 +135,12 @@ ${LANE_CONNECT}
                 .issue_hit_valid(issue_hit_valid[gl]),
                 .issue_hit(issue_hit[gl*128 +: 128]),
                 .issue_cur_treelet(issue_cur_treelet[gl*TW +: TW]),
-                .issue_cur_sp(issue_cur_sp[gl*SPW +: SPW]),
-                .issue_other_sp(issue_other_sp[gl*SPW +: SPW]),
+                .issue_cur_sp(issue_cur_sp[gl*RSPW +: RSPW]),
+                .issue_other_sp(issue_other_sp[gl*RSPW +: RSPW]),
                 .issue_cur_spilled(issue_cur_spilled[gl*SCW +: SCW]),
                 .issue_other_spilled(issue_other_spilled[gl*SCW +: SCW]),
-                .issue_cur_stack(issue_cur_stack[gl*D*E +: D*E]),
-                .issue_other_stack(issue_other_stack[gl*D*E +: D*E]),
+                .issue_cur_stack(issue_cur_stack[gl*RD*E +: RD*E]),
+                .issue_other_stack(issue_other_stack[gl*RD*E +: RD*E]),
                 .stop_here(stop_here[gs]),
                 .repack_here(repack_here[gs]),
                 .busy(l_busy[L]),
@@ -150,8 +150,8 @@ ${LANE_CONNECT}
                 .next_treelet(l_next_treelet[L*TW +: TW]),
                 .done_active(l_done_active[L]),
                 .done_parked(l_done_parked[L]),
-                .done_cur_stack(l_done_cur_stack[L*D*E +: D*E]),
-                .done_other_stack(l_done_other_stack[L*D*E +: D*E]),
+                .done_cur_stack(l_done_cur_stack[L*RD*E +: RD*E]),
+                .done_other_stack(l_done_other_stack[L*RD*E +: RD*E]),
                 .spill_data(l_spill_data[L*256 +: 256]),
                 .fx_ray(l_fx_ray[L*RB +: RB]),
                 .fx_stack(l_fx_stack[L]),
@@ -516,12 +516,12 @@ reg [N-1:0] o_done_occlusion;
 reg [N-1:0] o_done_hit_valid;
 reg [N*128-1:0] o_done_hit;
 reg [N*TW-1:0] o_done_cur_treelet;
-reg [N*SPW-1:0] o_done_cur_sp;
-reg [N*SPW-1:0] o_done_other_sp;
+reg [N*RSPW-1:0] o_done_cur_sp;
+reg [N*RSPW-1:0] o_done_other_sp;
 reg [N*SCW-1:0] o_done_cur_spilled;
 reg [N*SCW-1:0] o_done_other_spilled;
-reg [N*D*E-1:0] o_done_cur_stack;
-reg [N*D*E-1:0] o_done_other_stack;
+reg [N*RD*E-1:0] o_done_cur_stack;
+reg [N*RD*E-1:0] o_done_other_stack;
 reg [255:0] o_req_data;
 always @* begin : p_done
     integer s, l, L;
@@ -531,15 +531,15 @@ always @* begin : p_done
     o_done_occlusion = {N{1'b0}};
     o_done_hit_valid = {N{1'b0}};
     o_done_cur_treelet = {N*TW{1'b0}};
-    o_done_cur_sp = {N*SPW{1'b0}};
-    o_done_other_sp = {N*SPW{1'b0}};
+    o_done_cur_sp = {N*RSPW{1'b0}};
+    o_done_other_sp = {N*RSPW{1'b0}};
     o_done_cur_spilled = {N*SCW{1'b0}};
     o_done_other_spilled = {N*SCW{1'b0}};
     for (l = 0; l < N; l = l + 1) begin  // wide vectors lane by lane
         o_done_ray_words[l*256 +: 256] = 256'd0;
         o_done_hit[l*128 +: 128] = 128'd0;
-        o_done_cur_stack[l*D*E +: D*E] = {D*E{1'b0}};
-        o_done_other_stack[l*D*E +: D*E] = {D*E{1'b0}};
+        o_done_cur_stack[l*RD*E +: RD*E] = {RD*E{1'b0}};
+        o_done_other_stack[l*RD*E +: RD*E] = {RD*E{1'b0}};
     end
     for (s = 0; s < S; s = s + 1) begin
         for (l = 0; l < N; l = l + 1) begin
@@ -552,12 +552,13 @@ always @* begin : p_done
                 o_done_hit_valid[l] = lane_hit_valid_q[s*N+l];
                 o_done_hit[l*128 +: 128] = lane_hit_q[(s*N+l)*128 +: 128];
                 o_done_cur_treelet[l*TW +: TW] = lane_cur_treelet_q[(s*N+l)*TW +: TW];
-                o_done_cur_sp[l*SPW +: SPW] = lane_cur_sp_q[(s*N+l)*SPW +: SPW];
-                o_done_other_sp[l*SPW +: SPW] = lane_other_sp_q[(s*N+l)*SPW +: SPW];
+                // A completing lane holds at most RD entries per stack.
+                o_done_cur_sp[l*RSPW +: RSPW] = lane_cur_sp_q[(s*N+l)*SPW +: RSPW];
+                o_done_other_sp[l*RSPW +: RSPW] = lane_other_sp_q[(s*N+l)*SPW +: RSPW];
                 o_done_cur_spilled[l*SCW +: SCW] = lane_cur_spilled_q[(s*N+l)*SCW +: SCW];
                 o_done_other_spilled[l*SCW +: SCW] = lane_other_spilled_q[(s*N+l)*SCW +: SCW];
-                o_done_cur_stack[l*D*E +: D*E] = l_done_cur_stack[(s*N+l)*D*E +: D*E];
-                o_done_other_stack[l*D*E +: D*E] = l_done_other_stack[(s*N+l)*D*E +: D*E];
+                o_done_cur_stack[l*RD*E +: RD*E] = l_done_cur_stack[(s*N+l)*RD*E +: RD*E];
+                o_done_other_stack[l*RD*E +: RD*E] = l_done_other_stack[(s*N+l)*RD*E +: RD*E];
             end
         end
     end
@@ -669,16 +670,18 @@ always @* begin : p_back
         bad_ray = {RB{1'b0}};
         for (l = 0; l < N; l = l + 1) begin
             bad = 1'b0;
-            csp = issue_cur_sp[l*SPW +: SPW];
-            osp = issue_other_sp[l*SPW +: SPW];
+            csp = {SPW{1'b0}};
+            csp[RSPW-1:0] = issue_cur_sp[l*RSPW +: RSPW];
+            osp = {SPW{1'b0}};
+            osp[RSPW-1:0] = issue_other_sp[l*RSPW +: RSPW];
             if (issue_cur_spilled[l*SCW +: SCW] > SPC_W || issue_other_spilled[l*SCW +: SCW] > SPC_W
-                || csp > D_SPW || osp > D_SPW)
+                || csp > RD_SPW || osp > RD_SPW)
                 bad = 1'b1;
-            for (j = 0; j < D; j = j + 1) begin
-                ent = issue_cur_stack[(l*D+j)*E +: E];
+            for (j = 0; j < RD; j = j + 1) begin
+                ent = issue_cur_stack[(l*RD+j)*E +: E];
                 if (j[SPW-1:0] < csp && bad_node({{(64-AB){1'b0}}, ent[E-1:5]}, {6'd0, ent[1:0]} + 8'd1))
                     bad = 1'b1;
-                ent = issue_other_stack[(l*D+j)*E +: E];
+                ent = issue_other_stack[(l*RD+j)*E +: E];
                 if (j[SPW-1:0] < osp && bad_node({{(64-AB){1'b0}}, ent[E-1:5]}, {6'd0, ent[1:0]} + 8'd1))
                     bad = 1'b1;
             end

@@ -157,6 +157,13 @@ function [E+5:0] lane_action;
                 end
             end
         end
+        // A parked lane spills its other stack's oldest entries down to the RD a record carries.
+        if (st == ST_PARKED && !nv && fl == 2'd0 && dl == {DW{1'b0}} && osp > RD_SPW) begin
+            a = ACT_SPILL;
+            stk = 1'b1;
+            after = {{(16-SPW){1'b0}}, osp - RD_SPW};
+            kk = after > 16'd4 ? 3'd4 : after[2:0];
+        end
         lane_action = {a, stk, kk, nd};
     end
 endfunction

@@ -73,12 +73,12 @@ input  wire           issue_occlusion;
 input  wire           issue_hit_valid;
 input  wire [127:0]   issue_hit;
 input  wire [TW-1:0]  issue_cur_treelet;
-input  wire [SPW-1:0] issue_cur_sp;
-input  wire [SPW-1:0] issue_other_sp;
+input  wire [RSPW-1:0] issue_cur_sp;
+input  wire [RSPW-1:0] issue_other_sp;
 input  wire [SCW-1:0] issue_cur_spilled;
 input  wire [SCW-1:0] issue_other_spilled;
-input  wire [D*E-1:0] issue_cur_stack;
-input  wire [D*E-1:0] issue_other_stack;
+input  wire [RD*E-1:0] issue_cur_stack;
+input  wire [RD*E-1:0] issue_other_stack;
 input  wire           stop_here;
 input  wire           repack_here;
 // Start-of-cycle views: busy (not quiescent), the lane's request {action, stack, spill count,
@@ -92,8 +92,8 @@ output reg  [TW-1:0]  next_treelet;
 // its stacks' valid entries; the spill's data; the fill's expected address's terms.
 output reg            done_active;
 output reg            done_parked;
-output reg  [D*E-1:0] done_cur_stack;
-output reg  [D*E-1:0] done_other_stack;
+output reg  [RD*E-1:0] done_cur_stack;
+output reg  [RD*E-1:0] done_other_stack;
 output reg  [255:0]   spill_data;
 output reg  [RB-1:0]  fx_ray;
 output reg            fx_stack;
@@ -162,7 +162,8 @@ endtask
 
 always @* begin : p_view
     integer m;
-    busy = status_q == ST_TRAVERSING || node_valid_q || filling_q != 2'd0
+    busy = status_q == ST_TRAVERSING || (status_q == ST_PARKED && other_sp_q > RD_SPW)
+        || node_valid_q || filling_q != 2'd0
         || delay_q != {DW{1'b0}} || store_pending_q;
     act = lane_action(status_q, node_valid_q, filling_q, delay_q, cur_sp_q, other_sp_q,
                       cur_spilled_q, other_spilled_q, cur_stack_q, other_stack_q, two);
@@ -192,8 +193,8 @@ always @* begin : p_a
 ${COPY_A}
     done_active = 1'b0;
     done_parked = 1'b0;
-    done_cur_stack = {D*E{1'b0}};
-    done_other_stack = {D*E{1'b0}};
+    done_cur_stack = {RD*E{1'b0}};
+    done_other_stack = {RD*E{1'b0}};
     spill_data = 256'd0;
     // 2. Completion: a finished ray, or a parked one with a next node, leaves the lane.
     if (complete && (status_a == ST_DONE
@@ -201,7 +202,8 @@ ${COPY_A}
             || (cur_spilled_a == {SCW{1'b0}} && other_sp_a != {SPW{1'b0}}))))) begin
         done_active = 1'b1;
         done_parked = status_a == ST_PARKED;
-        for (j = 0; j < D; j = j + 1) begin
+        // A completing lane holds at most RD entries per stack (parked lanes spilled the rest).
+        for (j = 0; j < RD; j = j + 1) begin
             if (j < {{(32-SPW){1'b0}}, cur_sp_a}) done_cur_stack[j*E +: E] = cur_stack_a[j*E +: E];
             if (j < {{(32-SPW){1'b0}}, other_sp_a}) done_other_stack[j*E +: E] = other_stack_a[j*E +: E];
         end
@@ -465,12 +467,13 @@ end
 // ---- C: the warp issue, the stop and the repack -------------------------------------------------
 always @* begin : p_c
     reg finished;
+    integer j;
     finished = 1'b0;
 ${COPY_D}
     released = 1'b0;
     if (load) begin
-        finished = issue_cur_sp == {SPW{1'b0}} && issue_cur_spilled == {SCW{1'b0}}
-            && issue_other_sp == {SPW{1'b0}} && issue_other_spilled == {SCW{1'b0}};
+        finished = issue_cur_sp == {RSPW{1'b0}} && issue_cur_spilled == {SCW{1'b0}}
+            && issue_other_sp == {RSPW{1'b0}} && issue_other_spilled == {SCW{1'b0}};
         status_d = !issue_active ? ST_INACTIVE : finished ? ST_DONE : ST_TRAVERSING;
         ray_id_d = issue_ray_id;
         ray_words_d = issue_ray_words;
@@ -478,12 +481,19 @@ ${COPY_D}
         hit_valid_d = issue_hit_valid;
         hit_d = issue_hit;
         cur_treelet_d = issue_cur_treelet;
-        cur_sp_d = issue_cur_sp;
-        other_sp_d = issue_other_sp;
+        // A record's stacks (at most RD entries) fill the bottom of the lane's.
+        cur_sp_d = {SPW{1'b0}};
+        cur_sp_d[RSPW-1:0] = issue_cur_sp;
+        other_sp_d = {SPW{1'b0}};
+        other_sp_d[RSPW-1:0] = issue_other_sp;
         cur_spilled_d = issue_cur_spilled;
         other_spilled_d = issue_other_spilled;
-        cur_stack_d = issue_cur_stack;
-        other_stack_d = issue_other_stack;
+        cur_stack_d = {D*E{1'b0}};
+        other_stack_d = {D*E{1'b0}};
+        for (j = 0; j < RD; j = j + 1) begin
+            cur_stack_d[j*E +: E] = issue_cur_stack[j*E +: E];
+            other_stack_d[j*E +: E] = issue_other_stack[j*E +: E];
+        end
         filling_d = 2'd0;
         node_valid_d = 1'b0;
         node_d = {E{1'b0}};

@@ -41,7 +41,7 @@ impl<'a> Plain<'a> {
     ) -> Result<Self, RtUnitError> {
         let unit = RtUnit::new(hw.clone(), params, datapath)?;
         let regs = unit.reset();
-        let cache = RtCache::of(&regs);
+        let cache = unit.cache(&regs);
         let inputs = unit.idle_inputs();
         Ok(Plain {
             slot_warp: vec![None; hw.warp_buffer_size as usize],

@@ -183,7 +183,7 @@ impl<'a> Treelet<'a> {
         };
         let unit = TreeletRtUnit::new(hw.clone(), params, datapath)?;
         let regs = unit.reset();
-        let cache = TreeletRtUnitCache::of(&regs);
+        let cache = unit.cache(&regs);
         Ok(Treelet {
             inputs: unit.idle_inputs(),
             outputs: unit.empty_outputs(),
