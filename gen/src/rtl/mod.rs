@@ -112,6 +112,16 @@ impl<'a> DescInfo<'a> {
         }
     }
 
+    /// Width of each register of the register or bank `name`.
+    fn bank(&self, name: &str) -> Result<u32, GenError> {
+        self.desc
+            .registers
+            .iter()
+            .find(|r| r.name == name)
+            .map(|r| r.width)
+            .ok_or_else(|| self.bad(format!("the RTL needs a register `{name}`")))
+    }
+
     /// Configuration parameter `name`.
     fn param(&self, name: &str) -> Result<u64, GenError> {
         self.desc

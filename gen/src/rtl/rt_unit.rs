@@ -134,19 +134,9 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let sb = info.port("done_slot", Dir::Out)?;
     let tw = info.port("boundary_treelet", Dir::Out)? / n;
     let rspw = info.port("issue_cur_sp", Dir::In)? / n;
-    let spw = desc
-        .registers
-        .iter()
-        .find(|x| x.name == "lane_cur_sp")
-        .map(|x| x.width)
-        .ok_or_else(|| info.bad("the RTL needs a register `lane_cur_sp`".into()))?;
+    let spw = info.bank("lane_cur_sp")?;
     let scw = info.port("issue_cur_spilled", Dir::In)? / n;
-    let dw = desc
-        .registers
-        .iter()
-        .find(|x| x.name == "lane_delay")
-        .map(|x| x.width)
-        .ok_or_else(|| info.bad("the RTL needs a register `lane_delay`".into()))?;
+    let dw = info.bank("lane_delay")?;
     let fcw = info.reg("fifo_count")?;
     let fpw = info.reg("fifo_head")?;
     let scnt = info.reg("age_count")?;
