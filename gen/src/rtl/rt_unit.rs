@@ -243,7 +243,6 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         format!("localparam [15:0] D16 = {};", lit(16, d as u64)),
         format!("localparam [SPW-1:0] D_SPW = {};", lit(spw, d as u64)),
         format!("localparam [SPW-1:0] RD_SPW = {};", lit(spw, rd as u64)),
-        format!("localparam [RSPW-1:0] RD_RSPW = {};", lit(rspw, rd as u64)),
         format!(
             "localparam [CW-1:0] R_CW = {};",
             lit(CHILD_COUNT_BITS, r as u64)
