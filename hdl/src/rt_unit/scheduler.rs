@@ -3,7 +3,7 @@
 //! next node (merged across the warp's lanes) — and the addresses it computes.
 
 use super::{
-    bits, pack_spill_chunk, raise, record, ErrorKind, ErrorRecord, InFlight, LaneAction,
+    bits, pack_spill_chunk, raise, record, ErrorKind, ErrorRecord, InFlight, Lane, LaneAction,
     MemRequest, NodeDatapath, NodeEntry, RayRecord, RequestKind, RtCache, RtStats, RtUnit,
     RtUnitRegs, Split, StackSel, TraversalOrder, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
 };
@@ -52,18 +52,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             let leader = ready.trailing_zeros() as usize;
             let order = slot.order;
             let tag = s << lane_bits | leader as u32;
-            let lead = &slot.lanes[leader];
-            let action = if lead.park_spilling(self.keep()) {
-                // A parked lane spills the oldest of its other stack's entries down to `keep`.
-                let after = lead.ray.other_stack.len() - self.keep();
-                Some(LaneAction::Spill(
-                    StackSel::Other,
-                    after.min(STACK_ENTRIES_PER_CHUNK),
-                ))
-            } else {
-                self.action(&lead.ray, order)
-            };
-            let node = match action {
+            let node = match self.action(&slot.lanes[leader], order) {
                 None => continue,
                 Some(LaneAction::Fetch(node)) => node,
                 Some(LaneAction::Spill(stack, k)) => {
@@ -109,9 +98,9 @@ impl<D: NodeDatapath> RtUnit<D> {
                 }
             };
             let mut served = 0;
-            for l in bits(ready & m.traversing) {
+            for l in bits(ready) {
                 let lane = &mut slot.lanes[l];
-                if self.action(&lane.ray, order) == Some(LaneAction::Fetch(node)) {
+                if self.action(lane, order) == Some(LaneAction::Fetch(node)) {
                     self.pop_next(&mut lane.ray);
                     lane.in_flight = Some(InFlight {
                         node,
@@ -136,9 +125,18 @@ impl<D: NodeDatapath> RtUnit<D> {
         None
     }
 
-    /// The request a ready lane holding `ray` makes next in a warp of traversal order `order`
-    /// (`None` when the ray is finished).
-    pub(super) fn action(&self, ray: &RayRecord, order: TraversalOrder) -> Option<LaneAction> {
+    /// The request a ready lane makes next in a warp of traversal order `order` (`None` when
+    /// its ray is finished): a parked lane spills the oldest of its other stack's entries down
+    /// to what a record carries ([`RtUnit::keep`]); a traversing one fills, spills or fetches.
+    pub(super) fn action(&self, lane: &Lane, order: TraversalOrder) -> Option<LaneAction> {
+        let ray = &lane.ray;
+        if lane.park_spilling(self.keep()) {
+            let after = ray.other_stack.len() - self.keep();
+            return Some(LaneAction::Spill(
+                StackSel::Other,
+                after.min(STACK_ENTRIES_PER_CHUNK),
+            ));
+        }
         let depth = self.cfg.stack_depth as usize;
         let room = self.params.max_children as usize;
         let (pop, node) = if let Some(&n) = ray.current_stack.last() {
