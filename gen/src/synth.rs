@@ -213,8 +213,18 @@ fn parse_stat(json: &str, top: &str) -> Result<SynthReport, GenError> {
         tool: "yosys".to_string(),
         reason,
     };
+    // Yosys 0.23 prints a line of its text hierarchy into the JSON of a design three modules
+    // deep (`       rt_unit_stack_bank            8`); such lines are not JSON and are dropped.
+    let json: String = json
+        .lines()
+        .filter(|l| {
+            let t = l.trim_start();
+            t.is_empty() || t.starts_with(['"', '{', '}', '[', ']'])
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
     let v: serde_json::Value =
-        serde_json::from_str(json).map_err(|e| bad(format!("stat -json is not JSON: {e}")))?;
+        serde_json::from_str(&json).map_err(|e| bad(format!("stat -json is not JSON: {e}")))?;
     let design = v
         .get("design")
         .or_else(|| v.get("modules").and_then(|m| m.get(format!("\\{top}"))))
@@ -347,5 +357,14 @@ mod tests {
         assert!(!r.is_clean());
         assert!(parse_stat("{}", "t").is_err());
         assert!(parse_stat("not json", "t").is_err());
+    }
+
+    #[test]
+    fn a_stray_hierarchy_line_in_yosys_stat_is_dropped() {
+        let json =
+            "{\n \"modules\": {},\n       bank            8\n \"design\": {\"num_cells\": 3,\n  \
+                    \"num_cells_by_type\": {\"$mem_v2\": 2, \"$_XOR_\": 1}}\n}\n";
+        let r = parse_stat(json, "t").unwrap();
+        assert_eq!((r.cells, r.memory_cells), (3, 2));
     }
 }

@@ -19,9 +19,10 @@ use vtq_hdl::Block;
 
 #[test]
 fn every_block_with_rtl_is_priced() {
-    // Four-entry stacks and three children keep the RT unit's synthesis to seconds.
+    // Twelve-entry stacks (a window of four in flip-flops, a ring of 4 SRAM banks of 2 words)
+    // and three children keep the RT unit's synthesis to seconds.
     let cfg = vtq_hdl::HwConfig {
-        stack_depth: 4,
+        stack_depth: 12,
         ..small()
     };
     let rt = small_config().1;
@@ -92,12 +93,15 @@ fn every_block_with_rtl_is_priced() {
     assert!((r.total_nand2_eq - sum).abs() < 1e-6);
     assert_eq!(r.overhead, sum / r.rt_unit_logic.logic.nand2_eq);
     assert!(r.overhead > 0.0 && r.overhead < 1.0, "{}", r.overhead);
-    // The other-treelet stacks: 12 lanes of four 37-bit entries (32-bit addresses).
-    assert_eq!(r.other_stack_bits, 12 * 4 * 37);
+    // The other-treelet stacks: 12 lanes of a four-entry window and a top copy in flip-flops
+    // (37-bit entries: 32-bit addresses), and a ring of 4 banks of 2 entries in SRAM.
+    assert_eq!(r.other_stack_bits, 12 * (4 + 1) * 37);
+    assert_eq!(r.other_stack_sram_bits, 12 * 4 * 2 * 37);
     assert!(r.other_stack_nand2_eq < r.rt_unit_logic.logic.flip_flop_nand2_eq);
     assert_eq!(r.storage_sram_mm2.len(), 2);
     // The queue table's arrays are macros with the ports it declares (1R+1W), priced by the
-    // storage model; so is the wiring's free-id stack (below); no other block keeps one.
+    // storage model; so are the wiring's free-id stack and the RT unit's stack rings (below);
+    // no other block keeps one.
     assert_eq!(q.macros.len(), 2);
     for m in &q.macros {
         assert_eq!((m.read_ports, m.write_ports), (1, 1), "{m:?}");
@@ -133,6 +137,15 @@ fn every_block_with_rtl_is_priced() {
         f64::from(ids_mem.banks) * sram_area_mm2(bank_bits, 45.0, Ports::OneROneW)
     );
     assert_eq!(w.sram_bits, u64::from(ids_mem.banks) * bank_bits);
+    // The RT unit's stack rings: per stack, 4 banks of 2 words per lane, 1R+1W.
+    let rings = &r.rt_unit_logic.macros;
+    let names: Vec<&str> = rings.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["cur_stack", "other_stack"]);
+    for m in rings {
+        assert_eq!((m.banks, m.depth, m.width), (12 * 4, 2, 37), "{m:?}");
+        assert_eq!(m.ports, Ports::OneROneW);
+    }
+    assert_eq!(r.rt_unit_logic.sram_bits, 2 * 12 * 4 * 2 * 37);
     assert!(r
         .blocks
         .iter()
@@ -143,10 +156,8 @@ fn every_block_with_rtl_is_priced() {
     // One RayFlex datapath per lane's `rt_datapath`; the whole RT unit is control plus it.
     assert_eq!(r.datapath.units, cfg.warp_size);
     for i in 0..2 {
-        let (rt, dp) = (
-            r.rt_unit_logic.logic.area_mm2[i].1,
-            r.datapath.area_mm2[i].1,
-        );
+        let (rt, dp) = (r.rt_unit_logic.total_mm2()[i].1, r.datapath.area_mm2[i].1);
+        assert!(rt > r.rt_unit_logic.logic.area_mm2[i].1);
         assert!((r.rt_unit_mm2[i].1 - (rt + dp)).abs() < 1e-12);
         let parts: f64 = r.blocks.iter().map(|b| b.total_mm2()[i].1).sum();
         assert!((r.proposal_mm2[i].1 + r.wiring_mm2[i].1 - parts).abs() < 1e-12);

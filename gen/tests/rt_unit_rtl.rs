@@ -166,6 +166,45 @@ fn a_parked_lane_that_does_not_spill_is_caught() {
     }
 }
 
+/// The stacks' SRAM rings are exercised: at the paper's sizes a pop that reloads the top from
+/// the wrong ring position, and in the medium configuration a spill whose refill of the window
+/// is not taken from the ring's read data, make the co-simulation fail.
+#[test]
+fn a_broken_stack_ring_is_caught() {
+    let (medium, medium_params) = medium_config();
+    let cases = [
+        (
+            "ring-top",
+            HwConfig::default(),
+            RtUnitParams::default(),
+            2000,
+            "{{(32-SPW){1'b0}}, cur_sp_q - ONE_SPW}))*E +: E];",
+            "{{(32-SPW){1'b0}}, cur_sp_q}))*E +: E];",
+        ),
+        (
+            "ring-refill",
+            medium,
+            medium_params,
+            6000,
+            "cur_pend_a[j] = 1'b1;",
+            "cur_pend_a[j] = 1'b0;",
+        ),
+    ];
+    for (tag, cfg, params, cycles, from, to) in cases {
+        let trace = trace_of(&cfg, &params, cycles, 7);
+        let good = rt_unit_verilog(&cfg, &params).unwrap();
+        assert_eq!(
+            good.matches(from).count(),
+            1,
+            "{tag}: `{from}` not found once"
+        );
+        let files = sources(tag, &cfg, &params, Some(good.replacen(from, to, 1)));
+        if let Some(r) = cosim(&trace, &files, Simulator::Icarus, tag) {
+            assert!(!r.passed() && r.mismatches > 0, "{tag} not caught: {r}");
+        }
+    }
+}
+
 /// Deliberately broken lines of the RTL: each must make the co-simulation fail.
 #[test]
 fn a_broken_rtl_line_is_caught() {

@@ -1098,8 +1098,19 @@ fn describe_widths_follow_the_config() {
     assert_eq!(d.port("resp1_data").unwrap().width, 256);
     assert!(d.port("resp2_data").is_none());
     let stack = d.memories.iter().find(|m| m.name == "cur_stack").unwrap();
-    assert_eq!(stack.depth, 32 * cfg.stack_depth);
+    // Above each lane's 4-entry window, a ring of 8 SRAM banks of 4 words (28 entries).
+    assert_eq!((stack.banks, stack.depth), (32 * 8, 4));
+    assert_eq!(
+        (stack.read_ports, stack.write_ports, stack.read_latency),
+        (1, 1, 1)
+    );
     assert_eq!(stack.width, 32 + 3 + 2);
+    let window = d
+        .registers
+        .iter()
+        .find(|r| r.name == "lane_cur_window")
+        .unwrap();
+    assert_eq!(window.width, 4 * (32 + 3 + 2));
     let small_unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
     let s = small_unit.describe();
     assert_eq!(s.port("req_tag").unwrap().width, 1 + 2);

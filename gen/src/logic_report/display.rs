@@ -81,7 +81,8 @@ impl LogicReport {
             "Memory macros (SRAM arrays Yosys keeps; the storage model of docs/area.md with the \
              ports the block declares)"
         )?;
-        for b in self.blocks.iter().filter(|b| !b.macros.is_empty()) {
+        let all = self.blocks.iter().chain([&self.rt_unit_logic]);
+        for b in all.filter(|b| !b.macros.is_empty()) {
             for m in &b.macros {
                 let shape = if m.banks > 1 {
                     format!("{} x {} x {}", m.banks, m.depth, m.width)
@@ -105,8 +106,8 @@ impl LogicReport {
         writeln!(
             f,
             "  (not macros yet: the count table's entries, a CAM searched every cycle; the RT \
-             unit's stacks, written at any depth; the wiring's fill records, read a warp at a \
-             time)"
+             unit's node buffers, written by merged lanes at once; the wiring's fill records, \
+             read a warp at a time)"
         )?;
         writeln!(f)?;
         Ok(())
@@ -151,7 +152,11 @@ impl LogicReport {
             "treelet RT unit's wiring (fills of records, id stack, events)",
             &self.wiring_mm2,
         )?;
-        total(f, "RT unit's control", &self.rt_unit_logic.logic.area_mm2)?;
+        total(
+            f,
+            "RT unit's control (logic + its stacks' SRAM rings)",
+            &self.rt_unit_logic.total_mm2(),
+        )?;
         total(
             f,
             "RT unit: control + datapath (without the treelet hardware)",
@@ -193,11 +198,12 @@ impl fmt::Display for LogicReport {
         writeln!(
             f,
             "treelet hardware's logic over the RT unit's control alone: {:.1}% ({:.0} / {:.0} NAND2 \
-             eq.); the RT unit's other-treelet stacks, in its figure, are {} flip-flops (at least \
-             {:.0} NAND2 eq., {:.1}% of the control)",
+             eq.); the RT unit's other-treelet stacks are {} SRAM bits among its macros and {} \
+             flip-flops in its logic (at least {:.0} NAND2 eq., {:.1}% of the control)",
             100.0 * self.overhead,
             self.total_nand2_eq,
             self.rt_unit_logic.logic.nand2_eq,
+            self.other_stack_sram_bits,
             self.other_stack_bits,
             self.other_stack_nand2_eq,
             100.0 * self.other_stack_nand2_eq / self.rt_unit_logic.logic.nand2_eq

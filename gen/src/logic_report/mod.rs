@@ -155,9 +155,13 @@ pub struct LogicReport {
     pub proposal_over_sm: f64,
     /// The proposal and the wiring over an SM's.
     pub treelet_over_sm: f64,
-    /// Bits of the RT unit's other-treelet stacks (a stack per ray, which treelet traversal
-    /// adds to the baseline's one): inside `rt_unit_logic`, not in the treelet hardware.
+    /// Flip-flop bits of the RT unit's other-treelet stacks (a stack per ray, which treelet
+    /// traversal adds to the baseline's one; each lane's window and top copy): inside
+    /// `rt_unit_logic`, not in the treelet hardware.
     pub other_stack_bits: u64,
+    /// SRAM bits of the RT unit's other-treelet stacks (their rings, among `rt_unit_logic`'s
+    /// macros).
+    pub other_stack_sram_bits: u64,
     /// Those bits' NAND2 equivalents as DFF_X1 cells alone (a lower bound: no enable or
     /// multiplexer).
     pub other_stack_nand2_eq: f64,
@@ -210,6 +214,14 @@ fn macros(desc: &BlockDesc) -> Result<Vec<MacroArea>, GenError> {
             })
         })
         .collect()
+}
+
+/// Bits held by `macros`.
+fn macro_bits(macros: &[MacroArea]) -> u64 {
+    macros
+        .iter()
+        .map(|m| u64::from(m.banks) * u64::from(m.depth) * u64::from(m.width))
+        .sum()
 }
 
 /// `report` without the cells of black-box module `module` (instances of it, whatever their
@@ -313,11 +325,17 @@ pub fn logic_report_with(
     let mut results = run_jobs(&jobs, work_dir, progress)?;
     let rt_synthesis = results.pop().expect("the RT unit's job")?;
     let rt_synth = without_black_box(rt_synthesis.report, "rt_datapath");
+    let rt_desc = RtUnit::new(cfg.clone(), rt.clone(), NoDatapath)?.describe();
+    let rt_macros = if rt_synth.memory_cells > 0 {
+        macros(&rt_desc)?
+    } else {
+        Vec::new()
+    };
     let rt_unit_logic = BlockLogic {
         logic: logic_area(&rt_synth),
         synth: rt_synth,
-        sram_bits: 0,
-        macros: Vec::new(),
+        sram_bits: macro_bits(&rt_macros),
+        macros: rt_macros,
         structure: None,
         seconds: rt_synthesis.seconds,
         reused: rt_synthesis.reused,
@@ -337,10 +355,7 @@ pub fn logic_report_with(
         blocks.push(BlockLogic {
             logic: logic_area(&synth),
             synth,
-            sram_bits: kept
-                .iter()
-                .map(|m| u64::from(m.banks) * u64::from(m.depth) * u64::from(m.width))
-                .sum(),
+            sram_bits: macro_bits(&kept),
             macros: kept,
             structure: structure.map(str::to_string),
             seconds,
@@ -349,13 +364,19 @@ pub fn logic_report_with(
     }
     let total_nand2_eq: f64 = blocks.iter().map(|b| b.logic.nand2_eq).sum();
     let overhead = total_nand2_eq / rt_unit_logic.logic.nand2_eq;
-    // The other-treelet stacks as the RT unit's description sizes them.
-    let other_stack_bits = RtUnit::new(cfg.clone(), rt.clone(), NoDatapath)?
-        .describe()
+    // The other-treelet stacks as the RT unit's description sizes them: flip-flops (each
+    // lane's window and top copy) and the SRAM ring.
+    let other_stack_bits = rt_desc
+        .registers
+        .iter()
+        .filter(|r| r.name == "lane_other_window" || r.name == "lane_other_top")
+        .map(|r| u64::from(r.count) * u64::from(r.width))
+        .sum();
+    let other_stack_sram_bits = rt_desc
         .memories
         .iter()
         .filter(|m| m.name == "other_stack")
-        .map(|m| u64::from(m.depth) * u64::from(m.width))
+        .map(|m| u64::from(m.banks) * u64::from(m.depth) * u64::from(m.width))
         .sum();
     let other_stack_nand2_eq = other_stack_bits as f64 * DFF_X1_UM2 / NAND2_X1_45NM_UM2;
     let per_node = |pick: &dyn Fn(&BlockLogic) -> Vec<(f64, f64)>, which: &[BlockLogic]| {
@@ -372,7 +393,7 @@ pub fn logic_report_with(
     let wiring_mm2 = per_node(&|b| b.total_mm2(), wiring);
     // One RayFlex datapath per `rt_datapath` instance: one per lane index.
     let datapath = datapath_area(cfg.warp_size);
-    let rt_unit_mm2 = add(&rt_unit_logic.logic.area_mm2, &datapath.area_mm2);
+    let rt_unit_mm2 = add(&rt_unit_logic.total_mm2(), &datapath.area_mm2);
     let at45 = |a: &NodeAreas| a[0].1;
     let sm_mm2 = SM_DIE_MM2 / f64::from(SM_COUNT);
     let to_sm_node = (SM_NODE_NM / NODES_NM[0]).powi(2);
@@ -405,6 +426,7 @@ pub fn logic_report_with(
         rt_unit_mm2,
         overhead,
         other_stack_bits,
+        other_stack_sram_bits,
         other_stack_nand2_eq,
         rt_unit: RT_UNIT_NOTE.to_string(),
         sm: SM_SOURCE.to_string(),

@@ -22,10 +22,13 @@
 //! is the Verilog of the toy node format the co-simulation uses on both sides
 //! (`vtq_gen::stimulus::rt_unit::ToyDatapath`).
 //!
-//! The description's memories (the two stacks, the node buffer, the response FIFO) are
-//! flip-flop arrays here; `vtq area` sizes them as SRAM or flip-flops separately. The module
-//! lints clean, co-simulates with 0 mismatches (`gen/tests/rt_unit_rtl.rs`) and synthesizes
-//! under Yosys (a first, single-always-block version of the same logic did not: its loops over
+//! Each lane's two stacks are stored as a chip would (`vtq_hdl::rt_unit::StackLayout`): the
+//! bottom entries in a window of flip-flops, the rest in a ring of SRAM banks
+//! (`rt_unit_stack_bank`, one read and one write port, read latency 1, kept by Yosys as memory
+//! macros), the top copied in a register while it lies in the ring. The node buffer and the
+//! response FIFO are flip-flop arrays; `vtq area` sizes them as SRAM or flip-flops separately.
+//! The module lints clean, co-simulates with 0 mismatches (`gen/tests/rt_unit_rtl.rs`) and
+//! synthesizes under Yosys (a first, single-always-block version of the same logic did not: its loops over
 //! slots and lanes unrolled into multiplexer chains Yosys could not finish in 20 minutes).
 
 use super::{emit_full_module, emit_text, emit_vector_registers, fill, lit, DescInfo};
@@ -118,6 +121,9 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let s = info.param("warp_buffer_size")? as u32;
     let d = info.param("stack_depth")? as u32;
     let rd = info.param("record_stack_entries")? as u32;
+    let k = info.param("stack_window")? as u32;
+    let sk = info.param("stack_banks")? as u32;
+    let swd = info.param("stack_bank_words")? as u32;
     let ab = info.param("address_bits")? as u32;
     let treelet_bytes = info.param("treelet_bytes")?;
     let fd = info.param("resp_fifo_depth")? as u32;
@@ -138,6 +144,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let scw = info.port("issue_cur_spilled", Dir::In)? / n;
     let dw = info.bank("lane_delay")?;
     let fcw = info.reg("fifo_count")?;
+    let spb = info.bank("lane_cur_base")?;
     let fpw = info.reg("fifo_head")?;
     let scnt = info.reg("age_count")?;
     let tgw = info.port("req_tag", Dir::Out)?;
@@ -155,6 +162,12 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         && rspw == w.record_pointer
         && rd == w.record_stack
         && rd <= d
+        && k >= rd
+        && k >= d.min(4)
+        && k <= d
+        && (sk == 0 || (sk.is_power_of_two() && sk >= r && sk >= 4))
+        && k + sk * swd >= d
+        && spb == clog2((sk * swd).max(2) as u64)
         && scw == w.spilled
         && dw == w.delay
         && fcw == w.fifo_count
@@ -191,6 +204,19 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         format!("localparam D = {d};        // on-chip entries per stack"),
         format!("localparam RD = {rd};      // stack entries a ray record carries (record_stack_entries)"),
         format!("localparam RSPW = {rspw};  // bits of a record's stack depth"),
+        format!("localparam K = {k};        // a stack's bottom entries in flip-flops (its window)"),
+        format!("localparam SK = {sk};      // SRAM banks of a stack's ring (0: none)"),
+        format!("localparam SKB = {};      // SK, at least 1 (vector widths)", sk.max(1)),
+        format!(
+            "localparam SBW = {};      // bank index bits",
+            clog2(sk.max(2) as u64)
+        ),
+        format!("localparam SWD = {};      // words per bank", swd.max(1)),
+        format!(
+            "localparam SAW = {};      // word address bits",
+            clog2(swd.max(2) as u64)
+        ),
+        format!("localparam SPB = {spb};    // ring position bits"),
         format!("localparam AB = {ab};      // address bits"),
         format!("localparam E = {e};        // stack entry: {{address, kind, chunks - 1}}"),
         format!("localparam TSH = {tsh};    // log2(treelet_bytes)"),
@@ -243,6 +269,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         format!("localparam [15:0] D16 = {};", lit(16, d as u64)),
         format!("localparam [SPW-1:0] D_SPW = {};", lit(spw, d as u64)),
         format!("localparam [SPW-1:0] RD_SPW = {};", lit(spw, rd as u64)),
+        format!("localparam [SPW-1:0] K_SPW = {};", lit(spw, k as u64)),
         format!(
             "localparam [CW-1:0] R_CW = {};",
             lit(CHILD_COUNT_BITS, r as u64)
@@ -294,7 +321,12 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         format!("localparam [SCNT-1:0] ONE_SCNT = {};", lit(scnt, 1)),
     ]
     .join("\n");
-    let lane_text = lane_pieces(&desc, &info, n * s, &[lb, rb, tw, spw, scw, dw, e, d * e])?;
+    let lane_text = lane_pieces(
+        &desc,
+        &info,
+        n * s,
+        &[lb, rb, tw, spw, scw, dw, e, k * e, spb, k + 1],
+    )?;
     let mut count_resp = String::new();
     let mut push_resp = String::new();
     for k in 0..rp {
@@ -314,6 +346,9 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     }
     let outputs = output_assigns(&desc, &info)?;
     let mut vars: Vec<(&str, String)> = vec![
+        ("BANK_E", e.to_string()),
+        ("BANK_DEPTH", swd.max(1).to_string()),
+        ("BANK_AW", clog2(swd.max(2) as u64).to_string()),
         ("PARAMS", params_text),
         ("COMMON", COMMON.to_string()),
         ("COUNT_RESP", count_resp),
@@ -349,7 +384,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
 /// A field of a lane's state: its name in `rt_unit_lane`, the register (or storage) holding
 /// every lane's in `rt_unit`, its width as a Verilog expression, and the index of its width in
 /// the widths [`lane_pieces`] checks (`None`: a fixed width).
-const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 21] = [
+const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 27] = [
     ("status", "lane_status", "2", None),
     ("ray_id", "lane_ray_id", "RB", Some(1)),
     ("ray_words", "lane_ray_words", "256", None),
@@ -368,8 +403,14 @@ const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 21] = [
     ("chunks_returned", "lane_chunks_returned", "4", None),
     ("delay", "lane_delay", "DW", Some(5)),
     ("store_pending", "lane_store_pending", "1", None),
-    ("cur_stack", "cur_stack", "D*E", Some(7)),
-    ("other_stack", "other_stack", "D*E", Some(7)),
+    ("cur_win", "lane_cur_window", "K*E", Some(7)),
+    ("cur_top", "lane_cur_top", "E", Some(6)),
+    ("cur_base", "lane_cur_base", "SPB", Some(8)),
+    ("cur_pend", "lane_cur_pending", "K+1", Some(9)),
+    ("other_win", "lane_other_window", "K*E", Some(7)),
+    ("other_top", "lane_other_top", "E", Some(6)),
+    ("other_base", "lane_other_base", "SPB", Some(8)),
+    ("other_pend", "lane_other_pending", "K+1", Some(9)),
     ("node_buffer", "node_buffer", "1024", None),
 ];
 
@@ -377,13 +418,14 @@ const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 21] = [
 /// after each stage, the copies between stages, the clocked block, the top's wires of the
 /// lanes' registers and the instances' connections.
 /// Checks that the description's per-lane registers are exactly the fields of [`LANE_FIELDS`]
-/// (besides the three memories), `lanes` of them each, of the widths `widths` (lane, ray id,
-/// treelet, stack pointer, spilled count, delay, entry, stack bits).
+/// (besides the node buffer), `lanes` of them each, of the widths `widths` (lane, ray id,
+/// treelet, stack pointer, spilled count, delay, entry, stack window, ring position, pending
+/// bits).
 fn lane_pieces(
     desc: &BlockDesc,
     info: &DescInfo,
     lanes: u32,
-    widths: &[u32; 8],
+    widths: &[u32; 10],
 ) -> Result<Vec<(&'static str, String)>, GenError> {
     let lane_regs: Vec<&str> = desc
         .registers

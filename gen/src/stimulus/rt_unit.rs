@@ -31,8 +31,8 @@ use std::collections::HashMap;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
     pack_spill_chunk, spill_area, Hit, IssueTarget, LaneStatus, MemResponse, NodeEntry, RayOutcome,
-    RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs, StackSel,
-    TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
+    RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs, StackLayout,
+    StackSel, TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -628,6 +628,16 @@ impl Env {
             *e += u64::from(out.errors >> k & 1);
         }
         c.max_occupancy = c.max_occupancy.max(self.regs.age.len() as u64);
+        let window = StackLayout::new(self.block.config(), self.block.params()).window as usize;
+        let pairs = (self.regs.slots.iter().zip(next.slots.iter()))
+            .flat_map(|(s, t)| s.lanes.iter().zip(t.lanes.iter()));
+        for (a, b) in pairs {
+            for sel in [StackSel::Current, StackSel::Other] {
+                let (before, after) = (a.ray.stack(sel).len(), b.ray.stack(sel).len());
+                let popped = a.in_flight.is_none() && b.in_flight.is_some();
+                c.ring_pops += u64::from(popped && after + 1 == before && after > window);
+            }
+        }
         self.regs = next;
         self.cycle += 1;
     }
@@ -663,6 +673,16 @@ mod tests {
         assert_ne!(signals(&c), signals(&b));
         assert_eq!((a, ca.cycles), (b, 3000));
         assert_eq!(ca, cb);
+    }
+
+    /// At the paper's sizes the stimulus drives stacks past their window: pops leave the top
+    /// in the RTL's SRAM ring (a read the next cycle), which co-simulation then checks.
+    #[test]
+    fn default_config_pops_tops_out_of_the_ring() {
+        let (_, _, cov) =
+            rt_unit_inputs(&HwConfig::default(), &RtUnitParams::default(), 2000, 7).unwrap();
+        println!("{cov}");
+        assert!(cov.ring_pops >= 20, "{cov}");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use super::bundles::{errors, LaneStatus, RtUnitRegs, TraversalOrder};
 use super::node::{NodeEntry, NodeKind, MAX_NODE_CHUNKS, RAY_WORDS};
 use super::ports::{RtUnitInputs, RtUnitStatus, Widths, DATA_BITS, HIT_BITS};
-use super::RtUnitParams;
+use super::{RtUnitParams, StackLayout};
 use crate::bits::{bits_for, clog2};
 use crate::config::HwConfig;
 use crate::describe::{BlockDesc, FsmDesc, MemDesc};
@@ -21,20 +21,32 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
 
     let registers = registers(cfg, params, w).descs();
 
-    let stack = |name: &str, doc: &str| MemDesc {
+    // Each lane's stacks: the bottom window and the top in registers (below), the rest in a
+    // ring of SRAM banks (`StackLayout`).
+    let layout = StackLayout::new(cfg, params);
+    let stack = |name: &str, which: &str| MemDesc {
         name: name.to_string(),
-        banks: 1,
-        depth: lanes * cfg.stack_depth,
+        banks: lanes * layout.banks,
+        depth: layout.bank_words,
         width: entry,
         read_ports: 1,
         write_ports: 1,
-        read_latency: 0,
+        read_latency: 1,
         fields: entry_fields(cfg.address_bits),
-        doc: doc.to_string(),
+        doc: format!(
+            "the {which} stacks' entries above each lane's window of {}: a ring of {} banks of \
+             {} words per lane, one read and one write port each; a test's children are \
+             written in one cycle, each to its own bank; a pop reads the new top and a spill \
+             the entries sliding into the window, for the next cycle",
+            layout.window, layout.banks, layout.bank_words
+        ),
     };
-    let memories = vec![
-        stack("cur_stack", "on-chip current-treelet stacks, stack_depth entries per lane, banked per lane; a test's children are written as one wide write; older entries spill to memory 4 per 32 B chunk"),
-        stack("other_stack", "on-chip other-treelet stacks, stack_depth entries per lane, banked per lane; older entries spill to memory"),
+    let mut memories = Vec::new();
+    if layout.banks > 0 {
+        memories.push(stack("cur_stack", "current-treelet"));
+        memories.push(stack("other_stack", "other-treelet"));
+    }
+    memories.extend([
         MemDesc {
             name: "node_buffer".into(),
             banks: 1,
@@ -44,7 +56,8 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             write_ports: 1,
             read_latency: 0,
             fields: vec![("data".into(), DATA_BITS)],
-            doc: "returned chunks of each lane's node in flight, read by the datapath as one node".into(),
+            doc: "returned chunks of each lane's node in flight, read by the datapath as one node"
+                .into(),
         },
         MemDesc {
             name: "resp_fifo".into(),
@@ -61,7 +74,7 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             ],
             doc: "responses from memory, popped one per cycle".into(),
         },
-    ];
+    ]);
 
     let l = &params.latencies;
     BlockDesc {
@@ -86,6 +99,9 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
             ("max_children".into(), params.max_children as u64),
             ("stack_base".into(), super::spill_area(cfg, params).0),
             ("stack_spill_chunks".into(), params.stack_spill_chunks as u64),
+            ("stack_window".into(), layout.window as u64),
+            ("stack_banks".into(), layout.banks as u64),
+            ("stack_bank_words".into(), layout.bank_words as u64),
         ],
         ports,
         registers,
@@ -309,5 +325,44 @@ pub(super) fn registers(
         lanes,
         "per lane: hit-record store waiting",
     );
+    let layout = StackLayout::new(cfg, params);
+    for (stack, which) in [("cur", "current-treelet"), ("other", "other-treelet")] {
+        t.untraced(
+            &format!("lane_{stack}_window"),
+            layout.window * entry,
+            lanes,
+            &format!(
+                "per lane: the {which} stack's bottom {} entries, bottom first",
+                layout.window
+            ),
+        )
+        .untraced(
+            &format!("lane_{stack}_top"),
+            entry,
+            lanes,
+            &format!(
+                "per lane: a copy of the {which} stack's top entry while it lies in the SRAM ring"
+            ),
+        )
+        .untraced(
+            &format!("lane_{stack}_base"),
+            layout.position_bits(),
+            lanes,
+            &format!(
+                "per lane: the ring position of the {which} stack's entry {} (the first above \
+                 the window)",
+                layout.window
+            ),
+        )
+        .untraced(
+            &format!("lane_{stack}_pending"),
+            layout.window + 1,
+            lanes,
+            &format!(
+                "per lane: the {which} stack's window entries (low bits) and top (high bit) \
+                 that this cycle's SRAM read data replaces"
+            ),
+        );
+    }
     t
 }

@@ -91,6 +91,7 @@ mod node;
 mod ports;
 mod responses;
 mod scheduler;
+mod stack_layout;
 mod status;
 
 use bundles::{bits, LaneMasks};
@@ -106,6 +107,7 @@ pub use node::{
 };
 pub(crate) use ports::{data_word, ray_state, ray_state_words, HIT_BITS};
 pub use ports::{RtUnitInputs, RtUnitOutputs, RtUnitStatus, SlotStatus, Widths};
+pub use stack_layout::StackLayout;
 
 use crate::bits::{bits_for, clog2};
 use crate::block::{Block, Signal};

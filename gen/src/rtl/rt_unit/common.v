@@ -109,8 +109,8 @@ function [E+5:0] lane_action;
     input [SPW-1:0] osp;
     input [SCW-1:0] csl;
     input [SCW-1:0] osl;
-    input [D*E-1:0] cs;
-    input [D*E-1:0] os;
+    input [E-1:0] ct;   // the stacks' top entries (valid when csp, osp are not 0)
+    input [E-1:0] ot;
     input dual;
     reg [1:0] a;
     reg stk;
@@ -118,7 +118,6 @@ function [E+5:0] lane_action;
     reg [E-1:0] nd;
     reg pop_other;
     reg [15:0] after;
-    integer j;
     begin
         a = ACT_NONE;
         stk = 1'b0;
@@ -128,15 +127,13 @@ function [E+5:0] lane_action;
         if (st == ST_TRAVERSING && !nv && fl == 2'd0 && dl == {DW{1'b0}}) begin
             if (csp != {SPW{1'b0}}) begin
                 a = ACT_FETCH;
-                for (j = 0; j < D; j = j + 1)
-                    if (csp == j[SPW-1:0] + ONE_SPW) nd = cs[j*E +: E];
+                nd = ct;
             end else if (csl != {SCW{1'b0}}) begin
                 a = ACT_FILL;
             end else if (osp != {SPW{1'b0}}) begin
                 a = ACT_FETCH;
                 pop_other = 1'b1;
-                for (j = 0; j < D; j = j + 1)
-                    if (osp == j[SPW-1:0] + ONE_SPW) nd = os[j*E +: E];
+                nd = ot;
             end else if (osl != {SCW{1'b0}}) begin
                 a = ACT_FILL;
                 stk = 1'b1;

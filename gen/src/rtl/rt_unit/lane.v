@@ -10,6 +10,11 @@
 //   C  the controller's commands: a warp issued into its slot, a stop, a repack.
 // Each stage is its own always block on the values the previous one produced (`<field>_a`,
 // `_b`, `_t`, `_d`), so no signal's logic loops through the slot-level logic.
+// Each stack keeps its bottom K entries in a window of flip-flops, the rest in a ring of SKB
+// SRAM banks (rt_unit_stack_bank: one read and one write port, read latency 1) from ring
+// position `base`, and a copy of its top while that lies in the ring (vtq_hdl's StackLayout).
+// A pop reads the new top from the ring and a spill the entries sliding into the window; the
+// read data replaces them in the next cycle (`pending`), before any stage reads them.
 // ---------------------------------------------------------------------------------------------
 /* verilator lint_off DECLFILENAME */
 module rt_unit_lane (
@@ -131,6 +136,105 @@ reg       fill_event; // a fill brought a boundary's top back
 reg [TW-1:0] fill_treelet;
 reg       test_now;   // the node completed: test it
 
+// The stacks' rings: each bank's write and read this cycle (written by the test's children,
+// read after a pop or a spill) and its read data (the word read in the previous cycle).
+// (Without a ring, SK = 0, nothing reads the requests.)
+/* verilator lint_off UNUSEDSIGNAL */
+reg  [SKB-1:0]     cur_we, other_we;
+reg  [SKB*SAW-1:0] cur_waddr, other_waddr;
+reg  [SKB*E-1:0]   cur_wdata, other_wdata;
+reg  [SKB*SAW-1:0] cur_raddr, other_raddr;
+/* verilator lint_on UNUSEDSIGNAL */
+wire [SKB*E-1:0]   cur_rdata, other_rdata;
+// The start-of-cycle windows and tops with the read data in place of their pending entries.
+reg  [K*E-1:0]     cur_win_r, other_win_r;
+reg  [E-1:0]       cur_top_r, other_top_r;
+
+// The ring position of stack entry j (j >= K; for j < K, where entry j's refill comes from):
+// base + j - K, modulo the ring.
+function [SPB-1:0] ring_pos;
+    input [SPB-1:0] base;
+    input [31:0] j;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] p;
+    /* verilator lint_on UNUSEDSIGNAL */
+    begin
+        p = {{(32-SPB){1'b0}}, base} + j - K;
+        ring_pos = p[SPB-1:0];
+    end
+endfunction
+
+// The bank and the word of ring position p.
+function [SBW-1:0] bank_of;
+    /* verilator lint_off UNUSEDSIGNAL */
+    input [SPB-1:0] p;
+    /* verilator lint_on UNUSEDSIGNAL */
+    begin
+        bank_of = p[SBW-1:0];
+    end
+endfunction
+function [SAW-1:0] word_of;
+    input [SPB-1:0] p;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] w;
+    /* verilator lint_on UNUSEDSIGNAL */
+    begin
+        w = {{(32-SPB){1'b0}}, p} >> SBW;
+        word_of = w[SAW-1:0];
+    end
+endfunction
+
+// The top entry of a stack of sp entries (sp > 0): in the window, or the top register.
+function [E-1:0] top_of;
+    input [SPW-1:0] sp;
+    input [K*E-1:0] win;
+    input [E-1:0] top;
+    integer j;
+    begin
+        top_of = top;
+        for (j = 0; j < K; j = j + 1)
+            if (sp == j[SPW-1:0] + ONE_SPW) top_of = win[j*E +: E];
+    end
+endfunction
+
+always @* begin : p_resolve
+    integer j;
+    cur_win_r = cur_win_q;
+    other_win_r = other_win_q;
+    cur_top_r = cur_top_q;
+    other_top_r = other_top_q;
+    for (j = 0; j < K; j = j + 1) begin
+        if (cur_pend_q[j])
+            cur_win_r[j*E +: E] = cur_rdata[bank_of(ring_pos(cur_base_q, j))*E +: E];
+        if (other_pend_q[j])
+            other_win_r[j*E +: E] = other_rdata[bank_of(ring_pos(other_base_q, j))*E +: E];
+    end
+    if (cur_pend_q[K])
+        cur_top_r = cur_rdata[bank_of(ring_pos(cur_base_q,
+            {{(32-SPW){1'b0}}, cur_sp_q - ONE_SPW}))*E +: E];
+    if (other_pend_q[K])
+        other_top_r = other_rdata[bank_of(ring_pos(other_base_q,
+            {{(32-SPW){1'b0}}, other_sp_q - ONE_SPW}))*E +: E];
+end
+
+generate
+    genvar gb;
+    for (gb = 0; gb < SK; gb = gb + 1) begin : g_ring
+        rt_unit_stack_bank cur_bank (
+            .clk(clk), .we(cur_we[gb]), .waddr(cur_waddr[gb*SAW +: SAW]),
+            .wdata(cur_wdata[gb*E +: E]), .raddr(cur_raddr[gb*SAW +: SAW]),
+            .rdata(cur_rdata[gb*E +: E]));
+        rt_unit_stack_bank other_bank (
+            .clk(clk), .we(other_we[gb]), .waddr(other_waddr[gb*SAW +: SAW]),
+            .wdata(other_wdata[gb*E +: E]), .raddr(other_raddr[gb*SAW +: SAW]),
+            .rdata(other_rdata[gb*E +: E]));
+    end
+    if (SK == 0) begin : g_no_ring
+        assign cur_rdata = {SKB*E{1'b0}};
+        assign other_rdata = {SKB*E{1'b0}};
+    end
+endgenerate
+
 // A ray leaves the lane (its warp completes, or a repack releases it): the fields that held it,
 // cleared (the node, delay and store fields are idle by then).
 task leave;
@@ -161,36 +265,48 @@ task leave;
 endtask
 
 always @* begin : p_view
-    integer m;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [E-1:0] top;
+    /* verilator lint_on UNUSEDSIGNAL */
     busy = status_q == ST_TRAVERSING || (status_q == ST_PARKED && other_sp_q > RD_SPW)
         || node_valid_q || filling_q != 2'd0
         || delay_q != {DW{1'b0}} || store_pending_q;
     act = lane_action(status_q, node_valid_q, filling_q, delay_q, cur_sp_q, other_sp_q,
-                      cur_spilled_q, other_spilled_q, cur_stack_q, other_stack_q, two);
+                      cur_spilled_q, other_spilled_q, top_of(cur_sp_q, cur_win_r, cur_top_r),
+                      top_of(other_sp_q, other_win_r, other_top_r), two);
     {a_act, a_stack, a_k, a_node} = act;
     act_index = a_stack ? other_spilled_q : cur_spilled_q;
     // The traversing lane's next node, if on chip.
     next_valid = 1'b0;
     next_treelet = {TW{1'b0}};
+    top = {E{1'b0}};
     if (status_q == ST_TRAVERSING) begin
-        for (m = 0; m < D; m = m + 1) begin
-            if (cur_sp_q == m[SPW-1:0] + ONE_SPW) begin
-                next_valid = 1'b1;
-                next_treelet = cur_stack_q[m*E + TSH + 5 +: TW];
-            end
-            if (cur_sp_q == {SPW{1'b0}} && cur_spilled_q == {SCW{1'b0}}
-                && other_sp_q == m[SPW-1:0] + ONE_SPW) begin
-                next_valid = 1'b1;
-                next_treelet = other_stack_q[m*E + TSH + 5 +: TW];
-            end
+        if (cur_sp_q != {SPW{1'b0}}) begin
+            next_valid = 1'b1;
+            top = top_of(cur_sp_q, cur_win_r, cur_top_r);
+        end else if (cur_spilled_q == {SCW{1'b0}} && other_sp_q != {SPW{1'b0}}) begin
+            next_valid = 1'b1;
+            top = top_of(other_sp_q, other_win_r, other_top_r);
         end
     end
+    next_treelet = top[TSH + 5 +: TW];
 end
 
 // ---- A: completion, the scheduler's request, the delay countdown --------------------------------
 always @* begin : p_a
     integer j, sh;
+    reg [SPB-1:0] pos;
 ${COPY_A}
+    // The read data in place of the pending entries; this cycle's reads.
+    cur_win_a = cur_win_r;
+    other_win_a = other_win_r;
+    cur_top_a = cur_top_r;
+    other_top_a = other_top_r;
+    cur_pend_a = {(K+1){1'b0}};
+    other_pend_a = {(K+1){1'b0}};
+    cur_raddr = {SKB*SAW{1'b0}};
+    other_raddr = {SKB*SAW{1'b0}};
+    pos = {SPB{1'b0}};
     done_active = 1'b0;
     done_parked = 1'b0;
     done_cur_stack = {RD*E{1'b0}};
@@ -204,8 +320,8 @@ ${COPY_A}
         done_parked = status_a == ST_PARKED;
         // A completing lane holds at most RD entries per stack (parked lanes spilled the rest).
         for (j = 0; j < RD; j = j + 1) begin
-            if (j < {{(32-SPW){1'b0}}, cur_sp_a}) done_cur_stack[j*E +: E] = cur_stack_a[j*E +: E];
-            if (j < {{(32-SPW){1'b0}}, other_sp_a}) done_other_stack[j*E +: E] = other_stack_a[j*E +: E];
+            if (j < {{(32-SPW){1'b0}}, cur_sp_a}) done_cur_stack[j*E +: E] = cur_win_a[j*E +: E];
+            if (j < {{(32-SPW){1'b0}}, other_sp_a}) done_other_stack[j*E +: E] = other_win_a[j*E +: E];
         end
         leave(status_a, ray_id_a, ray_words_a, occlusion_a, hit_valid_a, hit_a, cur_treelet_a,
               cur_sp_a, other_sp_a, cur_spilled_a, other_spilled_a);
@@ -213,11 +329,22 @@ ${COPY_A}
     // 3. The hit-record store sent, the fetch merged, the leader's spill or fill.
     if (store_sel) store_pending_a = 1'b0;
     if (merge && a_act == ACT_FETCH && a_node == lead_node) begin
+        // The popped stack's new top, if it lies in the ring, is read for the next cycle.
         if (cur_sp_a != {SPW{1'b0}}) begin
             cur_sp_a = cur_sp_a - ONE_SPW;
+            if (cur_sp_a > K_SPW) begin
+                pos = ring_pos(cur_base_a, {{(32-SPW){1'b0}}, cur_sp_a - ONE_SPW});
+                cur_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                cur_pend_a[K] = 1'b1;
+            end
         end else begin
             other_sp_a = other_sp_a - ONE_SPW;
             cur_treelet_a = lead_node[E-1:TSH+5];
+            if (other_sp_a > K_SPW) begin
+                pos = ring_pos(other_base_a, {{(32-SPW){1'b0}}, other_sp_a - ONE_SPW});
+                other_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                other_pend_a[K] = 1'b1;
+            end
         end
         node_valid_a = 1'b1;
         node_a = lead_node;
@@ -225,17 +352,33 @@ ${COPY_A}
         chunks_returned_a = 4'd0;
     end
     if (lead_me && a_act == ACT_SPILL && act_index < SPC_W) begin
-        // Store the a_k oldest entries; the rest move down.
+        // Store the a_k oldest entries; the rest of the window moves down, the ring's base up,
+        // and the a_k entries above the window are read into its top for the next cycle.
         for (j = 0; j < D4; j = j + 1) begin
             if (j < {29'd0, a_k})
                 spill_data[j*64 +: 64] = {1'b1, {(63-E){1'b0}},
-                    a_stack ? other_stack_a[j*E +: E] : cur_stack_a[j*E +: E]};
+                    a_stack ? other_win_a[j*E +: E] : cur_win_a[j*E +: E]};
         end
         for (sh = 1; sh <= 4; sh = sh + 1) begin
             if ({29'd0, a_k} == sh) begin
-                for (j = 0; j + sh < D; j = j + 1) begin
-                    if (a_stack) other_stack_a[j*E +: E] = other_stack_a[(j+sh)*E +: E];
-                    else cur_stack_a[j*E +: E] = cur_stack_a[(j+sh)*E +: E];
+                for (j = 0; j + sh < K; j = j + 1) begin
+                    if (a_stack) other_win_a[j*E +: E] = other_win_a[(j+sh)*E +: E];
+                    else cur_win_a[j*E +: E] = cur_win_a[(j+sh)*E +: E];
+                end
+                if (SK != 0) begin
+                    if (a_stack) other_base_a = other_base_a + sh[SPB-1:0];
+                    else cur_base_a = cur_base_a + sh[SPB-1:0];
+                    for (j = K - sh; j < K; j = j + 1) begin
+                        if (a_stack) begin
+                            pos = ring_pos(other_base_a, j);
+                            other_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                            other_pend_a[j] = 1'b1;
+                        end else begin
+                            pos = ring_pos(cur_base_a, j);
+                            cur_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                            cur_pend_a[j] = 1'b1;
+                        end
+                    end
                 end
             end
         end
@@ -312,8 +455,8 @@ ${COPY_B}
             fill_ok = 1'b1;
             for (j = 0; j < D4; j = j + 1) begin
                 if (j < {29'd0, cnt}) begin
-                    if (stk) other_stack_b[j*E +: E] = pop_data[j*64 +: E];
-                    else cur_stack_b[j*E +: E] = pop_data[j*64 +: E];
+                    if (stk) other_win_b[j*E +: E] = pop_data[j*64 +: E];
+                    else cur_win_b[j*E +: E] = pop_data[j*64 +: E];
                 end
             end
             if (stk) begin
@@ -373,6 +516,7 @@ always @* begin : p_t
     reg [7:0] cchunks;
     reg [E-1:0] ent;
     reg finished;
+    reg [SPB-1:0] pos;
     accepted = 1'b0;
     h = 128'd0;
     b = 64'd0;
@@ -382,7 +526,14 @@ always @* begin : p_t
     cchunks = 8'd0;
     ent = {E{1'b0}};
     finished = 1'b0;
+    pos = {SPB{1'b0}};
 ${COPY_T}
+    cur_we = {SKB{1'b0}};
+    other_we = {SKB{1'b0}};
+    cur_waddr = {SKB*SAW{1'b0}};
+    other_waddr = {SKB*SAW{1'b0}};
+    cur_wdata = {SKB*E{1'b0}};
+    other_wdata = {SKB*E{1'b0}};
     tested = test_now;
     test_kind = 3'd0;
     new_hit = 1'b0;
@@ -424,16 +575,33 @@ ${COPY_T}
                     err_child = 1'b1;
                 end else begin
                     ent = {caddr[AB-1:0], ckind, cchunks[1:0] - 2'd1};
+                    // Into the window, or the ring (then it is the top's copy too).
                     if (!two || caddr[AB-1:TSH] == cur_treelet_t) begin
                         if (cur_sp_t < D_SPW) begin
-                            for (j = 0; j < D; j = j + 1)
-                                if (cur_sp_t == j[SPW-1:0]) cur_stack_t[j*E +: E] = ent;
+                            for (j = 0; j < K; j = j + 1)
+                                if (cur_sp_t == j[SPW-1:0]) cur_win_t[j*E +: E] = ent;
+                            if (cur_sp_t >= K_SPW) begin
+                                pos = ring_pos(cur_base_t, {{(32-SPW){1'b0}}, cur_sp_t});
+                                cur_we[bank_of(pos)] = 1'b1;
+                                cur_waddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                                cur_wdata[bank_of(pos)*E +: E] = ent;
+                                cur_top_t = ent;
+                                cur_pend_t[K] = 1'b0;
+                            end
                             cur_sp_t = cur_sp_t + ONE_SPW;
                         end
                     end else begin
                         if (other_sp_t < D_SPW) begin
-                            for (j = 0; j < D; j = j + 1)
-                                if (other_sp_t == j[SPW-1:0]) other_stack_t[j*E +: E] = ent;
+                            for (j = 0; j < K; j = j + 1)
+                                if (other_sp_t == j[SPW-1:0]) other_win_t[j*E +: E] = ent;
+                            if (other_sp_t >= K_SPW) begin
+                                pos = ring_pos(other_base_t, {{(32-SPW){1'b0}}, other_sp_t});
+                                other_we[bank_of(pos)] = 1'b1;
+                                other_waddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                                other_wdata[bank_of(pos)*E +: E] = ent;
+                                other_top_t = ent;
+                                other_pend_t[K] = 1'b0;
+                            end
                             other_sp_t = other_sp_t + ONE_SPW;
                         end
                     end
@@ -456,9 +624,8 @@ ${COPY_T}
             // A treelet boundary: report the treelet of the other stack's top.
             if (stopped) status_t = ST_PARKED;
             boundary_valid = 1'b1;
-            for (j = 0; j < D; j = j + 1)
-                if (other_sp_t == j[SPW-1:0] + ONE_SPW)
-                    boundary_treelet = other_stack_t[j*E + TSH + 5 +: TW];
+            ent = top_of(other_sp_t, other_win_t, other_top_t);
+            boundary_treelet = ent[TSH + 5 +: TW];
         end
     end
     status_tested = status_t;
@@ -488,12 +655,18 @@ ${COPY_D}
         other_sp_d[RSPW-1:0] = issue_other_sp;
         cur_spilled_d = issue_cur_spilled;
         other_spilled_d = issue_other_spilled;
-        cur_stack_d = {D*E{1'b0}};
-        other_stack_d = {D*E{1'b0}};
+        cur_win_d = {K*E{1'b0}};
+        other_win_d = {K*E{1'b0}};
         for (j = 0; j < RD; j = j + 1) begin
-            cur_stack_d[j*E +: E] = issue_cur_stack[j*E +: E];
-            other_stack_d[j*E +: E] = issue_other_stack[j*E +: E];
+            cur_win_d[j*E +: E] = issue_cur_stack[j*E +: E];
+            other_win_d[j*E +: E] = issue_other_stack[j*E +: E];
         end
+        cur_top_d = {E{1'b0}};
+        other_top_d = {E{1'b0}};
+        cur_base_d = {SPB{1'b0}};
+        other_base_d = {SPB{1'b0}};
+        cur_pend_d = {(K+1){1'b0}};
+        other_pend_d = {(K+1){1'b0}};
         filling_d = 2'd0;
         node_valid_d = 1'b0;
         node_d = {E{1'b0}};
@@ -514,4 +687,24 @@ ${COPY_D}
 end
 
 ${LANE_REGISTERS}
+endmodule
+
+// One bank of a lane's stack ring: an SRAM of ${BANK_DEPTH} entries of ${BANK_E} bits with one write port and
+// one read port of read latency 1 (read-first); no reset (an entry is written before it is
+// read). Its sizes are fixed in the module, not parameters (one module per configuration).
+/* verilator lint_off DECLFILENAME */
+module rt_unit_stack_bank (
+    input wire clk,
+    input wire we,
+    input wire [${BANK_AW}-1:0] waddr,
+    input wire [${BANK_E}-1:0] wdata,
+    input wire [${BANK_AW}-1:0] raddr,
+    output reg [${BANK_E}-1:0] rdata
+);
+/* verilator lint_on DECLFILENAME */
+reg [${BANK_E}-1:0] mem [0:${BANK_DEPTH}-1];
+always @(posedge clk) begin : p_bank
+    if (we) mem[waddr] <= wdata;
+    rdata <= mem[raddr];
+end
 endmodule

@@ -67,6 +67,9 @@ pub struct RtUnitCoverage {
     pub errors: [u64; 7],
     /// The most warps resident at once.
     pub max_occupancy: u64,
+    /// Pops whose stack's new top lies above its window, in the RTL's SRAM ring
+    /// (`vtq_hdl::rt_unit::StackLayout`; none where the stacks have no ring).
+    pub ring_pops: u64,
 }
 
 impl RtUnitCoverage {
@@ -136,10 +139,11 @@ impl std::fmt::Display for RtUnitCoverage {
             .collect();
         write!(
             f,
-            "{} cycles; {}; max occupancy {}; error cycles: {}",
+            "{} cycles; {}; max occupancy {}; ring pops {}; error cycles: {}",
             self.cycles,
             text.join(", "),
             self.max_occupancy,
+            self.ring_pops,
             errs.join(", ")
         )
     }

@@ -112,7 +112,9 @@ pub(super) struct Tree {
 const KINDS: [[u8; 8]; 2] = [[4, 4, 4, 4, 5, 3, 2, 0], [1, 1, 1, 1, 1, 1, 2, 0]];
 
 /// Builds the toy BVH into `mem` between the hit records and the spill area: 40–120 nodes in
-/// trees of at most 4 levels, laid out in preorder (so a first child often shares its
+/// trees of at most 4 levels (a fifth of the inner nodes with `max_children` children every
+/// ray visits, the others 1–3 children each visited by half the ray classes), laid out in
+/// preorder (so a first child often shares its
 /// parent's treelet; children lie at higher addresses). A few nodes hold bad child records,
 /// records of kind 6 or 7, or more children than `max_children`, 2% a wrong magic byte, 30% a
 /// hit; the bad and surplus records are visited by the ray class 7 only.
@@ -134,11 +136,20 @@ pub(super) fn build_tree(
     // The structure, breadth first: parentless nodes are roots.
     let mc = params.max_children as usize;
     let (mut kids, mut level, mut root) = (vec![Vec::new(); n], vec![0; n], vec![true; n]);
+    let mut wide = vec![false; n];
     let mut next = (n / 16).max(2);
     for i in 0..n {
         next = next.max(i + 1);
         if level[i] < 3 && next < n && !rng.chance(15) {
-            let k = (1 + rng.below(3) as usize).min(n - next).min(mc);
+            // A fifth of the nodes are wide: max_children children every ray visits, so
+            // stacks grow past their window (the RTL's SRAM ring) and up to a spill.
+            wide[i] = rng.chance(20);
+            let k = if wide[i] {
+                mc
+            } else {
+                1 + rng.below(3) as usize
+            };
+            let k = k.min(n - next).min(mc);
             kids[i] = (next..next + k).collect();
             for c in next..next + k {
                 (level[c], root[c]) = (level[i] + 1, false);
@@ -194,7 +205,10 @@ pub(super) fn build_tree(
         };
         let mut recs: Vec<ToyChild> = kids[x]
             .iter()
-            .map(|&c| record(&nodes[pos[c]], rng.below(256) as u8))
+            .map(|&c| {
+                let mask = if wide[x] { 0xFF } else { rng.below(256) as u8 };
+                record(&nodes[pos[c]], mask)
+            })
             .collect();
         let cap = (node.bytes() as usize - 5) / 8;
         let (surplus, bad) = extra[p];
