@@ -209,7 +209,7 @@ fn a_broken_stack_ring_is_caught() {
 #[test]
 fn a_broken_rtl_line_is_caught() {
     let (cfg, params) = small_config();
-    let trace = trace_of(&cfg, &params, 5000, 1);
+    let trace = trace_of(&cfg, &params, 5000, 3);
     let good = rt_unit_verilog(&cfg, &params).unwrap();
     let mutations = [
         // Lanes of a warp merge their requests whatever node they fetch.

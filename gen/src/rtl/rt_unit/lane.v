@@ -514,9 +514,20 @@ always @* begin : p_t
     reg [63:0] caddr;
     reg [2:0] ckind;
     reg [7:0] cchunks;
-    reg [E-1:0] ent;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [E-1:0] ent;  // the other stack's top at a boundary (its treelet read)
+    /* verilator lint_on UNUSEDSIGNAL */
     reg finished;
     reg [SPB-1:0] pos;
+    reg live, bad, at, cany, oany;
+    reg [E-1:0] cw, ow;
+    reg [SPW-1:0] csp, osp;
+    // Each child's push: made, to the other stack, its position, entry, ring bank and word.
+    reg [R-1:0] push_ok, push_other, ring_push;
+    reg [R*SPW-1:0] push_pos;
+    reg [R*E-1:0] push_ent;
+    reg [R*SBW-1:0] push_bank;
+    reg [R*SAW-1:0] push_word;
     accepted = 1'b0;
     h = 128'd0;
     b = 64'd0;
@@ -527,7 +538,23 @@ always @* begin : p_t
     ent = {E{1'b0}};
     finished = 1'b0;
     pos = {SPB{1'b0}};
+    live = 1'b0;
+    bad = 1'b0;
+    at = 1'b0;
+    cany = 1'b0;
+    oany = 1'b0;
+    cw = {E{1'b0}};
+    ow = {E{1'b0}};
+    push_ok = {R{1'b0}};
+    push_other = {R{1'b0}};
+    ring_push = {R{1'b0}};
+    push_pos = {R*SPW{1'b0}};
+    push_ent = {R*E{1'b0}};
+    push_bank = {R*SBW{1'b0}};
+    push_word = {R*SAW{1'b0}};
 ${COPY_T}
+    csp = cur_sp_t;
+    osp = other_sp_t;
     cur_we = {SKB{1'b0}};
     other_we = {SKB{1'b0}};
     cur_waddr = {SKB*SAW{1'b0}};
@@ -560,54 +587,87 @@ ${COPY_T}
             err_value = {{(64-CW){1'b0}}, dp_child_count};
             err_limit = R64;
         end
-        // Children pushed last first, so the first in visit order ends on top.
+        // Children pushed last first, so the first in visit order ends on top. Each child's
+        // push is decided first (its stack and position), then every window entry and ring
+        // bank takes the one push aimed at it (positions are distinct): no entry is written
+        // through a running position, which would unroll into multiplexer chains.
+        csp = cur_sp_t;
+        osp = other_sp_t;
         for (c = R - 1; c >= 0; c = c - 1) begin
-            if (c < {{(32-CW){1'b0}}, dp_child_count}) begin
-                child = dp_children[c*CHW +: CHW];
-                caddr = child[CHW-1:11];
-                ckind = child[10:8];
-                cchunks = child[7:0];
-                if (bad_node(caddr, cchunks)) begin
-                    if (!err_child) begin
-                        err_value = caddr;
-                        err_limit = SPACE64;
-                    end
-                    err_child = 1'b1;
+            child = dp_children[c*CHW +: CHW];
+            caddr = child[CHW-1:11];
+            ckind = child[10:8];
+            cchunks = child[7:0];
+            live = c < {{(32-CW){1'b0}}, dp_child_count};
+            bad = live && bad_node(caddr, cchunks);
+            if (bad && !err_child) begin
+                err_value = caddr;
+                err_limit = SPACE64;
+            end
+            err_child = err_child || bad;
+            push_ent[c*E +: E] = {caddr[AB-1:0], ckind, cchunks[1:0] - 2'd1};
+            push_other[c] = two && caddr[AB-1:TSH] != cur_treelet_t;
+            if (live && !bad && !push_other[c] && csp < D_SPW) begin
+                push_ok[c] = 1'b1;
+                push_pos[c*SPW +: SPW] = csp;
+                csp = csp + ONE_SPW;
+            end
+            if (live && !bad && push_other[c] && osp < D_SPW) begin
+                push_ok[c] = 1'b1;
+                push_pos[c*SPW +: SPW] = osp;
+                osp = osp + ONE_SPW;
+            end
+        end
+        for (j = 0; j < K; j = j + 1) begin
+            cw = {E{1'b0}};
+            ow = {E{1'b0}};
+            cany = 1'b0;
+            oany = 1'b0;
+            for (c = 0; c < R; c = c + 1) begin
+                at = push_ok[c] && push_pos[c*SPW +: SPW] == j[SPW-1:0];
+                cw = cw | ({E{at && !push_other[c]}} & push_ent[c*E +: E]);
+                ow = ow | ({E{at && push_other[c]}} & push_ent[c*E +: E]);
+                cany = cany || (at && !push_other[c]);
+                oany = oany || (at && push_other[c]);
+            end
+            if (cany) cur_win_t[j*E +: E] = cw;
+            if (oany) other_win_t[j*E +: E] = ow;
+        end
+        // Into the ring: the bank of each push above the window; the last is the top's copy.
+        for (c = R - 1; c >= 0; c = c - 1) begin
+            ring_push[c] = push_ok[c] && push_pos[c*SPW +: SPW] >= K_SPW;
+            pos = ring_pos(push_other[c] ? other_base_t : cur_base_t,
+                           {{(32-SPW){1'b0}}, push_pos[c*SPW +: SPW]});
+            push_bank[c*SBW +: SBW] = bank_of(pos);
+            push_word[c*SAW +: SAW] = word_of(pos);
+            if (ring_push[c] && !push_other[c]) begin
+                cur_top_t = push_ent[c*E +: E];
+                cur_pend_t[K] = 1'b0;
+            end
+            if (ring_push[c] && push_other[c]) begin
+                other_top_t = push_ent[c*E +: E];
+                other_pend_t[K] = 1'b0;
+            end
+        end
+        for (j = 0; j < SK; j = j + 1) begin
+            for (c = 0; c < R; c = c + 1) begin
+                at = ring_push[c] && push_bank[c*SBW +: SBW] == j[SBW-1:0];
+                if (push_other[c]) begin
+                    other_we[j] = other_we[j] || at;
+                    other_waddr[j*SAW +: SAW] = other_waddr[j*SAW +: SAW]
+                        | ({SAW{at}} & push_word[c*SAW +: SAW]);
+                    other_wdata[j*E +: E] = other_wdata[j*E +: E]
+                        | ({E{at}} & push_ent[c*E +: E]);
                 end else begin
-                    ent = {caddr[AB-1:0], ckind, cchunks[1:0] - 2'd1};
-                    // Into the window, or the ring (then it is the top's copy too).
-                    if (!two || caddr[AB-1:TSH] == cur_treelet_t) begin
-                        if (cur_sp_t < D_SPW) begin
-                            for (j = 0; j < K; j = j + 1)
-                                if (cur_sp_t == j[SPW-1:0]) cur_win_t[j*E +: E] = ent;
-                            if (cur_sp_t >= K_SPW) begin
-                                pos = ring_pos(cur_base_t, {{(32-SPW){1'b0}}, cur_sp_t});
-                                cur_we[bank_of(pos)] = 1'b1;
-                                cur_waddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
-                                cur_wdata[bank_of(pos)*E +: E] = ent;
-                                cur_top_t = ent;
-                                cur_pend_t[K] = 1'b0;
-                            end
-                            cur_sp_t = cur_sp_t + ONE_SPW;
-                        end
-                    end else begin
-                        if (other_sp_t < D_SPW) begin
-                            for (j = 0; j < K; j = j + 1)
-                                if (other_sp_t == j[SPW-1:0]) other_win_t[j*E +: E] = ent;
-                            if (other_sp_t >= K_SPW) begin
-                                pos = ring_pos(other_base_t, {{(32-SPW){1'b0}}, other_sp_t});
-                                other_we[bank_of(pos)] = 1'b1;
-                                other_waddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
-                                other_wdata[bank_of(pos)*E +: E] = ent;
-                                other_top_t = ent;
-                                other_pend_t[K] = 1'b0;
-                            end
-                            other_sp_t = other_sp_t + ONE_SPW;
-                        end
-                    end
+                    cur_we[j] = cur_we[j] || at;
+                    cur_waddr[j*SAW +: SAW] = cur_waddr[j*SAW +: SAW]
+                        | ({SAW{at}} & push_word[c*SAW +: SAW]);
+                    cur_wdata[j*E +: E] = cur_wdata[j*E +: E] | ({E{at}} & push_ent[c*E +: E]);
                 end
             end
         end
+        cur_sp_t = csp;
+        other_sp_t = osp;
         if (accepted && occlusion_t) begin
             // An occlusion ray's first accepted hit ends its traversal: both stacks dropped.
             cur_sp_t = {SPW{1'b0}};
