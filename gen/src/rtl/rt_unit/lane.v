@@ -423,21 +423,10 @@ always @* begin : p_b
     cnt = 3'd0;
     stop_scan = 1'b0;
     w = 64'd0;
-    naddr = {AB{1'b0}};
-    nchunks = 3'd0;
-    offset = {(AB+1){1'b0}};
-    full = 4'd0;
 ${COPY_B}
     fill_ok = 1'b0;
     fill_event = 1'b0;
     fill_treelet = {TW{1'b0}};
-    node_match = 1'b0;
-    test_now = 1'b0;
-    dp_ray = 256'd0;
-    dp_best_valid = 1'b0;
-    dp_best = 128'd0;
-    dp_node = {E{1'b0}};
-    dp_data = 1024'd0;
     if (pop_fill_here && filling_b != 2'd0) begin
         stk = filling_b == 2'd2;
         sp_idx = stk ? other_spilled_b : cur_spilled_b;
@@ -475,33 +464,29 @@ ${COPY_B}
             end
         end
     end
-    if (pop_node_here) begin
-        // A node chunk: this lane's if it answers the lane's request.
-        naddr = node_b[E-1:5];
-        nchunks = {1'b0, node_b[1:0]} + 3'd1;
-        offset = {1'b0, pop_address} - {1'b0, naddr};
-        full = (4'd1 << nchunks) - 4'd1;
-        if (node_valid_b && node_leader_b == pop_leader && pop_address >= naddr
-            && offset[4:0] == 5'd0 && offset[AB:5] < {{(AB-7){1'b0}}, nchunks}
-            && !chunks_returned_b[offset[6:5]]) begin
-            node_match = 1'b1;
-            for (j = 0; j < 4; j = j + 1) begin
-                if (offset[6:5] == j[1:0]) begin
-                    chunks_returned_b[j] = 1'b1;
-                    node_buffer_b[j*256 +: 256] = pop_data;
-                end
-            end
-            if (chunks_returned_b == full) begin
-                node_valid_b = 1'b0;
-                test_now = 1'b1;
-                dp_ray = ray_words_b;
-                dp_best_valid = hit_valid_b;
-                dp_best = hit_b;
-                dp_node = node_b;
-                dp_data = node_buffer_b;
-            end
+    // A node chunk: this lane's if it answers the lane's request. (Every condition is computed
+    // first and each field written under one: nested conditions would multiplex the node
+    // buffer once per level.)
+    naddr = node_b[E-1:5];
+    nchunks = {1'b0, node_b[1:0]} + 3'd1;
+    offset = {1'b0, pop_address} - {1'b0, naddr};
+    full = (4'd1 << nchunks) - 4'd1;
+    node_match = pop_node_here && node_valid_b && node_leader_b == pop_leader
+        && pop_address >= naddr && offset[4:0] == 5'd0
+        && offset[AB:5] < {{(AB-7){1'b0}}, nchunks} && !chunks_returned_b[offset[6:5]];
+    for (j = 0; j < 4; j = j + 1) begin
+        if (node_match && offset[6:5] == j[1:0]) begin
+            chunks_returned_b[j] = 1'b1;
+            node_buffer_b[j*256 +: 256] = pop_data;
         end
     end
+    test_now = node_match && chunks_returned_b == full;
+    if (test_now) node_valid_b = 1'b0;
+    dp_ray = {256{test_now}} & ray_words_b;
+    dp_best_valid = test_now && hit_valid_b;
+    dp_best = {128{test_now}} & hit_b;
+    dp_node = {E{test_now}} & node_b;
+    dp_data = {1024{test_now}} & node_buffer_b;
 end
 
 // ---- T: the test's result written back ----------------------------------------------------------
