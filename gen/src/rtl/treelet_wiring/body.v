@@ -610,24 +610,72 @@ wire fault_ids = {{(32-LW){1'b0}}, nfin} > id_in_use;
 reg [IDB-1:0] id_we;
 reg [IDB*RB-1:0] id_wdata;
 reg [IDB*RB-1:0] id_wpos;
+// The ids are compacted (each valid one moves down by the count of empty positions before it,
+// a bit of that count per stage: valid ones never collide, their order kept) and each
+// IDB-long part rotated up by the tail (a bit of it per stage), so bank b takes the id of rank
+// (b - tail) mod IDB (+ IDB for the next part): log-depth networks, not a select per id and
+// bank (which unrolled into 2N x IDB multiplexers of two ids' width). A later part wins a bank.
 always @* begin : p_id_writes
-    integer j, b;
-    reg [RB-1:0] k;
-    reg [RB-1:0] pos;
+    integer j, s, b, m;
+    reg [2*N*RB-1:0] cd, nd;
+    reg [2*N-1:0] cv, nv;
+    reg [2*N*LW-1:0] cz, nz;
+    reg [LW-1:0] z;
+    reg [IDB*RB-1:0] rd;
+    reg [IDB-1:0] rv;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] rank;  // (b - tail) mod IDB + m * IDB
+    /* verilator lint_on UNUSEDSIGNAL */
+    z = {LW{1'b0}};
+    for (j = 0; j < 2*N; j = j + 1) begin
+        cd[j*RB +: RB] = fin_id[j*RB +: RB];
+        cv[j] = fin_valid[j] && !fault_ids;
+        cz[j*LW +: LW] = z;
+        z = z + {{(LW-1){1'b0}}, !fin_valid[j]};
+    end
+    for (s = 0; s < LW; s = s + 1) begin
+        for (j = 0; j < 2*N; j = j + 1) begin
+            nd[j*RB +: RB] = {RB{1'b0}};
+            nv[j] = 1'b0;
+            nz[j*LW +: LW] = {LW{1'b0}};
+            if (cv[j] && !cz[j*LW + s]) begin
+                nd[j*RB +: RB] = cd[j*RB +: RB];
+                nv[j] = 1'b1;
+                nz[j*LW +: LW] = cz[j*LW +: LW];
+            end
+            if (j + (1 << s) < 2*N) begin
+                if (cv[j + (1 << s)] && cz[(j + (1 << s))*LW + s]) begin
+                    nd[j*RB +: RB] = cd[(j + (1 << s))*RB +: RB];
+                    nv[j] = 1'b1;
+                    nz[j*LW +: LW] = cz[(j + (1 << s))*LW +: LW];
+                end
+            end
+        end
+        cd = nd;
+        cv = nv;
+        cz = nz;
+    end
     id_we = {IDB{1'b0}};
     id_wdata = {IDB*RB{1'b0}};
     id_wpos = {IDB*RB{1'b0}};
-    k = {RB{1'b0}};
-    for (j = 0; j < 2*N; j = j + 1) begin
-        pos = id_tail + k;
-        for (b = 0; b < IDB; b = b + 1) begin
-            if (fin_valid[j] && !fault_ids && pos[IDBW-1:0] == b[IDBW-1:0]) begin
-                id_we[b] = 1'b1;
-                id_wdata[b*RB +: RB] = fin_id[j*RB +: RB];
-                id_wpos[b*RB +: RB] = pos;
+    rank = 32'd0;
+    for (m = 0; m < 2*N/IDB; m = m + 1) begin
+        rd = cd[m*IDB*RB +: IDB*RB];
+        rv = cv[m*IDB +: IDB];
+        for (s = 0; s < IDBW; s = s + 1) begin
+            if (id_tail[s]) begin
+                rd = (rd << ((1 << s)*RB)) | (rd >> ((IDB - (1 << s))*RB));
+                rv = (rv << (1 << s)) | (rv >> (IDB - (1 << s)));
             end
         end
-        k = k + {{(RB-1){1'b0}}, fin_valid[j]};
+        for (b = 0; b < IDB; b = b + 1) begin
+            if (rv[b]) begin
+                rank = ((b - {{(32-RB){1'b0}}, id_tail}) & (IDB - 1)) + m * IDB;
+                id_we[b] = 1'b1;
+                id_wdata[b*RB +: RB] = rd[b*RB +: RB];
+                id_wpos[b*RB +: RB] = id_tail + rank[RB-1:0];
+            end
+        end
     end
 end
 generate
@@ -649,6 +697,8 @@ endgenerate
 always @* begin : p_next
     integer i, c, l, j, n;
     reg [EVD*EW-1:0] ev;
+    reg [EVD*EW-1:0] app;  // the appended events, then shifted to their places
+    reg [EVD-1:0] appv;
     reg [31:0] cnt;
     reg full;
     c = 0;
@@ -674,13 +724,28 @@ always @* begin : p_next
         cnt = cnt - 1;
     end
     n = {{(32-LW){1'b0}}, npark};
-    for (j = 0; j < EVD; j = j + 1) begin
-        for (i = 0; i < N; i = i + 1)
-            ev[j*EW +: EW] = i < n && cnt + i == j
-                ? {1'b0, park_id[i*RB +: RB], park_treelet[i*TW +: TW]} : ev[j*EW +: EW];
-        ev[j*EW +: EW] = rt_done_valid && cnt + n == j
-            ? {1'b1, {{(RB-SB){1'b0}}, rt_done_slot}, {TW{1'b0}}} : ev[j*EW +: EW];
+    // The appended events in order (the enqueues, then the warp done), shifted up to the
+    // FIFO's tail a bit of the count per stage; those past the end do not fit.
+    app = {EVD*EW{1'b0}};
+    appv = {EVD{1'b0}};
+    for (i = 0; i <= N && i < EVD; i = i + 1) begin
+        if (i < N && i < n) begin
+            app[i*EW +: EW] = {1'b0, park_id[(i < N ? i : 0)*RB +: RB],
+                               park_treelet[(i < N ? i : 0)*TW +: TW]};
+            appv[i] = 1'b1;
+        end else if (i == n && rt_done_valid) begin
+            app[i*EW +: EW] = {1'b1, {{(RB-SB){1'b0}}, rt_done_slot}, {TW{1'b0}}};
+            appv[i] = 1'b1;
+        end
     end
+    for (j = 0; (1 << j) <= EVD; j = j + 1) begin
+        if (cnt[j]) begin
+            app = app << ((1 << j)*EW);
+            appv = appv << (1 << j);
+        end
+    end
+    for (j = 0; j < EVD; j = j + 1)
+        if (appv[j]) ev[j*EW +: EW] = app[j*EW +: EW];
     cnt = cnt + n + (rt_done_valid ? 1 : 0);
     full = cnt > EVD;
     if (full) cnt = EVD;
