@@ -64,7 +64,7 @@ fn synthesize_blocks(
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let rt = super::cosim::rt_unit_params(cfg);
     eprintln!(
-        "synthesizing 5 blocks with Yosys in {} (at the defaults about 30 minutes and 6 GB)",
+        "synthesizing 5 blocks with Yosys in {} (at the defaults about 8-12 minutes and 4 GB on 2 cores)",
         dir.display()
     );
     let report = logic_report_with(
