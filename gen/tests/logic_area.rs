@@ -164,7 +164,7 @@ fn every_block_with_rtl_is_priced() {
     }
     assert!((r.proposal_over_rt_unit - r.proposal_mm2[0].1 / r.rt_unit_mm2[0].1).abs() < 1e-12);
     assert!(r.proposal_over_rt_unit < r.treelet_over_rt_unit);
-    // docs/area.md's headline: the proposal is a small share of the whole RT unit (1.8% at
+    // docs/area.md's headline: the proposal is a small share of the whole RT unit (2.7% at
     // the defaults, under 1% at this configuration); the wiring as modelled is not.
     assert!(
         r.proposal_over_rt_unit < 0.05,
