@@ -576,8 +576,6 @@ ${COPY_T}
         // push is decided first (its stack and position), then every window entry and ring
         // bank takes the one push aimed at it (positions are distinct): no entry is written
         // through a running position, which would unroll into multiplexer chains.
-        csp = cur_sp_t;
-        osp = other_sp_t;
         for (c = R - 1; c >= 0; c = c - 1) begin
             child = dp_children[c*CHW +: CHW];
             caddr = child[CHW-1:11];
