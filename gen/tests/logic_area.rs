@@ -80,10 +80,11 @@ fn every_block_with_rtl_is_priced() {
     assert!(sram > 0);
     assert_eq!(r.blocks[0].synth.memory_cells, 0);
     assert_eq!(r.blocks[0].sram_bits, 0);
-    // The RT unit: 12 lanes' ray words, hits and node buffers at least, no datapath cell.
+    // The RT unit: 12 lanes' ray words and hits and the node buffer's forwarding register at
+    // least (the node buffer itself is a macro, below), no datapath cell.
     let u = &r.rt_unit_logic.synth;
     assert_eq!(u.top, "rt_unit");
-    assert!(u.flip_flops > 12 * (256 + 128 + 1024), "{u:?}");
+    assert!(u.flip_flops > 12 * (256 + 128) + 256, "{u:?}");
     assert!(
         u.cells_by_type.keys().all(|k| !k.contains("datapath")),
         "{u:?}"
@@ -137,15 +138,22 @@ fn every_block_with_rtl_is_priced() {
         f64::from(ids_mem.banks) * sram_area_mm2(bank_bits, 45.0, Ports::OneROneW)
     );
     assert_eq!(w.sram_bits, u64::from(ids_mem.banks) * bank_bits);
-    // The RT unit's stack rings: per stack, 4 banks of 2 words per lane, 1R+1W.
-    let rings = &r.rt_unit_logic.macros;
-    let names: Vec<&str> = rings.iter().map(|m| m.name.as_str()).collect();
-    assert_eq!(names, ["cur_stack", "other_stack"]);
-    for m in rings {
+    // The RT unit's stack rings: per stack, 4 banks of 2 words per lane, 1R+1W; its node
+    // buffer: 4 banks (one per chunk) of one 256-bit word per lane, 1R+1W.
+    let macros = &r.rt_unit_logic.macros;
+    let names: Vec<&str> = macros.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["cur_stack", "other_stack", "node_buffer"]);
+    for m in &macros[..2] {
         assert_eq!((m.banks, m.depth, m.width), (12 * 4, 2, 37), "{m:?}");
         assert_eq!(m.ports, Ports::OneROneW);
     }
-    assert_eq!(r.rt_unit_logic.sram_bits, 2 * 12 * 4 * 2 * 37);
+    let nb = &macros[2];
+    assert_eq!((nb.banks, nb.depth, nb.width), (4, 12, 256), "{nb:?}");
+    assert_eq!(nb.ports, Ports::OneROneW);
+    assert_eq!(
+        r.rt_unit_logic.sram_bits,
+        2 * 12 * 4 * 2 * 37 + 4 * 12 * 256
+    );
     assert!(r
         .blocks
         .iter()

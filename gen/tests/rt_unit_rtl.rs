@@ -231,6 +231,16 @@ fn a_broken_rtl_line_is_caught() {
         ),
         // An occlusion ray goes on traversing after its first accepted hit.
         ("if (accepted && occlusion_t) begin", "if (1'b0) begin"),
+        // The node buffer's read misses last cycle's write (no forwarding).
+        (
+            "else if (node_write_valid_q && node_write_chunk_q",
+            "else if (1'b0 && node_write_chunk_q",
+        ),
+        // The node buffer reads the word of the response popping now, not of the next one.
+        (
+            "nb_raddr = node_index(next_tag[TGW-1:LB], next_tag[LB-1:0]);",
+            "nb_raddr = nb_index;",
+        ),
     ];
     for (i, (from, to)) in mutations.iter().enumerate() {
         assert_eq!(

@@ -105,9 +105,8 @@ impl LogicReport {
         }
         writeln!(
             f,
-            "  (not macros yet: the count table's entries, a CAM searched every cycle; the RT \
-             unit's node buffers, written by merged lanes at once; the wiring's fill records, \
-             read a warp at a time)"
+            "  (not macros yet: the count table's entries, a CAM searched every cycle; the \
+             wiring's fill records, read a warp at a time)"
         )?;
         writeln!(f)?;
         Ok(())
@@ -154,7 +153,7 @@ impl LogicReport {
         )?;
         total(
             f,
-            "RT unit's control (logic + its stacks' SRAM rings)",
+            "RT unit's control (logic + SRAM: stack rings, node buffer)",
             &self.rt_unit_logic.total_mm2(),
         )?;
         total(

@@ -5,7 +5,7 @@
 //! a slot, append, stop, repack) and the register-only status ports.
 //!
 //! The module is split the way the hardware is: one `rt_unit_lane` per lane of the warp buffer
-//! holds that lane's registers, stacks and node buffer and computes their next state (`rt_unit`
+//! holds that lane's registers and stacks and computes their next state (`rt_unit`
 //! reads the description's lane registers through wires `lane_<field>_q`), and `rt_unit` holds
 //! the slot-level logic between them. The lane runs the stages of `RtUnit::update` on its own
 //! state — completion, its request merged or its spill or fill as the scheduler's leader, the
@@ -25,8 +25,10 @@
 //! Each lane's two stacks are stored as a chip would (`vtq_hdl::rt_unit::StackLayout`): the
 //! bottom entries in a window of flip-flops, the rest in a ring of SRAM banks
 //! (`rt_unit_stack_bank`, one read and one write port, read latency 1, kept by Yosys as memory
-//! macros), the top copied in a register while it lies in the ring. The node buffer and the
-//! response FIFO are flip-flop arrays; `vtq area` sizes them as SRAM or flip-flops separately.
+//! macros), the top copied in a register while it lies in the ring. The node buffer is four
+//! SRAM banks at the slot level (`rt_unit_node_bank`, chunk c of a node in bank c, one word per
+//! slot and leader lane, read one cycle ahead at the next popped response's leader); the
+//! response FIFO is a flip-flop array.
 //! The module lints clean, co-simulates with 0 mismatches (`gen/tests/rt_unit_rtl.rs`) and
 //! synthesizes under Yosys (a first, single-always-block version of the same logic did not: its loops over
 //! slots and lanes unrolled into multiplexer chains Yosys could not finish in 20 minutes).
@@ -146,6 +148,8 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     let fcw = info.reg("fifo_count")?;
     let spb = info.bank("lane_cur_base")?;
     let fpw = info.reg("fifo_head")?;
+    let naw = info.reg("node_write_index")?;
+    let node_buffer = info.mem("node_buffer", &[("data", 256)], 1)?;
     let scnt = info.reg("age_count")?;
     let tgw = info.port("req_tag", Dir::Out)?;
     let cww = info.port("count_warps", Dir::Out)?;
@@ -173,6 +177,10 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         && fcw == w.fifo_count
         && tgw == sb + lb
         && fpw == clog2(fd as u64)
+        && naw == clog2((n * s) as u64).max(1)
+        && node_buffer.banks == 4
+        && node_buffer.depth == n * s
+        && (node_buffer.read_ports, node_buffer.write_ports) == (1, 1)
         && scnt == bits_for(s as u64)
         && e == w.entry()
         && info.port("issue_cur_stack", Dir::In)? == n * rd * e
@@ -217,6 +225,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
             clog2(swd.max(2) as u64)
         ),
         format!("localparam SPB = {spb};    // ring position bits"),
+        format!("localparam NAW = {naw};    // node-buffer word address bits (slot, leader lane)"),
         format!("localparam AB = {ab};      // address bits"),
         format!("localparam E = {e};        // stack entry: {{address, kind, chunks - 1}}"),
         format!("localparam TSH = {tsh};    // log2(treelet_bytes)"),
@@ -250,7 +259,6 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
             "localparam [AB-1:0] HB_AB = {}; // hit_record_base",
             lit(ab, hb)
         ),
-        format!("localparam [AB:0] SPACE_W = {};", lit(ab + 1, 1u64 << ab)),
         format!("localparam [AB:0] SPILL_LO = {};", lit(ab + 1, spill_lo)),
         format!("localparam [AB:0] SPILL_HI = {};", lit(ab + 1, spill_hi)),
         format!(
@@ -349,6 +357,8 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
         ("BANK_E", e.to_string()),
         ("BANK_DEPTH", swd.max(1).to_string()),
         ("BANK_AW", clog2(swd.max(2) as u64).to_string()),
+        ("NODE_DEPTH", (n * s).to_string()),
+        ("NODE_AW", naw.to_string()),
         ("PARAMS", params_text),
         ("COMMON", COMMON.to_string()),
         ("COUNT_RESP", count_resp),
@@ -381,10 +391,10 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     Ok(out)
 }
 
-/// A field of a lane's state: its name in `rt_unit_lane`, the register (or storage) holding
-/// every lane's in `rt_unit`, its width as a Verilog expression, and the index of its width in
+/// A field of a lane's state: its name in `rt_unit_lane`, the description's register holding
+/// every lane's, its width as a Verilog expression, and the index of its width in
 /// the widths [`lane_pieces`] checks (`None`: a fixed width).
-const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 27] = [
+const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 26] = [
     ("status", "lane_status", "2", None),
     ("ray_id", "lane_ray_id", "RB", Some(1)),
     ("ray_words", "lane_ray_words", "256", None),
@@ -411,14 +421,13 @@ const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 27] = [
     ("other_top", "lane_other_top", "E", Some(6)),
     ("other_base", "lane_other_base", "SPB", Some(8)),
     ("other_pend", "lane_other_pending", "K+1", Some(9)),
-    ("node_buffer", "node_buffer", "1024", None),
 ];
 
 /// The generated parts of the lane module and of its instances: ports and registers, the values
 /// after each stage, the copies between stages, the clocked block, the top's wires of the
 /// lanes' registers and the instances' connections.
-/// Checks that the description's per-lane registers are exactly the fields of [`LANE_FIELDS`]
-/// (besides the node buffer), `lanes` of them each, of the widths `widths` (lane, ray id,
+/// Checks that the description's per-lane registers are exactly the fields of [`LANE_FIELDS`],
+/// `lanes` of them each, of the widths `widths` (lane, ray id,
 /// treelet, stack pointer, spilled count, delay, entry, stack window, ring position, pending
 /// bits).
 fn lane_pieces(
@@ -433,11 +442,7 @@ fn lane_pieces(
         .filter(|r| r.name.starts_with("lane_"))
         .map(|r| r.name.as_str())
         .collect();
-    let fields: Vec<&str> = LANE_FIELDS
-        .iter()
-        .map(|f| f.1)
-        .filter(|r| r.starts_with("lane_"))
-        .collect();
+    let fields: Vec<&str> = LANE_FIELDS.iter().map(|f| f.1).collect();
     if lane_regs != fields {
         return Err(info.bad(format!(
             "the lane registers are {lane_regs:?}; the RTL's lane module holds {fields:?}"
@@ -459,18 +464,13 @@ fn lane_pieces(
             }
         }
         let range = format!("[{width}-1:0]");
-        // The description's registers are the lane's outputs too (the slot level reads them);
-        // the memories are the lane's own.
-        if top.starts_with("lane_") {
-            names.push_str(&format!("    {field}_q,\n"));
-            decls.push_str(&format!("output reg  {range} {field}_q;\n"));
-            next.push_str(&format!("wire [NL*({width})-1:0] {top}_q;\n"));
-            connect.push_str(&format!(
-                "                .{field}_q({top}_q[L*({width}) +: {width}]),\n"
-            ));
-        } else {
-            decls.push_str(&format!("reg {range} {field}_q;\n"));
-        }
+        // The lane's registers are its outputs too (the slot level reads them).
+        names.push_str(&format!("    {field}_q,\n"));
+        decls.push_str(&format!("output reg  {range} {field}_q;\n"));
+        next.push_str(&format!("wire [NL*({width})-1:0] {top}_q;\n"));
+        connect.push_str(&format!(
+            "                .{field}_q({top}_q[L*({width}) +: {width}]),\n"
+        ));
         decls.push_str(&format!("reg {range} {field}_d;\n"));
         stages.push_str(&format!("reg {range} {field}_a, {field}_b, {field}_t;\n"));
         copy_a.push_str(&format!("    {field}_a = {field}_q;\n"));

@@ -49,14 +49,17 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
     memories.extend([
         MemDesc {
             name: "node_buffer".into(),
-            banks: 1,
-            depth: lanes * MAX_NODE_CHUNKS as u32,
+            banks: MAX_NODE_CHUNKS as u32,
+            depth: lanes,
             width: DATA_BITS,
             read_ports: 1,
             write_ports: 1,
-            read_latency: 0,
+            read_latency: 1,
             fields: vec![("data".into(), DATA_BITS)],
-            doc: "returned chunks of each lane's node in flight, read by the datapath as one node"
+            doc: "returned chunks of the nodes in flight, bank c holding chunk c, one word per \
+                  slot and leader lane (the lanes a fetch merged share its chunks); a popped \
+                  chunk is written, and every bank reads the next response's leader one cycle \
+                  ahead, so a node's earlier chunks reach the datapath with its last"
                 .into(),
         },
         MemDesc {
@@ -221,6 +224,30 @@ pub(super) fn registers(
     .one("fifo_count", w.fifo_count, "response-FIFO occupancy", |r| {
         r.fifo.len() as u64
     })
+    .untraced(
+        "node_write_valid",
+        1,
+        1,
+        "the node buffer was written last cycle (its read that cycle missed the write)",
+    )
+    .untraced(
+        "node_write_chunk",
+        2,
+        1,
+        "the node buffer's bank written last cycle",
+    )
+    .untraced(
+        "node_write_index",
+        clog2(lanes as u64).max(1),
+        1,
+        "the node buffer's word written last cycle (slot * warp size + leader lane)",
+    )
+    .untraced(
+        "node_write_data",
+        DATA_BITS,
+        1,
+        "the chunk written last cycle, forwarded to this cycle's read",
+    )
     .one("errors", errors::BITS, "sticky error flags", |r| {
         r.errors as u64
     })

@@ -17,8 +17,8 @@ end
 
 // ---- The lanes ----------------------------------------------------------------------------------
 // One rt_unit_lane per lane of the warp buffer holds that lane's registers (the description's
-// `lane_<field>`, lane L's in bits [L*W +: W] of `lane_<field>_q`; the stacks and the node
-// buffer inside) and computes their next state from the slot-level decisions below; its other
+// `lane_<field>`, lane L's in bits [L*W +: W] of `lane_<field>_q`; its stacks' SRAM rings
+// inside) and computes their next state from the slot-level decisions below; its other
 // results come back as `l_<name>`, lane L's in bits [L*W +: W].
 /* verilator lint_off UNUSEDSIGNAL */
 ${LANE_STATE}
@@ -38,11 +38,8 @@ wire [NL-1:0] l_fx_stack;
 wire [NL*SCW-1:0] l_fx_index;
 wire [NL-1:0] l_fill_ok;
 wire [NL-1:0] l_node_match;
-wire [NL*256-1:0] l_dp_ray;
-wire [NL-1:0] l_dp_best_valid;
-wire [NL*128-1:0] l_dp_best;
 wire [NL*E-1:0] l_dp_node;
-wire [NL*1024-1:0] l_dp_data;
+wire [NL*2-1:0] l_node_chunk;
 wire [NL-1:0] l_tested;
 wire [NL*3-1:0] l_test_kind;
 wire [NL-1:0] l_new_hit;
@@ -158,11 +155,8 @@ ${LANE_CONNECT}
                 .fx_index(l_fx_index[L*SCW +: SCW]),
                 .fill_ok(l_fill_ok[L]),
                 .node_match(l_node_match[L]),
-                .dp_ray(l_dp_ray[L*256 +: 256]),
-                .dp_best_valid(l_dp_best_valid[L]),
-                .dp_best(l_dp_best[L*128 +: 128]),
+                .node_chunk(l_node_chunk[L*2 +: 2]),
                 .dp_node(l_dp_node[L*E +: E]),
-                .dp_data(l_dp_data[L*1024 +: 1024]),
                 .tested(l_tested[L]),
                 .test_kind(l_test_kind[L*3 +: 3]),
                 .new_hit(l_new_hit[L]),
@@ -226,6 +220,7 @@ always @* begin : p_front
     reg [SCW-1:0] sp_idx;
     reg [RB-1:0] ray;
     reg [CMW-1:0] served;
+    reg [1:0] st;
     reg [FEW-1:0] entry;
     reg [TGW-1:0] r_tag;
     /* verilator lint_off UNUSEDSIGNAL */
@@ -265,19 +260,17 @@ always @* begin : p_front
     o_count_waiting = {CAW{1'b0}};
     o_count_done_lanes = {CAW{1'b0}};
     o_count_parked_lanes = {CAW{1'b0}};
+    st = 2'd0;
     for (s = 0; s < S; s = s + 1) begin
         if (slot_valid_q[s]) begin
             o_count_warps = o_count_warps + ONE_CWW;
             for (l = 0; l < N; l = l + 1) begin
-                if (lane_status_q[(s*N+l)*2 +: 2] == ST_TRAVERSING) begin
-                    o_count_active = o_count_active + ONE_CAW;
-                    if (lane_node_valid_q[s*N+l] || lane_filling_q[(s*N+l)*2 +: 2] != 2'd0)
-                        o_count_waiting = o_count_waiting + ONE_CAW;
-                end
-                if (lane_status_q[(s*N+l)*2 +: 2] == ST_DONE)
-                    o_count_done_lanes = o_count_done_lanes + ONE_CAW;
-                if (lane_status_q[(s*N+l)*2 +: 2] == ST_PARKED)
-                    o_count_parked_lanes = o_count_parked_lanes + ONE_CAW;
+                st = lane_status_q[(s*N+l)*2 +: 2];
+                o_count_active = o_count_active + bit_caw(st == ST_TRAVERSING);
+                o_count_waiting = o_count_waiting + bit_caw(st == ST_TRAVERSING
+                    && (lane_node_valid_q[s*N+l] || lane_filling_q[(s*N+l)*2 +: 2] != 2'd0));
+                o_count_done_lanes = o_count_done_lanes + bit_caw(st == ST_DONE);
+                o_count_parked_lanes = o_count_parked_lanes + bit_caw(st == ST_PARKED);
             end
         end
     end
@@ -392,8 +385,8 @@ always @* begin : p_front
                             served = {CMW{1'b0}};
                             for (l = 0; l < N; l = l + 1) begin
                                 la = l_act[(s*N+l)*(E+6) +: E+6];
-                                if (la[E+5:E+4] == ACT_FETCH && la[E-1:0] == act_node)
-                                    served = served + ONE_CMW;
+                                served = served
+                                    + bit_cmw(la[E+5:E+4] == ACT_FETCH && la[E-1:0] == act_node);
                             end
                             o_count_merged = served - ONE_CMW;
                             if (act_node[1:0] != 2'd0) begin
@@ -486,23 +479,106 @@ always @* begin : p_fill
     fill_expect = spill_address(ray, stk, index);
 end
 
-// The datapath's inputs: lane l of the popped response's slot (every other lane gives zeros).
+// ---- The node buffer ---------------------------------------------------------------------------
+// Four SRAM banks (rt_unit_node_bank: one read and one write port, read latency 1), bank c
+// holding chunk c of a node, one word per slot and leader lane: the lanes a fetch merged share
+// its chunks, and the chunks a cycle pops all belong to one leader. A popped chunk some lane
+// takes is written at its leader's word. Every bank reads, one cycle ahead, the word of the
+// response the FIFO pops next (its head after this cycle), so when a node's last chunk pops,
+// its earlier chunks are there: from the read data, from last cycle's write (a read does not
+// see the write of its own cycle), or the chunk popping now.
+reg nb_we;                        // a popped chunk is written ...
+reg [1:0] nb_chunk;               // ... into this bank
+reg [NAW-1:0] nb_index;           // ... at the popped response's word
+reg [NAW-1:0] nb_raddr;           // the word of the response popped next cycle
+reg [3:0] nb_we_c;
+wire [4*256-1:0] nb_rdata;
+reg [1023:0] node_data;           // the popped response's node: its four chunks
+generate
+    genvar gc;
+    for (gc = 0; gc < 4; gc = gc + 1) begin : g_node_buffer
+        rt_unit_node_bank u_bank (
+            .clk(clk), .we(nb_we_c[gc]), .waddr(nb_index), .wdata(pop_data),
+            .raddr(nb_raddr), .rdata(nb_rdata[gc*256 +: 256])
+        );
+    end
+endgenerate
+// A condition as a count's increment: counts summed without a branch per term add in a tree.
+function [CAW-1:0] bit_caw;
+    input c;
+    bit_caw = {{(CAW-1){1'b0}}, c};
+endfunction
+function [CTW-1:0] bit_ctw;
+    input c;
+    bit_ctw = {{(CTW-1){1'b0}}, c};
+endfunction
+function [CMW-1:0] bit_cmw;
+    input c;
+    bit_cmw = {{(CMW-1){1'b0}}, c};
+endfunction
+function [SNW-1:0] bit_snw;
+    input c;
+    bit_snw = {{(SNW-1){1'b0}}, c};
+endfunction
+
+// The node buffer's word of slot `slot`'s leader lane `leader`.
+function [NAW-1:0] node_index;
+    input [SB-1:0] slot;
+    input [LB-1:0] leader;
+    /* verilator lint_off UNUSEDSIGNAL */
+    reg [31:0] x;
+    /* verilator lint_on UNUSEDSIGNAL */
+    begin
+        x = {{(32-SB){1'b0}}, slot} * N + {{(32-LB){1'b0}}, leader};
+        node_index = x[NAW-1:0];
+    end
+endfunction
+always @* begin : p_node_buffer
+    integer L, c;
+    reg [TGW-1:0] next_tag;
+    nb_we = pop_node && l_node_match != {NL{1'b0}};
+    nb_chunk = 2'd0;
+    for (L = 0; L < NL; L = L + 1) nb_chunk = nb_chunk | l_node_chunk[L*2 +: 2];
+    nb_index = node_index(pop_slot, pop_leader);
+    for (c = 0; c < 4; c = c + 1) begin
+        nb_we_c[c] = nb_we && nb_chunk == c[1:0];
+        if (nb_we_c[c]) node_data[c*256 +: 256] = pop_data;
+        else if (node_write_valid_q && node_write_chunk_q == c[1:0] && node_write_index_q == nb_index)
+            node_data[c*256 +: 256] = node_write_data_q;
+        else node_data[c*256 +: 256] = nb_rdata[c*256 +: 256];
+    end
+    node_write_valid_d = nb_we;
+    node_write_chunk_d = nb_chunk;
+    node_write_index_d = nb_index;
+    node_write_data_d = pop_data;
+    next_tag = {TGW{1'b0}};
+    for (c = 0; c < FD; c = c + 1)
+        if (fifo_head_d == c[FPW-1:0]) next_tag = resp_fifo_d[c*FEW + 256 +: TGW];
+    nb_raddr = node_index(next_tag[TGW-1:LB], next_tag[LB-1:0]);
+end
+
+// The datapath's inputs for lane l of the popped response's slot: the node it tests (zero unless
+// it completed this cycle), the node's bytes from the node buffer (the same for every lane: the
+// chunks a cycle pops belong to one leader's node), the ray and its closest hit from the lane's
+// registers (slot 0's unless the response is another slot's). A datapath whose node is zero
+// tests nothing: the lane does not take its result.
 always @* begin : p_datapath
     integer s, l;
-    dp_best_valid = {N{1'b0}};
     dp_node = {N*E{1'b0}};
     for (l = 0; l < N; l = l + 1) begin  // wide vectors lane by lane
-        dp_ray[l*256 +: 256] = 256'd0;
-        dp_best[l*128 +: 128] = 128'd0;
-        dp_data[l*1024 +: 1024] = 1024'd0;
+        dp_data[l*1024 +: 1024] = node_data;
+        dp_ray[l*256 +: 256] = lane_ray_words_q[l*256 +: 256];
+        dp_best_valid[l] = lane_hit_valid_q[l];
+        dp_best[l*128 +: 128] = lane_hit_q[l*128 +: 128];
     end
     for (s = 0; s < S; s = s + 1) begin
         for (l = 0; l < N; l = l + 1) begin
-            dp_ray[l*256 +: 256] = dp_ray[l*256 +: 256] | l_dp_ray[(s*N+l)*256 +: 256];
-            dp_best_valid[l] = dp_best_valid[l] | l_dp_best_valid[s*N+l];
-            dp_best[l*128 +: 128] = dp_best[l*128 +: 128] | l_dp_best[(s*N+l)*128 +: 128];
+            if (s != 0 && pop_slot == s[SB-1:0]) begin
+                dp_ray[l*256 +: 256] = lane_ray_words_q[(s*N+l)*256 +: 256];
+                dp_best_valid[l] = lane_hit_valid_q[s*N+l];
+                dp_best[l*128 +: 128] = lane_hit_q[(s*N+l)*128 +: 128];
+            end
             dp_node[l*E +: E] = dp_node[l*E +: E] | l_dp_node[(s*N+l)*E +: E];
-            dp_data[l*1024 +: 1024] = dp_data[l*1024 +: 1024] | l_dp_data[(s*N+l)*1024 +: 1024];
         end
     end
 end
@@ -642,12 +718,12 @@ always @* begin : p_back
                 o_boundary_ray_id[l*RB +: RB] = lane_ray_id_q[(s*N+l)*RB +: RB];
                 o_boundary_treelet[l*TW +: TW] = l_boundary_treelet[(s*N+l)*TW +: TW];
             end
-            if (l_tested[s*N+l]) begin
-                for (k = 0; k < 6; k = k + 1)
-                    if (l_test_kind[(s*N+l)*3 +: 3] == k[2:0]) o_tests[k*CTW +: CTW] = o_tests[k*CTW +: CTW] + ONE_CTW;
-                if (slot_stopped[s]) o_count_tests_treelet_order = o_count_tests_treelet_order + ONE_CTW;
-            end
-            if (l_new_hit[s*N+l]) o_count_hits = o_count_hits + ONE_CTW;
+            for (k = 0; k < 6; k = k + 1)
+                o_tests[k*CTW +: CTW] = o_tests[k*CTW +: CTW]
+                    + bit_ctw(l_tested[s*N+l] && l_test_kind[(s*N+l)*3 +: 3] == k[2:0]);
+            o_count_tests_treelet_order = o_count_tests_treelet_order
+                + bit_ctw(l_tested[s*N+l] && slot_stopped[s]);
+            o_count_hits = o_count_hits + bit_ctw(l_new_hit[s*N+l]);
             if (l_err_child[s*N+l])
                 {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_q[(s*N+l)*RB +: RB],
                         l_err_value[(s*N+l)*64 +: 64], l_err_limit[(s*N+l)*64 +: 64]);
@@ -826,9 +902,9 @@ always @* begin : p_status
             ndist = {SNW{1'b0}};
             for (l = 0; l < N; l = l + 1) begin
                 st = lane_status_q[(s*N+l)*2 +: 2];
-                if (st == ST_TRAVERSING) trav = trav + ONE_SNW;
-                if (st == ST_TRAVERSING || st == ST_PARKED || (st == ST_DONE && l_busy[s*N+l]))
-                    kept = kept + ONE_SNW;
+                trav = trav + bit_snw(st == ST_TRAVERSING);
+                kept = kept + bit_snw(st == ST_TRAVERSING || st == ST_PARKED
+                    || (st == ST_DONE && l_busy[s*N+l]));
                 if (st == ST_INACTIVE) o_status_inactive[s*N + l] = 1'b1;
             end
             if (slot_order_q[s*2 +: 2] == 2'd1) begin
@@ -838,7 +914,7 @@ always @* begin : p_status
                         if (l_next_valid[s*N+m]
                             && l_next_treelet[(s*N+m)*TW +: TW] == l_next_treelet[(s*N+l)*TW +: TW])
                             seen = 1'b1;
-                    if (l_next_valid[s*N+l] && !seen) ndist = ndist + ONE_SNW;
+                    ndist = ndist + bit_snw(l_next_valid[s*N+l] && !seen);
                 end
             end
             o_status_traversing[s*SNW +: SNW] = trav;

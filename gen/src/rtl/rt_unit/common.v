@@ -43,14 +43,17 @@ function [AB-1:0] spill_address;
 endfunction
 
 // Whether a node reference cannot be held: 1..=4 chunks, 32 B aligned, inside the address space.
+// Its end (address + 32 * chunks) can pass 2^AB only if every address bit from 8 up is set;
+// then the chunk's index in the last 256 B plus the chunks must not pass 8 (a 3-bit add, not an
+// adder and a comparator across the address).
 function bad_node;
     input [63:0] address;
     input [7:0] chunks;
-    reg [AB:0] end_byte;
+    reg [3:0] end_chunk;
     begin
-        end_byte = {1'b0, address[AB-1:0]} + {{(AB-12){1'b0}}, chunks, 5'd0};
+        end_chunk = {1'b0, address[7:5]} + {1'b0, chunks[2:0]};
         bad_node = chunks == 8'd0 || chunks > 8'd4 || address[4:0] != 5'd0
-            || address[63:AB] != {(64-AB){1'b0}} || end_byte > SPACE_W;
+            || address[63:AB] != {(64-AB){1'b0}} || (&address[AB-1:8] && end_chunk > 4'd8);
     end
 endfunction
 

@@ -28,8 +28,7 @@ ${LANE_PORT_NAMES}
     issue_cur_stack, issue_other_stack, stop_here, repack_here,
     busy, act, act_index, next_valid, next_treelet,
     done_active, done_parked, done_cur_stack, done_other_stack, spill_data,
-    fx_ray, fx_stack, fx_index, fill_ok, node_match, dp_ray, dp_best_valid, dp_best, dp_node,
-    dp_data, tested, test_kind, new_hit, err_child, err_value, err_limit, boundary_valid,
+    fx_ray, fx_stack, fx_index, fill_ok, node_match, node_chunk, dp_node, tested, test_kind, new_hit, err_child, err_value, err_limit, boundary_valid,
     boundary_treelet, status_tested, released
 );
 /* verilator lint_on DECLFILENAME */
@@ -103,15 +102,15 @@ output reg  [255:0]   spill_data;
 output reg  [RB-1:0]  fx_ray;
 output reg            fx_stack;
 output reg  [SCW-1:0] fx_index;
-// Stage 5 results: the fill matched, the chunk matched, the datapath's inputs (zero unless the
-// node completed and is tested this cycle).
+// Stage 5 results: the fill matched, the chunk matched and its index in the node (zero unless
+// it matched: the slot level writes it into the node buffer), the node the datapath tests (zero
+// unless it completed this cycle). The slot level gives the datapath the node's bytes from the
+// node buffer and the ray and its closest hit from the lane's registers (stages 1-5 do not
+// change them).
 output reg            fill_ok;
 output reg            node_match;
-output reg  [255:0]   dp_ray;
-output reg            dp_best_valid;
-output reg  [127:0]   dp_best;
+output reg  [1:0]     node_chunk;
 output reg  [E-1:0]   dp_node;
-output reg  [1023:0]  dp_data;
 // Test write-back: tested (node kind), a new closest triangle hit, the lane's first bad-child
 // error (value, limit), a treelet boundary, the status after the test.
 output reg            tested;
@@ -181,6 +180,19 @@ function [SAW-1:0] word_of;
     begin
         w = {{(32-SPB){1'b0}}, p} >> SBW;
         word_of = w[SAW-1:0];
+    end
+endfunction
+
+// Read addresses v with bank bank_of(p) addressing word_of(p): a decoder (an index into the
+// vector would be a shifter with a 33-bit index computation).
+function [SKB*SAW-1:0] with_raddr;
+    input [SKB*SAW-1:0] v;
+    input [SPB-1:0] p;
+    integer b;
+    begin
+        with_raddr = v;
+        for (b = 0; b < SKB; b = b + 1)
+            if (bank_of(p) == b[SBW-1:0]) with_raddr[b*SAW +: SAW] = word_of(p);
     end
 endfunction
 
@@ -334,7 +346,7 @@ ${COPY_A}
             cur_sp_a = cur_sp_a - ONE_SPW;
             if (cur_sp_a > K_SPW) begin
                 pos = ring_pos(cur_base_a, {{(32-SPW){1'b0}}, cur_sp_a - ONE_SPW});
-                cur_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                cur_raddr = with_raddr(cur_raddr, pos);
                 cur_pend_a[K] = 1'b1;
             end
         end else begin
@@ -342,7 +354,7 @@ ${COPY_A}
             cur_treelet_a = lead_node[E-1:TSH+5];
             if (other_sp_a > K_SPW) begin
                 pos = ring_pos(other_base_a, {{(32-SPW){1'b0}}, other_sp_a - ONE_SPW});
-                other_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                other_raddr = with_raddr(other_raddr, pos);
                 other_pend_a[K] = 1'b1;
             end
         end
@@ -371,11 +383,11 @@ ${COPY_A}
                     for (j = K - sh; j < K; j = j + 1) begin
                         if (a_stack) begin
                             pos = ring_pos(other_base_a, j);
-                            other_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                            other_raddr = with_raddr(other_raddr, pos);
                             other_pend_a[j] = 1'b1;
                         end else begin
                             pos = ring_pos(cur_base_a, j);
-                            cur_raddr[bank_of(pos)*SAW +: SAW] = word_of(pos);
+                            cur_raddr = with_raddr(cur_raddr, pos);
                             cur_pend_a[j] = 1'b1;
                         end
                     end
@@ -474,19 +486,12 @@ ${COPY_B}
     node_match = pop_node_here && node_valid_b && node_leader_b == pop_leader
         && pop_address >= naddr && offset[4:0] == 5'd0
         && offset[AB:5] < {{(AB-7){1'b0}}, nchunks} && !chunks_returned_b[offset[6:5]];
-    for (j = 0; j < 4; j = j + 1) begin
-        if (node_match && offset[6:5] == j[1:0]) begin
-            chunks_returned_b[j] = 1'b1;
-            node_buffer_b[j*256 +: 256] = pop_data;
-        end
-    end
+    for (j = 0; j < 4; j = j + 1)
+        if (node_match && offset[6:5] == j[1:0]) chunks_returned_b[j] = 1'b1;
+    node_chunk = {2{node_match}} & offset[6:5];
     test_now = node_match && chunks_returned_b == full;
     if (test_now) node_valid_b = 1'b0;
-    dp_ray = {256{test_now}} & ray_words_b;
-    dp_best_valid = test_now && hit_valid_b;
-    dp_best = {128{test_now}} & hit_b;
     dp_node = {E{test_now}} & node_b;
-    dp_data = {1024{test_now}} & node_buffer_b;
 end
 
 // ---- T: the test's result written back ----------------------------------------------------------
@@ -632,21 +637,21 @@ ${COPY_T}
                 other_pend_t[K] = 1'b0;
             end
         end
+        // Each bank takes the push aimed at it, of either stack (both written unconditionally:
+        // a branch on the push's stack would multiplex every bank's port once per child).
         for (j = 0; j < SK; j = j + 1) begin
             for (c = 0; c < R; c = c + 1) begin
                 at = ring_push[c] && push_bank[c*SBW +: SBW] == j[SBW-1:0];
-                if (push_other[c]) begin
-                    other_we[j] = other_we[j] || at;
-                    other_waddr[j*SAW +: SAW] = other_waddr[j*SAW +: SAW]
-                        | ({SAW{at}} & push_word[c*SAW +: SAW]);
-                    other_wdata[j*E +: E] = other_wdata[j*E +: E]
-                        | ({E{at}} & push_ent[c*E +: E]);
-                end else begin
-                    cur_we[j] = cur_we[j] || at;
-                    cur_waddr[j*SAW +: SAW] = cur_waddr[j*SAW +: SAW]
-                        | ({SAW{at}} & push_word[c*SAW +: SAW]);
-                    cur_wdata[j*E +: E] = cur_wdata[j*E +: E] | ({E{at}} & push_ent[c*E +: E]);
-                end
+                oany = at && push_other[c];
+                cany = at && !push_other[c];
+                other_we[j] = other_we[j] || oany;
+                other_waddr[j*SAW +: SAW] = other_waddr[j*SAW +: SAW]
+                    | ({SAW{oany}} & push_word[c*SAW +: SAW]);
+                other_wdata[j*E +: E] = other_wdata[j*E +: E] | ({E{oany}} & push_ent[c*E +: E]);
+                cur_we[j] = cur_we[j] || cany;
+                cur_waddr[j*SAW +: SAW] = cur_waddr[j*SAW +: SAW]
+                    | ({SAW{cany}} & push_word[c*SAW +: SAW]);
+                cur_wdata[j*E +: E] = cur_wdata[j*E +: E] | ({E{cany}} & push_ent[c*E +: E]);
             end
         end
         cur_sp_t = csp;
@@ -746,6 +751,26 @@ module rt_unit_stack_bank (
 );
 /* verilator lint_on DECLFILENAME */
 reg [${BANK_E}-1:0] mem [0:${BANK_DEPTH}-1];
+always @(posedge clk) begin : p_bank
+    if (we) mem[waddr] <= wdata;
+    rdata <= mem[raddr];
+end
+endmodule
+
+// One bank of the node buffer: an SRAM of ${NODE_DEPTH} chunks of 256 bits (one per slot and leader lane)
+// with one write port and one read port of read latency 1 (read-first); no reset (a chunk is
+// written before a test reads it).
+/* verilator lint_off DECLFILENAME */
+module rt_unit_node_bank (
+    input wire clk,
+    input wire we,
+    input wire [${NODE_AW}-1:0] waddr,
+    input wire [255:0] wdata,
+    input wire [${NODE_AW}-1:0] raddr,
+    output reg [255:0] rdata
+);
+/* verilator lint_on DECLFILENAME */
+reg [255:0] mem [0:${NODE_DEPTH}-1];
 always @(posedge clk) begin : p_bank
     if (we) mem[waddr] <= wdata;
     rdata <= mem[raddr];
