@@ -254,7 +254,8 @@ always @* begin : p_front
     errors_f = errors_q;
     first_error_f = first_error_q;
 
-    // 1. Statistics.
+    // 1. Statistics. (Counts here and below add each term's condition, a tree of adders,
+    // not a branch per term, a chain of multiplexed increments.)
     o_count_warps = {CWW{1'b0}};
     o_count_active = {CAW{1'b0}};
     o_count_waiting = {CAW{1'b0}};
@@ -266,11 +267,11 @@ always @* begin : p_front
             o_count_warps = o_count_warps + ONE_CWW;
             for (l = 0; l < N; l = l + 1) begin
                 st = lane_status_q[(s*N+l)*2 +: 2];
-                o_count_active = o_count_active + bit_caw(st == ST_TRAVERSING);
-                o_count_waiting = o_count_waiting + bit_caw(st == ST_TRAVERSING
-                    && (lane_node_valid_q[s*N+l] || lane_filling_q[(s*N+l)*2 +: 2] != 2'd0));
-                o_count_done_lanes = o_count_done_lanes + bit_caw(st == ST_DONE);
-                o_count_parked_lanes = o_count_parked_lanes + bit_caw(st == ST_PARKED);
+                o_count_active = o_count_active + {{(CAW-1){1'b0}}, st == ST_TRAVERSING};
+                o_count_waiting = o_count_waiting + {{(CAW-1){1'b0}}, st == ST_TRAVERSING
+                    && (lane_node_valid_q[s*N+l] || lane_filling_q[(s*N+l)*2 +: 2] != 2'd0)};
+                o_count_done_lanes = o_count_done_lanes + {{(CAW-1){1'b0}}, st == ST_DONE};
+                o_count_parked_lanes = o_count_parked_lanes + {{(CAW-1){1'b0}}, st == ST_PARKED};
             end
         end
     end
@@ -386,7 +387,7 @@ always @* begin : p_front
                             for (l = 0; l < N; l = l + 1) begin
                                 la = l_act[(s*N+l)*(E+6) +: E+6];
                                 served = served
-                                    + bit_cmw(la[E+5:E+4] == ACT_FETCH && la[E-1:0] == act_node);
+                                    + {{(CMW-1){1'b0}}, la[E+5:E+4] == ACT_FETCH && la[E-1:0] == act_node};
                             end
                             o_count_merged = served - ONE_CMW;
                             if (act_node[1:0] != 2'd0) begin
@@ -503,24 +504,6 @@ generate
         );
     end
 endgenerate
-// A condition as a count's increment: counts summed without a branch per term add in a tree.
-function [CAW-1:0] bit_caw;
-    input c;
-    bit_caw = {{(CAW-1){1'b0}}, c};
-endfunction
-function [CTW-1:0] bit_ctw;
-    input c;
-    bit_ctw = {{(CTW-1){1'b0}}, c};
-endfunction
-function [CMW-1:0] bit_cmw;
-    input c;
-    bit_cmw = {{(CMW-1){1'b0}}, c};
-endfunction
-function [SNW-1:0] bit_snw;
-    input c;
-    bit_snw = {{(SNW-1){1'b0}}, c};
-endfunction
-
 // The node buffer's word of slot `slot`'s leader lane `leader`.
 function [NAW-1:0] node_index;
     input [SB-1:0] slot;
@@ -720,10 +703,10 @@ always @* begin : p_back
             end
             for (k = 0; k < 6; k = k + 1)
                 o_tests[k*CTW +: CTW] = o_tests[k*CTW +: CTW]
-                    + bit_ctw(l_tested[s*N+l] && l_test_kind[(s*N+l)*3 +: 3] == k[2:0]);
+                    + {{(CTW-1){1'b0}}, l_tested[s*N+l] && l_test_kind[(s*N+l)*3 +: 3] == k[2:0]};
             o_count_tests_treelet_order = o_count_tests_treelet_order
-                + bit_ctw(l_tested[s*N+l] && slot_stopped[s]);
-            o_count_hits = o_count_hits + bit_ctw(l_new_hit[s*N+l]);
+                + {{(CTW-1){1'b0}}, l_tested[s*N+l] && slot_stopped[s]};
+            o_count_hits = o_count_hits + {{(CTW-1){1'b0}}, l_new_hit[s*N+l]};
             if (l_err_child[s*N+l])
                 {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_CHILD, pop_slot, l[LB-1:0], lane_ray_id_q[(s*N+l)*RB +: RB],
                         l_err_value[(s*N+l)*64 +: 64], l_err_limit[(s*N+l)*64 +: 64]);
@@ -902,9 +885,9 @@ always @* begin : p_status
             ndist = {SNW{1'b0}};
             for (l = 0; l < N; l = l + 1) begin
                 st = lane_status_q[(s*N+l)*2 +: 2];
-                trav = trav + bit_snw(st == ST_TRAVERSING);
-                kept = kept + bit_snw(st == ST_TRAVERSING || st == ST_PARKED
-                    || (st == ST_DONE && l_busy[s*N+l]));
+                trav = trav + {{(SNW-1){1'b0}}, st == ST_TRAVERSING};
+                kept = kept + {{(SNW-1){1'b0}}, st == ST_TRAVERSING || st == ST_PARKED
+                    || (st == ST_DONE && l_busy[s*N+l])};
                 if (st == ST_INACTIVE) o_status_inactive[s*N + l] = 1'b1;
             end
             if (slot_order_q[s*2 +: 2] == 2'd1) begin
@@ -914,7 +897,7 @@ always @* begin : p_status
                         if (l_next_valid[s*N+m]
                             && l_next_treelet[(s*N+m)*TW +: TW] == l_next_treelet[(s*N+l)*TW +: TW])
                             seen = 1'b1;
-                    ndist = ndist + bit_snw(l_next_valid[s*N+l] && !seen);
+                    ndist = ndist + {{(SNW-1){1'b0}}, l_next_valid[s*N+l] && !seen};
                 end
             end
             o_status_traversing[s*SNW +: SNW] = trav;
