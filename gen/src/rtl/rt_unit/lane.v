@@ -28,7 +28,8 @@ ${LANE_PORT_NAMES}
     issue_cur_stack, issue_other_stack, stop_here, repack_here,
     busy, act, act_index, next_valid, next_treelet,
     done_active, done_parked, done_cur_stack, done_other_stack, spill_data,
-    fx_ray, fx_stack, fx_index, fill_ok, node_match, node_chunk, dp_node, tested, test_kind, new_hit, err_child, err_value, err_limit, boundary_valid,
+    fx_ray, fx_stack, fx_index, fill_ok, node_match, node_chunk, dp_node, tested, test_kind,
+    new_hit, err_child, err_value, err_limit, boundary_valid,
     boundary_treelet, status_tested, released
 );
 /* verilator lint_on DECLFILENAME */
@@ -509,7 +510,7 @@ always @* begin : p_t
     /* verilator lint_on UNUSEDSIGNAL */
     reg finished;
     reg [SPB-1:0] pos;
-    reg live, bad, at, cany, oany;
+    reg live, bad, at, cany, oany, at_cur, at_other;
     reg [E-1:0] cw, ow;
     reg [SPW-1:0] csp, osp;
     // Each child's push: made, to the other stack, its position, entry, ring bank and word.
@@ -533,6 +534,8 @@ always @* begin : p_t
     at = 1'b0;
     cany = 1'b0;
     oany = 1'b0;
+    at_cur = 1'b0;
+    at_other = 1'b0;
     cw = {E{1'b0}};
     ow = {E{1'b0}};
     push_ok = {R{1'b0}};
@@ -642,16 +645,17 @@ ${COPY_T}
         for (j = 0; j < SK; j = j + 1) begin
             for (c = 0; c < R; c = c + 1) begin
                 at = ring_push[c] && push_bank[c*SBW +: SBW] == j[SBW-1:0];
-                oany = at && push_other[c];
-                cany = at && !push_other[c];
-                other_we[j] = other_we[j] || oany;
+                at_other = at && push_other[c];
+                at_cur = at && !push_other[c];
+                other_we[j] = other_we[j] || at_other;
                 other_waddr[j*SAW +: SAW] = other_waddr[j*SAW +: SAW]
-                    | ({SAW{oany}} & push_word[c*SAW +: SAW]);
-                other_wdata[j*E +: E] = other_wdata[j*E +: E] | ({E{oany}} & push_ent[c*E +: E]);
-                cur_we[j] = cur_we[j] || cany;
+                    | ({SAW{at_other}} & push_word[c*SAW +: SAW]);
+                other_wdata[j*E +: E] = other_wdata[j*E +: E]
+                    | ({E{at_other}} & push_ent[c*E +: E]);
+                cur_we[j] = cur_we[j] || at_cur;
                 cur_waddr[j*SAW +: SAW] = cur_waddr[j*SAW +: SAW]
-                    | ({SAW{cany}} & push_word[c*SAW +: SAW]);
-                cur_wdata[j*E +: E] = cur_wdata[j*E +: E] | ({E{cany}} & push_ent[c*E +: E]);
+                    | ({SAW{at_cur}} & push_word[c*SAW +: SAW]);
+                cur_wdata[j*E +: E] = cur_wdata[j*E +: E] | ({E{at_cur}} & push_ent[c*E +: E]);
             end
         end
         cur_sp_t = csp;
