@@ -36,11 +36,13 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use vtq_hdl::{Block, Dir, Signal, Signals};
 
+mod jobs;
 mod replay;
 mod rt_unit;
 mod waveform;
 mod wiring;
 
+pub use jobs::{random_jobs, replay_jobs, Blocks, Job, Recorded, RustVcd};
 pub use replay::{
     datapath_tables, tests_and_hits, DatapathCall, ReplayInputs, RtUnitReplay, TreeletRtUnitReplay,
     REPLAY_MODULE, TREELET_REPLAY_MODULE,

@@ -1,6 +1,7 @@
 //! Experiment tooling over the model and the estimate tiers, listed bottom-up: charts, then
-//! sweeps of configurations and their result store, full detail under small perturbations, then what draws on them — the comparison of designs on one scene, the figures and
-//! tables of `vtq reproduce` and the accuracy benchmark.
+//! sweeps of configurations and their result store, full detail under small perturbations,
+//! then what draws on them — the comparison of designs on one scene, the recorded traffic of
+//! co-simulation replays, the figures and tables of `vtq reproduce` and the accuracy benchmark.
 
 // Charts.
 pub mod plot;
@@ -14,4 +15,5 @@ pub mod perturb;
 // Built on the two above.
 pub mod accuracy;
 pub mod compare;
+pub mod cosim;
 pub mod reproduce;

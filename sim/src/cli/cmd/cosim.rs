@@ -10,31 +10,22 @@
 //! unit's wiring, alone, on its ports in the recorded run, [`vtq_gen::cosim::TreeletWiring`];
 //! the whole treelet RT unit, composed, [`vtq_gen::cosim::TreeletRtUnitReplay`]).
 
-mod replay;
-
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use vtq_gen::cosim::{
-    record, run_cosim, write_rust_vcd, CosimOptions, CosimResult, RtUnitWithStatus, Simulator,
-    Trace, RESET_CYCLES, RTL_VCD_FILE, RUST_VCD_FILE,
+    random_jobs, replay_jobs, Blocks, Job, Recorded, Simulator, RESET_CYCLES, RTL_VCD_FILE,
+    RUST_VCD_FILE,
 };
-use vtq_gen::rtl::{
-    controller_verilog, count_table_verilog, queue_table_verilog, rt_unit_verilog,
-    toy_datapath_verilog,
-};
-use vtq_gen::stimulus::controller::controller_inputs;
-use vtq_gen::stimulus::rt_unit::rt_unit_inputs;
-use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
 use vtq_gen::GenError;
 use vtq_hdl::rt_unit::RtUnitParams;
-use vtq_hdl::Block;
 
-use super::options::{CacheArgs, ConfigArgs};
+use super::options::{build_bvh, load_scene, CacheArgs, ConfigArgs};
+use crate::experiment::cosim::record_sm;
 use crate::model::config::SimConfig;
-use replay::replay_jobs;
+use crate::model::gpu::datapath::BvhDatapath;
 
 /// Which block(s) to co-simulate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -172,112 +163,51 @@ fn explain_missing(e: GenError) -> anyhow::Error {
     }
 }
 
-/// Writes each `(module, text)` of `sources` as `<dir>/<module>.v` and co-simulates `trace`
-/// against them in `dir`.
-fn cosim_table(
-    dir: &Path,
-    trace: &Trace,
-    sources: &[(String, String)],
-    simulator: Simulator,
-    vcd: bool,
-) -> anyhow::Result<CosimResult> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut files = Vec::new();
-    for (module, text) in sources {
-        let source = dir.join(format!("{module}.v"));
-        std::fs::write(&source, text).with_context(|| format!("writing {}", source.display()))?;
-        files.push(source);
+/// The blocks `choice` names.
+fn blocks(choice: BlockChoice) -> Blocks {
+    Blocks {
+        count: choice.count(),
+        queue: choice.queue(),
+        controller: choice.controller(),
+        rt_unit: choice.rt_unit(),
+        wiring: choice.wiring(),
+        treelet_rt_unit: choice.treelet_rt_unit(),
     }
-    let opts = CosimOptions {
-        simulator,
-        vcd,
-        ..CosimOptions::icarus(dir)
-    };
-    run_cosim(trace, &files, &opts).map_err(explain_missing)
 }
 
-/// Writes the Rust block's waveform of a job's run to a path (`vtq cosim --vcd`).
-type RustVcd = Box<dyn Fn(&Path) -> Result<u64, GenError>>;
-
-/// The [`RustVcd`] of `block` over `inputs` when `wanted`.
-fn rust_vcd<B>(block: &B, inputs: &[B::Inputs], wanted: bool) -> Option<RustVcd>
-where
-    B: Block + Clone + 'static,
-    B::Inputs: Clone + 'static,
-{
-    wanted.then(|| {
-        let (block, inputs) = (block.clone(), inputs.to_vec());
-        Box::new(move |path: &Path| write_rust_vcd(&block, inputs.iter().cloned(), path)) as RustVcd
-    })
-}
-
-/// One table's stimulus, trace and RTL.
-struct Job {
-    trace: Trace,
-    /// What the stimulus covered, in words.
-    coverage: String,
-    /// The RTL: `(module, Verilog text)`, the block's module first.
-    verilog: Vec<(String, String)>,
-    /// The Rust block's waveform writer, with `--vcd`.
-    rust_vcd: Option<RustVcd>,
-}
-
-/// Builds the stimulus, records the Rust block and generates the RTL of each chosen block.
-fn jobs(cfg: &SimConfig, args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
-    let hw = &cfg.hw;
-    if matches!(args.block, BlockChoice::Wiring | BlockChoice::TreeletRtUnit) {
-        bail!("--block wiring and --block treelet-rt-unit replay a real run: give --scene");
-    }
-    let mut out = Vec::new();
-    if args.block.count() {
-        let (table, inputs, coverage) = count_table_inputs(hw, args.cycles, args.seed)?;
-        out.push(Job {
-            rust_vcd: rust_vcd(&table, &inputs, args.vcd),
-            trace: record(&table, inputs)?,
-            coverage: coverage.to_string(),
-            verilog: vec![(table.describe().name, count_table_verilog(hw)?)],
-        });
-    }
-    if args.block.queue() {
-        let seed = args.seed.wrapping_add(1);
-        let (table, inputs, coverage) = queue_table_inputs(hw, args.cycles, seed)?;
-        out.push(Job {
-            rust_vcd: rust_vcd(&table, &inputs, args.vcd),
-            trace: record(&table, inputs)?,
-            coverage: coverage.to_string(),
-            verilog: vec![(table.describe().name, queue_table_verilog(hw)?)],
-        });
-    }
-    if args.block.controller() {
-        let seed = args.seed.wrapping_add(2);
+/// The jobs of `vtq cosim`: on random stimulus, or (`--scene`) replaying SM `--sm`'s recorded
+/// inputs in a simulation of the scene.
+fn jobs(args: &CosimArgs) -> anyhow::Result<Vec<Job>> {
+    let Some(scene) = &args.scene else {
+        if matches!(args.block, BlockChoice::Wiring | BlockChoice::TreeletRtUnit) {
+            bail!("--block wiring and --block treelet-rt-unit replay a real run: give --scene");
+        }
+        let cfg = args.config.load_hardware()?;
         let features = cfg.hardware_controller_features();
-        let (ctl, inputs, coverage) = controller_inputs(hw, features, args.cycles, seed)?;
-        out.push(Job {
-            rust_vcd: rust_vcd(&ctl, &inputs, args.vcd),
-            trace: record(&ctl, inputs)?,
-            coverage: coverage.to_string(),
-            verilog: vec![(ctl.describe().name, controller_verilog(hw, features)?)],
-        });
-    }
-    if args.block.rt_unit() {
-        let seed = args.seed.wrapping_add(3);
-        let params = rt_unit_params(cfg);
-        let (unit, inputs, coverage) = rt_unit_inputs(hw, &params, args.cycles, seed)?;
-        let unit = RtUnitWithStatus(unit);
-        out.push(Job {
-            rust_vcd: rust_vcd(&unit, &inputs, args.vcd),
-            trace: record(&unit, inputs)?,
-            coverage: format!("random with the toy datapath: {coverage}"),
-            verilog: vec![
-                (unit.describe().name, rt_unit_verilog(hw, &params)?),
-                (
-                    "rt_datapath".to_string(),
-                    toy_datapath_verilog(hw.address_bits),
-                ),
-            ],
-        });
-    }
-    Ok(out)
+        let (hw, params) = (&cfg.hw, rt_unit_params(&cfg));
+        let run = (args.cycles, args.seed);
+        return Ok(random_jobs(
+            hw,
+            features,
+            &params,
+            blocks(args.block),
+            run,
+            args.vcd,
+        )?);
+    };
+    let cfg = args.config.load()?;
+    let scene = load_scene(scene)?;
+    let bvh = build_bvh(&scene, &cfg.bvh_params(), &args.cache)?;
+    let rec = record_sm(&scene, &bvh, &cfg, args.sm, args.cycles)?;
+    let recorded = Recorded {
+        log: &rec.log,
+        hw: &cfg.hw,
+        datapath: BvhDatapath::new(&bvh),
+        run: rec.run,
+        about: rec.about,
+        vcd: args.vcd,
+    };
+    Ok(replay_jobs(&recorded, blocks(args.block))?)
 }
 
 /// The RT unit's parameters of `cfg`, as `vtq verilog` generates it.
@@ -290,10 +220,7 @@ pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
     if args.cycles == 0 {
         bail!("--cycles must be at least 1");
     }
-    let jobs = match &args.scene {
-        Some(scene) => replay_jobs(scene, args)?,
-        None => jobs(&args.config.load_hardware()?, args)?,
-    };
+    let jobs = jobs(args)?;
     let simulator = args.simulator.simulator();
     let (root, temporary) = match &args.work_dir {
         Some(dir) => (dir.clone(), false),
@@ -307,7 +234,8 @@ pub fn run(args: &CosimArgs) -> anyhow::Result<()> {
         let module = job.trace.module.clone();
         let start = Instant::now();
         let dir = root.join(&module);
-        let result = cosim_table(&dir, &job.trace, &job.verilog, simulator, args.vcd)
+        let result = (job.run(&dir, simulator, args.vcd))
+            .map_err(explain_missing)
             .with_context(|| format!("co-simulating {module}"))?;
         println!(
             "{module}: {} cycles compared, {} mismatches ({simulator:?}, {:.1} s)",
