@@ -318,6 +318,21 @@ fn default_designs_include_vtq() {
 
 /// `vtq designs` lists the registry from any folder, names what each design puts beside the
 /// SMs and what it changes, and refuses an unknown design with the choices.
+/// `--config NAME` is the built-in design even where a file of that name sits in the working
+/// directory (the `vtq` binary beside its user), as `--designs NAME` is; `./NAME` is the file.
+#[test]
+fn a_design_name_is_the_built_in_whatever_the_working_directory_holds() {
+    let dir = temp_dir("shadow");
+    let clean = vtq_in(&dir, &["area", "--config", "vtq"]);
+    assert!(clean.status.success(), "{clean:?}");
+    std::fs::write(dir.join("vtq"), [0xff_u8, 0xfe, 0x00, 0x7f]).unwrap();
+    let shadowed = vtq_in(&dir, &["area", "--config", "vtq"]);
+    assert!(shadowed.status.success(), "{shadowed:?}");
+    assert_eq!(shadowed.stdout, clean.stdout);
+    let file = vtq_in(&dir, &["area", "--config", "./vtq"]);
+    assert_one_line_error(&file, "cannot read config file ./vtq");
+}
+
 #[test]
 fn designs_lists_the_registry_and_refuses_unknown_names() {
     let dir = temp_dir("designs");

@@ -52,24 +52,27 @@ impl BuiltIn {
     }
 }
 
-/// The built-in design whose name (`vtq`) or file (`configs/designs/vtq/config.toml`) `path` is.
-fn named_by(path: &Path) -> Option<&'static BuiltIn> {
-    BUILT_INS
-        .iter()
-        .find(|b| Path::new(b.path) == path || Path::new(b.name) == path)
+/// The built-in design whose file (`configs/designs/vtq/config.toml`) `path` is.
+fn file_of(path: &Path) -> Option<&'static BuiltIn> {
+    BUILT_INS.iter().find(|b| Path::new(b.path) == path)
 }
 
-/// The text of the configuration file `path`: the file where there is one, else the built-in
-/// design whose file it names (`configs/designs/vtq/config.toml`) or whose name it is (`vtq`),
-/// so sweeps and experiments that name the project's configuration files run from any directory
-/// (a cluster node with only the binary). Anything else is an error naming the path.
+/// The text of the configuration `path` names: a built-in design's name (`vtq`) is that design,
+/// as in `--designs` (a file of that name in the working directory is `./vtq`); otherwise the
+/// file where there is one, else the built-in design whose file it names
+/// (`configs/designs/vtq/config.toml`), so sweeps and experiments that name the project's
+/// configuration files run from any directory (a cluster node with only the binary). Anything
+/// else is an error naming the path.
 pub fn config_text(path: &Path) -> anyhow::Result<Cow<'static, str>> {
+    if let Some(b) = path.to_str().and_then(find) {
+        return Ok(Cow::Borrowed(b.toml));
+    }
     if path.exists() {
         return std::fs::read_to_string(path)
             .map(Cow::Owned)
             .with_context(|| format!("cannot read config file {}", path.display()));
     }
-    named_by(path)
+    file_of(path)
         .map(|b| Cow::Borrowed(b.toml))
         .with_context(|| {
             format!(
