@@ -65,6 +65,27 @@ pub struct Job {
 }
 
 impl Job {
+    /// The job of `block` over `inputs` (its described registers compared too), with the
+    /// `coverage` line and the RTL `verilog`; the Rust waveform writer when `vcd`.
+    fn of<B>(
+        block: &B,
+        inputs: Vec<B::Inputs>,
+        coverage: String,
+        verilog: Vec<(String, String)>,
+        vcd: bool,
+    ) -> Result<Job, GenError>
+    where
+        B: Block + Clone + 'static,
+        B::Inputs: Clone + 'static,
+    {
+        Ok(Job {
+            rust_vcd: rust_vcd(block, &inputs, vcd),
+            trace: record(block, inputs)?,
+            coverage,
+            verilog,
+        })
+    }
+
     /// Writes the RTL into `dir` and runs the trace's testbench against it with `simulator`
     /// (the RTL's waveform too with `vcd`).
     pub fn run(
@@ -117,47 +138,32 @@ pub fn random_jobs(
     let mut out = Vec::new();
     if blocks.count {
         let (table, inputs, coverage) = count_table_inputs(hw, cycles, seed)?;
-        out.push(Job {
-            rust_vcd: rust_vcd(&table, &inputs, vcd),
-            trace: record(&table, inputs)?,
-            coverage: coverage.to_string(),
-            verilog: vec![(table.describe().name, count_table_verilog(hw)?)],
-        });
+        let verilog = vec![(table.describe().name, count_table_verilog(hw)?)];
+        out.push(Job::of(&table, inputs, coverage.to_string(), verilog, vcd)?);
     }
     if blocks.queue {
         let (table, inputs, coverage) = queue_table_inputs(hw, cycles, seed.wrapping_add(1))?;
-        out.push(Job {
-            rust_vcd: rust_vcd(&table, &inputs, vcd),
-            trace: record(&table, inputs)?,
-            coverage: coverage.to_string(),
-            verilog: vec![(table.describe().name, queue_table_verilog(hw)?)],
-        });
+        let verilog = vec![(table.describe().name, queue_table_verilog(hw)?)];
+        out.push(Job::of(&table, inputs, coverage.to_string(), verilog, vcd)?);
     }
     if blocks.controller {
         let (ctl, inputs, coverage) =
             controller_inputs(hw, features, cycles, seed.wrapping_add(2))?;
-        out.push(Job {
-            rust_vcd: rust_vcd(&ctl, &inputs, vcd),
-            trace: record(&ctl, inputs)?,
-            coverage: coverage.to_string(),
-            verilog: vec![(ctl.describe().name, controller_verilog(hw, features)?)],
-        });
+        let verilog = vec![(ctl.describe().name, controller_verilog(hw, features)?)];
+        out.push(Job::of(&ctl, inputs, coverage.to_string(), verilog, vcd)?);
     }
     if blocks.rt_unit {
         let (unit, inputs, coverage) = rt_unit_inputs(hw, params, cycles, seed.wrapping_add(3))?;
         let unit = RtUnitWithStatus(unit);
-        out.push(Job {
-            rust_vcd: rust_vcd(&unit, &inputs, vcd),
-            trace: record(&unit, inputs)?,
-            coverage: format!("random with the toy datapath: {coverage}"),
-            verilog: vec![
-                (unit.describe().name, rt_unit_verilog(hw, params)?),
-                (
-                    "rt_datapath".to_string(),
-                    toy_datapath_verilog(hw.address_bits),
-                ),
-            ],
-        });
+        let verilog = vec![
+            (unit.describe().name, rt_unit_verilog(hw, params)?),
+            (
+                "rt_datapath".to_string(),
+                toy_datapath_verilog(hw.address_bits),
+            ),
+        ];
+        let coverage = format!("random with the toy datapath: {coverage}");
+        out.push(Job::of(&unit, inputs, coverage, verilog, vcd)?);
     }
     Ok(out)
 }
@@ -231,12 +237,9 @@ impl<D: NodeDatapath + Copy> Recorded<'_, D> {
             n[1], n[2], n[3], n[0]
         );
         let table = CountTable::new(self.hw)?;
-        Ok(Job {
-            rust_vcd: rust_vcd(&table, &self.log.count, self.vcd),
-            trace: record(&table, self.log.count.iter().copied())?,
-            coverage: self.table_window(ops),
-            verilog: vec![(table.describe().name, count_table_verilog(self.hw)?)],
-        })
+        let verilog = vec![(table.describe().name, count_table_verilog(self.hw)?)];
+        let coverage = self.table_window(ops);
+        Job::of(&table, self.log.count.clone(), coverage, verilog, self.vcd)
     }
 
     /// The queue table's job.
@@ -252,30 +255,30 @@ impl<D: NodeDatapath + Copy> Recorded<'_, D> {
             n[1], n[2], n[3], n[5], refills, n[0]
         );
         let table = QueueTable::new(self.hw)?;
-        Ok(Job {
-            rust_vcd: rust_vcd(&table, &self.log.queue, self.vcd),
-            trace: record(&table, self.log.queue.iter().copied())?,
-            coverage: self.table_window(ops),
-            verilog: vec![(table.describe().name, queue_table_verilog(self.hw)?)],
-        })
+        let verilog = vec![(table.describe().name, queue_table_verilog(self.hw)?)];
+        let coverage = self.table_window(ops);
+        Job::of(&table, self.log.queue.clone(), coverage, verilog, self.vcd)
     }
 
     /// The treelet controller's job, with the run's features.
     fn controller(&self) -> Result<Job, GenError> {
         let features = self.log.params.features;
         let ctl = TreeletController::new(self.hw.clone(), features)?;
-        let summary = replay_summary(&ctl, &self.log.controller);
-        Ok(Job {
-            rust_vcd: rust_vcd(&ctl, &self.log.controller, self.vcd),
-            trace: record(&ctl, self.log.controller.iter().cloned())?,
-            coverage: format!(
-                "real traffic: cycles 0..{} of {} ({}), from reset: {summary}",
-                self.log.controller.len(),
-                self.run,
-                self.about
-            ),
-            verilog: vec![(ctl.describe().name, controller_verilog(self.hw, features)?)],
-        })
+        let coverage = format!(
+            "real traffic: cycles 0..{} of {} ({}), from reset: {}",
+            self.log.controller.len(),
+            self.run,
+            self.about,
+            replay_summary(&ctl, &self.log.controller)
+        );
+        let verilog = vec![(ctl.describe().name, controller_verilog(self.hw, features)?)];
+        Job::of(
+            &ctl,
+            self.log.controller.clone(),
+            coverage,
+            verilog,
+            self.vcd,
+        )
     }
 
     /// The RT unit's job, its datapath answering from the run's recorded tests.
