@@ -8,7 +8,9 @@
 //! from reset and replayed as the testbench's stimulus (the RT unit's with its datapath's tests
 //! answered from their recorded results, [`vtq_gen::cosim::RtUnitReplay`]; the treelet RT
 //! unit's wiring, alone, on its ports in the recorded run, [`vtq_gen::cosim::TreeletWiring`];
-//! the whole treelet RT unit, composed, [`vtq_gen::cosim::TreeletRtUnitReplay`]).
+//! the whole treelet RT unit, composed, [`vtq_gen::cosim::TreeletRtUnitReplay`]). The run is
+//! recorded by [`crate::experiment::cosim`], the jobs are built by `vtq_gen::cosim`
+//! ([`random_jobs`], [`replay_jobs`]); this module parses, runs them and prints the verdicts.
 
 use std::path::PathBuf;
 use std::time::Instant;
