@@ -316,8 +316,6 @@ fn default_designs_include_vtq() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `vtq designs` lists the registry from any folder, names what each design puts beside the
-/// SMs and what it changes, and refuses an unknown design with the choices.
 /// `--config NAME` is the built-in design even where a file of that name sits in the working
 /// directory (the `vtq` binary beside its user), as `--designs NAME` is; `./NAME` is the file.
 #[test]
@@ -333,6 +331,8 @@ fn a_design_name_is_the_built_in_whatever_the_working_directory_holds() {
     assert_one_line_error(&file, "cannot read config file ./vtq");
 }
 
+/// `vtq designs` lists the registry from any folder, names what each design puts beside the
+/// SMs and what it changes, and refuses an unknown design with the choices.
 #[test]
 fn designs_lists_the_registry_and_refuses_unknown_names() {
     let dir = temp_dir("designs");
