@@ -226,9 +226,13 @@ fn a_broken_rtl_line_is_caught() {
         ),
         // An append may overwrite an occupied lane.
         (
-            "if (issue_active[l] && l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE)",
-            "if (1'b0)",
+            "if (issue_active[l] && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE",
+            "if (1'b0 && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE",
         ),
+        // A lane write does not mark the lane written, so the issue naming it is refused.
+        ("written_d = write_here;", "written_d = 1'b0;"),
+        // An issue leaves the lanes it names written inactive.
+        ("wake[s*N+l] = issue_written[l];", "wake[s*N+l] = 1'b0;"),
         // An occlusion ray goes on traversing after its first accepted hit.
         ("if (accepted && occlusion_t) begin", "if (1'b0) begin"),
         // The node buffer's read misses last cycle's write (no forwarding).

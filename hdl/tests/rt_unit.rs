@@ -5,9 +5,9 @@ use vtq_hdl::bits::fits;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
     errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
-    LaneStatus, MemRequest, MemResponse, NodeEntry, NodeKind, RayOutcome, RayRecord, RequestKind,
-    RtCache, RtStats, RtUnit, RtUnitError, RtUnitOutputs, RtUnitParams, RtUnitRegs, SlotSummary,
-    Split, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    LaneStatus, LaneWrite, MemRequest, MemResponse, NodeEntry, NodeKind, RayOutcome, RayRecord,
+    RequestKind, RtCache, RtStats, RtUnit, RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams,
+    RtUnitRegs, SlotSummary, Split, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::splitmix::SplitMix64;
 use vtq_hdl::{Block, HwConfig, Signals};
@@ -745,6 +745,93 @@ fn protocol_violations_raise_sticky_errors() {
     unit.step(&mut regs, &inp);
     assert_eq!(regs.errors, errors::BAD_ISSUE);
     assert!(regs.slots.iter().all(|s| !s.valid));
+}
+
+/// A lane write of `lanes` into `slot` (padded to 4 lanes).
+fn lane_write(slot: u32, lanes: Vec<Option<RayRecord>>) -> LaneWrite {
+    let mut lanes = lanes;
+    lanes.resize(4, None);
+    LaneWrite { slot, lanes }
+}
+
+#[test]
+fn written_lanes_wait_inactive_and_enter_with_their_warps_issue() {
+    let unit = RtUnit::new(small(), RtUnitParams::default(), ToyDatapath).unwrap();
+    let r = node(0x100, NodeKind::Internal, 32);
+    let mut regs = unit.reset();
+    // Rays 1 and 2 written into lanes 0 and 2 of the free slot 1, over two cycles.
+    let mut inp = unit.idle_inputs();
+    inp.write = Some(lane_write(1, vec![ray(1, 0, r)]));
+    unit.step(&mut regs, &inp);
+    inp.write = Some(lane_write(1, vec![None, None, ray(2, 0, r)]));
+    let out = unit.step(&mut regs, &inp);
+    assert_eq!(out.errors, 0);
+    assert!(!regs.slots[1].valid, "a written slot holds no warp yet");
+    let lanes = &regs.slots[1].lanes;
+    assert!(lanes[0].written && lanes[2].written && !lanes[1].written);
+    assert!(lanes.iter().all(|l| l.status == LaneStatus::Inactive));
+    assert_eq!(unit.status(&regs, &unit.cache(&regs), false).slots[1], None);
+    // The issue: lanes 0 and 2 from their written records, lane 3 from the bus, while the bus
+    // also writes lane 1 of slot 0 (another slot, another lane).
+    let mut issue = warp(
+        TraversalOrder::TreeletStop,
+        4,
+        vec![None, None, None, ray(3, 0, r)],
+    );
+    issue.target = IssueTarget::Slot(1);
+    issue.written = 0b0101;
+    inp.issue = Some(issue);
+    inp.write = Some(lane_write(0, vec![None, ray(4, 0, r)]));
+    let out = unit.step(&mut regs, &inp);
+    assert_eq!(out.errors, 0, "{:?}", out.first_error);
+    let ids = |s: usize, l: usize| {
+        (
+            regs.slots[s].lanes[l].status,
+            regs.slots[s].lanes[l].ray.ray_id,
+        )
+    };
+    assert!(regs.slots[1].valid);
+    assert_eq!(ids(1, 0), (LaneStatus::Traversing, 1));
+    assert_eq!(ids(1, 1).0, LaneStatus::Inactive);
+    assert_eq!(ids(1, 2), (LaneStatus::Traversing, 2));
+    assert_eq!(ids(1, 3), (LaneStatus::Traversing, 3));
+    assert!(regs.slots[1].lanes.iter().all(|l| !l.written));
+    assert!(regs.slots[0].lanes[1].written && !regs.slots[0].valid);
+
+    // Refused, each a bad command naming the slot, nothing written: a write into the slot
+    // holding a warp that is not held; a write on a bus lane the issue uses; an issue naming a
+    // lane never written.
+    let written = |regs: &RtUnitRegs| -> Vec<bool> {
+        (regs.slots.iter())
+            .flat_map(|s| s.lanes.iter().map(|l| l.written))
+            .collect()
+    };
+    let refused = |inp: &RtUnitInputs, slot: u32| {
+        let mut after = regs.clone();
+        let out = unit.step(&mut after, inp);
+        assert_eq!(out.errors, errors::BAD_COMMAND);
+        assert_eq!(out.first_error.map(|e| e.slot), Some(slot));
+        written(&regs) == written(&after) && regs.slots[0].valid == after.slots[0].valid
+    };
+    let mut inp = unit.idle_inputs();
+    inp.write = Some(lane_write(1, vec![None, ray(5, 0, r)]));
+    assert!(refused(&inp, 1));
+    let mut inp = unit.idle_inputs();
+    let mut issue = warp(TraversalOrder::TreeletStop, 4, vec![ray(6, 0, r)]);
+    issue.target = IssueTarget::Slot(0);
+    issue.written = 0b0010;
+    inp.issue = Some(issue);
+    inp.write = Some(lane_write(0, vec![ray(7, 0, r)]));
+    let mut regs2 = regs.clone();
+    let out = unit.step(&mut regs2, &inp);
+    assert_eq!(out.errors, errors::BAD_COMMAND, "the write is refused");
+    assert!(regs2.slots[0].valid, "the issue goes ahead");
+    let mut inp = unit.idle_inputs();
+    let mut issue = warp(TraversalOrder::TreeletStop, 4, vec![]);
+    issue.target = IssueTarget::Slot(0);
+    issue.written = 0b0001;
+    inp.issue = Some(issue);
+    assert!(refused(&inp, 0));
 }
 
 #[test]

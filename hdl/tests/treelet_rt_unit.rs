@@ -153,8 +153,11 @@ impl Env {
         });
         let mut ray_records = Vec::new();
         let store = &mut self.store;
+        // The records of a cycle are for one slot (the RT unit writes one slot a cycle): the
+        // first due record's.
+        let first = self.loads.iter().find(|l| l.0 <= now).map(|l| l.1);
         self.loads.retain(|&(due, slot, ray)| {
-            if due > now || ray_records.len() == record_max {
+            if due > now || ray_records.len() == record_max || Some(slot) != first {
                 return true;
             }
             let record = store.remove(&ray).expect("a load of a parked ray");

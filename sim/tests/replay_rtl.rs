@@ -274,8 +274,8 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
     const CYCLES: usize = 26_000;
     // Two record ports (the composed block's replay below has the default one), so both
     // widths of the ray-record crossbar are co-simulated; records held on chip, so a fill's
-    // records return together and use both; 256 ray ids (the fewest the CTA slots allow), so admitted warps take ids given back
-    // through the free-id stack.
+    // records return together and use both; 256 ray ids (the fewest the CTA slots allow), so
+    // admitted warps take ids given back through the free-id stack.
     let mut settings = EIGHT_LANES.to_vec();
     settings.extend([
         "hw.record_bytes_per_cycle=64",
@@ -304,6 +304,8 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
         "finished_count",
         "parked_count",
         "rt_issue_valid",
+        "rt_write_valid",
+        "rt_issue_written",
         "rt_released_valid",
         "ctl_repack_valid",
         "ctl_enq_valid",
@@ -395,6 +397,54 @@ fn a_real_runs_wiring_ports_match_the_wiring_rtl() {
         broken.mismatches > 0,
         "a broken event-FIFO shift went unnoticed"
     );
+}
+
+/// The wiring against its RTL with two warp-buffer slots and two record ports: fills of both
+/// slots load at once, their records written into the RT unit's lanes as they arrive (one
+/// slot's a cycle).
+#[test]
+fn a_two_slot_runs_wiring_ports_match_the_wiring_rtl() {
+    const CYCLES: usize = 12_000;
+    let mut settings = EIGHT_LANES.to_vec();
+    settings.extend(["hw.record_bytes_per_cycle=64", "hw.warp_buffer_size=2"]);
+    let (cfg, bvh, log, _) = recorded_run(CYCLES, &settings);
+    let unit =
+        TreeletRtUnit::new(cfg.hw.clone(), log.params.clone(), BvhDatapath::new(&bvh)).unwrap();
+    let ports = wiring_ports(&unit, log.treelet);
+    let wiring = TreeletWiring::new(&unit);
+    let trace = record(&wiring, ports.iter().cloned()).unwrap();
+    let at = |name: &str| {
+        (trace.inputs.iter().chain(&trace.outputs))
+            .position(|s| s.name == name)
+            .unwrap_or_else(|| panic!("no signal {name}"))
+    };
+    let (write, slot, written) = (
+        at("rt_write_valid"),
+        at("rt_write_slot"),
+        at("rt_issue_written"),
+    );
+    let writes = |s: u64| {
+        (trace.rows())
+            .filter(|r| r[write] == 1 && r[slot] == s)
+            .count()
+    };
+    let woken = trace.rows().filter(|r| r[written] != 0).count();
+    eprintln!(
+        "writes to slot 0 {}, to slot 1 {}, issues of written lanes {woken}",
+        writes(0),
+        writes(1)
+    );
+    assert!(writes(0) > 0 && writes(1) > 0 && woken > 0);
+    let work = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-replay-wiring2");
+    std::fs::create_dir_all(&work).unwrap();
+    let path = work.join("treelet_rt_unit_wiring.v");
+    std::fs::write(&path, treelet_wiring_verilog(&unit).unwrap()).unwrap();
+    let Some(result) = or_skip(run_cosim(&trace, &[path], &CosimOptions::icarus(&work))).unwrap()
+    else {
+        return;
+    };
+    assert_eq!(result.cycles, CYCLES as u64);
+    assert_eq!(result.mismatches, 0, "{:?}", result.reported);
 }
 
 /// The whole treelet RT unit against its composed RTL on a real run: SM 0's recorded input

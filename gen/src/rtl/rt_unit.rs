@@ -391,7 +391,7 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
 /// A field of a lane's state: its name in `rt_unit_lane`, the description's register holding
 /// every lane's, its width as a Verilog expression, and the index of its width in
 /// the widths [`lane_pieces`] checks (`None`: a fixed width).
-const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 26] = [
+const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 27] = [
     ("status", "lane_status", "2", None),
     ("ray_id", "lane_ray_id", "RB", Some(1)),
     ("ray_words", "lane_ray_words", "256", None),
@@ -410,6 +410,7 @@ const LANE_FIELDS: [(&str, &str, &str, Option<usize>); 26] = [
     ("chunks_returned", "lane_chunks_returned", "4", None),
     ("delay", "lane_delay", "DW", Some(5)),
     ("store_pending", "lane_store_pending", "1", None),
+    ("written", "lane_written", "1", None),
     ("cur_win", "lane_cur_window", "K*E", Some(7)),
     ("cur_top", "lane_cur_top", "E", Some(6)),
     ("cur_base", "lane_cur_base", "SPB", Some(8)),

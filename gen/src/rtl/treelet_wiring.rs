@@ -101,19 +101,16 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         .find(|r| r.name == "events")
         .ok_or_else(|| info.bad("the RTL needs a register bank `events`".into()))?;
     let evd = events.count;
-    let records = desc
-        .registers
-        .iter()
-        .find(|r| r.name == "build_records")
-        .ok_or_else(|| info.bad("the RTL needs a register bank `build_records`".into()))?;
-    let rec = records.width;
+    // A ray record on the bus: {other_stack, cur_stack, other_spilled, cur_spilled, other_sp,
+    // cur_sp, cur_treelet, hit, hit_valid, occlusion, ray_words, ray id}.
+    let rec = rb + 256 + 1 + 1 + 128 + tw + 2 * spw + 2 * scw + 2 * de;
     let qdw = desc
         .registers
         .iter()
         .find(|r| r.name == "last_qt_done")
         .map_or(0, |r| r.width);
     let tsh = clog2(cfg.treelet_bytes as u64);
-    let consistent = rec == rb + 256 + 1 + 1 + 128 + tw + 2 * spw + 2 * scw + 2 * de
+    let consistent = info.port("rt_issue_ray_id", Dir::Out)? == n * rb
         && qdw == 1 + tw + cw + n * rb
         && events.width == 1 + rb + tw
         && cw == bits_for(n as u64)
@@ -167,7 +164,7 @@ pub fn treelet_wiring_verilog<D: NodeDatapath>(
         format!("localparam FCW = {fcw};    // free-id count bits"),
         format!("localparam EVD = {evd};    // event FIFO entries"),
         format!("localparam EVW = {evw};    // event count bits"),
-        format!("localparam REC = {rec};    // a kept ray record"),
+        format!("localparam REC = {rec};    // a ray record on the bus"),
         format!("localparam QDW = {qdw};    // the queue table's registered answer"),
         format!(
             "localparam ADMIT_TS = {}; // SM warps admitted in the treelet-stationary mode",

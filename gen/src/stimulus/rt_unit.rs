@@ -1,7 +1,9 @@
 //! Seeded random stimulus for the RT unit's control ([`RtUnit`]), played by a reactive
 //! environment: a toy BVH in a memory model, a toy intersection datapath ([`ToyDatapath`],
 //! specified byte for byte so that a Verilog twin can be written from it), and a treelet
-//! controller that issues, stops, repacks and refills warps.
+//! controller that issues, stops, repacks and refills warps, and writes rays into lanes ahead of
+//! their warp's issue (a free slot it reserves, or the inactive lanes of a held one) the way
+//! the treelet wiring writes a fill's records as they arrive.
 //!
 //! The environment steps its own copy of the Rust block and reads its registers like a test
 //! bench peeking at the design: it issues warps only into slots that are free (`issue_ready`,
@@ -17,7 +19,8 @@
 //! After the first [`QUIET_CYCLES`] cycles the environment also breaks the protocol, rarely,
 //! to raise each of the block's sticky errors (counted per cycle in [`RtUnitCoverage`]): a
 //! warp issued while the buffer is full, a malformed warp, a slot command naming a slot it
-//! cannot act on, an append into a lane that holds a ray, one response more than the FIFO has
+//! cannot act on, an append into a lane that holds a ray, a lane write the unit must refuse or
+//! an issue naming a lane never written, one response more than the FIFO has
 //! room for, a response matching nothing or a duplicate node chunk, rays of the ray class 7
 //! (`ray[0] & 7`), the only ones that visit the tree's bad children. In the last sixteenth of
 //! a stream of at least 2000 cycles one ray is issued with its spill area already full and a
@@ -30,9 +33,9 @@ use crate::error::GenError;
 use std::collections::HashMap;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
-    pack_spill_chunk, spill_area, Hit, IssueTarget, LaneStatus, MemResponse, NodeEntry, RayOutcome,
-    RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs, StackLayout,
-    StackSel, TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
+    pack_spill_chunk, spill_area, Hit, IssueTarget, LaneStatus, LaneWrite, MemResponse, NodeEntry,
+    RayOutcome, RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs,
+    StackLayout, StackSel, TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -78,8 +81,22 @@ pub fn small_config() -> (HwConfig, RtUnitParams) {
 /// The protocol breaks the environment injects, in this order: a warp issued while no slot is
 /// free, a warp issued into a taken or missing slot, an append to a slot not held, a stop and
 /// a repack of an empty or missing slot (the repack is ignored, not an error), a malformed
-/// warp, an append into a lane of the held slot that holds a ray.
-const FAULTS: u64 = 7;
+/// warp, an append into a lane of the held slot that holds a ray, and a lane write into a slot
+/// holding a warp that is not held (or an issue naming a lane never written).
+const FAULTS: u64 = 8;
+
+/// A free slot the environment reserved and is writing rays into before it issues the warp.
+#[derive(Debug, Clone, Copy)]
+struct Staged {
+    /// The slot.
+    slot: u32,
+    /// The warp's order.
+    order: TraversalOrder,
+    /// Lanes written so far.
+    written: u64,
+    /// Writes still to send before the issue.
+    left: u32,
+}
 
 /// The environment around the RT unit.
 struct Env {
@@ -102,8 +119,12 @@ struct Env {
     /// Ray ids not in use, and rays parked at a treelet boundary (their ids in use).
     free_ids: Vec<u32>,
     pool: Vec<RayRecord>,
-    /// The slot a repack holds, with the appends still to send.
+    /// The slot a repack holds, with the appends still to send, and its lanes written ahead of
+    /// the next append (which names them all).
     held: Option<(u32, u32)>,
+    held_written: u64,
+    /// A free slot being written ahead of its issue.
+    staged: Option<Staged>,
     /// A fault ([`FAULTS`]) waiting for a cycle it applies in; a FIFO overflow likewise.
     fault: Option<u64>,
     overflow: bool,
@@ -140,6 +161,8 @@ impl Env {
             free_ids: (0..cfg.max_rays).rev().collect(),
             pool: Vec::new(),
             held: None,
+            held_written: 0,
+            staged: None,
             fault: None,
             overflow: false,
             finale: (cycles >= 2000).then(|| cycles - cycles / 16),
@@ -297,6 +320,7 @@ impl Env {
             order,
             lanes,
             target,
+            written: 0,
         }
     }
 
@@ -339,6 +363,29 @@ impl Env {
                 }
                 inp.issue = Some(warp);
             }
+            7 => {
+                let lanes = (0..self.ws).map(|_| self.rng.chance(50).then(|| self.ray(0)));
+                let lanes: Vec<_> = lanes.collect();
+                let unheld: Vec<u32> = (taken.iter().copied())
+                    .filter(|&s| !self.regs.slots[s as usize].held)
+                    .collect();
+                let staged = self.staged.map(|st| st.slot);
+                let unstaged: Vec<u32> = (free.iter().copied())
+                    .filter(|&s| Some(s) != staged)
+                    .collect();
+                if self.rng.chance(50) {
+                    // A write into a warp's lanes.
+                    let slot = self.pick(&unheld)?;
+                    inp.write = Some(LaneWrite { slot, lanes });
+                } else {
+                    // An issue naming lanes never written.
+                    let slot = self.pick(&unstaged)?;
+                    let mut warp = self.throwaway(IssueTarget::Slot(slot));
+                    warp.lanes = vec![None; self.ws];
+                    warp.written = 1 << self.idx(self.ws);
+                    inp.issue = Some(warp);
+                }
+            }
             3 => inp.stop = Some(self.bad_slot(&free)?),
             4 => inp.repack = Some(self.bad_slot(&free)?),
             _ => {
@@ -372,7 +419,7 @@ impl Env {
     fn commands(&mut self, inp: &mut RtUnitInputs) {
         let free = self.slots(false);
         let finale = self.finale.is_some_and(|c| self.cycle >= c);
-        if finale && !free.is_empty() && !self.free_ids.is_empty() {
+        if finale && self.staged.is_none() && !free.is_empty() && !self.free_ids.is_empty() {
             // A current stack full on chip and in memory: the next fetch must spill, and can't.
             self.finale = None;
             let mut lanes = vec![None; self.ws];
@@ -388,12 +435,13 @@ impl Env {
                 order,
                 lanes,
                 target,
+                written: 0,
             });
         } else if let Some((slot, left)) = self.held.filter(|_| self.rng.chance(35)) {
             let s = &self.regs.slots[slot as usize];
             let order = s.order;
             let inactive: Vec<usize> = (0..self.ws)
-                .filter(|&l| s.lanes[l].status == LaneStatus::Inactive)
+                .filter(|&l| s.lanes[l].status == LaneStatus::Inactive && !s.lanes[l].written)
                 .collect();
             let empty = inactive.is_empty() || self.rng.chance(10);
             let k = if empty {
@@ -402,28 +450,75 @@ impl Env {
                 1 + self.idx(inactive.len())
             };
             let lanes = self.subset(inactive, k);
-            let last = empty || left <= 1;
-            self.held = (!last).then_some((slot, left - 1));
-            let (lanes, target) = (self.fill(order, lanes), IssueTarget::Append { slot, last });
-            inp.issue = Some(WarpIssue {
-                order,
-                lanes,
-                target,
-            });
+            let lanes = self.fill(order, lanes);
+            if !empty && self.rng.chance(40) {
+                // Written ahead of the next append.
+                self.held_written |= mask_of(&lanes);
+                inp.write = Some(LaneWrite { slot, lanes });
+            } else {
+                let last = empty || left <= 1;
+                self.held = (!last).then_some((slot, left - 1));
+                let written = std::mem::take(&mut self.held_written);
+                let target = IssueTarget::Append { slot, last };
+                inp.issue = Some(WarpIssue {
+                    order,
+                    lanes,
+                    target,
+                    written,
+                });
+            }
+        } else if let Some(st) = self.staged.filter(|_| self.rng.chance(40)) {
+            self.staged_step(st, inp);
         } else if !free.is_empty() && self.rng.chance(85) {
             let order = TraversalOrder::ALL[self.idx(3)];
-            let target = match self.pick(&free) {
-                Some(s) if self.rng.chance(20) => IssueTarget::Slot(s),
-                _ => IssueTarget::AnyFree,
+            let staged = self.staged.map(|st| st.slot);
+            let unstaged: Vec<u32> = free
+                .iter()
+                .copied()
+                .filter(|&s| Some(s) != staged)
+                .collect();
+            // The lowest free slot, where AnyFree goes, must not be the one being written.
+            let target = match self.pick(&unstaged) {
+                Some(s) if self.rng.chance(20) || staged == free.first().copied() => {
+                    Some(IssueTarget::Slot(s))
+                }
+                Some(_) => Some(IssueTarget::AnyFree),
+                None => None,
             };
-            let k = 1 + self.idx(self.ws);
-            let lanes = self.subset((0..self.ws).collect(), k);
-            let lanes = self.fill(order, lanes);
-            inp.issue = Some(WarpIssue {
-                order,
-                lanes,
-                target,
-            });
+            if let Some(target) = target {
+                if self.staged.is_none() && unstaged.len() > 1 && self.rng.chance(15) {
+                    // Reserve a free slot (not where this warp goes) and start writing it.
+                    let slot = match target {
+                        IssueTarget::Slot(s) => unstaged.iter().copied().find(|&x| x != s),
+                        _ => unstaged.iter().copied().rfind(|&x| x != free[0]),
+                    };
+                    if let Some(slot) = slot {
+                        let order = TraversalOrder::ALL[self.idx(3)];
+                        let left = 1 + self.rng.below(3) as u32;
+                        let (written, left) = (0, left);
+                        self.staged = Some(Staged {
+                            slot,
+                            order,
+                            written,
+                            left,
+                        });
+                    }
+                }
+                let k = 1 + self.idx(self.ws);
+                let lanes = self.subset((0..self.ws).collect(), k);
+                let lanes = self.fill(order, lanes);
+                inp.issue = Some(WarpIssue {
+                    order,
+                    lanes,
+                    target,
+                    written: 0,
+                });
+                if let Some(st) = self.staged.filter(|st| st.left > 0 && self.rng.chance(50)) {
+                    // A write beside the issue, on the bus lanes it leaves free.
+                    let used = inp.issue.as_ref().map_or(0, |i| mask_of(&i.lanes));
+                    self.stage_write(st, !used, inp);
+                }
+            }
         }
         if self.rng.chance(3) {
             // Never a ray-stationary warp, nor one that completes (freeing its slot) first.
@@ -443,6 +538,54 @@ impl Env {
         }
         if self.held.is_none() && self.rng.below(200) == 0 {
             inp.repack = self.pick(&self.slots(true));
+        }
+    }
+
+    /// One step of the staged slot `st`: a write of some lanes not written yet, or, when the
+    /// writes are sent, the warp's issue naming the written lanes (with rays on the bus in some
+    /// others: the last records written and issued in one cycle).
+    fn staged_step(&mut self, st: Staged, inp: &mut RtUnitInputs) {
+        if st.left > 0 {
+            self.stage_write(st, u64::MAX, inp);
+            return;
+        }
+        self.staged = None;
+        let rest: Vec<usize> = (0..self.ws).filter(|&l| st.written >> l & 1 == 0).collect();
+        let k = self.idx(rest.len() + 1);
+        let lanes = self.subset(rest, k);
+        let lanes = self.fill(st.order, lanes);
+        inp.issue = Some(WarpIssue {
+            order: st.order,
+            lanes,
+            target: IssueTarget::Slot(st.slot),
+            written: st.written,
+        });
+    }
+
+    /// A write of some of the staged slot's unwritten lanes among `free` (bus lanes), with new
+    /// rays; counts one of its writes down.
+    fn stage_write(&mut self, st: Staged, free: u64, inp: &mut RtUnitInputs) {
+        let open: Vec<usize> = (0..self.ws)
+            .filter(|&l| (free & !st.written) >> l & 1 == 1)
+            .collect();
+        let k = if open.is_empty() {
+            0
+        } else {
+            1 + self.idx(open.len())
+        };
+        let lanes = self.subset(open, k);
+        let lanes = self.fill(st.order, lanes);
+        let mask = mask_of(&lanes);
+        self.staged = Some(Staged {
+            written: st.written | mask,
+            left: st.left - 1,
+            ..st
+        });
+        if mask != 0 {
+            inp.write = Some(LaneWrite {
+                slot: st.slot,
+                lanes,
+            });
         }
     }
 
@@ -622,6 +765,32 @@ impl Env {
                 c.slot_issues += u64::from(matches!(issue.target, IssueTarget::Slot(_)));
             }
         }
+        if let Some(w) = &inp.write {
+            let s = w.slot as usize;
+            let wrote = (0..self.ws).filter(|&l| {
+                !slots.get(s).is_some_and(|x| x.lanes[l].written)
+                    && next.slots.get(s).is_some_and(|x| x.lanes[l].written)
+            });
+            c.lane_writes += wrote.count() as u64;
+        }
+        if let Some(issue) = &inp.issue {
+            let target = match issue.target {
+                IssueTarget::AnyFree => None,
+                t => Some(t.slot() as usize),
+            };
+            let woke = target.map_or(0, |s| {
+                (0..self.ws)
+                    .filter(|&l| {
+                        issue.written >> l & 1 == 1
+                            && slots.get(s).is_some_and(|x| x.lanes[l].written)
+                            && next.slots.get(s).is_some_and(|x| {
+                                !x.lanes[l].written && x.lanes[l].status != LaneStatus::Inactive
+                            })
+                    })
+                    .count()
+            });
+            c.written_issues += u64::from(woke > 0);
+        }
         c.fifo_full += u64::from(out.resp_free == 0);
         c.buffer_full += u64::from(!out.issue_ready);
         for (k, e) in c.errors.iter_mut().enumerate() {
@@ -641,6 +810,11 @@ impl Env {
         self.regs = next;
         self.cycle += 1;
     }
+}
+
+/// The lanes of `lanes` that carry a ray, as a mask.
+fn mask_of(lanes: &[Option<RayRecord>]) -> u64 {
+    (lanes.iter().enumerate()).fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
 }
 
 /// `cycles` cycles of RT-unit inputs from the reactive environment (see the module

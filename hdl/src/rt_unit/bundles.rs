@@ -292,6 +292,36 @@ pub struct WarpIssue {
     pub lanes: Vec<Option<RayRecord>>,
     /// Where the rays go.
     pub target: IssueTarget,
+    /// Bit `l` set: lane `l` of the target slot already holds its ray, written there by an
+    /// earlier [`LaneWrite`], and enters the warp from that record (its entry in `lanes` is
+    /// `None`: it takes nothing from the issue bus).
+    pub written: u64,
+}
+
+/// Ray records written into lanes of one slot ahead of the warp issue that activates them
+/// (`write_valid`, `write_slot`, `write_mask`): a fill's records as they arrive from memory,
+/// riding the issue bus in the lanes they are bound for. A written lane holds its record and
+/// stays inactive until an issue names it in [`WarpIssue::written`]. The slot is free (a
+/// treelet or grouped fill) or held by a repack (its inactive lanes); the bus is shared, so a
+/// lane may not carry an issued ray and a written one in the same cycle, and a write may not
+/// name the slot the cycle's issue loads.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct LaneWrite {
+    /// The slot written.
+    pub slot: u32,
+    /// One entry per lane (`warp_size` of them): the record written there, `None` for a lane
+    /// not written.
+    pub lanes: Vec<Option<RayRecord>>,
+}
+
+impl LaneWrite {
+    /// The lanes written, as a mask (bit `l` for lane `l`).
+    pub fn mask(&self) -> u64 {
+        self.lanes
+            .iter()
+            .enumerate()
+            .fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
+    }
 }
 
 /// Where an issued warp's rays go (`issue_target`, `issue_slot`, `issue_last`).
@@ -493,6 +523,9 @@ pub struct Lane {
     pub delay: u32,
     /// A hit record is waiting to be stored.
     pub store_pending: bool,
+    /// The lane holds a ray record written ahead of its warp's issue ([`LaneWrite`]); it is
+    /// inactive until the issue activates it.
+    pub written: bool,
 }
 
 impl Lane {

@@ -4,8 +4,8 @@
 
 use super::{
     bits, raise, record, ErrorKind, ErrorRecord, IssueTarget, Lane, LaneMasks, LaneStatus,
-    NodeDatapath, RayOutcome, RayRecord, RtCache, RtStats, RtUnit, RtUnitError, RtUnitInputs,
-    RtUnitOutputs, RtUnitRegs, TraversalOrder, WarpDone, WarpIssue,
+    LaneWrite, NodeDatapath, RayOutcome, RayRecord, RtCache, RtStats, RtUnit, RtUnitError,
+    RtUnitInputs, RtUnitOutputs, RtUnitRegs, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
 };
 
 impl<D: NodeDatapath> RtUnit<D> {
@@ -71,9 +71,10 @@ impl<D: NodeDatapath> RtUnit<D> {
             }
         }
 
-        // 7. Warp issue, then the treelet controller's commands.
-        if let Some(issue) = &inp.issue {
-            self.issue(r, c, free_mask, issue);
+        // 7. Warp issue and lane write (they share the issue bus), then the treelet
+        // controller's commands.
+        if inp.issue.is_some() || inp.write.is_some() {
+            self.issue_and_write(r, c, free_mask, inp.issue.as_ref(), inp.write.as_ref());
         }
         if let Some(s) = inp.stop {
             self.stop(r, c, s);
@@ -94,25 +95,41 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
     }
 
-    /// Step 7: loads an issued warp into a slot that was free at the start of the cycle (bit
-    /// `s` of `free_mask`) or appends a repack fill to a held slot.
-    pub(super) fn issue(
+    /// Step 7: checks the records on the issue bus (a bad one drops both the issue and the
+    /// write), then issues the warp and writes the lanes.
+    fn issue_and_write(
         &self,
         r: &mut RtUnitRegs,
         c: &mut RtCache,
         free_mask: u64,
-        issue: &WarpIssue,
+        issue: Option<&WarpIssue>,
+        write: Option<&LaneWrite>,
     ) {
-        let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
-        if let Err(e) = self.check_issue(issue) {
+        let n = self.cfg.warp_size as usize;
+        let lengths = issue
+            .map(|i| i.lanes.len())
+            .into_iter()
+            .chain(write.map(|w| w.lanes.len()));
+        let checked = match lengths.into_iter().find(|&len| len != n) {
+            Some(len) => Err(RtUnitError::BadIssue {
+                lane: 0,
+                reason: format!("{len} lanes, expected warp_size = {n}"),
+            }),
+            // Lane l of the bus carries the issue's record, else the write's.
+            None => self.check_lanes((0..n).map(|l| {
+                lane_of(issue.map(|i| &i.lanes[..]), l)
+                    .or_else(|| lane_of(write.map(|w| &w.lanes[..]), l))
+            })),
+        };
+        if let Err(e) = checked {
             let lane = match e {
                 RtUnitError::BadIssue { lane, .. } => lane,
                 _ => 0,
             };
-            let ray_id = issue
-                .lanes
-                .get(lane as usize)
-                .and_then(|l| l.as_ref())
+            let ray_id = [issue.map(|i| &i.lanes), write.map(|w| &w.lanes)]
+                .into_iter()
+                .flatten()
+                .find_map(|lanes| lanes.get(lane as usize)?.as_ref())
                 .map_or(0, |ray| ray.ray_id);
             raise(
                 &mut r.errors,
@@ -125,6 +142,31 @@ impl<D: NodeDatapath> RtUnit<D> {
             );
             return;
         }
+        let issued = issue.and_then(|i| self.issue(r, c, free_mask, i));
+        if let Some(w) = write {
+            let busy = issue.map_or(0, |i| active_mask(&i.lanes));
+            self.write(r, c, w, busy, issued);
+        }
+    }
+
+    /// Loads an issued warp into a slot that was free at the start of the cycle (bit `s` of
+    /// `free_mask`) or appends a repack fill to a held slot; lanes named in
+    /// [`WarpIssue::written`] enter from the records written into them before. Returns the
+    /// slot acted on (`None`: the command was refused).
+    fn issue(
+        &self,
+        r: &mut RtUnitRegs,
+        c: &mut RtCache,
+        free_mask: u64,
+        issue: &WarpIssue,
+    ) -> Option<usize> {
+        let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
+        let lane_bits = lane_mask(self.cfg.warp_size);
+        let active = active_mask(&issue.lanes);
+        let written = issue.written & lane_bits;
+        // The lanes named written hold written records, and none also takes one from the bus.
+        let written_ok =
+            |slot: &WarpSlot| written & active == 0 && bits(written).all(|l| slot.lanes[l].written);
         let bad_command = |r: &mut RtUnitRegs, slot: u32| {
             raise(
                 &mut r.errors,
@@ -135,46 +177,109 @@ impl<D: NodeDatapath> RtUnit<D> {
                 },
             )
         };
-        match issue.target {
-            IssueTarget::AnyFree => match free_slot {
-                None => raise(
-                    &mut r.errors,
-                    &mut r.first_error,
-                    record(
-                        ErrorKind::IssueWhileFull,
-                        self.cfg.warp_buffer_size as u64 + 1,
-                        self.cfg.warp_buffer_size as u64,
-                    ),
-                ),
-                Some(s) => self.load(r, c, s, issue),
-            },
-            IssueTarget::Slot(s) if s < 64 && free_mask >> s & 1 == 1 => {
-                self.load(r, c, s as usize, issue)
+        let target = match issue.target {
+            IssueTarget::AnyFree => {
+                let Some(s) = free_slot else {
+                    raise(
+                        &mut r.errors,
+                        &mut r.first_error,
+                        record(
+                            ErrorKind::IssueWhileFull,
+                            self.cfg.warp_buffer_size as u64 + 1,
+                            self.cfg.warp_buffer_size as u64,
+                        ),
+                    );
+                    return None;
+                };
+                s
             }
-            IssueTarget::Slot(s) => bad_command(r, s),
-            IssueTarget::Append { slot: s, last } => {
-                let ok =
-                    r.slots.get(s as usize).is_some_and(|slot| {
-                        slot.valid
-                            && slot.held
-                            && slot.lanes.iter().zip(&issue.lanes).all(|(lane, ray)| {
-                                ray.is_none() || lane.status == LaneStatus::Inactive
-                            })
-                    });
+            IssueTarget::Slot(s) if s < 64 && free_mask >> s & 1 == 1 => s as usize,
+            IssueTarget::Slot(s) => {
+                bad_command(r, s);
+                return None;
+            }
+            IssueTarget::Append { slot: s, .. } => {
+                let ok = r.slots.get(s as usize).is_some_and(|slot| {
+                    slot.valid
+                        && slot.held
+                        && bits(active).all(|l| {
+                            slot.lanes[l].status == LaneStatus::Inactive && !slot.lanes[l].written
+                        })
+                });
                 if !ok {
                     bad_command(r, s);
-                    return;
+                    return None;
                 }
-                let slot = &mut r.slots[s as usize];
-                for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
+                s as usize
+            }
+        };
+        if !written_ok(&r.slots[target]) {
+            bad_command(r, issue.target.slot());
+            return None;
+        }
+        match issue.target {
+            IssueTarget::Append { last, .. } => {
+                let slot = &mut r.slots[target];
+                for (l, (lane, ray)) in slot.lanes.iter_mut().zip(&issue.lanes).enumerate() {
                     if let Some(ray) = ray {
                         *lane = self.lane_for(ray);
+                    } else if written >> l & 1 == 1 {
+                        wake(lane);
                     }
                 }
-                c.masks[s as usize] = LaneMasks::of(&slot.lanes, self.keep());
+                c.masks[target] = LaneMasks::of(&slot.lanes, self.keep());
                 if last {
                     slot.held = false;
                 }
+            }
+            _ => self.load(r, c, target, issue.order, &issue.lanes, written),
+        }
+        Some(target)
+    }
+
+    /// Writes the records of `write` into their lanes, inactive until an issue names them,
+    /// unless the write is refused (a bad controller command): its slot is out of range, holds
+    /// a warp that is not held, or is the slot this cycle's issue acted on (`issued`); a lane
+    /// it writes carries an issued ray on the bus (`busy`) or is not an empty inactive lane.
+    fn write(
+        &self,
+        r: &mut RtUnitRegs,
+        c: &mut RtCache,
+        write: &LaneWrite,
+        busy: u64,
+        issued: Option<usize>,
+    ) {
+        let s = write.slot as usize;
+        let mask = write.mask();
+        let ok = busy & mask == 0
+            && issued != Some(s)
+            && r.slots.get(s).is_some_and(|slot| {
+                (!slot.valid || slot.held)
+                    && bits(mask).all(|l| {
+                        slot.lanes[l].status == LaneStatus::Inactive && !slot.lanes[l].written
+                    })
+            });
+        if !ok {
+            raise(
+                &mut r.errors,
+                &mut r.first_error,
+                ErrorRecord {
+                    slot: write.slot,
+                    ..record(ErrorKind::BadCommand, WRITE_COMMAND, 0)
+                },
+            );
+            return;
+        }
+        let slot = &mut r.slots[s];
+        for (l, ray) in write.lanes.iter().enumerate() {
+            if let Some(ray) = ray {
+                let lane = &mut slot.lanes[l];
+                *lane = Lane {
+                    status: LaneStatus::Inactive,
+                    written: true,
+                    ..self.lane_for(ray)
+                };
+                c.masks[s].set(l, lane);
             }
         }
     }
@@ -290,20 +395,69 @@ impl<D: NodeDatapath> RtUnit<D> {
         Some(WarpDone { slot: s, lanes })
     }
 
-    /// Writes an issued warp into slot `s`.
-    pub(super) fn load(&self, r: &mut RtUnitRegs, c: &mut RtCache, s: usize, issue: &WarpIssue) {
+    /// Writes an issued warp of order `order` into slot `s`: each lane from its record on the
+    /// bus (`lanes`), or from the record written into it before (bit set in `written`), or
+    /// empty.
+    pub(super) fn load(
+        &self,
+        r: &mut RtUnitRegs,
+        c: &mut RtCache,
+        s: usize,
+        order: TraversalOrder,
+        lanes: &[Option<RayRecord>],
+        written: u64,
+    ) {
         let slot = &mut r.slots[s];
         slot.valid = true;
         slot.held = false;
-        slot.order = issue.order;
-        for (lane, ray) in slot.lanes.iter_mut().zip(&issue.lanes) {
-            *lane = ray
-                .as_ref()
-                .map_or_else(Lane::default, |ray| self.lane_for(ray));
+        slot.order = order;
+        for (l, (lane, ray)) in slot.lanes.iter_mut().zip(lanes).enumerate() {
+            match ray {
+                Some(ray) => *lane = self.lane_for(ray),
+                None if written >> l & 1 == 1 => wake(lane),
+                None => *lane = Lane::default(),
+            }
         }
         c.masks[s] = LaneMasks::of(&slot.lanes, self.keep());
         // A slot enters only when free, so the age list never holds more than every slot.
         let entered = r.age.push(s as u32);
         debug_assert!(entered.is_ok(), "age list full");
     }
+}
+
+/// The `BadCommand` error's value for a refused lane write (the issue's are its target codes,
+/// 0 to 3).
+const WRITE_COMMAND: u64 = 4;
+
+/// A written lane enters its warp: traversing, or done if its ray has finished (as
+/// [`RtUnit::lane_for`] enters a ray issued on the bus).
+fn wake(lane: &mut Lane) {
+    lane.written = false;
+    lane.status = if lane.ray.finished() {
+        LaneStatus::Done
+    } else {
+        LaneStatus::Traversing
+    };
+}
+
+/// The lanes of `lanes` that carry a record, as a mask.
+fn active_mask(lanes: &[Option<RayRecord>]) -> u64 {
+    lanes
+        .iter()
+        .enumerate()
+        .fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
+}
+
+/// A mask of the lanes of a `warp_size`-lane warp.
+fn lane_mask(warp_size: u32) -> u64 {
+    if warp_size >= 64 {
+        u64::MAX
+    } else {
+        (1 << warp_size) - 1
+    }
+}
+
+/// Lane `l`'s record in `lanes`, if any.
+fn lane_of(lanes: Option<&[Option<RayRecord>]>, l: usize) -> Option<&RayRecord> {
+    lanes?.get(l)?.as_ref()
 }

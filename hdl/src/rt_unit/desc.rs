@@ -351,6 +351,13 @@ pub(super) fn registers(
         1,
         lanes,
         "per lane: hit-record store waiting",
+    )
+    .grid(
+        "lane_written",
+        1,
+        (cfg.warp_buffer_size, n),
+        "per lane: holds a ray record written ahead of its warp's issue (inactive until issued)",
+        |r, s, l| r.slots[s].lanes[l].written as u64,
     );
     let layout = StackLayout::new(cfg, params);
     for (stack, which) in [("cur", "current-treelet"), ("other", "other-treelet")] {

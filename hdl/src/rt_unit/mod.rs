@@ -97,8 +97,8 @@ mod status;
 use bundles::{bits, LaneMasks};
 pub use bundles::{
     errors, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane, LaneStatus,
-    MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats, RtUnitRegs,
-    SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
+    LaneWrite, MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats,
+    RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
 };
 pub use node::{
     pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NoDatapath, NodeDatapath, NodeEntry,
@@ -545,7 +545,21 @@ impl<D: NodeDatapath> RtUnit<D> {
                 ),
             ));
         }
-        for (i, ray) in issue.lanes.iter().enumerate() {
+        self.check_lanes(issue.lanes.iter().map(Option::as_ref))
+    }
+
+    /// Checks the records on the issue bus, lane by lane (`None`: the lane carries none): ray
+    /// ids below `max_rays`, treelet numbers in range, stacks no deeper than a record carries,
+    /// valid nodes. The error names the lowest bad lane.
+    pub fn check_lanes<'a>(
+        &self,
+        lanes: impl Iterator<Item = Option<&'a RayRecord>>,
+    ) -> Result<(), RtUnitError> {
+        let bad = |lane: usize, reason: String| RtUnitError::BadIssue {
+            lane: lane as u32,
+            reason,
+        };
+        for (i, ray) in lanes.enumerate() {
             let Some(ray) = ray else { continue };
             if ray.ray_id >= self.cfg.max_rays {
                 return Err(bad(
@@ -624,6 +638,7 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
         RtUnitInputs {
             widths: self.widths,
             issue: None,
+            write: None,
             responses: Vec::new(),
             stop: None,
             repack: None,

@@ -7,8 +7,8 @@
 //! are bulk data: described, not traced.
 
 use super::bundles::{
-    errors, BoundaryEvent, ErrorRecord, IssueTarget, MemRequest, MemResponse, RayOutcome,
-    RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
+    errors, BoundaryEvent, ErrorRecord, IssueTarget, LaneWrite, MemRequest, MemResponse,
+    RayOutcome, RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
 };
 use super::node::{Hit, NodeEntry, CHUNK_BYTES, RAY_WORDS};
 use crate::bits::{bits_for, BitPacker};
@@ -74,6 +74,9 @@ crate::bundle! {
     pub struct RtUnitInputs (In, w: Widths, this) {
         /// A warp to load into a free slot (only when `issue_ready`).
         pub issue: Option<WarpIssue>,
+        /// Ray records to write into inactive lanes ahead of their warp's issue, on the issue
+        /// bus's lanes the issue leaves free.
+        pub write: Option<LaneWrite>,
         /// Responses from memory this cycle, at most `resp_ports` and at most `resp_free`.
         pub responses: Vec<MemResponse>,
         /// Terminate this slot's warp into the treelet queues (treelet controller `terminate`):
@@ -135,14 +138,22 @@ crate::bundle! {
         In sig repack_valid (1) = this.repack.is_some() as u64;
         /// the repacked slot
         In sig repack_slot (w.slot) = this.repack.unwrap_or(0) as u64;
-        /// per lane: the lane holds a ray
+        /// per lane: the lane holds a ray from the bus
         In sig issue_active (w.warp_size) = mask(w.warp_size, |i| this.issue_lane(i).is_some());
-        /// per lane: ray id
+        /// per lane: the lane enters with the record written into it before (not from the bus)
+        In sig issue_written (w.warp_size) = this.issue.as_ref().map_or(0, |i| i.written) & mask(w.warp_size, |_| true);
+        /// ray records are written into lanes of write_slot ahead of their warp's issue, from the bus lanes in write_mask
+        In sig write_valid (1) = this.write.is_some() as u64;
+        /// the slot written (free, or held by a repack)
+        In sig write_slot (w.slot) = this.write.as_ref().map_or(0, |x| x.slot as u64);
+        /// per lane: the lane takes the record on its bus lane and stays inactive until issued
+        In sig write_mask (w.warp_size) = mask(w.warp_size, |i| this.write_lane(i).is_some());
+        /// per lane: ray id (the bus: the issued lane's ray, else the written lane's)
         In lanes issue_ray_id (w.ray_id, w.warp_size) = |i: usize| {
-            this.issue_lane(i).map_or(0, |r| r.ray_id as u64)
+            this.bus_lane(i).map_or(0, |r| r.ray_id as u64)
         };
-        /// per lane: the rest of the ray state loaded at issue (words, hit, current treelet, both on-chip stacks and their pointers and spilled-chunk counts)
-        In bulks issue (ray_state(w)) = |f: usize| ray_state_words(w, f, |i| this.issue_lane(i));
+        /// per lane: the rest of the ray state on the bus (words, hit, current treelet, both on-chip stacks and their pointers and spilled-chunk counts)
+        In bulks issue (ray_state(w)) = |f: usize| ray_state_words(w, f, |i| this.bus_lane(i));
         /// a 32 B memory request is issued (at most one per cycle)
         Out sig req_valid (1) = this.request.is_some() as u64;
         /// byte address of the request (32 B aligned)
@@ -349,9 +360,19 @@ impl RtUnitStatus {
 }
 
 impl RtUnitInputs {
-    /// The ray issued into lane `i`, if any.
+    /// The ray issued into lane `i` from the bus, if any.
     fn issue_lane(&self, i: usize) -> Option<&RayRecord> {
         self.issue.as_ref()?.lanes.get(i)?.as_ref()
+    }
+
+    /// The ray written into lane `i`, if any.
+    fn write_lane(&self, i: usize) -> Option<&RayRecord> {
+        self.write.as_ref()?.lanes.get(i)?.as_ref()
+    }
+
+    /// What bus lane `i` carries: the issued ray, else the written one.
+    fn bus_lane(&self, i: usize) -> Option<&RayRecord> {
+        self.issue_lane(i).or_else(|| self.write_lane(i))
     }
 }
 

@@ -76,12 +76,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         u.rt.status_into(rt, &cache.rt, distinct, &mut cache.rt_status);
     }
     cache.rt_status_current = None;
-    place_records(
-        g,
-        &cache.rt_status,
-        &inputs.ray_records,
-        u.cfg.record_ports(),
-    );
+    let arrived = place_records(&u.cfg, g, &cache.rt_status, &inputs.ray_records);
     let peeks = Peeks::new(u, &cache.rt_status, ctl, ct, qt);
     out.sm_ready = sm_ready_in(u, g, peeks.mode, &cache.rt_status);
     let restart = peeks.mode == Mode::Done && offering;
@@ -139,6 +134,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
         restart,
         ctl_in,
         ctl_out.as_ref(),
+        arrived,
         out,
         rt_in,
     );

@@ -12,7 +12,6 @@ use crate::controller::FillKind;
 use crate::describe::MemDesc;
 use crate::queue_table::PopResult;
 use crate::registers::RegTable;
-use crate::rt_unit::RayRecord;
 
 /// Who owns a warp-buffer slot, as the wiring sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,8 +38,9 @@ impl SlotUse {
     }
 }
 
-/// A fill the controller is giving to a slot: its rays, and their records as they arrive,
-/// each written into the lane it is issued to.
+/// A fill the controller is giving to a slot: its rays, and which lanes their records were
+/// written into as they arrived (the records themselves go straight into the RT unit's lanes,
+/// [`crate::rt_unit::LaneWrite`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Build {
     /// What the fill builds.
@@ -50,10 +50,10 @@ pub struct Build {
     pub rays: BoundedVec<u32>,
     /// Per entry: its record has arrived.
     pub arrived: BoundedVec<bool>,
-    /// Per lane (`warp_size` of them): the record written there, `None` until one arrives.
-    /// Entry `k` of a treelet or grouped fill goes to lane `k`; a repack's records go, in the
-    /// order they arrive, to the lowest inactive lane of the held warp not yet written.
-    pub records: Box<[Option<RayRecord>]>,
+    /// Bit `l` set: lane `l` of the slot holds one of the fill's records. Entry `k` of a
+    /// treelet or grouped fill goes to lane `k`; a repack's records go, in the order they
+    /// arrive, to the lowest inactive lane of the held warp not yet written.
+    pub filled: u64,
     /// Records not yet arrived.
     pub loading: u32,
     /// The controller closed the fill.
@@ -103,6 +103,13 @@ pub enum GlueFault {
         /// The ray.
         ray: u32,
     },
+    /// Ray records of two slots arrived in one cycle (they share one lane-write port).
+    MixedRecords {
+        /// The slot of the cycle's first record.
+        first: u32,
+        /// The other slot.
+        other: u32,
+    },
     /// A register array of the wiring was full (its depth is too small for the protocol).
     Full {
         /// The array.
@@ -130,6 +137,11 @@ impl fmt::Display for GlueFault {
                     "a record of ray {ray} arrived for slot {slot}, which did not ask for it"
                 )
             }
+            GlueFault::MixedRecords { first, other } => write!(
+                f,
+                "ray records for slots {first} and {other} arrived in one cycle; the RT unit \
+                 writes one slot a cycle"
+            ),
             GlueFault::Full { what, depth } => {
                 write!(f, "the wiring's {what} ({depth} entries) overflowed")
             }
@@ -347,12 +359,6 @@ pub(super) fn registers(cfg: &HwConfig, w: &TreeletRtUnitWidths) -> RegTable<'st
         w.ray,
         slots * cfg.warp_size,
         "per slot: the fill's ray ids",
-    )
-    .untraced(
-        "build_records",
-        w.record,
-        slots * cfg.warp_size,
-        "per slot and lane: the fill's loaded ray record issued to that lane",
     )
     .untraced(
         "build_filled",

@@ -12,6 +12,7 @@ use super::{
 };
 use crate::block::Block;
 use crate::bounded::BoundedVec;
+use crate::config::HwConfig;
 use crate::controller::{
     ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
     FillKind, InitReport,
@@ -22,8 +23,8 @@ use crate::count_table::{
 use crate::mode::Mode;
 use crate::queue_table::{QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus};
 use crate::rt_unit::{
-    IssueTarget, NodeDatapath, RayOutcome, RayRecord, RtUnitInputs, RtUnitOutputs, RtUnitStatus,
-    TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
+    IssueTarget, LaneWrite, NodeDatapath, RayOutcome, RayRecord, RtUnitInputs, RtUnitOutputs,
+    RtUnitStatus, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 
 /// The children's register-only output ports, read by the kernel before the children's inputs
@@ -115,7 +116,7 @@ pub(super) fn kernel<D: NodeDatapath>(
 ) -> (ChildInputs, (TreeletRtUnitOutputs, GlueRegs)) {
     let mut g = glue.clone();
     let mut out = empty_outputs(u);
-    place_records(&mut g, peeks.rt, &inputs.ray_records, u.cfg.record_ports());
+    let arrived = place_records(&u.cfg, &mut g, peeks.rt, &inputs.ray_records);
     out.sm_ready = sm_ready_in(u, &g, peeks.mode, peeks.rt);
     let (ctl_in, restart) = controller_inputs(u, &g, peeks, inputs.sm_warp.is_some());
     out.counts.restarts += u64::from(restart);
@@ -129,6 +130,7 @@ pub(super) fn kernel<D: NodeDatapath>(
         restart,
         &ctl_in,
         Some(&q.ctl),
+        arrived,
         &mut out,
         &mut rt_in,
     );
@@ -181,19 +183,35 @@ pub(super) fn reset_outputs<D: NodeDatapath>(u: &TreeletRtUnit<D>, out: &mut Tre
     out.counts = TreeletCounts::default();
 }
 
-/// Stage 0: ray records that arrived (at most `ports`, the wiring's record write ports; more
-/// is a fault and the rest are not taken) are written into their fills, each into the lane it
-/// is issued to ([`Build::records`]); `rt` is the RT unit's status ports (a repack's records go
-/// to the held warp's inactive lanes).
-pub(super) fn place_records(g: &mut GlueRegs, rt: &RtUnitStatus, records: &[RayLoad], ports: u32) {
+/// Stage 0: ray records that arrived (at most the record ports, all for one slot: more, or
+/// another slot's, is a fault and those are not taken) find their fill's entries and the lanes
+/// they are issued to ([`Build::filled`]); returned as the cycle's lane write, which goes to
+/// the RT unit on the issue bus (or with the fill's issue, if the fill completes this cycle).
+/// `rt` is the RT unit's status ports (a repack's records go to the held warp's inactive
+/// lanes).
+pub(super) fn place_records(
+    cfg: &HwConfig,
+    g: &mut GlueRegs,
+    rt: &RtUnitStatus,
+    records: &[RayLoad],
+) -> Option<LaneWrite> {
+    let ports = cfg.record_ports();
     if records.len() > ports as usize {
         g.set_fault(GlueFault::Full {
             what: "ray-record ports",
             depth: ports as usize,
         });
     }
+    let mut write: Option<LaneWrite> = None;
     for load in records.iter().take(ports as usize) {
         let s = load.slot as usize;
+        if load.slot != records[0].slot {
+            g.set_fault(GlueFault::MixedRecords {
+                first: records[0].slot,
+                other: load.slot,
+            });
+            continue;
+        }
         // The fill's entry waiting for this ray.
         let found = g.builds.get_mut(s).and_then(Option::as_mut).and_then(|b| {
             let mut waiting = b.rays.iter().zip(b.arrived.iter());
@@ -209,24 +227,29 @@ pub(super) fn place_records(g: &mut GlueRegs, rt: &RtUnitStatus, records: &[RayL
         };
         build.arrived.as_mut_slice()[k] = true;
         build.loading = build.loading.saturating_sub(1);
+        let lanes = cfg.warp_size as usize;
         let lane = match build.kind {
             FillKind::Repack => {
                 let inactive = rt.slot(s).map_or(0, |v| v.inactive);
-                (0..build.records.len())
-                    .find(|&l| inactive >> l & 1 == 1 && build.records[l].is_none())
+                (0..lanes).find(|&l| (inactive & !build.filled) >> l & 1 == 1)
             }
             FillKind::Treelet | FillKind::Grouped => Some(k),
         };
         match lane {
             // The fill knows the ray's id: the record's own is not on the ports.
             Some(l) => {
-                build.records[l] = Some(RayRecord {
+                build.filled |= 1 << l;
+                let w = write.get_or_insert_with(|| LaneWrite {
+                    slot: load.slot,
+                    lanes: vec![None; lanes],
+                });
+                w.lanes[l] = Some(RayRecord {
                     ray_id: load.ray,
                     ..load.record.clone()
-                })
+                });
             }
             None => {
-                let placed = build.records.iter().flatten().count();
+                let placed = build.filled.count_ones() as usize;
                 let rays = build.rays.len();
                 g.set_fault(GlueFault::Unplaced {
                     slot: load.slot,
@@ -236,6 +259,7 @@ pub(super) fn place_records(g: &mut GlueRegs, rt: &RtUnitStatus, records: &[RayL
             }
         }
     }
+    write
 }
 
 /// Whether the controller's reports this cycle read the RT unit's distinct-treelet counts
@@ -422,7 +446,8 @@ pub(super) fn controller_inputs_into(
 /// Stage 2: from the controller's outputs (`None`: it did nothing but wait this cycle), the
 /// tables' inputs (returned) and the RT unit's (written into `rt_in`, whatever it held, so a
 /// caller may reuse its storage); fills start loading their records, a complete fill is
-/// issued, or else an offered SM warp may enter.
+/// issued, the records that `arrived` this cycle are written into their lanes (with the
+/// issue, if they complete it), or else (the bus is free) an offered SM warp may enter.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn children_inputs<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
@@ -432,6 +457,7 @@ pub(super) fn children_inputs<D: NodeDatapath>(
     restart: bool,
     ctl_in: &ControllerInputs,
     ctl_out: Option<&ControllerOutputs>,
+    mut arrived: Option<LaneWrite>,
     out: &mut TreeletRtUnitOutputs,
     rt_in: &mut RtUnitInputs,
 ) -> (CountTableIn, QueueTableIn) {
@@ -459,9 +485,10 @@ pub(super) fn children_inputs<D: NodeDatapath>(
     rt_in.responses.extend_from_slice(&inputs.responses);
     rt_in.stop = ctl_out.and_then(|o| o.terminate);
     rt_in.repack = ctl_out.and_then(|o| o.repack);
-    rt_in.issue = finished_build(g, p);
+    rt_in.issue = finished_build(u, g, p, &mut arrived);
+    rt_in.write = arrived;
     let reserve = ctl_out.and_then(|o| o.reserve);
-    if rt_in.issue.is_none() && admitting(u, mode) {
+    if rt_in.issue.is_none() && rt_in.write.is_none() && admitting(u, mode) {
         let slot = free_slot(g, p.rt, reserve);
         if let (Some(slot), Some(lanes)) = (slot, inputs.sm_warp.as_ref()) {
             rt_in.issue = admit(u, g, slot, lanes, out);
@@ -483,7 +510,7 @@ fn start_fill<D: NodeDatapath>(
         kind: fill.kind,
         rays: BoundedVec::new(lanes),
         arrived: BoundedVec::new(lanes),
-        records: vec![None; lanes].into(),
+        filled: 0,
         loading: 0,
         last: false,
     });
@@ -519,8 +546,14 @@ fn start_fill<D: NodeDatapath>(
 }
 
 /// The warp issue of the first fill whose rays have all arrived and which is complete: each
-/// record leaves from the lane it was written to.
-fn finished_build(g: &mut GlueRegs, p: &Peeks) -> Option<WarpIssue> {
+/// lane enters from the record written into it before, or from the bus if its record arrived
+/// this cycle (taken out of `arrived`, the cycle's lane write, when it is for this slot).
+fn finished_build<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    g: &mut GlueRegs,
+    p: &Peeks,
+    arrived: &mut Option<LaneWrite>,
+) -> Option<WarpIssue> {
     let s = g
         .builds
         .iter()
@@ -537,9 +570,10 @@ fn finished_build(g: &mut GlueRegs, p: &Peeks) -> Option<WarpIssue> {
             IssueTarget::Append { slot, last: true },
         ),
     };
-    // One entry per lane already (`Build::records`).
-    let lanes = build.records.into_vec();
-    let placed = lanes.iter().flatten().count();
+    let on_bus = arrived.take_if(|w| w.slot == slot);
+    let bus = on_bus.as_ref().map_or(0, LaneWrite::mask);
+    let lanes = on_bus.map_or_else(|| vec![None; u.cfg.warp_size as usize], |w| w.lanes);
+    let placed = build.filled.count_ones() as usize;
     if placed != rays {
         g.set_fault(GlueFault::Unplaced { slot, placed, rays });
     }
@@ -547,6 +581,7 @@ fn finished_build(g: &mut GlueRegs, p: &Peeks) -> Option<WarpIssue> {
         order,
         lanes,
         target,
+        written: build.filled & !bus,
     })
 }
 
@@ -585,6 +620,7 @@ fn admit<D: NodeDatapath>(
         order: TraversalOrder::TreeletContinue,
         lanes,
         target: IssueTarget::Slot(slot),
+        written: 0,
     })
 }
 

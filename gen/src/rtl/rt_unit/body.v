@@ -69,7 +69,9 @@ reg [255:0] pop_data;
 reg [NL-1:0] pop_fill_lane;       // the fill's lane
 reg [S-1:0] pop_node_slot;        // the chunk's slot
 reg [AB-1:0] fill_expect;         // the fill's expected address
-reg [NL-1:0] load;                // stage 7: the issue writes the lane
+reg [NL-1:0] load;                // stage 7: the issue or the lane write loads the lane from the bus
+reg [NL-1:0] write_here;          // ... the lane write (the lane stays inactive, written)
+reg [NL-1:0] wake;                // ... the issue enters the lane's written record
 reg [S-1:0] stop_here;
 reg [S-1:0] repack_here;
 
@@ -125,6 +127,8 @@ ${LANE_CONNECT}
                 .dp_hit_valid(dp_hit_valid[gl]),
                 .dp_hit(dp_hit[gl*128 +: 128]),
                 .load(load[L]),
+                .write_here(write_here[L]),
+                .wake(wake[L]),
                 .issue_active(issue_active[gl]),
                 .issue_ray_id(issue_ray_id[gl*RB +: RB]),
                 .issue_ray_words(issue_ray_words[gl*256 +: 256]),
@@ -646,6 +650,9 @@ always @* begin : p_back
     reg [RB-1:0] bad_ray;
     reg [SB-1:0] target;
     reg ok;
+    reg issued;           // the issue acted on slot `target`
+    reg wok;              // the lane write is accepted
+    reg [N-1:0] bus;      // bus lanes carrying a record (the issue's, then the write's)
     reg [SPW-1:0] csp;
     reg [SPW-1:0] osp;
     /* verilator lint_off UNUSEDSIGNAL */
@@ -678,6 +685,10 @@ always @* begin : p_back
     first_error_d = first_error_f;
     resp_fifo_d = resp_fifo_q;
     load = {NL{1'b0}};
+    write_here = {NL{1'b0}};
+    wake = {NL{1'b0}};
+    issued = 1'b0;
+    wok = 1'b0;
     stop_here = {S{1'b0}};
     repack_here = {S{1'b0}};
     o_boundary_valid = {N{1'b0}};
@@ -722,8 +733,10 @@ always @* begin : p_back
     if (lim > {8'd0, RP_8}) lim = {8'd0, RP_8};
     ${PUSH_RESP}
 
-    // 7. Warp issue, then the treelet controller's stop and repack.
-    if (issue_valid) begin
+    // 7. Warp issue and lane write (they share the issue bus: a bad record on it drops both),
+    // then the treelet controller's stop and repack.
+    bus = (issue_valid ? issue_active : {N{1'b0}}) | (write_valid ? write_mask : {N{1'b0}});
+    if (issue_valid || write_valid) begin
         any_bad = 1'b0;
         bad_lane = {LB{1'b0}};
         bad_ray = {RB{1'b0}};
@@ -744,7 +757,7 @@ always @* begin : p_back
                 if (j[SPW-1:0] < osp && bad_node({{(64-AB){1'b0}}, ent[E-1:5]}, {6'd0, ent[1:0]} + 8'd1))
                     bad = 1'b1;
             end
-            if (issue_active[l] && bad && !any_bad) begin
+            if (bus[l] && bad && !any_bad) begin
                 any_bad = 1'b1;
                 bad_lane = l[LB-1:0];
                 bad_ray = issue_ray_id[l*RB +: RB];
@@ -752,7 +765,7 @@ always @* begin : p_back
         end
         if (any_bad) begin
             {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_ISSUE, {SB{1'b0}}, bad_lane, bad_ray, 64'd0, 64'd0);
-        end else begin
+        end else if (issue_valid) begin
             target = {SB{1'b0}};
             ok = 1'b0;
             if (issue_target == 2'd0) begin
@@ -772,7 +785,8 @@ always @* begin : p_back
                     if (issue_slot == s[SB-1:0] && slot_valid_d[s] && slot_held_d[s]) begin
                         ok = 1'b1;
                         for (l = 0; l < N; l = l + 1)
-                            if (issue_active[l] && l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE)
+                            if (issue_active[l] && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE
+                                || lane_written_q[s*N+l]))
                                 ok = 1'b0;
                     end
                 end
@@ -781,7 +795,17 @@ always @* begin : p_back
             end else begin
                 {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd3, 64'd0);
             end
+            // The lanes named written hold written records, and none also takes one from the bus.
             if (ok) begin
+                if ((issue_written & issue_active) != {N{1'b0}}) ok = 1'b0;
+                for (s = 0; s < S; s = s + 1)
+                    for (l = 0; l < N; l = l + 1)
+                        if (target == s[SB-1:0] && issue_written[l] && !lane_written_q[s*N+l])
+                            ok = 1'b0;
+                if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, {62'd0, issue_target}, 64'd0);
+            end
+            if (ok) begin
+                issued = 1'b1;
                 for (s = 0; s < S; s = s + 1) begin
                     if (target == s[SB-1:0]) begin
                         if (issue_target != 2'd2) begin
@@ -794,11 +818,37 @@ always @* begin : p_back
                         end else if (issue_last) begin
                             slot_held_d[s] = 1'b0;
                         end
-                        for (l = 0; l < N; l = l + 1)
-                            load[s*N+l] = issue_active[l] || issue_target != 2'd2;
+                        for (l = 0; l < N; l = l + 1) begin
+                            load[s*N+l] = issue_active[l] || (issue_target != 2'd2 && !issue_written[l]);
+                            wake[s*N+l] = issue_written[l];
+                        end
                     end
                 end
             end
+        end
+        // The lane write: into a free slot or a held one other than the issue's, its lanes empty
+        // and inactive, none carrying an issued ray on the bus.
+        if (!any_bad && write_valid) begin
+            wok = !(issue_valid && (issue_active & write_mask) != {N{1'b0}})
+                && !(issued && target == write_slot);
+            ok = 1'b0;
+            for (s = 0; s < S; s = s + 1) begin
+                if (write_slot == s[SB-1:0] && (!slot_valid_d[s] || slot_held_d[s])) begin
+                    ok = 1'b1;
+                    for (l = 0; l < N; l = l + 1)
+                        if (write_mask[l] && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE
+                            || lane_written_q[s*N+l]))
+                            ok = 1'b0;
+                end
+            end
+            wok = wok && ok;
+            if (!wok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, write_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd4, 64'd0);
+            for (s = 0; s < S; s = s + 1)
+                for (l = 0; l < N; l = l + 1)
+                    if (wok && write_slot == s[SB-1:0] && write_mask[l]) begin
+                        load[s*N+l] = 1'b1;
+                        write_here[s*N+l] = 1'b1;
+                    end
         end
     end
     if (stop_valid) begin

@@ -23,7 +23,7 @@ ${LANE_PORT_NAMES}
     two, stopped, complete, store_sel, merge, lead_node, lead, lead_me,
     pop_fill_here, pop_node_here, pop_leader, pop_address, pop_data, fill_expect,
     dp_child_count, dp_children, dp_hit_valid, dp_hit,
-    load, issue_active, issue_ray_id, issue_ray_words, issue_occlusion, issue_hit_valid, issue_hit,
+    load, write_here, wake, issue_active, issue_ray_id, issue_ray_words, issue_occlusion, issue_hit_valid, issue_hit,
     issue_cur_treelet, issue_cur_sp, issue_other_sp, issue_cur_spilled, issue_other_spilled,
     issue_cur_stack, issue_other_stack, stop_here, repack_here,
     busy, act, act_index, next_valid, next_treelet,
@@ -68,9 +68,11 @@ input  wire [CW-1:0]  dp_child_count;
 input  wire [R*CHW-1:0] dp_children;
 input  wire           dp_hit_valid;
 input  wire [127:0]   dp_hit;
-// Stage 7: a warp issued into this lane (`load`), this lane's slice of the issue bundle; a stop
+// Stage 7: a warp issued into this lane or a record written into it (`load`), this lane's slice of the issue bus; a stop
 // and a repack of the lane's slot.
 input  wire           load;
+input  wire           write_here;   // the load is a lane write: the lane stays inactive, written
+input  wire           wake;         // the issue enters the lane's written record
 input  wire           issue_active;
 input  wire [RB-1:0]  issue_ray_id;
 input  wire [255:0]   issue_ray_words;
@@ -693,7 +695,8 @@ ${COPY_D}
     if (load) begin
         finished = issue_cur_sp == {RSPW{1'b0}} && issue_cur_spilled == {SCW{1'b0}}
             && issue_other_sp == {RSPW{1'b0}} && issue_other_spilled == {SCW{1'b0}};
-        status_d = !issue_active ? ST_INACTIVE : finished ? ST_DONE : ST_TRAVERSING;
+        status_d = !issue_active || write_here ? ST_INACTIVE : finished ? ST_DONE : ST_TRAVERSING;
+        written_d = write_here;
         ray_id_d = issue_ray_id;
         ray_words_d = issue_ray_words;
         occlusion_d = issue_occlusion;
@@ -726,6 +729,12 @@ ${COPY_D}
         chunks_returned_d = 4'd0;
         delay_d = {DW{1'b0}};
         store_pending_d = 1'b0;
+    end
+    if (wake) begin
+        finished = cur_sp_d == {SPW{1'b0}} && cur_spilled_d == {SCW{1'b0}}
+            && other_sp_d == {SPW{1'b0}} && other_spilled_d == {SCW{1'b0}};
+        status_d = finished ? ST_DONE : ST_TRAVERSING;
+        written_d = 1'b0;
     end
     if (stop_here && status_d == ST_TRAVERSING && !node_valid_d && filling_d == 2'd0
         && cur_sp_d == {SPW{1'b0}} && cur_spilled_d == {SCW{1'b0}} && other_sp_d != {SPW{1'b0}})

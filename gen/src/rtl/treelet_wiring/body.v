@@ -45,14 +45,16 @@ function admits;
     end
 endfunction
 
-// ---- 0: ray records that arrived are written into their fills --------------------------------
-// A record on record port r (at most K a cycle) is written into the lane it will be issued to:
-// entry k's lane k for a treelet or grouped fill; for a repack, the lowest inactive lane of the
-// held warp not written yet (ports in order). Each lane takes its record through a K-input
-// crossbar (treelet_rt_unit_wiring_pick; a plain write enable for one port): each always block
-// computes the selects from ids and counts, never indexes a record by a computed position.
+// ---- 0: ray records that arrived are written into the RT unit's lanes ------------------------
+// A record on record port r (at most K a cycle, all for the slot of port 0's: the RT unit writes
+// one slot a cycle) goes to the lane it will be issued to: entry k's lane k for a treelet or
+// grouped fill; for a repack, the lowest inactive lane of the held warp not written yet (ports
+// in order). It rides the RT unit's issue bus in that lane (a lane write, or with the fill's
+// issue if the fill completes this cycle): each bus lane takes its record through a K-input
+// crossbar (treelet_rt_unit_wiring_pick; a plain wire for one port). Each always block computes
+// the selects from ids and counts, never indexes a record by a computed position.
 genvar gl, gj;
-// The records on the record ports, as the wiring keeps them (the fill's ray id lowest).
+// The records on the record ports, as the RT unit's bus carries them (the fill's ray id lowest).
 ${ARRIVED_WIRES}
 wire [K*REC-1:0] arr_recs;
 generate
@@ -60,8 +62,10 @@ generate
         assign arr_recs[gl*REC +: REC] = ${PACK_ARRIVED};
     end
 endgenerate
-// place_sel[(s*N + l)*K + r]: lane l of slot s takes the record on port r.
-reg [S*N*K-1:0] place_sel;
+wire [SB-1:0] rr_slot0 = rr_slot[SB-1:0];
+// place_sel[l*K + r]: bus lane l takes the record on port r (for lane l of slot rr_slot0).
+reg [N*K-1:0] place_sel;
+reg [N-1:0] wmask;
 reg [S*N-1:0] arr_p;
 reg [S*N-1:0] filled_p;
 reg [S*CW-1:0] loading_p;
@@ -75,10 +79,13 @@ always @* begin : p_place
     arr_p = build_arrived_q;
     filled_p = build_filled_q;
     loading_p = build_loading_q;
-    place_sel = {S*N*K{1'b0}};
+    place_sel = {N*K{1'b0}};
+    wmask = {N{1'b0}};
     fault_place = {{(32-RCW){1'b0}}, ray_count} > K;
     for (r = 0; r < K; r = r + 1) begin
         ps = {{(32-SB){1'b0}}, rr_slot[r*SB +: SB]};
+        // Another slot's record than port 0's is a fault and not taken.
+        fault_place = fault_place || (r < ray_count && rr_slot[r*SB +: SB] != rr_slot0);
         // The fill entry waiting for this ray.
         taken = 1'b0;
         ek = 0;
@@ -86,7 +93,7 @@ always @* begin : p_place
             s = e / N;
             k = e % N;
             m = !taken && r < ray_count && build_valid_q[s] && !arr_p[e]
-                && k < build_count_q[s*CW +: CW] && ps == s
+                && k < build_count_q[s*CW +: CW] && ps == s && rr_slot[r*SB +: SB] == rr_slot0
                 && rr_id[r*RB +: RB] == build_rays_q[e*RB +: RB];
             arr_p[e] = arr_p[e] | m;
             if (m && loading_p[s*CW +: CW] != {CW{1'b0}})
@@ -94,7 +101,7 @@ always @* begin : p_place
             ek = m ? k : ek;
             taken = taken | m;
         end
-        fault_place = fault_place | (r < ray_count && !taken);
+        fault_place = fault_place | (r < ray_count && rr_slot[r*SB +: SB] == rr_slot0 && !taken);
         // Its lane.
         got = 1'b0;
         for (e = 0; e < S*N; e = e + 1) begin
@@ -103,24 +110,23 @@ always @* begin : p_place
             free = build_kind_q[s*2 +: 2] == K_REPACK
                 ? st_valid[s] && rt_status_inactive[e] && !filled_p[e] : l == ek;
             m = taken && !got && ps == s && free;
-            place_sel[e*K + r] = m;
+            place_sel[l*K + r] = place_sel[l*K + r] | m;
+            wmask[l] = wmask[l] | m;
             filled_p[e] = filled_p[e] | m;
             got = got | m;
         end
         fault_place = fault_place | (taken && !got);
     end
 end
-// The lanes' records after the writes.
-wire [S*N*REC-1:0] placed_recs;
-wire [S*N*REC-1:0] rec_p;
+// The records written this cycle, in their bus lanes (zero where none).
+wire [N*REC-1:0] wrec;
 generate
-    for (gj = 0; gj < S*N; gj = gj + 1) begin : g_place
+    for (gj = 0; gj < N; gj = gj + 1) begin : g_place
         treelet_rt_unit_wiring_pick #(.NI(K), .W(REC)) pick (
-            .sel(place_sel[gj*K +: K]), .in(arr_recs), .out(placed_recs[gj*REC +: REC]));
-        assign rec_p[gj*REC +: REC] = place_sel[gj*K +: K] != {K{1'b0}}
-            ? placed_recs[gj*REC +: REC] : build_records_q[gj*REC +: REC];
+            .sel(place_sel[gj*K +: K]), .in(arr_recs), .out(wrec[gj*REC +: REC]));
     end
 endgenerate
+wire write_any = wmask != {N{1'b0}};
 
 // ---- 1: the controller's inputs, from registers and register-only ports ----------------------
 wire restart = ctl_mode_reg == M_DONE && sm_valid;
@@ -254,9 +260,8 @@ reg [SB-1:0] issue_slot;
 reg [1:0] issue_order;
 reg [1:0] issue_target;
 reg issue_last;
-reg [N-1:0] build_active;
-// issue_sel[l*S + s]: lane l of the issued fill takes lane l's record of slot s.
-reg [N*S-1:0] issue_sel;
+reg [N-1:0] build_active;     // the issued fill's lanes whose records arrive on the bus now
+reg [N-1:0] build_written;    // ... and those written before
 reg fault_unplaced;
 reg admit;
 reg [SB-1:0] admit_slot;
@@ -325,7 +330,7 @@ always @* begin : p_children
     issue_target = 2'd0;
     issue_last = 1'b0;
     build_active = {N{1'b0}};
-    issue_sel = {N*S{1'b0}};
+    build_written = {N{1'b0}};
     fault_unplaced = 1'b0;
     admit = 1'b0;
     admit_slot = {SB{1'b0}};
@@ -343,9 +348,10 @@ always @* begin : p_children
                 issue_last = 1'b1;
             end
         endcase
-    end else if (admits(mode) && sm_valid) begin
+    end else if (admits(mode) && sm_valid && !write_any) begin
         // An SM warp takes the lowest slot nobody owns (not the one the controller reserves)
-        // if enough ray ids are free; its rays get the lowest free ids.
+        // if enough ray ids are free and the bus carries no lane write; its rays get the
+        // lowest free ids.
         found = 1'b0;
         for (s = S - 1; s >= 0; s = s - 1) begin
             if (use_b[s*2 +: 2] == U_FREE && !st_valid[s]
@@ -363,17 +369,19 @@ always @* begin : p_children
             issue_slot = admit_slot;
         end
     end
-    // The issued fill's records leave from the lanes they were written to; its lanes are
-    // free for the slot's next fill.
+    // The issued fill's lanes enter from the records written into them, or from the bus if
+    // theirs arrive now; its lanes are free for the slot's next fill.
     c = 0;
     placed = 0;
     for (s2 = 0; s2 < S; s2 = s2 + 1) begin
         got = issue_build && issue_slot == s2[SB-1:0];
         c = c | (got ? {{(32-CW){1'b0}}, bcount[s2*CW +: CW]} : 0);
         for (l = 0; l < N; l = l + 1) begin
-            issue_sel[l*S + s2] = got && bfill[s2*N + l];
-            build_active[l] = build_active[l] | issue_sel[l*S + s2];
-            placed = placed + {31'd0, issue_sel[l*S + s2]};
+            if (got && bfill[s2*N + l]) begin
+                placed = placed + 1;
+                if (wmask[l] && rr_slot0 == s2[SB-1:0]) build_active[l] = 1'b1;
+                else build_written[l] = 1'b1;
+            end
         end
         if (got) bfill[s2*N +: N] = {N{1'b0}};
     end
@@ -390,25 +398,23 @@ always @* begin : p_children
     end
 end
 
-// The issued lanes' records: a complete fill's from its slot's lane (an S-input crossbar per
-// lane), an admitted SM warp's from its lanes with their new ray ids.
+// The bus: an admitted SM warp's lanes with their new ray ids, else the records arriving this
+// cycle in their lanes (a complete fill's issued, or another slot's written).
 wire [N-1:0] admit_lanes = admit ? sm_active : {N{1'b0}};
 wire [N-1:0] issue_active = build_active | admit_lanes;
-wire [N*S*REC-1:0] lane_recs;
-wire [N*REC-1:0] built_recs;
 wire [N*REC-1:0] issue_rec;
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_issue
-        for (gj = 0; gj < S; gj = gj + 1) begin : g_slot
-            assign lane_recs[(gl*S + gj)*REC +: REC] = rec_p[(gj*N + gl)*REC +: REC];
-        end
-        treelet_rt_unit_wiring_pick #(.NI(S), .W(REC)) pick (
-            .sel(issue_sel[gl*S +: S]), .in(lane_recs[gl*S*REC +: S*REC]),
-            .out(built_recs[gl*REC +: REC]));
         assign issue_rec[gl*REC +: REC] = admit_lanes[gl] ? ${PACK_SM}
-            : built_recs[gl*REC +: REC];
+            : wrec[gl*REC +: REC];
     end
 endgenerate
+// The lane write: the records of this cycle unless they go with their fill's issue.
+wire write_out = write_any && !(issue_build && issue_slot == rr_slot0);
+assign rt_write_valid = write_out;
+assign rt_write_slot = write_out ? rr_slot0 : {SB{1'b0}};
+assign rt_write_mask = write_out ? wmask : {N{1'b0}};
+assign rt_issue_written = build_written;
 
 wire issue = issue_build || admit;
 assign rt_issue_valid = issue;
@@ -709,7 +715,6 @@ always @* begin : p_next
     build_valid_d = bv;
     build_kind_d = bk;
     build_rays_d = brays;
-    build_records_d = rec_p;
     build_arrived_d = barr;
     build_filled_d = bfill;
     build_count_d = bcount;

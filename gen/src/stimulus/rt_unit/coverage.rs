@@ -57,6 +57,10 @@ pub struct RtUnitCoverage {
     pub appends: u64,
     /// Warps loaded into a slot named by number.
     pub slot_issues: u64,
+    /// Lanes written ahead of their warp's issue.
+    pub lane_writes: u64,
+    /// Issues (new warps or appends) that activated written lanes.
+    pub written_issues: u64,
     /// Warps loaded per traversal order, in [`TraversalOrder::ALL`] order.
     pub issued: [u64; 3],
     /// Cycles with the response FIFO full (`resp_free` 0).
@@ -99,7 +103,7 @@ impl RtUnitCoverage {
     }
 
     /// The behaviour counters with their names.
-    fn counters(&self) -> [(&'static str, u64); 22] {
+    fn counters(&self) -> [(&'static str, u64); 24] {
         [
             ("node loads", self.node_loads),
             ("split loads", self.split_loads),
@@ -118,6 +122,8 @@ impl RtUnitCoverage {
             ("released", self.released),
             ("appends", self.appends),
             ("slot issues", self.slot_issues),
+            ("lane writes", self.lane_writes),
+            ("written issues", self.written_issues),
             ("ray-stationary warps", self.issued[0]),
             ("treelet-continue warps", self.issued[1]),
             ("treelet-stop warps", self.issued[2]),

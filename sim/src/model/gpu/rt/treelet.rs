@@ -393,10 +393,28 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         inputs.sm_warp = lanes;
         inputs.responses.clear();
         inputs.responses.extend(shell.responses.drain(..n));
-        // At most one record per record port a cycle; the rest wait in the response queue.
+        // At most one record per record port a cycle, all for one slot (the RT unit writes
+        // one slot's lanes a cycle): the oldest records of the oldest one's slot. The rest wait
+        // in the response queue.
         inputs.ray_records.clear();
-        let records = (self.unit.config().record_ports() as usize).min(self.arrived.len());
-        inputs.ray_records.extend(self.arrived.drain(..records));
+        let ports = self.unit.config().record_ports() as usize;
+        match self.arrived.first().map(|r| r.slot) {
+            Some(slot) if self.arrived.iter().take(ports).any(|r| r.slot != slot) => {
+                let mut k = 0;
+                self.arrived.retain(|r| {
+                    let take = r.slot == slot && k < ports;
+                    k += usize::from(take);
+                    if take {
+                        inputs.ray_records.push(r.clone());
+                    }
+                    !take
+                });
+            }
+            _ => {
+                let records = ports.min(self.arrived.len());
+                inputs.ray_records.extend(self.arrived.drain(..records));
+            }
+        }
         inputs.spill_head = self.spill_fifo.head();
         if record {
             self.cache.probe(true);
