@@ -226,8 +226,8 @@ fn a_broken_rtl_line_is_caught() {
         ),
         // An append may overwrite an occupied lane.
         (
-            "if (issue_active[l] && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE",
-            "if (1'b0 && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE",
+            "&& (issue_active & ~lane_empty[s*N +: N]) == {N{1'b0}})",
+            ")",
         ),
         // A lane write does not mark the lane written, so the issue naming it is refused.
         ("written_d = write_here;", "written_d = 1'b0;"),

@@ -67,8 +67,9 @@ pub struct HwConfig {
     pub record_stack_entries: u32,
     /// Bytes of ray records the fills take from memory per cycle: the wiring's record write
     /// ports, one per 32 B record (a record's stacks, when `rt.queued_stack_traffic` moves them
-    /// through memory, arrive before it on requests of their own). Records that return faster
-    /// wait in the SM's response queue.
+    /// through memory, arrive before it on requests of their own). The records of a cycle are
+    /// one slot's: they are written into that slot's RT-unit lanes. Records that return
+    /// faster, or for another slot, wait in the SM's response queue.
     ///
     /// The default, 32, is one 32 B record a cycle: GPGPU-Sim's interconnect moves one flit a
     /// cycle per port, 32 B by default (`-icnt_flit_size`, `gpu-sim.cc`; Accel-Sim's Volta and

@@ -105,8 +105,7 @@ impl LogicReport {
         }
         writeln!(
             f,
-            "  (not macros yet: the count table's entries, a CAM searched every cycle; the \
-             wiring's fill records, read a warp at a time)"
+            "  (not a macro: the count table's entries, a CAM searched every cycle)"
         )?;
         writeln!(f)?;
         Ok(())
@@ -148,7 +147,7 @@ impl LogicReport {
         )?;
         total(
             f,
-            "treelet RT unit's wiring (fills of records, id stack, events)",
+            "treelet RT unit's wiring (fills' lanes, id stack, events)",
             &self.wiring_mm2,
         )?;
         total(
@@ -222,8 +221,8 @@ impl fmt::Display for LogicReport {
         writeln!(
             f,
             "(the count table's RTL keeps its entries in flip-flops, a CAM with scan ports: its \
-             logic includes its storage; the wiring keeps each slot's fill of ray records in \
-             flip-flops, a record written a cycle per record port into the lane it issues to, and \
+             logic includes its storage; the wiring writes each returning ray record straight \
+             into the RT unit's lane it issues to, keeping only which lanes a fill wrote, and \
              its free ray ids in a stack of SRAM banks, a macro above)"
         )?;
         for (name, a) in &self.storage_sram_mm2 {

@@ -440,9 +440,7 @@ impl Env {
         } else if let Some((slot, left)) = self.held.filter(|_| self.rng.chance(35)) {
             let s = &self.regs.slots[slot as usize];
             let order = s.order;
-            let inactive: Vec<usize> = (0..self.ws)
-                .filter(|&l| s.lanes[l].status == LaneStatus::Inactive && !s.lanes[l].written)
-                .collect();
+            let inactive: Vec<usize> = (0..self.ws).filter(|&l| s.lanes[l].empty()).collect();
             let empty = inactive.is_empty() || self.rng.chance(10);
             let k = if empty {
                 0

@@ -529,6 +529,13 @@ pub struct Lane {
 }
 
 impl Lane {
+    /// The lane holds nothing: inactive, no written record (where an append or a lane write may
+    /// put a ray).
+    #[inline]
+    pub fn empty(&self) -> bool {
+        self.status == LaneStatus::Inactive && !self.written
+    }
+
     /// The lane is parked with more than `keep` (`hw.record_stack_entries`) entries of its
     /// other stack on chip: it spills the oldest to its spill area before its warp may
     /// complete, so a record leaving the RT unit carries at most `keep` entries per stack.

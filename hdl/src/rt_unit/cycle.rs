@@ -200,11 +200,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             }
             IssueTarget::Append { slot: s, .. } => {
                 let ok = r.slots.get(s as usize).is_some_and(|slot| {
-                    slot.valid
-                        && slot.held
-                        && bits(active).all(|l| {
-                            slot.lanes[l].status == LaneStatus::Inactive && !slot.lanes[l].written
-                        })
+                    slot.valid && slot.held && bits(active).all(|l| slot.lanes[l].empty())
                 });
                 if !ok {
                     bad_command(r, s);
@@ -254,10 +250,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         let ok = busy & mask == 0
             && issued != Some(s)
             && r.slots.get(s).is_some_and(|slot| {
-                (!slot.valid || slot.held)
-                    && bits(mask).all(|l| {
-                        slot.lanes[l].status == LaneStatus::Inactive && !slot.lanes[l].written
-                    })
+                (!slot.valid || slot.held) && bits(mask).all(|l| slot.lanes[l].empty())
             });
         if !ok {
             raise(

@@ -72,6 +72,9 @@ reg [AB-1:0] fill_expect;         // the fill's expected address
 reg [NL-1:0] load;                // stage 7: the issue or the lane write loads the lane from the bus
 reg [NL-1:0] write_here;          // ... the lane write (the lane stays inactive, written)
 reg [NL-1:0] wake;                // ... the issue enters the lane's written record
+// Per lane: it holds nothing (inactive, no written record), where an append or a lane write may
+// put a ray.
+wire [NL-1:0] lane_empty;
 reg [S-1:0] stop_here;
 reg [S-1:0] repack_here;
 
@@ -87,6 +90,11 @@ wire [N*R*CHW-1:0] dp_children;
 wire [N-1:0] dp_hit_valid;
 wire [N*128-1:0] dp_hit;
 genvar gl, gs;
+generate
+    for (gs = 0; gs < NL; gs = gs + 1) begin : g_empty
+        assign lane_empty[gs] = l_status_tested[gs*2 +: 2] == ST_INACTIVE && !lane_written_q[gs];
+    end
+endgenerate
 generate
     for (gl = 0; gl < N; gl = gl + 1) begin : g_datapath
         rt_datapath #(.AB(AB), .E(E), .R(R), .LANE(gl)) u_datapath (
@@ -781,15 +789,10 @@ always @* begin : p_back
                 target = issue_slot;
                 if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd1, 64'd0);
             end else if (issue_target == 2'd2) begin
-                for (s = 0; s < S; s = s + 1) begin
-                    if (issue_slot == s[SB-1:0] && slot_valid_d[s] && slot_held_d[s]) begin
+                for (s = 0; s < S; s = s + 1)
+                    if (issue_slot == s[SB-1:0] && slot_valid_d[s] && slot_held_d[s]
+                        && (issue_active & ~lane_empty[s*N +: N]) == {N{1'b0}})
                         ok = 1'b1;
-                        for (l = 0; l < N; l = l + 1)
-                            if (issue_active[l] && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE
-                                || lane_written_q[s*N+l]))
-                                ok = 1'b0;
-                    end
-                end
                 target = issue_slot;
                 if (!ok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, issue_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd2, 64'd0);
             end else begin
@@ -832,15 +835,10 @@ always @* begin : p_back
             wok = !(issue_valid && (issue_active & write_mask) != {N{1'b0}})
                 && !(issued && target == write_slot);
             ok = 1'b0;
-            for (s = 0; s < S; s = s + 1) begin
-                if (write_slot == s[SB-1:0] && (!slot_valid_d[s] || slot_held_d[s])) begin
+            for (s = 0; s < S; s = s + 1)
+                if (write_slot == s[SB-1:0] && (!slot_valid_d[s] || slot_held_d[s])
+                    && (write_mask & ~lane_empty[s*N +: N]) == {N{1'b0}})
                     ok = 1'b1;
-                    for (l = 0; l < N; l = l + 1)
-                        if (write_mask[l] && (l_status_tested[(s*N+l)*2 +: 2] != ST_INACTIVE
-                            || lane_written_q[s*N+l]))
-                            ok = 1'b0;
-                end
-            end
             wok = wok && ok;
             if (!wok) {errors_d, first_error_d} = raised(errors_d, first_error_d, E_BAD_COMMAND, write_slot, {LB{1'b0}}, {RB{1'b0}}, 64'd4, 64'd0);
             for (s = 0; s < S; s = s + 1)
