@@ -33,9 +33,10 @@ use crate::error::GenError;
 use std::collections::HashMap;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::rt_unit::{
-    pack_spill_chunk, spill_area, Hit, IssueTarget, LaneStatus, LaneWrite, MemResponse, NodeEntry,
-    RayOutcome, RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams, RtUnitRegs,
-    StackLayout, StackSel, TraversalOrder, WarpIssue, CHUNK_BYTES, STACK_ENTRIES_PER_CHUNK,
+    occupied, pack_spill_chunk, spill_area, Hit, IssueTarget, LaneStatus, LaneWrite, MemResponse,
+    NodeEntry, RayOutcome, RayRecord, RayWords, RequestKind, RtUnit, RtUnitInputs, RtUnitParams,
+    RtUnitRegs, StackLayout, StackSel, TraversalOrder, WarpIssue, CHUNK_BYTES,
+    STACK_ENTRIES_PER_CHUNK,
 };
 use vtq_hdl::{Block, HwConfig};
 
@@ -451,7 +452,7 @@ impl Env {
             let lanes = self.fill(order, lanes);
             if !empty && self.rng.chance(40) {
                 // Written ahead of the next append.
-                self.held_written |= mask_of(&lanes);
+                self.held_written |= occupied(&lanes);
                 inp.write = Some(LaneWrite { slot, lanes });
             } else {
                 let last = empty || left <= 1;
@@ -513,7 +514,7 @@ impl Env {
                 });
                 if let Some(st) = self.staged.filter(|st| st.left > 0 && self.rng.chance(50)) {
                     // A write beside the issue, on the bus lanes it leaves free.
-                    let used = inp.issue.as_ref().map_or(0, |i| mask_of(&i.lanes));
+                    let used = inp.issue.as_ref().map_or(0, |i| occupied(&i.lanes));
                     self.stage_write(st, !used, inp);
                 }
             }
@@ -573,7 +574,7 @@ impl Env {
         };
         let lanes = self.subset(open, k);
         let lanes = self.fill(st.order, lanes);
-        let mask = mask_of(&lanes);
+        let mask = occupied(&lanes);
         self.staged = Some(Staged {
             written: st.written | mask,
             left: st.left - 1,
@@ -808,11 +809,6 @@ impl Env {
         self.regs = next;
         self.cycle += 1;
     }
-}
-
-/// The lanes of `lanes` that carry a ray, as a mask.
-fn mask_of(lanes: &[Option<RayRecord>]) -> u64 {
-    (lanes.iter().enumerate()).fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
 }
 
 /// `cycles` cycles of RT-unit inputs from the reactive environment (see the module

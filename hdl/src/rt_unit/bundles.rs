@@ -317,11 +317,13 @@ pub struct LaneWrite {
 impl LaneWrite {
     /// The lanes written, as a mask (bit `l` for lane `l`).
     pub fn mask(&self) -> u64 {
-        self.lanes
-            .iter()
-            .enumerate()
-            .fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
+        occupied(&self.lanes)
     }
+}
+
+/// The lanes of `lanes` that carry a ray record, as a mask (bit `l` for lane `l`).
+pub fn occupied(lanes: &[Option<RayRecord>]) -> u64 {
+    (lanes.iter().enumerate()).fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
 }
 
 /// Where an issued warp's rays go (`issue_target`, `issue_slot`, `issue_last`).

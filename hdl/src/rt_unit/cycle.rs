@@ -3,9 +3,10 @@
 //! slot, a treelet warp stopped, a warp repacked, and completion.
 
 use super::{
-    bits, raise, record, ErrorKind, ErrorRecord, IssueTarget, Lane, LaneMasks, LaneStatus,
-    LaneWrite, NodeDatapath, RayOutcome, RayRecord, RtCache, RtStats, RtUnit, RtUnitError,
-    RtUnitInputs, RtUnitOutputs, RtUnitRegs, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
+    bits, occupied, raise, record, ErrorKind, ErrorRecord, IssueTarget, Lane, LaneMasks,
+    LaneStatus, LaneWrite, NodeDatapath, RayOutcome, RayRecord, RtCache, RtStats, RtUnit,
+    RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitRegs, TraversalOrder, WarpDone, WarpIssue,
+    WarpSlot,
 };
 
 impl<D: NodeDatapath> RtUnit<D> {
@@ -144,7 +145,7 @@ impl<D: NodeDatapath> RtUnit<D> {
         }
         let issued = issue.and_then(|i| self.issue(r, c, free_mask, i));
         if let Some(w) = write {
-            let busy = issue.map_or(0, |i| active_mask(&i.lanes));
+            let busy = issue.map_or(0, |i| occupied(&i.lanes));
             self.write(r, c, w, busy, issued);
         }
     }
@@ -162,7 +163,7 @@ impl<D: NodeDatapath> RtUnit<D> {
     ) -> Option<usize> {
         let free_slot = (free_mask != 0).then(|| free_mask.trailing_zeros() as usize);
         let lane_bits = lane_mask(self.cfg.warp_size);
-        let active = active_mask(&issue.lanes);
+        let active = occupied(&issue.lanes);
         let written = issue.written & lane_bits;
         // The lanes named written hold written records, and none also takes one from the bus.
         let written_ok =
@@ -431,14 +432,6 @@ fn wake(lane: &mut Lane) {
     } else {
         LaneStatus::Traversing
     };
-}
-
-/// The lanes of `lanes` that carry a record, as a mask.
-fn active_mask(lanes: &[Option<RayRecord>]) -> u64 {
-    lanes
-        .iter()
-        .enumerate()
-        .fold(0, |m, (l, r)| m | (u64::from(r.is_some()) << l))
 }
 
 /// A mask of the lanes of a `warp_size`-lane warp.

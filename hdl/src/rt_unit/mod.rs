@@ -96,9 +96,10 @@ mod status;
 
 use bundles::{bits, LaneMasks};
 pub use bundles::{
-    errors, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane, LaneStatus,
-    LaneWrite, MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache, RtStats,
-    RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue, WarpSlot,
+    errors, occupied, BoundaryEvent, ErrorKind, ErrorRecord, InFlight, IssueTarget, Lane,
+    LaneStatus, LaneWrite, MemRequest, MemResponse, RayOutcome, RayRecord, RequestKind, RtCache,
+    RtStats, RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue,
+    WarpSlot,
 };
 pub use node::{
     pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NoDatapath, NodeDatapath, NodeEntry,

@@ -398,23 +398,13 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         // in the response queue.
         inputs.ray_records.clear();
         let ports = self.unit.config().record_ports() as usize;
-        match self.arrived.first().map(|r| r.slot) {
-            Some(slot) if self.arrived.iter().take(ports).any(|r| r.slot != slot) => {
-                let mut k = 0;
-                self.arrived.retain(|r| {
-                    let take = r.slot == slot && k < ports;
-                    k += usize::from(take);
-                    if take {
-                        inputs.ray_records.push(r.clone());
-                    }
-                    !take
-                });
-            }
-            _ => {
-                let records = ports.min(self.arrived.len());
-                inputs.ray_records.extend(self.arrived.drain(..records));
-            }
-        }
+        let slot = self.arrived.first().map(|r| r.slot);
+        let mut taken = 0;
+        inputs.ray_records.extend(self.arrived.extract_if(.., |r| {
+            let take = Some(r.slot) == slot && taken < ports;
+            taken += usize::from(take);
+            take
+        }));
         inputs.spill_head = self.spill_fifo.head();
         if record {
             self.cache.probe(true);
