@@ -172,14 +172,16 @@ fn every_block_with_rtl_is_priced() {
     }
     assert!((r.proposal_over_rt_unit - r.proposal_mm2[0].1 / r.rt_unit_mm2[0].1).abs() < 1e-12);
     assert!(r.proposal_over_rt_unit < r.treelet_over_rt_unit);
-    // docs/area.md's headline: the proposal is a small share of the whole RT unit (2.7% at
-    // the defaults, under 1% at this configuration); the wiring as modelled is not.
+    // docs/area.md's headline: the proposal is a small share of the whole RT unit (2.8% at
+    // the defaults, under 1% at this configuration), and with the wiring as modelled still
+    // under a tenth (7.9% at the defaults, 2.7% here) since fills write the RT unit's own
+    // lanes instead of a copy of their records (over 5% here before).
     assert!(
         r.proposal_over_rt_unit < 0.05,
         "{}",
         r.proposal_over_rt_unit
     );
-    assert!(r.treelet_over_rt_unit > 0.05, "{}", r.treelet_over_rt_unit);
+    assert!(r.treelet_over_rt_unit < 0.10, "{}", r.treelet_over_rt_unit);
     assert!(r.proposal_over_sm > 0.0 && r.proposal_over_sm < r.proposal_over_rt_unit);
     let text = r.to_string();
     for line in [
