@@ -341,11 +341,7 @@ impl<D: NodeDatapath> RtUnit<D> {
             unreachable!("check_issue bounds the stacks by stack_depth");
         };
         Lane {
-            status: if ray.finished() {
-                LaneStatus::Done
-            } else {
-                LaneStatus::Traversing
-            },
+            status: entering(ray),
             ray: RayRecord {
                 current_stack,
                 other_stack,
@@ -427,11 +423,17 @@ const WRITE_COMMAND: u64 = 4;
 /// [`RtUnit::lane_for`] enters a ray issued on the bus).
 fn wake(lane: &mut Lane) {
     lane.written = false;
-    lane.status = if lane.ray.finished() {
+    lane.status = entering(&lane.ray);
+}
+
+/// The status a lane enters its warp with holding `ray`: done if the ray has finished, else
+/// traversing.
+fn entering(ray: &RayRecord) -> LaneStatus {
+    if ray.finished() {
         LaneStatus::Done
     } else {
         LaneStatus::Traversing
-    };
+    }
 }
 
 /// A mask of the lanes of a `warp_size`-lane warp.
