@@ -38,229 +38,23 @@
 //! restarts from entry 0. A scan that is not restarted publishes both pointers after
 //! `ceil(entries / scan_width)` cycles, and `max_valid` rises in the following cycle.
 
-use crate::bits::bits_for;
+mod ports;
+mod regs;
+
+pub use ports::{
+    CountOp, CountTableIn, CountTableOut, CountTableStatus, CountTableWidths, QueueCount,
+};
+pub use regs::{CountCtl, CountEntry, CountTableRegs, Extreme};
+
 use crate::block::{Block, Signal};
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::{BlockDesc, FsmDesc};
 use crate::memory::{MemCycle, MemPorts, Memory};
 use crate::registers::RegTable;
+use regs::Change;
 
 /// Entries the scan engine reads per cycle unless configured otherwise.
 pub const DEFAULT_SCAN_WIDTH: u32 = 8;
-
-/// Operation presented to the count table in one cycle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CountOp {
-    /// No operation (`op_kind` 0).
-    Nop,
-    /// `n` more rays (1..=warp_size) wait for `treelet` (`op_kind` 1).
-    Add {
-        /// Treelet address (the bits above the treelet offset).
-        treelet: u64,
-        /// Number of rays.
-        n: u32,
-    },
-    /// `n` rays (1..=warp_size) of `treelet` left its queue (`op_kind` 2).
-    Remove {
-        /// Treelet address.
-        treelet: u64,
-        /// Number of rays.
-        n: u32,
-    },
-    /// Every entry is freed and both pointers become invalid (`op_kind` 3).
-    Clear,
-}
-
-impl CountOp {
-    /// The `op_kind` encoding: 0 Nop, 1 Add, 2 Remove, 3 Clear.
-    pub fn kind_code(&self) -> u64 {
-        match self {
-            CountOp::Nop => 0,
-            CountOp::Add { .. } => 1,
-            CountOp::Remove { .. } => 2,
-            CountOp::Clear => 3,
-        }
-    }
-}
-
-/// Bit widths of the count table's signals, derived from the configuration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct CountTableWidths {
-    /// Treelet address bits (19 by default).
-    pub treelet: u32,
-    /// Bits of a per-op ray number 0..=warp_size.
-    pub n: u32,
-    /// Bits of a true count 0..=max_rays on the ports.
-    pub count: u32,
-    /// Bits of a stored count - 1 (12 by default).
-    pub count_m1: u32,
-    /// Bits of an entry index.
-    pub index: u32,
-    /// Bits of a number of entries 0..=count_table_entries.
-    pub entries: u32,
-}
-
-impl CountTableWidths {
-    /// Widths for a configuration.
-    pub fn new(cfg: &HwConfig) -> Self {
-        CountTableWidths {
-            treelet: cfg.treelet_addr_bits(),
-            n: bits_for(cfg.warp_size as u64),
-            count: bits_for(cfg.max_rays as u64),
-            count_m1: cfg.count_bits(),
-            index: cfg.count_index_bits(),
-            entries: bits_for(cfg.count_table_entries as u64),
-        }
-    }
-}
-
-crate::bundle! {
-    /// Input ports of the count table.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub struct CountTableIn (In, w: CountTableWidths, this) {
-        /// This cycle's operation.
-        pub op: CountOp,
-    }
-    ports {
-        /// operation: 0 Nop, 1 Add, 2 Remove, 3 Clear
-        sig op_kind (CountOp::BITS) = this.op.kind_code();
-        /// treelet address of the op
-        sig op_treelet (w.treelet) = this.op.fields().0;
-        /// rays added or removed (1..=warp_size)
-        sig op_n (w.n) = this.op.fields().1 as u64;
-    }
-}
-
-crate::bundle! {
-    /// Output ports of the count table.
-    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-    pub struct CountTableOut (Out, w: CountTableWidths, this) {
-        /// The presented op is accepted this cycle (low only for a full-table Add while the
-        /// minimum is stale; hold the op until high).
-        pub ready: bool,
-        /// The table accepts any op this cycle (registers only: low only while it is full and
-        /// its minimum is stale, [`CountTableStatus::ready`]).
-        pub accepts: bool,
-        /// The accepted op was invalid and ignored.
-        pub error: bool,
-        /// An entry was evicted this cycle (its rays go to ray-stationary processing later).
-        pub evict_valid: bool,
-        /// Treelet of the evicted entry (0 when `evict_valid` is low).
-        pub evict_treelet: u64,
-        /// Ray count of the evicted entry (0 when `evict_valid` is low).
-        pub evict_count: u32,
-        /// The max pointer is current and the table is not empty.
-        pub max_valid: bool,
-        /// The treelet with the most rays (lowest index on ties); 0 when `max_valid` is low.
-        pub max_treelet: u64,
-        /// Its ray count; 0 when `max_valid` is low.
-        pub max_count: u32,
-        /// Valid entries.
-        pub occupancy: u32,
-        /// Entries whose count is at least the underpopulation threshold.
-        pub above_threshold: u32,
-    }
-    ports {
-        /// op accepted this cycle (low: full-table Add waits for the minimum)
-        sig ready (1) = this.ready as u64;
-        /// any op is accepted this cycle (registers only: low only while full with a stale minimum)
-        sig accepts (1) = this.accepts as u64;
-        /// op invalid (unknown treelet, too many rays, n out of range) and ignored
-        sig error (1) = this.error as u64;
-        /// an entry was evicted: process its rays ray-stationary later
-        sig evict_valid (1) = this.evict_valid as u64;
-        /// evicted treelet
-        sig evict_treelet (w.treelet) = this.evict_treelet;
-        /// rays of the evicted treelet
-        sig evict_count (w.count) = this.evict_count as u64;
-        /// max_treelet/max_count are current and the table is not empty
-        sig max_valid (1) = this.max_valid as u64;
-        /// treelet with the most rays (largest treelet queue)
-        sig max_treelet (w.treelet) = this.max_treelet;
-        /// its ray count
-        sig max_count (w.count) = this.max_count as u64;
-        /// valid entries
-        sig occupancy (w.entries) = this.occupancy as u64;
-        /// entries with count >= underpopulation threshold
-        sig above_threshold (w.entries) = this.above_threshold as u64;
-    }
-}
-
-/// One word of the entry array.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct CountEntry {
-    /// The entry holds a treelet.
-    pub valid: bool,
-    /// Treelet address.
-    pub treelet: u64,
-    /// Ray count - 1.
-    pub count_m1: u32,
-}
-
-/// A registered pointer to an extreme (largest or smallest) entry.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Extreme {
-    /// The pointer names a valid entry and is current.
-    pub valid: bool,
-    /// Entry index.
-    pub idx: u32,
-    /// The entry's treelet.
-    pub treelet: u64,
-    /// The entry's count - 1.
-    pub count_m1: u32,
-}
-
-impl Extreme {
-    fn set(idx: u32, treelet: u64, count_m1: u32) -> Self {
-        Extreme {
-            valid: true,
-            idx,
-            treelet,
-            count_m1,
-        }
-    }
-
-    /// (count, index) orders before the pointer for a maximum: larger count, then lower index.
-    fn beaten_as_max(&self, idx: u32, count_m1: u32) -> bool {
-        !self.valid || count_m1 > self.count_m1 || (count_m1 == self.count_m1 && idx < self.idx)
-    }
-
-    /// (count, index) orders before the pointer for a minimum: smaller count, then lower index.
-    fn beaten_as_min(&self, idx: u32, count_m1: u32) -> bool {
-        !self.valid || count_m1 < self.count_m1 || (count_m1 == self.count_m1 && idx < self.idx)
-    }
-}
-
-/// Registers of the count table: the entry array and the scalar registers.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct CountTableRegs {
-    /// The entry array.
-    pub entries: Memory<CountEntry>,
-    /// The scalar registers.
-    pub ctl: CountCtl,
-}
-
-/// The count table's scalar registers: the scan engine's state, the published pointers and the
-/// counters. The next-state function reads them as one start-of-cycle value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct CountCtl {
-    /// FSM state: false = IDLE, true = SCAN.
-    pub scanning: bool,
-    /// First entry the scan reads this cycle.
-    pub scan_pos: u32,
-    /// Published largest entry.
-    pub max: Extreme,
-    /// Published smallest entry.
-    pub min: Extreme,
-    /// Scan's largest entry so far.
-    pub run_max: Extreme,
-    /// Scan's smallest entry so far.
-    pub run_min: Extreme,
-    /// Valid entries.
-    pub occupancy: u32,
-    /// Entries with count >= the underpopulation threshold.
-    pub above: u32,
-}
 
 /// The treelet count table block (see the module documentation).
 #[derive(Debug, Clone)]
@@ -268,92 +62,6 @@ pub struct CountTable {
     cfg: HwConfig,
     scan_width: u32,
     widths: CountTableWidths,
-}
-
-/// How the op changed one entry this cycle (for the pointer update rules).
-#[derive(Debug, Clone, Copy)]
-enum Change {
-    None,
-    /// The entry grew, was newly allocated, or was replaced by a larger new treelet.
-    Grow {
-        idx: u32,
-        treelet: u64,
-        count_m1: u32,
-    },
-    /// The entry shrank but stays valid.
-    Shrink {
-        idx: u32,
-        treelet: u64,
-        count_m1: u32,
-    },
-    /// The entry was freed.
-    Free {
-        idx: u32,
-    },
-    /// A free entry was allocated.
-    Alloc {
-        idx: u32,
-        treelet: u64,
-        count_m1: u32,
-    },
-}
-
-impl Change {
-    fn idx(&self) -> Option<u32> {
-        match *self {
-            Change::None => None,
-            Change::Grow { idx, .. }
-            | Change::Shrink { idx, .. }
-            | Change::Free { idx }
-            | Change::Alloc { idx, .. } => Some(idx),
-        }
-    }
-
-    /// Applies the change to a max pointer; false when the pointer can no longer be trusted.
-    fn fold_max(&self, x: &mut Extreme) -> bool {
-        match *self {
-            Change::None => true,
-            Change::Grow {
-                idx,
-                treelet,
-                count_m1,
-            }
-            | Change::Alloc {
-                idx,
-                treelet,
-                count_m1,
-            } => {
-                if x.beaten_as_max(idx, count_m1) || x.idx == idx {
-                    *x = Extreme::set(idx, treelet, count_m1);
-                }
-                true
-            }
-            Change::Shrink { idx, .. } | Change::Free { idx } => !(x.valid && x.idx == idx),
-        }
-    }
-
-    /// Applies the change to a min pointer; false when the pointer can no longer be trusted.
-    fn fold_min(&self, x: &mut Extreme) -> bool {
-        match *self {
-            Change::None => true,
-            Change::Shrink {
-                idx,
-                treelet,
-                count_m1,
-            }
-            | Change::Alloc {
-                idx,
-                treelet,
-                count_m1,
-            } => {
-                if x.beaten_as_min(idx, count_m1) || (x.valid && x.idx == idx) {
-                    *x = Extreme::set(idx, treelet, count_m1);
-                }
-                true
-            }
-            Change::Grow { idx, .. } | Change::Free { idx } => !(x.valid && x.idx == idx),
-        }
-    }
 }
 
 impl CountTable {
@@ -761,31 +469,6 @@ impl Block for CountTable {
     }
 }
 
-/// A treelet and its queued rays, as the count table reports its largest entry.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-pub struct QueueCount {
-    /// Treelet address.
-    pub treelet: u32,
-    /// Rays queued (1..=max_rays; on the wire as count - 1).
-    pub count: u32,
-}
-
-/// The count table's register-only outputs: what a controller may read before it drives an op
-/// in the same cycle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-pub struct CountTableStatus {
-    /// The table accepts any op this cycle: low only while it is full and its minimum is stale
-    /// (the one case in which it refuses an Add).
-    pub ready: bool,
-    /// The largest tracked treelet queue, if the max pointer is current (it is stale while the
-    /// table rescans after the largest entry shrank, and absent when empty).
-    pub max: Option<QueueCount>,
-    /// Valid table entries.
-    pub occupancy: u32,
-    /// Entries holding at least `underpopulation_threshold` rays.
-    pub above_threshold: u32,
-}
-
 impl CountTable {
     /// The registers (all but the entry memory): their descriptions and trace signals, declared
     /// once.
@@ -856,19 +539,6 @@ impl CountTable {
             }),
             occupancy: r.ctl.occupancy,
             above_threshold: r.ctl.above,
-        }
-    }
-}
-
-impl CountOp {
-    /// Width of the op-kind code.
-    pub const BITS: u32 = 2;
-
-    /// `(treelet, n)` as driven on the wires (zeros for `Nop`).
-    pub fn fields(&self) -> (u64, u32) {
-        match *self {
-            CountOp::Nop | CountOp::Clear => (0, 0),
-            CountOp::Add { treelet, n } | CountOp::Remove { treelet, n } => (treelet, n),
         }
     }
 }
