@@ -150,13 +150,23 @@ pub(super) fn registers(
     params: &RtUnitParams,
     w: &Widths,
 ) -> RegTable<'static, RtUnitRegs> {
-    let n = cfg.warp_size;
-    let entry = NodeEntry::bits(cfg.address_bits);
-    let sp = bits_for(cfg.stack_depth as u64);
-    let words = RAY_WORDS as u32 * 32;
-    let delay = w.delay;
-    let lanes = cfg.warp_buffer_size * n;
     let mut t = RegTable::new();
+    slot_and_scheduler_registers(&mut t, cfg, params, w);
+    lane_registers(&mut t, cfg, w);
+    stack_window_registers(&mut t, cfg, params);
+    t
+}
+
+/// The per-slot, scheduler, response-FIFO, node-buffer and error registers, appended to `t` in
+/// their description order (the first group of [`registers`]).
+fn slot_and_scheduler_registers(
+    t: &mut RegTable<'static, RtUnitRegs>,
+    cfg: &HwConfig,
+    params: &RtUnitParams,
+    w: &Widths,
+) {
+    let entry = NodeEntry::bits(cfg.address_bits);
+    let lanes = cfg.warp_buffer_size * cfg.warp_size;
     t.bank(
         "slot_valid",
         1,
@@ -256,8 +266,20 @@ pub(super) fn registers(
         1 + 3 + w.slot + w.lane + w.ray_id + 128,
         1,
         "capture of the first error: valid, kind, slot, lane, ray id, value, limit",
-    )
-    .grid(
+    );
+}
+
+/// The per-lane registers (status, ray record, hit, stack pointers, node in flight, delay,
+/// store and write flags), appended to `t` in their description order (the second group of
+/// [`registers`]).
+fn lane_registers(t: &mut RegTable<'static, RtUnitRegs>, cfg: &HwConfig, w: &Widths) {
+    let n = cfg.warp_size;
+    let entry = NodeEntry::bits(cfg.address_bits);
+    let sp = bits_for(cfg.stack_depth as u64);
+    let words = RAY_WORDS as u32 * 32;
+    let delay = w.delay;
+    let lanes = cfg.warp_buffer_size * n;
+    t.grid(
         "lane_status",
         2,
         (cfg.warp_buffer_size, n),
@@ -359,6 +381,18 @@ pub(super) fn registers(
         "per lane: holds a ray record written ahead of its warp's issue (inactive until issued)",
         |r, s, l| r.slots[s].lanes[l].written as u64,
     );
+}
+
+/// Each lane's stack registers (bottom window, top copy, ring base, pending SRAM read) for the
+/// current-treelet then the other-treelet stack, appended to `t` (the last group of
+/// [`registers`]).
+fn stack_window_registers(
+    t: &mut RegTable<'static, RtUnitRegs>,
+    cfg: &HwConfig,
+    params: &RtUnitParams,
+) {
+    let entry = NodeEntry::bits(cfg.address_bits);
+    let lanes = cfg.warp_buffer_size * cfg.warp_size;
     let layout = StackLayout::new(cfg, params);
     for (stack, which) in [("cur", "current-treelet"), ("other", "other-treelet")] {
         t.untraced(
@@ -398,5 +432,4 @@ pub(super) fn registers(
             ),
         );
     }
-    t
 }

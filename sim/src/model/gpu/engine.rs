@@ -49,10 +49,11 @@ use crate::model::gpu::rt::{QueueSetup, RtPort};
 use crate::model::gpu::shader::ShaderTiming;
 use crate::model::gpu::sm::{RayBudget, Sm};
 use crate::model::gpu::virtualization::CtaStatePort;
-use crate::model::memory::MemorySystem;
+use crate::model::memory::{L1Port, MemorySystem};
 use crate::model::scene::Scene;
 use crate::model::workload::camera::CameraFrame;
 use crate::model::workload::kind::Workload;
+use crate::model::workload::pathtracer::RenderSettings;
 
 /// Bytes of one hit record.
 const HIT_RECORD_BYTES: u64 = 32;
@@ -129,88 +130,21 @@ pub fn simulate(
         .map_err(|e| SimError::Setup(format!("cannot write the configuration: {e}")))?;
     let nsms = cfg.gpu.sms as usize;
     let warps_per_cta = cfg.warps_per_cta() as usize;
-    let cta_slots = (cfg.gpu.max_ctas_per_sm as usize)
-        .min(cfg.gpu.max_warps_per_sm as usize / warps_per_cta.max(1));
-    if cta_slots == 0 {
-        return Err(SimError::Setup(format!(
-            "a CTA of {warps_per_cta} warps does not fit gpu.max_warps_per_sm = {}",
-            cfg.gpu.max_warps_per_sm
-        )));
-    }
-    let bvh_end = bvh.treelets().len() as u64 * bvh.params().treelet_bytes as u64;
-    let records = bvh_end.div_ceil(HIT_RECORD_ALIGN) * HIT_RECORD_ALIGN;
-    let per_sm = cfg.hw.max_rays as u64 * HIT_RECORD_BYTES;
-    // Hit records, then (queues mode) ray records, then suspended CTAs' state, then (queued
-    // stacks' traffic) queued rays' stacks, then the traversal stacks' spill areas.
-    let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
-    let mut scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
-    if let Some(ctas) = &options.ctas {
-        let sorted = ctas.windows(2).all(|w| w[0] < w[1]);
-        if !sorted || ctas.last().is_some_and(|&c| c >= scheduler.total()) {
-            return Err(SimError::Setup(format!(
-                "the CTA subset must be sorted, distinct and below the image's {} CTAs",
-                scheduler.total()
-            )));
-        }
-        scheduler = scheduler.with_subset(ctas.clone());
-    }
-    let state_end = state_base
-        + scheduler.total() as u64 * cfg.cta_state_bytes().next_multiple_of(CHUNK_BYTES as u64);
-    // Then, with `rt.queued_stack_traffic`, queued rays' stacks (one area per SM).
-    let queued_stacks_base = state_end.next_multiple_of(HIT_RECORD_ALIGN);
-    let queued_stacks_bytes = if cfg.rt.queued_stack_traffic {
-        QueuedStacks::area_bytes(cfg.hw.max_rays, cfg.hw.stack_depth)
-    } else {
-        0
-    };
-    let spill_start = queued_stacks_base + nsms as u64 * queued_stacks_bytes;
-    let spill = SpillLayout::new(cfg, bvh, spill_start.next_multiple_of(HIT_RECORD_ALIGN))?;
+    let cta_slots = cta_slots(cfg, warps_per_cta)?;
+    let scheduler = cta_scheduler(&settings, cfg, &options)?;
+    let map = AddressMap::new(cfg, bvh, nsms, scheduler.total())?;
     let (ports, mut l2) = MemorySystem::new(&cfg.memory, nsms)?.into_parts();
     let mut nodes = Vec::with_capacity(nsms);
     for (sm, port) in ports.into_iter().enumerate() {
-        let params = cfg.rt_unit_params(
-            records + sm as u64 * per_sm,
-            Some(spill.base(sm)),
-            spill.chunks,
-        );
-        let queues = cfg.mode.treelet_queues().then(|| QueueSetup {
-            features: cfg.controller_features(),
-            prefetch: cfg.mode.treelet_prefetch,
-            ray_base: records + (nsms + sm) as u64 * per_sm,
-            stack_base: cfg
-                .rt
-                .queued_stack_traffic
-                .then(|| queued_stacks_base + sm as u64 * queued_stacks_bytes),
-            record_latency: (cfg.rt.ray_record_latency > 0).then_some(cfg.rt.ray_record_latency),
-        });
-        let mut rt = RtPort::new(
-            &cfg.hw,
-            params,
+        nodes.push(build_node(
+            cfg,
             bvh,
-            TraversalOrder::TreeletContinue,
-            queues,
-        )
-        .map_err(|source| SimError::Rt { sm, source })?;
-        if cfg.mode.prefetcher() {
-            rt = rt.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold));
-        }
-        if let Some((record, cycles)) = options.record_tables {
-            if record == sm && !rt.record_tables(cycles) {
-                return Err(SimError::Setup(format!(
-                    "cannot record the tables of SM {sm}: it needs mode.kind = \"queues\""
-                )));
-            }
-        }
-        let mut s = Sm::new(cta_slots, warps_per_cta);
-        if cfg.mode.virtualization {
-            s = s.with_virtualization(RayBudget {
-                max_rays: cfg.hw.max_rays as u64,
-                cta_threads: cfg.gpu.threads_per_cta as u64,
-                policy: cfg.virtualization,
-            });
-        }
-        let states = CtaStatePort::new(state_base, cfg.cta_state_bytes());
-        nodes.push(SmNode::new(sm, s, rt, states, port));
+            &options,
+            &map,
+            (cta_slots, warps_per_cta),
+            sm,
+            port,
+        )?);
     }
     if let Some((sm, _)) = options.record_tables {
         if sm >= nsms {
@@ -220,33 +154,7 @@ pub fn simulate(
         }
     }
     if let Some(w) = &options.vcd {
-        let (a, b) = (w.cycles.start, w.cycles.end);
-        if w.sm >= nsms {
-            return Err(SimError::Waveform(format!(
-                "SM {} does not exist: the GPU has gpu.sms = {nsms} (SMs 0..{})",
-                w.sm,
-                nsms - 1
-            )));
-        }
-        if a >= b || b - a > MAX_WINDOW_CYCLES {
-            return Err(SimError::Waveform(format!(
-                "the window {a}..{b} must hold 1 to {MAX_WINDOW_CYCLES} cycles (end exclusive)"
-            )));
-        }
-        let comment = format!(
-            "vtq {}: the RT unit of SM {} (of {nsms}), scene {}, mode {}, cycles {a}..{b} (end \
-             exclusive). Cycle c starts at time {} c ns (clk high in its first half); each \
-             block's scope holds its inputs and outputs of the cycle and its registers at the \
-             start of the cycle.",
-            env!("CARGO_PKG_VERSION"),
-            w.sm,
-            scene.name,
-            cfg.mode.kind.name(),
-            vtq_hdl::trace::CYCLE_NS
-        );
-        nodes[w.sm]
-            .rt
-            .attach_waveform(Waveform::create(w, &comment)?);
+        attach_waveform(&mut nodes, w, scene, cfg)?;
     }
     let ctx = Ctx {
         scene,
@@ -299,7 +207,7 @@ pub fn simulate(
         wall,
         config: config_toml,
         bvh,
-        stack_spill_chunks: spill.chunks,
+        stack_spill_chunks: map.spill.chunks,
     });
     // The energy model observes the finished statistics.
     let json = serde_json::to_value(&out.stats).map_err(|e| SimError::Energy(e.to_string()))?;
@@ -308,6 +216,188 @@ pub fn simulate(
     out.waveform = waveform;
     out.parallelism = outcome.profile;
     Ok(out)
+}
+
+/// The CTAs an SM holds at once: as many as `gpu.max_ctas_per_sm` allows and its
+/// `gpu.max_warps_per_sm` fit CTAs of `warps_per_cta` warps; an error if not even one fits.
+fn cta_slots(cfg: &SimConfig, warps_per_cta: usize) -> Result<usize, SimError> {
+    let cta_slots = (cfg.gpu.max_ctas_per_sm as usize)
+        .min(cfg.gpu.max_warps_per_sm as usize / warps_per_cta.max(1));
+    if cta_slots == 0 {
+        return Err(SimError::Setup(format!(
+            "a CTA of {warps_per_cta} warps does not fit gpu.max_warps_per_sm = {}",
+            cfg.gpu.max_warps_per_sm
+        )));
+    }
+    Ok(cta_slots)
+}
+
+/// The CTA scheduler of the image of `settings`, limited to `options.ctas` (checked: sorted,
+/// distinct and within the image) when given.
+fn cta_scheduler(
+    settings: &RenderSettings,
+    cfg: &SimConfig,
+    options: &SimOptions,
+) -> Result<CtaScheduler, SimError> {
+    let mut scheduler = CtaScheduler::new(settings.width, settings.height, cfg.gpu.threads_per_cta);
+    if let Some(ctas) = &options.ctas {
+        let sorted = ctas.windows(2).all(|w| w[0] < w[1]);
+        if !sorted || ctas.last().is_some_and(|&c| c >= scheduler.total()) {
+            return Err(SimError::Setup(format!(
+                "the CTA subset must be sorted, distinct and below the image's {} CTAs",
+                scheduler.total()
+            )));
+        }
+        scheduler = scheduler.with_subset(ctas.clone());
+    }
+    Ok(scheduler)
+}
+
+/// Where the simulated memory's regions lie after the BVH image: hit records, then (queues
+/// mode) ray records, then suspended CTAs' state, then (queued stacks' traffic) queued rays'
+/// stacks, then the traversal stacks' spill areas.
+struct AddressMap {
+    /// First byte of SM 0's hit records.
+    records: u64,
+    /// Bytes of one SM's hit records (and of its ray records).
+    per_sm: u64,
+    /// First byte of the suspended CTAs' state.
+    state_base: u64,
+    /// First byte of SM 0's queued rays' stacks.
+    queued_stacks_base: u64,
+    /// Bytes of one SM's queued rays' stacks (0 without `rt.queued_stack_traffic`).
+    queued_stacks_bytes: u64,
+    /// The traversal stacks' spill areas.
+    spill: SpillLayout,
+}
+
+impl AddressMap {
+    /// The regions for `cfg`, `bvh`, `nsms` SMs and an image of `ctas` CTAs; an error if the
+    /// spill areas do not fit the address space.
+    fn new(cfg: &SimConfig, bvh: &HwBvh, nsms: usize, ctas: u32) -> Result<Self, SimError> {
+        let bvh_end = bvh.treelets().len() as u64 * bvh.params().treelet_bytes as u64;
+        let records = bvh_end.div_ceil(HIT_RECORD_ALIGN) * HIT_RECORD_ALIGN;
+        let per_sm = cfg.hw.max_rays as u64 * HIT_RECORD_BYTES;
+        // Hit records, then (queues mode) ray records, then suspended CTAs' state, then (queued
+        // stacks' traffic) queued rays' stacks, then the traversal stacks' spill areas.
+        let state_base = (records + 2 * nsms as u64 * per_sm).next_multiple_of(HIT_RECORD_ALIGN);
+        let state_end =
+            state_base + ctas as u64 * cfg.cta_state_bytes().next_multiple_of(CHUNK_BYTES as u64);
+        // Then, with `rt.queued_stack_traffic`, queued rays' stacks (one area per SM).
+        let queued_stacks_base = state_end.next_multiple_of(HIT_RECORD_ALIGN);
+        let queued_stacks_bytes = if cfg.rt.queued_stack_traffic {
+            QueuedStacks::area_bytes(cfg.hw.max_rays, cfg.hw.stack_depth)
+        } else {
+            0
+        };
+        let spill_start = queued_stacks_base + nsms as u64 * queued_stacks_bytes;
+        let spill = SpillLayout::new(cfg, bvh, spill_start.next_multiple_of(HIT_RECORD_ALIGN))?;
+        Ok(AddressMap {
+            records,
+            per_sm,
+            state_base,
+            queued_stacks_base,
+            queued_stacks_bytes,
+            spill,
+        })
+    }
+}
+
+/// SM `sm`'s node: its RT unit (with its treelet queues, prefetcher and table recording as
+/// configured), its SM of `cta` = (CTA slots, warps per CTA), its CTA-state port and its L1
+/// `port`.
+fn build_node<'a>(
+    cfg: &SimConfig,
+    bvh: &'a HwBvh,
+    options: &SimOptions,
+    map: &AddressMap,
+    (cta_slots, warps_per_cta): (usize, usize),
+    sm: usize,
+    port: L1Port,
+) -> Result<SmNode<'a>, SimError> {
+    let nsms = cfg.gpu.sms as usize;
+    let params = cfg.rt_unit_params(
+        map.records + sm as u64 * map.per_sm,
+        Some(map.spill.base(sm)),
+        map.spill.chunks,
+    );
+    let queues = cfg.mode.treelet_queues().then(|| QueueSetup {
+        features: cfg.controller_features(),
+        prefetch: cfg.mode.treelet_prefetch,
+        ray_base: map.records + (nsms + sm) as u64 * map.per_sm,
+        stack_base: cfg
+            .rt
+            .queued_stack_traffic
+            .then(|| map.queued_stacks_base + sm as u64 * map.queued_stacks_bytes),
+        record_latency: (cfg.rt.ray_record_latency > 0).then_some(cfg.rt.ray_record_latency),
+    });
+    let mut rt = RtPort::new(
+        &cfg.hw,
+        params,
+        bvh,
+        TraversalOrder::TreeletContinue,
+        queues,
+    )
+    .map_err(|source| SimError::Rt { sm, source })?;
+    if cfg.mode.prefetcher() {
+        rt = rt.with_prefetcher(Prefetcher::new(bvh, cfg.mode.prefetch_threshold));
+    }
+    if let Some((record, cycles)) = options.record_tables {
+        if record == sm && !rt.record_tables(cycles) {
+            return Err(SimError::Setup(format!(
+                "cannot record the tables of SM {sm}: it needs mode.kind = \"queues\""
+            )));
+        }
+    }
+    let mut s = Sm::new(cta_slots, warps_per_cta);
+    if cfg.mode.virtualization {
+        s = s.with_virtualization(RayBudget {
+            max_rays: cfg.hw.max_rays as u64,
+            cta_threads: cfg.gpu.threads_per_cta as u64,
+            policy: cfg.virtualization,
+        });
+    }
+    let states = CtaStatePort::new(map.state_base, cfg.cta_state_bytes());
+    Ok(SmNode::new(sm, s, rt, states, port))
+}
+
+/// Checks the waveform window `w` (an existing SM, 1 to [`MAX_WINDOW_CYCLES`] cycles) and
+/// attaches its VCD writer to that SM's RT unit.
+fn attach_waveform(
+    nodes: &mut [SmNode<'_>],
+    w: &VcdWindow,
+    scene: &Scene,
+    cfg: &SimConfig,
+) -> Result<(), SimError> {
+    let nsms = cfg.gpu.sms as usize;
+    let (a, b) = (w.cycles.start, w.cycles.end);
+    if w.sm >= nsms {
+        return Err(SimError::Waveform(format!(
+            "SM {} does not exist: the GPU has gpu.sms = {nsms} (SMs 0..{})",
+            w.sm,
+            nsms - 1
+        )));
+    }
+    if a >= b || b - a > MAX_WINDOW_CYCLES {
+        return Err(SimError::Waveform(format!(
+            "the window {a}..{b} must hold 1 to {MAX_WINDOW_CYCLES} cycles (end exclusive)"
+        )));
+    }
+    let comment = format!(
+        "vtq {}: the RT unit of SM {} (of {nsms}), scene {}, mode {}, cycles {a}..{b} (end \
+         exclusive). Cycle c starts at time {} c ns (clk high in its first half); each \
+         block's scope holds its inputs and outputs of the cycle and its registers at the \
+         start of the cycle.",
+        env!("CARGO_PKG_VERSION"),
+        w.sm,
+        scene.name,
+        cfg.mode.kind.name(),
+        vtq_hdl::trace::CYCLE_NS
+    );
+    nodes[w.sm]
+        .rt
+        .attach_waveform(Waveform::create(w, &comment)?);
+    Ok(())
 }
 
 /// Where the RT units' traversal stacks spill: each SM's area holds `chunks` 32 B chunks for

@@ -8,8 +8,8 @@ use crate::model::bvh::HwBvh;
 use crate::model::config::SimConfig;
 use crate::model::energy::EnergyReport;
 use crate::model::gpu::node::{Ctx, NodeSample, SmNode};
-use crate::model::gpu::output::SimOutput;
-use crate::model::gpu::rt::warp_costs::WarpCosts;
+use crate::model::gpu::output::{SimOutput, TracedRay};
+use crate::model::gpu::rt::warp_costs::{WarpCostStats, WarpCosts};
 use crate::model::gpu::rt::QueueObserver;
 use crate::model::gpu::stats::VirtTiming;
 use crate::model::gpu::stats::{Phases, QueueStats, Sample, SimStats, TailStats, WarpLanes};
@@ -49,17 +49,8 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         stack_spill_chunks,
     } = run;
     let cfg = ctx.cfg;
-    let mut rt = RtStats::default();
-    let mut mem = l2_stats;
-    for node in nodes {
-        rt.add(node.rt.hw_stats());
-        mem.add(node.mem.stats());
-    }
-    // Summed in SM order: the same float sum for any thread count.
-    let warp_simt = nodes
-        .iter()
-        .map(|n| n.rt.warp_simt().totals())
-        .fold((0.0, 0u64), |(s, w), (a, b)| (s + a, w + b));
+    let (rt, mem) = summed_counters(nodes, l2_stats);
+    let warp_simt = warp_simt_totals(nodes);
     let rays_issued: u64 = nodes.iter().map(|n| n.rt.rays_issued()).sum();
     let rays_completed: u64 = nodes.iter().map(|n| n.rt.rays_completed()).sum();
     let l2_misses = AccessClass::ALL
@@ -70,36 +61,15 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
     let simt = ratio(rt.active_thread_cycles, rt.warp_cycles * warp_size as u64);
     let queues: Vec<&QueueObserver> = nodes.iter().filter_map(|n| n.rt.queue_stats()).collect();
     let phases = phases(&rt, &queues, cycles, warp_size);
-    let mut image = vec![Vec3::ZERO; ctx.settings.pixels()];
-    for node in nodes {
-        for &(pixel, color) in &node.pixels {
-            image[pixel as usize] = color;
-        }
-    }
+    let image = image(ctx, nodes);
     let time_series = time_series(cfg.sim.sample_interval, cycles, nodes);
     let interval = cfg.sim.sample_interval;
     let deciles = miss_rate_deciles(interval, cycles, nodes, false);
     let deciles_preloads = miss_rate_deciles(interval, cycles, nodes, true);
-    let simt_deciles = ratio_deciles(interval, cycles, nodes, |s: &NodeSample| {
-        (
-            s.active_thread_cycles,
-            s.warp_cycles * cfg.hw.warp_size as u64,
-        )
-    });
+    let simt_deciles = simt_deciles(cfg, cycles, nodes);
     let tail = tail_stats(ctx, cycles, nodes);
-    let mut virt = VirtTiming::default();
-    for node in nodes {
-        let t = node.sm.timing;
-        virt.save_cycles += t.save_cycles;
-        virt.resume_wait_cycles += t.resume_wait_cycles;
-        virt.restore_cycles += t.restore_cycles;
-    }
-    let mut log: Vec<_> = nodes
-        .iter()
-        .flat_map(|n| n.ray_log.iter().copied())
-        .collect();
-    log.sort_by_key(|&(key, _)| key);
-    let ray_log = log.into_iter().map(|(_, ray)| ray).collect();
+    let virt = virt_timing(nodes);
+    let ray_log = ray_log(nodes);
     let stats = SimStats {
         scene: ctx.scene.name.clone(),
         mode: cfg.mode.kind.name().to_string(),
@@ -111,11 +81,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         occlusion_rays: nodes.iter().map(|n| n.occlusion_rays).sum(),
         ctas: nodes.iter().map(|n| n.sm.done.len() as u64).sum(),
         simt_efficiency: simt,
-        simt_efficiency_per_warp: if warp_simt.1 == 0 {
-            0.0
-        } else {
-            warp_simt.0 / warp_simt.1 as f64
-        },
+        simt_efficiency_per_warp: per_warp_simt(warp_simt),
         rt_warps: warp_simt.1,
         simt_efficiency_deciles: simt_deciles,
         bvh_l1_accesses: mem.bvh.l1_loads,
@@ -150,13 +116,7 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         max_rays_in_flight: nodes.iter().map(|n| n.sm.max_in_flight).max().unwrap_or(0),
         stack_spill_chunks: stack_spill_chunks as u64,
         rt,
-        warp_costs: (!queues.is_empty()).then(|| {
-            let mut costs = WarpCosts::default();
-            for c in nodes.iter().filter_map(|n| n.rt.warp_costs()) {
-                costs.add(&c);
-            }
-            costs.stats(warp_size)
-        }),
+        warp_costs: (!queues.is_empty()).then(|| warp_costs(nodes, warp_size)),
         max_access_queue: nodes.iter().map(|n| n.rt.max_queue()).max().unwrap_or(0),
         queues: queue_stats(&queues, nodes),
         prefetcher_treelets: nodes
@@ -188,6 +148,90 @@ pub fn finish(run: Finished<'_, '_>) -> SimOutput {
         parallelism: None,
         cta_spans: nodes.iter().map(|n| n.sm.done.clone()).collect(),
     }
+}
+
+/// The RT units' hardware counters and the memory counters (the L2's `l2_stats` plus every
+/// node's L1), summed in SM order.
+fn summed_counters(nodes: &[SmNode<'_>], l2_stats: MemStats) -> (RtStats, MemStats) {
+    let mut rt = RtStats::default();
+    let mut mem = l2_stats;
+    for node in nodes {
+        rt.add(node.rt.hw_stats());
+        mem.add(node.mem.stats());
+    }
+    (rt, mem)
+}
+
+/// The per-warp SIMT efficiencies summed over the RT units' completed warps, and the number of
+/// those warps.
+fn warp_simt_totals(nodes: &[SmNode<'_>]) -> (f64, u64) {
+    // Summed in SM order: the same float sum for any thread count.
+    nodes
+        .iter()
+        .map(|n| n.rt.warp_simt().totals())
+        .fold((0.0, 0u64), |(s, w), (a, b)| (s + a, w + b))
+}
+
+/// The mean per-warp SIMT efficiency of `(sum, warps)` ([`warp_simt_totals`]); 0 without warps.
+fn per_warp_simt(warp_simt: (f64, u64)) -> f64 {
+    if warp_simt.1 == 0 {
+        0.0
+    } else {
+        warp_simt.0 / warp_simt.1 as f64
+    }
+}
+
+/// The rendered image: every node's finished pixels in place, the others black.
+fn image(ctx: &Ctx<'_>, nodes: &[SmNode<'_>]) -> Vec<Vec3> {
+    let mut image = vec![Vec3::ZERO; ctx.settings.pixels()];
+    for node in nodes {
+        for &(pixel, color) in &node.pixels {
+            image[pixel as usize] = color;
+        }
+    }
+    image
+}
+
+/// The SIMT efficiency of each tenth of the run's samples.
+fn simt_deciles(cfg: &SimConfig, cycles: u64, nodes: &[SmNode<'_>]) -> Vec<f64> {
+    ratio_deciles(cfg.sim.sample_interval, cycles, nodes, |s: &NodeSample| {
+        (
+            s.active_thread_cycles,
+            s.warp_cycles * cfg.hw.warp_size as u64,
+        )
+    })
+}
+
+/// The CTA-state save, resume-wait and restore cycles, summed over the SMs.
+fn virt_timing(nodes: &[SmNode<'_>]) -> VirtTiming {
+    let mut virt = VirtTiming::default();
+    for node in nodes {
+        let t = node.sm.timing;
+        virt.save_cycles += t.save_cycles;
+        virt.resume_wait_cycles += t.resume_wait_cycles;
+        virt.restore_cycles += t.restore_cycles;
+    }
+    virt
+}
+
+/// Every node's traced rays, in the order of their keys (cycle, phase, SM, sequence): the same
+/// log for any thread count.
+fn ray_log(nodes: &[SmNode<'_>]) -> Vec<TracedRay> {
+    let mut log: Vec<_> = nodes
+        .iter()
+        .flat_map(|n| n.ray_log.iter().copied())
+        .collect();
+    log.sort_by_key(|&(key, _)| key);
+    log.into_iter().map(|(_, ray)| ray).collect()
+}
+
+/// The completed warps' costs, summed in SM order over the RT units that track them.
+fn warp_costs(nodes: &[SmNode<'_>], warp_size: u32) -> WarpCostStats {
+    let mut costs = WarpCosts::default();
+    for c in nodes.iter().filter_map(|n| n.rt.warp_costs()) {
+        costs.add(&c);
+    }
+    costs.stats(warp_size)
 }
 
 /// The units a run used, for the energy model: the fixed ones, the datapath units the BVH
