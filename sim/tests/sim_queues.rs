@@ -265,3 +265,22 @@ fn repacks_withheld_for_want_of_rays_count_in_skipped_cycles_too() {
         assert_eq!(out.stats.queues.counts.ctl.repack_starved_cycles, 0);
     }
 }
+
+/// The warp costs' BVH loads go to the phase and warp kind of the cycle in which the L1 accepts
+/// them, whether that cycle was stepped or skipped: a load still queued at the L1 port when a
+/// stepped cycle ends the initial phase counts in the treelet-stationary phase in lockstep, and
+/// so it must when the idle cycles after that step are skipped. The treelet-prefetching design
+/// on a generated 20,000-triangle city at 32 x 32 has such a load (on the small built-in scenes
+/// no mode change leaves one queued).
+#[test]
+fn bvh_loads_accepted_in_skipped_cycles_count_in_the_phase_lockstep_gives_them() {
+    let design = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../configs/designs/vtq-prefetch-all/config.toml");
+    let sets: Vec<String> = ["width=32", "height=32"].map(String::from).into();
+    let cfg = vtq_sim::model::config::SimConfig::load(Some(&design), &sets).expect("design");
+    let scene = vtq_sim::model::scene::load::load_scene("city:20000").expect("generated city");
+    let bvh = vtq_sim::model::bvh::HwBvh::build(&scene, &cfg.bvh_params()).expect("BVH builds");
+    let (skip, _) = common::check_scene_skip_matches_lockstep(&scene, &bvh, &cfg);
+    let phases = skip.stats.warp_costs.as_ref().expect("warp costs");
+    assert!(phases.treelet_stationary.sm.bvh_l1_accesses > 0);
+}

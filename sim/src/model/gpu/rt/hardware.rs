@@ -77,8 +77,9 @@ pub(super) trait RtHardware<'a>: Debug {
     }
 
     /// The L1 accepted a demand BVH load of the hardware's ([`Acceptance`]): attributed to the
-    /// warp kind and phase now running.
-    fn bvh_access_accepted(&mut self, _acceptance: &Acceptance) {}
+    /// warp kind and phase of the cycle, `idle` when the hardware was not stepped in it (its
+    /// idle cycles are skipped later).
+    fn bvh_access_accepted(&mut self, _acceptance: &Acceptance, _idle: bool) {}
 
     /// What each kind of warp cost in each phase so far (`stats`: the port's RT-unit counters).
     fn warp_costs(&self, _stats: &RtStats) -> Option<WarpCosts> {
@@ -196,8 +197,8 @@ impl<'a> RtHardware<'a> for Kind<'a> {
     }
 
     #[inline]
-    fn bvh_access_accepted(&mut self, acceptance: &Acceptance) {
-        on_kind!(self, h => h.bvh_access_accepted(acceptance))
+    fn bvh_access_accepted(&mut self, acceptance: &Acceptance, idle: bool) {
+        on_kind!(self, h => h.bvh_access_accepted(acceptance, idle))
     }
 
     fn warp_costs(&self, stats: &RtStats) -> Option<WarpCosts> {

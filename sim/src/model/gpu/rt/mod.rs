@@ -388,7 +388,9 @@ impl<'a> RtPort<'a> {
             Ok(acceptance) => {
                 self.shell.requests.pop_front();
                 if req.class == AccessClass::Bvh && !req.store && !req.prefetch {
-                    self.hw.bvh_access_accepted(&acceptance);
+                    // Not stepped in cycle `now` (`at <= now`): an idle cycle, caught up later.
+                    self.hw
+                        .bvh_access_accepted(&acceptance, self.shell.at <= now);
                 }
                 Ok(true)
             }

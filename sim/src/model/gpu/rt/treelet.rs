@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use vtq_hdl::mode::Mode;
-use vtq_hdl::rt_unit::{RtStats, RtUnitError, RtUnitParams, CHUNK_BYTES};
+use vtq_hdl::rt_unit::{RayRecord, RtStats, RtUnitError, RtUnitParams, CHUNK_BYTES};
 use vtq_hdl::treelet_rt_unit::{
     RayLoad, TableLog, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs, WarpKind,
@@ -48,7 +48,8 @@ pub struct QueueObserver {
     /// entered.
     pub costs: WarpCosts,
     /// The (phase index, warp kind) the last stepped or skipped cycle counted in: where BVH
-    /// loads the L1 accepts since are attributed, and the RT unit's counters since `cell_since`.
+    /// loads the L1 accepts in stepped cycles are attributed, and the RT unit's counters since
+    /// `cell_since`.
     pub cell: (usize, WarpKind),
     /// The port's RT-unit counters when `cell` was entered: what was counted since belongs to
     /// it (taken by difference when the cell changes, so a cycle costs a comparison).
@@ -168,6 +169,18 @@ pub(super) struct Treelet<'a> {
 }
 
 impl<'a> Treelet<'a> {
+    /// The (phase index, warp kind) cell of an idle cycle: the controller's mode, which holds
+    /// in idle cycles (it is not evaluated), and the kind of warp resident, else the last kind
+    /// seen.
+    #[inline]
+    fn idle_cell(&self) -> (usize, WarpKind) {
+        let kind = self
+            .unit
+            .warp_kind(&self.regs)
+            .unwrap_or(self.observer.cell.1);
+        (phase_index(self.unit.mode(&self.regs)), kind)
+    }
+
     /// The treelet RT unit of `hw`, `params` and `setup` after reset, with its surroundings
     /// empty.
     pub(super) fn new(
@@ -252,12 +265,7 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
     }
 
     fn skip(&mut self, n: u64, stats: &mut RtStats) {
-        // The controller is not evaluated in idle cycles: its mode holds throughout.
-        let phase = phase_index(self.unit.mode(&self.regs));
-        let kind = self
-            .unit
-            .warp_kind(&self.regs)
-            .unwrap_or(self.observer.cell.1);
+        let (phase, kind) = self.idle_cell();
         self.observer.enter_cell((phase, kind), stats);
         let counts = self.unit.skip(&mut self.regs, &mut self.cache, n);
         self.observer.count(phase, &counts, stats);
@@ -337,8 +345,14 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         soon.into_iter().chain(record).min()
     }
 
-    fn bvh_access_accepted(&mut self, acceptance: &Acceptance) {
-        let (phase, kind) = self.observer.cell;
+    fn bvh_access_accepted(&mut self, acceptance: &Acceptance, idle: bool) {
+        // In an idle cycle not stepped yet the cell is the one its skip will enter, as a
+        // lockstep run's step of it would.
+        let (phase, kind) = if idle {
+            self.idle_cell()
+        } else {
+            self.observer.cell
+        };
         self.observer
             .costs
             .cell(phase, kind)
@@ -385,6 +399,47 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         if let Some(reason) = self.fault.take() {
             return Err(SimError::Queues { sm, reason });
         }
+        self.feed_inputs(shell, lanes);
+        if record {
+            self.cache.probe(true);
+        }
+        let during = phase_index(self.unit.mode(&self.regs));
+        let kind_before = self.unit.warp_kind(&self.regs);
+        self.unit.step_cached_into(
+            &mut self.regs,
+            &mut self.cache,
+            &self.inputs,
+            &mut self.outputs,
+        );
+        let kind = kind_before
+            .or_else(|| self.unit.warp_kind(&self.regs))
+            .unwrap_or(self.observer.cell.1);
+        self.observer.enter_cell((during, kind), &shell.stats);
+        if let (true, Some(w)) = (record, shell.waveform.as_mut()) {
+            w.record_treelet(&self.inputs, &self.outputs, self.cache.take_probe());
+            self.cache.probe(false);
+        }
+        self.observe_outputs(during, &mut shell.stats);
+        self.check_outputs(sm, shell.address_bits)?;
+        if let Some(idx) = self.accept_warp(shell, during, warp) {
+            cycle.accepted = Some(idx);
+        }
+        self.park_rays(shell, now);
+        self.feed_prefetcher(shell);
+        self.finish_rays(shell, sm)?;
+        cycle.done = self.completed.pop_front();
+        self.queue_requests(shell, now, during);
+        Ok(cycle)
+    }
+}
+
+/// The pieces of [`Treelet`]'s cycle ([`RtHardware::step`]), in the order the step runs them.
+impl<'a> Treelet<'a> {
+    /// Fills the reused input bundle for this cycle: the SM warp offered (`lanes`), the
+    /// responses the RT unit's free ports take from the shell's queue, this cycle's ray records
+    /// and the spill FIFO's head.
+    #[inline]
+    fn feed_inputs(&mut self, shell: &mut Shell<'a>, lanes: Option<Vec<Option<RayRecord>>>) {
         let rt = self.unit.rt_unit();
         let ports = self.unit.resp_free(&self.regs).min(rt.params().resp_ports);
         let n = (ports as usize).min(shell.responses.len());
@@ -406,31 +461,29 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
             take
         }));
         inputs.spill_head = self.spill_fifo.head();
-        if record {
-            self.cache.probe(true);
-        }
-        let during = phase_index(self.unit.mode(&self.regs));
-        let kind_before = self.unit.warp_kind(&self.regs);
-        self.unit
-            .step_cached_into(&mut self.regs, &mut self.cache, inputs, &mut self.outputs);
-        let kind = kind_before
-            .or_else(|| self.unit.warp_kind(&self.regs))
-            .unwrap_or(self.observer.cell.1);
-        self.observer.enter_cell((during, kind), &shell.stats);
+    }
+
+    /// Counts the cycle's events in phase `during` (the RT unit's part also into `stats`), its
+    /// tests in the phase after it, and the largest numbers of queues.
+    #[inline]
+    fn observe_outputs(&mut self, during: usize, stats: &mut RtStats) {
         let out = &self.outputs;
-        if let (true, Some(w)) = (record, shell.waveform.as_mut()) {
-            w.record_treelet(inputs, out, self.cache.take_probe());
-            self.cache.probe(false);
-        }
         let obs = &mut self.observer;
-        obs.count(during, &out.counts, &mut shell.stats);
+        obs.count(during, &out.counts, stats);
         obs.tests[phase_index(self.unit.mode(&self.regs))] += out.counts.rt.total_tests();
         let (queues, above) = self.unit.queues(&self.regs);
         obs.max_queues = obs.max_queues.max(queues as u64);
         obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
+    }
+
+    /// The RT unit's first error (naming the ray's SM warp and lane) or the treelet hardware's
+    /// fault of this cycle, as the run's error (`address_bits`: `hw.address_bits`).
+    #[inline]
+    fn check_outputs(&self, sm: usize, address_bits: u32) -> Result<(), SimError> {
+        let out = &self.outputs;
         if let Some(record) = out.first_error {
             let owner = self.owners.get(record.ray_id as usize).copied().flatten();
-            return Err(rt_error(sm, record, owner, shell.address_bits));
+            return Err(rt_error(sm, record, owner, address_bits));
         }
         if let Some(fault) = &out.fault {
             return Err(SimError::Queues {
@@ -438,26 +491,47 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
                 reason: fault.to_string(),
             });
         }
-        if let (Some(ids), Some((idx, rays))) = (&out.sm_accepted, warp) {
-            let active = ids.iter().flatten().count();
-            shell.rays_issued += active as u64;
-            self.observer.costs.cell(during, WarpKind::Sm).rays_in += active as u64;
-            for (lane, id) in ids.iter().enumerate() {
-                if let Some(id) = id {
-                    self.owners[*id as usize] = Some((idx, lane as u32));
-                }
+        Ok(())
+    }
+
+    /// The offered SM warp `warp`, if the RT unit accepted it this cycle: its rays' ids are
+    /// owned by its lanes and it waits for them (returned at once if it carries none); its
+    /// index, else `None`. `during`: the phase index of the cycle.
+    #[inline]
+    fn accept_warp(
+        &mut self,
+        shell: &mut Shell<'a>,
+        during: usize,
+        warp: Option<(usize, &[Option<TraceRay>])>,
+    ) -> Option<usize> {
+        let (Some(ids), Some((idx, rays))) = (&self.outputs.sm_accepted, warp) else {
+            return None;
+        };
+        let active = ids.iter().flatten().count();
+        shell.rays_issued += active as u64;
+        self.observer.costs.cell(during, WarpKind::Sm).rays_in += active as u64;
+        for (lane, id) in ids.iter().enumerate() {
+            if let Some(id) = id {
+                self.owners[*id as usize] = Some((idx, lane as u32));
             }
-            let hits = (0..ids.len())
-                .map(|l| rays.get(l).copied().flatten().map(|_| None))
-                .collect::<Vec<_>>();
-            if active == 0 {
-                self.completed.push_back(TracedWarp { warp: idx, hits });
-            } else {
-                let left = active as u32;
-                self.pending.insert(idx, PendingWarp { hits, left });
-            }
-            cycle.accepted = Some(idx);
         }
+        let hits = (0..ids.len())
+            .map(|l| rays.get(l).copied().flatten().map(|_| None))
+            .collect::<Vec<_>>();
+        if active == 0 {
+            self.completed.push_back(TracedWarp { warp: idx, hits });
+        } else {
+            let left = active as u32;
+            self.pending.insert(idx, PendingWarp { hits, left });
+        }
+        Some(idx)
+    }
+
+    /// Stores the records of the rays parked this cycle (`now`), with their stacks' traffic,
+    /// and applies the cycle's spill-FIFO push and pop.
+    #[inline]
+    fn park_rays(&mut self, shell: &mut Shell<'a>, now: u64) {
+        let out = &self.outputs;
         for r in out.parked.iter().map(|p| &p.record) {
             if let Some(at) = self.parked_at.get_mut(r.ray_id as usize) {
                 *at = now;
@@ -473,8 +547,14 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         if out.spill_pop {
             self.spill_fifo.pop();
         }
+    }
+
+    /// Hands the shell's treelet prefetcher (if any) this cycle's preload and, in a watched
+    /// phase, the rays' next addresses.
+    #[inline]
+    fn feed_prefetcher(&self, shell: &mut Shell<'a>) {
         if let Some(p) = shell.prefetcher.as_mut() {
-            if let Some(treelet) = out.preload {
+            if let Some(treelet) = self.outputs.preload {
                 p.queue_treelet(treelet);
             }
             // Every stepped cycle of a watched phase: observing unchanged rays again changes
@@ -483,7 +563,13 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
                 p.observe(self.unit.next_addresses(&self.regs, &self.cache));
             }
         }
-        for f in &out.finished {
+    }
+
+    /// Hands the rays finished this cycle their hits in their SM warps' lanes; a warp whose
+    /// last ray finished is completed. An error for a ray no SM warp waits for.
+    #[inline]
+    fn finish_rays(&mut self, shell: &mut Shell<'a>, sm: usize) -> Result<(), SimError> {
+        for f in &self.outputs.finished {
             let Some((warp, lane)) = self.owners.get_mut(f.ray as usize).and_then(Option::take)
             else {
                 return Err(SimError::Queues {
@@ -510,7 +596,15 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
                 });
             }
         }
-        cycle.done = self.completed.pop_front();
+        Ok(())
+    }
+
+    /// Counts the cycle's ray loads into the warp costs (phase index `during`, their queue
+    /// wait up to `now`), then queues the cycle's memory requests on the shell: ray-record loads
+    /// and stores (or on-chip record loads due after `rt.ray_record_latency`), queued rays'
+    /// stack chunks and the RT unit's own requests.
+    #[inline]
+    fn queue_requests(&mut self, shell: &mut Shell<'a>, now: u64, during: usize) {
         // Taken out while the requests are queued (queueing borrows the port), put back after.
         let mut stacks = self.stacks.take();
         let requests = std::mem::take(&mut self.outputs.requests);
@@ -563,6 +657,5 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         self.record_loads.extend(record_loads);
         self.stacks = stacks;
         self.outputs.requests = requests;
-        Ok(cycle)
     }
 }

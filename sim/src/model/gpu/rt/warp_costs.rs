@@ -9,8 +9,10 @@
 //! With one warp-buffer slot (Table 1, the default) that is exact: one warp traverses at a
 //! time. With more slots, a cycle in which warps of different kinds are resident counts whole
 //! for the lowest slot's kind. BVH demand loads are attributed when the L1 accepts them (hit,
-//! merge or miss), to the cell of the last cycle stepped: a load still queued at the SM's L1
-//! port when the warp changes counts for the next warp. Ray-record loads count for the kind of
+//! merge or miss), to the cell of the cycle in which it accepts them (in a cycle the RT unit
+//! idles, the cell a lockstep step of it would count in: the mode, which holds, and the resident
+//! warp's kind): a load still queued at the SM's L1 port when the warp changes counts for the
+//! next warp. Ray-record loads count for the kind of
 //! the fill they load, with the cycles their ray waited in the queues (from being parked at a
 //! boundary or terminated to the load's request).
 
