@@ -185,32 +185,27 @@ pub struct Recorded<'a, D> {
     pub vcd: bool,
 }
 
+/// One block's replay job built from a recorded run (a method of [`Recorded`]).
+type ReplayJob<'a, D> = fn(&Recorded<'a, D>) -> Result<Job, GenError>;
+
 /// The jobs of `blocks` replaying the real traffic of the run `r`: each block's input ports in
 /// the recorded cycles, from reset.
-pub fn replay_jobs<D: NodeDatapath + Copy>(
-    r: &Recorded<'_, D>,
+pub fn replay_jobs<'a, D: NodeDatapath + Copy>(
+    r: &Recorded<'a, D>,
     blocks: Blocks,
 ) -> Result<Vec<Job>, GenError> {
-    let mut jobs = Vec::new();
-    if blocks.count {
-        jobs.push(r.count_table()?);
-    }
-    if blocks.queue {
-        jobs.push(r.queue_table()?);
-    }
-    if blocks.controller {
-        jobs.push(r.controller()?);
-    }
-    if blocks.rt_unit {
-        jobs.push(r.rt_unit()?);
-    }
-    if blocks.wiring {
-        jobs.push(r.wiring()?);
-    }
-    if blocks.treelet_rt_unit {
-        jobs.push(r.treelet_rt_unit()?);
-    }
-    Ok(jobs)
+    let jobs: [(bool, ReplayJob<'a, D>); 6] = [
+        (blocks.count, Recorded::count_table),
+        (blocks.queue, Recorded::queue_table),
+        (blocks.controller, Recorded::controller),
+        (blocks.rt_unit, Recorded::rt_unit),
+        (blocks.wiring, Recorded::wiring),
+        (blocks.treelet_rt_unit, Recorded::treelet_rt_unit),
+    ];
+    jobs.into_iter()
+        .filter(|&(wanted, _)| wanted)
+        .map(|(_, job)| job(r))
+        .collect()
 }
 
 impl<D: NodeDatapath + Copy> Recorded<'_, D> {

@@ -281,6 +281,50 @@ impl<I: Signals> Signals for ReplayInputs<I> {
     }
 }
 
+/// Implements [`Block`] for a replay wrapper `$replay` of the block in its field `unit` (inputs
+/// `$inputs`, outputs `$outputs`, registers `$regs`), whose RT unit `|$s| $rt` reaches: the
+/// block's registers and outputs, with each cycle's table loaded before the block's step, and
+/// the block's description with the table's ports as module `$module` (about `$what`), with
+/// no registers (they are the replayed block's, one level down).
+macro_rules! replay_block {
+    ($replay:ty, $inputs:ty => $outputs:ty, $regs:ty, $module:expr, $what:expr,
+     |$s:ident| $rt:expr) => {
+        impl Block for $replay {
+            type Inputs = ReplayInputs<$inputs>;
+            type Outputs = $outputs;
+            type Regs = $regs;
+
+            fn reset(&self) -> $regs {
+                self.unit.reset()
+            }
+
+            fn idle_inputs(&self) -> ReplayInputs<$inputs> {
+                let $s = self;
+                let rt = $rt;
+                idle_replay(self.unit.idle_inputs(), rt.config(), rt.params())
+            }
+
+            fn next_into(
+                &self,
+                regs: &$regs,
+                inputs: &ReplayInputs<$inputs>,
+                next: &mut $regs,
+            ) -> $outputs {
+                load_table(&self.table, inputs);
+                self.unit.next_into(regs, &inputs.block, next)
+            }
+
+            fn reg_signals(&self, regs: &$regs) -> Vec<Signal> {
+                self.unit.reg_signals(regs)
+            }
+
+            fn describe(&self) -> BlockDesc {
+                replay_desc(self.unit.describe(), $module, $what, &self.idle_inputs())
+            }
+        }
+    };
+}
+
 /// The RT unit whose datapath answers from tables that arrive with its inputs (see the module
 /// documentation); its outputs are [`RtUnitWithStatus`]'s.
 /// A clone shares the table (each cycle's `next_into` loads it, so clones replay alike) and its
@@ -423,46 +467,14 @@ fn replay_desc<I>(mut d: BlockDesc, name: &str, what: &str, idle: &ReplayInputs<
     d
 }
 
-impl Block for RtUnitReplay {
-    type Inputs = ReplayInputs;
-    type Outputs = RtUnitAllOutputs;
-    type Regs = RtUnitRegs;
-
-    fn reset(&self) -> RtUnitRegs {
-        self.unit.reset()
-    }
-
-    fn idle_inputs(&self) -> ReplayInputs {
-        let u = &self.unit.0;
-        idle_replay(self.unit.idle_inputs(), u.config(), u.params())
-    }
-
-    fn next_into(
-        &self,
-        regs: &RtUnitRegs,
-        inputs: &ReplayInputs,
-        next: &mut RtUnitRegs,
-    ) -> RtUnitAllOutputs {
-        load_table(&self.table, inputs);
-        self.unit.next_into(regs, &inputs.block, next)
-    }
-
-    fn reg_signals(&self, regs: &RtUnitRegs) -> Vec<Signal> {
-        self.unit.reg_signals(regs)
-    }
-
-    /// The RT unit's ports and the table's, as module `rt_unit_replay`; no registers (they
-    /// are `rt_unit`'s, one level down).
-    fn describe(&self) -> BlockDesc {
-        let d = self.unit.describe();
-        replay_desc(
-            d,
-            REPLAY_MODULE,
-            "The RT unit's control",
-            &self.idle_inputs(),
-        )
-    }
-}
+replay_block!(
+    RtUnitReplay,
+    RtUnitInputs => RtUnitAllOutputs,
+    RtUnitRegs,
+    REPLAY_MODULE,
+    "The RT unit's control",
+    |replay| &replay.unit.0
+);
 
 /// The Verilog module name of [`RtUnitReplay`].
 pub const REPLAY_MODULE: &str = "rt_unit_replay";
@@ -526,46 +538,14 @@ impl TreeletRtUnitReplay {
     }
 }
 
-impl Block for TreeletRtUnitReplay {
-    type Inputs = ReplayInputs<TreeletRtUnitInputs>;
-    type Outputs = TreeletRtUnitOutputs;
-    type Regs = TreeletRtUnitRegs;
-
-    fn reset(&self) -> TreeletRtUnitRegs {
-        self.unit.reset()
-    }
-
-    fn idle_inputs(&self) -> ReplayInputs<TreeletRtUnitInputs> {
-        let rt = self.unit.rt_unit();
-        idle_replay(self.unit.idle_inputs(), rt.config(), rt.params())
-    }
-
-    fn next_into(
-        &self,
-        regs: &TreeletRtUnitRegs,
-        inputs: &ReplayInputs<TreeletRtUnitInputs>,
-        next: &mut TreeletRtUnitRegs,
-    ) -> TreeletRtUnitOutputs {
-        load_table(&self.table, inputs);
-        self.unit.next_into(regs, &inputs.block, next)
-    }
-
-    fn reg_signals(&self, regs: &TreeletRtUnitRegs) -> Vec<Signal> {
-        self.unit.reg_signals(regs)
-    }
-
-    /// The treelet RT unit's ports and the table's, as module `treelet_rt_unit_replay`; no
-    /// registers (they are `treelet_rt_unit`'s, one level down).
-    fn describe(&self) -> BlockDesc {
-        let d = self.unit.describe();
-        replay_desc(
-            d,
-            TREELET_REPLAY_MODULE,
-            "The treelet RT unit",
-            &self.idle_inputs(),
-        )
-    }
-}
+replay_block!(
+    TreeletRtUnitReplay,
+    TreeletRtUnitInputs => TreeletRtUnitOutputs,
+    TreeletRtUnitRegs,
+    TREELET_REPLAY_MODULE,
+    "The treelet RT unit",
+    |replay| replay.unit.rt_unit()
+);
 
 /// The Verilog module name of [`TreeletRtUnitReplay`].
 pub const TREELET_REPLAY_MODULE: &str = "treelet_rt_unit_replay";

@@ -271,6 +271,16 @@ pub fn controller_verilog(
             format!("{{1'b0, ct_max_count}} + {}", lit(rtw, 1)),
         ),
         ("ZERO_SPARE", lit(spare * rw, 0)),
+        ("FREE_DONE_SLOT", set_slot("warp_done_slot", FREE_SLOT, 8)),
+        (
+            "TAKE_FILL_SLOT",
+            set_slot(
+                "e_fill_slot",
+                ["1'b0", "1'b1", "e_fill_res_valid", "e_fill_res"],
+                20,
+            ),
+        ),
+        ("FREE_FILL_SLOT", set_slot("e_fill_slot", FREE_SLOT, 12)),
     ];
     // Two passes: some values contain placeholders themselves.
     let text = |t: &str| fill(&fill(t, &vars), &vars);
@@ -292,6 +302,35 @@ pub fn controller_verilog(
         emit_text(wr, &text(NEXT_BODY));
         emit_text(wr, &output_assigns(&desc));
     }))
+}
+
+/// A free slot's bookkeeping: not terminated, no treelet warp, no resident entry.
+const FREE_SLOT: [&str; 4] = ["1'b0", "1'b0", "1'b0", "${Z_RIW}"];
+
+/// The next-state block's loop that sets slot `sel`'s bookkeeping registers (terminated,
+/// treelet warp, resident entry valid, resident entry) to `values`, at `indent` spaces.
+fn set_slot(sel: &str, values: [&str; 4], indent: usize) -> String {
+    let regs = [
+        "slot_terminated_d[k]",
+        "slot_treelet_warp_d[k]",
+        "slot_res_valid_d[k]",
+        "slot_res_d[k*${RIW} +: ${RIW}]",
+    ];
+    let mut lines = vec![
+        "for (k = 0; k < ${NS}; k = k + 1) begin".to_string(),
+        format!("    if ({sel} == k[${{SW1}}:0]) begin"),
+    ];
+    lines.extend(
+        regs.iter()
+            .zip(values)
+            .map(|(r, v)| format!("        {r} = {v};")),
+    );
+    lines.extend(["    end".to_string(), "end".to_string()]);
+    lines
+        .iter()
+        .map(|l| format!("{:indent$}{l}", ""))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 /// The registers the cycle works on: the registers, or their reset values (all zero) when a

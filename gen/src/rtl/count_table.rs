@@ -72,22 +72,12 @@ pub fn count_table_verilog(cfg: &HwConfig) -> Result<String, GenError> {
             format!("({x} >= {})", lit(cw, thr - 1))
         }
     };
-    // The reset values of a pointer's four registers (`max`, `run_min`, ...), one per line.
-    let reset = |ptrs: &[&str], indent: usize| {
-        ptrs.iter()
-            .flat_map(|p| {
-                [
-                    format!("{p}_valid_d = 1'b0;"),
-                    format!("{p}_idx_d = {};", lit(iw, 0)),
-                    format!("{p}_treelet_d = {};", lit(tw, 0)),
-                    format!("{p}_count_m1_d = {};", lit(cw, 0)),
-                ]
-            })
-            .map(|l| format!("{:indent$}{l}", ""))
-            .collect::<Vec<_>>()
-            .join("\n")
+    // The reset values of both pointers' registers with `prefix` (`max`, `run_min`, ...).
+    let zeros = ["1'b0".to_string(), lit(iw, 0), lit(tw, 0), lit(cw, 0)];
+    let reset = |prefix: &str, indent: usize| {
+        both(|p| ptr_assign(&reg_ptr(&format!("{prefix}{p}"), "d"), &zeros, indent))
     };
-    let vars: Vec<(&str, String)> = vec![
+    let mut vars: Vec<(&str, String)> = vec![
         ("N", n.to_string()),
         ("N_EW", lit(ew, n)),
         ("NM1", (n - 1).to_string()),
@@ -129,13 +119,14 @@ pub fn count_table_verilog(cfg: &HwConfig) -> Result<String, GenError> {
         ("ABOVE_NEW", above("n_m1[${CWM1}:0]")),
         ("ABOVE_MIN", above("min_count_m1_q")),
         ("ABOVE_REM", above("rem_cm1")),
-        ("RUN_RESET_12", reset(&["run_max", "run_min"], 12)),
-        ("RUN_RESET_8", reset(&["run_max", "run_min"], 8)),
-        ("PTR_RESET_8", reset(&["max", "min"], 8)),
+        ("RUN_RESET_12", reset("run_", 12)),
+        ("RUN_RESET_8", reset("run_", 8)),
+        ("PTR_RESET_8", reset("", 8)),
         ("IDLE", state_param(state, "IDLE")),
         ("SCAN", state_param(state, "SCAN")),
     ];
-    // Two passes: the ABOVE_* values contain placeholders themselves.
+    vars.extend(pointer_pieces());
+    // Two passes: the ABOVE_* values and the pointer pieces contain placeholders themselves.
     let body = fill(&fill(BODY, &vars), &vars);
     let note = format!(
         "Full RTL (not a skeleton), cycle-exact with vtq_hdl::count_table::CountTable: every \
@@ -150,6 +141,136 @@ pub fn count_table_verilog(cfg: &HwConfig) -> Result<String, GenError> {
         emit_registers(wr, &desc, &[]);
         emit_text(wr, &body);
     }))
+}
+
+/// The max/min pointer logic of [`BODY`], written once for both pointers: the published,
+/// window and result variables' declarations and updates, and the next registers (its values
+/// contain placeholders of [`count_table_verilog`]'s own).
+fn pointer_pieces() -> Vec<(&'static str, String)> {
+    let var = |v: &str, p: &str| var_ptr(&format!("{v}{p}"));
+    let reg = |r: &str, p: &str, s: &str| reg_ptr(&format!("{r}{p}"), s);
+    // A valid entry of the scan window: `word` at index `idx`.
+    let word = ["1'b1", "idx", "word[${TH}:${TL}]", "word[${CWM1}:0]"].map(String::from);
+    let published = |p: &str| {
+        let (src, dst) = (reg("", p, "q"), var("p", p));
+        [
+            ptr_assign(&dst, &src, 4),
+            format!("    if ({} || !scanning) begin", src[0]),
+            fold_change(p, &src, &dst, &dst[0]),
+            "    end".to_string(),
+        ]
+        .join("\n")
+    };
+    let step = |p: &str| {
+        let w = var("w", p);
+        [
+            format!(
+                "            if ({}) begin",
+                beats(p, &w, &word[1], &word[3])
+            ),
+            ptr_assign(&w, &word, 16),
+            "            end".to_string(),
+        ]
+        .join("\n")
+    };
+    let hold = |p: &str| ptr_assign(&reg("", p, "d"), &var("p", p), 4);
+    let run_hold = |p: &str| ptr_assign(&reg("run_", p, "d"), &reg("run_", p, "q"), 4);
+    vec![
+        ("PUBLISHED_DECLS", both(|p| ptr_decls(&format!("p{p}"), 0))),
+        ("PUBLISHED", both(published)),
+        ("WINDOW_DECLS", both(|p| ptr_decls(&format!("w{p}"), 0))),
+        (
+            "WINDOW_START",
+            both(|p| ptr_assign(&var("w", p), &reg("run_", p, "q"), 4)),
+        ),
+        ("WINDOW_STEP", both(step)),
+        ("RESULT_DECLS", both(|p| ptr_decls(&format!("r{p}"), 4))),
+        (
+            "RESULT_START",
+            both(|p| ptr_assign(&var("r", p), &var("w", p), 4)),
+        ),
+        (
+            "RESULT_FOLD",
+            both(|p| fold_change(p, &var("w", p), &var("r", p), "intact")),
+        ),
+        ("NEXT_HOLD", format!("{}\n{}", both(hold), both(run_hold))),
+        (
+            "NEXT_WINDOW",
+            both(|p| ptr_assign(&reg("run_", p, "d"), &var("r", p), 12)),
+        ),
+        (
+            "PUBLISH",
+            both(|p| ptr_assign(&reg("", p, "d"), &var("r", p), 16)),
+        ),
+    ]
+}
+
+/// A max/min pointer's four fields as the body names them: valid, index, treelet, count - 1.
+type Ptr = [String; 4];
+
+/// The pointer registers `name` (`max`, `run_min`, ...) with suffix `suffix` (`q` or `d`).
+fn reg_ptr(name: &str, suffix: &str) -> Ptr {
+    ["valid", "idx", "treelet", "count_m1"].map(|f| format!("{name}_{f}_{suffix}"))
+}
+
+/// The pointer variables `name` (`pmax`, `wmin`, ...).
+fn var_ptr(name: &str) -> Ptr {
+    ["valid", "idx", "treelet", "cm1"].map(|f| format!("{name}_{f}"))
+}
+
+/// `piece` of the maximum, then of the minimum pointer (`piece` gets `max` or `min`), on
+/// lines of their own.
+fn both(piece: impl Fn(&str) -> String) -> String {
+    ["max", "min"].map(piece).join("\n")
+}
+
+/// The declarations of the pointer variables `name`, at `indent` spaces.
+fn ptr_decls(name: &str, indent: usize) -> String {
+    let v = var_ptr(name);
+    let ranges = ["", "[${IWM1}:0] ", "[${TWM1}:0] ", "[${CWM1}:0] "];
+    (0..4)
+        .map(|i| format!("{:indent$}reg {}{};", "", ranges[i], v[i]))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// `dst = src;` for each field of a pointer (`src` may be any four expressions), one line each
+/// at `indent` spaces.
+fn ptr_assign(dst: &Ptr, src: &Ptr, indent: usize) -> String {
+    dst.iter()
+        .zip(src)
+        .map(|(d, s)| format!("{:indent$}{d} = {s};", ""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The call of `beats_max` or `beats_min` (`p`): does entry `idx` with count - 1 `cm1` beat
+/// pointer `ptr`.
+fn beats(p: &str, ptr: &Ptr, idx: &str, cm1: &str) -> String {
+    format!(
+        "beats_{p}({}, {}, {}, {idx}, {cm1})",
+        ptr[0], ptr[1], ptr[3]
+    )
+}
+
+/// The published pointers' rule for this cycle's change on pointer `p` (`max` or `min`),
+/// read from `src` and written to `dst`: the changed entry takes the pointer if it may move
+/// it and beats it (or is its entry), else a change that stales the pointer's entry clears
+/// `stale` (at 8 spaces, inside the `always` block's condition).
+fn fold_change(p: &str, src: &Ptr, dst: &Ptr, stale: &str) -> String {
+    let chg = if p == "max" { "chg_up" } else { "chg_down" };
+    let change = ["1'b1", "chg_idx", "op_treelet", "chg_cm1"].map(String::from);
+    let cond = format!("if ({chg} && (");
+    let (valid, idx) = (&src[0], &src[1]);
+    [
+        format!("        {cond}{}", beats(p, src, "chg_idx", "chg_cm1")),
+        format!("        {:1$}|| (chg_idx == {idx}))) begin", "", cond.len()),
+        ptr_assign(dst, &change, 12),
+        format!("        end else if (chg_{p}_stale && {valid} && (chg_idx == {idx})) begin"),
+        format!("            {stale} = 1'b0;"),
+        "        end".to_string(),
+    ]
+    .join("\n")
 }
 
 /// State and change encodings.
@@ -364,45 +485,9 @@ wire chg_min_stale = (chg_kind == CHG_GROW) || (chg_kind == CHG_FREE);    // sta
 
 // The published pointers after this cycle's change (a stale pointer is left alone while a scan
 // runs; with no scan and no pointer the table was empty and only an allocation applies).
-reg          pmax_valid;
-reg [${IWM1}:0]  pmax_idx;
-reg [${TWM1}:0] pmax_treelet;
-reg [${CWM1}:0] pmax_cm1;
-reg          pmin_valid;
-reg [${IWM1}:0]  pmin_idx;
-reg [${TWM1}:0] pmin_treelet;
-reg [${CWM1}:0] pmin_cm1;
+${PUBLISHED_DECLS}
 always @* begin : p_published
-    pmax_valid = max_valid_q;
-    pmax_idx = max_idx_q;
-    pmax_treelet = max_treelet_q;
-    pmax_cm1 = max_count_m1_q;
-    if (max_valid_q || !scanning) begin
-        if (chg_up && (beats_max(max_valid_q, max_idx_q, max_count_m1_q, chg_idx, chg_cm1)
-                       || (chg_idx == max_idx_q))) begin
-            pmax_valid = 1'b1;
-            pmax_idx = chg_idx;
-            pmax_treelet = op_treelet;
-            pmax_cm1 = chg_cm1;
-        end else if (chg_max_stale && max_valid_q && (chg_idx == max_idx_q)) begin
-            pmax_valid = 1'b0;
-        end
-    end
-    pmin_valid = min_valid_q;
-    pmin_idx = min_idx_q;
-    pmin_treelet = min_treelet_q;
-    pmin_cm1 = min_count_m1_q;
-    if (min_valid_q || !scanning) begin
-        if (chg_down && (beats_min(min_valid_q, min_idx_q, min_count_m1_q, chg_idx, chg_cm1)
-                         || (chg_idx == min_idx_q))) begin
-            pmin_valid = 1'b1;
-            pmin_idx = chg_idx;
-            pmin_treelet = op_treelet;
-            pmin_cm1 = chg_cm1;
-        end else if (chg_min_stale && min_valid_q && (chg_idx == min_idx_q)) begin
-            pmin_valid = 1'b0;
-        end
-    end
+${PUBLISHED}
 end
 
 // ---- Scan engine: ${S} entries per cycle, entries scan_pos .. scan_pos + ${S} - 1 ------------------
@@ -423,42 +508,17 @@ always @* begin : p_scan_read
 end
 
 // The scan's running max/min after this cycle's window, in index order.
-reg          wmax_valid;
-reg [${IWM1}:0]  wmax_idx;
-reg [${TWM1}:0] wmax_treelet;
-reg [${CWM1}:0] wmax_cm1;
-reg          wmin_valid;
-reg [${IWM1}:0]  wmin_idx;
-reg [${TWM1}:0] wmin_treelet;
-reg [${CWM1}:0] wmin_cm1;
+${WINDOW_DECLS}
 always @* begin : p_scan
     integer k;
     reg [${WM1}:0] word;
     reg [${IWM1}:0] idx;
-    wmax_valid = run_max_valid_q;
-    wmax_idx = run_max_idx_q;
-    wmax_treelet = run_max_treelet_q;
-    wmax_cm1 = run_max_count_m1_q;
-    wmin_valid = run_min_valid_q;
-    wmin_idx = run_min_idx_q;
-    wmin_treelet = run_min_treelet_q;
-    wmin_cm1 = run_min_count_m1_q;
+${WINDOW_START}
     for (k = 0; k < ${S}; k = k + 1) begin
         word = scan_words[k*${W} +: ${W}];
         idx = scan_pos_q + k[${IWM1}:0];
         if (word[${VB}]) begin
-            if (beats_max(wmax_valid, wmax_idx, wmax_cm1, idx, word[${CWM1}:0])) begin
-                wmax_valid = 1'b1;
-                wmax_idx = idx;
-                wmax_treelet = word[${TH}:${TL}];
-                wmax_cm1 = word[${CWM1}:0];
-            end
-            if (beats_min(wmin_valid, wmin_idx, wmin_cm1, idx, word[${CWM1}:0])) begin
-                wmin_valid = 1'b1;
-                wmin_idx = idx;
-                wmin_treelet = word[${TH}:${TL}];
-                wmin_cm1 = word[${CWM1}:0];
-            end
+${WINDOW_STEP}
         end
     end
 end
@@ -470,90 +530,30 @@ wire       chg_seen  = (chg_kind != CHG_NONE) && ({1'b0, chg_idx} < scan_end); /
 
 // ---- Next state -------------------------------------------------------------------------------
 always @* begin : p_next
-    reg          rmax_valid;
-    reg [${IWM1}:0]  rmax_idx;
-    reg [${TWM1}:0] rmax_treelet;
-    reg [${CWM1}:0] rmax_cm1;
-    reg          rmin_valid;
-    reg [${IWM1}:0]  rmin_idx;
-    reg [${TWM1}:0] rmin_treelet;
-    reg [${CWM1}:0] rmin_cm1;
+${RESULT_DECLS}
     reg          intact;
     occupancy_d = occupancy_q + ${OCC_INC} - ${OCC_DEC};
     above_d = above_q + ${NEW_ABOVE} - ${OLD_ABOVE};
     // A change on an entry the scan has already passed is folded into its running result by
     // the published pointers' rules; when it stales the running result the scan restarts.
-    rmax_valid = wmax_valid;
-    rmax_idx = wmax_idx;
-    rmax_treelet = wmax_treelet;
-    rmax_cm1 = wmax_cm1;
-    rmin_valid = wmin_valid;
-    rmin_idx = wmin_idx;
-    rmin_treelet = wmin_treelet;
-    rmin_cm1 = wmin_cm1;
+${RESULT_START}
     intact = 1'b1;
     if (chg_seen) begin
-        if (chg_up && (beats_max(wmax_valid, wmax_idx, wmax_cm1, chg_idx, chg_cm1)
-                       || (chg_idx == wmax_idx))) begin
-            rmax_valid = 1'b1;
-            rmax_idx = chg_idx;
-            rmax_treelet = op_treelet;
-            rmax_cm1 = chg_cm1;
-        end else if (chg_max_stale && wmax_valid && (chg_idx == wmax_idx)) begin
-            intact = 1'b0;
-        end
-        if (chg_down && (beats_min(wmin_valid, wmin_idx, wmin_cm1, chg_idx, chg_cm1)
-                         || (chg_idx == wmin_idx))) begin
-            rmin_valid = 1'b1;
-            rmin_idx = chg_idx;
-            rmin_treelet = op_treelet;
-            rmin_cm1 = chg_cm1;
-        end else if (chg_min_stale && wmin_valid && (chg_idx == wmin_idx)) begin
-            intact = 1'b0;
-        end
+${RESULT_FOLD}
     end
     state_d = state_q;
     scan_pos_d = scan_pos_q;
-    max_valid_d = pmax_valid;
-    max_idx_d = pmax_idx;
-    max_treelet_d = pmax_treelet;
-    max_count_m1_d = pmax_cm1;
-    min_valid_d = pmin_valid;
-    min_idx_d = pmin_idx;
-    min_treelet_d = pmin_treelet;
-    min_count_m1_d = pmin_cm1;
-    run_max_valid_d = run_max_valid_q;
-    run_max_idx_d = run_max_idx_q;
-    run_max_treelet_d = run_max_treelet_q;
-    run_max_count_m1_d = run_max_count_m1_q;
-    run_min_valid_d = run_min_valid_q;
-    run_min_idx_d = run_min_idx_q;
-    run_min_treelet_d = run_min_treelet_q;
-    run_min_count_m1_d = run_min_count_m1_q;
+${NEXT_HOLD}
     if (scanning) begin
         if (intact && !scan_last) begin
             // Next window.
             scan_pos_d = scan_next[${IWM1}:0];
-            run_max_valid_d = rmax_valid;
-            run_max_idx_d = rmax_idx;
-            run_max_treelet_d = rmax_treelet;
-            run_max_count_m1_d = rmax_cm1;
-            run_min_valid_d = rmin_valid;
-            run_min_idx_d = rmin_idx;
-            run_min_treelet_d = rmin_treelet;
-            run_min_count_m1_d = rmin_cm1;
+${NEXT_WINDOW}
         end else begin
             // Restart from entry 0, or the last window: publish both pointers.
             if (intact) begin
                 state_d = ${IDLE};
-                max_valid_d = rmax_valid;
-                max_idx_d = rmax_idx;
-                max_treelet_d = rmax_treelet;
-                max_count_m1_d = rmax_cm1;
-                min_valid_d = rmin_valid;
-                min_idx_d = rmin_idx;
-                min_treelet_d = rmin_treelet;
-                min_count_m1_d = rmin_cm1;
+${PUBLISH}
             end
             scan_pos_d = ${ZERO_IDX};
 ${RUN_RESET_12}

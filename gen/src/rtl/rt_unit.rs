@@ -202,6 +202,27 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
     }
     let l = &params.latencies;
     let few = ab + tgw + 256;
+    // The datapath latencies, as delay-wide constants `LAT_<name>`.
+    let latencies = [
+        ("HEADER", l.header),
+        ("INTERNAL", l.internal),
+        ("INSTANCE", l.instance_leaf),
+        ("PRIMITIVE", l.primitive_descriptor),
+        ("TRI", l.triangle_leaf),
+        ("TRI_HIT", l.triangle_hit),
+        ("PROCEDURAL", l.procedural),
+    ];
+    // Counters' increments: a constant 1 `ONE_<name>` of width `<name>` each.
+    let ones = [
+        ("CWW", cww),
+        ("CMW", cmw),
+        ("SPW", spw),
+        ("SCW", scw),
+        ("DW", dw),
+        ("FCW", fcw),
+        ("FPW", fpw),
+        ("SCNT", scnt),
+    ];
     let params_text = [
         format!("localparam N = {n};        // lanes per warp"),
         format!("localparam S = {s};        // warp-buffer slots"),
@@ -288,43 +309,15 @@ pub fn rt_unit_verilog(cfg: &HwConfig, params: &RtUnitParams) -> Result<String, 
             lit(fpw, fd as u64 - 1)
         ),
         format!("localparam [7:0] RP_8 = {};", lit(8, rp as u64)),
-        format!(
-            "localparam [DW-1:0] LAT_HEADER = {};",
-            lit(dw, l.header as u64)
-        ),
-        format!(
-            "localparam [DW-1:0] LAT_INTERNAL = {};",
-            lit(dw, l.internal as u64)
-        ),
-        format!(
-            "localparam [DW-1:0] LAT_INSTANCE = {};",
-            lit(dw, l.instance_leaf as u64)
-        ),
-        format!(
-            "localparam [DW-1:0] LAT_PRIMITIVE = {};",
-            lit(dw, l.primitive_descriptor as u64)
-        ),
-        format!(
-            "localparam [DW-1:0] LAT_TRI = {};",
-            lit(dw, l.triangle_leaf as u64)
-        ),
-        format!(
-            "localparam [DW-1:0] LAT_TRI_HIT = {};",
-            lit(dw, l.triangle_hit as u64)
-        ),
-        format!(
-            "localparam [DW-1:0] LAT_PROCEDURAL = {};",
-            lit(dw, l.procedural as u64)
-        ),
-        format!("localparam [CWW-1:0] ONE_CWW = {};", lit(cww, 1)),
-        format!("localparam [CMW-1:0] ONE_CMW = {};", lit(cmw, 1)),
-        format!("localparam [SPW-1:0] ONE_SPW = {};", lit(spw, 1)),
-        format!("localparam [SCW-1:0] ONE_SCW = {};", lit(scw, 1)),
-        format!("localparam [DW-1:0] ONE_DW = {};", lit(dw, 1)),
-        format!("localparam [FCW-1:0] ONE_FCW = {};", lit(fcw, 1)),
-        format!("localparam [FPW-1:0] ONE_FPW = {};", lit(fpw, 1)),
-        format!("localparam [SCNT-1:0] ONE_SCNT = {};", lit(scnt, 1)),
     ]
+    .into_iter()
+    .chain(latencies.map(|(name, cycles)| {
+        format!("localparam [DW-1:0] LAT_{name} = {};", lit(dw, cycles as u64))
+    }))
+    .chain(ones.map(|(name, bits)| {
+        format!("localparam [{name}-1:0] ONE_{name} = {};", lit(bits, 1))
+    }))
+    .collect::<Vec<_>>()
     .join("\n");
     let lane_text = lane_pieces(
         &desc,

@@ -212,14 +212,7 @@ pub(super) const NEXT_BODY: &str = r#"    // A repack withheld for want of rays 
         for (k = 0; k < ${NR}; k = k + 1)
             if (wd_releases && (wd_res == k[${RIW1}:0]) && (res_warps_d[k*${WW} +: ${WW}] != ${Z_WW}))
                 res_warps_d[k*${WW} +: ${WW}] = res_warps_d[k*${WW} +: ${WW}] - ${ONE_WW};
-        for (k = 0; k < ${NS}; k = k + 1) begin
-            if (warp_done_slot == k[${SW1}:0]) begin
-                slot_terminated_d[k] = 1'b0;
-                slot_treelet_warp_d[k] = 1'b0;
-                slot_res_valid_d[k] = 1'b0;
-                slot_res_d[k*${RIW} +: ${RIW}] = ${Z_RIW};
-            end
-        end
+${FREE_DONE_SLOT}
     end
 
     // Initial-phase warps that diverged are terminated into the queues.
@@ -354,14 +347,7 @@ pub(super) const NEXT_BODY: &str = r#"    // A repack withheld for want of rays 
                     end
                 end
                 if (popped != ${Z_LNW}) begin
-                    for (k = 0; k < ${NS}; k = k + 1) begin
-                        if (e_fill_slot == k[${SW1}:0]) begin
-                            slot_terminated_d[k] = 1'b0;
-                            slot_treelet_warp_d[k] = 1'b1;
-                            slot_res_valid_d[k] = e_fill_res_valid;
-                            slot_res_d[k*${RIW} +: ${RIW}] = e_fill_res;
-                        end
-                    end
+${TAKE_FILL_SLOT}
                     o_fill_valid = 1'b1;
                     o_fill_kind = ${K_TREELET};
                     o_fill_slot = e_fill_slot;
@@ -427,14 +413,7 @@ pub(super) const NEXT_BODY: &str = r#"    // A repack withheld for want of rays 
     // emit_fill: give rays to the slot of a grouped warp or repack (or close it).
     if (ef_go && ((ef_count != ${Z_LNW}) || (e_fill_started && ef_last))) begin
         if ((e_fill_kind == ${K_GROUPED}) && !e_fill_started) begin
-            for (k = 0; k < ${NS}; k = k + 1) begin
-                if (e_fill_slot == k[${SW1}:0]) begin
-                    slot_terminated_d[k] = 1'b0;
-                    slot_treelet_warp_d[k] = 1'b0;
-                    slot_res_valid_d[k] = 1'b0;
-                    slot_res_d[k*${RIW} +: ${RIW}] = ${Z_RIW};
-                end
-            end
+${FREE_FILL_SLOT}
         end
         o_fill_valid = 1'b1;
         o_fill_kind = e_fill_kind;
