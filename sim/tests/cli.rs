@@ -1,6 +1,8 @@
 //! End-to-end tests of the `vtq` binary: render, trace, scenes, help, the hardware commands
 //! (area, verilog, cosim), and one-line errors for bad input.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -17,10 +19,7 @@ use vtq_sim::model::workload::rays_csv::write_rays;
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-cli-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("cli-{test}"))
 }
 
 fn vtq(args: &[&str]) -> Output {
@@ -458,11 +457,44 @@ fn vtq_cosim(args: &[&str]) -> Option<String> {
     Some(stdout)
 }
 
+/// `vtq cosim` ([`vtq_cosim`]) for `cycles` cycles with its files in `dir`, then `args`, then
+/// each of `sets` as a `--set`.
+fn cosim_in(dir: &Path, cycles: &str, args: &[&str], sets: &[&str]) -> Option<String> {
+    let mut all = vec![
+        "cosim",
+        "--cycles",
+        cycles,
+        "--work-dir",
+        dir.to_str().unwrap(),
+    ];
+    all.extend(args);
+    for set in sets {
+        all.extend(["--set", set]);
+    }
+    vtq_cosim(&all)
+}
+
 /// The line of `text` that starts with `start`.
 fn line_starting<'a>(text: &'a str, start: &str) -> &'a str {
     text.lines()
         .find(|l| l.starts_with(start))
         .unwrap_or_else(|| panic!("no line starting with '{start}' in:\n{text}"))
+}
+
+/// Asserts the line of `text` that starts with `start` contains `needle`.
+fn assert_line_contains(text: &str, start: &str, needle: &str) {
+    let line = line_starting(text, start);
+    assert!(line.contains(needle), "{line}");
+}
+
+/// Asserts `vtq cosim`'s summary line of `module` (in its output `stdout`) compared `cycles`
+/// cycles without a mismatch.
+fn assert_all_compared(stdout: &str, module: &str, cycles: &str) {
+    assert_line_contains(
+        stdout,
+        &format!("{module}: "),
+        &format!("{cycles} cycles compared, 0 mismatches"),
+    );
 }
 
 #[test]
@@ -475,10 +507,8 @@ fn area_reports_the_paper_sizes() {
         count.contains("2.27 KB") && count.contains("2.2 KB"),
         "{count}"
     );
-    let queue = line_starting(&text, "treelet queue table  L1");
-    assert!(queue.contains("6.29 KB"), "{queue}");
-    let rays = line_starting(&text, "ray records          L2");
-    assert!(rays.contains("128 KB"), "{rays}");
+    assert_line_contains(&text, "treelet queue table  L1", "6.29 KB");
+    assert_line_contains(&text, "ray records          L2", "128 KB");
 
     let json: serde_json::Value =
         serde_json::from_str(&vtq_ok(&["area", "--json"])).expect("vtq area --json prints JSON");
@@ -519,8 +549,7 @@ fn area_follows_the_overrides() {
     let rays = line_starting(&text, "ray records          L2");
     assert!(rays.contains(" 8192 ") && rays.contains("256 KB"), "{rays}");
     let text = vtq_ok(&["area", "--set", "hw.count_table_entries=300"]);
-    let count = line_starting(&text, "treelet count table  RT unit");
-    assert!(count.contains(" 300 "), "{count}");
+    assert_line_contains(&text, "treelet count table  RT unit", " 300 ");
 }
 
 #[test]
@@ -569,27 +598,30 @@ fn verilog_writes_every_block_and_the_composed_top_lint_clean() {
 }
 
 /// `vtq cosim --block <block> --scene cornell` with a queues design (ray virtualization and
-/// grouping on) for `cycles` cycles, files and waveforms (`--vcd`) kept in `dir`; `None`
-/// when the simulator is missing outside CI.
-fn cosim_on_cornell(block: &str, cycles: &str, dir: &Path) -> Option<String> {
-    vtq_cosim(&[
-        "cosim",
-        "--block",
-        block,
-        "--scene",
-        "cornell",
-        "--set",
-        "mode.kind=queues",
-        "--set",
-        "mode.virtualization=true",
-        "--set",
-        "mode.grouping=true",
-        "--cycles",
+/// grouping on) for `cycles` cycles, files and waveforms (`--vcd`) kept in `dir`: checks the
+/// replay `module` compared every cycle without a mismatch and that its waveforms in
+/// `dir/<module>` name their variables alike and name each of `names` ([`assert_same_names`]).
+/// Returns the output; `None` when the simulator is missing outside CI.
+fn cosim_on_cornell(
+    block: &str,
+    module: &str,
+    cycles: &str,
+    dir: &Path,
+    names: &[&str],
+) -> Option<String> {
+    let stdout = cosim_in(
+        dir,
         cycles,
-        "--work-dir",
-        dir.to_str().unwrap(),
-        "--vcd",
-    ])
+        &["--block", block, "--scene", "cornell", "--vcd"],
+        &[
+            "mode.kind=queues",
+            "mode.virtualization=true",
+            "mode.grouping=true",
+        ],
+    )?;
+    assert_all_compared(&stdout, module, cycles);
+    assert_same_names(&dir.join(module), names);
+    Some(stdout)
 }
 
 /// `vtq cosim --block rt-unit`: the RT unit's RTL against the Rust block at the configured
@@ -598,29 +630,18 @@ fn cosim_on_cornell(block: &str, cycles: &str, dir: &Path) -> Option<String> {
 #[test]
 fn cosim_of_the_rt_unit_matches() {
     let dir = temp_dir("cosim-rt");
-    let Some(stdout) = vtq_cosim(&[
-        "cosim",
-        "--block",
-        "rt-unit",
-        "--cycles",
-        "300",
-        "--work-dir",
-        dir.to_str().unwrap(),
-    ]) else {
+    let Some(stdout) = cosim_in(&dir, "300", &["--block", "rt-unit"], &[]) else {
         return;
     };
-    let line = line_starting(&stdout, "rt_unit: ");
-    assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
+    assert_all_compared(&stdout, "rt_unit", "300");
     assert!(dir.join("rt_unit").join("rt_datapath.v").is_file());
-    let Some(stdout) = cosim_on_cornell("rt-unit", "300", &dir) else {
-        return;
-    };
-    let line = line_starting(&stdout, "rt_unit_replay: ");
-    assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
     // --vcd: both waveforms with the replay's ports (the RT unit's and the table's) and the
     // RT unit's registers, named alike.
-    assert_same_names(
-        &dir.join("rt_unit_replay"),
+    let Some(stdout) = cosim_on_cornell(
+        "rt-unit",
+        "rt_unit_replay",
+        "300",
+        &dir,
         &[
             "issue_valid",
             "req_valid",
@@ -628,11 +649,13 @@ fn cosim_of_the_rt_unit_matches() {
             "fifo_count",
             "lane_status_0_0",
         ],
-    );
-    let stimulus = line_starting(&stdout, "  stimulus: ");
-    assert!(
-        stimulus.contains("real traffic with the scene's datapath: cycles 0..300 of SM 0"),
-        "{stimulus}"
+    ) else {
+        return;
+    };
+    assert_line_contains(
+        &stdout,
+        "  stimulus: ",
+        "real traffic with the scene's datapath: cycles 0..300 of SM 0",
     );
 }
 
@@ -643,32 +666,32 @@ fn cosim_of_the_rt_unit_matches() {
 #[test]
 fn cosim_of_the_wiring_matches_on_a_real_run() {
     let dir = temp_dir("cosim-wiring");
-    let Some(stdout) = cosim_on_cornell("wiring", "300", &dir) else {
+    let Some(stdout) = cosim_on_cornell(
+        "wiring",
+        "treelet_rt_unit_wiring",
+        "300",
+        &dir,
+        &["sm_valid", "rt_issue_ready", "id_count"],
+    ) else {
         return;
     };
-    let line = line_starting(&stdout, "treelet_rt_unit_wiring: ");
-    assert!(line.contains("300 cycles compared, 0 mismatches"), "{line}");
-    let wiring = dir.join("treelet_rt_unit_wiring");
-    assert_same_names(&wiring, &["sm_valid", "rt_issue_ready", "id_count"]);
-    let stimulus = line_starting(&stdout, "  stimulus: ");
-    assert!(
-        stimulus.contains("the wiring's ports in cycles 0..300 of SM 0"),
-        "{stimulus}"
+    assert_line_contains(
+        &stdout,
+        "  stimulus: ",
+        "the wiring's ports in cycles 0..300 of SM 0",
     );
     assert_one_line_error(
         &vtq(&["cosim", "--block", "wiring", "--cycles", "10"]),
         "give --scene",
     );
-    // The whole block, composed: the top, its children and the wiring.
-    let Some(stdout) = cosim_on_cornell("treelet-rt-unit", "200", &dir) else {
-        return;
-    };
-    let line = line_starting(&stdout, "treelet_rt_unit_replay: ");
-    assert!(line.contains("200 cycles compared, 0 mismatches"), "{line}");
-    // The composed block's registers are its children's (`<child>_<register>`, a grid's
-    // members too) and the wiring's (`glue_<register>`), held one level down in the RTL.
-    assert_same_names(
-        &dir.join("treelet_rt_unit_replay"),
+    // The whole block, composed: the top, its children and the wiring. The composed block's
+    // registers are its children's (`<child>_<register>`, a grid's members too) and the
+    // wiring's (`glue_<register>`), held one level down in the RTL.
+    if cosim_on_cornell(
+        "treelet-rt-unit",
+        "treelet_rt_unit_replay",
+        "200",
+        &dir,
         &[
             "sm_valid",
             "dp_valid",
@@ -676,7 +699,11 @@ fn cosim_of_the_wiring_matches_on_a_real_run() {
             "ctl_mode",
             "glue_id_count",
         ],
-    );
+    )
+    .is_none()
+    {
+        return;
+    }
     assert!(dir
         .join("treelet_rt_unit_replay")
         .join("treelet_rt_unit_wiring.v")
@@ -737,33 +764,24 @@ fn assert_same_names(dir: &Path, expected: &[&str]) {
 #[test]
 fn cosim_matches_on_a_small_configuration() {
     let dir = temp_dir("cosim");
-    let Some(stdout) = vtq_cosim(&[
-        "cosim",
-        "--cycles",
+    let Some(stdout) = cosim_in(
+        &dir,
         "3000",
-        "--set",
-        "hw.count_table_entries=16",
-        "--set",
-        "hw.queue_table_entries=8",
-        "--set",
-        "hw.max_rays=64",
-        "--set",
-        "hw.underpopulation_threshold=8",
-        "--work-dir",
-        dir.to_str().unwrap(),
-        "--vcd",
-    ]) else {
+        &["--vcd"],
+        &[
+            "hw.count_table_entries=16",
+            "hw.queue_table_entries=8",
+            "hw.max_rays=64",
+            "hw.underpopulation_threshold=8",
+        ],
+    ) else {
         return;
     };
     for (module, ports) in [
         ("treelet_count_table", ["op_treelet", "evict_valid"]),
         ("treelet_queue_table", ["op_ray", "spill_valid"]),
     ] {
-        let line = line_starting(&stdout, &format!("{module}: "));
-        assert!(
-            line.contains("3000 cycles compared, 0 mismatches"),
-            "{line}"
-        );
+        assert_all_compared(&stdout, module, "3000");
         assert!(dir.join(module).join(format!("{module}.v")).is_file());
         // --vcd: both waveforms, with the port names in the scopes inputs and outputs.
         let rtl = std::fs::read_to_string(dir.join(module).join("rtl.vcd")).expect("rtl.vcd");
@@ -893,32 +911,21 @@ fn area_synth_prices_every_block_with_rtl() {
 #[test]
 fn cosim_of_the_controller_matches_on_a_small_configuration() {
     let dir = temp_dir("cosim-controller");
-    let Some(stdout) = vtq_cosim(&[
-        "cosim",
-        "--block",
-        "controller",
-        "--cycles",
+    let Some(stdout) = cosim_in(
+        &dir,
         "2000",
-        "--set",
-        "hw.count_table_entries=4",
-        "--set",
-        "hw.queue_table_entries=6",
-        "--set",
-        "hw.max_rays=64",
-        "--set",
-        "hw.underpopulation_threshold=8",
-        "--set",
-        "hw.divergence_threshold=2",
-        "--work-dir",
-        dir.to_str().unwrap(),
-    ]) else {
+        &["--block", "controller"],
+        &[
+            "hw.count_table_entries=4",
+            "hw.queue_table_entries=6",
+            "hw.max_rays=64",
+            "hw.underpopulation_threshold=8",
+            "hw.divergence_threshold=2",
+        ],
+    ) else {
         return;
     };
-    let line = line_starting(&stdout, "treelet_controller: ");
-    assert!(
-        line.contains("2000 cycles compared, 0 mismatches"),
-        "{line}"
-    );
+    assert_all_compared(&stdout, "treelet_controller", "2000");
     assert!(stdout.contains("modes: initial"), "{stdout}");
     assert!(
         !stdout.contains("treelet_count_table"),
@@ -932,18 +939,7 @@ fn cosim_of_the_controller_matches_on_a_small_configuration() {
 #[test]
 fn cosim_replays_a_real_runs_clears() {
     let dir = temp_dir("cosim-scene");
-    let mut args = vec![
-        "cosim",
-        "--scene",
-        "cornell",
-        "--config",
-        "vtq",
-        "--cycles",
-        "30000",
-        "--work-dir",
-        dir.to_str().unwrap(),
-    ];
-    for set in [
+    let sets = [
         "gpu.sms=2",
         "width=32",
         "height=32",
@@ -955,23 +951,16 @@ fn cosim_replays_a_real_runs_clears() {
         "hw.underpopulation_threshold=8",
         "hw.count_table_entries=2",
         "hw.queue_table_entries=2",
-    ] {
-        args.extend(["--set", set]);
-    }
+    ];
     for (block, module, clears) in [
-        ("tables", "treelet_count_table: ", " clears, "),
-        ("controller", "treelet_controller: ", " count-table clears"),
+        ("tables", "treelet_count_table", " clears, "),
+        ("controller", "treelet_controller", " count-table clears"),
     ] {
-        let mut a = args.clone();
-        a.extend(["--block", block]);
-        let Some(stdout) = vtq_cosim(&a) else {
+        let args = ["--scene", "cornell", "--config", "vtq", "--block", block];
+        let Some(stdout) = cosim_in(&dir, "30000", &args, &sets) else {
             return;
         };
-        let line = line_starting(&stdout, module);
-        assert!(
-            line.contains("30000 cycles compared, 0 mismatches"),
-            "{line}"
-        );
+        assert_all_compared(&stdout, module, "30000");
         let summary = stdout
             .lines()
             .find(|l| l.contains(clears))

@@ -2,6 +2,8 @@
 //! `vtq bench --sim` (simulator speed against the functional path tracer), on tiny images of
 //! the built-in `wknd` scene.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -10,10 +12,7 @@ use vtq_sim::model::gpu::HOST_DEPENDENT_KEYS;
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-cli-compare-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("cli-compare-{test}"))
 }
 
 /// The workspace root (configs/ lives there).
@@ -191,55 +190,38 @@ fn config_file_design_matches_the_built_in_on_any_thread_count() {
     }
 }
 
+/// Asserts `vtq compare --scene <scene> --designs <designs>`, then `extra`, run in `dir`, fails
+/// with one error line mentioning `needle` ([`assert_one_line_error`]).
+fn assert_compare_fails(dir: &Path, scene: &str, designs: &str, extra: &[&str], needle: &str) {
+    let mut args = vec!["compare", "--scene", scene, "--designs", designs];
+    args.extend(extra);
+    assert_one_line_error(&vtq_in(dir, &args), needle);
+}
+
 #[test]
 fn compare_errors_are_one_line() {
     let dir = temp_dir("errors");
-    let out = vtq_in(
+    assert_compare_fails(
         &dir,
-        &[
-            "compare",
-            "--scene",
-            "wknd",
-            "--designs",
-            "baseline,fastest",
-        ],
+        "wknd",
+        "baseline,fastest",
+        &[],
+        "unknown design 'fastest'",
     );
-    assert_one_line_error(&out, "unknown design 'fastest'");
-
-    let out = vtq_in(
-        &dir,
-        &[
-            "compare",
-            "--scene",
-            "no-such-scene",
-            "--designs",
-            "baseline",
-        ],
-    );
-    assert_one_line_error(&out, "no-such-scene");
-
-    let out = vtq_in(
-        &dir,
-        &["compare", "--scene", "wknd", "--designs", "missing.toml"],
-    );
-    assert_one_line_error(&out, "missing.toml");
+    assert_compare_fails(&dir, "no-such-scene", "baseline", &[], "no-such-scene");
+    assert_compare_fails(&dir, "wknd", "missing.toml", &[], "missing.toml");
 
     // A design whose file sets another image cannot be compared pixel for pixel.
     let small = dir.join("small.toml");
     std::fs::write(&small, "[workload]\nwidth = 8\nheight = 8\n").unwrap();
     let designs = format!("baseline,{}", small.display());
-    let out = vtq_in(
+    assert_compare_fails(
         &dir,
-        &[
-            "compare",
-            "--scene",
-            "wknd",
-            "--designs",
-            &designs,
-            "--no-cache",
-        ],
+        "wknd",
+        &designs,
+        &["--no-cache"],
+        "different workloads",
     );
-    assert_one_line_error(&out, "different workloads");
 }
 
 #[test]
@@ -372,19 +354,8 @@ fn designs_lists_the_registry_and_refuses_unknown_names() {
             .to_string(),
     ] {
         let json = dir.join("sim.json");
-        let args = [
-            "sim",
-            "--scene",
-            "cornell",
-            "--config",
-            &config,
-            "--set",
-            "width=16",
-            "--set",
-            "height=16",
-            "--out",
-            json.to_str().unwrap(),
-        ];
+        let mut args = vec!["sim", "--config", &config, "--out", json.to_str().unwrap()];
+        args.extend(common::TINY_CORNELL);
         let out = vtq_in(&dir, &args);
         assert!(out.status.success(), "{out:?}");
         let mut doc: Value =

@@ -3,6 +3,8 @@
 //! and does not stop the others; shards together equal the whole sweep; bad definitions fail
 //! before anything runs. Tiny images of the built-in scenes.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -13,10 +15,7 @@ use sweep_grid::sweep_args;
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-cli-sweep-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("cli-sweep-{test}"))
 }
 
 /// The workspace's configs/designs/vtq/config.toml.

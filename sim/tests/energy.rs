@@ -199,20 +199,10 @@ fn the_coefficient_set_is_chosen_by_configuration_and_recorded() {
 
 #[test]
 fn vtq_energy_evaluates_stored_statistics_under_every_set_and_varies_them() {
-    let dir = std::env::temp_dir().join(format!("vtq-energy-cli-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let tiny = [
-        "--scene",
-        "cornell",
-        "--set",
-        "width=16",
-        "--set",
-        "height=16",
-    ];
+    let dir = common::fresh_dir("energy-cli");
     for (config, out) in [("baseline", "base.json"), ("vtq", "vtq.json")] {
         let mut args = vec!["sim", "--config", config, "--out", out];
-        args.extend(tiny);
+        args.extend(common::TINY_CORNELL);
         let (ok, stdout, stderr) = common::vtq_cli(&dir, &args);
         assert!(ok, "{stderr}");
         assert!(stdout.contains("energy (accelwattch-ptx):"), "{stdout}");

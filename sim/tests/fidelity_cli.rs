@@ -1,6 +1,8 @@
 //! docs/fidelity.md's commands: every experiment of `configs/experiments/` is a sweep file whose
 //! points all validate, and `vtq figure5` prints the Figure 5 model (checked on a tiny image).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -49,19 +51,12 @@ fn every_experiment_expands_into_valid_points() {
 /// one row per batch size.
 #[test]
 fn figure5_prints_the_model_and_writes_json() {
-    let dir = std::env::temp_dir().join(format!("vtq-figure5-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::fresh_dir("figure5");
     let json = dir.join("f5.json");
     let out = Command::new(env!("CARGO_BIN_EXE_vtq"))
+        .arg("figure5")
+        .args(common::TINY_CORNELL)
         .args([
-            "figure5",
-            "--scene",
-            "cornell",
-            "--set",
-            "width=16",
-            "--set",
-            "height=16",
             "--set",
             "hw.treelet_bytes=512",
             "--rays",

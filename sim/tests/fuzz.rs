@@ -3,6 +3,8 @@
 //! panics and true infinite loops, with the failing input saved. The long runs (100,000 cases
 //! per parser) are `vtq fuzz` in a release build; figures in docs/fuzzing.md.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 use std::sync::Arc;
@@ -14,10 +16,7 @@ use vtq_sim::cli::fuzz::{fuzz_parser, fuzz_target, seeds, FuzzOptions, Parser};
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-fuzz-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("fuzz-{test}"))
 }
 
 fn options(cases: u64, seed: u64) -> FuzzOptions {

@@ -6,14 +6,11 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 /// A fresh scratch folder holding a regular file `plain`, under which nothing can be created.
 fn scratch(test: &str) -> (PathBuf, PathBuf) {
-    let dir = std::env::temp_dir().join(format!("vtq-outputs-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::fresh_dir(&format!("outputs-{test}"));
     let plain = dir.join("plain");
     std::fs::write(&plain, b"not a folder").unwrap();
     (dir, plain)
@@ -27,18 +24,9 @@ const QUICK: Duration = Duration::from_secs(10);
 /// and no sign of work on stdout (`work` are lines the work would print).
 fn assert_fails_before_work(cwd: &Path, args: &[&str], bad: &Path, work: &[&str]) {
     let start = Instant::now();
-    let out: Output = Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .current_dir(cwd)
-        .args(args)
-        .output()
-        .expect("the vtq binary runs");
+    let (ok, stdout, stderr) = common::vtq_cli(cwd, args);
     let took = start.elapsed();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success(),
-        "{args:?} succeeded: {stdout}{stderr}"
-    );
+    assert!(!ok, "{args:?} succeeded: {stdout}{stderr}");
     assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
     let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
     assert_eq!(errors.len(), 1, "{args:?}: {stderr}");
@@ -317,25 +305,7 @@ fn a_figure_that_cannot_be_drawn_leaves_the_results_and_the_rest() {
     std::fs::create_dir_all(acc.join("accuracy.svg/x")).unwrap();
     let (ok, stdout, stderr) = run(
         &dir,
-        &[
-            "accuracy",
-            "--scene",
-            "wknd",
-            "--designs",
-            "baseline",
-            "--settings",
-            "1/2x2",
-            "--threads",
-            "2",
-            "--set",
-            "width=16",
-            "--set",
-            "height=16",
-            "--set",
-            "gpu.sms=4",
-            "--out",
-            s(&acc),
-        ],
+        &common::small_accuracy_args("wknd", Some("baseline"), s(&acc)),
     );
     assert!(!ok, "{stdout}{stderr}");
     let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();

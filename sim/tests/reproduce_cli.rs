@@ -3,36 +3,20 @@
 //! tables, resumes without running anything again, and reuses what `vtq sweep` stored; the page
 //! renders in a real headless browser (Debian's `chromium`) with its SVG figures drawn.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 /// A fresh scratch folder.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-reproduce-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("reproduce-{name}"))
 }
 
-/// Runs vtq in `dir` with `args`, expecting success. Fontconfig is pointed at an empty
-/// configuration (no fonts): the charts' text comes from the font embedded in vtq.
-fn vtq(dir: &Path, args: &[&str]) -> Output {
-    let fonts_conf = dir.join("empty-fonts.conf");
-    std::fs::write(&fonts_conf, "<?xml version=\"1.0\"?>\n<fontconfig/>\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .current_dir(dir)
-        .env("FONTCONFIG_FILE", &fonts_conf)
-        .env("FONTCONFIG_PATH", dir)
-        .args(args)
-        .output()
-        .expect("vtq runs");
-    assert!(
-        out.status.success(),
-        "vtq {args:?}: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
+/// Runs vtq in `dir` with `args`, expecting success; returns stdout. Fontconfig is pointed at
+/// an empty configuration (no fonts): the charts' text comes from the font embedded in vtq.
+fn vtq(dir: &Path, args: &[&str]) -> String {
+    common::ok_stdout(args, common::vtq_cli_without_fonts(dir, args))
 }
 
 /// Pixels darker than mid grey in rows `rows` of the PNG at `path`.
@@ -67,8 +51,7 @@ fn reproduce(cwd: &Path, out: &Path, extra: &[&str]) -> String {
     let mut args = vec!["reproduce", "--out", out.to_str().unwrap(), "--jobs", "2"];
     args.extend(TINY);
     args.extend(extra);
-    let o = vtq(cwd, &args);
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    vtq(cwd, &args)
 }
 
 #[test]

@@ -4,34 +4,30 @@
 //! like an exact one, stored speedups pair replicates as `vtq compare --sample` does, and the
 //! reproduction draws its figures with error bars and says on the page that they are estimates.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::vtq_ok_in as vtq;
 use vtq_sim::estimate::sample::stored::{is_sampled, stored_estimate, stored_speedup};
 
 /// A fresh scratch folder.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-sampled-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("sampled-{name}"))
 }
 
-/// Runs vtq in `dir`, expecting success; returns stdout.
-fn vtq(dir: &Path, args: &[&str]) -> String {
-    let out: Output = Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("vtq runs");
-    assert!(
-        out.status.success(),
-        "vtq {args:?}: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
+/// Cornell at 64x64 with stratified samples (no stripes: their speedups pair replicates), as
+/// `vtq` options.
+const CORNELL_64: [&str; 8] = [
+    "--scene",
+    "cornell",
+    "--set",
+    "width=64",
+    "--set",
+    "height=64",
+    "--set",
+    "sample.stripes=false",
+];
 
 /// The stored result files of `results`.
 fn result_files(results: &Path) -> Vec<PathBuf> {
@@ -50,28 +46,11 @@ fn stats(path: &Path) -> serde_json::Value {
     record["result"]["stats"].clone()
 }
 
-/// The sweep of two designs of cornell at 64x64 with stratified samples (no stripes: their
-/// speedups pair replicates), into `results`, sampled at `sample` or exact.
+/// The sweep of two designs of [`CORNELL_64`] into `results`, sampled at `sample` or exact.
 fn sweep(dir: &Path, results: &str, sample: Option<&str>) -> String {
-    let mut args = vec![
-        "sweep",
-        "--scene",
-        "cornell",
-        "--config",
-        "baseline",
-        "--config",
-        "vtq",
-        "--set",
-        "width=64",
-        "--set",
-        "height=64",
-        "--set",
-        "sample.stripes=false",
-        "--results",
-        results,
-        "--jobs",
-        "2",
-    ];
+    let mut args = vec!["sweep", "--config", "baseline", "--config", "vtq"];
+    args.extend(CORNELL_64);
+    args.extend(["--results", results, "--jobs", "2"]);
     if let Some(s) = sample {
         args.extend(["--sample", s]);
     }
@@ -164,26 +143,10 @@ fn sampled_sweeps_store_estimates_apart_and_resume() {
     );
 
     // The stored estimates pair replicates into the speedup `vtq compare --sample` prints.
-    let compare = vtq(
-        &dir,
-        &[
-            "compare",
-            "--scene",
-            "cornell",
-            "--designs",
-            "baseline,vtq",
-            "--set",
-            "width=64",
-            "--set",
-            "height=64",
-            "--set",
-            "sample.stripes=false",
-            "--sample",
-            "1/4x2",
-            "--json",
-            "compare.json",
-        ],
-    );
+    let mut args = vec!["compare", "--designs", "baseline,vtq"];
+    args.extend(CORNELL_64);
+    args.extend(["--sample", "1/4x2", "--json", "compare.json"]);
+    let compare = vtq(&dir, &args);
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("compare.json")).unwrap())
             .unwrap_or_else(|e| panic!("{e}: {compare}"));
@@ -222,23 +185,9 @@ fn sampled_sweeps_store_estimates_apart_and_resume() {
 fn a_sampled_reproduction_draws_estimates_with_error_bars() {
     let dir = scratch("reproduce");
     let out = dir.join("page");
-    let args = [
-        "reproduce",
-        "--out",
-        out.to_str().unwrap(),
-        "--jobs",
-        "2",
-        "--scene",
-        "cornell",
-        "--set",
-        "width=64",
-        "--set",
-        "height=64",
-        "--set",
-        "sample.stripes=false",
-        "--sample",
-        "1/4x2",
-    ];
+    let mut args = vec!["reproduce", "--out", out.to_str().unwrap(), "--jobs", "2"];
+    args.extend(CORNELL_64);
+    args.extend(["--sample", "1/4x2"]);
     let log = vtq(&dir, &args);
     assert!(log.contains("ok (sampled, 95% intervals)"), "{log}");
     let md = std::fs::read_to_string(out.join("index.md")).unwrap();

@@ -3,7 +3,9 @@
 //! time, and its charts carry text drawn from the embedded font with fontconfig pointed at an
 //! empty configuration.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
 
 /// The libraries a Rust binary for the GNU C library may need: the C runtime only.
@@ -125,54 +127,12 @@ fn dark_pixels(path: &Path, rows: std::ops::Range<usize>) -> usize {
         .count()
 }
 
-/// A scratch folder with an empty fontconfig configuration (no font directories).
-fn scratch() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-self-contained-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        dir.join("fonts.conf"),
-        "<?xml version=\"1.0\"?>\n<fontconfig/>\n",
-    )
-    .unwrap();
-    dir
-}
-
 #[test]
 fn accuracy_draws_its_chart_text_without_fontconfig() {
-    let dir = scratch();
+    let dir = common::fresh_dir("self-contained");
     let out = dir.join("acc");
-    let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .env("FONTCONFIG_FILE", dir.join("fonts.conf"))
-        .env("FONTCONFIG_PATH", &dir)
-        .args([
-            "accuracy",
-            "--scene",
-            "wknd",
-            "--designs",
-            "baseline,vtq",
-            "--settings",
-            "1/2x2",
-            "--threads",
-            "2",
-            "--set",
-            "width=16",
-            "--set",
-            "height=16",
-            "--set",
-            "gpu.sms=4",
-            "--no-cache",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let args = common::small_accuracy_args("wknd", Some("baseline,vtq"), out.to_str().unwrap());
+    common::ok_stdout(&args, common::vtq_cli_without_fonts(&dir, &args));
     let png = out.join("accuracy.png");
     // The title sits in the top 40 rows above the legend and the plot (white without text);
     // the x axis' caption in the bottom rows, under its tick labels.

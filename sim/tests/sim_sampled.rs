@@ -7,7 +7,7 @@ mod common;
 
 use std::process::Command;
 
-use common::{setup, small_config};
+use common::{fresh_dir, setup, small_accuracy_args, small_config, SMALL_SAMPLED};
 use vtq_sim::estimate::sample::stripes::ranked;
 use vtq_sim::estimate::sample::{paired_speedup, simulate_sampled, Method, Profile, SampledStats};
 use vtq_sim::model::config::{Cluster, SimConfig};
@@ -127,8 +127,7 @@ fn speedups_pair_the_replicates() {
 /// Bad sample settings are one-line errors naming the problem.
 #[test]
 fn bad_sample_settings_are_one_line_errors() {
-    let dir = std::env::temp_dir().join(format!("vtq-sampled-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("sampled-cli");
     let out = dir.join("s.json");
     // (--sample, one more --set, the key or words the one error names)
     for (spec, set, needle) in [
@@ -164,35 +163,12 @@ fn bad_sample_settings_are_one_line_errors() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A 16x16 frame on 4 SMs without the BVH cache: the sampled-tier commands' small runs.
-const SMALL: [&str; 7] = [
-    "--set",
-    "width=16",
-    "--set",
-    "height=16",
-    "--set",
-    "gpu.sms=4",
-    "--no-cache",
-];
-
 /// `vtq accuracy` measures every tier and writes the table, the summary and the plot.
 #[test]
 fn accuracy_command_measures_every_tier() {
-    let dir = std::env::temp_dir().join(format!("vtq-accuracy-cli-{}", std::process::id()));
-    let small = SMALL;
+    let dir = fresh_dir("accuracy-cli");
     let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .args([
-            "accuracy",
-            "--scene",
-            "cornell",
-            "--settings",
-            "1/2x2",
-            "--threads",
-            "2",
-        ])
-        .args(small)
-        .arg("--out")
-        .arg(&dir)
+        .args(small_accuracy_args("cornell", None, dir.to_str().unwrap()))
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -239,7 +215,7 @@ fn accuracy_command_measures_every_tier() {
     let off = Command::new(env!("CARGO_BIN_EXE_vtq"))
         .args(["accuracy", "--scene", "cornell", "--settings", "1/2x2"])
         .args(["--designs", "baseline", "--set", "sample.stripes=false"])
-        .args(small)
+        .args(SMALL_SAMPLED)
         .arg("--out")
         .arg(dir.join("off"))
         .output()
@@ -266,14 +242,13 @@ fn accuracy_command_measures_every_tier() {
 /// gets the reference's mean and spread and its error against the mean.
 #[test]
 fn accuracy_with_perturbed_references() {
-    let dir = std::env::temp_dir().join(format!("vtq-accuracy-pert-{}", std::process::id()));
-    let small = SMALL;
+    let dir = fresh_dir("accuracy-pert");
     // With perturbations: full detail also runs with the DRAM latency moved by +1 and -1
     // cycles; each row gets the reference's mean and spread and its error against the mean.
     let pert = Command::new(env!("CARGO_BIN_EXE_vtq"))
         .args(["accuracy", "--scene", "cornell", "--settings", "1/2x2"])
         .args(["--designs", "baseline,vtq", "--perturb", "2"])
-        .args(small)
+        .args(SMALL_SAMPLED)
         .arg("--out")
         .arg(dir.clone())
         .output()
@@ -321,10 +296,9 @@ fn accuracy_with_perturbed_references() {
 /// `vtq compare --sample` labels its rows as estimates with intervals.
 #[test]
 fn sampled_compare_labels_estimates() {
-    let small = SMALL;
     let o = Command::new(env!("CARGO_BIN_EXE_vtq"))
         .args(["compare", "--scene", "cornell", "--sample", "1/2x2"])
-        .args(small)
+        .args(SMALL_SAMPLED)
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -660,8 +634,7 @@ fn stripes_whose_dispatch_is_not_static_fall_back_to_strata() {
 /// their measured speed and error.
 #[test]
 fn named_sample_points_and_their_notes() {
-    let dir = std::env::temp_dir().join(format!("vtq-sample-points-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("sample-points");
     let run = |sample: &[&str]| {
         let out = dir.join("s.json");
         let o = Command::new(env!("CARGO_BIN_EXE_vtq"))

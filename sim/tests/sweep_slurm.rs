@@ -11,6 +11,8 @@
 
 #![cfg(unix)]
 
+mod common;
+
 use std::io::Read;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
@@ -330,10 +332,7 @@ impl Drop for Cluster {
 
 /// A fresh temporary folder for the test.
 fn temp_dir() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-sweep-slurm-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir("sweep-slurm")
 }
 
 /// Runs `vtq args` in `dir` with the cluster's configuration and checks it succeeded.

@@ -21,10 +21,7 @@ use vtq_sim::model::gpu::{simulate, SimError, SimOptions, SimOutput, VcdWindow};
 
 /// A fresh temporary folder for one test.
 fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-waveform-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::fresh_dir(&format!("waveform-{test}"))
 }
 
 /// Simulates `scene` with `cfg`, writing the waveform of SM `sm` over `cycles` to `path` if

@@ -1,10 +1,13 @@
 //! Helpers shared by the simulator's end-to-end tests (`sim_baseline.rs`, `sim_prefetch.rs`):
 //! a small GPU configuration, running a simulation, and the checks every design must pass —
 //! closest hits and the image equal the functional tracer's, and skipping idle cycles equals
-//! stepping every cycle.
+//! stepping every cycle; small meshes made in code ([`meshes`]). The cross-crate tests
+//! (`tests/tests/replay_rtl.rs`) include this module too.
 
 // Each test binary compiles this module on its own and uses only part of it.
 #![allow(dead_code)]
+
+pub mod meshes;
 
 use vtq_sim::model::bvh::HwBvh;
 use vtq_sim::model::config::SimConfig;
@@ -260,16 +263,102 @@ pub fn comparable_sampled(s: &vtq_sim::estimate::sample::SampledStats) -> serde_
     v
 }
 
-/// Runs the `vtq` binary with `args` in `dir`; returns (success, stdout, stderr).
-pub fn vtq_cli(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vtq"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the vtq binary runs");
+/// The `vtq` binary as a command with `args`, to run in `dir`.
+// Not `env!`: the cross-crate tests (tests/tests/replay_rtl.rs) include this module, and Cargo
+// builds the binary for vtq-sim's own tests only.
+#[allow(clippy::option_env_unwrap)]
+fn vtq_command(dir: &std::path::Path, args: &[&str]) -> std::process::Command {
+    let mut cmd = std::process::Command::new(
+        option_env!("CARGO_BIN_EXE_vtq").expect("the vtq binary: a test of vtq-sim"),
+    );
+    cmd.current_dir(dir).args(args);
+    cmd
+}
+
+/// Runs `cmd` (a `vtq` command); returns (success, stdout, stderr).
+fn run_vtq(mut cmd: std::process::Command) -> (bool, String, String) {
+    let out = cmd.output().expect("the vtq binary runs");
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// Runs the `vtq` binary with `args` in `dir`; returns (success, stdout, stderr).
+pub fn vtq_cli(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
+    run_vtq(vtq_command(dir, args))
+}
+
+/// [`vtq_cli`] with fontconfig pointed at an empty configuration written into `dir` (no
+/// fonts: the text of vtq's charts must come from the font embedded in vtq).
+pub fn vtq_cli_without_fonts(dir: &std::path::Path, args: &[&str]) -> (bool, String, String) {
+    let fonts_conf = dir.join("empty-fonts.conf");
+    std::fs::write(&fonts_conf, "<?xml version=\"1.0\"?>\n<fontconfig/>\n").unwrap();
+    let mut cmd = vtq_command(dir, args);
+    cmd.env("FONTCONFIG_FILE", &fonts_conf)
+        .env("FONTCONFIG_PATH", dir);
+    run_vtq(cmd)
+}
+
+/// The stdout of `run`, a [`vtq_cli`] result of `args` that must have succeeded (the failure
+/// shows both outputs).
+pub fn ok_stdout(args: &[&str], run: (bool, String, String)) -> String {
+    let (ok, stdout, stderr) = run;
+    assert!(ok, "vtq {args:?}: {stdout}\n{stderr}");
+    stdout
+}
+
+/// Runs `vtq args` in `dir`, which must succeed; returns its stdout.
+pub fn vtq_ok_in(dir: &std::path::Path, args: &[&str]) -> String {
+    ok_stdout(args, vtq_cli(dir, args))
+}
+
+/// A fresh, empty folder `vtq-<name>-<process id>` in the system's temporary folder, for one
+/// test's files.
+pub fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("vtq-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("a fresh temporary folder");
+    dir
+}
+
+/// A 16x16 frame of cornell, as `vtq` options: a tiny workload for commands that run the
+/// simulator.
+pub const TINY_CORNELL: [&str; 6] = [
+    "--scene",
+    "cornell",
+    "--set",
+    "width=16",
+    "--set",
+    "height=16",
+];
+
+/// A 16x16 frame on 4 SMs without the BVH cache, as `vtq` options: the small runs of the
+/// sampled tier's commands.
+pub const SMALL_SAMPLED: [&str; 7] = [
+    "--set",
+    "width=16",
+    "--set",
+    "height=16",
+    "--set",
+    "gpu.sms=4",
+    "--no-cache",
+];
+
+/// The arguments of `vtq accuracy` on `scene` for `designs` (all when `None`) with one sampled
+/// setting (1/2x2) on two threads, on [`SMALL_SAMPLED`]'s frame, writing into `out`.
+pub fn small_accuracy_args<'a>(
+    scene: &'a str,
+    designs: Option<&'a str>,
+    out: &'a str,
+) -> Vec<&'a str> {
+    let mut args = vec!["accuracy", "--scene", scene];
+    if let Some(designs) = designs {
+        args.extend(["--designs", designs]);
+    }
+    args.extend(["--settings", "1/2x2", "--threads", "2"]);
+    args.extend(SMALL_SAMPLED);
+    args.extend(["--out", out]);
+    args
 }

@@ -17,7 +17,7 @@
 //! slot can hang below different slots, and a ray that finished the slot through one subtree
 //! meets another one later (the treelet order finishes the nodes of a slot it knows of, not those
 //! it has yet to reach). Each subtree is still entered at most once per ray, at its root (tested
-//! in `tests/tests/bvh_props.rs`); with breadth-first formation a slot is one subtree, so it is
+//! in `sim/tests/bvh_props.rs`); with breadth-first formation a slot is one subtree, so it is
 //! entered at most once.
 //!
 //! Treelet `i` occupies the `treelet_bytes`-aligned slot starting at address

@@ -5,6 +5,8 @@
 //! The whole treelet RT unit's recorded inputs replay the run on the Rust side, and its wiring's
 //! ports in that run replay against the wiring's RTL.
 
+// The simulator tests' helpers (a small GPU configuration, a built-in scene and its BVH).
+#[path = "../../sim/tests/common/mod.rs"]
 mod common;
 
 use common::{setup, small_config};

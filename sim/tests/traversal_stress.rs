@@ -2,11 +2,14 @@
 //! mesh never slip through (at several offsets from the origin), NaN/inf rays are misses, and
 //! degenerate triangles are never hit.
 
+mod common;
+
 use glam::Vec3;
 use vtq_sim::model::bvh::{BvhParams, HwBvh};
 use vtq_sim::model::traversal::{trace, trace_with_fetches, Order, TraversalState};
 use vtq_sim::Ray;
-use vtq_tests::{icosphere, mesh_scene};
+
+use common::meshes::{icosphere, mesh_scene};
 
 #[test]
 fn rays_at_vertices_and_edge_midpoints_never_miss() {

@@ -1,6 +1,8 @@
 //! Property tests of the hardware BVH: layout and treelet invariants, conservative
 //! quantization, both traversal orders against a brute-force closest-hit search, and the cache.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 
@@ -16,7 +18,8 @@ use vtq_sim::model::traversal::{
     trace, trace_occlusion, trace_occlusion_with_fetches, trace_with_fetches, Order, TraversalState,
 };
 use vtq_sim::{Hit, Ray, Scene, Sphere};
-use vtq_tests::{icosphere, mesh_scene};
+
+use common::meshes::{icosphere, mesh_scene};
 
 /// Closest hit over every usable primitive with the same routines and tie rule as traversal.
 fn brute_force(scene: &Scene, ray: &Ray) -> Option<Hit> {
@@ -595,10 +598,7 @@ fn out_of_range_triangle_index_and_huge_coordinates_are_errors() {
 
 /// A fresh, empty folder under the system temp dir for one test.
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-b2b-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+    common::fresh_dir(&format!("b2b-{name}"))
 }
 
 #[test]

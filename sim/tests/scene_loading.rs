@@ -1,6 +1,8 @@
 //! Scene loading: built-in scenes, OBJ triangulation and ids, MTL material mapping, scene
 //! folders and manifests, error messages, and the real scenes in `../shared/scenes`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -11,10 +13,7 @@ use vtq_sim::{Material, Scene, SceneError};
 
 /// A fresh, empty temporary folder unique to this process and `tag`.
 fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-scene-loading-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create temp dir");
-    dir
+    common::fresh_dir(&format!("scene-loading-{tag}"))
 }
 
 /// Write `text` to `dir/name` and return the path.

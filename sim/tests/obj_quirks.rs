@@ -4,6 +4,8 @@
 //! (ignored and counted); non-finite vertices (triangles left out and counted); broken data (an
 //! error naming the file and line).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -13,10 +15,7 @@ use vtq_sim::{Material, Scene};
 
 /// A fresh, empty temporary folder unique to this process and `tag`.
 fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-obj-quirks-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create temp dir");
-    dir
+    common::fresh_dir(&format!("obj-quirks-{tag}"))
 }
 
 /// Write `bytes` to `dir/name` and return the path.
