@@ -7,14 +7,11 @@
 
 mod common;
 
-use common::{small, write_verilog};
+use common::{cosim_timed, lints_clean, small, synthesize_small, write_verilog};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
-use vtq_gen::cosim::{record, run_cosim, CosimOptions, CosimResult, Simulator, Trace};
+use vtq_gen::cosim::{record, CosimResult, Simulator, Trace};
 use vtq_gen::rtl::{controller_verilog, rtl_modules};
 use vtq_gen::stimulus::controller::controller_inputs;
-use vtq_gen::synth::{lint, synthesize};
-use vtq_gen::tools::or_skip;
 use vtq_hdl::controller::{ControllerFeatures, TreeletController};
 use vtq_hdl::{Block, HwConfig};
 
@@ -35,15 +32,8 @@ fn work_dir(name: &str) -> PathBuf {
 
 /// Co-simulates `trace` against `source`; `None` when the simulator is not installed.
 fn cosim(trace: &Trace, source: &Path, sim: Simulator, tag: &str) -> Option<CosimResult> {
-    let opts = CosimOptions {
-        simulator: sim,
-        ..CosimOptions::icarus(work_dir(&format!("{tag}-{sim:?}")))
-    };
-    let start = Instant::now();
-    let result = or_skip(run_cosim(trace, &[source.to_path_buf()], &opts)).unwrap()?;
-    eprintln!("{tag}: {result}  ({:.1} s)", start.elapsed().as_secs_f64());
-    assert_eq!(result.cycles, trace.cycles() as u64, "{tag}");
-    Some(result)
+    let work = work_dir(&format!("{tag}-{sim:?}"));
+    cosim_timed(trace, &[source.to_path_buf()], sim, work, tag)
 }
 
 /// The stimulus of `cfg` and `features`, recorded on the Rust block, and the RTL's file.
@@ -175,10 +165,9 @@ fn generated_controller_lints_clean() {
         );
         let dir = work_dir(&format!("lint-{tag}"));
         let file = write_verilog(&dir, &module, &text);
-        let Some(report) = or_skip(lint(&[file], &module, &dir)).unwrap() else {
+        if !lints_clean(&[file], &module, &dir, tag) {
             return;
-        };
-        assert!(report.is_clean(), "{tag}:\n{report}");
+        }
     }
 }
 
@@ -189,19 +178,10 @@ fn small_controller_synthesizes_without_latches() {
     let cfg = small();
     let ctl = TreeletController::new(cfg.clone(), ControllerFeatures::FULL).unwrap();
     let module = ctl.describe().name;
-    let dir = work_dir("synth");
     let text = controller_verilog(&cfg, ControllerFeatures::FULL).unwrap();
-    let file = write_verilog(&dir, &module, &text);
-    let Some(r) = or_skip(synthesize(&[file], &module, &dir)).unwrap() else {
+    let Some(r) = synthesize_small(&work_dir("synth"), &module, &text) else {
         return;
     };
-    eprintln!(
-        "{module} (small): {} cells, {} flip-flops",
-        r.cells, r.flip_flops
-    );
-    assert_eq!(r.latches, 0, "{r:?}");
-    assert!(r.undriven.is_empty(), "{:?}", r.undriven);
-    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
     // Yosys' fsm pass may re-encode the mode and sequencer FSMs one-hot.
     let desc = ctl.describe();
     let recoded: u64 = desc

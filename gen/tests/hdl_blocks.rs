@@ -2,13 +2,14 @@
 //! is valid and its skeleton lints clean and synthesizes without latches, at the paper's
 //! configuration and a scaled one.
 
+mod common;
+
+use common::{lints_clean, synthesizes_without_latches};
 use std::path::PathBuf;
 use vtq_gen::compose::composite_modules;
 use vtq_gen::rtl::{
     instances, rt_unit_verilog, rtl_modules, toy_datapath_verilog, treelet_wiring_verilog,
 };
-use vtq_gen::synth::{lint, synthesize};
-use vtq_gen::tools::or_skip;
 use vtq_gen::verilog::MAX_WIDTH;
 use vtq_gen::{emit_module, write_module};
 use vtq_hdl::controller::{ControllerFeatures, TreeletController};
@@ -58,15 +59,12 @@ fn every_block_skeleton_lints_and_synthesizes() {
                 .join(format!("vtq-gen-hdl-{tag}-{}", d.name));
             let file = write_module(&dir, &d).unwrap();
             let files = [file];
-            let Some(report) = or_skip(lint(&files, &d.name, &dir)).unwrap() else {
+            let what = format!("{} ({tag})", d.name);
+            if !lints_clean(&files, &d.name, &dir, &what)
+                || synthesizes_without_latches(&files, &d.name, &dir, &what).is_none()
+            {
                 return;
-            };
-            assert!(report.is_clean(), "{} ({tag}):\n{report}", d.name);
-            let Some(synth) = or_skip(synthesize(&files, &d.name, &dir)).unwrap() else {
-                return;
-            };
-            assert_eq!(synth.latches, 0, "{} ({tag}): {synth:?}", d.name);
-            assert!(synth.warnings.is_empty(), "{} ({tag}): {synth:?}", d.name);
+            }
         }
     }
 }
@@ -109,15 +107,9 @@ fn rt_unit_skeleton_lints_and_synthesizes_at_the_paper_config() {
     );
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("vtq-gen-hdl-paper-rt_unit");
     let files = [write_module(&dir, &d).unwrap()];
-    let Some(report) = or_skip(lint(&files, &d.name, &dir)).unwrap() else {
-        return;
-    };
-    assert!(report.is_clean(), "{}:\n{report}", d.name);
-    let Some(synth) = or_skip(synthesize(&files, &d.name, &dir)).unwrap() else {
-        return;
-    };
-    assert_eq!(synth.latches, 0, "{}: {synth:?}", d.name);
-    assert!(synth.warnings.is_empty(), "{}: {synth:?}", d.name);
+    if lints_clean(&files, &d.name, &dir, &d.name) {
+        synthesizes_without_latches(&files, &d.name, &dir, &d.name);
+    }
 }
 
 /// The composed treelet RT unit's top module instantiates the tables', the controller's and the
@@ -192,8 +184,5 @@ fn the_composed_treelet_rt_unit_lints_clean() {
             path
         })
         .collect();
-    let Some(report) = or_skip(lint(&files, "treelet_rt_unit", &dir)).unwrap() else {
-        return;
-    };
-    assert!(report.is_clean(), "{report}");
+    lints_clean(&files, "treelet_rt_unit", &dir, "treelet_rt_unit");
 }

@@ -9,12 +9,11 @@
 
 mod common;
 
-use common::write_verilog;
+use common::{cosim_timed, write_verilog};
 use std::path::PathBuf;
-use std::time::Instant;
 use vtq_gen::cosim::{
-    datapath_tables, record, run_cosim, tests_and_hits, CosimOptions, CosimResult, DatapathCall,
-    RtUnitReplay, RtUnitWithStatus, Simulator, Trace,
+    datapath_tables, record, tests_and_hits, CosimResult, DatapathCall, RtUnitReplay,
+    RtUnitWithStatus, Simulator, Trace,
 };
 use vtq_gen::rtl::{rt_unit_replay_verilog, rt_unit_verilog, toy_datapath_verilog};
 use vtq_gen::stimulus::rt_unit::{rt_unit_inputs, small_config, ToyDatapath};
@@ -47,15 +46,7 @@ fn trace_of(cfg: &HwConfig, params: &RtUnitParams, cycles: usize, seed: u64) -> 
 
 /// Co-simulates `trace` against `files`; `None` when the simulator is not installed.
 fn cosim(trace: &Trace, files: &[PathBuf], sim: Simulator, tag: &str) -> Option<CosimResult> {
-    let opts = CosimOptions {
-        simulator: sim,
-        ..CosimOptions::icarus(work_dir(&format!("{tag}-{sim:?}")))
-    };
-    let start = Instant::now();
-    let result = or_skip(run_cosim(trace, files, &opts)).unwrap()?;
-    eprintln!("{tag}: {result}  ({:.1} s)", start.elapsed().as_secs_f64());
-    assert_eq!(result.cycles, trace.cycles() as u64, "{tag}");
-    Some(result)
+    cosim_timed(trace, files, sim, work_dir(&format!("{tag}-{sim:?}")), tag)
 }
 
 /// Three seeds of 12,000 cycles at the small configuration under Icarus.

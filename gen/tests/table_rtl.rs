@@ -12,14 +12,11 @@
 
 mod common;
 
-use common::write_verilog;
+use common::{cosim_timed, lints_clean, synthesize_small, write_verilog};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
-use vtq_gen::cosim::{record, run_cosim, CosimOptions, Simulator, Trace};
+use vtq_gen::cosim::{record, Simulator};
 use vtq_gen::rtl::{count_table_verilog, queue_table_verilog, table_modules};
 use vtq_gen::stimulus::{count_table_inputs, queue_table_inputs};
-use vtq_gen::synth::{lint, synthesize};
-use vtq_gen::tools::or_skip;
 use vtq_hdl::count_table::CountTable;
 use vtq_hdl::queue_table::QueueTable;
 use vtq_hdl::{Block, HwConfig};
@@ -52,20 +49,24 @@ fn work_dir(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("vtq-gen-table-rtl-{name}"))
 }
 
-/// Co-simulates `trace` against `source` and asserts zero mismatches; false when the
-/// simulator is not installed (outside CI).
-fn cosim(trace: &Trace, source: &Path, sim: Simulator, tag: &str) -> bool {
-    let opts = CosimOptions {
-        simulator: sim,
-        ..CosimOptions::icarus(work_dir(&format!("{tag}-{sim:?}")))
-    };
-    let start = Instant::now();
-    let Some(result) = or_skip(run_cosim(trace, &[source.to_path_buf()], &opts)).unwrap() else {
+/// Records `inputs` on the Rust `block`, writes `text`, its RTL, into `dir` and co-simulates
+/// the two under `sim`, asserting zero mismatches; false when the simulator is not installed
+/// (outside CI).
+fn cosim<B: Block>(
+    block: &B,
+    inputs: impl IntoIterator<Item = B::Inputs>,
+    text: &str,
+    dir: &Path,
+    sim: Simulator,
+    tag: &str,
+) -> bool {
+    let trace = record(block, inputs).unwrap();
+    let source = write_verilog(dir, &block.describe().name, text);
+    let work = work_dir(&format!("{tag}-{sim:?}"));
+    let Some(result) = cosim_timed(&trace, &[source], sim, work, tag) else {
         return false;
     };
-    eprintln!("{tag}: {result}  ({:.1} s)", start.elapsed().as_secs_f64());
     assert!(result.passed(), "{tag}:\n{result}");
-    assert_eq!(result.cycles, trace.cycles() as u64, "{tag}");
     true
 }
 
@@ -83,14 +84,9 @@ fn count_table_matches_rust_cycle_by_cycle() {
             cov.evictions > 100 && cov.stalls > 100 && cov.errors > 100 && cov.clears >= 2,
             "{tag}: {cov:?}"
         );
-        let trace = record(&t, inputs).unwrap();
         let text = count_table_verilog(&cfg).unwrap();
-        let file = write_verilog(
-            &work_dir(&format!("count-{tag}")),
-            &t.describe().name,
-            &text,
-        );
-        if !cosim(&trace, &file, Simulator::Icarus, &format!("count-{tag}")) {
+        let tag = format!("count-{tag}");
+        if !cosim(&t, inputs, &text, &work_dir(&tag), Simulator::Icarus, &tag) {
             return;
         }
     }
@@ -106,10 +102,9 @@ fn generated_tables_lint_clean() {
             );
             let dir = work_dir(&format!("lint-{tag}"));
             let file = write_verilog(&dir, &module, &text);
-            let Some(report) = or_skip(lint(&[file], &module, &dir)).unwrap() else {
+            if !lints_clean(&[file], &module, &dir, &format!("{module} ({tag})")) {
                 return;
-            };
-            assert!(report.is_clean(), "{module} ({tag}):\n{report}");
+            }
         }
     }
 }
@@ -131,14 +126,9 @@ fn queue_table_matches_rust_cycle_by_cycle() {
             cov.max_chain >= 3,
             "{tag}: chains too short to test the walk"
         );
-        let trace = record(&t, inputs).unwrap();
         let text = queue_table_verilog(&cfg).unwrap();
-        let file = write_verilog(
-            &work_dir(&format!("queue-{tag}")),
-            &t.describe().name,
-            &text,
-        );
-        if !cosim(&trace, &file, Simulator::Icarus, &format!("queue-{tag}")) {
+        let tag = format!("queue-{tag}");
+        if !cosim(&t, inputs, &text, &work_dir(&tag), Simulator::Icarus, &tag) {
             return;
         }
     }
@@ -148,25 +138,29 @@ fn queue_table_matches_rust_cycle_by_cycle() {
 #[test]
 fn tables_match_rust_under_verilator() {
     for (tag, cfg) in configs() {
-        let (ct, inputs, _) = count_table_inputs(&cfg, VERILATOR_CYCLES, 3).unwrap();
-        let trace = record(&ct, inputs).unwrap();
         let dir = work_dir(&format!("verilator-{tag}"));
-        let file = write_verilog(
+        let (ct, inputs, _) = count_table_inputs(&cfg, VERILATOR_CYCLES, 3).unwrap();
+        let text = count_table_verilog(&cfg).unwrap();
+        if !cosim(
+            &ct,
+            inputs,
+            &text,
             &dir,
-            &ct.describe().name,
-            &count_table_verilog(&cfg).unwrap(),
-        );
-        if !cosim(&trace, &file, Simulator::Verilator, &format!("count-{tag}")) {
+            Simulator::Verilator,
+            &format!("count-{tag}"),
+        ) {
             return;
         }
         let (qt, inputs, _) = queue_table_inputs(&cfg, VERILATOR_CYCLES, 4).unwrap();
-        let trace = record(&qt, inputs).unwrap();
-        let file = write_verilog(
+        let text = queue_table_verilog(&cfg).unwrap();
+        cosim(
+            &qt,
+            inputs,
+            &text,
             &dir,
-            &qt.describe().name,
-            &queue_table_verilog(&cfg).unwrap(),
+            Simulator::Verilator,
+            &format!("queue-{tag}"),
         );
-        cosim(&trace, &file, Simulator::Verilator, &format!("queue-{tag}"));
     }
 }
 
@@ -177,18 +171,10 @@ fn tables_match_rust_under_verilator() {
 fn small_tables_synthesize_without_latches() {
     let cfg = small();
     for (module, text) in table_modules(&cfg).unwrap() {
-        let dir = work_dir(&format!("synth-{module}"));
-        let file = write_verilog(&dir, &module, &text);
-        let Some(r) = or_skip(synthesize(&[file], &module, &dir)).unwrap() else {
+        let Some(r) = synthesize_small(&work_dir(&format!("synth-{module}")), &module, &text)
+        else {
             return;
         };
-        eprintln!(
-            "{module} (small): {} cells, {} flip-flops",
-            r.cells, r.flip_flops
-        );
-        assert_eq!(r.latches, 0, "{module}: {r:?}");
-        assert!(r.undriven.is_empty(), "{module}: {:?}", r.undriven);
-        assert!(r.warnings.is_empty(), "{module}: {:?}", r.warnings);
         // Every memory bit is a flip-flop (generic synthesis maps the SRAMs to flip-flops too);
         // Yosys may drop register bits that are constant (the scan position's low bits).
         let desc = if module.contains("count") {

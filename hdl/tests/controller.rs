@@ -4,8 +4,10 @@
 //! warp repacking, completion, widths and the block description. The controller wired to the
 //! real tables and RT unit is tested end to end in `treelet_rt_unit.rs` (the composed block).
 
+mod common;
+
+use common::assert_signals_fit;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
-use vtq_hdl::bits::fits;
 use vtq_hdl::bounded::BoundedVec;
 use vtq_hdl::controller::{
     ActiveReport, ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs,
@@ -190,19 +192,12 @@ impl Harness {
         let out = self.ctl.step(&mut self.regs, inputs);
         assert_eq!(out, expect_out);
         assert_eq!(self.regs, expect_regs);
-        for s in out
-            .signals()
-            .iter()
-            .chain(self.ctl.reg_signals(&self.regs).iter())
-        {
-            assert!(
-                fits(s.value, s.width),
-                "{} = {} overflows {} bits",
-                s.name,
-                s.value,
-                s.width
-            );
-        }
+        assert_signals_fit(
+            out.signals()
+                .iter()
+                .chain(self.ctl.reg_signals(&self.regs).iter()),
+            "",
+        );
         if !matches!(out.ct_op, CountOp::Nop | CountOp::Clear) {
             assert!(inputs.ct.ready, "count-table op while not ready");
         }

@@ -393,39 +393,21 @@ impl StateMachineTest for CountSut {
         let r = &sut.regs;
         let nonempty = s.slots.iter().any(|x| x.is_some());
         // Out of a scan both pointers are current; when valid they are exact.
-        if !r.ctl.scanning {
-            assert_eq!(
-                r.ctl.max.valid, nonempty,
-                "max pointer valid outside a scan"
-            );
-            assert_eq!(
-                r.ctl.min.valid, nonempty,
-                "min pointer valid outside a scan"
-            );
-        }
-        if r.ctl.max.valid {
-            let (i, t, c) = argmax(&s.slots).unwrap();
-            assert_eq!(
-                (
-                    r.ctl.max.idx as usize,
-                    r.ctl.max.treelet,
-                    r.ctl.max.count_m1 + 1
-                ),
-                (i, t, c),
-                "max pointer"
-            );
-        }
-        if r.ctl.min.valid {
-            let (i, t, c) = argmin(&s.slots).unwrap();
-            assert_eq!(
-                (
-                    r.ctl.min.idx as usize,
-                    r.ctl.min.treelet,
-                    r.ctl.min.count_m1 + 1
-                ),
-                (i, t, c),
-                "min pointer"
-            );
+        for (what, ptr, expected) in [
+            ("max", &r.ctl.max, argmax(&s.slots)),
+            ("min", &r.ctl.min, argmin(&s.slots)),
+        ] {
+            if !r.ctl.scanning {
+                assert_eq!(ptr.valid, nonempty, "{what} pointer valid outside a scan");
+            }
+            if ptr.valid {
+                let (i, t, c) = expected.unwrap();
+                assert_eq!(
+                    (ptr.idx as usize, ptr.treelet, ptr.count_m1 + 1),
+                    (i, t, c),
+                    "{what} pointer"
+                );
+            }
         }
     }
 }

@@ -942,16 +942,10 @@ fn deep_tree(fanout: usize, depth: u32) -> (Tree, NodeEntry) {
     (tree, node(0x100, NodeKind::Internal, 64))
 }
 
-/// Runs one warp of `rays` rays (ids 0.., lanes 0..) through a deep tree in `order` on a unit
-/// with `stack_depth` on-chip entries; under the treelet-stop order parked rays are issued
-/// again (as a treelet controller would) until every ray finished. Returns each ray's final
-/// record, the unit's statistics registers and every request.
-fn run_deep(
-    order: TraversalOrder,
-    stack_depth: u32,
-    spill_chunks: u32,
-) -> (Vec<RayRecord>, vtq_hdl::rt_unit::RtStats, Vec<MemRequest>) {
-    let (tree, root) = deep_tree(4, 4);
+/// The unit of the deep-tree tests: 64 rays, 20-bit addresses, `stack_depth` on-chip stack
+/// entries, hit records at 0x8_0000, four children a node and `spill_chunks` spill chunks a
+/// stack.
+fn deep_config(stack_depth: u32, spill_chunks: u32) -> (HwConfig, RtUnitParams) {
     let cfg = HwConfig {
         max_rays: 64,
         address_bits: 20,
@@ -964,6 +958,20 @@ fn run_deep(
         stack_spill_chunks: spill_chunks,
         ..RtUnitParams::default()
     };
+    (cfg, params)
+}
+
+/// Runs one warp of `rays` rays (ids 0.., lanes 0..) through a deep tree in `order` on a unit
+/// with `stack_depth` on-chip entries; under the treelet-stop order parked rays are issued
+/// again (as a treelet controller would) until every ray finished. Returns each ray's final
+/// record, the unit's statistics registers and every request.
+fn run_deep(
+    order: TraversalOrder,
+    stack_depth: u32,
+    spill_chunks: u32,
+) -> (Vec<RayRecord>, vtq_hdl::rt_unit::RtStats, Vec<MemRequest>) {
+    let (tree, root) = deep_tree(4, 4);
+    let (cfg, params) = deep_config(stack_depth, spill_chunks);
     let mut sim = Sim::new(cfg, params, Memory::new(tree, 7));
     let mut finished = BTreeMap::new();
     let mut pending: Vec<RayRecord> = (0..4).map(|i| RayRecord::new(i, words(0), root)).collect();
@@ -1025,16 +1033,7 @@ fn a_short_stack_spills_and_fills_without_changing_the_traversal() {
         }
         assert_eq!(a, b, "{order:?}: same nodes fetched");
         // Spills and fills stay inside the spill area, one 32 B chunk each.
-        let cfg = HwConfig {
-            max_rays: 64,
-            address_bits: 20,
-            stack_depth: 6,
-            ..small()
-        };
-        let params = RtUnitParams {
-            stack_spill_chunks: 16,
-            ..RtUnitParams::default()
-        };
+        let (cfg, params) = deep_config(6, 16);
         let (lo, hi) = spill_area(&cfg, &params);
         for r in reqs.iter().filter(|r| r.kind != RequestKind::NodeLoad) {
             if r.kind == RequestKind::HitStore {
@@ -1055,16 +1054,7 @@ fn a_short_stack_spills_and_fills_without_changing_the_traversal() {
 #[test]
 fn spill_addresses_follow_the_ray_and_stack() {
     let (_, _, reqs) = run_deep(TraversalOrder::RayStationary, 6, 16);
-    let cfg = HwConfig {
-        max_rays: 64,
-        address_bits: 20,
-        stack_depth: 6,
-        ..small()
-    };
-    let params = RtUnitParams {
-        stack_spill_chunks: 16,
-        ..RtUnitParams::default()
-    };
+    let (cfg, params) = deep_config(6, 16);
     let (base, _) = spill_area(&cfg, &params);
     // The first spill is ray (lane) 0's current stack, chunk 0; its fill reads it back.
     let first = reqs
@@ -1081,18 +1071,7 @@ fn spill_addresses_follow_the_ray_and_stack() {
 #[test]
 fn a_full_spill_area_is_an_error_naming_the_ray_and_the_limit() {
     let (tree, root) = deep_tree(4, 5);
-    let cfg = HwConfig {
-        max_rays: 64,
-        address_bits: 20,
-        stack_depth: 4,
-        ..small()
-    };
-    let params = RtUnitParams {
-        hit_record_base: 0x8_0000,
-        max_children: 4,
-        stack_spill_chunks: 1,
-        ..RtUnitParams::default()
-    };
+    let (cfg, params) = deep_config(4, 1);
     let mut sim = Sim::new(cfg, params, Memory::new(tree, 3));
     sim.step(Some(warp(
         TraversalOrder::RayStationary,

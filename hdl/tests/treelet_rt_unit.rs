@@ -7,7 +7,6 @@
 //! controller's phases, in every design variant.
 
 use std::collections::{BTreeMap, VecDeque};
-use vtq_hdl::bits::fits;
 use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{
@@ -21,7 +20,7 @@ use vtq_hdl::treelet_rt_unit::{
 use vtq_hdl::{Block, HwConfig, Signal, Signals};
 
 mod common;
-use common::{node, words, ToyDatapath, Tree, ALL};
+use common::{assert_signals_fit, node, words, ToyDatapath, Tree, ALL};
 
 /// Ray classes (the toy datapath's child masks select on the ray's class, 0..8).
 const CLASSES: u32 = 8;
@@ -382,15 +381,7 @@ fn ports_fit(inputs: &TreeletRtUnitInputs, out: &TreeletRtUnitOutputs, now: u64)
         .chain([out.signals(), out.bulk_signals()])
         .flatten()
         .collect();
-    for s in &signals {
-        assert!(
-            fits(s.value, s.width),
-            "cycle {now}: {} = {:#x} does not fit {} bits",
-            s.name,
-            s.value,
-            s.width
-        );
-    }
+    assert_signals_fit(&signals, &format!("cycle {now}: "));
     let port = |name: &str| {
         signals
             .iter()

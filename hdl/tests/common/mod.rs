@@ -1,8 +1,13 @@
 //! Shared by the RT unit's and the treelet RT unit's tests: a toy node format with its
 //! intersection datapath, and a BVH memory of such nodes.
 
+// Each test binary compiles this module on its own and uses only part of it.
+#![allow(dead_code)]
+
 use std::collections::BTreeMap;
+use vtq_hdl::bits::fits;
 use vtq_hdl::rt_unit::{Hit, NodeDatapath, NodeEntry, NodeKind, RayWords, TestResult};
+use vtq_hdl::Signal;
 
 /// Last byte of every toy node; a node assembled from wrong or missing chunks lacks it.
 pub const MAGIC: u8 = 0xA5;
@@ -86,4 +91,17 @@ pub fn words(select: u32) -> RayWords {
     w[0] = select;
     w[7] = 1000f32.to_bits();
     w
+}
+
+/// Asserts every one of `signals` fits its width; a failure names the signal after `when`.
+pub fn assert_signals_fit<'a>(signals: impl IntoIterator<Item = &'a Signal>, when: &str) {
+    for s in signals {
+        assert!(
+            fits(s.value, s.width),
+            "{when}{} = {:#x} does not fit {} bits",
+            s.name,
+            s.value,
+            s.width
+        );
+    }
 }
