@@ -30,6 +30,29 @@ use vtq_hdl::queue_table::{QueueOp, QueueState, QueueTable, QueueTableIn, QueueT
 use vtq_hdl::splitmix::SplitMix64;
 use vtq_hdl::{Block, HwConfig};
 
+/// The named coverage counters that stayed below `n`, each as "name (count < n)": the misses a
+/// coverage check reports.
+fn counters_below<'a>(counters: impl IntoIterator<Item = (&'a str, u64)>, n: u64) -> Vec<String> {
+    counters
+        .into_iter()
+        .filter(|&(_, c)| c < n)
+        .map(|(name, c)| format!("{name} ({c} < {n})"))
+        .collect()
+}
+
+/// A coverage check's verdict: Ok when nothing is `missing`, else an error listing the misses
+/// next to the whole `coverage`.
+fn coverage_verdict(missing: &[String], coverage: &dyn std::fmt::Display) -> Result<(), String> {
+    if missing.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "not covered: {}; coverage: {coverage}",
+            missing.join(", ")
+        ))
+    }
+}
+
 /// What a stimulus stream exercised, counted on the Rust block's outputs. Fields that do not
 /// apply to a table stay 0 (the count table has no spills, the queue table no scans).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]

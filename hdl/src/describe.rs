@@ -140,3 +140,25 @@ pub fn reg(name: &str, width: u32, count: u32, doc: &str) -> RegDesc {
         doc: doc.to_string(),
     }
 }
+
+/// Builds a [`BlockDesc`]'s `params` list, in the order given (the order of the generated Verilog
+/// parameters): `block_params!(cfg; field, name = value, ...)`. A bare `field` is the
+/// configuration field `cfg.field` under its own name; `name = value` is any other value
+/// (`u32`, `u64` or `bool`, widened with `u64::from`).
+macro_rules! block_params {
+    ($cfg:expr; $($entries:tt)*) => {
+        $crate::describe::block_params!(@acc $cfg; []; $($entries)*)
+    };
+    (@acc $cfg:expr; [$($out:expr),*]; $name:ident = $value:expr $(, $($rest:tt)*)?) => {
+        $crate::describe::block_params!(@acc $cfg;
+            [$($out,)* (stringify!($name).to_string(), u64::from($value))]; $($($rest)*)?)
+    };
+    (@acc $cfg:expr; [$($out:expr),*]; $name:ident $(, $($rest:tt)*)?) => {
+        $crate::describe::block_params!(@acc $cfg;
+            [$($out,)* (stringify!($name).to_string(), u64::from($cfg.$name))]; $($($rest)*)?)
+    };
+    (@acc $cfg:expr; [$($out:expr),*];) => {
+        vec![$($out),*]
+    };
+}
+pub(crate) use block_params;

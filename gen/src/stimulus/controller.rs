@@ -135,19 +135,8 @@ impl ControllerCoverage {
                 ("clears", self.clears),
             ]);
         }
-        for (name, c) in actions {
-            if c < n {
-                missing.push(format!("{name} ({c} < {n})"));
-            }
-        }
-        if missing.is_empty() {
-            Ok(())
-        } else {
-            Err(format!(
-                "not covered: {}; coverage: {self}",
-                missing.join(", ")
-            ))
-        }
+        missing.extend(super::counters_below(actions, n));
+        super::coverage_verdict(&missing, self)
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::{regs, ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerWidths, Seq};
 use crate::config::HwConfig;
-use crate::describe::{BlockDesc, FsmDesc};
+use crate::describe::{block_params, BlockDesc, FsmDesc};
 use crate::mode::Mode;
 
 /// The controller's [`BlockDesc`].
@@ -16,7 +16,6 @@ pub(super) fn describe(
     ports.extend(ControllerOutputs::ports(w));
     let registers = regs::table(w).descs();
     let n = w.resident_entries;
-    let flag = |b: bool| b as u64;
     BlockDesc {
         name: "treelet_controller".to_string(),
         doc: "Treelet controller (sections 4.2-4.5): switches the RT unit between the initial \
@@ -25,26 +24,20 @@ pub(super) fn describe(
               groups underpopulated queues into warps and repacks warps with few active rays; \
               drives one treelet-count-table and one treelet-queue-table op per cycle."
             .to_string(),
-        params: vec![
-            ("warp_size".to_string(), cfg.warp_size as u64),
-            ("max_rays".to_string(), cfg.max_rays as u64),
-            ("warp_buffer_size".to_string(), cfg.warp_buffer_size as u64),
-            ("max_resident_treelets".to_string(), cfg.max_resident_treelets as u64),
-            ("count_table_entries".to_string(), cfg.count_table_entries as u64),
-            ("queue_table_entries".to_string(), cfg.queue_table_entries as u64),
-            ("treelet_addr_bits".to_string(), w.treelet as u64),
-            ("ray_id_bits".to_string(), w.ray as u64),
-            ("count_bits".to_string(), w.count as u64),
-            ("lane_bits".to_string(), w.lane as u64),
-            ("lane_count_bits".to_string(), w.lanes as u64),
-            ("slot_bits".to_string(), w.slot as u64),
-            ("divergence_threshold".to_string(), cfg.divergence_threshold as u64),
-            ("underpopulation_threshold".to_string(), cfg.underpopulation_threshold as u64),
-            ("repack_threshold".to_string(), cfg.repack_threshold as u64),
-            ("preload_threshold_warps".to_string(), cfg.preload_threshold_warps as u64),
-            ("group_underpopulated".to_string(), flag(features.group_underpopulated)),
-            ("preload".to_string(), flag(features.preload)),
-        ],
+        params: block_params!(cfg;
+            warp_size, max_rays, warp_buffer_size, max_resident_treelets, count_table_entries,
+            queue_table_entries,
+            treelet_addr_bits = w.treelet,
+            ray_id_bits = w.ray,
+            count_bits = w.count,
+            lane_bits = w.lane,
+            lane_count_bits = w.lanes,
+            slot_bits = w.slot,
+            divergence_threshold, underpopulation_threshold, repack_threshold,
+            preload_threshold_warps,
+            group_underpopulated = features.group_underpopulated,
+            preload = features.preload,
+        ),
         ports,
         registers,
         memories: vec![],

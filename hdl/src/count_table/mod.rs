@@ -48,7 +48,7 @@ pub use regs::{CountCtl, CountEntry, CountTableRegs, Extreme};
 
 use crate::block::{Block, Signal};
 use crate::config::{ConfigError, HwConfig};
-use crate::describe::{BlockDesc, FsmDesc};
+use crate::describe::{block_params, BlockDesc, FsmDesc};
 use crate::memory::{MemCycle, MemPorts, Memory};
 use crate::registers::RegTable;
 use regs::Change;
@@ -419,14 +419,12 @@ impl Block for CountTable {
                   treelet for treelet-stationary dispatch, and eviction of the smallest entry \
                   when full (its rays are processed ray-stationary later)."
                 .into(),
-            params: vec![
-                ("count_table_entries".into(), c.count_table_entries as u64),
-                ("max_rays".into(), c.max_rays as u64),
-                ("warp_size".into(), c.warp_size as u64),
-                ("treelet_addr_bits".into(), w.treelet as u64),
-                ("underpopulation_threshold".into(), c.underpopulation_threshold as u64),
-                ("scan_width".into(), self.scan_width as u64),
-            ],
+            params: block_params!(c;
+                count_table_entries, max_rays, warp_size,
+                treelet_addr_bits = w.treelet,
+                underpopulation_threshold,
+                scan_width = self.scan_width,
+            ),
             ports,
             registers,
             memories: vec![regs.entries.desc(

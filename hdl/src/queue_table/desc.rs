@@ -3,7 +3,7 @@
 
 use super::{QueueTable, QueueTableIn, QueueTableOut, QueueTableRegs};
 use crate::block::Block;
-use crate::describe::{BlockDesc, FsmDesc};
+use crate::describe::{block_params, BlockDesc, FsmDesc};
 use crate::registers::RegTable;
 
 impl QueueTable {
@@ -25,14 +25,13 @@ impl QueueTable {
                   entries holding a treelet address and up to one warp of ray ids; duplicate \
                   entries per treelet; overflow spills rays to memory."
                 .into(),
-            params: vec![
-                ("queue_table_entries".into(), c.queue_table_entries as u64),
-                ("buckets".into(), self.buckets as u64),
-                ("warp_size".into(), c.warp_size as u64),
-                ("max_rays".into(), c.max_rays as u64),
-                ("treelet_addr_bits".into(), w.treelet as u64),
-                ("ray_id_bits".into(), w.ray as u64),
-            ],
+            params: block_params!(c;
+                queue_table_entries,
+                buckets = self.buckets,
+                warp_size, max_rays,
+                treelet_addr_bits = w.treelet,
+                ray_id_bits = w.ray,
+            ),
             ports,
             registers,
             memories: vec![

@@ -7,7 +7,7 @@ use super::ports::{RtUnitInputs, RtUnitStatus, Widths, DATA_BITS, HIT_BITS};
 use super::{RtUnitParams, StackLayout};
 use crate::bits::{bits_for, clog2};
 use crate::config::HwConfig;
-use crate::describe::{BlockDesc, FsmDesc, MemDesc};
+use crate::describe::{block_params, BlockDesc, FsmDesc, MemDesc};
 use crate::registers::RegTable;
 
 /// Builds the block description for `cfg` and `params`.
@@ -88,24 +88,19 @@ pub(super) fn describe(cfg: &HwConfig, params: &RtUnitParams, w: &Widths) -> Blo
               completion; reports treelet-boundary events to the treelet controller. The intersection \
               datapath is outside the block."
             .into(),
-        params: vec![
-            ("warp_size".into(), cfg.warp_size as u64),
-            ("warp_buffer_size".into(), cfg.warp_buffer_size as u64),
-            ("stack_depth".into(), cfg.stack_depth as u64),
-            ("record_stack_entries".into(), cfg.record_stack_entries as u64),
-            ("address_bits".into(), cfg.address_bits as u64),
-            ("treelet_bytes".into(), cfg.treelet_bytes as u64),
-            ("max_rays".into(), cfg.max_rays as u64),
-            ("resp_fifo_depth".into(), params.resp_fifo_depth as u64),
-            ("resp_ports".into(), params.resp_ports as u64),
-            ("hit_record_base".into(), params.hit_record_base),
-            ("max_children".into(), params.max_children as u64),
-            ("stack_base".into(), super::spill_area(cfg, params).0),
-            ("stack_spill_chunks".into(), params.stack_spill_chunks as u64),
-            ("stack_window".into(), layout.window as u64),
-            ("stack_banks".into(), layout.banks as u64),
-            ("stack_bank_words".into(), layout.bank_words as u64),
-        ],
+        params: block_params!(cfg;
+            warp_size, warp_buffer_size, stack_depth, record_stack_entries, address_bits,
+            treelet_bytes, max_rays,
+            resp_fifo_depth = params.resp_fifo_depth,
+            resp_ports = params.resp_ports,
+            hit_record_base = params.hit_record_base,
+            max_children = params.max_children,
+            stack_base = super::spill_area(cfg, params).0,
+            stack_spill_chunks = params.stack_spill_chunks,
+            stack_window = layout.window,
+            stack_banks = layout.banks,
+            stack_bank_words = layout.bank_words,
+        ),
         ports,
         registers,
         memories,

@@ -5,7 +5,7 @@ use super::TreeletRtUnit;
 use crate::bits::{bits_for, clog2, BitPacker};
 use crate::config::HwConfig;
 use crate::controller::ControllerStats;
-use crate::describe::BlockDesc;
+use crate::describe::{block_params, BlockDesc};
 use crate::rt_unit::{
     data_word, ray_state, ray_state_words, ErrorRecord, Hit, MemRequest, MemResponse, NodeDatapath,
     NodeEntry, RayRecord, RequestKind, RtStats, Widths, HIT_BITS, RAY_WORDS,
@@ -481,12 +481,10 @@ pub(super) fn describe<D: NodeDatapath>(u: &TreeletRtUnit<D>) -> BlockDesc {
               between them (slot ownership, ray ids, fills of ray records, the event queue from \
               the RT unit to the controller, the tables' registered answers)."
             .into(),
-        params: vec![
-            ("warp_size".into(), u.cfg.warp_size as u64),
-            ("warp_buffer_size".into(), u.cfg.warp_buffer_size as u64),
-            ("max_rays".into(), u.cfg.max_rays as u64),
-            ("ray_base".into(), u.ray_base),
-        ],
+        params: block_params!(u.cfg;
+            warp_size, warp_buffer_size, max_rays,
+            ray_base = u.ray_base,
+        ),
         ports,
         registers: super::glue::registers(&u.cfg, w).descs(),
         memories: super::glue::memories(&u.cfg, w),

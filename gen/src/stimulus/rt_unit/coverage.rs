@@ -1,5 +1,6 @@
 //! What an RT-unit stimulus stream exercised ([`RtUnitCoverage`]).
 
+use crate::stimulus::{counters_below, coverage_verdict};
 use serde::Serialize;
 use vtq_hdl::rt_unit::{errors, ErrorKind};
 
@@ -81,25 +82,13 @@ impl RtUnitCoverage {
     /// error kind whose flag is set in `required` (e.g. [`ALL_ERRORS`]) was raised at least
     /// once. An error lists what was not covered.
     pub fn covers_everything(&self, n: u64, required: u8) -> Result<(), String> {
-        let mut missing = Vec::new();
-        for (name, c) in self.counters() {
-            if c < n {
-                missing.push(format!("{name} ({c} < {n})"));
-            }
-        }
+        let mut missing = counters_below(self.counters(), n);
         for (kind, name) in ERROR_KINDS {
             if required & kind.flag() != 0 && self.errors[kind.code() as usize] == 0 {
                 missing.push(format!("error {name}"));
             }
         }
-        if missing.is_empty() {
-            Ok(())
-        } else {
-            Err(format!(
-                "not covered: {}; coverage: {self}",
-                missing.join(", ")
-            ))
-        }
+        coverage_verdict(&missing, self)
     }
 
     /// The behaviour counters with their names.
