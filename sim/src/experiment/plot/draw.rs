@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use super::axis::Axis;
 use super::frame::{self, Coords, Frame};
-use super::legend::{self, draw_marker, DASH};
+use super::legend::{self, draw_marker, Entry, DASH};
 use super::{color, ref_color, Bars, Lines, Reference, Scatter};
 
 /// A plotters error as text.
@@ -26,6 +26,28 @@ fn shown(axis: &Axis, v: f64) -> bool {
     v.is_finite() && (!axis.log || v > 0.0)
 }
 
+/// Draws the frame of a chart over two numeric axes (a scatter or line chart: no categories),
+/// with `title`, x caption and y caption in `labels`, and returns the chart to draw the data in.
+fn xy_frame<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    [title, x_desc, y_desc]: [&str; 3],
+    (x, y): (&Axis, &Axis),
+    legend: &[Entry],
+) -> Result<ChartContext<'a, DB, Coords>, String> {
+    frame::draw(
+        area,
+        &Frame {
+            title,
+            x_desc,
+            y_desc,
+            x,
+            y,
+            categories: None,
+            legend,
+        },
+    )
+}
+
 /// Draws `chart` on `area`.
 pub fn scatter<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
@@ -33,18 +55,8 @@ pub fn scatter<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let (x, y) = chart.axes();
     let legend = chart.legend();
-    let ctx = frame::draw(
-        area,
-        &Frame {
-            title: &chart.title,
-            x_desc: &chart.x_label,
-            y_desc: &chart.y_label,
-            x: &x,
-            y: &y,
-            categories: None,
-            legend: &legend,
-        },
-    )?;
+    let labels = [chart.title.as_str(), &chart.x_label, &chart.y_label];
+    let ctx = xy_frame(area, labels, (&x, &y), &legend)?;
     let plot = ctx.plotting_area();
     for (k, s) in chart.series.iter().enumerate() {
         let c = color(k);
@@ -156,18 +168,8 @@ pub fn lines<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let (x, y) = chart.axes();
     let legend = chart.legend();
-    let ctx = frame::draw(
-        area,
-        &Frame {
-            title: &chart.title,
-            x_desc: &chart.x_label,
-            y_desc: &chart.y_label,
-            x: &x,
-            y: &y,
-            categories: None,
-            legend: &legend,
-        },
-    )?;
+    let labels = [chart.title.as_str(), &chart.x_label, &chart.y_label];
+    let ctx = xy_frame(area, labels, (&x, &y), &legend)?;
     let plot = ctx.plotting_area();
     for (j, l) in chart.lines.iter().enumerate() {
         let c = color(j);

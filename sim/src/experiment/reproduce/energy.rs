@@ -58,6 +58,30 @@ fn ratio(design: &Option<EnergyReport>, base: &Option<EnergyReport>) -> Option<f
     (b.total_mj > 0.0).then(|| d.total_mj / b.total_mj)
 }
 
+/// A column of a table per coefficient set: its name (after the set's) and its value from a
+/// scene's [`Triple`].
+type SetColumn = (&'static str, fn(&Triple) -> Option<f64>);
+
+/// The header (`scene`, then each of `columns` under each coefficient set in turn) and the
+/// columns' values per scene in `scenes` with their mean (`how`) after them.
+fn set_columns(
+    r: &Results,
+    scenes: &[&str],
+    how: Mean,
+    columns: [SetColumn; 2],
+) -> (Vec<String>, Vec<Vec<Option<f64>>>) {
+    let mut header = vec!["scene".to_string()];
+    let mut values = Vec::new();
+    for set in CoefficientSet::ALL {
+        let t = triples(r, set);
+        for (name, value) in columns {
+            header.push(format!("{set}: {name}"));
+            values.push(with_mean(scenes, t.iter().map(value).collect(), how));
+        }
+    }
+    (header, values)
+}
+
 /// Figure 17: energy relative to the baseline, stacked by component, under the paper's
 /// accounting (AccelWattch PTX); the table adds the other coefficient sets' totals.
 pub fn figure17(r: &Results, out: &Path) -> anyhow::Result<Figure> {
@@ -118,23 +142,15 @@ pub fn figure17(r: &Results, out: &Path) -> anyhow::Result<Figure> {
             y_range: None,
         },
     )?;
-    let mut header = vec!["scene".to_string()];
-    let mut columns: Vec<Vec<Option<f64>>> = Vec::new();
-    for set in CoefficientSet::ALL {
-        let t = triples(r, set);
-        header.push(format!("{set}: VTQ"));
-        columns.push(with_mean(
-            &scenes,
-            t.iter().map(|(b, v, _)| ratio(v, b)).collect(),
-            how,
-        ));
-        header.push(format!("{set}: VTQ no-save"));
-        columns.push(with_mean(
-            &scenes,
-            t.iter().map(|(b, _, n)| ratio(n, b)).collect(),
-            how,
-        ));
-    }
+    let (header, columns) = set_columns(
+        r,
+        &scenes,
+        how,
+        [
+            ("VTQ", |(b, v, _)| ratio(v, b)),
+            ("VTQ no-save", |(b, _, n)| ratio(n, b)),
+        ],
+    );
     let rows = scene_cats
         .iter()
         .enumerate()
@@ -173,27 +189,19 @@ pub fn section66(r: &Results) -> Table {
     let scenes = r.scenes();
     let how = Mean::Arithmetic;
     let cats = categories(&r.labels(), how);
-    let mut header = vec!["scene".to_string()];
-    let mut columns: Vec<Vec<Option<f64>>> = Vec::new();
-    for set in CoefficientSet::ALL {
-        let t = triples(r, set);
-        header.push(format!("{set}: CTA-state share"));
-        columns.push(with_mean(
-            &scenes,
-            t.iter()
-                .map(|(_, v, _)| v.as_ref().map(|v| v.virtualization_share))
-                .collect(),
-            how,
-        ));
-        header.push(format!("{set}: 1 - no-save / VTQ"));
-        columns.push(with_mean(
-            &scenes,
-            t.iter()
-                .map(|(_, v, n)| ratio(n, v).map(|x| 1.0 - x))
-                .collect(),
-            how,
-        ));
-    }
+    let (header, columns) = set_columns(
+        r,
+        &scenes,
+        how,
+        [
+            ("CTA-state share", |(_, v, _)| {
+                v.as_ref().map(|v| v.virtualization_share)
+            }),
+            ("1 - no-save / VTQ", |(_, v, n)| {
+                ratio(n, v).map(|x| 1.0 - x)
+            }),
+        ],
+    );
     let pct = |v: Option<f64>| v.map_or_else(|| "-".into(), |x| format!("{:.1}%", 100.0 * x));
     let mut rows: Vec<Vec<String>> = cats
         .iter()

@@ -105,12 +105,25 @@ impl SlurmJob {
         self.results.join(LOG_DIR)
     }
 
-    /// The `#SBATCH` lines shared by both scripts.
-    fn common_options(&self) -> String {
-        self.sbatch_args
+    /// The lines both scripts share after their job's name and array: one task on one CPU, the
+    /// output file `log`, the extra `#SBATCH` options, then the shell's settings and the move to
+    /// the working folder.
+    fn common_lines(&self, log: &Path) -> String {
+        let extra: String = self
+            .sbatch_args
             .iter()
             .map(|a| format!("#SBATCH {a}\n"))
-            .collect()
+            .collect();
+        format!(
+            "#SBATCH --ntasks=1\n\
+             #SBATCH --cpus-per-task=1\n\
+             #SBATCH --output={log}\n\
+             {extra}\
+             set -euo pipefail\n\
+             cd {workdir}\n",
+            log = log.display(),
+            workdir = sh_path(&self.workdir),
+        )
     }
 
     /// The job-array script.
@@ -140,21 +153,14 @@ impl SlurmJob {
              #   sbatch --dependency=afterany:<array job id> {collect}\n\
              #SBATCH --job-name=vtq-sweep\n\
              #SBATCH --array=0-{last}\n\
-             #SBATCH --ntasks=1\n\
-             #SBATCH --cpus-per-task=1\n\
-             #SBATCH --output={log}\n\
-             {extra}\
-             set -euo pipefail\n\
-             cd {workdir}\n\
+             {common}\
              exec {cmd}\n",
             spec = self.spec_file.display(),
             runs = self.results.join(super::store::RUNS_DIR).display(),
             script = sh_path(&self.script),
             collect = sh_path(&self.collect_script),
             last = n - 1,
-            log = log.display(),
-            extra = self.common_options(),
-            workdir = sh_path(&self.workdir),
+            common = self.common_lines(&log),
             cmd = cmd.join(" "),
         )
     }
@@ -167,18 +173,11 @@ impl SlurmJob {
              # Collects the table of the vtq sweep in {spec} (written by `vtq sweep --slurm`);\n\
              # submitted to run after the job array of {script}.\n\
              #SBATCH --job-name=vtq-sweep-collect\n\
-             #SBATCH --ntasks=1\n\
-             #SBATCH --cpus-per-task=1\n\
-             #SBATCH --output={log}\n\
-             {extra}\
-             set -euo pipefail\n\
-             cd {workdir}\n\
+             {common}\
              exec {vtq} sweep --collect {results} --spec {spec_q} --out {table}\n",
             spec = self.spec_file.display(),
             script = self.script.display(),
-            log = self.log_dir().join("collect_%j.out").display(),
-            extra = self.common_options(),
-            workdir = sh_path(&self.workdir),
+            common = self.common_lines(&self.log_dir().join("collect_%j.out")),
             vtq = sh_path(&self.vtq),
             results = sh_path(&self.results),
             spec_q = sh_path(&self.spec_file),

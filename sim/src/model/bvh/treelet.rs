@@ -245,14 +245,19 @@ mod tests {
         }
     }
 
-    #[test]
-    fn units_fill_greedily_and_each_placed_once() {
+    /// The 4-wide tree of [`row`]`(200)` with 512 B treelets, which the partition tests cut.
+    fn row_tree() -> WideTree {
         let params = BvhParams {
             width: 4,
             treelet_bytes: 512,
             ..BvhParams::default()
         };
-        let tree = build_wide_tree(&row(200), &params).expect("tree");
+        build_wide_tree(&row(200), &params).expect("tree")
+    }
+
+    #[test]
+    fn units_fill_greedily_and_each_placed_once() {
+        let tree = row_tree();
         let parts = partition(&tree, 64, 512, TreeletFormation::BreadthFirst);
         let mut seen = std::collections::BTreeSet::new();
         for (i, units) in parts.iter().enumerate() {
@@ -282,12 +287,7 @@ mod tests {
 
     #[test]
     fn packing_merges_consecutive_treelets_in_order_and_fills_slots() {
-        let params = BvhParams {
-            width: 4,
-            treelet_bytes: 512,
-            ..BvhParams::default()
-        };
-        let tree = build_wide_tree(&row(200), &params).expect("tree");
+        let tree = row_tree();
         let size = |units: &[Unit]| -> u32 { units.iter().map(|&u| unit_size(&tree, u, 64)).sum() };
         let bf = partition(&tree, 64, 512, TreeletFormation::BreadthFirst);
         let packed = partition(&tree, 64, 512, TreeletFormation::Packed);

@@ -30,7 +30,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::text::{is_keyword, logical_lines, StatementCounts};
+use super::text::{is_keyword, line_error, logical_lines, statement, StatementCounts};
 use super::{Material, SceneError};
 
 /// One `newmtl` block: its name and the parameters the mapping reads (`None` when absent).
@@ -77,18 +77,11 @@ pub struct MtlLibrary {
 pub fn parse_mtl(text: &str, path: &Path) -> Result<MtlLibrary, SceneError> {
     let mut library = MtlLibrary::default();
     for (number, line) in logical_lines(text) {
-        let at_line = |reason: String| SceneError::Parse {
-            path: path.display().to_string(),
-            reason: format!("line {number}: {reason}"),
-        };
+        let at_line = line_error(path, number);
         let line = line.trim();
-        let mut words = line.split_whitespace();
-        let Some(keyword) = words.next() else {
+        let Some((keyword, mut words)) = statement(line) else {
             continue;
         };
-        if keyword.starts_with('#') {
-            continue;
-        }
         if !is_keyword(keyword) {
             return Err(at_line(format!(
                 "'{}' is not an MTL statement",

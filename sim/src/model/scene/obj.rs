@@ -54,7 +54,7 @@ use glam::Vec3;
 
 use super::geometry::{read_regular_file, MeshPart, SceneGeometry, NO_MATERIAL};
 use super::mtl::{material_from_mtl, parse_mtl, preview, MtlLibrary, MtlMaterial};
-use super::text::{decode, is_keyword, logical_lines, StatementCounts};
+use super::text::{decode, is_keyword, line_error, logical_lines, statement, StatementCounts};
 use super::SceneError;
 
 /// One OBJ file, parsed but not yet added to a [`SceneGeometry`].
@@ -98,18 +98,11 @@ pub fn parse_obj(
     let mut missing_seen: HashSet<String> = HashSet::new();
     let mut corners: Vec<u32> = Vec::new();
     for (number, line) in logical_lines(text) {
-        let at_line = |reason: String| SceneError::Parse {
-            path: path.display().to_string(),
-            reason: format!("line {number}: {reason}"),
-        };
+        let at_line = line_error(path, number);
         let line = line.trim();
-        let mut words = line.split_whitespace();
-        let Some(keyword) = words.next() else {
+        let Some((keyword, words)) = statement(line) else {
             continue;
         };
-        if keyword.starts_with('#') {
-            continue;
-        }
         // Arguments end at a word starting with `#` (a trailing comment).
         let args = words.take_while(|w| !w.starts_with('#'));
         match keyword {

@@ -93,6 +93,23 @@ impl<'a> Iterator for LogicalLines<'a> {
     }
 }
 
+/// The error of line `number` of the file at `path`: `reason` after `line N: `, as a
+/// [`SceneError::Parse`] naming the file (the OBJ and MTL readers' errors).
+pub fn line_error(path: &Path, number: usize) -> impl Fn(String) -> SceneError + '_ {
+    move |reason| SceneError::Parse {
+        path: path.display().to_string(),
+        reason: format!("line {number}: {reason}"),
+    }
+}
+
+/// The first word of a trimmed logical line and the words after it, or `None` for a blank line
+/// or a comment (a first word starting with `#`).
+pub fn statement(line: &str) -> Option<(&str, std::str::SplitWhitespace<'_>)> {
+    let mut words = line.split_whitespace();
+    let keyword = words.next()?;
+    (!keyword.starts_with('#')).then_some((keyword, words))
+}
+
 /// Whether `word` can be a statement keyword: 1 to 32 ASCII letters, digits or `_`, starting
 /// with a letter.
 pub fn is_keyword(word: &str) -> bool {

@@ -21,20 +21,13 @@ pub fn figure1(r: &Results, out: &Path) -> anyhow::Result<Figure> {
     let scenes = r.scenes();
     let how = Mean::Arithmetic;
     let cats = categories(&r.labels(), how);
-    let miss = estimate_series(
-        "measured by vtq",
-        &scenes,
-        per_scene_estimates(r, &scenes, BASELINE, "bvh_l1_miss_rate"),
-        how,
-        100.0,
-    );
-    let simt = estimate_series(
-        "measured by vtq",
-        &scenes,
-        per_scene_estimates(r, &scenes, BASELINE, "simt_efficiency"),
-        how,
-        1.0,
-    );
+    // The baseline's statistic `name` per scene, scaled by `scale`, with its mean.
+    let measured = |name: &str, scale: f64| {
+        let values = per_scene_estimates(r, &scenes, BASELINE, name);
+        estimate_series("measured by vtq", &scenes, values, how, scale)
+    };
+    let miss = measured("bvh_l1_miss_rate", 100.0);
+    let simt = measured("simt_efficiency", 1.0);
     let a = bars(
         out,
         "fig01a",
