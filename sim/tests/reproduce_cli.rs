@@ -19,20 +19,6 @@ fn vtq(dir: &Path, args: &[&str]) -> String {
     common::ok_stdout(args, common::vtq_cli_without_fonts(dir, args))
 }
 
-/// Pixels darker than mid grey in rows `rows` of the PNG at `path`.
-fn dark_pixels(path: &Path, rows: std::ops::Range<usize>) -> usize {
-    let file = std::fs::File::open(path).unwrap();
-    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
-        .read_info()
-        .unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let (channels, width) = (info.color_type.samples(), info.width as usize);
-    rows.flat_map(|y| (0..width).map(move |x| (y * width + x) * channels))
-        .filter(|&i| buf[i..i + 3].iter().map(|&c| u32::from(c)).sum::<u32>() < 3 * 128)
-        .count()
-}
-
 /// The tiny reproduction's arguments (`--out` first).
 const TINY: [&str; 8] = [
     "--scene",
@@ -117,7 +103,7 @@ fn reproduce_writes_every_figure_and_resumes() {
     // The PNG charts carry text (the title band above the plot is white without it).
     for stem in ["fig05", "fig10", "fig11-wknd"] {
         let png = out.join(format!("figures/{stem}.png"));
-        let title = dark_pixels(&png, 0..40);
+        let title = common::dark_pixels(&png, 0..40);
         assert!(
             title > 200,
             "{}: {title} dark pixels in the title",

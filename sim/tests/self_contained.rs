@@ -5,7 +5,6 @@
 
 mod common;
 
-use std::path::Path;
 use std::process::Command;
 
 /// The libraries a Rust binary for the GNU C library may need: the C runtime only.
@@ -114,19 +113,6 @@ fn the_elf_reader_finds_needed_libraries() {
     );
 }
 
-/// Pixels darker than mid grey in rows `rows` of the PNG at `path`.
-fn dark_pixels(path: &Path, rows: std::ops::Range<usize>) -> usize {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let channels = info.color_type.samples();
-    let width = info.width as usize;
-    rows.flat_map(|y| (0..width).map(move |x| (y * width + x) * channels))
-        .filter(|&i| buf[i..i + 3].iter().map(|&c| c as u32).sum::<u32>() < 3 * 128)
-        .count()
-}
-
 #[test]
 fn accuracy_draws_its_chart_text_without_fontconfig() {
     let dir = common::fresh_dir("self-contained");
@@ -136,12 +122,12 @@ fn accuracy_draws_its_chart_text_without_fontconfig() {
     let png = out.join("accuracy.png");
     // The title sits in the top 40 rows above the legend and the plot (white without text);
     // the x axis' caption in the bottom rows, under its tick labels.
-    let title = dark_pixels(&png, 0..40);
+    let title = common::dark_pixels(&png, 0..40);
     assert!(
         title > 200,
         "{title} dark pixels in the title band: no text drawn"
     );
-    let caption = dark_pixels(&png, 575..600);
+    let caption = common::dark_pixels(&png, 575..600);
     assert!(
         caption > 100,
         "{caption} dark pixels in the x axis caption's band: no text drawn"

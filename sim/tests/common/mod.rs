@@ -323,6 +323,21 @@ pub fn fresh_dir(name: &str) -> std::path::PathBuf {
     dir
 }
 
+/// Pixels darker than mid grey in rows `rows` of the PNG at `path`: whether a chart drew its
+/// text there.
+pub fn dark_pixels(path: &std::path::Path, rows: std::ops::Range<usize>) -> usize {
+    let file = std::fs::File::open(path).unwrap();
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let (channels, width) = (info.color_type.samples(), info.width as usize);
+    rows.flat_map(|y| (0..width).map(move |x| (y * width + x) * channels))
+        .filter(|&i| buf[i..i + 3].iter().map(|&c| u32::from(c)).sum::<u32>() < 3 * 128)
+        .count()
+}
+
 /// A 16x16 frame of cornell, as `vtq` options: a tiny workload for commands that run the
 /// simulator.
 pub const TINY_CORNELL: [&str; 6] = [

@@ -5,6 +5,10 @@
 // Each test binary compiles this module on its own and uses only part of it.
 #![allow(dead_code)]
 
+// The simulator tests' shared helpers (the scene tests that use this module don't declare it).
+#[path = "../common/mod.rs"]
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
@@ -116,12 +120,10 @@ pub fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
     path
 }
 
-/// A fresh, empty temporary folder unique to this process, test binary and `tag`.
+/// A fresh, empty temporary folder unique to this process and `tag`: the shared tests'
+/// [`common::fresh_dir`] named `vtq-gltf-ply-<tag>-<process id>`.
 pub fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vtq-gltf-ply-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create temp dir");
-    dir
+    common::fresh_dir(&format!("gltf-ply-{tag}"))
 }
 
 /// The MTL library of [`MATERIALS`].
