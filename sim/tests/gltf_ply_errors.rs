@@ -1,6 +1,7 @@
 //! Malformed glTF, GLB and PLY files: each is one error naming the file and the problem, never
 //! a panic, and a non-finite PLY vertex leaves out its triangles as in OBJ.
 
+mod common;
 mod scene_writers;
 
 use std::path::Path;

@@ -3,6 +3,7 @@
 //! mesh written as OBJ, render and simulate to identical images and statistics, place meshes
 //! by their node hierarchy, take the first glTF camera, and report what they do not use.
 
+mod common;
 mod scene_writers;
 
 use std::path::Path;

@@ -5,10 +5,6 @@
 // Each test binary compiles this module on its own and uses only part of it.
 #![allow(dead_code)]
 
-// The simulator tests' shared helpers (the scene tests that use this module don't declare it).
-#[path = "../common/mod.rs"]
-mod common;
-
 use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
@@ -121,9 +117,9 @@ pub fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
 }
 
 /// A fresh, empty temporary folder unique to this process and `tag`: the shared tests'
-/// [`common::fresh_dir`] named `vtq-gltf-ply-<tag>-<process id>`.
+/// [`crate::common::fresh_dir`] named `vtq-gltf-ply-<tag>-<process id>`.
 pub fn temp_dir(tag: &str) -> PathBuf {
-    common::fresh_dir(&format!("gltf-ply-{tag}"))
+    crate::common::fresh_dir(&format!("gltf-ply-{tag}"))
 }
 
 /// The MTL library of [`MATERIALS`].
