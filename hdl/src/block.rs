@@ -98,4 +98,85 @@ pub trait Block {
 
     /// The block's ports, registers, memories and state machines for this configuration.
     fn describe(&self) -> BlockDesc;
+
+    /// A summary of the registers `regs` for a watchdog's dump (by default every register
+    /// signal as `name=value`; blocks with large state summarize).
+    fn debug_state(&self, regs: &Self::Regs) -> String {
+        self.reg_signals(regs)
+            .iter()
+            .map(|s| format!("{}={}", s.name, s.value))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// A simulation cache of a block's registers (not hardware): what the block's fast functions
+/// read beside the registers so they need not scan them ([`Moore`], [`Skip`]); `()` for a
+/// block without one. It is a function of the registers: whoever steps the block keeps it up to
+/// date through the block's own cached step.
+pub trait Cached: Block {
+    /// The cache (`()` for none).
+    type Cache;
+
+    /// The cache of registers `regs`.
+    fn cache(&self, regs: &Self::Regs) -> Self::Cache;
+}
+
+/// A block's register-only (Moore) outputs, as one bundle: the ports that depend on the
+/// registers alone (a table's status, the controller's mode register, the RT unit's status
+/// ports), which a parent reads before it drives the block's inputs in the same cycle.
+///
+/// They are outputs like any other: every output bundle `next_into` returns for registers
+/// `regs` carries the same values (each block has a test), so a composite's definition reads
+/// them from its children's settled outputs. `status` gives them from the registers alone, as
+/// the combinational logic behind those ports would, for a parent that steps its children in
+/// dependency order (a fast path): it is the only register-reading function a parent calls.
+pub trait Moore: Cached {
+    /// The register-only outputs.
+    type Status;
+    /// Which costly fields of the status to compute (`()` when none is costly): a field left
+    /// out reads 0. The simulator leaves out what no reader looks at this cycle (the RT unit's
+    /// distinct-treelet counts); hardware computes them always.
+    type Select: Copy;
+
+    /// The register-only outputs of registers `regs` (with their cache `cache`).
+    fn status(&self, regs: &Self::Regs, cache: &Self::Cache, select: Self::Select) -> Self::Status;
+
+    /// [`Moore::status`] written into `status` (a block with list-valued status ports reuses
+    /// their storage).
+    fn status_into(
+        &self,
+        regs: &Self::Regs,
+        cache: &Self::Cache,
+        select: Self::Select,
+        status: &mut Self::Status,
+    ) {
+        *status = self.status(regs, cache, select);
+    }
+}
+
+/// Clock gating, as a simulator uses it: cycles in which a block given idle inputs changes
+/// nothing a parent sees but its statistics and internal progress (delays counting down, a
+/// scan advancing), which a simulator jumps over instead of stepping. Hardware would gate the
+/// clock of such a block and count the cycles; [`Skip::skip`] is exactly that many steps with
+/// idle inputs (each block has a test), so a run that skips equals one that steps every cycle.
+pub trait Skip: Cached {
+    /// The statistics increments of skipped cycles.
+    type Counts;
+
+    /// Cycles from now, with idle inputs, before the block does anything a parent sees (a
+    /// request, a completion, an output changing); `u64::MAX` when it waits only for inputs,
+    /// and then idle inputs change none of its registers (its clock may stay gated). Derived
+    /// from its registers and outputs the way a clock-gating condition would be.
+    fn idle_cycles(&self, regs: &Self::Regs, cache: &Self::Cache) -> u64;
+
+    /// Advances `n <= idle_cycles` cycles with idle inputs, as `n` steps would; returns the
+    /// statistics of those cycles.
+    fn skip(&self, regs: &mut Self::Regs, cache: &mut Self::Cache, n: u64) -> Self::Counts;
+
+    /// Idle inputs change none of the registers: the block need not be stepped in a cycle
+    /// whose inputs are idle ([`Skip::idle_cycles`] is `u64::MAX`).
+    fn gated(&self, regs: &Self::Regs, cache: &Self::Cache) -> bool {
+        self.idle_cycles(regs, cache) == u64::MAX
+    }
 }

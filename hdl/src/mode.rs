@@ -61,6 +61,16 @@ impl Mode {
     pub fn terminates_divergent_warps(self) -> bool {
         matches!(self, Mode::Initial | Mode::TreeletStationary)
     }
+
+    /// The controller's `mode` output for mode register `self` when its `restart` input is
+    /// `restart`: a `done` controller that restarts is in the initial phase that cycle.
+    pub fn restarted_if(self, restart: bool) -> Mode {
+        if restart && self == Mode::Done {
+            Mode::Initial
+        } else {
+            self
+        }
+    }
 }
 
 /// Whether a warp in its initial phase has diverged: its active rays need more than

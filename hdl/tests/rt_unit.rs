@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 use vtq_hdl::bits::fits;
 use vtq_hdl::bounded::BoundedVec;
+use vtq_hdl::rt_unit::StatusSelect;
 use vtq_hdl::rt_unit::{
     errors, spill_area, unpack_spill_chunk, BoundaryEvent, ErrorKind, Hit, IssueTarget, Lane,
     LaneStatus, LaneWrite, MemRequest, MemResponse, NodeEntry, NodeKind, RayOutcome, RayRecord,
@@ -10,7 +11,7 @@ use vtq_hdl::rt_unit::{
     RtUnitRegs, SlotSummary, Split, TraversalOrder, WarpDone, WarpIssue, CHUNK_BYTES,
 };
 use vtq_hdl::splitmix::SplitMix64;
-use vtq_hdl::{Block, HwConfig, Signals};
+use vtq_hdl::{Block, Cached, HwConfig, Moore, Signals, Skip};
 
 mod common;
 use common::{node, words, ToyDatapath, Tree, ALL};
@@ -143,7 +144,8 @@ impl Sim {
         set(&mut inputs);
         let max = self
             .unit
-            .resp_free(&self.regs)
+            .status(&self.regs, &self.cache, StatusSelect::Scalars)
+            .resp_free
             .min(self.unit.params().resp_ports);
         inputs.responses = self.mem.deliver(self.cycle, max as usize);
         let out = if self.use_eval {
@@ -181,7 +183,11 @@ impl Sim {
     fn run(&mut self, warps: Vec<WarpIssue>) {
         let n = self.done.len() + warps.len();
         for w in warps {
-            assert!(self.unit.issue_ready(&self.regs));
+            assert!(
+                self.unit
+                    .status(&self.regs, &self.cache, StatusSelect::Scalars)
+                    .issue_ready
+            );
             self.step(Some(w));
         }
         while self.done.len() < n {
@@ -717,7 +723,11 @@ fn protocol_violations_raise_sticky_errors() {
     inp.issue = Some(warp(TraversalOrder::RayStationary, 4, vec![ray(0, 0, r)]));
     unit.step(&mut regs, &inp);
     unit.step(&mut regs, &inp);
-    assert!(!unit.issue_ready(&regs));
+    assert!(
+        !unit
+            .status(&regs, &unit.cache(&regs), StatusSelect::Scalars)
+            .issue_ready
+    );
     let out = unit.step(&mut regs, &inp);
     assert!(!out.issue_ready);
     let out = unit.step(&mut regs, &unit.idle_inputs());
@@ -770,7 +780,11 @@ fn written_lanes_wait_inactive_and_enter_with_their_warps_issue() {
     let lanes = &regs.slots[1].lanes;
     assert!(lanes[0].written && lanes[2].written && !lanes[1].written);
     assert!(lanes.iter().all(|l| l.status == LaneStatus::Inactive));
-    assert_eq!(unit.status(&regs, &unit.cache(&regs), false).slots[1], None);
+    assert_eq!(
+        unit.status(&regs, &unit.cache(&regs), StatusSelect::Slots)
+            .slots[1],
+        None
+    );
     // The issue: lanes 0 and 2 from their written records, lane 3 from the bus, while the bus
     // also writes lane 1 of slot 0 (another slot, another lane).
     let mut issue = warp(
@@ -1277,7 +1291,11 @@ fn skip_equals_idle_steps() {
             assert_eq!(counts, stepped_counts, "cycle {} skip {n}", sim.cycle);
             assert!(skipped_cache.consistent(&skipped));
             checked_nonzero += usize::from(n > 0);
-            let issue = if sim.unit.issue_ready(&sim.regs) {
+            let issue = if sim
+                .unit
+                .status(&sim.regs, &sim.cache, StatusSelect::Scalars)
+                .issue_ready
+            {
                 pending.pop()
             } else {
                 None
@@ -1572,7 +1590,9 @@ fn check_lane_summaries(sim: &Sim, cfg: &HwConfig, seed: u64) -> (bool, Vec<u32>
     // The status ports: each slot's state and summary by their definition (distinct
     // next treelets for treelet-continue warps only), inactive lanes by scan.
     let count_distinct = sim.cycle.is_multiple_of(2);
-    let status = sim.unit.status(regs, &sim.cache, count_distinct);
+    let status = sim
+        .unit
+        .status(regs, &sim.cache, StatusSelect::slots(count_distinct));
     assert_eq!(status.slots.len(), cfg.warp_buffer_size as usize);
     for (k, st) in status.slots.iter().enumerate() {
         let slot = &regs.slots[k];
@@ -1654,7 +1674,13 @@ fn lane_summaries_match_a_scan_of_the_lanes_every_cycle() {
                     w.target = IssueTarget::Append { slot, last: true };
                     issue = Some(w);
                     fills += 1;
-                } else if next_ray < RAYS && sim.unit.issue_ready(regs) && rng.below_exact(4) == 0 {
+                } else if next_ray < RAYS
+                    && sim
+                        .unit
+                        .status(regs, &sim.cache, StatusSelect::Scalars)
+                        .issue_ready
+                    && rng.below_exact(4) == 0
+                {
                     let order = TraversalOrder::ALL[rng.below_exact(3) as usize];
                     let lanes = (0..8)
                         .map(|_| {

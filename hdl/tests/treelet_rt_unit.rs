@@ -9,6 +9,7 @@
 use std::collections::{BTreeMap, VecDeque};
 use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::mode::Mode;
+use vtq_hdl::rt_unit::NodeDatapath;
 use vtq_hdl::rt_unit::{
     MemResponse, NodeEntry, NodeKind, RayRecord, RequestKind, RtUnitParams, CHUNK_BYTES,
 };
@@ -17,7 +18,7 @@ use vtq_hdl::treelet_rt_unit::{
     ProbeCycle, RayLoad, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitInputs,
     TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
 };
-use vtq_hdl::{Block, HwConfig, Signal, Signals};
+use vtq_hdl::{Block, Cached, HwConfig, Moore, Signal, Signals, Skip};
 
 mod common;
 use common::{assert_signals_fit, node, words, ToyDatapath, Tree, ALL};
@@ -282,18 +283,23 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
     cache.probe(probe);
     let mut env = Env::new(rays, seed);
     let mut counts = TreeletCounts::default();
-    let mut modes = vec![u.mode(&reference)];
+    let mut modes = vec![mode_of(&u, &reference)];
     let resp_ports = u.rt_unit().params().resp_ports;
     let (mut now, mut skipped) = (0u64, 0u64);
     let mut kept = u.empty_outputs();
-    while env.finished.len() < rays as usize || !env.owner.is_empty() || u.mode(&fast) != Mode::Done
+    while env.finished.len() < rays as usize
+        || !env.owner.is_empty()
+        || u.status(&fast, &cache, false).mode != Mode::Done
     {
         assert!(
             now < 200_000,
             "no end after {now} cycles: {}",
             u.debug_state(&fast)
         );
-        let offer = env.offer(u.sm_ready(&fast, &cache), cfg.warp_size as usize);
+        let offer = env.offer(
+            u.status(&fast, &cache, true).sm_ready,
+            cfg.warp_size as usize,
+        );
         // Cycles with nothing arriving and nothing offered may be skipped by the fast copy.
         let idle = u.idle_cycles(&fast, &cache);
         if offer.is_none() && env.quiet(now) && idle > 0 {
@@ -320,8 +326,8 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
             continue;
         }
         let offered = offer.as_ref().map_or(0, |o| o.len());
-        let resp_max = u.resp_free(&fast).min(resp_ports) as usize;
-        let ready = u.sm_ready(&fast, &cache);
+        let resp_max = u.status(&fast, &cache, false).resp_free.min(resp_ports) as usize;
+        let ready = u.status(&fast, &cache, true).sm_ready;
         let record_max = cfg.record_ports() as usize;
         let inputs = env.inputs(now, u.idle_inputs(), offer, resp_max, record_max);
         let (want, next, wiring_in, wiring_out) = u.eval_wiring(&reference, &inputs);
@@ -334,7 +340,10 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
             "the wiring's registers from its ports, cycle {now}"
         );
         // The register-only outputs on the ports are what the environment read before the cycle.
-        assert_eq!((want.sm_ready, want.resp_free), (ready, u.resp_free(&fast)));
+        assert_eq!(
+            (want.sm_ready, want.resp_free),
+            (ready, u.status(&fast, &cache, false).resp_free)
+        );
         ports_fit(&inputs, &want, now);
         let out = if now % 2 == 0 {
             u.step_cached_into(&mut fast, &mut cache, &inputs, &mut kept);
@@ -351,8 +360,8 @@ fn run(cfg: HwConfig, features: ControllerFeatures, rays: u32, seed: u64, probe:
         reference = next;
         counts.add(&out.counts);
         env.absorb(now, &out, offered);
-        if modes.last() != Some(&u.mode(&fast)) {
-            modes.push(u.mode(&fast));
+        if modes.last() != Some(&u.status(&fast, &cache, false).mode) {
+            modes.push(u.status(&fast, &cache, false).mode);
         }
         now += 1;
     }
@@ -473,7 +482,7 @@ fn check_probe<D: vtq_hdl::rt_unit::NodeDatapath>(
     );
     assert_eq!(
         value(&ctl.regs, "mode"),
-        u.mode(regs).encoding(),
+        mode_of(u, regs).encoding(),
         "cycle {now}"
     );
     for (name, c) in &p.children {
@@ -552,4 +561,10 @@ fn every_ray_is_traced_exactly_once_in_every_variant_and_the_fast_path_is_the_de
         spilled |= c.spills > 0;
     }
     assert!(spilled, "the queue table never spilled");
+}
+
+/// The controller's mode register of `regs` (the block's register-only outputs, from a fresh
+/// cache).
+fn mode_of<D: NodeDatapath>(u: &TreeletRtUnit<D>, regs: &TreeletRtUnitRegs) -> Mode {
+    u.status(regs, &u.cache(regs), false).mode
 }

@@ -24,7 +24,7 @@ use vtq_hdl::count_table::{CountOp, CountTable};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::{QueueOp, QueueTable};
 use vtq_hdl::treelet_rt_unit::{TableLog, TreeletRtUnit};
-use vtq_hdl::Block;
+use vtq_hdl::{Block, Cached};
 use vtq_sim::model::bvh::HwBvh;
 use vtq_sim::model::config::SimConfig;
 use vtq_sim::model::gpu::datapath::BvhDatapath;

@@ -2,9 +2,9 @@
 //! ports together, one module's outputs ([`RtUnitWithStatus`]).
 
 use vtq_hdl::rt_unit::{
-    NodeDatapath, RtUnit, RtUnitInputs, RtUnitOutputs, RtUnitRegs, RtUnitStatus,
+    NodeDatapath, RtUnit, RtUnitInputs, RtUnitOutputs, RtUnitRegs, RtUnitStatus, StatusSelect,
 };
-use vtq_hdl::{Block, BlockDesc, Signal, Signals};
+use vtq_hdl::{Block, BlockDesc, Cached, Moore, Signal, Signals};
 
 /// An RT unit whose outputs include its status ports, as the Verilog module `rt_unit` drives
 /// them every cycle (the distinct next treelets always counted, for treelet-continue warps):
@@ -55,7 +55,9 @@ impl<D: NodeDatapath> Block for RtUnitWithStatus<D> {
         inputs: &RtUnitInputs,
         next: &mut RtUnitRegs,
     ) -> RtUnitAllOutputs {
-        let status = self.0.status(regs, &self.0.cache(regs), true);
+        let status = self
+            .0
+            .status(regs, &self.0.cache(regs), StatusSelect::Distinct);
         RtUnitAllOutputs {
             out: self.0.next_into(regs, inputs, next),
             status,

@@ -26,7 +26,7 @@ use vtq_hdl::controller::{
 use vtq_hdl::count_table::{CountOp, CountTable, CountTableRegs};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::{PopResult, QueueOp, QueueTable, QueueTableRegs};
-use vtq_hdl::{Block, HwConfig};
+use vtq_hdl::{Block, HwConfig, Moore};
 
 /// What a controller stimulus stream exercised, counted on the Rust controller's registers,
 /// inputs and outputs.
@@ -333,7 +333,8 @@ impl Env {
     /// initial-phase warp and keeps `launch_done` low, and a `done` controller restarts.
     fn inputs(&mut self, offering: bool) -> ControllerInputs {
         let mut i = self.ctl.idle_inputs();
-        let waiting = offering && admits(self.ctl.mode(&self.regs, offering));
+        let waiting =
+            offering && admits(self.ctl.status(&self.regs, &(), ()).restarted_if(offering));
         i.restart = offering;
         i.launch_done = !waiting;
         i.rt_idle = self.events.is_empty() && self.slots.iter().all(|s| *s == Slot::Free);
@@ -369,9 +370,9 @@ impl Env {
                 }
             }
         }
-        i.ct = self.ct.status(&self.ct_regs);
+        i.ct = self.ct.status(&self.ct_regs, &(), ());
         i.ct_evict = self.ct_evict;
-        i.qt = self.qt.status(&self.qt_regs);
+        i.qt = self.qt.status(&self.qt_regs, &(), ());
         i.qt_done = self.qt_done.clone();
         i
     }
@@ -405,7 +406,7 @@ impl Env {
     /// The tables take the controller's ops (or a refill answer) and register their answers.
     fn tables(&mut self, out: &ControllerOutputs) {
         let ct_out = self.ct.step(&mut self.ct_regs, &self.ct.input(out.ct_op));
-        let waiting = self.qt.status(&self.qt_regs).refill_waiting;
+        let waiting = self.qt.status(&self.qt_regs, &(), ()).refill_waiting;
         let qt_in = match self.spill.front() {
             Some(&(t, r)) if waiting && self.refill_delay == 0 => {
                 self.spill.pop_front();

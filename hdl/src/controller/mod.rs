@@ -433,16 +433,6 @@ impl TreeletController {
         self.widths
     }
 
-    /// The `mode` output for these registers when `restart` is driven (a register-only
-    /// output: the mode register, or the initial phase when a `done` controller restarts).
-    pub fn mode(&self, regs: &ControllerRegs, restart: bool) -> Mode {
-        if restart && regs.mode == Mode::Done {
-            Mode::Initial
-        } else {
-            regs.mode
-        }
-    }
-
     /// Whether the queues or the spare buffer hold rays (registers only).
     pub fn rays_waiting(&self, regs: &ControllerRegs) -> bool {
         regs.queued_rays > 0 || regs.spare_count > 0
@@ -463,17 +453,22 @@ impl TreeletController {
             )
         })
     }
+}
 
-    /// A one-line summary of the registers, for a watchdog's dump.
-    pub fn debug_state(&self, regs: &ControllerRegs) -> String {
-        format!(
-            "mode {}, seq {:?}, queued rays {}, resident {:?}, spare {}",
-            regs.mode.name(),
-            regs.seq,
-            regs.queued_rays,
-            regs.res,
-            regs.spare_count
-        )
+impl crate::block::Cached for TreeletController {
+    type Cache = ();
+
+    fn cache(&self, _: &ControllerRegs) {}
+}
+
+/// The `mode_reg` port: the mode register, from which a parent decides a restart
+/// ([`Mode::restarted_if`] gives the `mode` port).
+impl crate::block::Moore for TreeletController {
+    type Status = Mode;
+    type Select = ();
+
+    fn status(&self, regs: &ControllerRegs, _: &(), _: ()) -> Mode {
+        regs.mode
     }
 }
 
@@ -617,6 +612,18 @@ impl Block for TreeletController {
 
     fn describe(&self) -> BlockDesc {
         desc::describe(&self.cfg, self.features, &self.widths)
+    }
+
+    /// A one-line summary of the registers, for a watchdog's dump.
+    fn debug_state(&self, regs: &ControllerRegs) -> String {
+        format!(
+            "mode {}, seq {:?}, queued rays {}, resident {:?}, spare {}",
+            regs.mode.name(),
+            regs.seq,
+            regs.queued_rays,
+            regs.res,
+            regs.spare_count
+        )
     }
 }
 

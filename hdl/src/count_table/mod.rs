@@ -112,13 +112,13 @@ impl CountTable {
     /// Whether a `Nop` cycle changes the registers: a scan is running, or a pointer is stale
     /// with entries left (the next cycle starts a scan). When false, `Nop` cycles change
     /// nothing, so a simulator need not evaluate them.
-    pub fn busy(&self, r: &CountTableRegs) -> bool {
+    pub(crate) fn busy(&self, r: &CountTableRegs) -> bool {
         r.ctl.scanning || ((!r.ctl.max.valid || !r.ctl.min.valid) && r.ctl.occupancy > 0)
     }
 
     /// `Nop` cycles after which both pointers are published again (`max_valid` high), if a
     /// scan is running or about to start; `None` when the table is not [`busy`](Self::busy).
-    pub fn cycles_to_publish(&self, r: &CountTableRegs) -> Option<u32> {
+    pub(crate) fn cycles_to_publish(&self, r: &CountTableRegs) -> Option<u32> {
         if r.ctl.scanning {
             Some((self.entries() - r.ctl.scan_pos).div_ceil(self.scan_width))
         } else if self.busy(r) {
@@ -526,9 +526,20 @@ impl CountTable {
         );
         t
     }
+}
 
-    /// The register-only outputs for these registers.
-    pub fn status(&self, r: &CountTableRegs) -> CountTableStatus {
+impl crate::block::Cached for CountTable {
+    type Cache = ();
+
+    fn cache(&self, _: &CountTableRegs) {}
+}
+
+/// The `accepts`, `max_*`, `occupancy` and `above_threshold` ports.
+impl crate::block::Moore for CountTable {
+    type Status = CountTableStatus;
+    type Select = ();
+
+    fn status(&self, r: &CountTableRegs, _: &(), _: ()) -> CountTableStatus {
         CountTableStatus {
             ready: r.ctl.occupancy != self.entries() || r.ctl.min.valid,
             max: r.ctl.max.valid.then_some(QueueCount {
@@ -537,6 +548,25 @@ impl CountTable {
             }),
             occupancy: r.ctl.occupancy,
             above_threshold: r.ctl.above,
+        }
+    }
+}
+
+/// A scan in progress (or about to start) advances with `Nop`s; the table is idle until it
+/// publishes its pointers, and gated when not [`busy`](CountTable::busy).
+impl crate::block::Skip for CountTable {
+    type Counts = ();
+
+    fn idle_cycles(&self, r: &CountTableRegs, _: &()) -> u64 {
+        self.cycles_to_publish(r).map_or(u64::MAX, u64::from)
+    }
+
+    fn skip(&self, r: &mut CountTableRegs, _: &mut (), n: u64) {
+        let nop = self.input(CountOp::Nop);
+        let mut left = n;
+        while left > 0 && self.busy(r) {
+            self.step(r, &nop);
+            left -= 1;
         }
     }
 }

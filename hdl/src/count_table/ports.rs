@@ -156,6 +156,22 @@ crate::bundle! {
     }
 }
 
+impl CountTableOut {
+    /// The register-only ports among these outputs ([`crate::block::Moore`]: what
+    /// [`super::CountTable`]'s `status` gives for the registers of the cycle).
+    pub fn status(&self) -> CountTableStatus {
+        CountTableStatus {
+            ready: self.accepts,
+            max: self.max_valid.then_some(QueueCount {
+                treelet: self.max_treelet as u32,
+                count: self.max_count,
+            }),
+            occupancy: self.occupancy,
+            above_threshold: self.above_threshold,
+        }
+    }
+}
+
 /// A treelet and its queued rays, as the count table reports its largest entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct QueueCount {

@@ -629,6 +629,14 @@ impl Block for QueueTable {
     fn describe(&self) -> BlockDesc {
         self.description()
     }
+
+    /// A one-line summary of the registers, for a watchdog's dump.
+    fn debug_state(&self, r: &QueueTableRegs) -> String {
+        format!(
+            "{:?} ({} free, {} spilled)",
+            r.ctl.state, r.ctl.free_count, r.ctl.spilled
+        )
+    }
 }
 
 /// The queue table's register-only outputs: what a controller may read before it drives an op
@@ -656,9 +664,18 @@ pub struct PopResult {
     pub rays: BoundedVec<u32>,
 }
 
-impl QueueTable {
-    /// The register-only outputs for these registers.
-    pub fn status(&self, r: &QueueTableRegs) -> QueueTableStatus {
+impl crate::block::Cached for QueueTable {
+    type Cache = ();
+
+    fn cache(&self, _: &QueueTableRegs) {}
+}
+
+/// The `ready`, `free_entries`, `spilled` and `refill_waiting` ports.
+impl crate::block::Moore for QueueTable {
+    type Status = QueueTableStatus;
+    type Select = ();
+
+    fn status(&self, r: &QueueTableRegs, _: &(), _: ()) -> QueueTableStatus {
         QueueTableStatus {
             ready: r.ctl.state == QueueState::Idle,
             free_entries: r.ctl.free_count,
@@ -666,17 +683,20 @@ impl QueueTable {
             refill_waiting: r.ctl.state == QueueState::RefillWait,
         }
     }
-
-    /// A one-line summary of the registers, for a watchdog's dump.
-    pub fn debug_state(&self, r: &QueueTableRegs) -> String {
-        format!(
-            "{:?} ({} free, {} spilled)",
-            r.ctl.state, r.ctl.free_count, r.ctl.spilled
-        )
-    }
 }
 
 impl QueueTableOut {
+    /// The register-only ports among these outputs ([`crate::block::Moore`]: what
+    /// [`QueueTable`]'s `status` gives for the registers of the cycle).
+    pub fn status(&self) -> QueueTableStatus {
+        QueueTableStatus {
+            ready: self.ready,
+            free_entries: self.free_entries,
+            spilled: self.spilled,
+            refill_waiting: self.refill_waiting,
+        }
+    }
+
     /// The op that ends this cycle with its popped entry, if one ends.
     pub fn popped(&self) -> Option<PopResult> {
         let n = (self.pop_count as usize).min(self.pop_rays.len());

@@ -107,11 +107,11 @@ pub use node::{
     STACK_ENTRIES_PER_CHUNK, TMAX_WORD, TMIN_WORD,
 };
 pub(crate) use ports::{data_word, ray_state, ray_state_words, HIT_BITS};
-pub use ports::{RtUnitInputs, RtUnitOutputs, RtUnitStatus, SlotStatus, Widths};
+pub use ports::{RtUnitInputs, RtUnitOutputs, RtUnitStatus, SlotStatus, StatusSelect, Widths};
 pub use stack_layout::StackLayout;
 
 use crate::bits::{bits_for, clog2};
-use crate::block::{Block, Signal};
+use crate::block::{Block, Cached, Signal, Skip};
 use crate::bounded::{BoundedDeque, BoundedVec};
 use crate::config::{ConfigError, HwConfig};
 use crate::describe::BlockDesc;
@@ -414,80 +414,14 @@ impl<D: NodeDatapath> RtUnit<D> {
         self.cfg.record_stack_entries as usize
     }
 
-    /// The simulation cache of `regs` ([`RtCache::of`] with this unit's configuration).
-    pub fn cache(&self, regs: &RtUnitRegs) -> RtCache {
-        RtCache::of(regs, self.keep())
-    }
-
     /// Treelet of a byte address (address >> log2(treelet_bytes)).
     pub fn treelet_of(&self, address: u64) -> u64 {
         address >> self.treelet_shift
     }
 
-    /// The `issue_ready` output for these registers (a slot is free).
-    pub fn issue_ready(&self, regs: &RtUnitRegs) -> bool {
-        regs.slots.iter().any(|s| !s.valid)
-    }
-
     /// The `resp_free` output for these registers (free response-FIFO entries).
-    pub fn resp_free(&self, regs: &RtUnitRegs) -> u32 {
+    pub(crate) fn resp_free(&self, regs: &RtUnitRegs) -> u32 {
         self.params.resp_fifo_depth - regs.fifo.len() as u32
-    }
-
-    /// Cycles from now in which the unit, given idle inputs (no issue, no responses), does
-    /// nothing visible outside its statistics and delay counters: no request, no completion,
-    /// no response pop, no test. `u64::MAX` when it waits only for responses (or is empty).
-    /// Lets a simulator skip those cycles with [`skip`](Self::skip).
-    pub fn idle_cycles(&self, regs: &RtUnitRegs, cache: &RtCache) -> u64 {
-        if !regs.fifo.is_empty() || regs.split.is_some() {
-            return 0;
-        }
-        let mut idle = u64::MAX;
-        for &s in &regs.age {
-            let slot = &regs.slots[s as usize];
-            let m = &cache.masks[s as usize];
-            if (!slot.held && m.busy() == 0) || m.store | m.ready() != 0 {
-                return 0;
-            }
-            for l in bits(m.delayed) {
-                idle = idle.min(slot.lanes[l].delay as u64);
-            }
-        }
-        idle
-    }
-
-    /// Advances the registers (and their cache) by `n` cycles with idle inputs, exactly as
-    /// `n` cached steps would, provided `n <= idle_cycles`: the delays count down by `n`.
-    /// Returns the statistics increments of those cycles (`n` warp cycles per resident warp
-    /// and its traversing lanes). Panics in debug builds when `n` exceeds
-    /// [`idle_cycles`](Self::idle_cycles).
-    pub fn skip(&self, regs: &mut RtUnitRegs, cache: &mut RtCache, n: u64) -> RtStats {
-        debug_assert!(
-            n <= self.idle_cycles(regs, cache),
-            "skip beyond the idle cycles"
-        );
-        let mut counts = RtStats::default();
-        if n == 0 {
-            return counts;
-        }
-        for (slot, m) in regs.slots.iter_mut().zip(&mut cache.masks) {
-            if !slot.valid {
-                continue;
-            }
-            counts.warp_cycles += n;
-            counts.active_thread_cycles += n * u64::from(m.traversing.count_ones());
-            counts.waiting_lane_cycles += n * u64::from((m.traversing & m.in_flight).count_ones());
-            counts.done_lane_cycles += n * u64::from(m.done.count_ones());
-            counts.parked_lane_cycles += n * u64::from(m.parked.count_ones());
-            for l in bits(m.delayed) {
-                let lane = &mut slot.lanes[l];
-                lane.delay = (lane.delay as u64).saturating_sub(n) as u32;
-                if lane.delay == 0 {
-                    m.delayed &= !(1 << l);
-                }
-            }
-        }
-        counts
     }
 
     /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
@@ -611,6 +545,78 @@ impl<D: NodeDatapath> RtUnit<D> {
     }
 }
 
+/// The lane masks of each slot ([`RtCache`]).
+impl<D: NodeDatapath> Cached for RtUnit<D> {
+    type Cache = RtCache;
+
+    /// The simulation cache of `regs` ([`RtCache::of`] with this unit's configuration).
+    fn cache(&self, regs: &RtUnitRegs) -> RtCache {
+        RtCache::of(regs, self.keep())
+    }
+}
+
+/// Delays counting down: the cycles until the first delayed lane's test, while nothing else
+/// has work.
+impl<D: NodeDatapath> Skip for RtUnit<D> {
+    type Counts = RtStats;
+
+    /// Cycles from now in which the unit, given idle inputs (no issue, no responses), does
+    /// nothing visible outside its statistics and delay counters: no request, no completion,
+    /// no response pop, no test. `u64::MAX` when it waits only for responses (or is empty).
+    /// Lets a simulator skip those cycles with [`Skip::skip`].
+    fn idle_cycles(&self, regs: &RtUnitRegs, cache: &RtCache) -> u64 {
+        if !regs.fifo.is_empty() || regs.split.is_some() {
+            return 0;
+        }
+        let mut idle = u64::MAX;
+        for &s in &regs.age {
+            let slot = &regs.slots[s as usize];
+            let m = &cache.masks[s as usize];
+            if (!slot.held && m.busy() == 0) || m.store | m.ready() != 0 {
+                return 0;
+            }
+            for l in bits(m.delayed) {
+                idle = idle.min(slot.lanes[l].delay as u64);
+            }
+        }
+        idle
+    }
+
+    /// Advances the registers (and their cache) by `n` cycles with idle inputs, exactly as
+    /// `n` cached steps would, provided `n <= idle_cycles`: the delays count down by `n`.
+    /// Returns the statistics increments of those cycles (`n` warp cycles per resident warp
+    /// and its traversing lanes). Panics in debug builds when `n` exceeds
+    /// [`Skip::idle_cycles`].
+    fn skip(&self, regs: &mut RtUnitRegs, cache: &mut RtCache, n: u64) -> RtStats {
+        debug_assert!(
+            n <= self.idle_cycles(regs, cache),
+            "skip beyond the idle cycles"
+        );
+        let mut counts = RtStats::default();
+        if n == 0 {
+            return counts;
+        }
+        for (slot, m) in regs.slots.iter_mut().zip(&mut cache.masks) {
+            if !slot.valid {
+                continue;
+            }
+            counts.warp_cycles += n;
+            counts.active_thread_cycles += n * u64::from(m.traversing.count_ones());
+            counts.waiting_lane_cycles += n * u64::from((m.traversing & m.in_flight).count_ones());
+            counts.done_lane_cycles += n * u64::from(m.done.count_ones());
+            counts.parked_lane_cycles += n * u64::from(m.parked.count_ones());
+            for l in bits(m.delayed) {
+                let lane = &mut slot.lanes[l];
+                lane.delay = (lane.delay as u64).saturating_sub(n) as u32;
+                if lane.delay == 0 {
+                    m.delayed &= !(1 << l);
+                }
+            }
+        }
+        counts
+    }
+}
+
 impl<D: NodeDatapath> Block for RtUnit<D> {
     type Inputs = RtUnitInputs;
     type Outputs = RtUnitOutputs;
@@ -667,5 +673,9 @@ impl<D: NodeDatapath> Block for RtUnit<D> {
 
     fn describe(&self) -> BlockDesc {
         desc::describe(&self.cfg, &self.params, &self.widths)
+    }
+
+    fn debug_state(&self, regs: &RtUnitRegs) -> String {
+        self.summary(regs, &self.cache(regs))
     }
 }

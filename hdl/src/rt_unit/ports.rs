@@ -301,21 +301,27 @@ pub struct SlotStatus {
     pub held: bool,
     /// Its lanes' summary; `distinct_next_treelets` is counted for a warp in
     /// [`TraversalOrder::TreeletContinue`] order only, and only when asked for (0 otherwise:
-    /// [`super::RtUnit::status`]).
+    /// [`StatusSelect::Distinct`]).
     pub summary: SlotSummary,
     /// Bit `l` set for each lane holding no ray (where a repack fill may append).
     pub inactive: u64,
 }
 
 crate::bundle! {
-    /// The RT unit's register-only output ports ([`super::RtUnit::status`]): what the warp
+    /// The RT unit's register-only output ports ([`crate::block::Moore`]): what the warp
     /// buffer holds at the start of the cycle, before the cycle's inputs are known. The treelet
     /// RT unit's wiring reads these (free slot, idle, the controller's initial-phase and
     /// active-lane reports, where a repack fill appends) and nothing else of the unit's state.
     #[derive(Debug, Clone, PartialEq, Eq)]
     pub struct RtUnitStatus (Out, w: Widths, this) {
-        /// Per warp-buffer slot: its warp's status (`None`: the slot holds no warp).
+        /// Per warp-buffer slot: its warp's status (`None`: the slot holds no warp); empty when
+        /// not selected ([`StatusSelect::Scalars`]).
         pub slots: Vec<Option<SlotStatus>>,
+        /// A slot is free: the `issue_ready` port (among the cycle's outputs,
+        /// [`RtUnitOutputs::issue_ready`]).
+        pub issue_ready: bool,
+        /// Free response-FIFO entries: the `resp_free` port ([`RtUnitOutputs::resp_free`]).
+        pub resp_free: u32,
     }
     ports {
         /// per slot: the slot holds a warp (registers only)
@@ -344,6 +350,30 @@ crate::bundle! {
         lanes status_inactive (w.warp_size, w.slots) = |s: usize| {
             this.slot(s).map_or(0, |x| x.inactive)
         };
+    }
+}
+
+/// Which of the RT unit's register-only outputs [`crate::block::Moore::status`] computes: a
+/// simulator leaves out what no reader looks at in the cycle (hardware drives them all).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StatusSelect {
+    /// `issue_ready` and `resp_free` only (no slot list).
+    Scalars,
+    /// And every slot's status, with the distinct next treelets left at 0.
+    Slots,
+    /// And the distinct next treelets of warps in treelet-continue order (the costly part:
+    /// the treelet wiring reads them only in modes that terminate divergent warps).
+    Distinct,
+}
+
+impl StatusSelect {
+    /// Every slot's status, with the distinct next treelets if `distinct`.
+    pub fn slots(distinct: bool) -> Self {
+        if distinct {
+            StatusSelect::Distinct
+        } else {
+            StatusSelect::Slots
+        }
     }
 }
 

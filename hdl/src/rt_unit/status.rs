@@ -1,35 +1,47 @@
 //! The RT unit's register-only outputs (its status ports, read by the treelet wiring before
 //! the cycle's inputs are known) and summaries of its registers for the simulator and debugging.
 
+use crate::block::{Moore, Skip};
+
 use super::{
-    LaneStatus, NodeDatapath, RtCache, RtUnit, RtUnitRegs, RtUnitStatus, SlotStatus, TraversalOrder,
+    LaneStatus, NodeDatapath, RtCache, RtUnit, RtUnitRegs, RtUnitStatus, SlotStatus, StatusSelect,
+    TraversalOrder,
 };
 
-impl<D: NodeDatapath> RtUnit<D> {
-    /// The register-only output ports for these registers (and their lane cache `cache`); the
-    /// distinct next treelets (`status_distinct`) are counted only with `distinct` (0
-    /// otherwise): the treelet wiring reads them only in modes that terminate divergent warps,
-    /// and counting them is the costly part.
-    pub fn status(&self, regs: &RtUnitRegs, cache: &RtCache, distinct: bool) -> RtUnitStatus {
+/// The status ports (`status_*`: per slot its warp's order, hold, lane summary and inactive
+/// lanes) and the `issue_ready` and `resp_free` ports, as selected ([`StatusSelect`]).
+impl<D: NodeDatapath> Moore for RtUnit<D> {
+    type Status = RtUnitStatus;
+    type Select = StatusSelect;
+
+    fn status(&self, regs: &RtUnitRegs, cache: &RtCache, select: StatusSelect) -> RtUnitStatus {
         let mut status = RtUnitStatus {
             widths: self.widths,
             slots: Vec::new(),
+            issue_ready: false,
+            resp_free: 0,
         };
-        self.status_into(regs, cache, distinct, &mut status);
+        self.status_into(regs, cache, select, &mut status);
         status
     }
 
-    /// [`RtUnit::status`] written into `status` (its slot list reused: the fast path keeps
-    /// one bundle).
-    pub fn status_into(
+    /// [`Moore::status`] writing into `status`: its slot list reused (the fast path keeps one
+    /// bundle).
+    fn status_into(
         &self,
         regs: &RtUnitRegs,
         cache: &RtCache,
-        distinct: bool,
+        select: StatusSelect,
         status: &mut RtUnitStatus,
     ) {
         status.widths = self.widths;
+        status.issue_ready = regs.slots.iter().any(|s| !s.valid);
+        status.resp_free = self.params.resp_fifo_depth - regs.fifo.len() as u32;
         status.slots.clear();
+        if select == StatusSelect::Scalars {
+            return;
+        }
+        let distinct = select == StatusSelect::Distinct;
         status
             .slots
             .extend(regs.slots.iter().enumerate().map(|(k, s)| {
@@ -49,7 +61,9 @@ impl<D: NodeDatapath> RtUnit<D> {
                 })
             }));
     }
+}
 
+impl<D: NodeDatapath> RtUnit<D> {
     /// Rays traversing in the warp buffer.
     pub fn traversing_rays(&self, regs: &RtUnitRegs, cache: &RtCache) -> u64 {
         regs.slots
@@ -74,8 +88,9 @@ impl<D: NodeDatapath> RtUnit<D> {
             .map(|(s, m)| s.valid.then(|| m.traversing.count_ones()))
     }
 
-    /// A one-line summary of the registers, for a watchdog's dump.
-    pub fn debug_state(&self, regs: &RtUnitRegs, cache: &RtCache) -> String {
+    /// A one-line summary of the registers (with their cache), for a watchdog's dump
+    /// ([`crate::block::Block::debug_state`]).
+    pub(super) fn summary(&self, regs: &RtUnitRegs, cache: &RtCache) -> String {
         let slots: Vec<String> = regs
             .slots
             .iter()

@@ -13,12 +13,12 @@ use super::{
     probe, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs, TreeletRtUnitOutputs,
     TreeletRtUnitRegs,
 };
-use crate::block::Block;
+use crate::block::{Block, Moore, Skip};
 use crate::controller::{ControllerInputs, ControllerOutputs, ControllerRegs};
 use crate::count_table::CountOp;
 use crate::mode::Mode;
 use crate::queue_table::QueueOp;
-use crate::rt_unit::NodeDatapath;
+use crate::rt_unit::{NodeDatapath, StatusSelect};
 
 /// Whether a controller cycle did anything: an output other than its mode, or a register
 /// change (`regs` before, `next` after).
@@ -69,15 +69,20 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     if cache.rt_status_current == Some(distinct) {
         debug_assert_eq!(
             cache.rt_status,
-            u.rt.status(rt, &cache.rt, distinct),
+            u.rt.status(rt, &cache.rt, StatusSelect::slots(distinct)),
             "stale RT-unit status ports"
         );
     } else {
-        u.rt.status_into(rt, &cache.rt, distinct, &mut cache.rt_status);
+        u.rt.status_into(
+            rt,
+            &cache.rt,
+            StatusSelect::slots(distinct),
+            &mut cache.rt_status,
+        );
     }
     cache.rt_status_current = None;
     let arrived = place_records(&u.cfg, g, &cache.rt_status, &inputs.ray_records);
-    let peeks = Peeks::new(u, &cache.rt_status, ctl, ct, qt);
+    let peeks = Peeks::of(u, &cache.rt_status, ctl, ct, qt);
     out.sm_ready = sm_ready_in(u, g, peeks.mode, &cache.rt_status);
     let restart = peeks.mode == Mode::Done && offering;
     // The dry run of the last step computed the controller's inputs from these registers,
@@ -111,8 +116,15 @@ pub(super) fn step_in_place<D: NodeDatapath>(
             "the controller was not idle"
         );
         out.counts.ctl.count_cycles(mode, 1);
-        // The controller's `repack_starved` output, without the rest of its `eval`.
-        out.counts.ctl.repack_starved_cycles += u64::from(u.ctl.repack_withheld(ctl, ctl_in));
+        // The controller's `repack_starved` output as the dry run found it: the same
+        // registers, and inputs that differ at most in the SM's offer, which the active-lane
+        // report it depends on does not read.
+        debug_assert_eq!(
+            cache.repack_starved,
+            u.ctl.eval(ctl, ctl_in).0.repack_starved,
+            "stale repack verdict"
+        );
+        out.counts.ctl.repack_starved_cycles += u64::from(cache.repack_starved);
         None
     } else {
         // The next-state function into the scratch registers, then the clock edge (a swap):
@@ -143,7 +155,7 @@ pub(super) fn step_in_place<D: NodeDatapath>(
     super::log_rt_unit(&mut cache.tables, rt_in);
     // Tables with no op and nothing in progress are not stepped: their registers would not
     // change and their outputs would carry nothing.
-    let ct_out = (ct_in.op != CountOp::Nop || u.ct.busy(ct)).then(|| u.ct.step(ct, &ct_in));
+    let ct_out = (ct_in.op != CountOp::Nop || !u.ct.gated(ct, &())).then(|| u.ct.step(ct, &ct_in));
     let qt_out =
         (qt_in.op != QueueOp::Nop || qt_in.refill_valid || qt_busy).then(|| u.qt.step(qt, &qt_in));
     let rt_out = u.rt.step_cached(rt, &mut cache.rt, rt_in);
@@ -172,10 +184,15 @@ fn dry_run<D: NodeDatapath>(
     cache.idle = false;
     cache.dry_valid = false;
     let distinct = reads_distinct(u, &regs.ctl, false);
-    u.rt.status_into(&regs.rt, &cache.rt, distinct, &mut cache.rt_status);
+    u.rt.status_into(
+        &regs.rt,
+        &cache.rt,
+        StatusSelect::slots(distinct),
+        &mut cache.rt_status,
+    );
     cache.rt_status_current = Some(distinct);
     let g = &regs.glue;
-    if !u.qt.status(&regs.qt).ready
+    if !u.qt.status(&regs.qt, &(), ()).ready
         || g.qt_done.is_some()
         || g.ct_evict.is_some()
         || !g.events.is_empty()
@@ -183,7 +200,7 @@ fn dry_run<D: NodeDatapath>(
         cache.awake = true;
         return;
     }
-    let peeks = Peeks::of(u, regs, &cache.rt_status);
+    let peeks = Peeks::of(u, &cache.rt_status, &regs.ctl, &regs.ct, &regs.qt);
     let new = cache
         .dry_spare
         .get_or_insert_with(|| Box::new(u.ctl.idle_inputs()));
@@ -208,6 +225,7 @@ fn dry_run<D: NodeDatapath>(
         .get_or_insert_with(|| Box::new(regs.ctl.clone()));
     let o = u.ctl.next_into(&regs.ctl, inp, scratch);
     let acts = acts(&o, scratch, &regs.ctl);
+    cache.repack_starved = o.repack_starved;
     cache.dry_valid = true;
     cache.idle = !acts;
     cache.awake = acts;

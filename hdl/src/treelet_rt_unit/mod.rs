@@ -67,6 +67,8 @@ mod fast_path;
 mod glue;
 mod ports;
 mod probe;
+mod skip;
+mod status;
 mod wiring;
 mod wiring_ports;
 
@@ -76,20 +78,20 @@ pub use ports::{
     TreeletRtUnitOutputs, TreeletRtUnitWidths,
 };
 pub use probe::ProbeCycle;
+pub use status::TreeletRtUnitStatus;
 pub use wiring_ports::{WiringInputs, WiringOutputs};
 
-use crate::block::{Block, Signal};
+use crate::block::{Block, Cached, Moore, Signal};
 use crate::config::HwConfig;
 use crate::controller::{
-    ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs, FillKind,
-    TreeletController,
+    ControllerFeatures, ControllerInputs, ControllerOutputs, ControllerRegs, TreeletController,
 };
 use crate::count_table::{CountTable, CountTableIn, CountTableOut, CountTableRegs};
 use crate::describe::BlockDesc;
 use crate::queue_table::{QueueTable, QueueTableIn, QueueTableOut, QueueTableRegs};
 use crate::rt_unit::{
     NodeDatapath, RtCache, RtUnit, RtUnitError, RtUnitInputs, RtUnitOutputs, RtUnitParams,
-    RtUnitRegs, TraversalOrder,
+    RtUnitRegs, StatusSelect,
 };
 
 /// Parameters of a treelet RT unit beyond the hardware configuration.
@@ -161,6 +163,9 @@ pub struct TreeletRtUnitCache {
     dry_valid: bool,
     /// The dry run found the controller idle with `dry` (no output, registers unchanged).
     idle: bool,
+    /// The controller's `repack_starved` output in the last dry run (meaningful while
+    /// `dry_valid`): the verdict of every cycle the controller idles through with `dry`.
+    repack_starved: bool,
     /// The controller would act in the next cycle even if nothing else changed.
     awake: bool,
     /// The tables' inputs of every cycle so far, while recording.
@@ -221,12 +226,15 @@ impl TreeletRtUnitCache {
             rt_status: crate::rt_unit::RtUnitStatus {
                 widths: Default::default(),
                 slots: Vec::new(),
+                issue_ready: false,
+                resp_free: 0,
             },
             rt_status_current: None,
             dry: None,
             dry_spare: None,
             dry_valid: false,
             idle: false,
+            repack_starved: false,
             awake: true,
             tables: None,
             scratch: None,
@@ -346,11 +354,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         })
     }
 
-    /// The simulation cache of `regs` ([`TreeletRtUnitCache`]) for stepping them in place.
-    pub fn cache(&self, regs: &TreeletRtUnitRegs) -> TreeletRtUnitCache {
-        TreeletRtUnitCache::with_rt(self.rt.cache(&regs.rt))
-    }
-
     /// The RT unit child (for its parameters and widths).
     pub fn rt_unit(&self) -> &RtUnit<D> {
         &self.rt
@@ -367,187 +370,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
             rt: self.rt.params().clone(),
             features: self.ctl.features(),
             ray_base: self.ray_base,
-        }
-    }
-
-    /// The `sm_ready` output for these registers: an SM warp may be offered (SM warps are
-    /// admitted in this mode, a slot nobody owns is free and a warp's worth of ray ids is free;
-    /// the controller may still reserve the slot in the cycle).
-    pub fn sm_ready(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> bool {
-        if let Some(distinct) = cache.rt_status_current {
-            debug_assert_eq!(
-                cache.rt_status,
-                self.rt.status(&regs.rt, &cache.rt, distinct),
-                "stale RT-unit status ports"
-            );
-            wiring::sm_ready(self, regs, &cache.rt_status)
-        } else {
-            wiring::sm_ready(self, regs, &self.rt.status(&regs.rt, &cache.rt, false))
-        }
-    }
-
-    /// The `resp_free` output: free entries of the RT unit's response FIFO (memory delivers no
-    /// more than this, and no more than its response ports, per cycle).
-    pub fn resp_free(&self, regs: &TreeletRtUnitRegs) -> u32 {
-        self.rt.resp_free(&regs.rt)
-    }
-
-    /// Per warp-buffer slot, the rays traversing in it (`None`: no warp); see
-    /// [`crate::rt_unit::RtUnit::slot_lanes`].
-    pub fn slot_lanes<'a>(
-        &self,
-        regs: &'a TreeletRtUnitRegs,
-        cache: &'a TreeletRtUnitCache,
-    ) -> impl Iterator<Item = Option<u32>> + 'a {
-        self.rt.slot_lanes(&regs.rt, &cache.rt)
-    }
-
-    /// The next node address of every ray traversing in the warp buffer (what a treelet
-    /// prefetcher beside the unit watches); see [`crate::rt_unit::RtUnit::next_addresses`].
-    pub fn next_addresses<'a>(
-        &self,
-        regs: &'a TreeletRtUnitRegs,
-        cache: &'a TreeletRtUnitCache,
-    ) -> impl Iterator<Item = u64> + 'a {
-        self.rt.next_addresses(&regs.rt, &cache.rt)
-    }
-
-    /// Rays traversing in the warp buffer.
-    pub fn traversing_rays(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
-        self.rt.traversing_rays(&regs.rt, &cache.rt)
-    }
-
-    /// Cycles from now in which the block, with idle inputs, does nothing but count cycles, count
-    /// down intersection delays and advance a count-table scan (`u64::MAX`: it waits only for
-    /// inputs). 0 while the wiring has work: events to report, a complete fill to issue, or a
-    /// controller the last dry run found awake.
-    pub fn idle_cycles(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
-        if cache.awake || wiring::glue_busy(&regs.glue) {
-            return 0;
-        }
-        let rt = self.rt.idle_cycles(&regs.rt, &cache.rt);
-        let ct = self
-            .ct
-            .cycles_to_publish(&regs.ct)
-            .map_or(u64::MAX, |k| k as u64);
-        rt.min(ct)
-    }
-
-    /// Advances `n <= idle_cycles` idle cycles, as `n` cached steps with idle inputs would: the
-    /// RT unit's delays, the count table's scan (its `Nop` cycles) and the controller's cycle
-    /// counter. Returns the statistics increments of those cycles. Afterwards `idle_cycles`
-    /// counts from the new cycle (0 if the skip reached the end of the idle period).
-    pub fn skip(
-        &self,
-        regs: &mut TreeletRtUnitRegs,
-        cache: &mut TreeletRtUnitCache,
-        n: u64,
-    ) -> TreeletCounts {
-        let mut counts = TreeletCounts::default();
-        if n == 0 {
-            return counts;
-        }
-        debug_assert!(
-            n <= self.idle_cycles(regs, cache),
-            "skip beyond the idle cycles"
-        );
-        // Registers hold through the skipped cycles but for delays that end only at its end, so
-        // the first cycle's repack verdict is every skipped cycle's.
-        if self.repack_withheld_at(regs, cache) {
-            counts.ctl.repack_starved_cycles += n;
-        }
-        let room = cache
-            .tables
-            .as_ref()
-            .map_or(0, |l| l.limit.saturating_sub(l.controller.len()) as u64);
-        if room > 0 {
-            // The controller's inputs hold through the skipped cycles (they end before a delay
-            // ends or a scan publishes): those the wiring gives it now, with no SM warp.
-            let distinct = wiring::reads_distinct(self, &regs.ctl, false);
-            let status = self.rt.status(&regs.rt, &cache.rt, distinct);
-            let peeks = wiring::Peeks::of(self, regs, &status);
-            let (inputs, _) = wiring::controller_inputs(self, &regs.glue, &peeks, false);
-            for _ in 0..n.min(room) {
-                log_controller(&mut cache.tables, &inputs);
-            }
-        }
-        cache.dry_valid = false;
-        cache.probed = None;
-        if let Some(log) = cache.tables.as_mut() {
-            let room = log.limit.saturating_sub(log.rt_unit.len()) as u64;
-            let idle = self.rt.idle_inputs();
-            log.rt_unit
-                .extend(std::iter::repeat_n(idle, n.min(room) as usize));
-            let room = log.limit.saturating_sub(log.treelet.len()) as u64;
-            log.treelet.extend(std::iter::repeat_n(
-                self.idle_inputs(),
-                n.min(room) as usize,
-            ));
-            let (ct, qt) = (
-                self.ct.input(crate::count_table::CountOp::Nop),
-                self.qt.input(crate::queue_table::QueueOp::Nop),
-            );
-            for _ in 0..n {
-                cache.log_tables(&ct, &qt);
-            }
-        }
-        // A skip to the RT unit's bound ends a delay, which may change the slot summaries the
-        // controller reads.
-        let delay_ends = n >= self.rt.idle_cycles(&regs.rt, &cache.rt);
-        counts.rt = self.rt.skip(&mut regs.rt, &mut cache.rt, n);
-        // The status ports change only where a delay ends (the lanes' other state and the
-        // controller's mode stay); then they are computed again, so they stay current.
-        if delay_ends {
-            let distinct = wiring::reads_distinct(self, &regs.ctl, false);
-            self.rt
-                .status_into(&regs.rt, &cache.rt, distinct, &mut cache.rt_status);
-            cache.rt_status_current = Some(distinct);
-        }
-        let mut left = n;
-        let scanning = self.ct.busy(&regs.ct);
-        while left > 0 && self.ct.busy(&regs.ct) {
-            self.ct.step(
-                &mut regs.ct,
-                &self.ct.input(crate::count_table::CountOp::Nop),
-            );
-            left -= 1;
-        }
-        // So does a scan that published its pointers: the next cycle evaluates the controller
-        // (no more idle cycles until then).
-        cache.awake |= delay_ends || (scanning && !self.ct.busy(&regs.ct));
-        counts.ctl.count_cycles(self.ctl.mode(&regs.ctl, false), n);
-        counts
-    }
-
-    /// Whether a cycle starting with `regs` withholds a repack for want of rays
-    /// ([`TreeletController::repack_withheld`] on the inputs the wiring would give it); for
-    /// idle cycles, whose controller is not evaluated. Cheap unless the controller is in the
-    /// final ray-stationary phase with an empty pool.
-    fn repack_withheld_at(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> bool {
-        let mode = self.ctl.mode(&regs.ctl, false);
-        if mode != crate::mode::Mode::FinalRayStationary
-            || self.ctl.rays_waiting(&regs.ctl)
-            || !crate::warp_repacking::repack_enabled(self.ctl.config().repack_threshold)
-        {
-            return false;
-        }
-        // The report the wiring would give the controller, from the RT unit's status ports.
-        let evaluated = || {
-            let status = self.rt.status(&regs.rt, &cache.rt, false);
-            let peeks = wiring::Peeks::new(self, &status, &regs.ctl, &regs.ct, &regs.qt);
-            let mut inputs = self.ctl.idle_inputs();
-            inputs.active_report = wiring::active_report(&regs.glue, &peeks, mode);
-            self.ctl.repack_withheld(&regs.ctl, &inputs)
-        };
-        // The last dry run's inputs, computed from these registers, hold the same report (it
-        // does not depend on whether the SM offers a warp), without evaluating the status.
-        match cache.dry.as_deref().filter(|_| cache.dry_valid) {
-            Some(dry) => {
-                let withheld = self.ctl.repack_withheld(&regs.ctl, dry);
-                debug_assert_eq!(withheld, evaluated(), "the dry run's report is stale");
-                withheld
-            }
-            None => evaluated(),
         }
     }
 
@@ -582,55 +404,6 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         out: &mut TreeletRtUnitOutputs,
     ) {
         fast_path::step_in_place(self, regs, cache, inputs, out);
-    }
-
-    /// The controller's traversal mode (a register-only output: what an observer attributes the
-    /// cycle's intersection tests to).
-    pub fn mode(&self, regs: &TreeletRtUnitRegs) -> crate::mode::Mode {
-        self.ctl.mode(&regs.ctl, false)
-    }
-
-    /// The kind of warp the lowest occupied warp-buffer slot holds (a register-only output:
-    /// what an observer attributes a cycle's events to, docs/fidelity.md cause G); `None` when
-    /// no slot holds a warp. With one warp-buffer slot (Table 1) this is the kind of the one
-    /// warp traversing.
-    pub fn warp_kind(&self, regs: &TreeletRtUnitRegs) -> Option<WarpKind> {
-        regs.rt
-            .slots
-            .iter()
-            .zip(regs.glue.uses.iter())
-            .find(|(slot, _)| slot.valid)
-            .and_then(|(slot, use_)| match use_ {
-                SlotUse::Initial => Some(WarpKind::Sm),
-                SlotUse::Controller if slot.order == TraversalOrder::TreeletStop => {
-                    Some(WarpKind::Treelet)
-                }
-                SlotUse::Controller => Some(WarpKind::Grouped),
-                SlotUse::Free | SlotUse::Closing => None,
-            })
-    }
-
-    /// The kind of warp the fill being built in warp-buffer slot `slot` makes (a register-only
-    /// output: what an observer attributes the fill's ray-record loads to); `None` when the slot
-    /// builds no fill. A repack's fill counts as grouped: repacking refills final-phase warps.
-    pub fn fill_kind(&self, regs: &TreeletRtUnitRegs, slot: u32) -> Option<WarpKind> {
-        let build = regs.glue.builds.get(slot as usize)?.as_ref()?;
-        Some(match build.kind {
-            FillKind::Treelet => WarpKind::Treelet,
-            FillKind::Grouped | FillKind::Repack => WarpKind::Grouped,
-        })
-    }
-
-    /// The count table's occupancy and entries above the underpopulation threshold (register-only
-    /// outputs: what an observer keeps the largest number of queues from).
-    pub fn queues(&self, regs: &TreeletRtUnitRegs) -> (u32, u32) {
-        let s = self.ct.status(&regs.ct);
-        (s.occupancy, s.above_threshold)
-    }
-
-    /// A one-paragraph summary of the registers, for a watchdog's dump.
-    pub fn debug_state(&self, regs: &TreeletRtUnitRegs) -> String {
-        wiring::debug_state(self, regs)
     }
 }
 
@@ -698,10 +471,16 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
         inputs: &TreeletRtUnitInputs,
         next: &mut TreeletRtUnitRegs,
     ) -> TreeletRtUnitOutputs {
+        // The RT unit's status ports (its register-only outputs, which its output bundle does
+        // not carry); the other children's come with their settled outputs.
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
-        let rt_status = self.rt.status(&regs.rt, &self.rt.cache(&regs.rt), distinct);
-        let peeks = wiring::Peeks::of(self, regs, &rt_status);
+        let rt_status = self.rt.status(
+            &regs.rt,
+            &self.rt.cache(&regs.rt),
+            StatusSelect::slots(distinct),
+        );
         let settled = self.settle_children(regs, 8, |q| {
+            let peeks = wiring::Peeks::from_ports(self, &rt_status, &q.ctl, &q.ct, &q.qt);
             wiring::kernel(self, &regs.glue, &peeks, inputs, q)
         });
         let (_, (out, glue), _, children) =
@@ -718,5 +497,10 @@ impl<D: NodeDatapath> Block for TreeletRtUnit<D> {
 
     fn describe(&self) -> BlockDesc {
         ports::describe(self)
+    }
+
+    /// A one-paragraph summary of the registers, for a watchdog's dump.
+    fn debug_state(&self, regs: &TreeletRtUnitRegs) -> String {
+        wiring::debug_state(self, regs)
     }
 }

@@ -10,16 +10,14 @@ use super::{
     ChildInputs, ChildOutputs, FinishedRay, ParkedRay, RayLoad, TreeletCounts, TreeletRequest,
     TreeletRtUnit, TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitRegs,
 };
-use crate::block::Block;
+use crate::block::{Block, Moore};
 use crate::bounded::BoundedVec;
 use crate::config::HwConfig;
 use crate::controller::{
     ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillCommand,
     FillKind, InitReport,
 };
-use crate::count_table::{
-    CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus, QueueCount,
-};
+use crate::count_table::{CountOp, CountTableIn, CountTableOut, CountTableRegs, CountTableStatus};
 use crate::mode::Mode;
 use crate::queue_table::{QueueOp, QueueTableIn, QueueTableOut, QueueTableRegs, QueueTableStatus};
 use crate::rt_unit::{
@@ -46,26 +44,27 @@ impl<'a> Peeks<'a> {
         admits_in(mode, self.admit_ts)
     }
 
-    /// The peeks with the RT unit's status ports `rt` and the other children's registers.
+    /// The peeks from the children's register-only outputs ([`Moore`]): the RT unit's status
+    /// ports `rt`, the count table's and queue table's status and the controller's mode
+    /// register.
     pub(super) fn new<D: NodeDatapath>(
         u: &TreeletRtUnit<D>,
         rt: &'a RtUnitStatus,
-        ctl: &ControllerRegs,
-        ct: &CountTableRegs,
-        qt: &QueueTableRegs,
+        ct: CountTableStatus,
+        qt: QueueTableStatus,
+        mode: Mode,
     ) -> Self {
         Peeks {
             rt,
-            ct: u.ct.status(ct),
-            qt: u.qt.status(qt),
-            mode: u.ctl.mode(ctl, false),
+            ct,
+            qt,
+            mode,
             admit_ts: u.ctl.features().admit_in_treelet_stationary,
         }
     }
 
-    /// The peeks as the wiring's ports carry them: the RT unit's status ports `rt`, the
-    /// controller's mode register and the tables' register-only outputs (what the wiring's
-    /// RTL reads).
+    /// The peeks as the children's output ports carry them (the RT unit's status ports `rt`):
+    /// what the block's definition and the wiring's RTL read.
     pub(super) fn from_ports<D: NodeDatapath>(
         u: &TreeletRtUnit<D>,
         rt: &'a RtUnitStatus,
@@ -73,35 +72,26 @@ impl<'a> Peeks<'a> {
         ct: &CountTableOut,
         qt: &QueueTableOut,
     ) -> Self {
-        Peeks {
-            rt,
-            ct: CountTableStatus {
-                ready: ct.accepts,
-                max: ct.max_valid.then_some(QueueCount {
-                    treelet: ct.max_treelet as u32,
-                    count: ct.max_count,
-                }),
-                occupancy: ct.occupancy,
-                above_threshold: ct.above_threshold,
-            },
-            qt: QueueTableStatus {
-                ready: qt.ready,
-                free_entries: qt.free_entries,
-                spilled: qt.spilled,
-                refill_waiting: qt.refill_waiting,
-            },
-            mode: ctl.mode_reg,
-            admit_ts: u.ctl.features().admit_in_treelet_stationary,
-        }
+        Peeks::new(u, rt, ct.status(), qt.status(), ctl.mode_reg)
     }
 
-    /// The peeks of `regs` with the RT unit's status ports `rt` (of `regs.rt`).
+    /// The peeks of the children's registers with the RT unit's status ports `rt` (of its
+    /// registers): the children's [`Moore::status`], for the fast path, which steps them in
+    /// dependency order.
     pub(super) fn of<D: NodeDatapath>(
         u: &TreeletRtUnit<D>,
-        regs: &TreeletRtUnitRegs,
         rt: &'a RtUnitStatus,
+        ctl: &ControllerRegs,
+        ct: &CountTableRegs,
+        qt: &QueueTableRegs,
     ) -> Self {
-        Peeks::new(u, rt, &regs.ctl, &regs.ct, &regs.qt)
+        Peeks::new(
+            u,
+            rt,
+            u.ct.status(ct, &(), ()),
+            u.qt.status(qt, &(), ()),
+            u.ctl.status(ctl, &(), ()),
+        )
     }
 }
 
@@ -270,7 +260,10 @@ pub(super) fn reads_distinct<D: NodeDatapath>(
     ctl: &ControllerRegs,
     offering: bool,
 ) -> bool {
-    u.ctl.mode(ctl, offering).terminates_divergent_warps()
+    u.ctl
+        .status(ctl, &(), ())
+        .restarted_if(offering)
+        .terminates_divergent_warps()
 }
 
 /// Whether SM warps are admitted in controller mode `mode`: not in the final ray-stationary
@@ -290,17 +283,7 @@ fn admits_in(mode: Mode, admit_ts: bool) -> bool {
     }
 }
 
-/// The `sm_ready` output (see [`TreeletRtUnit::sm_ready`]), with the RT unit's status ports
-/// `rt`.
-pub(super) fn sm_ready<D: NodeDatapath>(
-    u: &TreeletRtUnit<D>,
-    regs: &TreeletRtUnitRegs,
-    rt: &RtUnitStatus,
-) -> bool {
-    sm_ready_in(u, &regs.glue, u.ctl.mode(&regs.ctl, false), rt)
-}
-
-/// The `sm_ready` output from the wiring's registers `g` (its slots and free ids; the records
+/// The `sm_ready` output ([`super::TreeletRtUnitStatus::sm_ready`]) from the wiring's registers `g` (its slots and free ids; the records
 /// that arrive in a cycle change neither), the controller's mode and the RT unit's status.
 pub(super) fn sm_ready_in<D: NodeDatapath>(
     u: &TreeletRtUnit<D>,
@@ -467,15 +450,26 @@ pub(super) fn children_inputs<D: NodeDatapath>(
             g.uses[s as usize] = SlotUse::Free;
         }
     }
-    let ct_in = u.ct.input(ctl_out.map_or(CountOp::Nop, |o| o.ct_op));
+    let ct_in = CountTableIn {
+        op: ctl_out.map_or(CountOp::Nop, |o| o.ct_op),
+        ..u.ct.idle_inputs()
+    };
     let qt_op = ctl_out.map_or(QueueOp::Nop, |o| o.qt_op);
     let qt_in = match inputs.spill_head {
         Some((t, r)) if p.qt.refill_waiting => {
             out.spill_pop = true;
             out.counts.refills += 1;
-            u.qt.refill_answer(t, r)
+            QueueTableIn {
+                refill_valid: true,
+                refill_treelet: t,
+                refill_ray: r,
+                ..u.qt.idle_inputs()
+            }
         }
-        _ => u.qt.input(qt_op),
+        _ => QueueTableIn {
+            op: qt_op,
+            ..u.qt.idle_inputs()
+        },
     };
     out.preload = ctl_out.and_then(|o| o.preload);
     if let Some(fill) = ctl_out.and_then(|o| o.fill.as_ref()) {
@@ -723,10 +717,10 @@ pub(super) fn debug_state<D: NodeDatapath>(
     format!(
         "{}\n  treelet controller: {}; queue table {}; count table {} entries; events {}; slots \
          {:?}; fills {:?}; {} ray ids in use",
-        u.rt.debug_state(&regs.rt, &u.rt.cache(&regs.rt)),
+        u.rt.debug_state(&regs.rt),
         u.ctl.debug_state(&regs.ctl),
         u.qt.debug_state(&regs.qt),
-        u.ct.status(&regs.ct).occupancy,
+        u.ct.status(&regs.ct, &(), ()).occupancy,
         g.events.len(),
         g.uses,
         g.builds

@@ -14,11 +14,11 @@ use super::glue::GlueRegs;
 use super::wiring::{self, Peeks};
 use super::TreeletRtUnitRegs;
 use super::{ChildOutputs, TreeletRtUnit, TreeletRtUnitInputs, TreeletRtUnitOutputs};
-use crate::block::{Signal, Signals};
+use crate::block::{Cached, Moore, Signal, Signals};
 use crate::controller::{ControllerInputs, ControllerOutputs};
 use crate::count_table::{CountTableIn, CountTableOut};
 use crate::queue_table::{QueueTableIn, QueueTableOut};
-use crate::rt_unit::{NodeDatapath, RtUnitInputs, RtUnitOutputs, RtUnitStatus};
+use crate::rt_unit::{NodeDatapath, RtUnitInputs, RtUnitOutputs, RtUnitStatus, StatusSelect};
 
 /// The wiring's input ports for one cycle: the block's inputs and the children's outputs.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,17 +136,19 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
     ) {
         let distinct = wiring::reads_distinct(self, &regs.ctl, inputs.sm_warp.is_some());
         let cache = self.rt.cache(&regs.rt);
-        let status = self.rt.status(&regs.rt, &cache, distinct);
-        let peeks = Peeks::of(self, regs, &status);
+        let status = self
+            .rt
+            .status(&regs.rt, &cache, StatusSelect::slots(distinct));
         let (d, (out, glue), q, children) = self
             .settle_children(regs, 8, |q| {
+                let peeks = Peeks::from_ports(self, &status, &q.ctl, &q.ct, &q.qt);
                 wiring::kernel(self, &regs.glue, &peeks, inputs, q)
             })
             .expect("the treelet RT unit's wiring has no combinational cycle");
         let ports_in = WiringInputs {
             top: inputs.clone(),
             rt: q.rt,
-            rt_status: self.rt.status(&regs.rt, &cache, true),
+            rt_status: self.rt.status(&regs.rt, &cache, StatusSelect::Distinct),
             ctl: q.ctl,
             ct: q.ct,
             qt: q.qt,

@@ -3,7 +3,8 @@
 //! no request.
 
 use super::{Env, QUIET_CYCLES};
-use vtq_hdl::rt_unit::{spill_area, MemResponse, RtUnitInputs};
+use vtq_hdl::rt_unit::{spill_area, MemResponse, RtUnitInputs, StatusSelect};
+use vtq_hdl::{Cached, Moore};
 
 impl Env {
     /// A response to no request: a copy of the last node chunk sent (a duplicate, which
@@ -36,7 +37,11 @@ impl Env {
     /// takes. Returns which are junk.
     pub(super) fn responses(&mut self, inp: &mut RtUnitInputs) -> Vec<bool> {
         let late = self.cycle >= QUIET_CYCLES;
-        let free = self.block.resp_free(&self.regs) as usize;
+        let cache = self.block.cache(&self.regs);
+        let free = self
+            .block
+            .status(&self.regs, &cache, StatusSelect::Scalars)
+            .resp_free as usize;
         let room = free + usize::from(!self.regs.fifo.is_empty());
         let ports = self.block.params().resp_ports as usize;
         self.overflow |= late && self.rng.below(400) == 0;

@@ -41,6 +41,8 @@ fn status(inactive: u64) -> RtUnitStatus {
     RtUnitStatus {
         widths: Widths::default(),
         slots: vec![None, Some(slot)],
+        issue_ready: true,
+        resp_free: 0,
     }
 }
 

@@ -4,10 +4,10 @@
 
 use vtq_hdl::rt_unit::{
     RtCache, RtStats, RtUnit, RtUnitError, RtUnitInputs, RtUnitParams, RtUnitRegs, RtUnitStatus,
-    WarpIssue,
+    StatusSelect, WarpIssue,
 };
 use vtq_hdl::trace::BlockCycle;
-use vtq_hdl::{Block, HwConfig};
+use vtq_hdl::{Block, Cached, HwConfig, Moore, Skip};
 
 use super::hardware::RtHardware;
 use super::waveform::Waveform;
@@ -45,7 +45,7 @@ impl<'a> Plain<'a> {
         let inputs = unit.idle_inputs();
         Ok(Plain {
             slot_warp: vec![None; hw.warp_buffer_size as usize],
-            status: unit.status(&regs, &cache, false),
+            status: unit.status(&regs, &cache, StatusSelect::Slots),
             unit,
             regs,
             cache,
@@ -56,7 +56,9 @@ impl<'a> Plain<'a> {
 
 impl<'a> RtHardware<'a> for Plain<'a> {
     fn issue_ready(&self) -> bool {
-        self.unit.issue_ready(&self.regs)
+        self.unit
+            .status(&self.regs, &self.cache, StatusSelect::Scalars)
+            .issue_ready
     }
 
     fn observe_warps(&self, simt: &mut WarpSimt, n: u64) {
@@ -97,7 +99,7 @@ impl<'a> RtHardware<'a> for Plain<'a> {
     fn debug_state(&self, common: &str) -> String {
         format!(
             "{}; warps {:?}; {common}",
-            self.unit.debug_state(&self.regs, &self.cache),
+            self.unit.debug_state(&self.regs),
             self.slot_warp
         )
     }
@@ -116,8 +118,12 @@ impl<'a> RtHardware<'a> for Plain<'a> {
         let warp_size = self.unit.config().warp_size as usize;
         // A new warp goes to the lowest slot the status ports show free.
         let free = warp.and_then(|_| {
-            self.unit
-                .status_into(&self.regs, &self.cache, false, &mut self.status);
+            self.unit.status_into(
+                &self.regs,
+                &self.cache,
+                StatusSelect::Slots,
+                &mut self.status,
+            );
             (0..self.slot_warp.len() as u32).find(|&s| self.status.slot(s as usize).is_none())
         });
         let issue = match (warp, free) {
@@ -142,7 +148,10 @@ impl<'a> RtHardware<'a> for Plain<'a> {
             self.inputs.issue = Some(issue);
             cycle.accepted = Some(idx);
         }
-        let free = self.unit.resp_free(&self.regs);
+        let free = self
+            .unit
+            .status(&self.regs, &self.cache, StatusSelect::Scalars)
+            .resp_free;
         let regs_before = record.then(|| waveform::rt_unit_regs(&self.unit, &self.regs));
         // The rays' next nodes change only when a response is delivered (the FIFO held one),
         // a request pops a stack, or a warp enters or completes.

@@ -9,9 +9,10 @@ use vtq_hdl::mode::Mode;
 use vtq_hdl::rt_unit::{RayRecord, RtStats, RtUnitError, RtUnitParams, CHUNK_BYTES};
 use vtq_hdl::treelet_rt_unit::{
     RayLoad, TableLog, TreeletCounts, TreeletRequest, TreeletRtUnit, TreeletRtUnitCache,
-    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs, WarpKind,
+    TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
+    TreeletRtUnitStatus, WarpKind,
 };
-use vtq_hdl::{Block, HwConfig};
+use vtq_hdl::{Block, Cached, HwConfig, Moore, Skip};
 
 use super::hardware::RtHardware;
 use super::warp_costs::WarpCosts;
@@ -174,11 +175,9 @@ impl<'a> Treelet<'a> {
     /// seen.
     #[inline]
     fn idle_cell(&self) -> (usize, WarpKind) {
-        let kind = self
-            .unit
-            .warp_kind(&self.regs)
-            .unwrap_or(self.observer.cell.1);
-        (phase_index(self.unit.mode(&self.regs)), kind)
+        let status = self.unit.status(&self.regs, &self.cache, false);
+        let kind = status.warp_kind.unwrap_or(self.observer.cell.1);
+        (phase_index(status.mode), kind)
     }
 
     /// The treelet RT unit of `hw`, `params` and `setup` after reset, with its surroundings
@@ -245,7 +244,7 @@ impl<'a> Treelet<'a> {
 
 impl<'a> RtHardware<'a> for Treelet<'a> {
     fn issue_ready(&self) -> bool {
-        self.unit.sm_ready(&self.regs, &self.cache)
+        self.unit.status(&self.regs, &self.cache, true).sm_ready
     }
 
     fn observe_warps(&self, simt: &mut WarpSimt, n: u64) {
@@ -277,7 +276,7 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
             ..self.unit.idle_inputs()
         };
         self.cache.probe(true);
-        let phase = phase_index(self.unit.mode(&self.regs));
+        let phase = phase_index(self.unit.status(&self.regs, &self.cache, false).mode);
         let out = self
             .unit
             .step_cached(&mut self.regs, &mut self.cache, &inputs);
@@ -399,33 +398,36 @@ impl<'a> RtHardware<'a> for Treelet<'a> {
         if let Some(reason) = self.fault.take() {
             return Err(SimError::Queues { sm, reason });
         }
-        self.feed_inputs(shell, lanes);
+        // The register-only outputs before the cycle and after it.
+        let before = self.unit.status(&self.regs, &self.cache, false);
+        self.feed_inputs(shell, lanes, before.resp_free);
         if record {
             self.cache.probe(true);
         }
-        let during = phase_index(self.unit.mode(&self.regs));
-        let kind_before = self.unit.warp_kind(&self.regs);
+        let during = phase_index(before.mode);
         self.unit.step_cached_into(
             &mut self.regs,
             &mut self.cache,
             &self.inputs,
             &mut self.outputs,
         );
-        let kind = kind_before
-            .or_else(|| self.unit.warp_kind(&self.regs))
+        let after = self.unit.status(&self.regs, &self.cache, false);
+        let kind = before
+            .warp_kind
+            .or(after.warp_kind)
             .unwrap_or(self.observer.cell.1);
         self.observer.enter_cell((during, kind), &shell.stats);
         if let (true, Some(w)) = (record, shell.waveform.as_mut()) {
             w.record_treelet(&self.inputs, &self.outputs, self.cache.take_probe());
             self.cache.probe(false);
         }
-        self.observe_outputs(during, &mut shell.stats);
+        self.observe_outputs(during, &after, &mut shell.stats);
         self.check_outputs(sm, shell.address_bits)?;
         if let Some(idx) = self.accept_warp(shell, during, warp) {
             cycle.accepted = Some(idx);
         }
         self.park_rays(shell, now);
-        self.feed_prefetcher(shell);
+        self.feed_prefetcher(shell, after.mode);
         self.finish_rays(shell, sm)?;
         cycle.done = self.completed.pop_front();
         self.queue_requests(shell, now, during);
@@ -439,9 +441,14 @@ impl<'a> Treelet<'a> {
     /// responses the RT unit's free ports take from the shell's queue, this cycle's ray records
     /// and the spill FIFO's head.
     #[inline]
-    fn feed_inputs(&mut self, shell: &mut Shell<'a>, lanes: Option<Vec<Option<RayRecord>>>) {
+    fn feed_inputs(
+        &mut self,
+        shell: &mut Shell<'a>,
+        lanes: Option<Vec<Option<RayRecord>>>,
+        resp_free: u32,
+    ) {
         let rt = self.unit.rt_unit();
-        let ports = self.unit.resp_free(&self.regs).min(rt.params().resp_ports);
+        let ports = resp_free.min(rt.params().resp_ports);
         let n = (ports as usize).min(shell.responses.len());
         // The input bundle is reused every cycle, so feeding it does not allocate.
         let inputs = &mut self.inputs;
@@ -466,14 +473,15 @@ impl<'a> Treelet<'a> {
     /// Counts the cycle's events in phase `during` (the RT unit's part also into `stats`), its
     /// tests in the phase after it, and the largest numbers of queues.
     #[inline]
-    fn observe_outputs(&mut self, during: usize, stats: &mut RtStats) {
+    fn observe_outputs(&mut self, during: usize, after: &TreeletRtUnitStatus, stats: &mut RtStats) {
         let out = &self.outputs;
         let obs = &mut self.observer;
         obs.count(during, &out.counts, stats);
-        obs.tests[phase_index(self.unit.mode(&self.regs))] += out.counts.rt.total_tests();
-        let (queues, above) = self.unit.queues(&self.regs);
-        obs.max_queues = obs.max_queues.max(queues as u64);
-        obs.max_queues_above_threshold = obs.max_queues_above_threshold.max(above as u64);
+        obs.tests[phase_index(after.mode)] += out.counts.rt.total_tests();
+        obs.max_queues = obs.max_queues.max(after.queues as u64);
+        obs.max_queues_above_threshold = obs
+            .max_queues_above_threshold
+            .max(after.queues_above_threshold as u64);
     }
 
     /// The RT unit's first error (naming the ray's SM warp and lane) or the treelet hardware's
@@ -552,14 +560,14 @@ impl<'a> Treelet<'a> {
     /// Hands the shell's treelet prefetcher (if any) this cycle's preload and, in a watched
     /// phase, the rays' next addresses.
     #[inline]
-    fn feed_prefetcher(&self, shell: &mut Shell<'a>) {
+    fn feed_prefetcher(&self, shell: &mut Shell<'a>, mode: Mode) {
         if let Some(p) = shell.prefetcher.as_mut() {
             if let Some(treelet) = self.outputs.preload {
                 p.queue_treelet(treelet);
             }
             // Every stepped cycle of a watched phase: observing unchanged rays again changes
             // nothing (the prefetcher's rule), so skipped idle cycles need no observation.
-            if self.prefetch.watches(self.unit.mode(&self.regs)) {
+            if self.prefetch.watches(mode) {
                 p.observe(self.unit.next_addresses(&self.regs, &self.cache));
             }
         }
