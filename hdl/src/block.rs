@@ -120,6 +120,32 @@ pub trait Cached: Block {
 
     /// The cache of registers `regs`.
     fn cache(&self, regs: &Self::Regs) -> Self::Cache;
+
+    /// One clock edge in place with `cache` kept up to date (a simulator's fast path): the
+    /// same outputs and next registers as [`Block::eval`] (each block with a cache has a test).
+    /// By default [`Block::step`]: a block with a cache overrides it.
+    fn step_cached(
+        &self,
+        regs: &mut Self::Regs,
+        cache: &mut Self::Cache,
+        inputs: &Self::Inputs,
+    ) -> Self::Outputs {
+        let _ = cache;
+        self.step(regs, inputs)
+    }
+
+    /// [`Cached::step_cached`] writing the outputs into `out` (whatever it held before): a
+    /// block whose outputs hold lists overrides it to reuse their storage, so a simulator that
+    /// keeps one bundle allocates nothing per cycle.
+    fn step_cached_into(
+        &self,
+        regs: &mut Self::Regs,
+        cache: &mut Self::Cache,
+        inputs: &Self::Inputs,
+        out: &mut Self::Outputs,
+    ) {
+        *out = self.step_cached(regs, cache, inputs);
+    }
 }
 
 /// A block's register-only (Moore) outputs, as one bundle: the ports that depend on the

@@ -16,7 +16,7 @@ use vtq_hdl::controller::{
 use vtq_hdl::count_table::{CountOp, QueueCount};
 use vtq_hdl::mode::Mode;
 use vtq_hdl::queue_table::{PopResult, QueueOp};
-use vtq_hdl::{Block, Dir, HwConfig, Signals};
+use vtq_hdl::{Block, Dir, HwConfig, Moore, Signals};
 
 const A: u32 = 0x1_2345;
 const B: u32 = 0x0_0B0B;
@@ -189,7 +189,14 @@ impl Harness {
     fn step(&mut self, inputs: &ControllerInputs) -> ControllerOutputs {
         inputs.validate().expect("inputs in range");
         let (expect_out, expect_regs) = self.ctl.eval(&self.regs, inputs);
+        let mode_reg = self.ctl.status(&self.regs, &(), ());
         let out = self.ctl.step(&mut self.regs, inputs);
+        assert_eq!(mode_reg, out.mode_reg, "Moore status and the mode_reg port");
+        assert_eq!(
+            mode_reg.restarted_if(inputs.restart),
+            out.mode,
+            "the mode port"
+        );
         assert_eq!(out, expect_out);
         assert_eq!(self.regs, expect_regs);
         assert_signals_fit(

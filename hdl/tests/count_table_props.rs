@@ -9,7 +9,7 @@
 use proptest::prelude::*;
 use proptest_state_machine::{prop_state_machine, ReferenceStateMachine, StateMachineTest};
 use vtq_hdl::count_table::{CountOp, CountTable, CountTableOut, CountTableRegs};
-use vtq_hdl::{Block, HwConfig};
+use vtq_hdl::{Block, HwConfig, Moore, Skip};
 
 /// Parameters of one test case.
 #[derive(Debug, Clone)]
@@ -299,7 +299,24 @@ impl CountSut {
     /// One clock edge with `op` presented, in place and through `next_into` (which must agree).
     fn clock(&mut self, op: CountOp) -> CountTableOut {
         let input = self.table.input(op);
+        // The register-only outputs from the registers alone, and a `Nop` cycle as a skip.
+        let status = self.table.status(&self.regs, &(), ());
+        let idle = self.table.idle_cycles(&self.regs, &());
+        let mut skipped = self.regs.clone();
         let o = self.table.step(&mut self.regs, &input);
+        assert_eq!(
+            status,
+            o.status(),
+            "Moore status and the outputs' register-only ports"
+        );
+        if op == CountOp::Nop {
+            if idle == u64::MAX {
+                assert_eq!(skipped, self.regs, "a gated table changed in a Nop cycle");
+            } else {
+                self.table.skip(&mut skipped, &mut (), 1);
+                assert_eq!(skipped, self.regs, "a skipped cycle and a Nop step differ");
+            }
+        }
         let d = self
             .table
             .next_into(&self.shadow, &input, &mut self.scratch);

@@ -14,7 +14,7 @@ use proptest::sample::Index;
 use proptest_state_machine::{prop_state_machine, ReferenceStateMachine, StateMachineTest};
 use std::collections::{BTreeSet, VecDeque};
 use vtq_hdl::queue_table::{QueueOp, QueueTable, QueueTableIn, QueueTableOut, QueueTableRegs};
-use vtq_hdl::{Block, HwConfig};
+use vtq_hdl::{Block, HwConfig, Moore};
 
 #[derive(Debug, Clone)]
 struct Params {
@@ -307,7 +307,13 @@ struct Run {
 impl QueueSut {
     /// One clock edge with `input`, in place and through `next_into` (which must agree).
     fn clock(&mut self, input: &QueueTableIn) -> QueueTableOut {
+        let status = self.table.status(&self.regs, &(), ());
         let o = self.table.step(&mut self.regs, input);
+        assert_eq!(
+            status,
+            o.status(),
+            "Moore status and the outputs' register-only ports"
+        );
         let d = self.table.next_into(&self.shadow, input, &mut self.scratch);
         std::mem::swap(&mut self.shadow, &mut self.scratch);
         assert_eq!(o, d, "in-place step and next_into: outputs");

@@ -148,6 +148,9 @@ impl Sim {
             .resp_free
             .min(self.unit.params().resp_ports);
         inputs.responses = self.mem.deliver(self.cycle, max as usize);
+        let status = self
+            .unit
+            .status(&self.regs, &self.cache, StatusSelect::Scalars);
         let out = if self.use_eval {
             let (out, next) = self.unit.eval(&self.regs, &inputs);
             self.regs = next;
@@ -167,6 +170,12 @@ impl Sim {
             );
             out
         };
+        assert_eq!(
+            (status.issue_ready, status.resp_free),
+            (out.issue_ready, out.resp_free),
+            "Moore status and the outputs' register-only ports, cycle {}",
+            self.cycle
+        );
         self.stats.add(&out.counts);
         self.max_fifo = self.max_fifo.max(self.regs.fifo.len());
         self.mem.accept(self.cycle, out.request);

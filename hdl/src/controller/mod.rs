@@ -20,8 +20,8 @@
 //!   only when `qt_ready` is high, and assumes the op is then accepted. So the tables' status
 //!   inputs (`ct_ready`, `ct_max_*`, `ct_occupancy`,
 //!   `ct_above_threshold`, `qt_ready`, `qt_free_entries`, `qt_spilled`) are the tables'
-//!   register-only outputs in *this* cycle ([`crate::count_table::CountTable::status`],
-//!   [`crate::queue_table::QueueTable::status`]); the count table's `ready_any` is low only
+//!   register-only outputs in *this* cycle ([`Moore::status`](crate::block::Moore::status),
+//!   [`Moore::status`](crate::block::Moore::status)); the count table's `ready_any` is low only
 //!   while it is full and its minimum is stale, the one case in which it refuses an Add.
 //! - The ops are the tables' own input types ([`CountOp`], [`QueueOp`]).
 //! - The answers (`qt_done`, `qt_pop_*`, `ct_evict_*`) are the tables' outputs of the

@@ -31,11 +31,11 @@ crate::bundle! {
         /// Active-ray report for repacking.
         pub active_report: Option<ActiveReport>,
         /// The count table's status this cycle (its register-only outputs,
-        /// [`crate::count_table::CountTable::status`]).
+        /// [`Moore::status`](crate::block::Moore::status)).
         pub ct: CountTableStatus,
         /// Treelet the count table evicted last cycle (its answer of the previous cycle).
         pub ct_evict: Option<u32>,
-        /// The queue table's status this cycle ([`crate::queue_table::QueueTable::status`]).
+        /// The queue table's status this cycle ([`Moore::status`](crate::block::Moore::status)).
         pub qt: QueueTableStatus,
         /// The outstanding `Pop`/`PopAny`/`Refill` completed last cycle (the table's answer of
         /// the previous cycle, with the popped entry; empty for `Refill`).

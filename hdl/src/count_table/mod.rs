@@ -553,7 +553,7 @@ impl crate::block::Moore for CountTable {
 }
 
 /// A scan in progress (or about to start) advances with `Nop`s; the table is idle until it
-/// publishes its pointers, and gated when not [`busy`](CountTable::busy).
+/// publishes its pointers, and gated when not `busy`.
 impl crate::block::Skip for CountTable {
     type Counts = ();
 

@@ -64,15 +64,15 @@
 //! [`Block::eval`] is the definition: a pure function of the registers and inputs. It builds
 //! the lane summaries of an [`RtCache`] (bit masks of each slot's lane predicates, a pure
 //! function of the registers) and runs the cycle on a copy of the registers.
-//! [`RtUnit::step_cached`] runs the same cycle in place with a cache kept up to date across
+//! [`Cached::step_cached`] runs the same cycle in place with a cache kept up to date across
 //! cycles by its owner (the simulator), so that completion, scheduling, the delay countdown,
-//! response delivery, [`RtUnit::idle_cycles`] and [`RtUnit::slot_summary`] touch only the
+//! response delivery, [`Skip::idle_cycles`] and [`RtUnit::slot_summary`] touch only the
 //! lanes concerned; debug builds check the cache against the registers at every cached step
 //! and tests check the fast path against `eval`.
 //!
 //! # Statistics
 //! The block has no statistics registers: each cycle's increments leave on
-//! [`RtUnitOutputs::counts`] ([`RtUnit::skip`] returns those of skipped idle cycles) and the
+//! [`RtUnitOutputs::counts`] ([`Skip::skip`] returns those of skipped idle cycles) and the
 //! observer beside it sums them ([`RtStats::add`]).
 //!
 //! # Files
@@ -424,22 +424,6 @@ impl<D: NodeDatapath> RtUnit<D> {
         self.params.resp_fifo_depth - regs.fifo.len() as u32
     }
 
-    /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
-    /// outputs and next registers as [`Block::eval`], without copying the warp buffer. `cache`
-    /// must be the cache of `regs` ([`RtCache::of`]; debug builds check it).
-    pub fn step_cached(
-        &self,
-        regs: &mut RtUnitRegs,
-        cache: &mut RtCache,
-        inputs: &RtUnitInputs,
-    ) -> RtUnitOutputs {
-        debug_assert!(
-            cache.consistent(regs),
-            "stale RT-unit cache: it must follow every change of the registers"
-        );
-        self.update(regs, cache, inputs)
-    }
-
     /// Checks that the hardware can hold `node`: 1..=4 chunks, 32 B aligned, inside the
     /// address space.
     pub fn check_node(&self, node: &NodeEntry) -> Result<(), RtUnitError> {
@@ -552,6 +536,22 @@ impl<D: NodeDatapath> Cached for RtUnit<D> {
     /// The simulation cache of `regs` ([`RtCache::of`] with this unit's configuration).
     fn cache(&self, regs: &RtUnitRegs) -> RtCache {
         RtCache::of(regs, self.keep())
+    }
+
+    /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
+    /// outputs and next registers as [`Block::eval`], without copying the warp buffer. `cache`
+    /// must be the cache of `regs` ([`RtCache::of`]; debug builds check it).
+    fn step_cached(
+        &self,
+        regs: &mut RtUnitRegs,
+        cache: &mut RtCache,
+        inputs: &RtUnitInputs,
+    ) -> RtUnitOutputs {
+        debug_assert!(
+            cache.consistent(regs),
+            "stale RT-unit cache: it must follow every change of the registers"
+        );
+        self.update(regs, cache, inputs)
     }
 }
 

@@ -13,7 +13,7 @@ use super::{
     probe, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs, TreeletRtUnitOutputs,
     TreeletRtUnitRegs,
 };
-use crate::block::{Block, Moore, Skip};
+use crate::block::{Block, Cached, Moore, Skip};
 use crate::controller::{ControllerInputs, ControllerOutputs, ControllerRegs};
 use crate::count_table::CountOp;
 use crate::mode::Mode;

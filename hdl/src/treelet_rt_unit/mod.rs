@@ -15,7 +15,7 @@
 //! 1. Ray records that arrived (at most one per record port, `hw.record_bytes_per_cycle / 32`)
 //!    are written into the fills being built, each into the lane it will be issued to.
 //! 2. The controller's inputs come from registers only: the count table's and queue table's
-//!    status ([`crate::count_table::CountTable::status`], [`crate::queue_table::QueueTable::status`]),
+//!    status ([`Moore::status`]),
 //!    their answers of the previous cycle (registered here), the RT unit's status ports
 //!    ([`crate::rt_unit::RtUnitStatus`], register-only outputs: per slot its warp's order, hold,
 //!    lane summary and inactive lanes; they give the free slot, whether the unit is idle, the
@@ -41,20 +41,20 @@
 //!
 //! # Definition and fast path
 //! [`Block::eval`] is the definition: the kernel ([`wiring`]) settled with the children's pure
-//! `eval`s ([`crate::compose::settle`]). [`TreeletRtUnit::step_cached`] evaluates the same kernel
+//! `eval`s ([`crate::compose::settle`]). [`Cached::step_cached`] evaluates the same kernel
 //! stages once in dependency order, in place, with the RT unit's lane cache and a dry run of
 //! the controller kept in a [`TreeletRtUnitCache`] by its owner: a cycle in which the dry run
 //! found the controller idle counts only in its mode, a dry run whose controller neither
 //! stepped nor sees new inputs reuses the last one's verdict (a pure function of the same
 //! registers and inputs), tables with nothing to do are not stepped, and the controller's and
-//! RT unit's input bundles and the outputs ([`TreeletRtUnit::step_cached_into`]) are filled in
-//! place. Tests check the fast path against `eval`. [`TreeletRtUnit::idle_cycles`] and
-//! [`TreeletRtUnit::skip`] let a simulator jump over cycles in which nothing but counters and
+//! RT unit's input bundles and the outputs ([`Cached::step_cached_into`]) are filled in
+//! place. Tests check the fast path against `eval`. [`Skip::idle_cycles`](crate::block::Skip::idle_cycles) and
+//! [`Skip::skip`](crate::block::Skip::skip) let a simulator jump over cycles in which nothing but counters and
 //! delays change.
 //!
 //! # Statistics
 //! No statistics registers: each cycle's events leave on [`TreeletRtUnitOutputs::counts`]
-//! ([`TreeletCounts`]), and [`TreeletRtUnit::skip`] returns those of skipped cycles.
+//! ([`TreeletCounts`]), and [`Skip::skip`](crate::block::Skip::skip) returns those of skipped cycles.
 //!
 //! # Files
 //! `ports` (the port bundles and widths), `glue` (the wiring's registers, declared once),
@@ -139,7 +139,7 @@ crate::composite! {
 }
 
 /// A simulation cache of a treelet RT unit's registers, not hardware, owned beside the
-/// registers by whoever steps the block with [`TreeletRtUnit::step_cached`]: the RT unit's lane
+/// registers by whoever steps the block with [`Cached::step_cached`]: the RT unit's lane
 /// cache, and the controller's inputs and idleness found by a dry run at the end of the last
 /// step (valid for the next step if no cycle is skipped in between). It can also keep a probe
 /// of the tables' input ports ([`TreeletRtUnitCache::record_tables`]) and a probe of the
@@ -219,7 +219,7 @@ pub struct TableLog {
 
 impl TreeletRtUnitCache {
     /// The cache around the RT unit's cache `rt` (nothing known about the controller yet: the
-    /// next step evaluates it); [`TreeletRtUnit::cache`] builds it for registers.
+    /// next step evaluates it); [`Cached::cache`] builds it for registers.
     fn with_rt(rt: RtCache) -> Self {
         TreeletRtUnitCache {
             rt,
@@ -244,7 +244,7 @@ impl TreeletRtUnitCache {
         }
     }
 
-    /// Starts (`on`) or stops probing: while on, each [`TreeletRtUnit::step_cached`] keeps its
+    /// Starts (`on`) or stops probing: while on, each [`Cached::step_cached`] keeps its
     /// cycle's children's ports and registers for [`TreeletRtUnitCache::take_probe`]. It changes
     /// no result; off (the default), it costs nothing.
     pub fn probe(&mut self, on: bool) {
@@ -252,7 +252,7 @@ impl TreeletRtUnitCache {
         self.probed = None;
     }
 
-    /// The last step's [`ProbeCycle`], while probing (`None` after a [`TreeletRtUnit::skip`]).
+    /// The last step's [`ProbeCycle`], while probing (`None` after a [`Skip::skip`](crate::block::Skip::skip)).
     pub fn take_probe(&mut self) -> Option<ProbeCycle> {
         self.probed.take()
     }
@@ -373,42 +373,15 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
         }
     }
 
-    /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
-    /// outputs and next registers as [`Block::eval`]. `cache` must belong to `regs` (debug builds
-    /// check the RT unit's part).
-    pub fn step_cached(
-        &self,
-        regs: &mut TreeletRtUnitRegs,
-        cache: &mut TreeletRtUnitCache,
-        inputs: &TreeletRtUnitInputs,
-    ) -> TreeletRtUnitOutputs {
-        let mut out = wiring::empty_outputs(self);
-        fast_path::step_in_place(self, regs, cache, inputs, &mut out);
-        out
-    }
-
-    /// An output bundle carrying nothing, for [`step_cached_into`](Self::step_cached_into) to
+    /// An output bundle carrying nothing, for [`Cached::step_cached_into`] to
     /// write into.
     pub fn empty_outputs(&self) -> TreeletRtUnitOutputs {
         wiring::empty_outputs(self)
     }
-
-    /// [`step_cached`](Self::step_cached) writing the outputs into `out` (whatever it held
-    /// before), reusing its lists' storage: a simulator keeps one bundle per unit, so a cycle
-    /// allocates nothing for its outputs.
-    pub fn step_cached_into(
-        &self,
-        regs: &mut TreeletRtUnitRegs,
-        cache: &mut TreeletRtUnitCache,
-        inputs: &TreeletRtUnitInputs,
-        out: &mut TreeletRtUnitOutputs,
-    ) {
-        fast_path::step_in_place(self, regs, cache, inputs, out);
-    }
 }
 
 /// The kinds of RT-unit warp of the treelet RT unit, as an observer tells them apart
-/// ([`TreeletRtUnit::warp_kind`]).
+/// ([`TreeletRtUnitStatus::warp_kind`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum WarpKind {
     /// A warp from the SM in its initial phase (ray-stationary in treelet order), also once the

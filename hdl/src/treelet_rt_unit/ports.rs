@@ -144,7 +144,7 @@ crate::counters! {
     /// One cycle's statistics events of a treelet RT unit (increments; an observer sums them).
     /// The observer attributes the RT unit's tests to the controller's mode after the cycle and
     /// keeps the largest number of queues from the block's register-only outputs
-    /// ([`super::TreeletRtUnit::mode`], [`super::TreeletRtUnit::queues`]). The simulator's
+    /// ([`super::TreeletRtUnitStatus::mode`], [`super::TreeletRtUnitStatus::queues`]). The simulator's
     /// statistics report their sum over the SMs as the `queues` object of docs/stats.md (with
     /// the controller's counters inline); the rest are reported elsewhere (`serde(skip)`).
     #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -233,7 +233,7 @@ crate::bundle! {
     /// The treelet RT unit's outputs for one cycle.
     #[derive(Debug, Clone, PartialEq, Eq)]
     pub struct TreeletRtUnitOutputs (Out, w: TreeletRtUnitWidths, this) {
-        /// The SM may offer a warp (registers only: [`super::TreeletRtUnit::sm_ready`]).
+        /// The SM may offer a warp (registers only: [`super::TreeletRtUnitStatus::sm_ready`]).
         pub sm_ready: bool,
         /// Free response-FIFO entries of the RT unit (registers only); memory delivers no more.
         pub resp_free: u32,

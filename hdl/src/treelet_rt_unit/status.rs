@@ -5,7 +5,10 @@
 //! prefetcher watch of the lanes, which are not ports of the block.
 
 use super::glue::{GlueRegs, SlotUse};
-use super::{wiring, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitRegs, WarpKind};
+use super::{
+    wiring, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs, TreeletRtUnitOutputs,
+    TreeletRtUnitRegs, WarpKind,
+};
 use crate::block::{Cached, Moore};
 use crate::controller::FillKind;
 use crate::mode::Mode;
@@ -41,6 +44,31 @@ impl<D: NodeDatapath> Cached for TreeletRtUnit<D> {
     /// The simulation cache of `regs` for stepping them in place.
     fn cache(&self, regs: &TreeletRtUnitRegs) -> TreeletRtUnitCache {
         TreeletRtUnitCache::with_rt(self.rt.cache(&regs.rt))
+    }
+
+    /// One cycle in place with `cache` kept up to date (the simulator's fast path): the same
+    /// outputs and next registers as [`Block::eval`](crate::block::Block::eval). `cache` must belong to `regs` (debug builds
+    /// check the RT unit's part).
+    fn step_cached(
+        &self,
+        regs: &mut TreeletRtUnitRegs,
+        cache: &mut TreeletRtUnitCache,
+        inputs: &TreeletRtUnitInputs,
+    ) -> TreeletRtUnitOutputs {
+        let mut out = super::wiring::empty_outputs(self);
+        super::fast_path::step_in_place(self, regs, cache, inputs, &mut out);
+        out
+    }
+
+    /// Reuses the lists' storage of `out`.
+    fn step_cached_into(
+        &self,
+        regs: &mut TreeletRtUnitRegs,
+        cache: &mut TreeletRtUnitCache,
+        inputs: &TreeletRtUnitInputs,
+        out: &mut TreeletRtUnitOutputs,
+    ) {
+        super::fast_path::step_in_place(self, regs, cache, inputs, out);
     }
 }
 

@@ -122,7 +122,7 @@ impl Signals for WiringOutputs {
 }
 
 impl<D: NodeDatapath> TreeletRtUnit<D> {
-    /// One cycle of the definition ([`Block::eval`]) with the wiring's ports as they settled:
+    /// One cycle of the definition ([`Block::eval`](crate::block::Block::eval)) with the wiring's ports as they settled:
     /// the block's outputs, its next registers, and the wiring's inputs and outputs.
     pub fn eval_wiring(
         &self,

@@ -352,7 +352,7 @@ pub struct Split {
 
 crate::counters! {
     /// Statistics counters of an RT unit. Not registers of the block: each cycle's increments
-    /// leave it on [`super::RtUnitOutputs::counts`] (and [`super::RtUnit::skip`] returns those of
+    /// leave it on [`super::RtUnitOutputs::counts`] (and [`Skip::skip`](crate::block::Skip::skip) returns those of
     /// skipped idle cycles), and an observer beside the block sums them with [`RtStats::add`].
     /// The simulator's statistics report the sum over its SMs as they are (the `rt` object of
     /// docs/stats.md, in this order and with these names).
@@ -449,7 +449,7 @@ pub struct RtUnitRegs {
 /// A simulation cache of an RT unit's registers, not hardware: per slot, its lanes'
 /// predicates as bit masks (traversing, done, parked, store pending, delay above 0, request in
 /// flight, entries left) and each in-flight lane's leader. It is a pure function of the
-/// registers ([`RtCache::of`]); [`super::RtUnit::step_cached`] keeps it up to date so that
+/// registers ([`RtCache::of`]); [`Cached::step_cached`](crate::block::Cached::step_cached) keeps it up to date so that
 /// completion, scheduling, the delay countdown, response delivery, `idle_cycles` and
 /// `slot_summary` touch only the lanes concerned instead of scanning them all. Whoever steps
 /// the unit owns it beside the registers; [`crate::Block::eval`] builds a fresh one.
@@ -460,7 +460,7 @@ pub struct RtCache {
 
 impl RtCache {
     /// The cache of `regs`, whose parked lanes keep `keep` entries of their other stack on
-    /// chip (`hw.record_stack_entries`; [`super::RtUnit::cache`] passes the unit's).
+    /// chip (`hw.record_stack_entries`; [`Cached::cache`](crate::block::Cached::cache) passes the unit's).
     pub fn of(regs: &RtUnitRegs, keep: usize) -> Self {
         RtCache {
             masks: regs
