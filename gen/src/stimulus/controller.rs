@@ -20,8 +20,8 @@ use serde::Serialize;
 use std::collections::VecDeque;
 use vtq_hdl::controller::ControllerFeatures;
 use vtq_hdl::controller::{
-    ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, EnqueueRequest, FillKind,
-    InitReport, Seq, TreeletController,
+    ActiveReport, ControllerInputs, ControllerOutputs, ControllerRegs, ControllerStats,
+    EnqueueRequest, FillKind, InitReport, Seq, TreeletController,
 };
 use vtq_hdl::count_table::{CountOp, CountTable, CountTableRegs};
 use vtq_hdl::mode::Mode;
@@ -46,30 +46,18 @@ pub struct ControllerCoverage {
     pub to_done: u64,
     /// Restarts of a done controller (new waves).
     pub restarts: u64,
-    /// Initial-phase warps terminated.
-    pub terminations: u64,
-    /// Rays enqueued (`enq_ready`).
-    pub enqueues: u64,
+    /// The controller's own statistics, as the simulator's observer counts them from the same
+    /// ports (terminations, enqueues, claims, preloads, treelet and grouped warps, repacks,
+    /// repack-starved cycles, evictions): counted once, by [`ControllerStats::observe`].
+    pub stats: ControllerStats,
     /// Enqueue requests held back (`enq_valid` without `enq_ready`).
     pub enqueues_held: u64,
-    /// Treelets claimed.
-    pub claims: u64,
-    /// Treelets preloaded behind the current one.
-    pub preloads: u64,
     /// Treelet warps dispatched by `Pop` of a resident treelet.
     pub resident_pops: u64,
     /// Entries popped by `PopAny` (naive untracked queues and grouped warps).
     pub pop_any: u64,
     /// Pops answered with an empty entry.
     pub empty_pops: u64,
-    /// Treelet warps filled.
-    pub treelet_warps: u64,
-    /// Grouped ray-stationary warps started.
-    pub grouped_warps: u64,
-    /// Warps repacked.
-    pub repacks: u64,
-    /// Cycles with a repack withheld for want of rays (`repack_starved`).
-    pub repack_starved: u64,
     /// Fills given from the spare buffer.
     pub spare_fills: u64,
     /// Fills that close a slot without rays.
@@ -80,8 +68,6 @@ pub struct ControllerCoverage {
     pub removes: u64,
     /// Count-table `Clear` ops issued (a wave ended with counts left in the table).
     pub clears: u64,
-    /// Count-table evictions seen (`ct_evict_valid`).
-    pub evictions: u64,
     /// Evictions of a resident treelet.
     pub resident_evictions: u64,
     /// Cycles with a count-table op refused for `ct_ready` low while an op was wanted.
@@ -112,25 +98,25 @@ impl ControllerCoverage {
             }
         }
         let mut actions = vec![
-            ("terminations", self.terminations),
-            ("enqueues", self.enqueues),
-            ("claims", self.claims),
+            ("terminations", self.stats.terminated_warps),
+            ("enqueues", self.stats.enqueued_rays),
+            ("claims", self.stats.claims),
             ("resident pops", self.resident_pops),
             ("pop_any", self.pop_any),
             ("empty pops", self.empty_pops),
             ("refills", self.refills),
             ("removes", self.removes),
-            ("evictions", self.evictions),
+            ("evictions", self.stats.evictions),
             ("restarts", self.restarts),
         ];
         if features.preload {
-            actions.push(("preloads", self.preloads));
+            actions.push(("preloads", self.stats.preloads));
         }
         if !naive {
             actions.extend([
-                ("grouped warps", self.grouped_warps),
-                ("repacks", self.repacks),
-                ("repack-starved cycles", self.repack_starved),
+                ("grouped warps", self.stats.grouped_warps),
+                ("repacks", self.stats.repacks),
+                ("repack-starved cycles", self.stats.repack_starved_cycles),
                 ("spare fills", self.spare_fills),
                 ("clears", self.clears),
             ]);
@@ -165,24 +151,24 @@ impl std::fmt::Display for ControllerCoverage {
             ("treelet->final", self.to_final),
             ("->done", self.to_done),
             ("restarts", self.restarts),
-            ("terminations", self.terminations),
-            ("enqueues", self.enqueues),
+            ("terminations", self.stats.terminated_warps),
+            ("enqueues", self.stats.enqueued_rays),
             ("enqueues held", self.enqueues_held),
-            ("claims", self.claims),
-            ("preloads", self.preloads),
+            ("claims", self.stats.claims),
+            ("preloads", self.stats.preloads),
             ("resident pops", self.resident_pops),
             ("pop_any", self.pop_any),
             ("empty pops", self.empty_pops),
-            ("treelet warps", self.treelet_warps),
-            ("grouped warps", self.grouped_warps),
-            ("repacks", self.repacks),
-            ("repack-starved cycles", self.repack_starved),
+            ("treelet warps", self.stats.treelet_warps),
+            ("grouped warps", self.stats.grouped_warps),
+            ("repacks", self.stats.repacks),
+            ("repack-starved cycles", self.stats.repack_starved_cycles),
             ("spare fills", self.spare_fills),
             ("empty closes", self.empty_closes),
             ("refills", self.refills),
             ("removes", self.removes),
             ("clears", self.clears),
-            ("evictions", self.evictions),
+            ("evictions", self.stats.evictions),
             ("resident evictions", self.resident_evictions),
             ("max resident", self.max_resident),
         ];
@@ -554,33 +540,25 @@ impl Env {
             _ => {}
         }
         c.restarts += u64::from(i.restart && regs.mode == Mode::Done);
-        c.terminations += u64::from(out.terminate.is_some());
-        c.enqueues += u64::from(out.enq_ready);
         c.enqueues_held += u64::from(i.enqueue.is_some() && !out.enq_ready);
-        c.claims += u64::from(out.claim);
-        c.preloads += u64::from(out.preload.is_some());
         c.resident_pops += u64::from(matches!(out.qt_op, QueueOp::Pop { .. }));
         c.pop_any += u64::from(out.qt_op == QueueOp::PopAny);
         if seq == Seq::PopWait {
             c.empty_pops += u64::from(i.qt_done.as_ref().is_some_and(|p| p.rays.is_empty()));
         }
         if let Some(f) = &out.fill {
-            c.treelet_warps += u64::from(f.kind == FillKind::Treelet);
-            c.grouped_warps += u64::from(f.kind == FillKind::Grouped && f.first);
             c.spare_fills += u64::from(seq == Seq::FillNext && !f.rays.is_empty());
             c.empty_closes += u64::from(f.rays.is_empty());
         }
-        c.repacks += u64::from(out.repack.is_some());
-        c.repack_starved += u64::from(out.repack_starved);
         c.refills += u64::from(out.qt_op == QueueOp::Refill);
         c.removes += u64::from(matches!(out.ct_op, CountOp::Remove { .. }));
         c.clears += u64::from(out.ct_op == CountOp::Clear);
         c.ct_not_ready +=
             u64::from(!i.ct.ready && (i.enqueue.is_some() || regs.pending_remove.is_some()));
         if let Some(t) = i.ct_evict {
-            c.evictions += 1;
             c.resident_evictions += u64::from(out.resident.contains(&t));
         }
+        c.stats.observe(i, &out);
         c.max_resident = c.max_resident.max(out.resident.len() as u64);
     }
 }
