@@ -558,7 +558,7 @@ impl Env {
         if let Some(t) = i.ct_evict {
             c.resident_evictions += u64::from(out.resident.contains(&t));
         }
-        c.stats.observe(i, &out);
+        c.stats.observe(i, out);
         c.max_resident = c.max_resident.max(out.resident.len() as u64);
     }
 }
