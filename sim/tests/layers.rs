@@ -29,6 +29,7 @@ const ORDER: &[(&str, &str)] = &[
     ("experiment", "sweep"),
     ("experiment", "perturb"),
     ("experiment", "compare"),
+    ("experiment", "compare_report"),
     ("experiment", "cosim"),
     ("experiment", "accuracy"),
     ("experiment", "reproduce"),

@@ -3,7 +3,8 @@
 //! designs concurrently) or estimated by the sampled tier on shared profiles
 //! ([`estimate_all`]), what their results say against a reference design ([`Comparison`]: its
 //! speedups and energy ratios, whether the images are identical), and every design again
-//! under DRAM-latency perturbation ([`perturb_all`]). The command layer prints them.
+//! under DRAM-latency perturbation ([`perturb_all`]). [`super::compare_report`] makes
+//! their tables and JSON; the command layer prints them.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -15,7 +16,7 @@ use glam::Vec3;
 use crate::estimate::sample::{simulate_sampled, Profile, SampledStats};
 use crate::experiment::perturb::{perturbations, perturbed, speedups, Spread};
 use crate::model::bvh::{BvhParams, HwBvh};
-use crate::model::designs::Design;
+use crate::model::designs::{self, Design};
 use crate::model::gpu::{simulate, SimOptions, SimStats};
 use crate::model::scene::Scene;
 
@@ -29,6 +30,60 @@ pub fn reference(designs: &[Design]) -> usize {
         .iter()
         .position(|d| d.label == BASELINE)
         .unwrap_or(0)
+}
+
+/// The designs of `vtq compare`: each of `specs` resolved with `overrides` applied
+/// ([`designs::resolve`]), stepping every cycle if `lockstep`, and with `sample` (a `--sample`
+/// value) applied to and validated against each one's configuration. An error if `specs` is
+/// empty, a design does not resolve, two designs simulate different workloads, or the sample
+/// does not suit a design.
+pub fn resolve_designs(
+    specs: &[String],
+    overrides: &[String],
+    lockstep: bool,
+    sample: Option<&str>,
+) -> anyhow::Result<Vec<Design>> {
+    let designs = specs
+        .iter()
+        .map(|spec| designs::resolve(spec, overrides))
+        .collect::<anyhow::Result<Vec<Design>>>()?;
+    let Some(first) = designs.first() else {
+        bail!("--designs is empty");
+    };
+    let settings = first.config.render_settings();
+    if let Some(other) = designs
+        .iter()
+        .find(|d| d.config.render_settings() != settings)
+    {
+        bail!(
+            "designs '{}' and '{}' simulate different workloads ({:?} vs {:?}): set the \
+             workload with --set or --width/--height/--spp/--bounces",
+            first.label,
+            other.label,
+            settings,
+            other.config.render_settings()
+        );
+    }
+    let mut designs: Vec<Design> = designs
+        .into_iter()
+        .map(|mut d| {
+            d.config.sim.lockstep |= lockstep;
+            d
+        })
+        .collect();
+    if let Some(spec) = sample {
+        for d in &mut designs {
+            d.config
+                .sample
+                .apply_spec(spec)
+                .map_err(anyhow::Error::msg)?;
+            d.config
+                .sample
+                .validate(&d.config)
+                .with_context(|| format!("design '{}'", d.label))?;
+        }
+    }
+    Ok(designs)
 }
 
 /// One BVH per distinct build parameters of `designs` (built by `build`, in design order of
@@ -330,6 +385,28 @@ mod tests {
         b[3] = Vec3::new(-0.0, 0.0, 0.0);
         assert_eq!(image_difference(&a, &b), Some((1, 2)));
         assert_eq!(image_difference(&a, &a[..3]), Some((3, 1)));
+    }
+
+    #[test]
+    fn resolving_designs_applies_lockstep_and_the_sample_and_checks_them() {
+        let specs = ["vtq".to_string(), "baseline".into()];
+        let sets = ["width=8".to_string(), "height=8".into()];
+        let designs = resolve_designs(&specs, &sets, true, Some("1/2x3")).unwrap();
+        assert_eq!(designs.len(), 2);
+        for d in &designs {
+            assert!(d.config.sim.lockstep);
+            assert_eq!(
+                (d.config.sample.fraction, d.config.sample.replicates),
+                (0.5, 3)
+            );
+            assert_eq!(d.config.workload.width, 8);
+        }
+        let plain = resolve_designs(&specs[..1], &sets, false, None).unwrap();
+        assert!(!plain[0].config.sim.lockstep);
+        let e = resolve_designs(&[], &sets, false, None).unwrap_err();
+        assert_eq!(e.to_string(), "--designs is empty");
+        let e = resolve_designs(&specs, &sets, false, Some("bogus")).unwrap_err();
+        assert!(e.to_string().starts_with("--sample `bogus`"), "{e:#}");
     }
 
     /// Two designs on a tiny frame of cornell, the second with another treelet size.

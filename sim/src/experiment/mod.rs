@@ -15,5 +15,6 @@ pub mod perturb;
 // Built on the two above.
 pub mod accuracy;
 pub mod compare;
+pub mod compare_report;
 pub mod cosim;
 pub mod reproduce;
