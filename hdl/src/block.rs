@@ -148,6 +148,19 @@ pub trait Cached: Block {
     }
 }
 
+/// Implements [`Cached`] for a block that needs no cache (`Cache = ()`; its cached step is
+/// [`Block::step`]).
+#[macro_export]
+macro_rules! uncached {
+    ($block:ty) => {
+        impl $crate::block::Cached for $block {
+            type Cache = ();
+
+            fn cache(&self, _: &<$block as $crate::block::Block>::Regs) {}
+        }
+    };
+}
+
 /// A block's register-only (Moore) outputs, as one bundle: the ports that depend on the
 /// registers alone (a table's status, the controller's mode register, the RT unit's status
 /// ports), which a parent reads before it drives the block's inputs in the same cycle.

@@ -455,11 +455,7 @@ impl TreeletController {
     }
 }
 
-impl crate::block::Cached for TreeletController {
-    type Cache = ();
-
-    fn cache(&self, _: &ControllerRegs) {}
-}
+crate::uncached!(TreeletController);
 
 /// The `mode_reg` port: the mode register, from which a parent decides a restart
 /// ([`Mode::restarted_if`] gives the `mode` port).

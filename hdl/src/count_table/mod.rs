@@ -528,11 +528,7 @@ impl CountTable {
     }
 }
 
-impl crate::block::Cached for CountTable {
-    type Cache = ();
-
-    fn cache(&self, _: &CountTableRegs) {}
-}
+crate::uncached!(CountTable);
 
 /// The `accepts`, `max_*`, `occupancy` and `above_threshold` ports.
 impl crate::block::Moore for CountTable {

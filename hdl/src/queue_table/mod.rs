@@ -664,11 +664,7 @@ pub struct PopResult {
     pub rays: BoundedVec<u32>,
 }
 
-impl crate::block::Cached for QueueTable {
-    type Cache = ();
-
-    fn cache(&self, _: &QueueTableRegs) {}
-}
+crate::uncached!(QueueTable);
 
 /// The `ready`, `free_entries`, `spilled` and `refill_waiting` ports.
 impl crate::block::Moore for QueueTable {

@@ -183,14 +183,7 @@ fn dry_run<D: NodeDatapath>(
 ) {
     cache.idle = false;
     cache.dry_valid = false;
-    let distinct = reads_distinct(u, &regs.ctl, false);
-    u.rt.status_into(
-        &regs.rt,
-        &cache.rt,
-        StatusSelect::slots(distinct),
-        &mut cache.rt_status,
-    );
-    cache.rt_status_current = Some(distinct);
+    refresh_rt_status(u, regs, cache);
     let g = &regs.glue;
     if !u.qt.status(&regs.qt, &(), ()).ready
         || g.qt_done.is_some()
@@ -229,4 +222,22 @@ fn dry_run<D: NodeDatapath>(
     cache.dry_valid = true;
     cache.idle = !acts;
     cache.awake = acts;
+}
+
+/// Computes the RT unit's status ports of the current registers into the cache, with the
+/// distinct-treelet counts if the controller reads them with no SM warp offered; they stay
+/// current until the registers change.
+pub(super) fn refresh_rt_status<D: NodeDatapath>(
+    u: &TreeletRtUnit<D>,
+    regs: &TreeletRtUnitRegs,
+    cache: &mut TreeletRtUnitCache,
+) {
+    let distinct = reads_distinct(u, &regs.ctl, false);
+    u.rt.status_into(
+        &regs.rt,
+        &cache.rt,
+        StatusSelect::slots(distinct),
+        &mut cache.rt_status,
+    );
+    cache.rt_status_current = Some(distinct);
 }

@@ -59,14 +59,7 @@ impl<D: NodeDatapath> Skip for TreeletRtUnit<D> {
         // The status ports change only where a delay ends (the lanes' other state and the
         // controller's mode stay); then they are computed again, so they stay current.
         if delay_ends {
-            let distinct = wiring::reads_distinct(self, &regs.ctl, false);
-            self.rt.status_into(
-                &regs.rt,
-                &cache.rt,
-                StatusSelect::slots(distinct),
-                &mut cache.rt_status,
-            );
-            cache.rt_status_current = Some(distinct);
+            super::fast_path::refresh_rt_status(self, regs, cache);
         }
         let scanning = !self.ct.gated(&regs.ct, &());
         self.ct.skip(&mut regs.ct, &mut (), n);
