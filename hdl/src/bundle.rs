@@ -92,7 +92,68 @@
 //!   [`Signals::bulk_signals`](crate::Signals::bulk_signals) as `<prefix>_<field>_<k>`;
 //! - `group prefix (k < count) { rows }` the rows (of the kinds above) once per `k` in
 //!   `0..count`, named `<prefix><k>_<name>`, in the order `k` = 0 first; `k` is a `usize` the
-//!   rows' values may use.
+//!   rows' values may use;
+//! - `nest prefix (widths) = Bundle { field: value, ... };` another bundle's ports in place, in
+//!   its order, named `<prefix>_<name>` (`nest (widths) = ...` without a prefix keeps their
+//!   names), with this row's direction: `Bundle` (a struct declared with `bundle!`, in scope by
+//!   that name) is listed with `Bundle::ports(&widths)` and traced (its signals and bulk signals
+//!   renamed the same way) from `Bundle { widths, field: value, ... }`, built from this bundle's
+//!   fields. The row's documentation, if any, is put before each nested port's own (a prefix
+//!   such as `RT unit:`). So a child's rows that a composite block passes on (its errors, its
+//!   statistics events) are declared once and nested in both, each parent giving the widths.
+//!
+//! ```
+//! vtq_hdl::bundle! {
+//!     /// A child's event ports.
+//!     #[derive(Debug, Clone)]
+//!     pub struct Events (Out, w: u32, this) {
+//!         /// Hits this cycle.
+//!         pub hits: u64,
+//!     }
+//!     ports {
+//!         /// hits this cycle
+//!         sig hits (*w) = this.hits;
+//!         /// per lane: a flag
+//!         lanes flag (1, 2) = |i: usize| (this.hits >> i) & 1;
+//!         /// a record, described but not traced
+//!         bulks rec ([("a", 70, "field a")]) = |_f: usize| vec![this.hits, 1];
+//!     }
+//! }
+//! vtq_hdl::bundle! {
+//!     /// A composite's outputs: its child's events twice (one set wider), and its own.
+//!     #[derive(Debug, Clone)]
+//!     pub struct Parent (Out, w: u32, this) {
+//!         /// The child's events.
+//!         pub child: u64,
+//!     }
+//!     ports {
+//!         /// Child:
+//!         nest child (*w + 1) = Events { hits: this.child };
+//!         nest (*w) = Events { hits: 0 };
+//!         /// my own
+//!         sig busy (1) = 1;
+//!     }
+//! }
+//! use vtq_hdl::Signals;
+//! let ports = Parent::ports(&3);
+//! assert_eq!(
+//!     ports.iter().map(|p| (p.name.as_str(), p.width, p.doc.as_str())).collect::<Vec<_>>(),
+//!     [("child_hits", 4, "Child: hits this cycle"), ("child_flag", 2, "Child: per lane: a flag"),
+//!      ("child_rec_a", 70, "Child: field a"), ("hits", 3, "hits this cycle"),
+//!      ("flag", 2, "per lane: a flag"), ("rec_a", 70, "field a"), ("busy", 1, "my own")]
+//! );
+//! let b = Parent { widths: 3, child: 2 };
+//! let signals: Vec<(String, u32, u64)> =
+//!     b.signals().into_iter().map(|s| (s.name, s.width, s.value)).collect();
+//! assert_eq!(
+//!     signals,
+//!     [("child_hits".into(), 4, 2), ("child_flag_0".into(), 1, 0), ("child_flag_1".into(), 1, 1),
+//!      ("hits".into(), 3, 0), ("flag_0".into(), 1, 0), ("flag_1".into(), 1, 0),
+//!      ("busy".into(), 1, 1)]
+//! );
+//! let bulk: Vec<String> = b.bulk_signals().into_iter().map(|s| s.name).collect();
+//! assert_eq!(bulk, ["child_rec_a_0", "child_rec_a_1", "rec_a_0", "rec_a_1"]);
+//! ```
 //!
 //! A block whose description interleaves input and output ports (the RT unit's, which groups a
 //! request's ports with their answer) declares both bundles in one `bundle!` with two structs,
@@ -253,6 +314,22 @@ macro_rules! __bundle_rows {
                 ($table) ($value)]] $($rest)*
         }
     };
+    (@munch $ctx:tt (fixed $d:ident $nm:tt $st:tt) [$($acc:tt)*] $(#[doc = $doc:tt])*
+        nest $prefix:ident ($widths:expr) = $ty:ident { $($field:ident : $value:expr),* $(,)? } ;
+        $($rest:tt)*) => {
+        $crate::__bundle_rows! {
+            @munch $ctx (fixed $d $nm $st) [$($acc)* [$d nest ($crate::__bundle_name!($nm $prefix))
+                ($ty) ($widths) ($($field ($value))*) ($($doc),*)]] $($rest)*
+        }
+    };
+    (@munch $ctx:tt (fixed $d:ident $nm:tt $st:tt) [$($acc:tt)*] $(#[doc = $doc:tt])*
+        nest ($widths:expr) = $ty:ident { $($field:ident : $value:expr),* $(,)? } ;
+        $($rest:tt)*) => {
+        $crate::__bundle_rows! {
+            @munch $ctx (fixed $d $nm $st) [$($acc)* [$d nest ($crate::__bundle_name!($nm))
+                ($ty) ($widths) ($($field ($value))*) ($($doc),*)]] $($rest)*
+        }
+    };
     // One row of each kind, naming its own direction.
     (@munch $ctx:tt (free) [$($acc:tt)*] $(#[doc = $doc:tt])+
         $rd:ident sig $name:ident ($width:expr) = $value:expr ; $($rest:tt)*) => {
@@ -289,10 +366,27 @@ macro_rules! __bundle_rows {
                 ($table) ($value)]] $($rest)*
         }
     };
+    (@munch $ctx:tt (free) [$($acc:tt)*] $(#[doc = $doc:tt])*
+        $rd:ident nest $prefix:ident ($widths:expr)
+        = $ty:ident { $($field:ident : $value:expr),* $(,)? } ; $($rest:tt)*) => {
+        $crate::__bundle_rows! {
+            @munch $ctx (free) [$($acc)* [$rd nest ($crate::__bundle_name!((stringify) $prefix))
+                ($ty) ($widths) ($($field ($value))*) ($($doc),*)]] $($rest)*
+        }
+    };
+    (@munch $ctx:tt (free) [$($acc:tt)*] $(#[doc = $doc:tt])*
+        $rd:ident nest ($widths:expr) = $ty:ident { $($field:ident : $value:expr),* $(,)? } ;
+        $($rest:tt)*) => {
+        $crate::__bundle_rows! {
+            @munch $ctx (free) [$($acc)* [$rd nest ($crate::__bundle_name!((stringify)))
+                ($ty) ($widths) ($($field ($value))*) ($($doc),*)]] $($rest)*
+        }
+    };
 }
 
 /// The name of a [`bundle!`] port: the row's identifier, or in a group
-/// `<prefix><k>_<identifier>` (an implementation detail of the macro).
+/// `<prefix><k>_<identifier>`; without an identifier (a `nest` row without a prefix), the
+/// empty name, or in a group `<prefix><k>` (an implementation detail of the macro).
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __bundle_name {
@@ -301,6 +395,12 @@ macro_rules! __bundle_name {
     };
     ((group $prefix:ident $k:ident) $name:ident) => {
         format!("{}{}_{}", stringify!($prefix), $k, stringify!($name))
+    };
+    ((stringify)) => {
+        ::std::string::String::new()
+    };
+    ((group $prefix:ident $k:ident)) => {
+        format!("{}{}", stringify!($prefix), $k)
     };
 }
 
@@ -434,6 +534,16 @@ macro_rules! __bundle_port {
             ));
         }
     };
+    (@row $v:ident, $rd:ident, [nest ($prefix:expr) ($ty:ident) ($widths:expr)
+        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {
+        $crate::bundle::push_nested_ports(
+            &mut $v,
+            $prefix,
+            $crate::describe::Dir::$rd,
+            &[$($doc),*],
+            $ty::ports(&$widths),
+        );
+    };
     (@row $v:ident, $rd:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_port!(@row $v, $ird, [$($inner)*]); )*
@@ -465,6 +575,15 @@ macro_rules! __bundle_signal {
     };
     (@row $v:ident, [bulk ($name:expr) ($width:expr) ($($doc:tt),+)]) => {};
     (@row $v:ident, [bulks ($name:expr) ($table:expr) ($value:expr)]) => {};
+    (@row $v:ident, [nest ($prefix:expr) ($ty:ident) ($widths:expr)
+        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {{
+        let nested = $ty { widths: $widths, $($field: $value),* };
+        $crate::bundle::push_nested_signals(
+            &mut $v,
+            $prefix,
+            $crate::block::Signals::signals(&nested),
+        );
+    }};
     (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_signal!(@row $v, [$($inner)*]); )*
@@ -499,6 +618,15 @@ macro_rules! __bundle_bulk_signal {
             $crate::bundle::push_words(&mut $v, &format!("{}_{}", prefix, field), width, value(f));
         }
     }};
+    (@row $v:ident, [nest ($prefix:expr) ($ty:ident) ($widths:expr)
+        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {{
+        let nested = $ty { widths: $widths, $($field: $value),* };
+        $crate::bundle::push_nested_signals(
+            &mut $v,
+            $prefix,
+            $crate::block::Signals::bulk_signals(&nested),
+        );
+    }};
     (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_bulk_signal!(@row $v, [$($inner)*]); )*
@@ -526,6 +654,53 @@ pub fn push_words(
         );
         signals.push(crate::block::Signal::new(format!("{name}_{k}"), bits, word));
     }
+}
+
+/// The name of a nested bundle's port or signal `name` under `prefix`: `<prefix>_<name>`, or
+/// `name` for the empty prefix.
+fn nested_name(prefix: &str, name: &str) -> String {
+    if prefix.is_empty() {
+        name.to_string()
+    } else {
+        format!("{prefix}_{name}")
+    }
+}
+
+/// Appends a nested bundle's ports `nested` to `ports` (a `nest` row of [`bundle!`]): each
+/// renamed under `prefix`, with the direction `dir` of the row and its documentation lines
+/// `doc` (if any) before the port's own (an implementation detail of the macro).
+#[doc(hidden)]
+pub fn push_nested_ports(
+    ports: &mut Vec<PortDesc>,
+    prefix: String,
+    dir: Dir,
+    doc: &[&str],
+    nested: Vec<PortDesc>,
+) {
+    for p in nested {
+        let mut lines: Vec<&str> = doc.to_vec();
+        lines.push(&p.doc);
+        ports.push(port_desc(
+            &nested_name(&prefix, &p.name),
+            dir,
+            p.width,
+            &lines,
+        ));
+    }
+}
+
+/// Appends a nested bundle's signals `nested` to `signals`, each renamed under `prefix` (a
+/// `nest` row of [`bundle!`]; an implementation detail of the macro).
+#[doc(hidden)]
+pub fn push_nested_signals(
+    signals: &mut Vec<crate::block::Signal>,
+    prefix: String,
+    nested: Vec<crate::block::Signal>,
+) {
+    signals.extend(nested.into_iter().map(|s| crate::block::Signal {
+        name: nested_name(&prefix, &s.name),
+        ..s
+    }));
 }
 
 /// Whether a port of direction `dir` is wanted by a port list of direction `want` (`None`: all).

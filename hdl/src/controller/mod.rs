@@ -315,6 +315,51 @@ crate::counters! {
     }
 }
 
+/// Widths of the controller's statistics-event ports ([`ControllerCountPorts`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ControllerCountWidths {
+    /// Bits of a number of a warp's lanes (0..=warp_size).
+    pub lanes: u32,
+}
+
+crate::bundle! {
+    /// The controller's statistics events of one cycle as ports: [`ControllerStats`] as its
+    /// observer counts them (the treelet RT unit's outputs carry them).
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    pub struct ControllerCountPorts (Out, w: ControllerCountWidths, this) {
+        /// The cycle's increments.
+        pub counts: ControllerStats,
+    }
+    ports {
+        /// a cycle in the initial phase.
+        sig initial (1) = this.counts.cycles_initial;
+        /// a cycle treelet-stationary.
+        sig treelet (1) = this.counts.cycles_treelet;
+        /// a cycle in the final ray-stationary phase.
+        sig final (1) = this.counts.cycles_final;
+        /// an initial-phase warp was terminated into the queues.
+        sig terminated_warps (1) = this.counts.terminated_warps;
+        /// the terminated warp's active rays.
+        sig terminated_rays (w.lanes) = this.counts.terminated_rays;
+        /// a ray was inserted into the treelet queues.
+        sig enqueued (1) = this.counts.enqueued_rays;
+        /// a treelet was made resident.
+        sig claim (1) = this.counts.claims;
+        /// a treelet was preloaded.
+        sig preload (1) = this.counts.preloads;
+        /// a treelet warp was dispatched.
+        sig treelet_warp (1) = this.counts.treelet_warps;
+        /// a grouped ray-stationary warp was started.
+        sig grouped_warp (1) = this.counts.grouped_warps;
+        /// a warp was repacked.
+        sig repack (1) = this.counts.repacks;
+        /// a repack was withheld for want of rays.
+        sig repack_starved (1) = this.counts.repack_starved_cycles;
+        /// the count table evicted a treelet.
+        sig eviction (1) = this.counts.evictions;
+    }
+}
+
 impl ControllerStats {
     /// Counts one evaluated cycle from the controller's inputs and outputs.
     pub fn observe(&mut self, inputs: &ControllerInputs, out: &ControllerOutputs) {

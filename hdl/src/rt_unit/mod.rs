@@ -87,6 +87,7 @@
 mod bundles;
 mod cycle;
 mod desc;
+mod event_ports;
 mod node;
 mod ports;
 mod responses;
@@ -101,6 +102,7 @@ pub use bundles::{
     RtStats, RtUnitRegs, SlotSummary, Split, StackSel, TraversalOrder, WarpDone, WarpIssue,
     WarpSlot,
 };
+pub use event_ports::{RtCountPorts, RtCountWidths, RtErrorPorts, RtErrorWidths};
 pub use node::{
     pack_spill_chunk, unpack_spill_chunk, Hit, Latencies, NoDatapath, NodeDatapath, NodeEntry,
     NodeKind, RayWords, TestResult, CHUNK_BYTES, CHUNK_MASK, MAX_NODE_CHUNKS, RAY_WORDS,

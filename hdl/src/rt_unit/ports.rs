@@ -7,9 +7,10 @@
 //! are bulk data: described, not traced.
 
 use super::bundles::{
-    errors, BoundaryEvent, ErrorRecord, IssueTarget, LaneWrite, MemRequest, MemResponse,
-    RayOutcome, RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
+    BoundaryEvent, ErrorRecord, IssueTarget, LaneWrite, MemRequest, MemResponse, RayOutcome,
+    RayRecord, RequestKind, RtStats, SlotSummary, TraversalOrder, WarpDone, WarpIssue,
 };
+use super::event_ports::{RtCountPorts, RtCountWidths, RtErrorPorts, RtErrorWidths};
 use super::node::{Hit, NodeEntry, CHUNK_BYTES, RAY_WORDS};
 use crate::bits::{bits_for, BitPacker};
 
@@ -65,6 +66,25 @@ impl Widths {
     pub fn entry(&self) -> u32 {
         NodeEntry::bits(self.address)
     }
+
+    /// The widths of the error ports ([`RtErrorPorts`]).
+    pub fn errors(&self) -> RtErrorWidths {
+        RtErrorWidths {
+            slot: self.slot,
+            lane: self.lane,
+            ray_id: self.ray_id,
+        }
+    }
+
+    /// The widths of the statistics-event ports ([`RtCountPorts`]): each lane count as wide as
+    /// its largest value.
+    pub fn counts(&self) -> RtCountWidths {
+        RtCountWidths {
+            warps: bits_for(self.slots as u64),
+            lanes: bits_for(self.warp_size as u64 * self.slots as u64),
+            warp_lanes: bits_for(self.warp_size as u64),
+        }
+    }
 }
 
 crate::bundle! {
@@ -106,7 +126,7 @@ crate::bundle! {
         /// Finished lanes released by this cycle's repack (slot and per-lane final records;
         /// their hit records are already stored), freeing the lanes for the repack fill.
         pub released: Option<WarpDone>,
-        /// Sticky error flags ([`errors`]), including any raised this cycle.
+        /// Sticky error flags ([`errors`](super::errors)), including any raised this cycle.
         pub errors: u8,
         /// The first error raised so far, with its details (sticky, like `errors`).
         pub first_error: Option<ErrorRecord>,
@@ -234,60 +254,8 @@ crate::bundle! {
             }
             p.into_words()
         };
-        /// sticky protocol errors: issue while full, bad issue, FIFO overflow, unmatched response, stack spill area full, bad child, bad controller command
-        Out sig errors (errors::BITS) = this.errors as u64;
-        /// an error was captured (first error, sticky)
-        Out sig error_valid (1) = this.first_error.is_some() as u64;
-        /// first error: bit index of its flag in errors
-        Out sig error_kind (3) = this.first_error.map_or(0, |e| e.kind.code());
-        /// first error: warp-buffer slot
-        Out sig error_slot (w.slot) = this.first_error.map_or(0, |e| e.slot as u64);
-        /// first error: lane
-        Out sig error_lane (w.lane) = this.first_error.map_or(0, |e| e.lane as u64);
-        /// first error: ray id
-        Out sig error_ray_id (w.ray_id) = this.first_error.map_or(0, |e| e.ray_id as u64);
-        /// first error: the value needed or seen
-        Out sig error_value (64) = this.first_error.map_or(0, |e| e.value);
-        /// first error: the limit it broke
-        Out sig error_limit (64) = this.first_error.map_or(0, |e| e.limit);
-        /// valid warps this cycle (warp cycles)
-        Out sig count_warps (bits_for(w.slots as u64)) = this.counts.warp_cycles;
-        /// traversing lanes of the valid warps this cycle (active-thread cycles)
-        Out sig count_active (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.active_thread_cycles;
-        /// of those, lanes waiting for a node in flight
-        Out sig count_waiting (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.waiting_lane_cycles;
-        /// lanes of the valid warps whose ray has finished
-        Out sig count_done_lanes (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.done_lane_cycles;
-        /// lanes of the valid warps parked at a treelet boundary
-        Out sig count_parked_lanes (bits_for(w.warp_size as u64 * w.slots as u64)) = this.counts.parked_lane_cycles;
-        /// a node-chunk load was requested
-        Out sig count_request (1) = this.counts.load_requests;
-        /// a hit-record store was requested
-        Out sig count_store (1) = this.counts.stores;
-        /// a stack spill was requested
-        Out sig count_spill (1) = this.counts.stack_spills;
-        /// a stack fill was requested
-        Out sig count_fill (1) = this.counts.stack_fills;
-        /// lanes served by the leader's request (merged)
-        Out sig count_merged (bits_for(w.warp_size as u64)) = this.counts.merged;
-        /// header tests completed
-        Out sig count_tests_header (bits_for(w.warp_size as u64)) = this.counts.tests[0];
-        /// internal-node tests completed
-        Out sig count_tests_internal (bits_for(w.warp_size as u64)) = this.counts.tests[1];
-        /// instance-leaf tests completed
-        Out sig count_tests_instance_leaf (bits_for(w.warp_size as u64)) = this.counts.tests[2];
-        /// primitive-descriptor tests completed
-        Out sig count_tests_primitive_descriptor (bits_for(w.warp_size as u64)) = this.counts.tests[3];
-        /// triangle-leaf tests completed
-        Out sig count_tests_triangle_leaf (bits_for(w.warp_size as u64)) = this.counts.tests[4];
-        /// procedural tests completed
-        Out sig count_tests_procedural (bits_for(w.warp_size as u64)) = this.counts.tests[5];
-        /// of the tests completed, those of lanes in warps in treelet-stop order
-        Out sig count_tests_treelet_order (bits_for(w.warp_size as u64)) = this.counts.treelet_order_tests;
-        /// triangle tests that produced a new closest hit
-        Out sig count_hits (bits_for(w.warp_size as u64)) = this.counts.triangle_hits;
-        /// a warp completed
-        Out sig count_warp_done (1) = this.counts.warps;
+        Out nest (w.errors()) = RtErrorPorts { errors: this.errors, first_error: this.first_error };
+        Out nest count (w.counts()) = RtCountPorts { counts: this.counts };
     }
 }
 

@@ -4,11 +4,12 @@
 use super::TreeletRtUnit;
 use crate::bits::{bits_for, clog2, BitPacker};
 use crate::config::HwConfig;
-use crate::controller::ControllerStats;
+use crate::controller::{ControllerCountPorts, ControllerCountWidths, ControllerStats};
 use crate::describe::{block_params, BlockDesc};
 use crate::rt_unit::{
     data_word, ray_state, ray_state_words, ErrorRecord, Hit, MemRequest, MemResponse, NodeDatapath,
-    NodeEntry, RayRecord, RequestKind, RtStats, Widths, HIT_BITS, RAY_WORDS,
+    NodeEntry, RayRecord, RequestKind, RtCountPorts, RtCountWidths, RtErrorPorts, RtStats, Widths,
+    HIT_BITS, RAY_WORDS,
 };
 use serde::Serialize;
 
@@ -325,90 +326,16 @@ crate::bundle! {
         sig spill_push_ray (w.ray) = this.spill_push.map_or(0, |s| s.1 as u64);
         /// The spill FIFO's head is taken.
         sig spill_pop (1) = this.spill_pop as u64;
-        /// The RT unit's sticky error flags.
-        sig errors (crate::rt_unit::errors::BITS) = this.errors as u64;
-        /// The RT unit captured an error (first error, sticky).
-        sig error_valid (1) = this.first_error.is_some() as u64;
-        /// First error: bit index of its flag in errors.
-        sig error_kind (3) = this.first_error.map_or(0, |e| e.kind.code());
-        /// First error: warp-buffer slot.
-        sig error_slot (w.slot) = this.first_error.map_or(0, |e| e.slot as u64);
-        /// First error: lane.
-        sig error_lane (w.rt.lane) = this.first_error.map_or(0, |e| e.lane as u64);
-        /// First error: ray id.
-        sig error_ray_id (w.ray) = this.first_error.map_or(0, |e| e.ray_id as u64);
-        /// First error: the value needed or seen.
-        sig error_value (64) = this.first_error.map_or(0, |e| e.value);
-        /// First error: the limit it broke.
-        sig error_limit (64) = this.first_error.map_or(0, |e| e.limit);
+        /// RT unit:
+        nest (w.rt.errors()) = RtErrorPorts { errors: this.errors, first_error: this.first_error };
         /// The wiring found an inconsistency (sticky).
         sig fault (1) = this.fault.is_some() as u64;
-        // The cycle's statistics events: the RT unit's event ports, the controller's events as
-        // its observer counts them, and the wiring's own.
-        /// RT unit: valid warps this cycle (warp cycles).
-        sig count_rt_warps (bits_for(w.rt.slots as u64)) = this.counts.rt.warp_cycles;
-        /// RT unit: traversing lanes of the valid warps (active-thread cycles).
-        sig count_rt_active (w.lanes) = this.counts.rt.active_thread_cycles;
-        /// RT unit: of those, lanes waiting for a node in flight.
-        sig count_rt_waiting (w.lanes) = this.counts.rt.waiting_lane_cycles;
-        /// RT unit: lanes of the valid warps whose ray has finished.
-        sig count_rt_done_lanes (w.lanes) = this.counts.rt.done_lane_cycles;
-        /// RT unit: lanes of the valid warps parked at a treelet boundary.
-        sig count_rt_parked_lanes (w.lanes) = this.counts.rt.parked_lane_cycles;
-        /// RT unit: a node-chunk load was requested.
-        sig count_rt_request (1) = this.counts.rt.load_requests;
-        /// RT unit: a hit-record store was requested.
-        sig count_rt_store (1) = this.counts.rt.stores;
-        /// RT unit: a stack spill was requested.
-        sig count_rt_spill (1) = this.counts.rt.stack_spills;
-        /// RT unit: a stack fill was requested.
-        sig count_rt_fill (1) = this.counts.rt.stack_fills;
-        /// RT unit: lanes served by the leader's request (merged).
-        sig count_rt_merged (w.warp_lanes) = this.counts.rt.merged;
-        /// RT unit: header tests completed.
-        sig count_rt_tests_header (w.warp_lanes) = this.counts.rt.tests[0];
-        /// RT unit: internal-node tests completed.
-        sig count_rt_tests_internal (w.warp_lanes) = this.counts.rt.tests[1];
-        /// RT unit: instance-leaf tests completed.
-        sig count_rt_tests_instance_leaf (w.warp_lanes) = this.counts.rt.tests[2];
-        /// RT unit: primitive-descriptor tests completed.
-        sig count_rt_tests_primitive_descriptor (w.warp_lanes) = this.counts.rt.tests[3];
-        /// RT unit: triangle-leaf tests completed.
-        sig count_rt_tests_triangle_leaf (w.warp_lanes) = this.counts.rt.tests[4];
-        /// RT unit: procedural tests completed.
-        sig count_rt_tests_procedural (w.warp_lanes) = this.counts.rt.tests[5];
-        /// RT unit: of the tests completed, those of lanes in warps in treelet-stop order.
-        sig count_rt_tests_treelet_order (w.warp_lanes) = this.counts.rt.treelet_order_tests;
-        /// RT unit: triangle tests that produced a new closest hit.
-        sig count_rt_hits (w.warp_lanes) = this.counts.rt.triangle_hits;
-        /// RT unit: a warp completed.
-        sig count_rt_warp_done (1) = this.counts.rt.warps;
-        /// Controller: a cycle in the initial phase.
-        sig count_ctl_initial (1) = this.counts.ctl.cycles_initial;
-        /// Controller: a cycle treelet-stationary.
-        sig count_ctl_treelet (1) = this.counts.ctl.cycles_treelet;
-        /// Controller: a cycle in the final ray-stationary phase.
-        sig count_ctl_final (1) = this.counts.ctl.cycles_final;
-        /// Controller: an initial-phase warp was terminated into the queues.
-        sig count_ctl_terminated_warps (1) = this.counts.ctl.terminated_warps;
-        /// Controller: the terminated warp's active rays.
-        sig count_ctl_terminated_rays (w.warp_lanes) = this.counts.ctl.terminated_rays;
-        /// Controller: a ray was inserted into the treelet queues.
-        sig count_ctl_enqueued (1) = this.counts.ctl.enqueued_rays;
-        /// Controller: a treelet was made resident.
-        sig count_ctl_claim (1) = this.counts.ctl.claims;
-        /// Controller: a treelet was preloaded.
-        sig count_ctl_preload (1) = this.counts.ctl.preloads;
-        /// Controller: a treelet warp was dispatched.
-        sig count_ctl_treelet_warp (1) = this.counts.ctl.treelet_warps;
-        /// Controller: a grouped ray-stationary warp was started.
-        sig count_ctl_grouped_warp (1) = this.counts.ctl.grouped_warps;
-        /// Controller: a warp was repacked.
-        sig count_ctl_repack (1) = this.counts.ctl.repacks;
-        /// Controller: a repack was withheld for want of rays.
-        sig count_ctl_repack_starved (1) = this.counts.ctl.repack_starved_cycles;
-        /// Controller: the count table evicted a treelet.
-        sig count_ctl_eviction (1) = this.counts.ctl.evictions;
+        // The cycle's statistics events: the RT unit's event ports (its lane counts one bit
+        // wider), the controller's events as its observer counts them, and the wiring's own.
+        /// RT unit:
+        nest count_rt (RtCountWidths { lanes: w.lanes, ..w.rt.counts() }) = RtCountPorts { counts: this.counts.rt };
+        /// Controller:
+        nest count_ctl (ControllerCountWidths { lanes: w.warp_lanes }) = ControllerCountPorts { counts: this.counts.ctl };
         /// A queue-table insert spilled to memory.
         sig count_spill (1) = this.counts.spills;
         /// A spilled ray was brought back into the queue table.
