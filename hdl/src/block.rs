@@ -219,3 +219,29 @@ pub trait Skip: Cached {
         self.idle_cycles(regs, cache) == u64::MAX
     }
 }
+
+/// Observer taps: what a simulator's statistics observers and a treelet prefetcher watch of a
+/// block's lanes, as a logic analyzer's probes would. They are not ports (nothing in the
+/// hardware reads them) and change no state.
+pub trait Taps: Cached {
+    /// Per warp-buffer slot, the rays traversing in it (`None`: the slot holds no warp): for
+    /// observers that follow each warp (SIMT efficiency, resident lanes).
+    fn slot_lanes<'a>(
+        &self,
+        regs: &'a Self::Regs,
+        cache: &'a Self::Cache,
+    ) -> impl Iterator<Item = Option<u32>> + 'a;
+
+    /// The next node address of every traversing ray whose next node is on chip, slot by slot
+    /// and lane by lane (the per-lane next-access wires a treelet prefetcher taps).
+    fn next_addresses<'a>(
+        &self,
+        regs: &'a Self::Regs,
+        cache: &'a Self::Cache,
+    ) -> impl Iterator<Item = u64> + 'a;
+
+    /// Rays traversing in the warp buffer (the sum of [`Taps::slot_lanes`]).
+    fn traversing_rays(&self, regs: &Self::Regs, cache: &Self::Cache) -> u64 {
+        self.slot_lanes(regs, cache).flatten().map(u64::from).sum()
+    }
+}

@@ -576,14 +576,9 @@ macro_rules! __bundle_signal {
     (@row $v:ident, [bulk ($name:expr) ($width:expr) ($($doc:tt),+)]) => {};
     (@row $v:ident, [bulks ($name:expr) ($table:expr) ($value:expr)]) => {};
     (@row $v:ident, [nest ($prefix:expr) ($ty:ident) ($widths:expr)
-        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {{
-        let nested = $ty { widths: $widths, $($field: $value),* };
-        $crate::bundle::push_nested_signals(
-            &mut $v,
-            $prefix,
-            $crate::block::Signals::signals(&nested),
-        );
-    }};
+        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {
+        $crate::__bundle_nested!($v, signals, ($prefix) ($ty) ($widths) ($($field ($value))*));
+    };
     (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_signal!(@row $v, [$($inner)*]); )*
@@ -619,20 +614,31 @@ macro_rules! __bundle_bulk_signal {
         }
     }};
     (@row $v:ident, [nest ($prefix:expr) ($ty:ident) ($widths:expr)
-        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {{
-        let nested = $ty { widths: $widths, $($field: $value),* };
-        $crate::bundle::push_nested_signals(
-            &mut $v,
-            $prefix,
-            $crate::block::Signals::bulk_signals(&nested),
-        );
-    }};
+        ($($field:ident ($value:expr))*) ($($doc:tt),*)]) => {
+        $crate::__bundle_nested!($v, bulk_signals, ($prefix) ($ty) ($widths) ($($field ($value))*));
+    };
     (@row $v:ident, [group $k:ident ($n:expr) [$([$ird:ident $($inner:tt)*])*]]) => {
         for $k in 0..($n) as usize {
             $( $crate::__bundle_bulk_signal!(@row $v, [$($inner)*]); )*
         }
     };
     (@row $v:ident, [$($other:tt)*]) => {};
+}
+
+/// A `nest` row's signals (`$method`: `signals` or `bulk_signals` of the nested bundle built
+/// from its fields), renamed with its prefix (an implementation detail of [`bundle!`]).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __bundle_nested {
+    ($v:ident, $method:ident, ($prefix:expr) ($ty:ident) ($widths:expr)
+        ($($field:ident ($value:expr))*)) => {{
+        let nested = $ty { widths: $widths, $($field: $value),* };
+        $crate::bundle::push_nested_signals(
+            &mut $v,
+            $prefix,
+            $crate::block::Signals::$method(&nested),
+        );
+    }};
 }
 
 /// Appends the signals of a `width`-bit bulk port `name` whose value is `words` (64-bit words,

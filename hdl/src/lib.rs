@@ -14,7 +14,7 @@ pub mod counters;
 pub mod describe;
 
 pub use bits::{bits_for, clog2, BitPacker, UBits, WidthError};
-pub use block::{Block, Cached, Moore, Signal, Signals, Skip};
+pub use block::{Block, Cached, Moore, Signal, Signals, Skip, Taps};
 pub use config::{ConfigError, HwConfig};
 pub use describe::{BlockDesc, Dir, FsmDesc, MemDesc, PortDesc, RegDesc};
 pub mod controller;

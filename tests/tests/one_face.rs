@@ -1,9 +1,9 @@
 //! Blocks have one face: a parent (the treelet RT unit over its children) and the simulator
 //! (over the RT hardware beside each SM) call only the block framework's functions of a block
 //! — `eval`, `next_into`, `step` and the rest of `Block`, the register-only outputs
-//! (`Moore`), the cached step (`Cached`) and clock gating (`Skip`) — plus the block's
-//! configuration accessors and its observer taps, listed here with why each is not a way
-//! around the framework. Everything else of a block's state is read from its outputs.
+//! (`Moore`), the cached step (`Cached`), clock gating (`Skip`) and observer probes (`Taps`) —
+//! plus the block's configuration accessors and one observer tap of the treelet RT unit,
+//! listed here with why each is not a way around the framework. Everything else of a block's state is read from its outputs.
 //!
 //! The test reads the sources: every method called on a child (`u.rt.`, `self.ct.`, ...) in
 //! the composite's files and on the unit (`self.unit.`, `unit.`) in the simulator's RT
@@ -34,6 +34,11 @@ const FRAMEWORK: &[&str] = &[
     "idle_cycles",
     "skip",
     "gated",
+    // Taps: observer probes, not ports (nothing in the hardware reads them; they change no
+    // state): per slot the rays traversing, their sum, every traversing ray's next node address
+    "slot_lanes",
+    "traversing_rays",
+    "next_addresses",
 ];
 
 /// Configuration accessors and constructors: they read parameters fixed at construction, not
@@ -50,16 +55,10 @@ const CONFIGURATION: &[&str] = &[
     "check_issue",
 ];
 
-/// Observer taps: what the simulator's statistics observers and a treelet prefetcher watch of
-/// the lanes and fills. They are not ports of the hardware (nothing in the hardware reads
-/// them) and change no state: per slot the rays traversing, their sum, the next node address
-/// of every traversing ray, and the kind of warp a fill builds.
-const TAPS: &[&str] = &[
-    "slot_lanes",
-    "traversing_rays",
-    "next_addresses",
-    "fill_kind",
-];
+/// The one observer tap outside the framework's `Taps`, the treelet RT unit's alone: the kind
+/// of warp a fill builds (what the warp-cost attribution charges a ray-record load to). It is
+/// not a port and changes no state.
+const TAPS: &[&str] = &["fill_kind"];
 
 /// The workspace root.
 fn root() -> PathBuf {

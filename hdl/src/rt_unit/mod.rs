@@ -395,22 +395,6 @@ impl<D: NodeDatapath> RtUnit<D> {
         })
     }
 
-    /// The address of the next node of every traversing ray whose next node is on chip, slot by
-    /// slot and lane by lane (the per-lane next-access wires a treelet prefetcher taps).
-    pub fn next_addresses<'r>(
-        &self,
-        regs: &'r RtUnitRegs,
-        cache: &'r RtCache,
-    ) -> impl Iterator<Item = u64> + 'r {
-        regs.slots
-            .iter()
-            .zip(&cache.masks)
-            .filter(|(slot, _)| slot.valid)
-            .flat_map(|(slot, m)| {
-                bits(m.traversing).filter_map(|l| slot.lanes[l].ray.next_node().map(|n| n.address))
-            })
-    }
-
     /// Entries of its other stack a parked lane keeps on chip (`hw.record_stack_entries`).
     pub(crate) fn keep(&self) -> usize {
         self.cfg.record_stack_entries as usize
@@ -616,6 +600,39 @@ impl<D: NodeDatapath> Skip for RtUnit<D> {
             }
         }
         counts
+    }
+}
+
+/// Per slot its traversing lanes, and every traversing ray's next node address.
+impl<D: NodeDatapath> crate::block::Taps for RtUnit<D> {
+    /// Per warp-buffer slot, the rays traversing in it (`None` for a slot holding no warp): a
+    /// register-only output, for observers that follow each warp (e.g. SIMT efficiency averaged
+    /// per warp).
+    fn slot_lanes<'a>(
+        &self,
+        regs: &'a RtUnitRegs,
+        cache: &'a RtCache,
+    ) -> impl Iterator<Item = Option<u32>> + 'a {
+        regs.slots
+            .iter()
+            .zip(&cache.masks)
+            .map(|(s, m)| s.valid.then(|| m.traversing.count_ones()))
+    }
+
+    /// The address of the next node of every traversing ray whose next node is on chip, slot by
+    /// slot and lane by lane (the per-lane next-access wires a treelet prefetcher taps).
+    fn next_addresses<'r>(
+        &self,
+        regs: &'r RtUnitRegs,
+        cache: &'r RtCache,
+    ) -> impl Iterator<Item = u64> + 'r {
+        regs.slots
+            .iter()
+            .zip(&cache.masks)
+            .filter(|(slot, _)| slot.valid)
+            .flat_map(|(slot, m)| {
+                bits(m.traversing).filter_map(|l| slot.lanes[l].ray.next_node().map(|n| n.address))
+            })
     }
 }
 

@@ -64,30 +64,6 @@ impl<D: NodeDatapath> Moore for RtUnit<D> {
 }
 
 impl<D: NodeDatapath> RtUnit<D> {
-    /// Rays traversing in the warp buffer.
-    pub fn traversing_rays(&self, regs: &RtUnitRegs, cache: &RtCache) -> u64 {
-        regs.slots
-            .iter()
-            .zip(&cache.masks)
-            .filter(|(s, _)| s.valid)
-            .map(|(_, m)| u64::from(m.traversing.count_ones()))
-            .sum()
-    }
-
-    /// Per warp-buffer slot, the rays traversing in it (`None` for a slot holding no warp): a
-    /// register-only output, for observers that follow each warp (e.g. SIMT efficiency averaged
-    /// per warp).
-    pub fn slot_lanes<'a>(
-        &self,
-        regs: &'a RtUnitRegs,
-        cache: &'a RtCache,
-    ) -> impl Iterator<Item = Option<u32>> + 'a {
-        regs.slots
-            .iter()
-            .zip(&cache.masks)
-            .map(|(s, m)| s.valid.then(|| m.traversing.count_ones()))
-    }
-
     /// A one-line summary of the registers (with their cache), for a watchdog's dump
     /// ([`crate::block::Block::debug_state`]).
     pub(super) fn summary(&self, regs: &RtUnitRegs, cache: &RtCache) -> String {

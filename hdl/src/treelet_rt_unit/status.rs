@@ -1,15 +1,15 @@
 //! The treelet RT unit's register-only outputs ([`Moore`]): what a simulator reads of the block
 //! between cycles (whether an SM warp may be offered, free response entries, the controller's
 //! mode, the kind of warp traversing, the count table's occupancy), and its simulation cache
-//! ([`Cached`]). Beside them, the observer taps: what the simulator's observers and a treelet
-//! prefetcher watch of the lanes, which are not ports of the block.
+//! ([`Cached`]). Beside them, the observer taps ([`Taps`], and the kind of warp a fill builds):
+//! what the simulator's observers and a treelet prefetcher watch, which are not ports.
 
 use super::glue::{GlueRegs, SlotUse};
 use super::{
     wiring, TreeletRtUnit, TreeletRtUnitCache, TreeletRtUnitInputs, TreeletRtUnitOutputs,
     TreeletRtUnitRegs, WarpKind,
 };
-use crate::block::{Cached, Moore};
+use crate::block::{Cached, Moore, Taps};
 use crate::controller::FillKind;
 use crate::mode::Mode;
 use crate::rt_unit::{NodeDatapath, RtUnitStatus, StatusSelect, TraversalOrder};
@@ -131,12 +131,11 @@ fn warp_kind(rt: &RtUnitStatus, g: &GlueRegs) -> Option<WarpKind> {
         })
 }
 
-/// Observer taps: what the simulator's observers and a treelet prefetcher watch of the lanes
-/// and fills (not ports of the block; they change no state).
-impl<D: NodeDatapath> TreeletRtUnit<D> {
+/// The RT unit's taps.
+impl<D: NodeDatapath> Taps for TreeletRtUnit<D> {
     /// Per warp-buffer slot, the rays traversing in it (`None`: no warp); see
     /// [`crate::rt_unit::RtUnit::slot_lanes`].
-    pub fn slot_lanes<'a>(
+    fn slot_lanes<'a>(
         &self,
         regs: &'a TreeletRtUnitRegs,
         cache: &'a TreeletRtUnitCache,
@@ -146,19 +145,17 @@ impl<D: NodeDatapath> TreeletRtUnit<D> {
 
     /// The next node address of every ray traversing in the warp buffer (what a treelet
     /// prefetcher beside the unit watches); see [`crate::rt_unit::RtUnit::next_addresses`].
-    pub fn next_addresses<'a>(
+    fn next_addresses<'a>(
         &self,
         regs: &'a TreeletRtUnitRegs,
         cache: &'a TreeletRtUnitCache,
     ) -> impl Iterator<Item = u64> + 'a {
         self.rt.next_addresses(&regs.rt, &cache.rt)
     }
+}
 
-    /// Rays traversing in the warp buffer.
-    pub fn traversing_rays(&self, regs: &TreeletRtUnitRegs, cache: &TreeletRtUnitCache) -> u64 {
-        self.rt.traversing_rays(&regs.rt, &cache.rt)
-    }
-
+/// An observer tap of the wiring: not a port, it changes no state.
+impl<D: NodeDatapath> TreeletRtUnit<D> {
     /// The kind of warp the fill being built in warp-buffer slot `slot` makes (what an
     /// observer attributes the fill's ray-record loads to); `None` when the slot builds no
     /// fill. A repack's fill counts as grouped: repacking refills final-phase warps.

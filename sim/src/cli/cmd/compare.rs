@@ -157,23 +157,39 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         Some(n) => n as usize,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
+    let prepared = Prepared {
+        scene: &scene,
+        designs: &designs,
+        runs: &runs,
+        jobs,
+    };
     if point.is_some() {
-        compare_sampled(args, &scene, &designs, &runs, jobs)
+        compare_sampled(args, &prepared)
     } else {
-        compare_full(args, &scene, &designs, &runs, jobs)
+        compare_full(args, &prepared)
     }
+}
+
+/// What both kinds of comparison start from: the scene, the designs, each design with its
+/// BVH, and how many runs go at once.
+#[derive(Clone, Copy)]
+struct Prepared<'a> {
+    scene: &'a Scene,
+    designs: &'a [Design],
+    runs: &'a [(&'a Design, &'a HwBvh)],
+    jobs: usize,
 }
 
 /// `vtq compare` in full detail: every design simulated (`jobs` at a time), the table, the
 /// energy comparison, with `--perturb` the runs under perturbation, and whether the images
 /// are identical.
-fn compare_full(
-    args: &CompareArgs,
-    scene: &Scene,
-    designs: &[Design],
-    runs: &[(&Design, &HwBvh)],
-    jobs: usize,
-) -> anyhow::Result<()> {
+fn compare_full(args: &CompareArgs, prepared: &Prepared) -> anyhow::Result<()> {
+    let Prepared {
+        scene,
+        designs,
+        runs,
+        jobs,
+    } = *prepared;
     let settings = designs[0].config.render_settings();
     println!("{}", report::heading(scene, designs, jobs));
     let bars = progress_bars(designs, settings.pixels() as u64);
@@ -217,20 +233,14 @@ fn compare_full(
 
 /// `vtq compare --sample`: every design estimated by the sampled tier on the same CTA samples
 /// (replicates `jobs` at a time), speedups paired per replicate.
-fn compare_sampled(
-    args: &CompareArgs,
-    scene: &Scene,
-    designs: &[Design],
-    runs: &[(&Design, &HwBvh)],
-    jobs: usize,
-) -> anyhow::Result<()> {
-    println!("{}", report::sampled_heading(scene, designs));
+fn compare_sampled(args: &CompareArgs, p: &Prepared) -> anyhow::Result<()> {
+    println!("{}", report::sampled_heading(p.scene, p.designs));
     let point = args.sample.point.as_deref();
-    let sampled = report::estimate_compared(scene, designs, runs, jobs, point)?;
+    let sampled = report::estimate_compared(p.scene, p.designs, p.runs, p.jobs, point)?;
     print!("{sampled}");
-    let failed = report::failed_summary(&sampled.failures(), designs.len());
+    let failed = report::failed_summary(&sampled.failures(), p.designs.len());
     if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&sampled.json(scene))
+        let text = serde_json::to_string_pretty(&sampled.json(p.scene))
             .context("serializing the estimates")?;
         if let Some(e) = write_json(path, &(text + "\n")) {
             if failed.is_none() {

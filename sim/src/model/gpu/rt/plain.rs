@@ -7,7 +7,7 @@ use vtq_hdl::rt_unit::{
     StatusSelect, WarpIssue,
 };
 use vtq_hdl::trace::BlockCycle;
-use vtq_hdl::{Block, Cached, HwConfig, Moore, Skip};
+use vtq_hdl::{Block, Cached, HwConfig, Moore, Skip, Taps};
 
 use super::hardware::RtHardware;
 use super::waveform::Waveform;

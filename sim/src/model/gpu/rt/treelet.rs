@@ -12,7 +12,7 @@ use vtq_hdl::treelet_rt_unit::{
     TreeletRtUnitInputs, TreeletRtUnitOutputs, TreeletRtUnitParams, TreeletRtUnitRegs,
     TreeletRtUnitStatus, WarpKind,
 };
-use vtq_hdl::{Block, Cached, HwConfig, Moore, Skip};
+use vtq_hdl::{Block, Cached, HwConfig, Moore, Skip, Taps};
 
 use super::hardware::RtHardware;
 use super::warp_costs::WarpCosts;
